@@ -1,0 +1,56 @@
+#pragma once
+// Coupling force models in the load-cell convention of physics.md: F̂_s(φ) is the force on the
+// nut from the load that holds it still at phase φ, so the magnetic force is F_m ≈ −F̂_s.
+#include <string>
+#include <vector>
+
+namespace maglead {
+
+/// F̂_s(φ) = Σ c_k φ^k, valid on the calibrated range only (not periodic).
+struct PolynomialForceModel {
+  std::vector<double> coeffs_ascending;  // c_0, c_1, … [N / rad^k]
+  double load_force_n(double phase_rad) const;
+  double slope_n_per_rad(double phase_rad) const;
+  int order() const { return static_cast<int>(coeffs_ascending.size()) - 1; }
+};
+
+/// F̂_s(φ) = a_0 + Σ_k a_k cos kφ + b_k sin kφ: periodic in φ with one lead, so it also
+/// describes the coupling past the stable branch (step-out).
+struct PeriodicForceModel {
+  double mean_n = 0.0;
+  std::vector<double> cos_n;  // a_1 … a_K
+  std::vector<double> sin_n;  // b_1 … b_K
+  double load_force_n(double phase_rad) const;
+  double slope_n_per_rad(double phase_rad) const;
+  /// Least-squares fit to samples; `ridge` damps harmonics the samples cannot determine
+  /// (calibration covers only half a period).
+  static PeriodicForceModel fit(const std::vector<double>& phase_rad,
+                                const std::vector<double>& load_force_n, int harmonics,
+                                double ridge = 1e-3);
+};
+
+/// A full force calibration: polynomial for estimation on the stable branch, periodic model
+/// fitted to the same data for use beyond it, and the stable branch it is valid on.
+struct ForceCalibration {
+  PolynomialForceModel polynomial;
+  PeriodicForceModel periodic;
+  double stable_min_rad = -1.5707963267948966;  // edges of the stable branch (F̂_s extrema)
+  double stable_max_rad = 1.5707963267948966;
+  double peak_push_n = 0.0;  // largest output force F_out = −F̂_s on the stable branch (>0)
+  double peak_pull_n = 0.0;  // largest output force in −p direction (<0)
+  std::string source;        // where it came from (paper, a recording …)
+
+  /// Fills stable_*, peak_* from the polynomial (extrema of F̂_s around φ = 0).
+  void derive_limits();
+};
+
+/// The paper's calibration (eq. 7) with a periodic model fitted to it.
+ForceCalibration paper_calibration();
+
+/// TOML round trip of a calibration ([calibration] table). Load throws std::runtime_error
+/// naming the file and key on any missing or malformed value.
+void save_calibration(const std::string& path, const ForceCalibration& cal,
+                      const std::string& header_comment = "");
+ForceCalibration load_calibration(const std::string& path);
+
+}  // namespace maglead

@@ -1,0 +1,42 @@
+#pragma once
+// Load scenarios for the simulated actuator (issue: foundation). Each drives the plant at the
+// sample rate, logs what a test bench would log and streams it as an mls-recording/1.
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "maglead/physics/force_model.hpp"
+#include "maglead/plant/simulated_actuator.hpp"
+
+namespace maglead {
+
+struct ScenarioInfo {
+  std::string name;
+  std::string description;
+};
+const std::vector<ScenarioInfo>& scenario_list();
+
+struct ScenarioOptions {
+  std::string scenario;
+  double duration_s = 30.0;
+  std::uint64_t seed = 1;
+  PlantParams plant = paper_like_plant();
+  ForceCalibration estimator_calibration = paper_calibration();  // for out_force_est_n
+  std::function<void(double fraction)> progress;                 // optional, ~100 calls
+};
+
+struct ScenarioSummary {
+  std::size_t samples = 0;
+  int slips = 0;  // step-outs the plant went through (truth, not logged in the recording)
+};
+
+/// Runs the scenario and writes the recording to `out_path`. Throws std::invalid_argument on an
+/// unknown scenario (naming it and the known ones) or a non-positive duration.
+ScenarioSummary run_scenario(const ScenarioOptions& options, const std::string& out_path);
+
+/// Phase on the stable branch where a periodic coupling curve balances a load force
+/// (F̂_s(φ) = load_force_n); used by scenarios to place loads.
+double balancing_phase_rad(const PeriodicForceModel& coupling, double load_force_n);
+
+}  // namespace maglead

@@ -1,0 +1,261 @@
+#include "maglead/plant/scenario.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+#include "maglead/physics/estimator.hpp"
+#include "maglead/recording/recording.hpp"
+
+namespace maglead {
+
+const std::vector<ScenarioInfo>& scenario_list() {
+  static const std::vector<ScenarioInfo> list = {
+      {"static-calibration",
+       "screw held, a stiff stage sweeps the nut slowly through the stable branch (paper IV.B)"},
+      {"hand-push",
+       "screw held, a compliant hand pushes the nut back and forth, peaks up to ~35 N (Fig. 11)"},
+      {"force-steps",
+       "force control against a spring load: setpoint steps, ramps and a sine sweep"},
+      {"position-moves", "moves across the stroke at 5, 20 and 50 mm/s with a light load"},
+  };
+  return list;
+}
+
+double balancing_phase_rad(const PeriodicForceModel& coupling, double load_force_n) {
+  double lo = -std::numbers::pi / 2, hi = std::numbers::pi / 2;  // F̂_s falls from lo to hi
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    if (coupling.load_force_n(mid) > load_force_n)
+      lo = mid;
+    else
+      hi = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+namespace {
+
+constexpr double kMidStroke_m = 0.020;
+
+double triangle(double x) {  // period 1, range −1 … 1, starts at 0 rising
+  const double f = x - std::floor(x);
+  if (f < 0.25) return 4 * f;
+  if (f < 0.75) return 2 - 4 * f;
+  return 4 * f - 4;
+}
+
+/// Smooth pushes with random peaks and mostly alternating direction, like a hand.
+struct HandProfile {
+  std::vector<double> start_s, length_s, peak_n;
+  HandProfile(double duration_s, std::mt19937_64& rng) {
+    std::uniform_real_distribution<double> len(1.2, 2.8), peak(12.0, 35.0), gap(0.0, 0.6),
+        coin(0.0, 1.0);
+    double t = 0.5, sign = 1.0;
+    while (t < duration_s) {
+      start_s.push_back(t);
+      length_s.push_back(len(rng));
+      peak_n.push_back(sign * peak(rng));
+      t += length_s.back() + gap(rng);
+      if (coin(rng) < 0.75) sign = -sign;
+    }
+  }
+  double force_n(double t) const {
+    for (std::size_t i = 0; i < start_s.size(); ++i) {
+      const double tau = (t - start_s[i]) / length_s[i];
+      if (tau >= 0.0 && tau < 1.0) {
+        const double s = std::sin(std::numbers::pi * tau);
+        return peak_n[i] * s * s;
+      }
+    }
+    return 0.0;
+  }
+};
+
+double force_setpoint_n(double t, double duration) {
+  const double x = t / duration;
+  if (x < 0.4) {  // steps
+    static constexpr double steps[] = {0.0, 5.0, 15.0, 25.0, 10.0, -10.0, -25.0, 0.0};
+    const auto i = std::min<std::size_t>(static_cast<std::size_t>(x / 0.4 * 8), 7);
+    return steps[i];
+  }
+  if (x < 0.65) {  // ramps 0 → 30 → −30 → 0
+    const double r = (x - 0.4) / 0.25;
+    return 30.0 * triangle(r);
+  }
+  // sine sweep, 0.2 → 2 Hz, 20 N
+  const double t0 = 0.65 * duration, span = 0.35 * duration;
+  const double tau = t - t0;
+  const double f0 = 0.2, f1 = 2.0;
+  const double phase = 2 * std::numbers::pi * (f0 * tau + 0.5 * (f1 - f0) / span * tau * tau);
+  return 20.0 * std::sin(phase);
+}
+
+/// Trapezoidal point-to-point moves across the stroke at several speeds.
+struct MoveProfile {
+  struct Move {
+    double t0, from, to, v, a;
+  };
+  std::vector<Move> moves;
+  explicit MoveProfile(double duration_s) {
+    const double targets[] = {0.035, 0.005, 0.030, 0.010, 0.038, 0.002, 0.020};
+    const double speeds[] = {0.005, 0.020, 0.050};
+    double t = 0.5, at = kMidStroke_m;
+    for (std::size_t i = 0; t < duration_s; ++i) {
+      const double to = targets[i % 7], v = speeds[i % 3], a = 0.5;
+      moves.push_back({t, at, to, v, a});
+      const double d = std::abs(to - at);
+      const double t_move = d / v + v / a;
+      t += t_move + 0.5;
+      at = to;
+    }
+  }
+  double pos_m(double t) const {
+    double p = kMidStroke_m;
+    for (const auto& m : moves) {
+      if (t < m.t0) break;
+      const double d = std::abs(m.to - m.from), dir = m.to > m.from ? 1.0 : -1.0;
+      const double v = std::min(m.v, std::sqrt(d * m.a));
+      const double ta = v / m.a, tc = d / v - ta, tau = t - m.t0;
+      double s;
+      if (tau < ta)
+        s = 0.5 * m.a * tau * tau;
+      else if (tau < ta + tc)
+        s = 0.5 * m.a * ta * ta + v * (tau - ta);
+      else if (tau < 2 * ta + tc)
+        s = d - 0.5 * m.a * (2 * ta + tc - tau) * (2 * ta + tc - tau);
+      else
+        s = d;
+      p = m.from + dir * s;
+    }
+    return p;
+  }
+};
+
+}  // namespace
+
+ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_path) {
+  const auto& list = scenario_list();
+  if (std::none_of(list.begin(), list.end(), [&](auto& s) { return s.name == opt.scenario; })) {
+    std::string known;
+    for (const auto& s : list) known += (known.empty() ? "" : ", ") + s.name;
+    throw std::invalid_argument("unknown scenario '" + opt.scenario + "' (known: " + known + ")");
+  }
+  if (!(opt.duration_s > 0.0) || opt.duration_s > 24 * 3600.0)
+    throw std::invalid_argument("duration must be between 0 and 24 h");
+
+  const auto& act = opt.plant.actuator;
+  const double fs = act.sample_rate_hz, dt = 1.0 / fs;
+  const double L = act.lead_m;
+  std::mt19937_64 rng(opt.seed);
+  SimulatedActuator plant(opt.plant, opt.seed * 7919 + 17, kMidStroke_m);
+  const double screw0 = rest_angle_rad(kMidStroke_m, L);
+  const auto& S = opt.scenario;
+  const bool force_mode = S == "force-steps", move_mode = S == "position-moves";
+
+  HandProfile hand(opt.duration_s, rng);
+  MoveProfile moves(opt.duration_s);
+  // Sweep amplitude reaching |φ| ≈ 1.5 rad; whole cycles at about 0.5 mm/s.
+  const double sweep_amp_m = 1.55e-3;
+  const double cycles = std::max(1.0, std::round(opt.duration_s * 0.5e-3 / (4 * sweep_amp_m)));
+  const double sweep_period_s = opt.duration_s / cycles;
+
+  std::vector<std::pair<std::string, std::string>> meta = {
+      {"sample_rate_hz", std::to_string(fs)},
+      {"source", "maglead simulate"},
+      {"system", "simulated magnetic lead-screw actuator"},
+      {"scenario", S},
+      {"seed", std::to_string(opt.seed)},
+      {"lead_m", std::to_string(L)},
+      {"gear_ratio", std::to_string(act.gear_ratio)},
+  };
+  std::vector<std::string> names = {"t_s",          "motor_angle_rad", "screw_angle_rad",
+                                    "nut_pos_m",    "load_force_n",    "out_force_est_n"};
+  if (force_mode) names.push_back("force_set_n");
+  if (move_mode) names.push_back("pos_set_m");
+  RecordingWriter writer(out_path, meta, names);
+
+  StaticForceEstimator estimator(opt.estimator_calibration, act.coulomb_n, 1e-5);
+  EncoderVelocityEstimator velocity(dt, act.linear_count_m);
+  const auto n = static_cast<std::size_t>(std::llround(opt.duration_s * fs)) + 1;
+  double row[8];
+  SensorSample s;
+  std::size_t next_progress = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) * dt;
+    // Loads for this period.
+    LoadSetting load;
+    if (S == "static-calibration") {
+      load.kind = LoadSetting::Kind::compliant;
+      load.stiffness_n_per_m = 5e5;
+      load.damping_n_s_per_m = 300;
+      load.anchor_pos_m = kMidStroke_m + sweep_amp_m * triangle(t / sweep_period_s);
+      load.anchor_vel_m_s = (sweep_amp_m * triangle((t + 1e-4) / sweep_period_s) -
+                             sweep_amp_m * triangle(t / sweep_period_s)) / 1e-4;
+    } else if (S == "hand-push") {
+      constexpr double k_hand = 1500.0, c_hand = 10.0;
+      auto anchor = [&](double tt) {
+        const double f = hand.force_n(tt);
+        const double phi = balancing_phase_rad(opt.plant.coupling, f);
+        return (screw0 - phi) * L / (2 * std::numbers::pi) + f / k_hand;
+      };
+      load.kind = LoadSetting::Kind::compliant;
+      load.stiffness_n_per_m = k_hand;
+      load.damping_n_s_per_m = c_hand;
+      load.anchor_pos_m = anchor(t);
+      load.anchor_vel_m_s = (anchor(t + 1e-3) - load.anchor_pos_m) / 1e-3;
+    } else if (force_mode) {
+      load.kind = LoadSetting::Kind::spring_to_wall;
+      load.stiffness_n_per_m = 3000.0;
+      load.damping_n_s_per_m = 5.0;
+      load.anchor_pos_m = kMidStroke_m;
+    } else {
+      load.kind = LoadSetting::Kind::constant;
+      load.force_n = -2.0;
+      load.damping_n_s_per_m = 10.0;
+    }
+    plant.set_load(load);
+    plant.read_sensors(t, s);
+
+    const double motor = motor_angle_rad_from_counts(s.motor_counts, act);
+    const double screw = screw_angle_rad_from_motor_rad(motor, act);
+    const double pos = nut_pos_m_from_counts(s.linear_counts, act);
+    const double vel = k == 0 ? (velocity.reset(pos), 0.0) : velocity.update(pos);
+    const double phi = phase_rad(screw, pos, L);
+    const double est = estimator.output_force_n(phi, vel);
+
+    double screw_cmd = screw0, force_set = 0.0, pos_set = 0.0;
+    if (force_mode) {
+      force_set = force_setpoint_n(t, opt.duration_s);
+      const auto inv = phase_for_output_force(opt.estimator_calibration, force_set, 0.9);
+      screw_cmd = rest_angle_rad(pos, L) + inv.phase_rad;
+    } else if (move_mode) {
+      pos_set = moves.pos_m(t);
+      screw_cmd = rest_angle_rad(pos_set, L);
+    }
+    plant.write_motor_angle(screw_cmd * act.gear_ratio);
+
+    std::size_t c = 0;
+    row[c++] = t;
+    row[c++] = motor;
+    row[c++] = screw;
+    row[c++] = pos;
+    row[c++] = s.load_force_n;
+    row[c++] = est;
+    if (force_mode) row[c++] = force_set;
+    if (move_mode) row[c++] = pos_set;
+    writer.write_row(row, c);
+    if (opt.progress && k >= next_progress) {
+      opt.progress(static_cast<double>(k) / static_cast<double>(n));
+      next_progress += n / 100 + 1;
+    }
+  }
+  writer.close();
+  if (opt.progress) opt.progress(1.0);
+  return {n, plant.truth().slips};
+}
+
+}  // namespace maglead

@@ -1,0 +1,35 @@
+#pragma once
+// Line plots and heat maps drawn with OpenCV into PNG files, for people who would rather look
+// than read.
+#include <string>
+#include <vector>
+
+namespace maglead::plot {
+
+struct Series {
+  std::string label;
+  std::vector<double> x, y;
+};
+
+struct Panel {
+  std::string title;
+  std::string x_label;
+  std::string y_label;
+  std::vector<Series> series;  // drawn in order, colours from a fixed palette
+};
+
+/// Panels stacked vertically into one PNG. Throws std::runtime_error if it cannot be written.
+void save_panels_png(const std::string& path, const std::vector<Panel>& panels,
+                     int width_px = 1200, int panel_height_px = 320);
+
+struct HeatMap {
+  std::string title, x_label, y_label, value_label;
+  double x_min = 0, x_max = 1, y_min = 0, y_max = 1;
+  int nx = 0, ny = 0;
+  std::vector<double> values;  // row-major ny × nx, NaN = no data
+};
+/// A colour-mapped grid with axes and a colour bar.
+void save_heatmap_png(const std::string& path, const HeatMap& map, int width_px = 900,
+                      int height_px = 600);
+
+}  // namespace maglead::plot

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs maglead's build and test dependencies from Debian packages. Idempotent: when
+# everything is present it only checks and returns.
+set -euo pipefail
+packages=(
+  g++ cmake ninja-build pkg-config          # toolchain
+  libmodbus-dev                             # Modbus TCP/RTU framing, CRC, serial line
+  libeigen3-dev                             # least squares for calibration and analysis
+  libsundials-dev                           # CVODE: the twin's hybrid ODE integration
+  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev  # plots and maps as PNG
+  libcli11-dev                              # command-line parsing
+  libtomlplusplus-dev                       # config files (TOML)
+  nlohmann-json3-dev                        # JSON output
+  googletest libgtest-dev                   # tests
+  python3-pymodbus mbpoll socat             # independent Modbus clients for integration tests
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}"
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+echo "setup: all dependencies present"

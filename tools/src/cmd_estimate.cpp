@@ -1,0 +1,106 @@
+// maglead estimate: force estimate from a recording against its load cell (paper Fig. 11).
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "cli_common.hpp"
+#include "maglead/physics/estimator.hpp"
+#include "maglead/tools/plot.hpp"
+
+namespace maglead::cli {
+namespace {
+
+struct ErrorStats {
+  double mean_abs_n = 0, rms_n = 0, max_abs_n = 0;
+  std::size_t samples = 0;
+};
+
+ErrorStats error_stats(const std::vector<double>& err) {
+  ErrorStats s;
+  for (double e : err) {
+    if (!std::isfinite(e)) continue;
+    s.mean_abs_n += std::abs(e);
+    s.rms_n += e * e;
+    s.max_abs_n = std::max(s.max_abs_n, std::abs(e));
+    ++s.samples;
+  }
+  if (s.samples) {
+    s.mean_abs_n /= static_cast<double>(s.samples);
+    s.rms_n = std::sqrt(s.rms_n / static_cast<double>(s.samples));
+  }
+  return s;
+}
+
+void add_estimate(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "estimate", "Estimate the output force from a recording's angles and positions and "
+                  "compare it with the load cell; plot as in the paper's Fig. 11");
+  struct Opts {
+    std::string recording, plot, calibration, config = default_config_dir(), estimator = "static";
+  };
+  auto o = std::make_shared<Opts>();
+  cmd->add_option("--recording", o->recording,
+                  "mls-recording/1 with t_s, screw or motor angle, nut_pos_m, load_force_n")
+      ->required();
+  cmd->add_option("--estimator", o->estimator, "static: the paper's eq. 6")
+      ->check(CLI::IsMember({"static"}))
+      ->capture_default_str();
+  cmd->add_option("--plot", o->plot, "PNG to write (default: next to the recording)");
+  cmd->add_option("--calibration", o->calibration, "Calibration file (default: CONFIG/calibration.toml)");
+  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  cmd->callback([o] {
+    const ActuatorParams act = load_actuator_or_default(o->config);
+    const ForceCalibration cal = load_calibration(
+        o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration);
+    const Recording rec = read_recording(o->recording, {"t_s", "nut_pos_m", "load_force_n"});
+    const auto screw = screw_angle_of(rec, act);
+    const auto& t = rec.column("t_s");
+    const auto& pos = rec.column("nut_pos_m");
+    const auto& load = rec.column("load_force_n");
+    const std::size_t n = t.size();
+    if (n < 2) throw RecordingError(o->recording + ": needs at least two samples");
+    const double period = (t.back() - t.front()) / static_cast<double>(n - 1);
+
+    // The same causal estimator the controller runs: window velocity, eq. 6.
+    StaticForceEstimator est(cal, act.coulomb_n, 1e-5);
+    EncoderVelocityEstimator vel(period > 0 ? period : 1e-3, act.linear_count_m);
+    std::vector<double> measured(n), estimate(n), error(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double v = i == 0 ? (vel.reset(pos[i]), 0.0) : vel.update(pos[i]);
+      estimate[i] = est.output_force_n(phase_rad(screw[i], pos[i], act.lead_m), v);
+      measured[i] = -load[i];  // output force = −(force on the nut from the load)
+      error[i] = estimate[i] - measured[i];
+    }
+    const ErrorStats s = error_stats(error);
+    std::printf("force estimate (%s) against load cell, %s, %zu samples\n", o->estimator.c_str(),
+                o->recording.c_str(), s.samples);
+    std::printf("  mean absolute error  %6.2f N   (paper, static estimate: 2.3 N)\n", s.mean_abs_n);
+    std::printf("  RMS error            %6.2f N\n", s.rms_n);
+    std::printf("  max absolute error   %6.2f N\n", s.max_abs_n);
+
+    std::string png = o->plot;
+    if (png.empty()) {
+      std::filesystem::path p(o->recording);
+      png = (p.parent_path() / (p.stem().string() + "_estimate_" + o->estimator + ".png")).string();
+    }
+    std::vector<double> pos_mm(n), screw_mm(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      pos_mm[i] = pos[i] * 1e3;
+      screw_mm[i] = screw[i] * act.lead_m / (2 * std::numbers::pi) * 1e3;
+    }
+    plot::save_panels_png(
+        png, {{"(a) Output force: estimate against load cell", "time [s]", "force [N]",
+               {{"load cell", t, measured}, {o->estimator + " estimate", t, estimate}}},
+              {"(b) Estimation error (estimate - load cell), mean |e| " +
+                   std::to_string(s.mean_abs_n).substr(0, 4) + " N",
+               "time [s]", "error [N]", {{"error", t, error}}},
+              {"(c) Nut position and screw angle (as lead travel)", "time [s]", "[mm]",
+               {{"nut position", t, pos_mm}, {"screw angle x L/2pi", t, screw_mm}}}});
+    std::printf("plot: %s\n", png.c_str());
+  });
+}
+
+MAGLEAD_COMMAND(40, add_estimate);
+
+}  // namespace
+}  // namespace maglead::cli
