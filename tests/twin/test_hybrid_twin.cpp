@@ -1,0 +1,121 @@
+// The CVODE hybrid twin against a tight-tolerance reference solution of the same model.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "maglead/twin/hybrid_twin.hpp"
+
+namespace maglead::twin {
+namespace {
+
+NutModel paper_model() {
+  return NutModel(ActuatorParams{}, paper_calibration().periodic, TwinModel{});
+}
+
+struct DemoRun {
+  std::vector<double> pos_m;
+  TwinStats stats;
+  int failures = 0;
+};
+
+/// Drives the twin with the demo inputs and samples the nut position every `output_s`. CVODE
+/// checks roots at output times too, so a dense output grid hides a missing step cap; 50 ms is
+/// the look-ahead horizon, the longest stretch the monitor integrates without a stop.
+DemoRun run_demo(const IntegratorOptions& opt, double duration_s, double output_s = 0.05,
+                 std::uint64_t seed = 3) {
+  const ActuatorParams act;
+  const auto drive = make_demo_drive(seed, duration_s, act.lead_m);
+  HybridTwin tw(paper_model(), opt);
+  tw.reset(0.0, {0.02, 0.0, FrictionMode::stick}, drive->screw_rad(0.0), drive->ext_force_n(0.0));
+  DemoRun r;
+  const auto n = static_cast<std::size_t>(std::llround(duration_s / output_s));
+  for (std::size_t k = 1; k <= n; ++k) {
+    if (tw.integrate_to(static_cast<double>(k) * output_s, *drive) != TwinStatus::ok) ++r.failures;
+    r.pos_m.push_back(tw.state().pos_m);
+  }
+  r.stats = tw.stats();
+  return r;
+}
+
+IntegratorOptions reference_options() {
+  IntegratorOptions o;
+  o.rel_tol = 1e-11;
+  o.abs_tol_pos_m = 1e-14;
+  o.abs_tol_vel_m_s = 1e-12;
+  o.max_step_s = 1e-4;
+  o.max_internal_steps = 10000000;
+  return o;
+}
+
+double max_abs_diff(const std::vector<double>& a, const std::vector<double>& b) {
+  double m = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
+  return m;
+}
+
+constexpr double kCount_m = 0.0254 / 1176.0;  // one linear-encoder count
+
+TEST(HybridTwin, DefaultSettingsMatchTightReference) {
+  const DemoRun ref = run_demo(reference_options(), 20.0);
+  const DemoRun twin = run_demo(IntegratorOptions{}, 20.0);
+  ASSERT_EQ(ref.failures, 0);
+  ASSERT_EQ(twin.failures, 0);
+  // The drive really exercises the hybrid part: many stick/slide switches.
+  EXPECT_GT(ref.stats.mode_switches, 20);
+  // A tenth of an encoder count: far below what the sensors can see.
+  const double dev_m = max_abs_diff(twin.pos_m, ref.pos_m);
+  std::printf("capped (1 ms) twin vs reference: max |dp| = %.3g um, %ld steps, %ld switches\n",
+              dev_m * 1e6, twin.stats.steps, twin.stats.mode_switches);
+  EXPECT_LT(dev_m, 0.1 * kCount_m);
+}
+
+TEST(HybridTwin, WithoutStepCapBdfGoesWrong) {
+  // Same tolerances, no maximum step: in stick the right-hand side is zero, BDF grows its step
+  // far past the input's features and steps over break-away roots, still reporting success.
+  IntegratorOptions uncapped;
+  uncapped.max_step_s = 0.0;
+  const DemoRun ref = run_demo(reference_options(), 20.0);
+  const DemoRun twin = run_demo(uncapped, 20.0);
+  EXPECT_EQ(twin.failures, 0);  // the integrator does not notice
+  const double dev_m = max_abs_diff(twin.pos_m, ref.pos_m);
+  std::printf("uncapped twin vs reference: max |dp| = %.3g um, %ld steps, %ld switches\n",
+              dev_m * 1e6, twin.stats.steps, twin.stats.mode_switches);
+  EXPECT_GT(dev_m, 5.0 * kCount_m);
+}
+
+TEST(HybridTwin, StuckNutStaysStuckBelowBreakaway) {
+  // Force within ±F_c of the coupling's: the nut must not creep (a tanh/sign model would).
+  const ActuatorParams act;
+  HybridTwin tw(paper_model());
+  const double screw = rest_angle_rad(0.02, act.lead_m);
+  // At φ = 0 the calibrated coupling pushes F_m = +4.28 N; add 2 N: still below 7.5 N.
+  tw.reset(0.0, {0.02, 0.0, FrictionMode::stick}, screw, 2.0);
+  for (int k = 1; k <= 1000; ++k) ASSERT_EQ(tw.advance(k * 1e-3, screw, 2.0), TwinStatus::ok);
+  EXPECT_EQ(tw.state().pos_m, 0.02);
+  EXPECT_EQ(tw.state().mode, FrictionMode::stick);
+  // Past break-away it slides in the direction of the net force and settles where
+  // |F_m + F_ext| is back within friction.
+  for (int k = 1001; k <= 2000; ++k) ASSERT_EQ(tw.advance(k * 1e-3, screw, 15.0), TwinStatus::ok);
+  EXPECT_GT(tw.state().pos_m, 0.02);
+  const double fm = tw.model().coupling_force_n(2.0, screw, tw.state().pos_m);
+  EXPECT_LE(std::abs(fm + 15.0), 7.5 + 1e-6);
+  EXPECT_GT(tw.stats().mode_switches, 0);
+}
+
+TEST(HybridTwin, RootsMarkTheStableBranchEdge) {
+  // Turning the screw a whole lead ahead of a nut held by a large load crosses cos φ = 0 twice.
+  const ActuatorParams act;
+  TwinModel held;  // friction far above the coupling's peak: the nut cannot move
+  held.coulomb_n = 1000.0;
+  HybridTwin tw(NutModel(act, paper_calibration().periodic, held));
+  const double s0 = rest_angle_rad(0.02, act.lead_m);
+  tw.reset(0.0, {0.02, 0.0, FrictionMode::stick}, s0, 0.0);
+  for (int k = 1; k <= 500; ++k)
+    ASSERT_EQ(tw.advance(k * 1e-3, s0 + 2 * std::numbers::pi * k / 500.0, 0.0), TwinStatus::ok);
+  EXPECT_EQ(tw.stats().step_out_crossings, 2);
+}
+
+}  // namespace
+}  // namespace maglead::twin

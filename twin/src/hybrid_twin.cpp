@@ -1,0 +1,455 @@
+#include "maglead/twin/hybrid_twin.hpp"
+
+#include <cvode/cvode.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sunlinsol/sunlinsol_dense.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace maglead::twin {
+
+// ---------------------------------------------------------------------------------------------
+// Force law
+
+NutModel::NutModel(const ActuatorParams& a, const PeriodicForceModel& coupling, const TwinModel& m)
+    : coupling_(coupling),
+      lead_m_(a.lead_m),
+      stroke_min_m_(a.stroke_min_m),
+      stroke_max_m_(a.stroke_max_m),
+      mass_kg_(m.nut_mass_kg),
+      viscous_(m.viscous_n_s_per_m),
+      coulomb_n_(m.coulomb_n) {
+  validate_twin_model(m);
+  spring_center_m_ = 0.5 * (a.stroke_min_m + a.stroke_max_m);
+  for (const auto& t : m.terms) {
+    if (!t.enabled) continue;
+    if (t.id == "coulomb_friction") coulomb_n_ += t.get("n", 0.0);
+    else if (t.id == "viscous_friction") viscous_ += t.get("n_s_per_m", 0.0);
+    else if (t.id == "asymmetric_friction") asym_n_ += t.get("n", 0.0);
+    else if (t.id == "stribeck_friction") {
+      stribeck_n_ += t.get("n", 0.0);
+      stribeck_v_ = t.get("velocity_m_s", stribeck_v_);
+    } else if (t.id == "offset") offset_n_ += t.get("force_n", 0.0);
+    else if (t.id == "spring") {
+      spring_k_ += t.get("n_per_m", 0.0);
+      spring_center_m_ = t.get("center_m", spring_center_m_);
+    } else if (t.id == "mass_error") mass_kg_ += t.get("kg", 0.0);
+    else if (t.id == "gain") gain_ *= t.get("factor", 1.0);
+    else if (t.id == "gain_drift") gain_drift_per_s_ += t.get("per_min", 0.0) / 60.0;
+    else if (t.id == "angle_ripple") {
+      angle_ripple_n_ = t.get("n", 0.0);
+      angle_ripple_phase_ = t.get("phase_rad", 0.0);
+    } else if (t.id == "position_ripple") {
+      pos_ripple_n_ = t.get("n", 0.0);
+      pos_ripple_period_m_ = t.get("period_m", pos_ripple_period_m_);
+      pos_ripple_phase_ = t.get("phase_rad", 0.0);
+    } else if (t.id == "end_effect") {
+      end_m_ = t.get("m", 0.0);
+      end_depth_ = t.get("depth", end_depth_);
+    }
+  }
+  if (!(mass_kg_ > 0.0)) throw std::invalid_argument("twin model: total moving mass must be > 0");
+  if (!(coulomb_n_ - std::abs(asym_n_) >= 0.0))
+    throw std::invalid_argument("twin model: asymmetric friction exceeds Coulomb friction");
+  if (!(pos_ripple_period_m_ > 0.0) || !(stribeck_v_ > 0.0))
+    throw std::invalid_argument("twin model: ripple period and Stribeck velocity must be > 0");
+}
+
+double NutModel::coupling_force_n(double t_s, double screw_rad, double pos_m) const noexcept {
+  double gain = gain_ * (1.0 + gain_drift_per_s_ * t_s);
+  if (end_m_ > 0.0) {
+    const double to_end = std::min(pos_m - stroke_min_m_, stroke_max_m_ - pos_m);
+    gain *= 1.0 - end_depth_ * std::clamp(1.0 - to_end / end_m_, 0.0, 1.0);
+  }
+  return -gain * coupling_.load_force_n(phase_rad(screw_rad, pos_m, lead_m_));
+}
+
+double NutModel::drive_force_n(double t_s, double screw_rad, double pos_m, double vel_m_s,
+                               double ext_force_n) const noexcept {
+  double f = coupling_force_n(t_s, screw_rad, pos_m) + ext_force_n + offset_n_ - viscous_ * vel_m_s;
+  if (spring_k_ != 0.0) f -= spring_k_ * (pos_m - spring_center_m_);
+  if (angle_ripple_n_ != 0.0) f += angle_ripple_n_ * std::sin(screw_rad + angle_ripple_phase_);
+  if (pos_ripple_n_ != 0.0)
+    f += pos_ripple_n_ *
+         std::sin(2.0 * std::numbers::pi * pos_m / pos_ripple_period_m_ + pos_ripple_phase_);
+  return f;
+}
+
+double NutModel::sliding_friction_n(int dir, double vel_m_s) const noexcept {
+  double f = coulomb_n_ + dir * asym_n_;
+  if (stribeck_n_ != 0.0) {
+    const double s = vel_m_s / stribeck_v_;
+    f += stribeck_n_ * std::exp(-s * s);
+  }
+  return f;
+}
+
+FrictionMode NutModel::mode_at_rest(double drive_n) const noexcept {
+  if (drive_n > breakaway_n(1)) return FrictionMode::slide_pos;
+  if (drive_n < -breakaway_n(-1)) return FrictionMode::slide_neg;
+  return FrictionMode::stick;
+}
+
+double NutModel::accel_m_s2(FrictionMode mode, double t_s, double screw_rad, double pos_m,
+                            double vel_m_s, double ext_force_n) const noexcept {
+  if (mode == FrictionMode::stick) return 0.0;
+  const int dir = static_cast<int>(mode);
+  const double drive = drive_force_n(t_s, screw_rad, pos_m, vel_m_s, ext_force_n);
+  return (drive - dir * sliding_friction_n(dir, vel_m_s)) / mass_kg_;
+}
+
+// ---------------------------------------------------------------------------------------------
+// CVODE hybrid integrator
+
+namespace {
+
+/// θ linear over one tick, F_ext held: the per-tick input of advance().
+class SegmentInput final : public InputSource {
+ public:
+  double t0 = 0, t1 = 1, th0 = 0, th1 = 0, f = 0;
+  double screw_rad(double t) const noexcept override {
+    const double span = t1 - t0;
+    if (!(span > 0.0)) return th1;
+    return th0 + (th1 - th0) * std::clamp((t - t0) / span, 0.0, 1.0);
+  }
+  double ext_force_n(double) const noexcept override { return f; }
+};
+
+}  // namespace
+
+struct HybridTwin::Impl {
+  SUNContext ctx = nullptr;
+  N_Vector y = nullptr, abstol = nullptr;
+  SUNMatrix A = nullptr;
+  SUNLinearSolver LS = nullptr;
+  void* mem = nullptr;
+  const InputSource* inputs = nullptr;
+  SegmentInput segment;
+  FrictionMode mode = FrictionMode::stick;
+  const NutModel* model = nullptr;
+  TwinStats done;  // counters harvested before each re-initialisation
+  bool fresh = true;
+
+  ~Impl() {
+    if (mem) CVodeFree(&mem);
+    if (LS) SUNLinSolFree(LS);
+    if (A) SUNMatDestroy(A);
+    if (abstol) N_VDestroy(abstol);
+    if (y) N_VDestroy(y);
+    if (ctx) SUNContext_Free(&ctx);
+  }
+
+  static int rhs(realtype t, N_Vector yv, N_Vector ydot, void* user) {
+    auto* self = static_cast<Impl*>(user);
+    const double* s = N_VGetArrayPointer(yv);
+    double* d = N_VGetArrayPointer(ydot);
+    if (self->mode == FrictionMode::stick) {
+      d[0] = 0.0;
+      d[1] = 0.0;
+      return 0;
+    }
+    d[0] = s[1];
+    d[1] = self->model->accel_m_s2(self->mode, t, self->inputs->screw_rad(t), s[0], s[1],
+                                   self->inputs->ext_force_n(t));
+    return std::isfinite(d[1]) ? 0 : 1;  // recoverable: CVODE retries with a smaller step
+  }
+
+  static int roots(realtype t, N_Vector yv, realtype* g, void* user) {
+    auto* self = static_cast<Impl*>(user);
+    const double* s = N_VGetArrayPointer(yv);
+    const double th = self->inputs->screw_rad(t);
+    if (self->mode == FrictionMode::stick) {
+      const double drive =
+          self->model->drive_force_n(t, th, s[0], 0.0, self->inputs->ext_force_n(t));
+      g[0] = drive - self->model->breakaway_n(1);
+      g[1] = drive + self->model->breakaway_n(-1);
+    } else {
+      g[0] = s[1];
+      g[1] = 1.0;  // inactive while sliding
+    }
+    g[2] = std::cos(phase_rad(th, s[0], self->model->lead_m()));
+    return 0;
+  }
+
+  void harvest() {
+    long v = 0;
+    if (CVodeGetNumSteps(mem, &v) == CV_SUCCESS) done.steps += v;
+    if (CVodeGetNumRhsEvals(mem, &v) == CV_SUCCESS) done.rhs_evals += v;
+    if (CVodeGetNumJacEvals(mem, &v) == CVLS_SUCCESS) done.jac_evals += v;
+  }
+};
+
+namespace {
+void check(int flag, const char* what) {
+  if (flag < 0) throw std::runtime_error(std::string("SUNDIALS ") + what + " failed, flag " +
+                                         std::to_string(flag));
+}
+void check_ptr(const void* p, const char* what) {
+  if (!p) throw std::runtime_error(std::string("SUNDIALS ") + what + " returned null");
+}
+}  // namespace
+
+HybridTwin::HybridTwin(NutModel model, IntegratorOptions options)
+    : model_(std::move(model)), opt_(options), impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.model = &model_;
+  m.inputs = &m.segment;
+  check(SUNContext_Create(nullptr, &m.ctx), "SUNContext_Create");
+  m.y = N_VNew_Serial(2, m.ctx);
+  check_ptr(m.y, "N_VNew_Serial");
+  m.abstol = N_VNew_Serial(2, m.ctx);
+  check_ptr(m.abstol, "N_VNew_Serial");
+  NV_Ith_S(m.y, 0) = 0.0;
+  NV_Ith_S(m.y, 1) = 0.0;
+  NV_Ith_S(m.abstol, 0) = opt_.abs_tol_pos_m;
+  NV_Ith_S(m.abstol, 1) = opt_.abs_tol_vel_m_s;
+  m.mem = CVodeCreate(CV_BDF, m.ctx);
+  check_ptr(m.mem, "CVodeCreate");
+  check(CVodeInit(m.mem, Impl::rhs, 0.0, m.y), "CVodeInit");
+  check(CVodeSetUserData(m.mem, &m), "CVodeSetUserData");
+  check(CVodeSVtolerances(m.mem, opt_.rel_tol, m.abstol), "CVodeSVtolerances");
+  m.A = SUNDenseMatrix(2, 2, m.ctx);
+  check_ptr(m.A, "SUNDenseMatrix");
+  m.LS = SUNLinSol_Dense(m.y, m.A, m.ctx);
+  check_ptr(m.LS, "SUNLinSol_Dense");
+  check(CVodeSetLinearSolver(m.mem, m.LS, m.A), "CVodeSetLinearSolver");
+  check(CVodeRootInit(m.mem, 3, Impl::roots), "CVodeRootInit");
+  check(CVodeSetNoInactiveRootWarn(m.mem), "CVodeSetNoInactiveRootWarn");
+  check(CVodeSetMaxNumSteps(m.mem, opt_.max_internal_steps), "CVodeSetMaxNumSteps");
+  if (opt_.max_step_s > 0.0) check(CVodeSetMaxStep(m.mem, opt_.max_step_s), "CVodeSetMaxStep");
+}
+
+HybridTwin::~HybridTwin() = default;
+
+void HybridTwin::reset(double t_s, const NutState& s, double screw_rad, double ext_force_n) noexcept {
+  Impl& m = *impl_;
+  t_s_ = t_s;
+  screw_rad_ = screw_rad;
+  state_ = s;
+  if (state_.mode == FrictionMode::stick) state_.vel_m_s = 0.0;
+  // A stuck nut under more than break-away, or a sliding one at exactly zero speed, takes the
+  // mode the physics gives it.
+  if (state_.mode == FrictionMode::stick || state_.vel_m_s == 0.0)
+    state_.mode = model_.mode_at_rest(
+        model_.drive_force_n(t_s, screw_rad, state_.pos_m, 0.0, ext_force_n));
+  else
+    state_.mode = state_.vel_m_s > 0 ? FrictionMode::slide_pos : FrictionMode::slide_neg;
+  m.mode = state_.mode;
+  m.segment.t0 = m.segment.t1 = t_s;
+  m.segment.th0 = m.segment.th1 = screw_rad;
+  m.segment.f = ext_force_n;
+  m.fresh = true;
+}
+
+TwinStats HybridTwin::stats() const noexcept {
+  TwinStats s = impl_->done;
+  long v = 0;
+  if (CVodeGetNumSteps(impl_->mem, &v) == CV_SUCCESS) s.steps += v;
+  if (CVodeGetNumRhsEvals(impl_->mem, &v) == CV_SUCCESS) s.rhs_evals += v;
+  if (CVodeGetNumJacEvals(impl_->mem, &v) == CVLS_SUCCESS) s.jac_evals += v;
+  return s;
+}
+
+TwinStatus HybridTwin::advance(double t_end_s, double screw_end_rad, double ext_force_n) noexcept {
+  Impl& m = *impl_;
+  m.segment.t0 = t_s_;
+  m.segment.t1 = t_end_s;
+  m.segment.th0 = screw_rad_;
+  m.segment.th1 = screw_end_rad;
+  // A new force level can break a stuck nut loose at the tick boundary.
+  if (ext_force_n != m.segment.f && state_.mode == FrictionMode::stick) m.fresh = true;
+  m.segment.f = ext_force_n;
+  m.inputs = &m.segment;
+  const TwinStatus st = run(t_end_s, true);
+  screw_rad_ = screw_end_rad;
+  return st;
+}
+
+TwinStatus HybridTwin::integrate_to(double tout_s, const InputSource& inputs) noexcept {
+  Impl& m = *impl_;
+  if (m.inputs != &inputs) m.fresh = true;
+  m.inputs = &inputs;
+  const TwinStatus st = run(tout_s, false);
+  screw_rad_ = inputs.screw_rad(t_s_);
+  return st;
+}
+
+TwinStatus HybridTwin::run(double tout_s, bool stop_at_tout) noexcept {
+  Impl& m = *impl_;
+  double* y = N_VGetArrayPointer(m.y);
+  const auto reinit = [&](double t) {
+    if (state_.mode == FrictionMode::stick) state_.vel_m_s = 0.0;
+    m.mode = state_.mode;
+    y[0] = state_.pos_m;
+    y[1] = state_.vel_m_s;
+    m.harvest();  // CVodeReInit zeroes the counters; keep their sums
+    m.fresh = false;
+    ++m.done.reinits;
+    return CVodeReInit(m.mem, t, m.y);
+  };
+  if (m.fresh) {
+    // A stuck nut may have been loaded past break-away by new inputs: decide before restarting.
+    if (state_.mode == FrictionMode::stick)
+      state_.mode = model_.mode_at_rest(model_.drive_force_n(
+          t_s_, m.inputs->screw_rad(t_s_), state_.pos_m, 0.0, m.inputs->ext_force_n(t_s_)));
+    if (reinit(t_s_) < 0) return ++m.done.failures, TwinStatus::solver_error;
+  }
+  if (!(tout_s > t_s_)) return TwinStatus::ok;
+  if (stop_at_tout && CVodeSetStopTime(m.mem, tout_s) < 0)
+    return ++m.done.failures, TwinStatus::solver_error;
+
+  int events = 0;
+  for (;;) {
+    realtype tret = t_s_;
+    const int flag = CVode(m.mem, tout_s, m.y, &tret, CV_NORMAL);
+    if (flag < 0) return ++m.done.failures, TwinStatus::solver_error;
+    t_s_ = tret;
+    state_.pos_m = y[0];
+    state_.vel_m_s = state_.mode == FrictionMode::stick ? 0.0 : y[1];
+    if (flag != CV_ROOT_RETURN) return TwinStatus::ok;  // CV_SUCCESS or CV_TSTOP_RETURN
+
+    int found[3] = {0, 0, 0};
+    if (CVodeGetRootInfo(m.mem, found) < 0) return ++m.done.failures, TwinStatus::solver_error;
+    ++m.done.root_events;
+    if (found[2]) ++m.done.step_out_crossings;
+    const FrictionMode before = state_.mode;
+    if (found[0] || found[1]) {
+      const double th = m.inputs->screw_rad(t_s_);
+      const double drive = model_.drive_force_n(t_s_, th, state_.pos_m, 0.0,
+                                                m.inputs->ext_force_n(t_s_));
+      state_.vel_m_s = 0.0;
+      // At rest (velocity root while sliding, or break-away while stuck) the physics picks the
+      // next mode; a nut that has just broken away is nudged past the threshold by the root's
+      // tolerance, so a stuck nut at its root always slides in the drive's direction.
+      FrictionMode next = model_.mode_at_rest(drive);
+      if (before == FrictionMode::stick && next == FrictionMode::stick)
+        next = drive > 0 ? FrictionMode::slide_pos : FrictionMode::slide_neg;
+      state_.mode = next;
+    }
+    if (state_.mode != before) ++m.done.mode_switches;
+    if (++events > opt_.max_events_per_call) return ++m.done.failures, TwinStatus::zeno;
+    if (reinit(t_s_) < 0) return ++m.done.failures, TwinStatus::solver_error;
+    if (stop_at_tout && CVodeSetStopTime(m.mem, tout_s) < 0)
+      return ++m.done.failures, TwinStatus::solver_error;
+    if (!(tout_s > t_s_)) return TwinStatus::ok;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fixed-step RK4 of the same hybrid model
+
+void Rk4Twin::integrate_to(double tout_s, const InputSource& in) noexcept {
+  while (t_s_ < tout_s - 1e-12) {
+    const double h = std::min(h_, tout_s - t_s_);
+    const double t = t_s_;
+    NutState& s = state_;
+    if (s.mode == FrictionMode::stick) {
+      const double drive = model_.drive_force_n(t, in.screw_rad(t), s.pos_m, 0.0, in.ext_force_n(t));
+      ++rhs_evals_;
+      s.mode = model_.mode_at_rest(drive);
+      if (s.mode == FrictionMode::stick) {
+        t_s_ += h;
+        continue;
+      }
+    }
+    const auto f = [&](double tt, double p, double v, double& dp, double& dv) {
+      dp = v;
+      dv = model_.accel_m_s2(s.mode, tt, in.screw_rad(tt), p, v, in.ext_force_n(tt));
+      ++rhs_evals_;
+    };
+    double k1p, k1v, k2p, k2v, k3p, k3v, k4p, k4v;
+    f(t, s.pos_m, s.vel_m_s, k1p, k1v);
+    f(t + h / 2, s.pos_m + h / 2 * k1p, s.vel_m_s + h / 2 * k1v, k2p, k2v);
+    f(t + h / 2, s.pos_m + h / 2 * k2p, s.vel_m_s + h / 2 * k2v, k3p, k3v);
+    f(t + h, s.pos_m + h * k3p, s.vel_m_s + h * k3v, k4p, k4v);
+    const double v_new = s.vel_m_s + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v);
+    const double p_new = s.pos_m + h / 6 * (k1p + 2 * k2p + 2 * k3p + k4p);
+    const int dir = static_cast<int>(s.mode);
+    if (v_new * dir <= 0.0) {
+      // Velocity reached zero within the step: stop at the zero crossing of a linear velocity
+      // (first order in the event time, which is why RK4 needs small steps here).
+      const double frac = s.vel_m_s / (s.vel_m_s - v_new);
+      s.pos_m += frac * h * 0.5 * s.vel_m_s;
+      s.vel_m_s = 0.0;
+      s.mode = FrictionMode::stick;
+    } else {
+      s.pos_m = p_new;
+      s.vel_m_s = v_new;
+    }
+    t_s_ += h;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Demo drive
+
+namespace {
+class DemoDrive final : public InputSource {
+ public:
+  DemoDrive(std::uint64_t seed, double duration_s, double lead_m) : lead_m_(lead_m) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> len(0.8, 2.5), peak(10.0, 35.0), gap(0.0, 2.5),
+        coin(0.0, 1.0), move(-2.0, 2.0);
+    for (double t = 0.3; t < duration_s;) {
+      pulses_.push_back({t, len(rng), (coin(rng) < 0.5 ? -1.0 : 1.0) * peak(rng)});
+      t += pulses_.back().len + gap(rng);
+    }
+    for (double t = 0.5; t < duration_s; t += 3.0) moves_.push_back({t, move(rng) * 1e-3});
+    // Knocks: 30 ms bumps between pushes, like the plant's external disturbances. Their short
+    // duration is what an integrator without a step cap steps over.
+    // Only between pushes, so that no load exceeds the coupling's peak (no step-out here).
+    std::uniform_real_distribution<double> when(0.0, duration_s), knock(15.0, 30.0);
+    for (int i = 0; i < static_cast<int>(duration_s); ++i) {
+      const double t = when(rng), f = (coin(rng) < 0.5 ? -1.0 : 1.0) * knock(rng);
+      if (shape(pulses_, t) == 0.0 && shape(pulses_, t + 0.03) == 0.0 && shape(knocks_, t) == 0.0)
+        knocks_.push_back({t, 0.03, f});
+      std::sort(knocks_.begin(), knocks_.end(), [](auto& a, auto& b) { return a.t0 < b.t0; });
+    }
+  }
+  double screw_rad(double t) const noexcept override {
+    // Smooth screw moves (cosine blends of 0.4 s) to new nut targets.
+    double p = 0.02;
+    for (const auto& mv : moves_) {
+      if (t <= mv.t0) break;
+      const double x = std::min(1.0, (t - mv.t0) / 0.4);
+      p += mv.dp * 0.5 * (1.0 - std::cos(std::numbers::pi * x));
+    }
+    return rest_angle_rad(p, lead_m_);
+  }
+  double ext_force_n(double t) const noexcept override {
+    return shape(pulses_, t) + shape(knocks_, t);
+  }
+
+ private:
+  struct Pulse { double t0, len, peak; };
+  static double shape(const std::vector<Pulse>& pulses, double t) noexcept {
+    for (const auto& pl : pulses) {
+      if (t < pl.t0) break;
+      const double x = (t - pl.t0) / pl.len;
+      if (x < 1.0) {
+        const double s = std::sin(std::numbers::pi * x);
+        return pl.peak * s * s;
+      }
+    }
+    return 0.0;
+  }
+  struct Move { double t0, dp; };
+  double lead_m_;
+  std::vector<Pulse> pulses_, knocks_;
+  std::vector<Move> moves_;
+};
+}  // namespace
+
+std::unique_ptr<InputSource> make_demo_drive(std::uint64_t seed, double duration_s, double lead_m) {
+  return std::make_unique<DemoDrive>(seed, duration_s, lead_m);
+}
+
+}  // namespace maglead::twin

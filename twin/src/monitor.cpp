@@ -1,0 +1,1 @@
+#include "maglead/twin/monitor.hpp"
