@@ -3,9 +3,9 @@
 
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <fstream>
-#include <regex>
 #include <string>
 
 namespace {
@@ -30,10 +30,9 @@ Run run(const std::string& args) {
 std::string tmp(const std::string& name) { return testing::TempDir() + "/" + name; }
 
 double number_after(const std::string& text, const std::string& label) {
-  std::smatch m;
-  const std::regex re(label + R"(\s+([-0-9.]+))");
-  if (!std::regex_search(text, m, re)) return std::nan("");
-  return std::stod(m[1]);
+  const auto at = text.find(label);
+  if (at == std::string::npos) return std::nan("");
+  return std::strtod(text.c_str() + at + label.size(), nullptr);
 }
 
 }  // namespace
