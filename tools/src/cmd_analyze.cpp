@@ -1,0 +1,103 @@
+// maglead analyze: twin versus recording (issue 5). Compares a baseline model with a recording
+// in the force domain, locates the misfit, names the missing physics, refits, reports.
+#include <cstdio>
+#include <filesystem>
+
+#include "cli_common.hpp"
+#include "maglead/analysis/analysis.hpp"
+
+namespace maglead::cli {
+namespace {
+
+void add_analyze(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "analyze",
+      "Compare a baseline model with a recording, locate the misfit, explain it by named "
+      "physical effects chosen on held-out data, write report.html, analysis.json and the "
+      "corrected model");
+  struct Opts {
+    std::string recording, model, out, calibration, config = default_config_dir();
+    analysis::AnalysisOptions a;
+  };
+  auto o = std::make_shared<Opts>();
+  cmd->add_option("--recording", o->recording,
+                  "mls-recording/1: actuator (t_s, screw or motor angle, nut_pos_m, "
+                  "load_force_n) or force-driven axis (t_s, pos_m, drive_force_n)")
+      ->required();
+  cmd->add_option("--model", o->model,
+                  "Baseline model file (default: CONFIG/model.toml, else CONFIG/actuator.toml); "
+                  "e.g. config/emps_baseline.toml for the EMPS data");
+  cmd->add_option("--out", o->out, "Output directory")->required();
+  cmd->add_option("--calibration", o->calibration,
+                  "Coupling calibration (actuator; default: CONFIG/calibration.toml)");
+  cmd->add_option("--folds", o->a.folds, "Held-out time segments")->capture_default_str();
+  cmd->add_option("--filter-hz", o->a.filter_hz,
+                  "Zero-phase low-pass of position [Hz] (default 100 for an axis, 20 actuator)");
+  cmd->add_option("--decimation", o->a.decimation,
+                  "Decimation factor (default: down to the identification bandwidth for an axis)");
+  cmd->add_option("--min-gain", o->a.min_gain_pct,
+                  "Held-out mean-square-error reduction a term must bring [%]")
+      ->capture_default_str();
+  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  cmd->callback([o] {
+    const ActuatorParams act = load_actuator_or_default(o->config);
+    analysis::ModelFile model;
+    std::string model_path = o->model;
+    if (model_path.empty() && std::filesystem::exists(config_file(o->config, "model.toml")))
+      model_path = config_file(o->config, "model.toml");
+    model = model_path.empty() ? analysis::actuator_model_from_config(act)
+                               : analysis::load_model(model_path);
+    ForceCalibration cal = paper_calibration();
+    if (model.system == "actuator")
+      cal = load_calibration(o->calibration.empty() ? config_file(o->config, "calibration.toml")
+                                                    : o->calibration);
+    std::fprintf(stderr, "reading %s\n", o->recording.c_str());
+    const Recording rec = read_recording(o->recording);
+    std::string last_stage;
+    Progress* bar = nullptr;
+    std::unique_ptr<Progress> holder;
+    o->a.progress = [&](const std::string& stage, double f) {
+      if (stage != last_stage) {
+        if (bar) bar->done();
+        holder = std::make_unique<Progress>("analyze: " + stage);
+        bar = holder.get();
+        last_stage = stage;
+      }
+      (*bar)(f);
+    };
+    const auto result = analysis::analyze_recording(rec, model, cal, act, o->a);
+    if (bar) bar->done();
+    analysis::write_outputs(result, o->out);
+    const auto& J = result.json;
+    std::printf("recording %s (%s), baseline %s\n", o->recording.c_str(),
+                J["system"].get<std::string>().c_str(),
+                model_path.empty() ? "config/actuator.toml" : model_path.c_str());
+    std::printf("baseline   RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
+                J["baseline"]["rms"].get<double>(), J["baseline"]["relative_error_pct"].get<double>(),
+                J["baseline"]["full_rate"]["relative_error_pct"].get<double>());
+    for (const auto& w : J["where"]) std::printf("  where: %s\n", w.get<std::string>().c_str());
+    int k = 1;
+    for (const auto& e : J["effects"]) {
+      std::printf("%d. %-22s %s\n", k++, e["id"].get<std::string>().c_str(), e["parameters"].dump().c_str());
+      if (e["evidence"]["heldout_gain_pct"].is_number())
+        std::printf("     held-out gain %.2f %% (t = %.1f, %s segments), improvement %.2f %%\n",
+                    e["evidence"]["heldout_gain_pct"].get<double>(), e["evidence"]["t_stat"].get<double>(),
+                    e["evidence"]["segments_improved"].get<std::string>().c_str(),
+                    e["improvement_pct"].get<double>());
+      if (e.contains("finding")) std::printf("     %s\n", e["finding"].get<std::string>().c_str());
+    }
+    if (J["effects"].empty()) std::printf("%s\n", J["conclusion"].get<std::string>().c_str());
+    std::printf("final      RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
+                J["final"]["rms"].get<double>(), J["final"]["relative_error_pct"].get<double>(),
+                J["final"]["full_rate"]["relative_error_pct"].get<double>());
+    std::printf("held-out:");
+    for (const auto& v : J["validation"])
+      std::printf("  %s %.4g N", v["model"].get<std::string>().c_str(), v["heldout_rms"].get<double>());
+    std::printf("\nwrote %s/report.html, analysis.json, model_corrected.toml\n", o->out.c_str());
+  });
+}
+
+MAGLEAD_COMMAND(60, add_analyze);
+
+}  // namespace
+}  // namespace maglead::cli

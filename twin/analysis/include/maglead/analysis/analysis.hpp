@@ -1,0 +1,55 @@
+#pragma once
+// Twin versus recording (issue 5): compare a baseline model with a recording in the force
+// domain, locate the misfit, explain it by forward selection of named physical effects on
+// held-out time segments, refit, and write a report and a corrected model file.
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "maglead/analysis/model_file.hpp"
+#include "maglead/physics/actuator.hpp"
+#include "maglead/physics/force_model.hpp"
+#include "maglead/recording/recording.hpp"
+#include "maglead/tools/plot.hpp"
+
+namespace maglead::analysis {
+
+struct AnalysisOptions {
+  int folds = 10;               // contiguous held-out time segments
+  double filter_hz = 0.0;       // zero-phase low-pass of position (0: 100 Hz axis, 20 Hz actuator)
+  int decimation = 0;           // 0: down to the identification bandwidth (axis), 1: none
+  double min_gain_pct = 1.0;    // a term must cut the held-out mean square error this much …
+  double min_t = 3.0;           // … consistently over the segments (t statistic of the gains)
+  double min_speed_m_s = 2e-4;  // actuator: slower samples stick, their friction is unknown
+  int max_terms = 8;
+  std::function<void(const std::string& stage, double fraction)> progress;
+};
+
+struct Figure {
+  std::string file, caption;
+  std::vector<plot::Panel> panels;
+  bool heat = false;
+  plot::HeatMap heatmap;
+};
+
+struct AnalysisResult {
+  nlohmann::json json;  // the content of analysis.json
+  ModelFile corrected;
+  std::vector<Figure> figures;
+  std::vector<std::string> where;  // localisation findings in words
+};
+
+/// Actuator baseline from config/actuator.toml: mass, viscous and Coulomb friction.
+ModelFile actuator_model_from_config(const ActuatorParams& act);
+
+/// Runs the whole analysis. `cal` is the coupling calibration (actuator only). Throws
+/// RecordingError for missing columns and std::invalid_argument for unusable data.
+AnalysisResult analyze_recording(const Recording& rec, const ModelFile& baseline,
+                                 const ForceCalibration& cal, const ActuatorParams& act,
+                                 const AnalysisOptions& options);
+
+/// Writes analysis.json, report.html, the figures and model_corrected.toml into out_dir.
+void write_outputs(const AnalysisResult& result, const std::string& out_dir);
+
+}  // namespace maglead::analysis

@@ -1,0 +1,97 @@
+#include "maglead/analysis/signal.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace maglead::analysis {
+namespace {
+
+struct Biquad {
+  double b0, b1, b2, a1, a2;  // a0 normalised to 1
+};
+
+// A 4th-order Butterworth is two RBJ low-pass sections with Q = 1/(2 cos(π/8)), 1/(2 cos(3π/8)).
+std::vector<Biquad> butter4(double cutoff_hz, double fs_hz) {
+  if (!(cutoff_hz > 0.0) || !(cutoff_hz < 0.5 * fs_hz))
+    throw std::invalid_argument("filter cutoff " + std::to_string(cutoff_hz) +
+                                " Hz must lie between 0 and half the sample rate (" +
+                                std::to_string(0.5 * fs_hz) + " Hz)");
+  std::vector<Biquad> out;
+  const double w0 = 2.0 * std::numbers::pi * cutoff_hz / fs_hz;
+  for (double q : {1.0 / (2.0 * std::cos(std::numbers::pi / 8)),
+                   1.0 / (2.0 * std::cos(3.0 * std::numbers::pi / 8))}) {
+    const double alpha = std::sin(w0) / (2.0 * q), c = std::cos(w0), a0 = 1.0 + alpha;
+    out.push_back({(1.0 - c) / 2.0 / a0, (1.0 - c) / a0, (1.0 - c) / 2.0 / a0, -2.0 * c / a0,
+                   (1.0 - alpha) / a0});
+  }
+  return out;
+}
+
+// Transposed direct form II, started in the steady state of the first input (no start-up step).
+void run(const Biquad& f, std::vector<double>& x) {
+  if (x.empty()) return;
+  double z1 = x[0] * (1.0 - f.b0), z2 = x[0] * (f.b2 - f.a2);
+  for (double& v : x) {
+    const double in = v;
+    const double y = f.b0 * in + z1;
+    z1 = f.b1 * in - f.a1 * y + z2;
+    z2 = f.b2 * in - f.a2 * y;
+    v = y;
+  }
+}
+
+}  // namespace
+
+std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff_hz,
+                                     double sample_rate_hz) {
+  const auto sections = butter4(cutoff_hz, sample_rate_hz);
+  const std::size_t n = x.size();
+  if (n < 3) return x;
+  // Odd reflection: about three time constants of the slowest section.
+  const std::size_t pad = std::min<std::size_t>(
+      n - 1, static_cast<std::size_t>(std::ceil(3.0 * sample_rate_hz / cutoff_hz)) + 12);
+  std::vector<double> y(n + 2 * pad);
+  for (std::size_t i = 0; i < pad; ++i) y[i] = 2.0 * x[0] - x[pad - i];
+  std::copy(x.begin(), x.end(), y.begin() + static_cast<std::ptrdiff_t>(pad));
+  for (std::size_t i = 0; i < pad; ++i) y[pad + n + i] = 2.0 * x[n - 1] - x[n - 2 - i];
+  for (const auto& s : sections) run(s, y);
+  std::reverse(y.begin(), y.end());
+  for (const auto& s : sections) run(s, y);
+  std::reverse(y.begin(), y.end());
+  return {y.begin() + static_cast<std::ptrdiff_t>(pad),
+          y.begin() + static_cast<std::ptrdiff_t>(pad + n)};
+}
+
+std::vector<double> central_diff(const std::vector<double>& x, double dt_s) {
+  const std::size_t n = x.size();
+  std::vector<double> d(n, 0.0);
+  if (n < 2) return d;
+  for (std::size_t i = 1; i + 1 < n; ++i) d[i] = (x[i + 1] - x[i - 1]) / (2.0 * dt_s);
+  d[0] = (x[1] - x[0]) / dt_s;
+  d[n - 1] = (x[n - 1] - x[n - 2]) / dt_s;
+  return d;
+}
+
+std::vector<double> central_diff2(const std::vector<double>& x, double dt_s) {
+  const std::size_t n = x.size();
+  std::vector<double> d(n, 0.0);
+  if (n < 3) return d;
+  for (std::size_t i = 1; i + 1 < n; ++i) d[i] = (x[i + 1] - 2.0 * x[i] + x[i - 1]) / (dt_s * dt_s);
+  d[0] = d[1];
+  d[n - 1] = d[n - 2];
+  return d;
+}
+
+std::vector<double> decimate(const std::vector<double>& x, int factor, double sample_rate_hz) {
+  if (factor <= 1) return x;
+  // Cut at 80 % of the new Nyquist frequency, as MATLAB's decimate does.
+  const auto f = filtfilt_butter4(x, 0.8 * 0.5 * sample_rate_hz / factor, sample_rate_hz);
+  std::vector<double> out;
+  out.reserve(x.size() / static_cast<std::size_t>(factor) + 1);
+  for (std::size_t i = 0; i < f.size(); i += static_cast<std::size_t>(factor)) out.push_back(f[i]);
+  return out;
+}
+
+}  // namespace maglead::analysis
