@@ -13,6 +13,7 @@ packages=(
   nlohmann-json3-dev                        # JSON output
   googletest libgtest-dev                   # tests
   python3-pymodbus mbpoll socat             # independent Modbus clients for integration tests
+  python3-serial python3-serial-asyncio     # pymodbus.client imports these even for TCP
 )
 missing=()
 for p in "${packages[@]}"; do

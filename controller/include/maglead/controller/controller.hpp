@@ -1,0 +1,145 @@
+#pragma once
+// The control loop's one cycle: read encoders, compute phase and force, run the drive state
+// machine and the active mode, command the motor, publish a snapshot. Time comes from the
+// caller (LoopRunner in service, a fake clock in tests); no allocation or lock in step().
+#include <cstdint>
+
+#include "maglead/controller/detail/seqlock.hpp"
+#include "maglead/physics/actuator.hpp"
+#include "maglead/physics/estimator.hpp"
+#include "maglead/physics/force_model.hpp"
+#include "maglead/plant/hardware.hpp"
+#include "maglead/registers/registers.hpp"
+
+namespace maglead::controller {
+
+struct ControllerConfig {
+  ActuatorParams actuator;
+  ForceCalibration calibration = paper_calibration();
+  double velocity_limit_m_s = 0.01;   // profile defaults until a client writes its own
+  double accel_limit_m_s2 = 0.1;
+  double watchdog_s = 0.0;            // 0: communication watchdog off
+  double in_position_tol_m = 50e-6;   // about two linear-encoder counts
+  double force_tol_n = 1.5;           // about one count of phase near φ = 0, plus noise
+  double settle_s = 0.05;             // "reached" must hold this long
+  // Position loop: phase correction per metre of error, and its integral action.
+  double position_gain_rad_per_m = 4000.0;
+  double position_integral_rad_per_m_s = 20000.0;
+};
+
+/// What the twin publishes each cycle; zero / false until a twin is attached.
+struct TwinOutputs {
+  double pred_nut_pos_m = 0.0;
+  double pred_force_n = 0.0;
+  double residual_pos_m = 0.0;
+  double residual_force_n = 0.0;
+  double dynamic_force_n = 0.0;
+  bool healthy = false;
+  bool drift_warning = false;
+  bool step_out_warning = false;
+};
+struct TwinInputs {
+  double t_s, screw_angle_rad, screw_cmd_rad, nut_pos_m, nut_vel_m_s, phase_rad, static_force_n;
+  double force_setpoint_n;  // NaN unless in force mode
+};
+/// The twin's wiring point: step() is called once per control cycle on the loop thread, after
+/// the measurement and before the state machine, and must not block or allocate.
+class TwinHook {
+ public:
+  virtual ~TwinHook() = default;
+  virtual void step(const TwinInputs& in, TwinOutputs& out) noexcept = 0;
+};
+
+/// Everything a client can read, from one cycle.
+struct Snapshot {
+  std::uint64_t cycle = 0;
+  double t_s = 0.0;
+  double nut_pos_m = 0.0, nut_vel_m_s = 0.0, screw_angle_rad = 0.0, phase_rad = 0.0;
+  double force_est_n = 0.0, load_cell_force_n = 0.0;
+  double profile_pos_m = 0.0, active_force_setpoint_n = 0.0, active_target_pos_m = 0.0;
+  double period_s = 0.0, late_max_s = 0.0;
+  std::uint64_t overrun_count = 0;
+  TwinOutputs twin;
+  std::uint16_t status_word = 0, alarm_code = 0, step_out_count = 0, drive_state = 0;
+  std::uint16_t active_mode = 0, command_status = 0, reject_reason = 0;
+};
+
+/// The client-writable image (SI units), posted whole on every change so the loop sees every
+/// control-word value in order and detects edges itself.
+struct CommandImage {
+  std::uint16_t control_word = 0;
+  std::uint16_t mode_command = 0;
+  std::uint16_t heartbeat = 0;  // last value written (any write counts)
+  double watchdog_s = 0.0;
+  double force_setpoint_n = 0.0;
+  double position_setpoint_m = 0.02;
+  double velocity_limit_m_s = 0.01;
+  double accel_limit_m_s2 = 0.1;
+};
+struct Command {
+  CommandImage image;
+  bool heartbeat = false;  // the heartbeat register was written (feeds the watchdog)
+};
+
+enum class CycleStatus : std::uint8_t { ok, hardware_error };
+
+class Controller {
+ public:
+  /// Throws std::invalid_argument on an inconsistent configuration.
+  Controller(const ControllerConfig& config, ActuatorHardware& hardware);
+
+  /// Attach before the loop starts; nullptr detaches.
+  void attach_twin(TwinHook* twin) noexcept { twin_ = twin; }
+
+  /// One control cycle at time now_s (loop thread only). late_s: how late this cycle started.
+  CycleStatus step(double now_s, double late_s = 0.0) noexcept;
+
+  /// Network side: queue a command for the next cycle. False when the queue is full.
+  /// Callers on several threads must serialise.
+  bool post(const Command& command) noexcept { return commands_.push(command); }
+  Snapshot snapshot() const noexcept { return published_.load(); }
+
+  const ControllerConfig& config() const noexcept { return cfg_; }
+  /// The command image the loop starts from (defaults of the configuration).
+  CommandImage initial_image() const noexcept;
+  /// The force setpoint limit in the direction of `force_n` (signed), from the calibration.
+  double safe_force_limit_n(double force_n) const noexcept;
+
+ private:
+  void apply(const Command& c) noexcept;
+  void on_execute() noexcept;
+  void latch_fault(registers::Alarm alarm) noexcept;
+  void start_hold() noexcept;
+  void controlled_stop() noexcept;
+  void run_profile(double dt) noexcept;
+  double position_command_rad(double dt) noexcept;
+  void reject(registers::Reject why) noexcept;
+
+  ControllerConfig cfg_;
+  ActuatorHardware& hw_;
+  TwinHook* twin_ = nullptr;
+  EncoderVelocityEstimator velocity_;
+  StaticForceEstimator estimator_;
+  detail::SpscQueue<Command, 1024> commands_;
+  detail::SeqLock<Snapshot> published_;
+  double phase_lo_rad_ = 0.0, phase_hi_rad_ = 0.0;  // commandable phase range (safe forces)
+
+  // Loop state (loop thread only).
+  Snapshot s_{};
+  CommandImage image_{};
+  bool synced_ = false;
+  double last_t_s_ = 0.0, last_heartbeat_s_ = 0.0;
+  double phase_offset_rad_ = 0.0;   // whole leads the nut slipped, taken up by resync
+  double last_phase_rad_ = 0.0;
+  registers::DriveState state_ = registers::DriveState::disabled;
+  registers::Mode mode_ = registers::Mode::idle;
+  bool stopping_ = false, watchdog_expired_ = false, stepped_out_ = false, execute_pending_ = false;
+  double screw_cmd_rad_ = 0.0;
+  double target_m_ = 0.0, prof_pos_m_ = 0.0, prof_vel_m_s_ = 0.0, integral_rad_ = 0.0;
+  double vmax_ = 0.01, amax_ = 0.1;
+  double force_set_n_ = 0.0, force_phase_rad_ = 0.0;
+  double settled_s_ = 0.0;
+  std::uint16_t command_bits_ = 0;
+};
+
+}  // namespace maglead::controller

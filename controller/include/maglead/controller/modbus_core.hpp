@@ -1,0 +1,79 @@
+#pragma once
+// Transport-independent Modbus request handling: validates every request against the register
+// table, answers exceptions at once, keeps the client-writable image and control ownership,
+// and posts commands to the loop. TCP and RTU framers call handle() with bare PDUs.
+#include <cstddef>
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "maglead/controller/controller.hpp"
+
+namespace maglead::controller {
+
+struct ServerOptions {
+  bool read_only = false;       // every write is refused with exception 01
+  std::string model_name = "simulated actuator";
+};
+
+struct ClientInfo {
+  std::uint16_t id = 0;        // TCP connection number (1…), or kRtuClient
+  std::uint32_t ipv4 = 0;      // host order; 0 for RTU
+  bool broadcast = false;      // RTU unit 0: writes act, nothing is answered
+};
+
+/// Modbus exception codes used here.
+enum class Exception : std::uint8_t {
+  illegal_function = 1, illegal_data_address = 2, illegal_data_value = 3, server_busy = 6,
+  gateway_target_failed = 0x0B,
+};
+
+class ModbusCore {
+ public:
+  static constexpr std::uint16_t kRtuClient = 0xFFFF;
+  static constexpr std::size_t kMaxPdu = 253;
+
+  /// Throws std::logic_error when the register table and the bindings disagree.
+  ModbusCore(Controller& controller, ServerOptions options);
+
+  /// Handles one request PDU (function code first). Writes the response PDU to `out`
+  /// (kMaxPdu bytes) and returns its length; 0 means send nothing. Thread-safe.
+  std::size_t handle(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len, std::uint8_t* out);
+  /// Builds an exception response for a transport-level refusal (wrong unit id …).
+  static std::size_t exception(std::uint8_t function, Exception code, std::uint8_t* out);
+
+  void client_closed(std::uint16_t client_id);
+  void count_comm_error();  // a frame with a bad CRC or broken framing
+
+  std::uint16_t owner() const;
+
+  struct Binding;  // how a table entry gets its value (defined in the .cpp)
+
+ private:
+  struct Slot {
+    std::int16_t reg = -1;  // index into registers::table()
+    std::int8_t word = 0;
+  };
+  std::size_t dispatch(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len, std::uint8_t* out);
+  std::size_t read_registers(bool input_only, std::uint16_t start, std::uint16_t count, std::uint8_t* out,
+                             std::size_t& n, Exception& ex);
+  bool write_image(const ClientInfo& client, CommandImage next, bool heartbeat, Exception& ex);
+  bool decode_registers(std::uint16_t start, std::uint16_t count, const std::uint8_t* data,
+                        CommandImage& image, bool& heartbeat, Exception& ex) const;
+  double read_value(std::size_t reg_index, const Snapshot& snap) const;
+
+  Controller& controller_;
+  ServerOptions options_;
+  mutable std::mutex mutex_;  // between network threads only; the loop never takes it
+  std::vector<Slot> reg_slots_, coil_slots_, di_slots_;
+  std::vector<const Binding*> bindings_;  // per table entry
+  CommandImage image_;
+  std::uint16_t owner_ = 0;
+  std::uint32_t owner_ipv4_ = 0;
+  // Diagnostics counters (function 8).
+  std::uint16_t bus_messages_ = 0, comm_errors_ = 0, exceptions_ = 0, server_messages_ = 0,
+                no_response_ = 0, busy_ = 0;
+};
+
+}  // namespace maglead::controller

@@ -1,0 +1,46 @@
+#pragma once
+// Modbus RTU slave on a serial line. libmodbus opens and configures the line (baud, parity,
+// stop bits, RS-485) and frames our replies with their CRC; requests are framed here, from
+// each function's length, because libmodbus 3.1.6 cannot frame function 8 or 43 requests.
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <thread>
+
+#include "maglead/controller/modbus_core.hpp"
+
+namespace maglead::controller {
+
+struct RtuOptions {
+  std::string device;       // e.g. /dev/ttyUSB0, or a pty from socat
+  int baud = 19200;
+  char parity = 'E';        // N, E or O
+  int data_bits = 8;
+  int stop_bits = 1;
+  std::uint8_t unit_id = 1;  // 1..247; unit 0 is broadcast
+  bool rs485 = false;
+};
+
+class RtuServer {
+ public:
+  /// Opens the line; throws std::runtime_error naming the device on failure.
+  RtuServer(ModbusCore& core, RtuOptions options);
+  ~RtuServer();
+  RtuServer(const RtuServer&) = delete;
+  RtuServer& operator=(const RtuServer&) = delete;
+  void start();
+  void stop();
+
+ private:
+  void run();
+  ModbusCore& core_;
+  RtuOptions options_;
+  void* ctx_ = nullptr;  // modbus_t*, owned by this server's thread once started
+  std::thread thread_;
+  std::atomic<bool> running_{false};
+};
+
+/// Modbus CRC-16 (poly 0xA001, init 0xFFFF) as sent on the line (low byte first).
+std::uint16_t modbus_crc16(const std::uint8_t* data, std::size_t len);
+
+}  // namespace maglead::controller

@@ -1,0 +1,22 @@
+#pragma once
+// config/network.toml: the Modbus server's options (every one is also on the command line).
+#include <string>
+
+#include "maglead/controller/modbus_rtu.hpp"
+#include "maglead/controller/modbus_tcp.hpp"
+
+namespace maglead::controller {
+
+struct NetworkConfig {
+  bool tcp_enabled = true;
+  TcpOptions tcp;
+  RtuOptions rtu;  // rtu.device empty: no RTU
+  bool read_only = false;
+  double watchdog_s = 0.0;
+};
+
+/// Reads [tcp], [rtu] and [server]; absent keys keep their defaults. Throws std::runtime_error
+/// naming the file and key on a malformed value or an unknown key.
+NetworkConfig load_network_config(const std::string& path);
+
+}  // namespace maglead::controller

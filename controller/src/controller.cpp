@@ -1,0 +1,368 @@
+#include "maglead/controller/controller.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+
+namespace maglead::controller {
+namespace {
+
+using registers::Alarm;
+using registers::DriveState;
+using registers::Mode;
+using registers::Reject;
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+constexpr double kStrokeMargin_m = 0.5e-3;  // beyond the stroke by this much is a fault
+constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b); }
+
+}  // namespace
+
+Controller::Controller(const ControllerConfig& config, ActuatorHardware& hardware)
+    : cfg_(config),
+      hw_(hardware),
+      velocity_(1.0 / config.actuator.sample_rate_hz, config.actuator.linear_count_m),
+      estimator_(config.calibration, config.actuator.coulomb_n, 1e-4) {
+  const auto& a = cfg_.actuator;
+  const auto& cal = cfg_.calibration;
+  if (!(a.sample_rate_hz > 0) || !(a.lead_m > 0) || !(a.gear_ratio > 0) || !(a.stroke_max_m > a.stroke_min_m))
+    throw std::invalid_argument("controller: actuator parameters are inconsistent");
+  if (!(cal.peak_push_n > 0) || !(cal.peak_pull_n < 0) || !(cal.stable_max_rad > cal.stable_min_rad))
+    throw std::invalid_argument("controller: calibration has no usable stable branch (derive_limits?)");
+  if (!(a.safe_force_fraction > 0 && a.safe_force_fraction <= 1))
+    throw std::invalid_argument("controller: safe_force_fraction must be in (0, 1]");
+  if (!(cfg_.velocity_limit_m_s > 0) || !(cfg_.accel_limit_m_s2 > 0) || cfg_.watchdog_s < 0)
+    throw std::invalid_argument("controller: limits must be positive, watchdog non-negative");
+  // Position control may use the phase range of the safe forces, never more.
+  const double f = a.safe_force_fraction * 0.999;
+  phase_hi_rad_ = phase_for_output_force(cal, f * cal.peak_push_n, a.safe_force_fraction).phase_rad;
+  phase_lo_rad_ = phase_for_output_force(cal, f * cal.peak_pull_n, a.safe_force_fraction).phase_rad;
+  image_ = initial_image();
+  vmax_ = cfg_.velocity_limit_m_s;
+  amax_ = cfg_.accel_limit_m_s2;
+  published_.store(s_);
+}
+
+CommandImage Controller::initial_image() const noexcept {
+  CommandImage im;
+  im.watchdog_s = cfg_.watchdog_s;
+  im.velocity_limit_m_s = cfg_.velocity_limit_m_s;
+  im.accel_limit_m_s2 = cfg_.accel_limit_m_s2;
+  im.position_setpoint_m = std::clamp(0.5 * (cfg_.actuator.stroke_min_m + cfg_.actuator.stroke_max_m),
+                                      cfg_.actuator.stroke_min_m, cfg_.actuator.stroke_max_m);
+  return im;
+}
+
+double Controller::safe_force_limit_n(double force_n) const noexcept {
+  const auto& cal = cfg_.calibration;
+  return cfg_.actuator.safe_force_fraction * (force_n >= 0.0 ? cal.peak_push_n : cal.peak_pull_n);
+}
+
+void Controller::reject(Reject why) noexcept {
+  command_bits_ |= bit(registers::kRejected);
+  s_.reject_reason = static_cast<std::uint16_t>(why);
+}
+
+void Controller::start_hold() noexcept {
+  mode_ = Mode::idle;
+  prof_pos_m_ = target_m_ = s_.nut_pos_m;
+  prof_vel_m_s_ = 0.0;
+  // Bumpless: start from the phase the nut sits at now.
+  integral_rad_ = std::clamp(s_.phase_rad, phase_lo_rad_, phase_hi_rad_);
+}
+
+void Controller::controlled_stop() noexcept {
+  if (mode_ == Mode::force) {
+    start_hold();
+    return;
+  }
+  // Decelerate the profile at the acceleration limit and hold where it comes to rest.
+  target_m_ = prof_pos_m_ + prof_vel_m_s_ * std::abs(prof_vel_m_s_) / (2.0 * amax_);
+  mode_ = Mode::idle;
+}
+
+void Controller::latch_fault(Alarm alarm) noexcept {
+  if (state_ != DriveState::fault) s_.alarm_code = static_cast<std::uint16_t>(alarm);
+  state_ = DriveState::fault;
+  switch (alarm) {
+    case Alarm::step_out:
+    case Alarm::phase_jump: {
+      // Stop commanding force: park the screw at the rest angle of the lead the nut is in now.
+      const double leads = std::round(s_.phase_rad / kTwoPi);
+      screw_cmd_rad_ = rest_angle_rad(s_.nut_pos_m, cfg_.actuator.lead_m) + phase_offset_rad_ + leads * kTwoPi;
+      mode_ = Mode::idle;
+      prof_pos_m_ = target_m_ = s_.nut_pos_m;
+      prof_vel_m_s_ = 0.0;
+      break;
+    }
+    case Alarm::watchdog:
+    case Alarm::stroke_limit:
+      controlled_stop();
+      stopping_ = true;
+      break;
+    default:
+      break;  // hardware faults: keep the last command
+  }
+}
+
+void Controller::on_execute() noexcept {
+  command_bits_ &= static_cast<std::uint16_t>(~(bit(registers::kExecuteAck) | bit(registers::kExecuteDone) |
+                                                bit(registers::kRejected)));
+  s_.reject_reason = 0;
+  execute_pending_ = false;
+  if (state_ == DriveState::fault) return reject(Reject::in_fault);
+  if (state_ != DriveState::enabled) return reject(Reject::not_enabled);
+  if (image_.control_word & bit(registers::kStop)) return reject(Reject::stopped);
+  const auto& a = cfg_.actuator;
+  switch (static_cast<Mode>(image_.mode_command)) {
+    case Mode::idle:
+      controlled_stop();
+      break;
+    case Mode::position: {
+      const double target = image_.position_setpoint_m;
+      if (!(target >= a.stroke_min_m && target <= a.stroke_max_m)) return reject(Reject::target_outside_stroke);
+      if (mode_ == Mode::force) start_hold();
+      vmax_ = image_.velocity_limit_m_s;
+      amax_ = image_.accel_limit_m_s2;
+      target_m_ = target;
+      mode_ = Mode::position;
+      break;
+    }
+    case Mode::force: {
+      const auto inv = phase_for_output_force(cfg_.calibration, image_.force_setpoint_n, a.safe_force_fraction);
+      if (inv.status != InverseStatus::ok) return reject(Reject::force_beyond_safe_limit);
+      force_set_n_ = image_.force_setpoint_n;
+      force_phase_rad_ = inv.phase_rad;
+      mode_ = Mode::force;
+      break;
+    }
+    default:
+      return reject(Reject::not_enabled);  // unreachable: the server range-checks mode_command
+  }
+  settled_s_ = 0.0;
+  execute_pending_ = true;
+  command_bits_ |= bit(registers::kExecuteAck);
+}
+
+void Controller::apply(const Command& c) noexcept {
+  const std::uint16_t old_cw = image_.control_word;
+  const std::uint16_t new_cw = c.image.control_word;
+  const auto rising = static_cast<std::uint16_t>(new_cw & ~old_cw);
+  const auto falling = static_cast<std::uint16_t>(old_cw & ~new_cw);
+  if (c.image.watchdog_s != image_.watchdog_s) last_heartbeat_s_ = s_.t_s;  // fresh start
+  image_ = c.image;
+  if (c.heartbeat) last_heartbeat_s_ = s_.t_s;
+
+  if (falling & bit(registers::kEnable) && state_ == DriveState::enabled) {
+    state_ = DriveState::ready;
+    mode_ = Mode::idle;
+  }
+  if (rising & bit(registers::kEnable) && state_ == DriveState::ready) {
+    state_ = DriveState::enabled;
+    last_heartbeat_s_ = s_.t_s;
+    start_hold();
+  }
+  if (falling & bit(registers::kExecute)) command_bits_ &= static_cast<std::uint16_t>(~bit(registers::kExecuteAck));
+  if (falling & bit(registers::kFaultReset)) command_bits_ &= static_cast<std::uint16_t>(~bit(registers::kResetAck));
+  if (falling & bit(registers::kResync)) command_bits_ &= static_cast<std::uint16_t>(~bit(registers::kResyncAck));
+
+  if (rising & bit(registers::kResync)) {
+    command_bits_ &= static_cast<std::uint16_t>(~(bit(registers::kResyncDone) | bit(registers::kRejected)));
+    if (!stepped_out_) {
+      reject(Reject::not_stepped_out);
+    } else {
+      // The nut now sits in another lead: take that lead as the new zero of φ.
+      const double leads = std::round(s_.phase_rad / kTwoPi);
+      phase_offset_rad_ += leads * kTwoPi;
+      s_.phase_rad -= leads * kTwoPi;
+      last_phase_rad_ = s_.phase_rad;
+      command_bits_ |= static_cast<std::uint16_t>(bit(registers::kResyncAck) | bit(registers::kResyncDone));
+    }
+  }
+  if (rising & bit(registers::kFaultReset)) {
+    command_bits_ &= static_cast<std::uint16_t>(~(bit(registers::kResetDone) | bit(registers::kRejected)));
+    const auto& cal = cfg_.calibration;
+    const bool phase_ok = s_.phase_rad >= cal.stable_min_rad && s_.phase_rad <= cal.stable_max_rad;
+    if (state_ == DriveState::fault && !phase_ok) {
+      reject(Reject::still_faulty);
+    } else {
+      if (state_ == DriveState::fault) {
+        state_ = DriveState::ready;  // re-enabling needs a fresh enable edge
+        s_.alarm_code = 0;
+        stepped_out_ = watchdog_expired_ = stopping_ = false;
+        mode_ = Mode::idle;
+        last_heartbeat_s_ = s_.t_s;
+      }
+      command_bits_ |= static_cast<std::uint16_t>(bit(registers::kResetAck) | bit(registers::kResetDone));
+    }
+  }
+  if (rising & bit(registers::kExecute)) on_execute();
+}
+
+void Controller::run_profile(double dt) noexcept {
+  const double dist = target_m_ - prof_pos_m_;
+  if (dist == 0.0 && prof_vel_m_s_ == 0.0) return;
+  // Online trapezoid: accelerate towards the speed from which braking at amax just reaches
+  // the target, capped at vmax.
+  const double v_des = std::copysign(std::min(vmax_, std::sqrt(2.0 * amax_ * std::abs(dist))), dist);
+  const double dv = std::clamp(v_des - prof_vel_m_s_, -amax_ * dt, amax_ * dt);
+  prof_vel_m_s_ += dv;
+  prof_pos_m_ += prof_vel_m_s_ * dt;
+  const double left = target_m_ - prof_pos_m_;
+  if ((left * dist <= 0.0 || std::abs(left) < 1e-8) && std::abs(prof_vel_m_s_) <= 2.0 * amax_ * dt + 1e-6) {
+    prof_pos_m_ = target_m_;
+    prof_vel_m_s_ = 0.0;
+  }
+}
+
+double Controller::position_command_rad(double dt) noexcept {
+  run_profile(dt);
+  const auto& a = cfg_.actuator;
+  const double err = prof_pos_m_ - s_.nut_pos_m;
+  // Integrate only errors beyond one encoder count: within it the error is quantization.
+  if (std::abs(err) > a.linear_count_m)
+    integral_rad_ = std::clamp(integral_rad_ + cfg_.position_integral_rad_per_m_s * err * dt,
+                               phase_lo_rad_, phase_hi_rad_);
+  const double phase = std::clamp(kTwoPi / a.lead_m * err + cfg_.position_gain_rad_per_m * err + integral_rad_,
+                                  phase_lo_rad_, phase_hi_rad_);
+  return rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + phase;
+}
+
+CycleStatus Controller::step(double now_s, double late_s) noexcept {
+  const auto& a = cfg_.actuator;
+  const auto& cal = cfg_.calibration;
+  const double nominal = 1.0 / a.sample_rate_hz;
+  double dt = synced_ ? now_s - last_t_s_ : nominal;
+  if (!(dt > 0.0)) dt = nominal;
+  last_t_s_ = now_s;
+  s_.t_s = now_s;
+  s_.cycle++;
+  s_.period_s = dt;
+  if (late_s > nominal) s_.overrun_count++;
+  s_.late_max_s = std::max(s_.late_max_s, late_s);
+
+  SensorSample sample;
+  const HwStatus hs = hw_.read_sensors(now_s, sample);
+  CycleStatus status = CycleStatus::ok;
+  if (hs != HwStatus::ok) {
+    latch_fault(hs == HwStatus::sensor_fault ? Alarm::sensor_fault : Alarm::drive_fault);
+    status = CycleStatus::hardware_error;
+  } else {
+    const double screw = screw_angle_rad_from_motor_rad(motor_angle_rad_from_counts(sample.motor_counts, a), a);
+    const double pos = nut_pos_m_from_counts(sample.linear_counts, a);
+    if (!synced_) {
+      // At power-up the coupling is taken to be at rest within its lead.
+      phase_offset_rad_ = kTwoPi * std::round(phase_rad(screw, pos, a.lead_m) / kTwoPi);
+      velocity_.reset(pos);
+      screw_cmd_rad_ = screw;
+      last_heartbeat_s_ = now_s;
+      state_ = DriveState::ready;
+      synced_ = true;
+    }
+    s_.screw_angle_rad = screw;
+    s_.nut_pos_m = pos;
+    s_.phase_rad = phase_rad(screw, pos, a.lead_m) - phase_offset_rad_;
+    s_.nut_vel_m_s = velocity_.update(pos);
+    s_.force_est_n = estimator_.output_force_n(s_.phase_rad, s_.nut_vel_m_s);
+    s_.load_cell_force_n = std::isnan(sample.load_force_n) ? 0.0 : -sample.load_force_n;
+  }
+
+  Command c;
+  for (int i = 0; i < 64 && commands_.pop(c); ++i) apply(c);
+
+  TwinOutputs tw{};
+  if (twin_) {
+    const TwinInputs in{now_s, s_.screw_angle_rad, screw_cmd_rad_, s_.nut_pos_m, s_.nut_vel_m_s, s_.phase_rad,
+                        s_.force_est_n,
+                        mode_ == Mode::force ? force_set_n_ : std::numeric_limits<double>::quiet_NaN()};
+    twin_->step(in, tw);
+  }
+  s_.twin = tw;
+
+  if (status == CycleStatus::ok) {
+    // Supervision, in order of severity.
+    const bool outside = s_.phase_rad < cal.stable_min_rad || s_.phase_rad > cal.stable_max_rad;
+    if (outside && !stepped_out_) {
+      stepped_out_ = true;
+      s_.step_out_count++;
+      latch_fault(std::abs(s_.phase_rad - last_phase_rad_) > std::numbers::pi ? Alarm::phase_jump : Alarm::step_out);
+    }
+    if (s_.nut_pos_m < a.stroke_min_m - kStrokeMargin_m || s_.nut_pos_m > a.stroke_max_m + kStrokeMargin_m) {
+      if (state_ == DriveState::enabled) latch_fault(Alarm::stroke_limit);
+    }
+    if (state_ == DriveState::enabled && image_.watchdog_s > 0.0 && now_s - last_heartbeat_s_ > image_.watchdog_s) {
+      watchdog_expired_ = true;
+      latch_fault(Alarm::watchdog);
+    }
+    const bool stop_bit = image_.control_word & bit(registers::kStop);
+    if (state_ == DriveState::enabled) {
+      if (stop_bit && !stopping_) controlled_stop();
+      stopping_ = stop_bit;
+    }
+  }
+  last_phase_rad_ = s_.phase_rad;
+
+  bool in_position = false, force_reached = false;
+  switch (state_) {
+    case DriveState::disabled:
+      break;
+    case DriveState::ready:
+      break;  // hold the last command
+    case DriveState::enabled:
+      if (mode_ == Mode::force) {
+        screw_cmd_rad_ = rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + force_phase_rad_;
+        force_reached = std::abs(s_.force_est_n - force_set_n_) <= cfg_.force_tol_n;
+      } else {
+        screw_cmd_rad_ = position_command_rad(dt);
+        in_position = prof_pos_m_ == target_m_ && prof_vel_m_s_ == 0.0 &&
+                      std::abs(target_m_ - s_.nut_pos_m) <= cfg_.in_position_tol_m;
+      }
+      break;
+    case DriveState::fault:
+      if (s_.alarm_code == static_cast<std::uint16_t>(Alarm::watchdog) ||
+          s_.alarm_code == static_cast<std::uint16_t>(Alarm::stroke_limit))
+        screw_cmd_rad_ = position_command_rad(dt);  // controlled stop continues
+      break;
+  }
+  const bool reached = in_position || force_reached;
+  settled_s_ = reached ? settled_s_ + dt : 0.0;
+  const bool settled = reached && settled_s_ >= cfg_.settle_s;
+  if (execute_pending_ && settled) {
+    command_bits_ |= bit(registers::kExecuteDone);
+    execute_pending_ = false;
+  }
+  if (state_ != DriveState::enabled) execute_pending_ = false;
+
+  if (status == CycleStatus::ok && hw_.write_motor_angle(screw_cmd_rad_ * a.gear_ratio) != HwStatus::ok) {
+    latch_fault(Alarm::drive_fault);
+    status = CycleStatus::hardware_error;
+  }
+
+  std::uint16_t sw = 0;
+  const auto set = [&](int b, bool on) { if (on) sw |= bit(b); };
+  set(registers::kReady, state_ == DriveState::ready);
+  set(registers::kEnabled, state_ == DriveState::enabled);
+  set(registers::kFault, state_ == DriveState::fault);
+  set(registers::kMoving, s_.nut_vel_m_s != 0.0 || prof_vel_m_s_ != 0.0);
+  set(registers::kInPosition, settled && in_position);
+  set(registers::kForceReached, settled && force_reached);
+  set(registers::kStepOut, stepped_out_);
+  set(registers::kDriftWarning, tw.drift_warning);
+  set(registers::kWatchdogExpired, watchdog_expired_);
+  set(registers::kTwinHealthy, tw.healthy);
+  set(registers::kStepOutWarning, tw.step_out_warning);
+  set(registers::kStopped, stopping_);
+  set(registers::kStrokeLimit, s_.nut_pos_m <= a.stroke_min_m || s_.nut_pos_m >= a.stroke_max_m);
+  s_.status_word = sw;
+  s_.drive_state = static_cast<std::uint16_t>(state_);
+  s_.active_mode = static_cast<std::uint16_t>(mode_);
+  s_.command_status = command_bits_;
+  s_.profile_pos_m = prof_pos_m_;
+  s_.active_force_setpoint_n = mode_ == Mode::force ? force_set_n_ : 0.0;
+  s_.active_target_pos_m = target_m_;
+  published_.store(s_);
+  return status;
+}
+
+}  // namespace maglead::controller

@@ -1,0 +1,478 @@
+#include "maglead/controller/modbus_core.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string_view>
+
+namespace maglead::controller {
+
+namespace reg = maglead::registers;
+
+/// How a table entry gets its value: from the loop's snapshot (read-only entries), or from the
+/// client-writable image (read-write entries). Exactly one binding per table entry.
+struct ModbusCore::Binding {
+  std::string_view name;
+  double (*get)(const Snapshot&);                // read-only entries
+  double (*image_get)(const CommandImage&);      // read-write entries
+  void (*image_set)(CommandImage&, double);
+};
+
+namespace {
+
+using B = ModbusCore;
+constexpr std::uint16_t kFirmwareVersion = 0x0001;  // 0.1
+
+#define SNAP(field) [](const Snapshot& s) { return static_cast<double>(s.field); }
+#define TWIN(field) [](const Snapshot& s) { return static_cast<double>(s.twin.field); }
+#define CONST(value) [](const Snapshot&) { return static_cast<double>(value); }
+#define IMG(field)                                                          \
+  nullptr, [](const CommandImage& i) { return static_cast<double>(i.field); }, \
+      [](CommandImage& i, double v) { i.field = static_cast<decltype(i.field)>(v); }
+
+// control_owner / control_owner_ipv4 come from the core itself (patched in read_value).
+const ModbusCore::Binding kBindings[] = {
+    {"device_type", CONST(reg::kDeviceType), nullptr, nullptr},
+    {"firmware_version", CONST(kFirmwareVersion), nullptr, nullptr},
+    {"register_map_version", CONST(reg::kMapVersion), nullptr, nullptr},
+    {"loop_rate_hz", [](const Snapshot&) { return 0.0; }, nullptr, nullptr},  // patched
+    {"word_order_probe_u32", CONST(reg::kWordOrderProbeU32), nullptr, nullptr},
+    {"word_order_probe_f32", CONST(reg::kWordOrderProbeF32), nullptr, nullptr},
+    {"status_word", SNAP(status_word), nullptr, nullptr},
+    {"alarm_code", SNAP(alarm_code), nullptr, nullptr},
+    {"step_out_count", SNAP(step_out_count), nullptr, nullptr},
+    {"drive_state", SNAP(drive_state), nullptr, nullptr},
+    {"active_mode", SNAP(active_mode), nullptr, nullptr},
+    {"command_status", SNAP(command_status), nullptr, nullptr},
+    {"command_reject_reason", SNAP(reject_reason), nullptr, nullptr},
+    {"control_owner", CONST(0), nullptr, nullptr},       // patched
+    {"control_owner_ipv4", CONST(0), nullptr, nullptr},  // patched
+    {"nut_pos_um", SNAP(nut_pos_m), nullptr, nullptr},
+    {"nut_vel_um_s", SNAP(nut_vel_m_s), nullptr, nullptr},
+    {"screw_angle_urad", SNAP(screw_angle_rad), nullptr, nullptr},
+    {"phase_urad", SNAP(phase_rad), nullptr, nullptr},
+    {"force_est_mn", SNAP(force_est_n), nullptr, nullptr},
+    {"load_cell_force_mn", SNAP(load_cell_force_n), nullptr, nullptr},
+    {"profile_pos_um", SNAP(profile_pos_m), nullptr, nullptr},
+    {"active_force_setpoint_mn", SNAP(active_force_setpoint_n), nullptr, nullptr},
+    {"active_target_pos_um", SNAP(active_target_pos_m), nullptr, nullptr},
+    {"twin_pred_nut_pos_um", TWIN(pred_nut_pos_m), nullptr, nullptr},
+    {"twin_pred_force_mn", TWIN(pred_force_n), nullptr, nullptr},
+    {"twin_residual_pos_um", TWIN(residual_pos_m), nullptr, nullptr},
+    {"twin_residual_force_mn", TWIN(residual_force_n), nullptr, nullptr},
+    {"twin_dynamic_force_mn", TWIN(dynamic_force_n), nullptr, nullptr},
+    {"loop_cycle_count", [](const Snapshot& s) { return static_cast<double>(s.cycle & 0xFFFFFFFFu); }, nullptr, nullptr},
+    {"loop_overrun_count", [](const Snapshot& s) { return static_cast<double>(s.overrun_count & 0xFFFFFFFFu); }, nullptr, nullptr},
+    {"loop_period_us", SNAP(period_s), nullptr, nullptr},
+    {"loop_late_max_us", SNAP(late_max_s), nullptr, nullptr},
+    {"nut_pos_m_f32", SNAP(nut_pos_m), nullptr, nullptr},
+    {"nut_vel_m_s_f32", SNAP(nut_vel_m_s), nullptr, nullptr},
+    {"screw_angle_rad_f32", SNAP(screw_angle_rad), nullptr, nullptr},
+    {"phase_rad_f32", SNAP(phase_rad), nullptr, nullptr},
+    {"force_est_n_f32", SNAP(force_est_n), nullptr, nullptr},
+    {"load_cell_force_n_f32", SNAP(load_cell_force_n), nullptr, nullptr},
+    {"profile_pos_m_f32", SNAP(profile_pos_m), nullptr, nullptr},
+    {"active_force_setpoint_n_f32", SNAP(active_force_setpoint_n), nullptr, nullptr},
+    {"active_target_pos_m_f32", SNAP(active_target_pos_m), nullptr, nullptr},
+    {"twin_pred_nut_pos_m_f32", TWIN(pred_nut_pos_m), nullptr, nullptr},
+    {"twin_pred_force_n_f32", TWIN(pred_force_n), nullptr, nullptr},
+    {"twin_residual_pos_m_f32", TWIN(residual_pos_m), nullptr, nullptr},
+    {"twin_residual_force_n_f32", TWIN(residual_force_n), nullptr, nullptr},
+    {"twin_dynamic_force_n_f32", TWIN(dynamic_force_n), nullptr, nullptr},
+    {"control_word", IMG(control_word)},
+    {"mode_command", IMG(mode_command)},
+    {"heartbeat", IMG(heartbeat)},
+    {"watchdog_ms", IMG(watchdog_s)},
+    {"force_setpoint_mn", IMG(force_setpoint_n)},
+    {"position_setpoint_um", IMG(position_setpoint_m)},
+    {"velocity_limit_um_s", IMG(velocity_limit_m_s)},
+    {"accel_limit_um_s2", IMG(accel_limit_m_s2)},
+    {"force_setpoint_n_f32", IMG(force_setpoint_n)},
+    {"position_setpoint_m_f32", IMG(position_setpoint_m)},
+    {"velocity_limit_m_s_f32", IMG(velocity_limit_m_s)},
+    {"accel_limit_m_s2_f32", IMG(accel_limit_m_s2)},
+    // Coils and discrete inputs are bits of control_word / status_word (handled by address).
+    {"enable", nullptr, nullptr, nullptr},
+    {"stop", nullptr, nullptr, nullptr},
+    {"fault_reset", nullptr, nullptr, nullptr},
+    {"resync", nullptr, nullptr, nullptr},
+    {"execute", nullptr, nullptr, nullptr},
+    {"ready", nullptr, nullptr, nullptr},
+    {"enabled", nullptr, nullptr, nullptr},
+    {"fault", nullptr, nullptr, nullptr},
+    {"moving", nullptr, nullptr, nullptr},
+    {"in_position", nullptr, nullptr, nullptr},
+    {"force_reached", nullptr, nullptr, nullptr},
+    {"step_out", nullptr, nullptr, nullptr},
+    {"drift_warning", nullptr, nullptr, nullptr},
+    {"watchdog_expired", nullptr, nullptr, nullptr},
+    {"twin_healthy", nullptr, nullptr, nullptr},
+    {"step_out_warning", nullptr, nullptr, nullptr},
+    {"stopped", nullptr, nullptr, nullptr},
+    {"owned", nullptr, nullptr, nullptr},
+    {"stroke_limit", nullptr, nullptr, nullptr},
+};
+#undef SNAP
+#undef TWIN
+#undef CONST
+#undef IMG
+
+std::uint16_t be16(const std::uint8_t* p) { return static_cast<std::uint16_t>((p[0] << 8) | p[1]); }
+void put16(std::uint8_t* p, std::uint16_t v) {
+  p[0] = static_cast<std::uint8_t>(v >> 8);
+  p[1] = static_cast<std::uint8_t>(v & 0xFF);
+}
+
+struct DeviceObject {
+  std::uint8_t id;
+  std::string_view value;
+};
+
+}  // namespace
+
+ModbusCore::ModbusCore(Controller& controller, ServerOptions options)
+    : controller_(controller),
+      options_(std::move(options)),
+      reg_slots_(65536),
+      coil_slots_(65536),
+      di_slots_(65536),
+      image_(controller.initial_image()) {
+  const auto table = reg::table();
+  bindings_.assign(table.size(), nullptr);
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    const auto& r = table[i];
+    for (const auto& b : kBindings)
+      if (b.name == r.name) bindings_[i] = &b;
+    if (!bindings_[i]) throw std::logic_error("register '" + std::string(r.name) + "' has no server binding");
+    const bool rw = r.access == reg::Access::read_write;
+    if (r.table == reg::Table::holding_register || r.table == reg::Table::input_register) {
+      if (rw ? !(bindings_[i]->image_get && bindings_[i]->image_set) : !bindings_[i]->get)
+        throw std::logic_error("register '" + std::string(r.name) + "' is bound to the wrong source");
+    }
+    auto& slots = r.table == reg::Table::coil             ? coil_slots_
+                  : r.table == reg::Table::discrete_input ? di_slots_
+                                                          : reg_slots_;
+    for (int w = 0; w < reg::word_count(r.type); ++w) {
+      auto& slot = slots.at(r.address + static_cast<std::size_t>(w));
+      if (slot.reg >= 0) throw std::logic_error("register '" + std::string(r.name) + "' overlaps another");
+      slot = {static_cast<std::int16_t>(i), static_cast<std::int8_t>(w)};
+    }
+  }
+  if (std::size(kBindings) != table.size()) throw std::logic_error("server bindings name registers not in the table");
+}
+
+std::uint16_t ModbusCore::owner() const {
+  std::lock_guard lock(mutex_);
+  return owner_;
+}
+
+void ModbusCore::client_closed(std::uint16_t client_id) {
+  std::lock_guard lock(mutex_);
+  if (owner_ == client_id) owner_ = 0, owner_ipv4_ = 0;
+}
+
+void ModbusCore::count_comm_error() {
+  std::lock_guard lock(mutex_);
+  ++comm_errors_;
+}
+
+std::size_t ModbusCore::exception(std::uint8_t function, Exception code, std::uint8_t* out) {
+  out[0] = static_cast<std::uint8_t>(function | 0x80);
+  out[1] = static_cast<std::uint8_t>(code);
+  return 2;
+}
+
+double ModbusCore::read_value(std::size_t i, const Snapshot& snap) const {
+  const auto& r = reg::table()[i];
+  const Binding& b = *bindings_[i];
+  if (r.access == reg::Access::read_write) return b.image_get(image_);
+  if (r.name == "control_owner") return owner_;
+  if (r.name == "control_owner_ipv4") return owner_ipv4_;
+  if (r.name == "loop_rate_hz") return controller_.config().actuator.sample_rate_hz;
+  if (r.name == "status_word") return snap.status_word | (owner_ ? 1u << reg::kOwned : 0u);
+  return b.get(snap);
+}
+
+std::size_t ModbusCore::read_registers(bool input_only, std::uint16_t start, std::uint16_t count, std::uint8_t* out,
+                                       std::size_t& n, Exception& ex) {
+  if (count < 1 || count > 125) return ex = Exception::illegal_data_value, 0;
+  if (start + count > 65536) return ex = Exception::illegal_data_address, 0;
+  const Snapshot snap = controller_.snapshot();  // one cycle for the whole reply: never torn
+  const auto table = reg::table();
+  std::uint32_t addr = start;
+  const std::uint32_t end = start + count;
+  std::uint8_t* p = out;
+  while (addr < end) {
+    const Slot s = reg_slots_[addr];
+    if (s.reg < 0 || s.word != 0) return ex = Exception::illegal_data_address, 0;
+    const auto& r = table[static_cast<std::size_t>(s.reg)];
+    if (input_only && r.table != reg::Table::input_register) return ex = Exception::illegal_data_address, 0;
+    const int w = reg::word_count(r.type);
+    if (addr + static_cast<std::uint32_t>(w) > end) return ex = Exception::illegal_data_address, 0;
+    std::uint16_t words[2];
+    reg::encode(r, read_value(static_cast<std::size_t>(s.reg), snap), words);
+    for (int k = 0; k < w; ++k, p += 2) put16(p, words[k]);
+    addr += static_cast<std::uint32_t>(w);
+  }
+  n = static_cast<std::size_t>(p - out);
+  return n;
+}
+
+bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count, const std::uint8_t* data,
+                                  CommandImage& image, bool& heartbeat, Exception& ex) const {
+  const auto table = reg::table();
+  std::uint32_t addr = start;
+  const std::uint32_t end = static_cast<std::uint32_t>(start) + count;
+  if (end > 65536) return ex = Exception::illegal_data_address, false;
+  while (addr < end) {
+    const Slot s = reg_slots_[addr];
+    if (s.reg < 0 || s.word != 0) return ex = Exception::illegal_data_address, false;
+    const auto& r = table[static_cast<std::size_t>(s.reg)];
+    if (r.table != reg::Table::holding_register || r.access != reg::Access::read_write)
+      return ex = Exception::illegal_data_address, false;
+    const int w = reg::word_count(r.type);
+    if (addr + static_cast<std::uint32_t>(w) > end) return ex = Exception::illegal_data_address, false;
+    std::uint16_t words[2] = {0, 0};
+    const std::uint8_t* d = data + 2 * (addr - start);
+    for (int k = 0; k < w; ++k) words[k] = be16(d + 2 * k);
+    const double v = reg::decode(r, words);
+    if (!reg::in_range(r, v)) return ex = Exception::illegal_data_value, false;
+    bindings_[static_cast<std::size_t>(s.reg)]->image_set(image, v);
+    if (r.name == "heartbeat") heartbeat = true;
+    addr += static_cast<std::uint32_t>(w);
+  }
+  return true;
+}
+
+bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool heartbeat, Exception& ex) {
+  using namespace registers;
+  const auto cw = next.control_word;
+  const auto has = [&](int b) { return (cw >> b) & 1u; };
+  if (cw & ~kControlWordMask) return ex = Exception::illegal_data_value, false;
+  // One edge command per write, and no command while the stop bit is held.
+  if (has(kExecute) && (has(kStop) || has(kFaultReset) || has(kResync))) return ex = Exception::illegal_data_value, false;
+  const auto& a = controller_.config().actuator;
+  const double f = next.force_setpoint_n;
+  if (std::abs(f) > std::abs(controller_.safe_force_limit_n(f))) return ex = Exception::illegal_data_value, false;
+  if (next.position_setpoint_m < a.stroke_min_m - 1e-9 || next.position_setpoint_m > a.stroke_max_m + 1e-9)
+    return ex = Exception::illegal_data_value, false;
+
+  const bool changed = std::memcmp(&next, &image_, sizeof next) != 0;
+  if (changed || heartbeat) {
+    if (!controller_.post(Command{next, heartbeat})) return ex = Exception::server_busy, false;
+  }
+  const bool old_enable = (image_.control_word >> kEnable) & 1u;
+  const bool new_enable = has(kEnable);
+  if (new_enable && owner_ == 0 && client.id != 0) owner_ = client.id, owner_ipv4_ = client.ipv4;
+  if (old_enable && !new_enable && owner_ == client.id) owner_ = 0, owner_ipv4_ = 0;
+  image_ = next;
+  return true;
+}
+
+std::size_t ModbusCore::handle(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len, std::uint8_t* out) {
+  std::lock_guard lock(mutex_);
+  ++bus_messages_;
+  ++server_messages_;
+  const std::size_t n = dispatch(client, pdu, len, out);
+  if (n >= 2 && (out[0] & 0x80)) {
+    ++exceptions_;
+    if (out[1] == static_cast<std::uint8_t>(Exception::server_busy)) ++busy_;
+  }
+  if (client.broadcast) {
+    ++no_response_;
+    return 0;
+  }
+  return n;
+}
+
+std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len,
+                                 std::uint8_t* out) {
+  if (len < 1) return 0;
+  const std::uint8_t fc = pdu[0];
+  Exception ex = Exception::illegal_function;
+  const auto fail = [&](Exception e) { return exception(fc, e, out); };
+  const bool is_write = fc == 5 || fc == 6 || fc == 15 || fc == 16 || fc == 23;
+  if (is_write) {
+    if (options_.read_only) return fail(Exception::illegal_function);
+    if (owner_ != 0 && owner_ != client.id) return fail(Exception::server_busy);
+  }
+  switch (fc) {
+    case 1:
+    case 2: {  // read coils / discrete inputs
+      if (len != 5) return fail(Exception::illegal_data_value);
+      const std::uint16_t start = be16(pdu + 1), count = be16(pdu + 3);
+      if (count < 1 || count > 2000) return fail(Exception::illegal_data_value);
+      if (start + count > 65536) return fail(Exception::illegal_data_address);
+      const auto& slots = fc == 1 ? coil_slots_ : di_slots_;
+      std::uint16_t word = image_.control_word;
+      if (fc == 2) {
+        const Snapshot snap = controller_.snapshot();
+        word = static_cast<std::uint16_t>(snap.status_word | (owner_ ? 1u << reg::kOwned : 0u));
+      }
+      const auto bytes = static_cast<std::size_t>((count + 7) / 8);
+      out[0] = fc;
+      out[1] = static_cast<std::uint8_t>(bytes);
+      std::memset(out + 2, 0, bytes);
+      for (std::uint32_t k = 0; k < count; ++k) {
+        const Slot s = slots[start + k];
+        if (s.reg < 0) return fail(Exception::illegal_data_address);
+        const auto bit = reg::table()[static_cast<std::size_t>(s.reg)].address;
+        if ((word >> bit) & 1u) out[2 + k / 8] = static_cast<std::uint8_t>(out[2 + k / 8] | (1u << (k % 8)));
+      }
+      return 2 + bytes;
+    }
+    case 3:
+    case 4: {
+      if (len != 5) return fail(Exception::illegal_data_value);
+      std::size_t n = 0;
+      if (!read_registers(fc == 4, be16(pdu + 1), be16(pdu + 3), out + 2, n, ex)) return fail(ex);
+      out[0] = fc;
+      out[1] = static_cast<std::uint8_t>(n);
+      return 2 + n;
+    }
+    case 5: {
+      if (len != 5) return fail(Exception::illegal_data_value);
+      const std::uint16_t addr = be16(pdu + 1), value = be16(pdu + 3);
+      if (coil_slots_[addr].reg < 0) return fail(Exception::illegal_data_address);
+      if (value != 0xFF00 && value != 0x0000) return fail(Exception::illegal_data_value);
+      CommandImage next = image_;
+      const auto mask = static_cast<std::uint16_t>(1u << addr);
+      next.control_word = static_cast<std::uint16_t>(value ? (next.control_word | mask) : (next.control_word & ~mask));
+      if (!write_image(client, next, false, ex)) return fail(ex);
+      std::memcpy(out, pdu, 5);
+      return 5;
+    }
+    case 15: {
+      if (len < 7) return fail(Exception::illegal_data_value);
+      const std::uint16_t start = be16(pdu + 1), count = be16(pdu + 3);
+      const std::uint8_t bytes = pdu[5];
+      if (count < 1 || count > 1968 || bytes != (count + 7) / 8 || len != 6u + bytes)
+        return fail(Exception::illegal_data_value);
+      if (start + count > 65536) return fail(Exception::illegal_data_address);
+      CommandImage next = image_;
+      for (std::uint32_t k = 0; k < count; ++k) {
+        const std::uint32_t addr = start + k;
+        if (coil_slots_[addr].reg < 0) return fail(Exception::illegal_data_address);
+        const bool on = (pdu[6 + k / 8] >> (k % 8)) & 1u;
+        const auto mask = static_cast<std::uint16_t>(1u << addr);
+        next.control_word = static_cast<std::uint16_t>(on ? (next.control_word | mask) : (next.control_word & ~mask));
+      }
+      if (!write_image(client, next, false, ex)) return fail(ex);
+      std::memcpy(out, pdu, 5);
+      return 5;
+    }
+    case 6: {
+      if (len != 5) return fail(Exception::illegal_data_value);
+      CommandImage next = image_;
+      bool heartbeat = false;
+      if (!decode_registers(be16(pdu + 1), 1, pdu + 3, next, heartbeat, ex)) return fail(ex);
+      if (!write_image(client, next, heartbeat, ex)) return fail(ex);
+      std::memcpy(out, pdu, 5);
+      return 5;
+    }
+    case 16: {
+      if (len < 6) return fail(Exception::illegal_data_value);
+      const std::uint16_t start = be16(pdu + 1), count = be16(pdu + 3);
+      if (count < 1 || count > 123 || pdu[5] != 2 * count || len != 6u + 2u * count)
+        return fail(Exception::illegal_data_value);
+      CommandImage next = image_;
+      bool heartbeat = false;
+      if (!decode_registers(start, count, pdu + 6, next, heartbeat, ex)) return fail(ex);
+      if (!write_image(client, next, heartbeat, ex)) return fail(ex);
+      std::memcpy(out, pdu, 5);
+      return 5;
+    }
+    case 23: {  // write first, then read (the spec's order); validate both before writing
+      if (len < 10) return fail(Exception::illegal_data_value);
+      const std::uint16_t rstart = be16(pdu + 1), rcount = be16(pdu + 3);
+      const std::uint16_t wstart = be16(pdu + 5), wcount = be16(pdu + 7);
+      if (rcount < 1 || rcount > 125 || wcount < 1 || wcount > 121 || pdu[9] != 2 * wcount ||
+          len != 10u + 2u * wcount)
+        return fail(Exception::illegal_data_value);
+      std::size_t n = 0;
+      if (!read_registers(false, rstart, rcount, out + 2, n, ex)) return fail(ex);  // address check
+      CommandImage next = image_;
+      bool heartbeat = false;
+      if (!decode_registers(wstart, wcount, pdu + 10, next, heartbeat, ex)) return fail(ex);
+      if (!write_image(client, next, heartbeat, ex)) return fail(ex);
+      if (!read_registers(false, rstart, rcount, out + 2, n, ex)) return fail(ex);
+      out[0] = fc;
+      out[1] = static_cast<std::uint8_t>(n);
+      return 2 + n;
+    }
+    case 8: {  // diagnostics: echo and counters
+      if (len < 3) return fail(Exception::illegal_data_value);
+      const std::uint16_t sub = be16(pdu + 1);
+      if (sub == 0x0000) {
+        std::memcpy(out, pdu, len);
+        return len;
+      }
+      if (len != 5) return fail(Exception::illegal_data_value);
+      std::uint16_t value = 0;
+      switch (sub) {
+        case 0x01:  // restart communications: clear counters, echo
+        case 0x0A:
+          bus_messages_ = comm_errors_ = exceptions_ = server_messages_ = no_response_ = busy_ = 0;
+          value = be16(pdu + 3);
+          break;
+        case 0x0B: value = bus_messages_; break;
+        case 0x0C: value = comm_errors_; break;
+        case 0x0D: value = exceptions_; break;
+        case 0x0E: value = server_messages_; break;
+        case 0x0F: value = no_response_; break;
+        case 0x10: value = 0; break;  // NAKs: never sent
+        case 0x11: value = busy_; break;
+        case 0x12: value = 0; break;  // character overruns: the OS would lose them, not us
+        default: return fail(Exception::illegal_function);
+      }
+      std::memcpy(out, pdu, 3);
+      put16(out + 3, value);
+      return 5;
+    }
+    case 43: {  // encapsulated interface: read device identification (MEI 14)
+      if (len != 4) return fail(len >= 2 && pdu[1] != 0x0E ? Exception::illegal_function : Exception::illegal_data_value);
+      if (pdu[1] != 0x0E) return fail(Exception::illegal_function);
+      const std::uint8_t code = pdu[2];
+      std::uint8_t object = pdu[3];
+      static const char* const kRevision = "0.1.0";
+      const std::array<DeviceObject, 6> objects{{{0, "maglead project"},
+                                                 {1, "MAGLEAD-CTRL"},
+                                                 {2, kRevision},
+                                                 {3, "https://example.invalid/maglead"},
+                                                 {4, "maglead magnetic lead-screw actuator controller"},
+                                                 {5, options_.model_name}}};
+      if (code < 1 || code > 4) return fail(Exception::illegal_data_value);
+      std::size_t first = 0, last = 0;  // inclusive object range to send
+      if (code == 4) {
+        if (object > 5) return fail(Exception::illegal_data_address);
+        first = last = object;
+      } else {
+        last = code == 1 ? 2 : 5;
+        first = object <= last ? object : 0;  // unknown start: restart at object 0
+      }
+      out[0] = 43;
+      out[1] = 0x0E;
+      out[2] = code;
+      out[3] = 0x82;  // conformity: regular identification, stream and individual access
+      out[4] = 0;     // more follows: everything fits in one response
+      out[5] = 0;
+      std::size_t p = 7, count = 0;
+      for (std::size_t i = first; i <= last; ++i) {
+        const auto v = objects[i].value.substr(0, 64);
+        out[p++] = objects[i].id;
+        out[p++] = static_cast<std::uint8_t>(v.size());
+        std::memcpy(out + p, v.data(), v.size());
+        p += v.size();
+        ++count;
+      }
+      out[6] = static_cast<std::uint8_t>(count);
+      return p;
+    }
+    default:
+      return fail(Exception::illegal_function);
+  }
+}
+
+}  // namespace maglead::controller

@@ -1,0 +1,159 @@
+#include "maglead/controller/modbus_rtu.hpp"
+
+#include <modbus/modbus.h>
+#include <poll.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <stdexcept>
+
+namespace maglead::controller {
+namespace {
+
+constexpr std::size_t kMaxRtuAdu = 256;
+
+/// Total length of the request in buf (address, PDU, CRC), 0 if not known yet, -1 when the
+/// function has no length rule (then the line's silence ends the frame).
+long expected_length(const std::uint8_t* buf, std::size_t n) {
+  if (n < 2) return 0;
+  switch (buf[1]) {
+    case 1: case 2: case 3: case 4: case 5: case 6: case 8:
+      return 8;
+    case 15: case 16:
+      return n < 7 ? 0 : 9 + buf[6];
+    case 23:
+      return n < 11 ? 0 : 13 + buf[10];
+    case 43:
+      return 7;
+    default:
+      return -1;
+  }
+}
+
+double mono_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+}  // namespace
+
+std::uint16_t modbus_crc16(const std::uint8_t* data, std::size_t len) {
+  std::uint16_t crc = 0xFFFF;
+  for (std::size_t i = 0; i < len; ++i) {
+    crc ^= data[i];
+    for (int b = 0; b < 8; ++b) crc = (crc & 1) ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001) : static_cast<std::uint16_t>(crc >> 1);
+  }
+  return crc;
+}
+
+RtuServer::RtuServer(ModbusCore& core, RtuOptions options) : core_(core), options_(std::move(options)) {
+  const char p = options_.parity;
+  if (p != 'N' && p != 'E' && p != 'O') throw std::invalid_argument("parity must be N, E or O");
+  if (options_.unit_id < 1 || options_.unit_id > 247) throw std::invalid_argument("RTU unit id must be 1..247");
+  if (options_.stop_bits != 1 && options_.stop_bits != 2) throw std::invalid_argument("stop bits must be 1 or 2");
+  if (options_.data_bits < 7 || options_.data_bits > 8) throw std::invalid_argument("data bits must be 7 or 8");
+  modbus_t* ctx = modbus_new_rtu(options_.device.c_str(), options_.baud, p, options_.data_bits, options_.stop_bits);
+  if (!ctx) throw std::runtime_error("RTU " + options_.device + ": " + modbus_strerror(errno));
+  modbus_set_slave(ctx, options_.unit_id);
+  if (modbus_connect(ctx) != 0) {
+    const std::string msg = "RTU " + options_.device + ": " + modbus_strerror(errno);
+    modbus_free(ctx);
+    throw std::runtime_error(msg);
+  }
+  if (options_.rs485 && modbus_rtu_set_serial_mode(ctx, MODBUS_RTU_RS485) != 0) {
+    const std::string msg = "RTU " + options_.device + ": RS-485 mode: " + modbus_strerror(errno);
+    modbus_close(ctx);
+    modbus_free(ctx);
+    throw std::runtime_error(msg);
+  }
+  ctx_ = ctx;
+}
+
+RtuServer::~RtuServer() {
+  stop();
+  auto* ctx = static_cast<modbus_t*>(ctx_);
+  modbus_close(ctx);
+  modbus_free(ctx);
+}
+
+void RtuServer::start() {
+  if (running_.exchange(true)) return;
+  thread_ = std::thread([this] { run(); });
+}
+
+void RtuServer::stop() {
+  if (!running_.exchange(false)) return;
+  if (thread_.joinable()) thread_.join();
+}
+
+void RtuServer::run() {
+  auto* ctx = static_cast<modbus_t*>(ctx_);
+  const int fd = modbus_get_socket(ctx);
+  // Inter-frame silence: 3.5 characters of 11 bits, at least 1.75 ms (the spec's floor above
+  // 19200 baud); a pseudo-terminal delivers in bursts, so never less than 5 ms there.
+  const double silence_s = std::max(0.005, 3.5 * 11.0 / options_.baud);
+  const double frame_timeout_s = std::max(0.2, 300.0 * 11.0 / options_.baud);
+  std::uint8_t buf[kMaxRtuAdu * 2];
+  std::size_t n = 0;
+  double first_byte_s = 0.0, last_byte_s = 0.0;
+  std::uint8_t pdu_out[ModbusCore::kMaxPdu + 1];
+  while (running_.load(std::memory_order_relaxed)) {
+    pollfd pfd{fd, POLLIN, 0};
+    const int timeout_ms = n == 0 ? 100 : static_cast<int>(silence_s * 1000.0) + 1;
+    const int pr = poll(&pfd, 1, timeout_ms);
+    const double now = mono_s();
+    if (pr > 0 && (pfd.revents & POLLIN)) {
+      const ssize_t r = read(fd, buf + n, sizeof buf - n);
+      if (r > 0) {
+        if (n == 0) first_byte_s = now;
+        n += static_cast<std::size_t>(r);
+        last_byte_s = now;
+      } else if (r < 0 && errno != EAGAIN && errno != EINTR) {
+        std::fprintf(stderr, "maglead serve: RTU %s: %s; RTU stopped\n", options_.device.c_str(), std::strerror(errno));
+        return;
+      }
+    } else if (pr > 0 && (pfd.revents & (POLLHUP | POLLERR))) {
+      // The other end of a pty went away; wait for it to come back rather than spin.
+      poll(nullptr, 0, 50);
+    }
+    while (n > 0) {
+      const long want = expected_length(buf, n);
+      std::size_t frame = 0;
+      if (want > 0 && n >= static_cast<std::size_t>(want)) {
+        frame = static_cast<std::size_t>(want);
+      } else if (want < 0 && now - last_byte_s >= silence_s) {
+        frame = n;  // unknown function: the silence ends it
+      } else if ((want > 0 && now - last_byte_s >= silence_s && now - first_byte_s > frame_timeout_s) ||
+                 want > static_cast<long>(kMaxRtuAdu) || n >= kMaxRtuAdu + 1) {
+        core_.count_comm_error();  // truncated or oversized: discard everything received
+        n = 0;
+        break;
+      } else {
+        break;  // wait for more
+      }
+      const bool crc_ok = frame >= 4 && modbus_crc16(buf, frame - 2) == (buf[frame - 2] | (buf[frame - 1] << 8));
+      if (!crc_ok) {
+        core_.count_comm_error();
+        n = 0;  // framing is lost: resynchronise on the next silence
+        break;
+      }
+      const std::uint8_t unit = buf[0];
+      const std::uint8_t fc = buf[1];
+      const bool broadcast = unit == 0;
+      const bool broadcast_write = fc == 5 || fc == 6 || fc == 15 || fc == 16;
+      if (unit == options_.unit_id || (broadcast && broadcast_write)) {
+        const std::size_t len = core_.handle(ClientInfo{ModbusCore::kRtuClient, 0, broadcast}, buf + 1, frame - 3, pdu_out + 1);
+        if (len > 0) {
+          pdu_out[0] = unit;
+          modbus_send_raw_request(ctx, pdu_out, static_cast<int>(len + 1));
+        }
+      }
+      std::memmove(buf, buf + frame, n - frame);
+      n -= frame;
+      first_byte_s = now;
+    }
+  }
+}
+
+}  // namespace maglead::controller

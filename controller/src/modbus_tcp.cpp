@@ -1,0 +1,272 @@
+#include "maglead/controller/modbus_tcp.hpp"
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace maglead::controller {
+namespace {
+
+constexpr std::size_t kMbap = 7;
+constexpr std::size_t kMaxAdu = 260;
+constexpr std::size_t kMaxPendingOut = 64 * 1024;  // a client that does not read is dropped
+
+double mono_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string sys_error(const std::string& what) { return what + ": " + std::strerror(errno); }
+
+}  // namespace
+
+std::pair<std::uint32_t, std::uint32_t> parse_ipv4_cidr(const std::string& text) {
+  const auto slash = text.find('/');
+  const std::string addr = text.substr(0, slash);
+  in_addr a{};
+  if (inet_pton(AF_INET, addr.c_str(), &a) != 1)
+    throw std::invalid_argument("allow-list entry '" + text + "' is not an IPv4 address or a.b.c.d/len");
+  int len = 32;
+  if (slash != std::string::npos) {
+    try {
+      std::size_t used = 0;
+      len = std::stoi(text.substr(slash + 1), &used);
+      if (used != text.size() - slash - 1) throw std::invalid_argument("trailing");
+    } catch (const std::exception&) {
+      len = -1;
+    }
+    if (len < 0 || len > 32) throw std::invalid_argument("allow-list entry '" + text + "': prefix length must be 0..32");
+  }
+  const std::uint32_t mask = len == 0 ? 0u : ~0u << (32 - len);
+  return {ntohl(a.s_addr) & mask, mask};
+}
+
+struct TcpServer::Conn {
+  int fd = -1;
+  std::uint16_t id = 0;
+  std::uint32_t ipv4 = 0;
+  std::uint8_t in[kMaxAdu * 2];
+  std::size_t in_len = 0;
+  double frame_started_s = 0.0;  // when the bytes of an incomplete frame began
+  double last_activity_s = 0.0;
+  std::string out;
+};
+
+TcpServer::TcpServer(ModbusCore& core, TcpOptions options) : core_(core), options_(std::move(options)) {
+  for (const auto& a : options_.allow) allow_.push_back(parse_ipv4_cidr(a));
+  if (options_.max_connections < 1) throw std::invalid_argument("max connections must be at least 1");
+  if (options_.port < 0 || options_.port > 65535) throw std::invalid_argument("port must be 0..65535");
+  if (!(options_.frame_timeout_s > 0)) throw std::invalid_argument("frame timeout must be positive");
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_port = htons(static_cast<std::uint16_t>(options_.port));
+  if (inet_pton(AF_INET, options_.bind_address.c_str(), &sa.sin_addr) != 1)
+    throw std::invalid_argument("bind address '" + options_.bind_address + "' is not an IPv4 address");
+  listen_fd_ = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (listen_fd_ < 0) throw std::runtime_error(sys_error("socket"));
+  const int one = 1;
+  setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+  if (bind(listen_fd_, reinterpret_cast<sockaddr*>(&sa), sizeof sa) != 0) {
+    const std::string msg = sys_error("bind " + options_.bind_address + ":" + std::to_string(options_.port));
+    close(listen_fd_);
+    throw std::runtime_error(msg);
+  }
+  if (listen(listen_fd_, 64) != 0) {
+    close(listen_fd_);
+    throw std::runtime_error(sys_error("listen"));
+  }
+  socklen_t sl = sizeof sa;
+  getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&sa), &sl);
+  port_ = ntohs(sa.sin_port);
+  epoll_fd_ = epoll_create1(EPOLL_CLOEXEC);
+  wake_fd_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (epoll_fd_ < 0 || wake_fd_ < 0) throw std::runtime_error(sys_error("epoll/eventfd"));
+  epoll_event ev{};
+  ev.events = EPOLLIN;
+  ev.data.fd = listen_fd_;
+  epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, listen_fd_, &ev);
+  ev.data.fd = wake_fd_;
+  epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &ev);
+}
+
+TcpServer::~TcpServer() {
+  stop();
+  for (int fd : {listen_fd_, epoll_fd_, wake_fd_})
+    if (fd >= 0) close(fd);
+}
+
+void TcpServer::start() {
+  if (running_.exchange(true)) return;
+  thread_ = std::thread([this] { run(); });
+}
+
+void TcpServer::stop() {
+  if (!running_.exchange(false)) return;
+  const std::uint64_t one = 1;
+  [[maybe_unused]] auto w = write(wake_fd_, &one, sizeof one);
+  if (thread_.joinable()) thread_.join();
+}
+
+void TcpServer::run() {
+  std::unordered_map<int, std::unique_ptr<Conn>> conns;
+  std::uint16_t next_id = 1;
+  const auto drop = [&](Conn& c) {
+    epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, c.fd, nullptr);
+    close(c.fd);
+    core_.client_closed(c.id);
+    conns.erase(c.fd);
+    connections_.store(conns.size());
+  };
+  const auto flush = [&](Conn& c) -> bool {  // false: connection must go
+    while (!c.out.empty()) {
+      const ssize_t n = send(c.fd, c.out.data(), c.out.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+      if (n > 0) {
+        c.out.erase(0, static_cast<std::size_t>(n));
+      } else if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+        break;
+      } else if (n < 0 && errno == EINTR) {
+        continue;
+      } else {
+        return false;
+      }
+    }
+    epoll_event ev{};
+    ev.events = EPOLLIN | EPOLLRDHUP | (c.out.empty() ? 0u : static_cast<std::uint32_t>(EPOLLOUT));
+    ev.data.fd = c.fd;
+    epoll_ctl(epoll_fd_, EPOLL_CTL_MOD, c.fd, &ev);
+    return c.out.size() <= kMaxPendingOut;
+  };
+  // Frames every complete ADU in the buffer; false: the stream is broken, close it.
+  const auto serve = [&](Conn& c, double now) -> bool {
+    std::size_t off = 0;
+    std::uint8_t resp[kMaxAdu];
+    while (c.in_len - off >= kMbap) {
+      const std::uint8_t* h = c.in + off;
+      const std::uint16_t protocol = static_cast<std::uint16_t>((h[2] << 8) | h[3]);
+      const std::uint16_t length = static_cast<std::uint16_t>((h[4] << 8) | h[5]);
+      // A wrong protocol id or length means we cannot know where the next frame starts.
+      if (protocol != 0 || length < 2 || length > 254) return false;
+      if (c.in_len - off < 6u + length) break;
+      const std::uint8_t unit = h[6];
+      std::size_t n = 0;
+      if (unit == options_.unit_id || unit == 0xFF) {
+        n = core_.handle(ClientInfo{c.id, c.ipv4, false}, h + kMbap, length - 1u, resp + kMbap);
+      } else {
+        n = ModbusCore::exception(h[7], Exception::gateway_target_failed, resp + kMbap);
+      }
+      if (n > 0) {
+        std::memcpy(resp, h, 4);  // transaction id, protocol id
+        resp[4] = static_cast<std::uint8_t>((n + 1) >> 8);
+        resp[5] = static_cast<std::uint8_t>((n + 1) & 0xFF);
+        resp[6] = unit;
+        c.out.append(reinterpret_cast<const char*>(resp), kMbap + n);
+      }
+      off += 6u + length;
+    }
+    if (off > 0) {
+      std::memmove(c.in, c.in + off, c.in_len - off);
+      c.in_len -= off;
+    }
+    c.frame_started_s = c.in_len > 0 ? (off > 0 || c.frame_started_s == 0.0 ? now : c.frame_started_s) : 0.0;
+    return true;
+  };
+
+  epoll_event events[64];
+  while (running_.load(std::memory_order_relaxed)) {
+    const int n = epoll_wait(epoll_fd_, events, 64, 50);
+    const double now = mono_s();
+    for (int i = 0; i < n; ++i) {
+      const int fd = events[i].data.fd;
+      if (fd == wake_fd_) continue;
+      if (fd == listen_fd_) {
+        for (;;) {
+          sockaddr_in peer{};
+          socklen_t pl = sizeof peer;
+          const int cfd = accept4(listen_fd_, reinterpret_cast<sockaddr*>(&peer), &pl, SOCK_NONBLOCK | SOCK_CLOEXEC);
+          if (cfd < 0) break;
+          const std::uint32_t ip = ntohl(peer.sin_addr.s_addr);
+          bool allowed = allow_.empty();
+          for (const auto& [net, mask] : allow_) allowed = allowed || (ip & mask) == net;
+          if (!allowed || conns.size() >= static_cast<std::size_t>(options_.max_connections)) {
+            close(cfd);  // refused: not on the allow-list, or at the connection cap
+            continue;
+          }
+          const int one = 1;
+          setsockopt(cfd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+          auto c = std::make_unique<Conn>();
+          c->fd = cfd;
+          c->ipv4 = ip;
+          c->last_activity_s = now;
+          do {  // connection numbers stay unique among open connections
+            c->id = next_id;
+            next_id = static_cast<std::uint16_t>(next_id >= 0xFFFE ? 1 : next_id + 1);
+          } while ([&] {
+            for (const auto& [f, other] : conns)
+              if (other->id == c->id) return true;
+            return false;
+          }());
+          epoll_event ev{};
+          ev.events = EPOLLIN | EPOLLRDHUP;
+          ev.data.fd = cfd;
+          epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, cfd, &ev);
+          conns.emplace(cfd, std::move(c));
+          connections_.store(conns.size());
+        }
+        continue;
+      }
+      auto it = conns.find(fd);
+      if (it == conns.end()) continue;
+      Conn& c = *it->second;
+      bool ok = true;
+      if (events[i].events & EPOLLIN) {
+        for (;;) {
+          const ssize_t r = recv(c.fd, c.in + c.in_len, sizeof c.in - c.in_len, 0);
+          if (r > 0) {
+            c.in_len += static_cast<std::size_t>(r);
+            c.last_activity_s = now;
+            if (!serve(c, now)) {
+              ok = false;
+              break;
+            }
+            if (c.out.size() > kMaxPendingOut) break;
+          } else if (r == 0) {
+            ok = false;  // peer closed (also mid-frame: nothing to answer)
+            break;
+          } else {
+            if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) ok = false;
+            if (errno != EINTR) break;
+          }
+        }
+      }
+      if (ok && (events[i].events & (EPOLLERR | EPOLLHUP))) ok = false;
+      if (ok) ok = flush(c);
+      if (!ok) drop(c);
+    }
+    // Deadlines: a frame left incomplete, or a connection idle too long, is closed.
+    std::vector<Conn*> expired;
+    for (auto& [fd, c] : conns) {
+      if (c->in_len > 0 && now - c->frame_started_s > options_.frame_timeout_s) expired.push_back(c.get());
+      else if (options_.idle_timeout_s > 0 && now - c->last_activity_s > options_.idle_timeout_s) expired.push_back(c.get());
+    }
+    for (Conn* c : expired) drop(*c);
+  }
+  for (auto& [fd, c] : conns) {
+    close(fd);
+    core_.client_closed(c->id);
+  }
+  conns.clear();
+  connections_.store(0);
+}
+
+}  // namespace maglead::controller

@@ -1,0 +1,110 @@
+#include "maglead/controller/network_config.hpp"
+
+#include <set>
+#include <stdexcept>
+#include <toml++/toml.h>
+
+namespace maglead::controller {
+namespace {
+
+struct Reader {
+  const std::string& path;
+  const toml::table& root;
+
+  [[noreturn]] void fail(const std::string& key, const std::string& why) const {
+    throw std::runtime_error(path + ": " + key + ": " + why);
+  }
+  const toml::table* section(const char* name, const std::set<std::string>& known) const {
+    const auto* node = root.get(name);
+    if (!node) return nullptr;
+    const auto* t = node->as_table();
+    if (!t) fail(name, "must be a table");
+    for (const auto& [k, v] : *t)
+      if (!known.count(std::string(k.str()))) fail(std::string(name) + "." + std::string(k.str()), "unknown key");
+    return t;
+  }
+  template <class T>
+  void get(const toml::table* t, const char* sec, const char* key, T& out, double lo, double hi) const {
+    if (!t) return;
+    const auto* node = t->get(key);
+    if (!node) return;
+    const std::string name = std::string(sec) + "." + key;
+    if constexpr (std::is_same_v<T, bool>) {
+      const auto v = node->value<bool>();
+      if (!v) fail(name, "must be true or false");
+      out = *v;
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      const auto v = node->value<std::string>();
+      if (!v) fail(name, "must be a string");
+      out = *v;
+    } else {
+      const auto v = node->value<double>();
+      if (!v) fail(name, "must be a number");
+      if (!(*v >= lo && *v <= hi)) fail(name, std::to_string(*v) + " is outside " + std::to_string(lo) + " .. " + std::to_string(hi));
+      if constexpr (std::is_integral_v<T>) {
+        if (*v != static_cast<double>(static_cast<long long>(*v))) fail(name, "must be a whole number");
+      }
+      out = static_cast<T>(*v);
+    }
+  }
+};
+
+}  // namespace
+
+NetworkConfig load_network_config(const std::string& path) {
+  toml::table root;
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw std::runtime_error(path + ": " + std::string(e.description()));
+  }
+  for (const auto& [k, v] : root)
+    if (k.str() != "tcp" && k.str() != "rtu" && k.str() != "server")
+      throw std::runtime_error(path + ": " + std::string(k.str()) + ": unknown section (tcp, rtu, server)");
+  Reader r{path, root};
+  NetworkConfig c;
+  const auto* tcp = r.section("tcp", {"enabled", "bind_address", "port", "unit_id", "max_connections",
+                                      "frame_timeout_s", "idle_timeout_s", "allow"});
+  r.get(tcp, "tcp", "enabled", c.tcp_enabled, 0, 1);
+  r.get(tcp, "tcp", "bind_address", c.tcp.bind_address, 0, 0);
+  r.get(tcp, "tcp", "port", c.tcp.port, 0, 65535);
+  r.get(tcp, "tcp", "unit_id", c.tcp.unit_id, 0, 255);
+  r.get(tcp, "tcp", "max_connections", c.tcp.max_connections, 1, 1024);
+  r.get(tcp, "tcp", "frame_timeout_s", c.tcp.frame_timeout_s, 0.001, 3600);
+  r.get(tcp, "tcp", "idle_timeout_s", c.tcp.idle_timeout_s, 0, 1e7);
+  if (tcp) {
+    if (const auto* node = tcp->get("allow")) {
+      const auto* arr = node->as_array();
+      if (!arr) r.fail("tcp.allow", "must be an array of strings");
+      for (const auto& e : *arr) {
+        const auto s = e.value<std::string>();
+        if (!s) r.fail("tcp.allow", "must be an array of strings");
+        try {
+          parse_ipv4_cidr(*s);
+        } catch (const std::exception& ex) {
+          r.fail("tcp.allow", ex.what());
+        }
+        c.tcp.allow.push_back(*s);
+      }
+    }
+  }
+  const auto* rtu = r.section("rtu", {"device", "baud", "parity", "data_bits", "stop_bits", "unit_id", "rs485"});
+  r.get(rtu, "rtu", "device", c.rtu.device, 0, 0);
+  r.get(rtu, "rtu", "baud", c.rtu.baud, 50, 4000000);
+  std::string parity(1, c.rtu.parity);
+  r.get(rtu, "rtu", "parity", parity, 0, 0);
+  if (parity != "N" && parity != "E" && parity != "O") r.fail("rtu.parity", "must be \"N\", \"E\" or \"O\"");
+  c.rtu.parity = parity[0];
+  r.get(rtu, "rtu", "data_bits", c.rtu.data_bits, 7, 8);
+  r.get(rtu, "rtu", "stop_bits", c.rtu.stop_bits, 1, 2);
+  r.get(rtu, "rtu", "unit_id", c.rtu.unit_id, 1, 247);
+  r.get(rtu, "rtu", "rs485", c.rtu.rs485, 0, 1);
+  const auto* server = r.section("server", {"read_only", "watchdog_ms"});
+  r.get(server, "server", "read_only", c.read_only, 0, 1);
+  double wd_ms = 0;
+  r.get(server, "server", "watchdog_ms", wd_ms, 0, 60000);
+  c.watchdog_s = wd_ms * 1e-3;
+  return c;
+}
+
+}  // namespace maglead::controller

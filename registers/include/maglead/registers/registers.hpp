@@ -1,0 +1,91 @@
+#pragma once
+// The Modbus register map of a maglead controller: one table, from which the server mapping,
+// docs/registers.md, the CSV/JSON exports and the operator tools' names all come.
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+
+namespace maglead::registers {
+
+enum class Table : std::uint8_t { coil, discrete_input, input_register, holding_register };
+enum class Type : std::uint8_t { bit, u16, i16, u32, i32, f32 };
+enum class Access : std::uint8_t { read_only, read_write };
+
+/// One entry. Physical value (SI) = raw × scale; `min`/`max` are in SI units and bound what
+/// a client may write (for read-only entries they describe the expected span).
+struct Register {
+  std::string_view name;
+  Table table;
+  std::uint16_t address;
+  Type type;
+  double scale;
+  std::string_view unit;
+  Access access;
+  double min;
+  double max;
+  std::string_view description;
+};
+
+/// Status word bits; also the discrete-input addresses.
+enum StatusBit : std::uint16_t {
+  kReady = 0, kEnabled, kFault, kMoving, kInPosition, kForceReached, kStepOut, kDriftWarning,
+  kWatchdogExpired, kTwinHealthy, kStepOutWarning, kStopped, kOwned, kStrokeLimit,
+};
+/// Control word bits; also the coil addresses. enable/stop are levels, the rest act on edges.
+enum ControlBit : std::uint16_t { kEnable = 0, kStop, kFaultReset, kResync, kExecute };
+inline constexpr std::uint16_t kControlWordMask = 0x1F;
+/// command_status bits: acknowledge (edge seen, cleared when the bit falls) and done.
+enum CommandBit : std::uint16_t {
+  kExecuteAck = 0, kExecuteDone, kResetAck, kResetDone, kResyncAck, kResyncDone, kRejected,
+};
+enum class DriveState : std::uint16_t { disabled = 0, ready = 1, enabled = 2, fault = 3 };
+enum class Mode : std::uint16_t { idle = 0, position = 1, force = 2 };
+enum class Alarm : std::uint16_t {
+  none = 0, step_out = 1, phase_jump = 2, watchdog = 3, stroke_limit = 4, sensor_fault = 5,
+  drive_fault = 6,
+};
+enum class Reject : std::uint16_t {
+  none = 0, not_enabled = 1, in_fault = 2, force_beyond_safe_limit = 3, target_outside_stroke = 4,
+  stopped = 5, still_faulty = 6, not_stepped_out = 7,
+};
+
+struct Code {
+  std::uint16_t value;
+  std::string_view name;
+  std::string_view description;
+};
+std::span<const Code> alarm_codes();
+std::span<const Code> reject_codes();
+std::span<const Code> drive_states();
+std::span<const Code> modes();
+
+/// Identity and word-order probe values.
+inline constexpr std::uint16_t kDeviceType = 0x4D4C;  // "ML"
+inline constexpr std::uint16_t kMapVersion = 1;
+inline constexpr std::uint32_t kWordOrderProbeU32 = 0x12345678u;
+inline constexpr float kWordOrderProbeF32 = 1234.5678f;
+
+std::span<const Register> table();
+/// nullptr when absent.
+const Register* find(std::string_view name);
+/// The entry covering (table, address) and which of its words it is; nullptr when unmapped.
+const Register* at(Table table, std::uint16_t address, int* word_index = nullptr);
+
+int word_count(Type type);
+std::string_view to_string(Table table);
+std::string_view to_string(Type type);
+std::string_view to_string(Access access);
+
+/// SI value to raw words, high word first (big-endian word order, as bytes within a word).
+/// Scaled integers are rounded and saturate at the type's limits; NaN encodes as 0.
+void encode(const Register& reg, double value_si, std::uint16_t* words);
+double decode(const Register& reg, const std::uint16_t* words);
+/// True when a decoded write value lies in [min, max].
+bool in_range(const Register& reg, double value_si);
+
+std::string to_markdown();
+std::string to_csv();
+std::string to_json();
+
+}  // namespace maglead::registers

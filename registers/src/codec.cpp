@@ -1,0 +1,71 @@
+#include <bit>
+#include <cmath>
+#include <limits>
+
+#include "maglead/registers/registers.hpp"
+
+namespace maglead::registers {
+namespace {
+
+double saturate(double raw, double lo, double hi) {
+  if (std::isnan(raw)) return 0.0;
+  return raw < lo ? lo : (raw > hi ? hi : raw);
+}
+
+}  // namespace
+
+void encode(const Register& reg, double value_si, std::uint16_t* words) {
+  const double raw = value_si / reg.scale;
+  switch (reg.type) {
+    case Type::bit:
+      words[0] = value_si != 0.0 && !std::isnan(value_si) ? 1 : 0;
+      return;
+    case Type::u16:
+      words[0] = static_cast<std::uint16_t>(std::lround(saturate(raw, 0, 65535)));
+      return;
+    case Type::i16:
+      words[0] = static_cast<std::uint16_t>(
+          static_cast<std::int16_t>(std::lround(saturate(raw, -32768, 32767))));
+      return;
+    case Type::u32: {
+      const auto v = static_cast<std::uint32_t>(std::llround(saturate(raw, 0, 4294967295.0)));
+      words[0] = static_cast<std::uint16_t>(v >> 16);
+      words[1] = static_cast<std::uint16_t>(v & 0xFFFF);
+      return;
+    }
+    case Type::i32: {
+      const auto v = static_cast<std::uint32_t>(
+          static_cast<std::int32_t>(std::llround(saturate(raw, -2147483648.0, 2147483647.0))));
+      words[0] = static_cast<std::uint16_t>(v >> 16);
+      words[1] = static_cast<std::uint16_t>(v & 0xFFFF);
+      return;
+    }
+    case Type::f32: {
+      const auto v = std::bit_cast<std::uint32_t>(static_cast<float>(raw));
+      words[0] = static_cast<std::uint16_t>(v >> 16);
+      words[1] = static_cast<std::uint16_t>(v & 0xFFFF);
+      return;
+    }
+  }
+}
+
+double decode(const Register& reg, const std::uint16_t* words) {
+  const auto u32 = [&] { return (static_cast<std::uint32_t>(words[0]) << 16) | words[1]; };
+  switch (reg.type) {
+    case Type::bit: return words[0] ? 1.0 : 0.0;
+    case Type::u16: return words[0] * reg.scale;
+    case Type::i16: return static_cast<std::int16_t>(words[0]) * reg.scale;
+    case Type::u32: return static_cast<double>(u32()) * reg.scale;
+    case Type::i32: return static_cast<std::int32_t>(u32()) * reg.scale;
+    case Type::f32: return static_cast<double>(std::bit_cast<float>(u32())) * reg.scale;
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+bool in_range(const Register& reg, double value_si) {
+  // Tolerate float32 rounding of the limits themselves (0.04 is not exact in float32).
+  const double slack = reg.type == Type::f32 ? 1e-6 * std::max(std::abs(reg.min), std::abs(reg.max)) : 0.0;
+  return std::isfinite(value_si) && value_si >= reg.min - slack && value_si <= reg.max + slack;
+}
+
+}  // namespace maglead::registers

@@ -1,0 +1,221 @@
+// The register table itself. Addresses are fixed once released: integrators' PLC programs
+// depend on them. Input and holding addresses never overlap, so FC3 can read both (a PLC
+// exchanges control and status in one FC23).
+#include <algorithm>
+#include <array>
+#include <limits>
+
+#include "maglead/registers/registers.hpp"
+
+namespace maglead::registers {
+namespace {
+
+constexpr auto IR = Table::input_register;
+constexpr auto HR = Table::holding_register;
+constexpr auto CO = Table::coil;
+constexpr auto DI = Table::discrete_input;
+constexpr auto RO = Access::read_only;
+constexpr auto RW = Access::read_write;
+constexpr double kU16Max = 65535.0;
+constexpr double kI32 = 2147483647.0;
+constexpr double kU32Max = 4294967295.0;
+
+constexpr std::array kTable = std::to_array<Register>({
+    // Identity and word-order probes.
+    {"device_type", IR, 0, Type::u16, 1, "", RO, 0, kU16Max, "Device type: 0x4D4C (\"ML\")"},
+    {"firmware_version", IR, 1, Type::u16, 1, "", RO, 0, kU16Max, "Firmware version, major*256 + minor"},
+    {"register_map_version", IR, 2, Type::u16, 1, "", RO, 0, kU16Max, "Version of this register map"},
+    {"loop_rate_hz", IR, 3, Type::u16, 1, "Hz", RO, 0, kU16Max, "Control loop rate"},
+    {"word_order_probe_u32", IR, 4, Type::u32, 1, "", RO, 0, kU32Max,
+     "Always 0x12345678: reads 0x1234, 0x5678 when the word order is right"},
+    {"word_order_probe_f32", IR, 6, Type::f32, 1, "", RO, -1e9, 1e9,
+     "Always 1234.5678 as float32 (0x449A522B)"},
+    // Drive status.
+    {"status_word", IR, 10, Type::u16, 1, "", RO, 0, kU16Max, "Status bits, see discrete inputs"},
+    {"alarm_code", IR, 11, Type::u16, 1, "", RO, 0, kU16Max, "Latched alarm, see alarm codes (0 none)"},
+    {"step_out_count", IR, 12, Type::u16, 1, "", RO, 0, kU16Max, "Step-outs detected since start"},
+    {"drive_state", IR, 13, Type::u16, 1, "", RO, 0, 3, "0 disabled, 1 ready, 2 enabled, 3 fault"},
+    {"active_mode", IR, 14, Type::u16, 1, "", RO, 0, 2, "0 idle (hold), 1 position, 2 force"},
+    {"command_status", IR, 15, Type::u16, 1, "", RO, 0, kU16Max,
+     "Command handshake bits: 0 execute ack, 1 execute done, 2 reset ack, 3 reset done, "
+     "4 resync ack, 5 resync done, 6 last command rejected"},
+    {"command_reject_reason", IR, 16, Type::u16, 1, "", RO, 0, kU16Max,
+     "Why the last edge command was rejected, see reject codes"},
+    {"control_owner", IR, 17, Type::u16, 1, "", RO, 0, kU16Max,
+     "Client that owns control (0 none; TCP connection number, 65535 the RTU master)"},
+    {"control_owner_ipv4", IR, 18, Type::u32, 1, "", RO, 0, kU32Max,
+     "IPv4 address of the owning TCP client (0 none)"},
+    {"nut_pos_um", IR, 20, Type::i32, 1e-6, "m", RO, -kI32 * 1e-6, kI32 * 1e-6, "Measured nut position"},
+    {"nut_vel_um_s", IR, 22, Type::i32, 1e-6, "m/s", RO, -kI32 * 1e-6, kI32 * 1e-6, "Nut velocity"},
+    {"screw_angle_urad", IR, 24, Type::i32, 1e-6, "rad", RO, -kI32 * 1e-6, kI32 * 1e-6,
+     "Screw angle (motor encoder / gear ratio)"},
+    {"phase_urad", IR, 26, Type::i32, 1e-6, "rad", RO, -kI32 * 1e-6, kI32 * 1e-6,
+     "Phase difference phi = theta - 2 pi p / L"},
+    {"force_est_mn", IR, 28, Type::i32, 1e-3, "N", RO, -kI32 * 1e-3, kI32 * 1e-3,
+     "Estimated output force F_out (paper eq. 6), + pushes along +p"},
+    {"load_cell_force_mn", IR, 30, Type::i32, 1e-3, "N", RO, -kI32 * 1e-3, kI32 * 1e-3,
+     "Output force from the load cell (-load force), 0 without one"},
+    {"profile_pos_um", IR, 32, Type::i32, 1e-6, "m", RO, -kI32 * 1e-6, kI32 * 1e-6,
+     "Position reference of the motion profile now"},
+    {"active_force_setpoint_mn", IR, 34, Type::i32, 1e-3, "N", RO, -kI32 * 1e-3, kI32 * 1e-3,
+     "Force setpoint the drive holds (force mode)"},
+    {"active_target_pos_um", IR, 36, Type::i32, 1e-6, "m", RO, -kI32 * 1e-6, kI32 * 1e-6,
+     "Target of the current move (position mode)"},
+    {"twin_pred_nut_pos_um", IR, 38, Type::i32, 1e-6, "m", RO, -kI32 * 1e-6, kI32 * 1e-6,
+     "Twin: predicted nut position (0 without twin)"},
+    {"twin_pred_force_mn", IR, 40, Type::i32, 1e-3, "N", RO, -kI32 * 1e-3, kI32 * 1e-3,
+     "Twin: predicted output force (0 without twin)"},
+    {"twin_residual_pos_um", IR, 42, Type::i32, 1e-6, "m", RO, -kI32 * 1e-6, kI32 * 1e-6,
+     "Twin: measured minus predicted nut position"},
+    {"twin_residual_force_mn", IR, 44, Type::i32, 1e-3, "N", RO, -kI32 * 1e-3, kI32 * 1e-3,
+     "Twin: force residual (static estimate minus twin)"},
+    {"twin_dynamic_force_mn", IR, 46, Type::i32, 1e-3, "N", RO, -kI32 * 1e-3, kI32 * 1e-3,
+     "Twin: dynamic output-force estimate (observer)"},
+    {"loop_cycle_count", IR, 48, Type::u32, 1, "", RO, 0, kU32Max, "Control cycles run (wraps)"},
+    {"loop_overrun_count", IR, 50, Type::u32, 1, "", RO, 0, kU32Max,
+     "Cycles that started more than one period late"},
+    {"loop_period_us", IR, 52, Type::u16, 1e-6, "s", RO, 0, kU16Max * 1e-6, "Last loop period"},
+    {"loop_late_max_us", IR, 53, Type::u16, 1e-6, "s", RO, 0, kU16Max * 1e-6,
+     "Largest lateness of a cycle start since start"},
+    // The same 32-bit values as float32, SI units.
+    {"nut_pos_m_f32", IR, 100, Type::f32, 1, "m", RO, -1e9, 1e9, "Measured nut position"},
+    {"nut_vel_m_s_f32", IR, 102, Type::f32, 1, "m/s", RO, -1e9, 1e9, "Nut velocity"},
+    {"screw_angle_rad_f32", IR, 104, Type::f32, 1, "rad", RO, -1e9, 1e9, "Screw angle"},
+    {"phase_rad_f32", IR, 106, Type::f32, 1, "rad", RO, -1e9, 1e9, "Phase difference phi"},
+    {"force_est_n_f32", IR, 108, Type::f32, 1, "N", RO, -1e9, 1e9, "Estimated output force"},
+    {"load_cell_force_n_f32", IR, 110, Type::f32, 1, "N", RO, -1e9, 1e9, "Load-cell output force"},
+    {"profile_pos_m_f32", IR, 112, Type::f32, 1, "m", RO, -1e9, 1e9, "Profile position reference"},
+    {"active_force_setpoint_n_f32", IR, 114, Type::f32, 1, "N", RO, -1e9, 1e9, "Force setpoint held"},
+    {"active_target_pos_m_f32", IR, 116, Type::f32, 1, "m", RO, -1e9, 1e9, "Target of the move"},
+    {"twin_pred_nut_pos_m_f32", IR, 118, Type::f32, 1, "m", RO, -1e9, 1e9, "Twin: predicted position"},
+    {"twin_pred_force_n_f32", IR, 120, Type::f32, 1, "N", RO, -1e9, 1e9, "Twin: predicted force"},
+    {"twin_residual_pos_m_f32", IR, 122, Type::f32, 1, "m", RO, -1e9, 1e9, "Twin: position residual"},
+    {"twin_residual_force_n_f32", IR, 124, Type::f32, 1, "N", RO, -1e9, 1e9, "Twin: force residual"},
+    {"twin_dynamic_force_n_f32", IR, 126, Type::f32, 1, "N", RO, -1e9, 1e9, "Twin: dynamic force estimate"},
+    // Commands and setpoints. Setpoints are staged: an execute edge applies them.
+    {"control_word", HR, 1000, Type::u16, 1, "", RW, 0, 31,
+     "Control bits, see coils; enable and stop are levels, the others act on rising edges"},
+    {"mode_command", HR, 1001, Type::u16, 1, "", RW, 0, 2,
+     "Mode the next execute edge applies: 0 idle (stop and hold), 1 position, 2 force"},
+    {"heartbeat", HR, 1002, Type::u16, 1, "", RW, 0, kU16Max,
+     "Write anything to feed the communication watchdog"},
+    {"watchdog_ms", HR, 1003, Type::u16, 1e-3, "s", RW, 0, 60.0,
+     "Communication watchdog time, 0 = off: without a heartbeat write the drive stops"},
+    {"force_setpoint_mn", HR, 1004, Type::i32, 1e-3, "N", RW, -100.0, 100.0,
+     "Output-force setpoint (also refused beyond the calibrated safe limit)"},
+    {"position_setpoint_um", HR, 1006, Type::i32, 1e-6, "m", RW, 0.0, 0.040,
+     "Target nut position (also refused outside the configured stroke)"},
+    {"velocity_limit_um_s", HR, 1008, Type::i32, 1e-6, "m/s", RW, 1e-5, 0.1, "Profile speed limit"},
+    {"accel_limit_um_s2", HR, 1010, Type::i32, 1e-6, "m/s^2", RW, 1e-4, 5.0, "Profile acceleration limit"},
+    {"force_setpoint_n_f32", HR, 1012, Type::f32, 1, "N", RW, -100.0, 100.0, "Force setpoint, float32"},
+    {"position_setpoint_m_f32", HR, 1014, Type::f32, 1, "m", RW, 0.0, 0.040, "Target position, float32"},
+    {"velocity_limit_m_s_f32", HR, 1016, Type::f32, 1, "m/s", RW, 1e-5, 0.1, "Speed limit, float32"},
+    {"accel_limit_m_s2_f32", HR, 1018, Type::f32, 1, "m/s^2", RW, 1e-4, 5.0, "Acceleration limit, float32"},
+    // Control word bits as coils.
+    {"enable", CO, kEnable, Type::bit, 1, "", RW, 0, 1,
+     "Level: rising edge enables a ready drive (the client becomes owner); falling edge disables"},
+    {"stop", CO, kStop, Type::bit, 1, "", RW, 0, 1, "Level: controlled stop and hold while set"},
+    {"fault_reset", CO, kFaultReset, Type::bit, 1, "", RW, 0, 1, "Edge: clear a latched fault"},
+    {"resync", CO, kResync, Type::bit, 1, "", RW, 0, 1,
+     "Edge: re-synchronise the phase after a step-out (takes the nut's new lead as zero)"},
+    {"execute", CO, kExecute, Type::bit, 1, "", RW, 0, 1,
+     "Edge: apply mode_command with the staged setpoints (start a move, apply a force, stop)"},
+    // Status word bits as discrete inputs.
+    {"ready", DI, kReady, Type::bit, 1, "", RO, 0, 1, "Drive ready to enable"},
+    {"enabled", DI, kEnabled, Type::bit, 1, "", RO, 0, 1, "Drive enabled, modes act"},
+    {"fault", DI, kFault, Type::bit, 1, "", RO, 0, 1, "A fault is latched (alarm_code says which)"},
+    {"moving", DI, kMoving, Type::bit, 1, "", RO, 0, 1, "Nut moving or a profile running"},
+    {"in_position", DI, kInPosition, Type::bit, 1, "", RO, 0, 1, "Position mode: at target within tolerance"},
+    {"force_reached", DI, kForceReached, Type::bit, 1, "", RO, 0, 1, "Force mode: estimate at setpoint"},
+    {"step_out", DI, kStepOut, Type::bit, 1, "", RO, 0, 1, "The nut stepped out; resync then reset"},
+    {"drift_warning", DI, kDriftWarning, Type::bit, 1, "", RO, 0, 1, "Twin: calibration drift detected"},
+    {"watchdog_expired", DI, kWatchdogExpired, Type::bit, 1, "", RO, 0, 1, "No heartbeat within watchdog_ms"},
+    {"twin_healthy", DI, kTwinHealthy, Type::bit, 1, "", RO, 0, 1, "Twin running and consistent"},
+    {"step_out_warning", DI, kStepOutWarning, Type::bit, 1, "", RO, 0, 1, "Twin: step-out predicted"},
+    {"stopped", DI, kStopped, Type::bit, 1, "", RO, 0, 1, "Controlled stop active (stop bit or watchdog)"},
+    {"owned", DI, kOwned, Type::bit, 1, "", RO, 0, 1, "A client owns control"},
+    {"stroke_limit", DI, kStrokeLimit, Type::bit, 1, "", RO, 0, 1, "Nut at a stroke end"},
+});
+
+constexpr std::array kAlarms = std::to_array<Code>({
+    {0, "none", "no alarm"},
+    {1, "step_out", "phase left the stable branch: the nut slipped; force commanding stopped"},
+    {2, "phase_jump", "phase jumped by more than pi in one cycle (sensor or slip)"},
+    {3, "watchdog", "no heartbeat within watchdog_ms: controlled stop"},
+    {4, "stroke_limit", "nut beyond the configured stroke"},
+    {5, "sensor_fault", "actuator reported a sensor fault"},
+    {6, "drive_fault", "actuator reported a drive fault"},
+});
+constexpr std::array kRejects = std::to_array<Code>({
+    {0, "none", "accepted"},
+    {1, "not_enabled", "execute needs an enabled drive"},
+    {2, "in_fault", "command refused while a fault is latched"},
+    {3, "force_beyond_safe_limit", "force setpoint beyond the safe fraction of peak force"},
+    {4, "target_outside_stroke", "position setpoint outside the stroke"},
+    {5, "stopped", "execute refused while the stop bit is set"},
+    {6, "still_faulty", "fault reset refused: the cause is still present (resync first)"},
+    {7, "not_stepped_out", "resync only after a step-out"},
+});
+constexpr std::array kStates = std::to_array<Code>({
+    {0, "disabled", "not synchronised yet or the actuator reports an error"},
+    {1, "ready", "holding position, waiting for an enable edge"},
+    {2, "enabled", "modes act on commands"},
+    {3, "fault", "latched until fault_reset"},
+});
+constexpr std::array kModes = std::to_array<Code>({
+    {0, "idle", "hold the screw where it is"},
+    {1, "position", "move the nut to a target with speed and acceleration limits"},
+    {2, "force", "hold an output-force setpoint"},
+});
+
+}  // namespace
+
+std::span<const Register> table() { return kTable; }
+std::span<const Code> alarm_codes() { return kAlarms; }
+std::span<const Code> reject_codes() { return kRejects; }
+std::span<const Code> drive_states() { return kStates; }
+std::span<const Code> modes() { return kModes; }
+
+const Register* find(std::string_view name) {
+  for (const auto& r : kTable)
+    if (r.name == name) return &r;
+  return nullptr;
+}
+
+const Register* at(Table t, std::uint16_t address, int* word_index) {
+  for (const auto& r : kTable) {
+    if (r.table != t) continue;
+    const int n = word_count(r.type);
+    if (address >= r.address && address < r.address + n) {
+      if (word_index) *word_index = address - r.address;
+      return &r;
+    }
+  }
+  return nullptr;
+}
+
+int word_count(Type type) { return type == Type::u32 || type == Type::i32 || type == Type::f32 ? 2 : 1; }
+
+std::string_view to_string(Table t) {
+  switch (t) {
+    case Table::coil: return "coil";
+    case Table::discrete_input: return "discrete_input";
+    case Table::input_register: return "input_register";
+    case Table::holding_register: return "holding_register";
+  }
+  return "?";
+}
+std::string_view to_string(Type t) {
+  switch (t) {
+    case Type::bit: return "bit";
+    case Type::u16: return "u16";
+    case Type::i16: return "i16";
+    case Type::u32: return "u32";
+    case Type::i32: return "i32";
+    case Type::f32: return "f32";
+  }
+  return "?";
+}
+std::string_view to_string(Access a) { return a == Access::read_only ? "R" : "RW"; }
+
+}  // namespace maglead::registers
