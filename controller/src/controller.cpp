@@ -221,7 +221,7 @@ double Controller::position_command_rad(double dt) noexcept {
   const auto& a = cfg_.actuator;
   const double err = prof_pos_m_ - s_.nut_pos_m;
   // Integrate only errors beyond one encoder count: within it the error is quantization.
-  if (std::abs(err) > a.linear_count_m)
+  if (std::abs(err) > 1.5 * a.linear_count_m)
     integral_rad_ = std::clamp(integral_rad_ + cfg_.position_integral_rad_per_m_s * err * dt,
                                phase_lo_rad_, phase_hi_rad_);
   const double phase = std::clamp(kTwoPi / a.lead_m * err + cfg_.position_gain_rad_per_m * err + integral_rad_,

@@ -221,7 +221,8 @@ std::size_t ModbusCore::read_registers(bool input_only, std::uint16_t start, std
 }
 
 bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count, const std::uint8_t* data,
-                                  CommandImage& image, bool& heartbeat, Exception& ex) const {
+                                  CommandImage& image, bool& heartbeat, bool& touches_control,
+                                  Exception& ex) const {
   const auto table = reg::table();
   std::uint32_t addr = start;
   const std::uint32_t end = static_cast<std::uint32_t>(start) + count;
@@ -241,12 +242,14 @@ bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count, cons
     if (!reg::in_range(r, v)) return ex = Exception::illegal_data_value, false;
     bindings_[static_cast<std::size_t>(s.reg)]->image_set(image, v);
     if (r.name == "heartbeat") heartbeat = true;
+    if (r.name == "control_word") touches_control = true;
     addr += static_cast<std::uint32_t>(w);
   }
   return true;
 }
 
-bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool heartbeat, Exception& ex) {
+bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool heartbeat, bool touches_control,
+                             Exception& ex) {
   using namespace registers;
   const auto cw = next.control_word;
   const auto has = [&](int b) { return (cw >> b) & 1u; };
@@ -265,7 +268,8 @@ bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool h
   }
   const bool old_enable = (image_.control_word >> kEnable) & 1u;
   const bool new_enable = has(kEnable);
-  if (new_enable && owner_ == 0 && client.id != 0) owner_ = client.id, owner_ipv4_ = client.ipv4;
+  // Control belongs to the first client that writes the control word with enable set.
+  if (touches_control && new_enable && owner_ == 0 && client.id != 0) owner_ = client.id, owner_ipv4_ = client.ipv4;
   if (old_enable && !new_enable && owner_ == client.id) owner_ = 0, owner_ipv4_ = 0;
   image_ = next;
   return true;
@@ -340,7 +344,7 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
       CommandImage next = image_;
       const auto mask = static_cast<std::uint16_t>(1u << addr);
       next.control_word = static_cast<std::uint16_t>(value ? (next.control_word | mask) : (next.control_word & ~mask));
-      if (!write_image(client, next, false, ex)) return fail(ex);
+      if (!write_image(client, next, false, true, ex)) return fail(ex);
       std::memcpy(out, pdu, 5);
       return 5;
     }
@@ -359,16 +363,16 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
         const auto mask = static_cast<std::uint16_t>(1u << addr);
         next.control_word = static_cast<std::uint16_t>(on ? (next.control_word | mask) : (next.control_word & ~mask));
       }
-      if (!write_image(client, next, false, ex)) return fail(ex);
+      if (!write_image(client, next, false, true, ex)) return fail(ex);
       std::memcpy(out, pdu, 5);
       return 5;
     }
     case 6: {
       if (len != 5) return fail(Exception::illegal_data_value);
       CommandImage next = image_;
-      bool heartbeat = false;
-      if (!decode_registers(be16(pdu + 1), 1, pdu + 3, next, heartbeat, ex)) return fail(ex);
-      if (!write_image(client, next, heartbeat, ex)) return fail(ex);
+      bool heartbeat = false, touches = false;
+      if (!decode_registers(be16(pdu + 1), 1, pdu + 3, next, heartbeat, touches, ex)) return fail(ex);
+      if (!write_image(client, next, heartbeat, touches, ex)) return fail(ex);
       std::memcpy(out, pdu, 5);
       return 5;
     }
@@ -378,9 +382,9 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
       if (count < 1 || count > 123 || pdu[5] != 2 * count || len != 6u + 2u * count)
         return fail(Exception::illegal_data_value);
       CommandImage next = image_;
-      bool heartbeat = false;
-      if (!decode_registers(start, count, pdu + 6, next, heartbeat, ex)) return fail(ex);
-      if (!write_image(client, next, heartbeat, ex)) return fail(ex);
+      bool heartbeat = false, touches = false;
+      if (!decode_registers(start, count, pdu + 6, next, heartbeat, touches, ex)) return fail(ex);
+      if (!write_image(client, next, heartbeat, touches, ex)) return fail(ex);
       std::memcpy(out, pdu, 5);
       return 5;
     }
@@ -394,9 +398,9 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
       std::size_t n = 0;
       if (!read_registers(false, rstart, rcount, out + 2, n, ex)) return fail(ex);  // address check
       CommandImage next = image_;
-      bool heartbeat = false;
-      if (!decode_registers(wstart, wcount, pdu + 10, next, heartbeat, ex)) return fail(ex);
-      if (!write_image(client, next, heartbeat, ex)) return fail(ex);
+      bool heartbeat = false, touches = false;
+      if (!decode_registers(wstart, wcount, pdu + 10, next, heartbeat, touches, ex)) return fail(ex);
+      if (!write_image(client, next, heartbeat, touches, ex)) return fail(ex);
       if (!read_registers(false, rstart, rcount, out + 2, n, ex)) return fail(ex);
       out[0] = fc;
       out[1] = static_cast<std::uint8_t>(n);

@@ -23,8 +23,8 @@ struct ControllerConfig {
   double force_tol_n = 1.5;           // about one count of phase near φ = 0, plus noise
   double settle_s = 0.05;             // "reached" must hold this long
   // Position loop: phase correction per metre of error, and its integral action.
-  double position_gain_rad_per_m = 4000.0;
-  double position_integral_rad_per_m_s = 20000.0;
+  double position_gain_rad_per_m = 1500.0;
+  double position_integral_rad_per_m_s = 12000.0;
 };
 
 /// What the twin publishes each cycle; zero / false until a twin is attached.

@@ -58,9 +58,9 @@ class ModbusCore {
   std::size_t dispatch(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len, std::uint8_t* out);
   std::size_t read_registers(bool input_only, std::uint16_t start, std::uint16_t count, std::uint8_t* out,
                              std::size_t& n, Exception& ex);
-  bool write_image(const ClientInfo& client, CommandImage next, bool heartbeat, Exception& ex);
+  bool write_image(const ClientInfo& client, CommandImage next, bool heartbeat, bool touches_control, Exception& ex);
   bool decode_registers(std::uint16_t start, std::uint16_t count, const std::uint8_t* data,
-                        CommandImage& image, bool& heartbeat, Exception& ex) const;
+                        CommandImage& image, bool& heartbeat, bool& touches_control, Exception& ex) const;
   double read_value(std::size_t reg_index, const Snapshot& snap) const;
 
   Controller& controller_;

@@ -1,0 +1,318 @@
+// The control loop on the simulated actuator, stepped with a fake clock (no sleeping): drive
+// state machine, position and force modes, edge commands, step-out, watchdog, twin hook.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "maglead/controller/controller.hpp"
+#include "maglead/plant/simulated_actuator.hpp"
+
+using namespace maglead;
+using namespace maglead::controller;
+namespace reg = maglead::registers;
+
+namespace {
+
+constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b); }
+
+struct Rig {
+  SimulatedActuator plant;
+  ControllerConfig cfg;
+  std::unique_ptr<Controller> ctl;
+  CommandImage image;
+  double t_s = 0.0;
+
+  explicit Rig(double spring_n_per_m = 2000.0, TwinHook* twin = nullptr) : plant(paper_like_plant(), 7, 0.02) {
+    if (spring_n_per_m > 0) {
+      LoadSetting load;
+      load.kind = LoadSetting::Kind::spring_to_wall;
+      load.stiffness_n_per_m = spring_n_per_m;
+      load.damping_n_s_per_m = 5.0;
+      load.anchor_pos_m = 0.02;
+      plant.set_load(load);
+    }
+    ctl = std::make_unique<Controller>(cfg, plant);
+    ctl->attach_twin(twin);
+    image = ctl->initial_image();
+    run(0.01);
+  }
+  template <class F>
+  void run(double seconds, F&& each_cycle) {
+    const int n = static_cast<int>(std::lround(seconds * 1000.0));
+    for (int i = 0; i < n; ++i) {
+      t_s += 1e-3;
+      ctl->step(t_s);
+      each_cycle(ctl->snapshot());
+    }
+  }
+  void run(double seconds) {
+    run(seconds, [](const Snapshot&) {});
+  }
+  void post(bool heartbeat = false) {
+    ASSERT_TRUE(ctl->post(Command{image, heartbeat}));
+    run(0.002);
+  }
+  void control(std::uint16_t word) {
+    image.control_word = word;
+    post();
+  }
+  Snapshot snap() const { return ctl->snapshot(); }
+  bool status(int b) const { return (snap().status_word >> b) & 1u; }
+  bool cmd(int b) const { return (snap().command_status >> b) & 1u; }
+  void enable() {
+    control(bit(reg::kEnable));
+    ASSERT_EQ(snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+  }
+  void execute(reg::Mode mode) {
+    image.mode_command = static_cast<std::uint16_t>(mode);
+    control(static_cast<std::uint16_t>(image.control_word | bit(reg::kExecute)));
+    control(static_cast<std::uint16_t>(image.control_word & ~bit(reg::kExecute)));
+  }
+};
+
+}  // namespace
+
+TEST(Controller, StartsReadyAfterSynchronising) {
+  Rig rig;
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+  EXPECT_TRUE(rig.status(reg::kReady));
+  EXPECT_NEAR(rig.snap().nut_pos_m, 0.02, 50e-6);
+  EXPECT_LT(std::abs(rig.snap().phase_rad), 0.1);
+}
+
+TEST(Controller, ExecuteNeedsAnEnabledDrive) {
+  Rig rig;
+  rig.image.position_setpoint_m = 0.025;
+  rig.execute(reg::Mode::position);
+  EXPECT_TRUE(rig.cmd(reg::kRejected));
+  EXPECT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::not_enabled));
+  EXPECT_EQ(rig.snap().active_mode, static_cast<std::uint16_t>(reg::Mode::idle));
+}
+
+TEST(Controller, PositionMoveRespectsLimitsAndEndsInPosition) {
+  Rig rig;
+  rig.enable();
+  rig.image.position_setpoint_m = 0.026;
+  rig.image.velocity_limit_m_s = 0.01;
+  rig.image.accel_limit_m_s2 = 0.1;
+  rig.image.mode_command = static_cast<std::uint16_t>(reg::Mode::position);
+  rig.control(bit(reg::kEnable) | bit(reg::kExecute));
+  EXPECT_TRUE(rig.cmd(reg::kExecuteAck));
+  double last = rig.snap().profile_pos_m, vmax = 0.0, vlast = 0.0, amax = 0.0;
+  bool done_seen = false;
+  int n = 0;
+  rig.run(1.2, [&](const Snapshot& s) {
+    const double v = (s.profile_pos_m - last) / 1e-3;
+    vmax = std::max(vmax, std::abs(v));
+    // The last step snaps onto the target (a velocity step of at most 2·a·dt): not counted.
+    if (n++ > 0 && s.profile_pos_m != 0.026) amax = std::max(amax, std::abs(v - vlast) / 1e-3);
+    last = s.profile_pos_m;
+    vlast = v;
+    done_seen = done_seen || ((s.command_status >> reg::kExecuteDone) & 1u);
+  });
+  EXPECT_LE(vmax, 0.01 + 1e-9);
+  EXPECT_LE(amax, 0.1 + 1e-6);
+  EXPECT_TRUE(done_seen);
+  EXPECT_TRUE(rig.status(reg::kInPosition));
+  EXPECT_NEAR(rig.snap().nut_pos_m, 0.026, 50e-6);
+  EXPECT_NEAR(rig.plant.truth().nut_pos_m, 0.026, 60e-6);
+  // The ack follows the execute bit down; done stays until the next edge.
+  rig.control(bit(reg::kEnable));
+  EXPECT_FALSE(rig.cmd(reg::kExecuteAck));
+  EXPECT_TRUE(rig.cmd(reg::kExecuteDone));
+}
+
+TEST(Controller, HeldExecuteBitDoesNotRetrigger) {
+  Rig rig;
+  rig.enable();
+  rig.image.position_setpoint_m = 0.022;
+  rig.image.mode_command = static_cast<std::uint16_t>(reg::Mode::position);
+  rig.control(bit(reg::kEnable) | bit(reg::kExecute));
+  rig.run(0.6);
+  EXPECT_NEAR(rig.snap().active_target_pos_m, 0.022, 1e-12);
+  rig.image.position_setpoint_m = 0.03;  // new setpoint, execute still held
+  rig.post();
+  rig.run(0.3);
+  EXPECT_NEAR(rig.snap().active_target_pos_m, 0.022, 1e-12);
+  EXPECT_NEAR(rig.snap().nut_pos_m, 0.022, 60e-6);
+  rig.control(bit(reg::kEnable));  // falling, then rising: now it applies
+  rig.control(bit(reg::kEnable) | bit(reg::kExecute));
+  EXPECT_NEAR(rig.snap().active_target_pos_m, 0.03, 1e-12);
+}
+
+TEST(Controller, ForceModeHoldsTheSetpointAgainstASpring) {
+  Rig rig(3000.0);
+  rig.enable();
+  rig.image.force_setpoint_n = 12.0;
+  rig.execute(reg::Mode::force);
+  EXPECT_EQ(rig.snap().active_mode, static_cast<std::uint16_t>(reg::Mode::force));
+  rig.run(1.5);
+  const auto s = rig.snap();
+  EXPECT_NEAR(s.force_est_n, 12.0, 1.5);
+  EXPECT_TRUE(rig.status(reg::kForceReached));
+  EXPECT_TRUE(rig.cmd(reg::kExecuteDone));
+  // The spring really is compressed: the nut moved +p and the load cell sees a push
+  // (within static friction of the coupling force).
+  EXPECT_GT(s.nut_pos_m, 0.02 + 1e-3);
+  EXPECT_NEAR(s.load_cell_force_n, 12.0, rig.cfg.actuator.coulomb_n + 1.5);
+  EXPECT_NEAR(s.active_force_setpoint_n, 12.0, 1e-12);
+}
+
+TEST(Controller, ForceBeyondTheSafeLimitIsRefusedAndChangesNothing) {
+  Rig rig;
+  rig.enable();
+  const double limit = rig.ctl->safe_force_limit_n(1.0);
+  ASSERT_GT(limit, 10.0);
+  rig.image.force_setpoint_n = limit + 0.5;
+  rig.execute(reg::Mode::force);
+  EXPECT_TRUE(rig.cmd(reg::kRejected));
+  EXPECT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::force_beyond_safe_limit));
+  EXPECT_EQ(rig.snap().active_mode, static_cast<std::uint16_t>(reg::Mode::idle));
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+}
+
+TEST(Controller, StepOutLatchesAFaultStopsForceAndNeedsResyncThenReset) {
+  Rig rig(0.0);
+  rig.enable();
+  // A load far above the coupling's peak drags the nut over the stable branch.
+  LoadSetting load;
+  load.kind = LoadSetting::Kind::constant;
+  load.force_n = -80.0;
+  load.damping_n_s_per_m = 20.0;
+  rig.plant.set_load(load);
+  bool fault_seen = false;
+  rig.run(0.3, [&](const Snapshot& s) { fault_seen = fault_seen || s.drive_state == 3; });
+  ASSERT_TRUE(fault_seen);
+  auto s = rig.snap();
+  EXPECT_TRUE((s.alarm_code == static_cast<std::uint16_t>(reg::Alarm::step_out)) ||
+              (s.alarm_code == static_cast<std::uint16_t>(reg::Alarm::phase_jump)));
+  EXPECT_EQ(s.step_out_count, 1);
+  EXPECT_TRUE(rig.status(reg::kStepOut));
+  EXPECT_TRUE(rig.status(reg::kFault));
+  rig.plant.set_load(LoadSetting{});  // load gone; the nut rests in some other lead
+  rig.run(0.3);
+  s = rig.snap();
+  EXPECT_EQ(s.step_out_count, 1);  // counted once
+  // Force is no longer commanded: the screw was parked at a rest angle of the nut's lead.
+  EXPECT_LT(std::abs(std::remainder(s.phase_rad, 2.0 * std::numbers::pi)), 0.5);
+  // Reset alone is refused while φ is off the stable branch; resync then reset clears it.
+  if (std::abs(s.phase_rad) > 2.0) {
+    rig.control(bit(reg::kFaultReset));
+    EXPECT_TRUE(rig.cmd(reg::kRejected));
+    EXPECT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::still_faulty));
+    rig.control(0);
+  }
+  rig.control(bit(reg::kResync));
+  EXPECT_TRUE(rig.cmd(reg::kResyncDone));
+  EXPECT_LT(std::abs(rig.snap().phase_rad), 1.0);
+  rig.control(bit(reg::kFaultReset));
+  EXPECT_TRUE(rig.cmd(reg::kResetDone));
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+  EXPECT_FALSE(rig.status(reg::kStepOut));
+}
+
+TEST(Controller, FaultNeedsAFreshEnableEdge) {
+  Rig rig;
+  rig.enable();
+  rig.image.watchdog_s = 0.05;
+  rig.post();
+  rig.run(0.1);
+  ASSERT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::fault));
+  rig.control(bit(reg::kEnable) | bit(reg::kFaultReset));
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+  rig.run(0.2);
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+}
+
+TEST(Controller, WatchdogStopsWithoutHeartbeatAndNotWithIt) {
+  Rig rig;
+  rig.enable();
+  rig.image.watchdog_s = 0.1;
+  rig.post();
+  for (int i = 0; i < 10; ++i) {  // heartbeats every 50 ms keep it alive for 0.5 s
+    rig.image.heartbeat = static_cast<std::uint16_t>(i);
+    rig.post(true);
+    rig.run(0.048);
+  }
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+  EXPECT_FALSE(rig.status(reg::kWatchdogExpired));
+  rig.run(0.15);
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::fault));
+  EXPECT_EQ(rig.snap().alarm_code, static_cast<std::uint16_t>(reg::Alarm::watchdog));
+  EXPECT_TRUE(rig.status(reg::kWatchdogExpired));
+  EXPECT_TRUE(rig.status(reg::kStopped));
+}
+
+TEST(Controller, StopBitHaltsAMoveAndRefusesExecute) {
+  Rig rig;
+  rig.enable();
+  rig.image.position_setpoint_m = 0.035;
+  rig.image.mode_command = static_cast<std::uint16_t>(reg::Mode::position);
+  rig.control(bit(reg::kEnable) | bit(reg::kExecute));
+  rig.run(0.3);
+  rig.control(bit(reg::kEnable) | bit(reg::kStop));
+  rig.run(0.5);
+  const auto s = rig.snap();
+  EXPECT_TRUE(rig.status(reg::kStopped));
+  EXPECT_LT(s.profile_pos_m, 0.034);  // stopped short of the target
+  EXPECT_EQ(s.drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+  rig.control(bit(reg::kEnable) | bit(reg::kStop) | bit(reg::kExecute));
+  EXPECT_TRUE(rig.cmd(reg::kRejected));
+  EXPECT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::stopped));
+}
+
+TEST(Controller, DisableReturnsToReadyAndHolds) {
+  Rig rig;
+  rig.enable();
+  rig.control(0);
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+  const double pos = rig.snap().nut_pos_m;
+  rig.run(0.5);
+  EXPECT_NEAR(rig.snap().nut_pos_m, pos, 50e-6);
+}
+
+namespace {
+struct FakeTwin final : TwinHook {
+  int calls = 0;
+  double last_pos = 0.0;
+  void step(const TwinInputs& in, TwinOutputs& out) noexcept override {
+    ++calls;
+    last_pos = in.nut_pos_m;
+    out.pred_nut_pos_m = in.nut_pos_m + 1e-6;
+    out.dynamic_force_n = 3.5;
+    out.healthy = true;
+    out.drift_warning = calls > 100;
+  }
+};
+}  // namespace
+
+TEST(Controller, TwinHookRunsEveryCycleAndPublishes) {
+  FakeTwin twin;
+  Rig rig(2000.0, &twin);
+  const int before = twin.calls;
+  rig.run(0.2);
+  EXPECT_EQ(twin.calls - before, 200);
+  const auto s = rig.snap();
+  EXPECT_NEAR(s.twin.pred_nut_pos_m, s.nut_pos_m + 1e-6, 1e-12);
+  EXPECT_EQ(s.twin.dynamic_force_n, 3.5);
+  EXPECT_TRUE(rig.status(reg::kTwinHealthy));
+  EXPECT_TRUE(rig.status(reg::kDriftWarning));
+}
+
+TEST(Controller, WithoutTwinTheTwinFieldsReadZero) {
+  Rig rig;
+  const auto s = rig.snap();
+  EXPECT_EQ(s.twin.pred_nut_pos_m, 0.0);
+  EXPECT_FALSE(rig.status(reg::kTwinHealthy));
+}
+
+TEST(Controller, RejectsInconsistentConfiguration) {
+  SimulatedActuator plant(paper_like_plant(), 1, 0.02);
+  ControllerConfig cfg;
+  cfg.velocity_limit_m_s = 0.0;
+  EXPECT_THROW(Controller(cfg, plant), std::invalid_argument);
+  cfg = ControllerConfig{};
+  cfg.actuator.safe_force_fraction = 1.5;
+  EXPECT_THROW(Controller(cfg, plant), std::invalid_argument);
+}

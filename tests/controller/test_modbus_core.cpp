@@ -1,0 +1,271 @@
+// Modbus request handling at the PDU level: every function code, every exception case, control
+// ownership, and that a refused request changes nothing.
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cstring>
+#include <vector>
+
+#include "maglead/controller/modbus_core.hpp"
+#include "maglead/controller/modbus_rtu.hpp"
+#include "maglead/plant/simulated_actuator.hpp"
+
+using namespace maglead;
+using namespace maglead::controller;
+namespace reg = maglead::registers;
+
+namespace {
+
+using Bytes = std::vector<std::uint8_t>;
+
+struct CoreRig {
+  SimulatedActuator plant{paper_like_plant(), 3, 0.02};
+  ControllerConfig cfg;
+  Controller ctl{cfg, plant};
+  ModbusCore core;
+  double t_s = 0.0;
+  explicit CoreRig(bool read_only = false) : core(ctl, {read_only, "test"}) { run(5); }
+  void run(int cycles) {
+    for (int i = 0; i < cycles; ++i) ctl.step(t_s += 1e-3);
+  }
+  Bytes req(const Bytes& pdu, std::uint16_t client = 1) {
+    std::uint8_t out[ModbusCore::kMaxPdu];
+    const std::size_t n = core.handle(ClientInfo{client, 0x7F000001, false}, pdu.data(), pdu.size(), out);
+    return Bytes(out, out + n);
+  }
+};
+
+Bytes u16(std::uint16_t v) { return {static_cast<std::uint8_t>(v >> 8), static_cast<std::uint8_t>(v)}; }
+Bytes cat(std::initializer_list<Bytes> parts) {
+  Bytes out;
+  for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+  return out;
+}
+Bytes rd(std::uint8_t fc, std::uint16_t start, std::uint16_t count) { return cat({{fc}, u16(start), u16(count)}); }
+Bytes write_regs(std::uint16_t start, const std::vector<std::uint16_t>& words) {
+  Bytes p = cat({{16}, u16(start), u16(static_cast<std::uint16_t>(words.size())),
+                 {static_cast<std::uint8_t>(2 * words.size())}});
+  for (auto w : words) p = cat({p, u16(w)});
+  return p;
+}
+Bytes write_one(std::uint16_t addr, std::uint16_t value) { return cat({{6}, u16(addr), u16(value)}); }
+std::uint16_t word_at(const Bytes& resp, std::size_t i) {
+  return static_cast<std::uint16_t>((resp[2 + 2 * i] << 8) | resp[3 + 2 * i]);
+}
+Bytes exception(std::uint8_t fc, Exception e) { return {static_cast<std::uint8_t>(fc | 0x80), static_cast<std::uint8_t>(e)}; }
+std::uint16_t addr(const char* name) { return reg::find(name)->address; }
+std::vector<std::uint16_t> f32_words(float v) {
+  const auto u = std::bit_cast<std::uint32_t>(v);
+  return {static_cast<std::uint16_t>(u >> 16), static_cast<std::uint16_t>(u)};
+}
+std::vector<std::uint16_t> i32_words(std::int32_t v) {
+  const auto u = static_cast<std::uint32_t>(v);
+  return {static_cast<std::uint16_t>(u >> 16), static_cast<std::uint16_t>(u)};
+}
+
+}  // namespace
+
+TEST(ModbusCore, ReadsIdentityAndWordOrderProbes) {
+  CoreRig r;
+  const Bytes resp = r.req(rd(4, 0, 8));
+  ASSERT_EQ(resp.size(), 2u + 16u);
+  EXPECT_EQ(resp[1], 16);
+  EXPECT_EQ(word_at(resp, 0), reg::kDeviceType);
+  EXPECT_EQ(word_at(resp, 3), 1000);
+  EXPECT_EQ(word_at(resp, 4), 0x1234);
+  EXPECT_EQ(word_at(resp, 5), 0x5678);
+  EXPECT_EQ(word_at(resp, 6), 0x449A);
+  EXPECT_EQ(word_at(resp, 7), 0x522B);
+  Bytes fc3 = r.req(rd(3, 0, 8));  // function 3 reads input registers too
+  fc3[0] = 4;
+  EXPECT_EQ(fc3, resp);
+}
+
+TEST(ModbusCore, AddressExceptions) {
+  CoreRig r;
+  const auto ill = Exception::illegal_data_address;
+  EXPECT_EQ(r.req(rd(3, 60, 1)), exception(3, ill));    // unmapped
+  EXPECT_EQ(r.req(rd(3, 50, 8)), exception(3, ill));    // partly outside
+  EXPECT_EQ(r.req(rd(3, 21, 2)), exception(3, ill));    // starts in the middle of nut_pos_um
+  EXPECT_EQ(r.req(rd(3, 20, 1)), exception(3, ill));    // ends in the middle
+  EXPECT_EQ(r.req(rd(4, 1000, 1)), exception(4, ill));  // FC4 does not read holding registers
+  EXPECT_EQ(r.req(rd(3, 65535, 2)), exception(3, ill));
+  EXPECT_EQ(r.req(rd(1, 5, 1)), exception(1, ill));     // no such coil
+  EXPECT_EQ(r.req(rd(2, 10, 8)), exception(2, ill));    // partly beyond the status bits
+  EXPECT_EQ(r.req(write_one(addr("status_word"), 1)), exception(6, ill));            // read-only
+  EXPECT_EQ(r.req(write_one(addr("force_setpoint_mn"), 1)), exception(6, ill));      // half of an i32
+  EXPECT_EQ(r.req(write_regs(addr("force_setpoint_mn") + 1, {0, 0})), exception(16, ill));
+}
+
+TEST(ModbusCore, QuantityAndFunctionExceptions) {
+  CoreRig r;
+  EXPECT_EQ(r.req(rd(3, 10, 0)), exception(3, Exception::illegal_data_value));
+  EXPECT_EQ(r.req(rd(3, 10, 126)), exception(3, Exception::illegal_data_value));
+  EXPECT_EQ(r.req({3, 0, 10}), exception(3, Exception::illegal_data_value));  // truncated
+  EXPECT_EQ(r.req({0x41, 0, 0}), exception(0x41, Exception::illegal_function));
+  EXPECT_EQ(r.req({20, 0}), exception(20, Exception::illegal_function));
+  Bytes bad = write_regs(addr("force_setpoint_n_f32"), f32_words(1.0f));
+  bad[5] = 3;  // byte count disagrees with the quantity
+  EXPECT_EQ(r.req(bad), exception(16, Exception::illegal_data_value));
+}
+
+TEST(ModbusCore, OutOfRangeWritesChangeNothing) {
+  CoreRig r;
+  const std::uint16_t pos = addr("position_setpoint_um");
+  const Bytes before = r.req(rd(3, 1000, 20));
+  EXPECT_EQ(r.req(write_regs(pos, i32_words(41000))), exception(16, Exception::illegal_data_value));
+  const double limit = r.ctl.safe_force_limit_n(1.0);
+  EXPECT_EQ(r.req(write_regs(addr("force_setpoint_n_f32"), f32_words(static_cast<float>(limit + 1.0)))),
+            exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(r.req(write_regs(addr("force_setpoint_n_f32"), f32_words(std::nanf("")))),
+            exception(16, Exception::illegal_data_value));
+  // A multi-register write with one bad value writes none of them.
+  auto words = i32_words(25000);
+  for (auto w : i32_words(0)) words.push_back(w);  // velocity limit 0: out of range
+  EXPECT_EQ(r.req(write_regs(pos, words)), exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(r.req(write_one(addr("mode_command"), 3)), exception(6, Exception::illegal_data_value));
+  EXPECT_EQ(r.req(rd(3, 1000, 20)), before);
+}
+
+TEST(ModbusCore, BadControlWordCombinationsAreRefused) {
+  CoreRig r;
+  const std::uint16_t cw = addr("control_word");
+  EXPECT_EQ(r.req(write_one(cw, 1u << 5)), exception(6, Exception::illegal_data_value));  // reserved bit
+  EXPECT_EQ(r.req(write_one(cw, (1u << reg::kExecute) | (1u << reg::kStop))), exception(6, Exception::illegal_data_value));
+  EXPECT_EQ(r.req(write_one(cw, (1u << reg::kExecute) | (1u << reg::kFaultReset))),
+            exception(6, Exception::illegal_data_value));
+  EXPECT_EQ(word_at(r.req(rd(3, cw, 1)), 0), 0);
+}
+
+TEST(ModbusCore, WritesReadBackAndBothScalingsShareOneValue) {
+  CoreRig r;
+  EXPECT_EQ(r.req(write_regs(addr("force_setpoint_mn"), i32_words(-12500))).size(), 5u);
+  const Bytes f = r.req(rd(3, addr("force_setpoint_n_f32"), 2));
+  const float v = std::bit_cast<float>(static_cast<std::uint32_t>((word_at(f, 0) << 16) | word_at(f, 1)));
+  EXPECT_FLOAT_EQ(v, -12.5f);
+}
+
+TEST(ModbusCore, FirstToEnableOwnsControlOthersGetBusy) {
+  CoreRig r;
+  const std::uint16_t cw = addr("control_word");
+  ASSERT_EQ(r.req(write_one(cw, 1), 7).size(), 5u);  // client 7 enables
+  EXPECT_EQ(r.core.owner(), 7);
+  EXPECT_EQ(r.req(write_one(addr("mode_command"), 1), 8), exception(6, Exception::server_busy));
+  EXPECT_EQ(r.req(cat({{5}, u16(0), u16(0)}), 8), exception(5, Exception::server_busy));
+  EXPECT_EQ(r.req(rd(3, addr("control_owner"), 1), 8)[3], 7);  // others may read who owns
+  r.run(3);
+  const Bytes st = r.req(rd(2, 0, 14), 8);
+  EXPECT_TRUE(st[2] & (1u << reg::kEnabled));
+  EXPECT_TRUE(st[3] & (1u << (reg::kOwned - 8)));
+  r.core.client_closed(7);  // owner gone: ownership is free again
+  EXPECT_EQ(r.req(write_one(addr("mode_command"), 1), 8), write_one(addr("mode_command"), 1));
+  // The owner releases by clearing enable.
+  ASSERT_EQ(r.req(write_one(cw, 0), 9).size(), 5u);
+  ASSERT_EQ(r.req(write_one(cw, 1), 9).size(), 5u);
+  EXPECT_EQ(r.core.owner(), 9);
+  ASSERT_EQ(r.req(write_one(cw, 0), 9).size(), 5u);
+  EXPECT_EQ(r.core.owner(), 0);
+}
+
+TEST(ModbusCore, CoilsAreControlWordBits) {
+  CoreRig r;
+  EXPECT_EQ(r.req(cat({{5}, u16(reg::kEnable), u16(0xFF00)})).size(), 5u);
+  EXPECT_EQ(word_at(r.req(rd(3, addr("control_word"), 1)), 0), 1);
+  EXPECT_EQ(r.req(rd(1, 0, 5)), (Bytes{1, 1, 0x01}));
+  EXPECT_EQ(r.req(cat({{5}, u16(0), u16(0x1234)})), exception(5, Exception::illegal_data_value));
+  // FC15: enable and stop together.
+  EXPECT_EQ(r.req(cat({{15}, u16(0), u16(2), {1}, {0x03}})).size(), 5u);
+  EXPECT_EQ(word_at(r.req(rd(3, addr("control_word"), 1)), 0), 3);
+}
+
+TEST(ModbusCore, ReadOnlyServerRefusesEveryWrite) {
+  CoreRig r(true);
+  EXPECT_EQ(r.req(write_one(addr("mode_command"), 1)), exception(6, Exception::illegal_function));
+  EXPECT_EQ(r.req(cat({{5}, u16(0), u16(0xFF00)})), exception(5, Exception::illegal_function));
+  EXPECT_EQ(r.req(rd(4, 10, 1)).size(), 4u);
+}
+
+TEST(ModbusCore, ReadWriteMultipleWritesThenReadsAndValidatesBoth) {
+  CoreRig r;
+  const std::uint16_t cw = addr("control_word");
+  // Write enable, read control word + mode back in the same request.
+  Bytes fc23 = cat({{23}, u16(cw), u16(2), u16(cw), u16(1), {2}, u16(1)});
+  const Bytes resp = r.req(fc23);
+  ASSERT_EQ(resp.size(), 6u);
+  EXPECT_EQ(word_at(resp, 0), 1);
+  // A bad read range refuses the whole request: the write does not happen.
+  Bytes bad = cat({{23}, u16(21), u16(2), u16(addr("mode_command")), u16(1), {2}, u16(2)});
+  EXPECT_EQ(r.req(bad), exception(23, Exception::illegal_data_address));
+  EXPECT_EQ(word_at(r.req(rd(3, addr("mode_command"), 1)), 0), 0);
+  // Status and control in one exchange: status block plus command block.
+  const Bytes both = r.req(cat({{23}, u16(10), u16(44), u16(cw), u16(1), {2}, u16(1)}));
+  EXPECT_EQ(both[1], 88);
+}
+
+TEST(ModbusCore, DiagnosticsEchoAndCounters) {
+  CoreRig r;
+  const Bytes echo = {8, 0, 0, 0xAB, 0xCD};
+  EXPECT_EQ(r.req(echo), echo);
+  r.req(rd(3, 60, 1));  // one exception
+  const Bytes exc = r.req({8, 0, 0x0D, 0, 0});
+  EXPECT_EQ(exc, (Bytes{8, 0, 0x0D, 0, 1}));
+  const Bytes msgs = r.req({8, 0, 0x0E, 0, 0});
+  EXPECT_EQ(msgs[4], 4);  // echo, read, the exception query, this one
+  EXPECT_EQ(r.req({8, 0, 0x0A, 0, 0}), (Bytes{8, 0, 0x0A, 0, 0}));
+  EXPECT_EQ(r.req({8, 0, 0x0B, 0, 0}), (Bytes{8, 0, 0x0B, 0, 1}));
+  EXPECT_EQ(r.req({8, 0, 0x04, 0, 0}), exception(8, Exception::illegal_function));  // listen-only: unsupported
+}
+
+TEST(ModbusCore, DeviceIdentification) {
+  CoreRig r;
+  const Bytes basic = r.req({43, 14, 1, 0});
+  ASSERT_GT(basic.size(), 7u);
+  EXPECT_EQ(basic[6], 3);  // vendor, product code, revision
+  EXPECT_EQ(basic[7], 0);
+  EXPECT_EQ(std::string(basic.begin() + 9, basic.begin() + 9 + basic[8]), "maglead project");
+  const Bytes one = r.req({43, 14, 4, 5});
+  EXPECT_EQ(one[6], 1);
+  EXPECT_EQ(std::string(one.begin() + 9, one.end()), "test");
+  EXPECT_EQ(r.req({43, 14, 4, 0x80}), exception(43, Exception::illegal_data_address));
+  EXPECT_EQ(r.req({43, 14, 9, 0}), exception(43, Exception::illegal_data_value));
+  EXPECT_EQ(r.req({43, 13, 1, 0}), exception(43, Exception::illegal_function));
+}
+
+TEST(ModbusCore, FullCommandQueueAnswersBusyAndChangesNothing) {
+  CoreRig r;
+  const std::uint16_t mode = addr("heartbeat");
+  int busy_at = -1;
+  for (int i = 0; i < 2000 && busy_at < 0; ++i) {  // the loop is not stepping: the queue fills
+    const Bytes resp = r.req(write_one(mode, static_cast<std::uint16_t>(i + 1)));
+    if (resp == exception(6, Exception::server_busy)) busy_at = i;
+  }
+  ASSERT_GT(busy_at, 0);
+  EXPECT_EQ(word_at(r.req(rd(3, mode, 1)), 0), busy_at);  // the refused value was not taken
+  r.run(100);
+  EXPECT_EQ(r.req(write_one(mode, 7)).size(), 5u);
+}
+
+TEST(ModbusCore, BroadcastWritesActWithoutReply) {
+  CoreRig r;
+  const Bytes pdu = write_one(addr("mode_command"), 2);
+  std::uint8_t out[ModbusCore::kMaxPdu];
+  EXPECT_EQ(r.core.handle(ClientInfo{ModbusCore::kRtuClient, 0, true}, pdu.data(), pdu.size(), out), 0u);
+  EXPECT_EQ(word_at(r.req(rd(3, addr("mode_command"), 1)), 0), 2);
+}
+
+TEST(ModbusCore, RegistersCarryTheLoopsValues) {
+  CoreRig r;
+  r.run(20);
+  const auto snap = r.ctl.snapshot();
+  const Bytes resp = r.req(rd(4, 20, 2));
+  const auto raw = static_cast<std::int32_t>((word_at(resp, 0) << 16) | word_at(resp, 1));
+  EXPECT_NEAR(raw * 1e-6, snap.nut_pos_m, 1e-6);
+  const Bytes st = r.req(rd(4, 13, 1));
+  EXPECT_EQ(word_at(st, 0), static_cast<std::uint16_t>(reg::DriveState::ready));
+}
+
+TEST(ModbusRtu, Crc16MatchesTheSpecExample) {
+  // Modbus over serial line spec, example: 02 07 → CRC 0x1241 (sent 41 12).
+  const std::uint8_t frame[] = {0x02, 0x07};
+  EXPECT_EQ(modbus_crc16(frame, 2), 0x1241);
+}
