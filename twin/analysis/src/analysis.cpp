@@ -543,6 +543,24 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
       // Sticking nut: friction anywhere within ±F_c, so the sample says nothing about the model.
       s.valid[i] = std::abs(s.v[i]) > opt.min_speed_m_s ? 1 : 0;
     }
+    // The filtered velocity smears a stop over the filter's impulse response: near a start, a
+    // stop or a reversal the friction direction is unknown (stick-slip). Keep only samples inside
+    // a run of sliding in one direction, half a filter period away from its ends.
+    {
+      const auto w = static_cast<std::size_t>(std::ceil(0.5 * P.fs_hz / P.filter_hz));
+      std::size_t i = 0;
+      while (i < n) {
+        if (!s.valid[i]) {
+          ++i;
+          continue;
+        }
+        std::size_t j = i;
+        while (j < n && s.valid[j] && sgn(s.v[j]) == sgn(s.v[i])) ++j;
+        for (std::size_t k = i; k < j; ++k)
+          if (k < i + w || k + w >= j) s.valid[k] = 0;
+        i = j;
+      }
+    }
     for (const auto& [ts, k] : P.slips) {
       (void)k;
       for (std::size_t i = 0; i < n; ++i)
@@ -755,7 +773,8 @@ Params physical(const std::string& id, const std::vector<int>& cols, const Eigen
     const double b = base("nut_mass_kg", kAcc);
     p.values["mass_error_kg"] = coef(kAcc);
     p.values["mass_kg"] = b + coef(kAcc);
-    p.plausible = b + coef(kAcc) > 0;
+    // A known mass wrong by more than five times itself is not a mass error but something else.
+    p.plausible = b + coef(kAcc) > 0 && (model.fit.count("nut_mass_kg") || std::abs(coef(kAcc)) <= 5 * b);
   } else if (id == "gain_drift") {
     p.values["gain_drift_per_min"] = coef(kDrift);
     p.plausible = std::abs(coef(kDrift)) < 1.0;
@@ -820,7 +839,7 @@ std::string where_text(const std::string& id, const Json& v, const Signals& s,
 }
 
 std::vector<std::pair<double, double>> find_bursts(Signals& s, const std::vector<double>& r0,
-                                                   double fs_hz) {
+                                                   double fs_hz, double filter_hz) {
   // Moving average over 50 ms; isolated excursions far beyond the robust spread, shorter than
   // 0.3 s, are pulses (a longer one is a different misfit, not a disturbance).
   const std::size_t n = s.size();
@@ -861,10 +880,15 @@ std::vector<std::pair<double, double>> find_bursts(Signals& s, const std::vector
     while (i0 > 0 && std::abs(m[i0 - 1]) > 0.5 * thr) --i0;
     if (static_cast<double>(j - i0) / fs_hz < 0.3) {
       out.emplace_back(s.t[i0], peak);
-      for (std::size_t k = i0; k < j; ++k) s.burst[k] = -sgn(peak);
+      // The pulse itself: where the smoothed residual is above half its peak (full width at
+      // half maximum of a smoothed rectangle is the rectangle).
+      for (std::size_t k = i0; k < j; ++k)
+        if (std::abs(m[k]) >= 0.5 * std::abs(peak)) s.burst[k] = sgn(peak);  // coefficient: size
     }
     i = j + 1;
   }
+  // The measured force was low-passed: so is the pulse column (parallel filtering).
+  if (filter_hz > 0 && !out.empty()) s.burst = filtfilt_butter4(s.burst, filter_hz, fs_hz);
   return out;
 }
 
@@ -952,7 +976,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   double pos_amp = 0;
   S.pos_period_m = scan_position_period(S, r0, &pos_amp);
   P.full.pos_period_m = S.pos_period_m;
-  const auto bursts = find_bursts(S, r0, P.fs_hz / P.decimation);
+  const auto bursts = find_bursts(S, r0, P.fs_hz / P.decimation, actuator ? P.filter_hz : 0.0);
+  if (!P.decimated) P.full.burst = S.burst;
   if (P.decimated) {
     P.full.burst.assign(P.full.size(), 0.0);
     decimate_columns(P, all_columns());  // now with the period and the bursts
@@ -993,6 +1018,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     int folds_improved;
     Json alternatives = Json::array();
     std::string note;
+    double explained_n = 0, worst = 0;
   };
   std::vector<Chosen> chosen;
   std::set<std::string> used(in_baseline.begin(), in_baseline.end());
@@ -1003,7 +1029,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       std::string id;
       std::vector<int> cols;
       Score sc;
-      double gain = 0, t = 0;
+      double gain = 0, t = 0, worst = 0;  // worst: the worst segment's relative gain [%]
       int improved = 0;
       bool plausible = true;
       std::size_t ncols = 0;
@@ -1038,26 +1064,44 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
         }
       }
       if (!std::isfinite(best.sc.total)) continue;
+      // Consistency over the segments: t statistic of the per-segment relative gains (relative,
+      // so an effect that grows over time counts in early segments too).
       std::vector<double> d;
       for (int f = 0; f < folds; ++f) {
         const auto fu = static_cast<std::size_t>(f);
-        d.push_back(cur.heldout_sse[fu] - best.sc.heldout_sse[fu]);
+        if (!(cur.heldout_sse[fu] > 0)) continue;
+        d.push_back((cur.heldout_sse[fu] - best.sc.heldout_sse[fu]) / cur.heldout_sse[fu]);
         if (d.back() > 0) ++best.improved;
       }
-      const double mean = std::accumulate(d.begin(), d.end(), 0.0) / folds;
+      const auto nd = static_cast<double>(d.size());
+      const double mean = nd > 0 ? std::accumulate(d.begin(), d.end(), 0.0) / nd : 0.0;
       double var = 0;
       for (double x : d) var += (x - mean) * (x - mean);
-      var /= (folds - 1);
-      best.t = var > 0 ? mean / std::sqrt(var / folds) : (mean > 0 ? 1e9 : 0.0);
+      var /= std::max(1.0, nd - 1);
+      best.t = var > 0 ? mean / std::sqrt(var / nd) : (mean > 0 ? 1e9 : 0.0);
+      best.worst = d.empty() ? 0.0 : 100.0 * *std::min_element(d.begin(), d.end());
       best.gain = 100.0 * (cur.total - best.sc.total) / cur.total;
       trials.push_back(best);
     }
     if (trials.empty()) break;
-    auto significant = [&](const Trial& tr) { return tr.gain >= opt.min_gain_pct && tr.t >= opt.min_t; };
+    // Significant: a real share of the held-out error, consistent over the segments, and
+    // larger than the force sensor's own noise per sample (below that a "term" only fits the
+    // small structure every model leaves: quantization, filter edges).
+    auto explained_n = [&](const Trial& tr) {
+      return std::sqrt(std::max(0.0, cur.total - tr.sc.total) / n_total);
+    };
+    // A localized effect (stroke ends, pulses) improves only the segments where it occurs: a
+    // large total gain that makes no segment worse counts as consistent too.
+    auto significant = [&](const Trial& tr) {
+      const bool consistent = tr.t >= opt.min_t || (tr.gain >= 10.0 * opt.min_gain_pct && tr.worst > -1.0);
+      return tr.gain >= opt.min_gain_pct && consistent && explained_n(tr) >= P.noise_floor_n;
+    };
     std::sort(trials.begin(), trials.end(), [](auto& a, auto& b) { return a.sc.total < b.sc.total; });
     if (!significant(trials.front())) {
       const auto& tb = trials.front();
       rejected.push_back({{"id", tb.id}, {"heldout_gain_pct", tb.gain}, {"t_stat", tb.t},
+                          {"worst_segment_pct", tb.worst},
+                          {"explained_rms_n", explained_n(tb)},
                           {"reason", "best remaining candidate, below the significance threshold"}});
       break;
     }
@@ -1088,7 +1132,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     const Eigen::VectorXd w = f.theta.tail(static_cast<Eigen::Index>(tr.cols.size()));
     std::vector<int> tidx;
     for (int c : tr.cols) tidx.push_back(g.index(c));
-    Chosen ch{tr.id, tr.cols, tr.gain, tr.t, 0, tr.improved, Json::array(), ""};
+    Chosen ch{tr.id, tr.cols, tr.gain, tr.t, 0, tr.improved, Json::array(), "", explained_n(tr), tr.worst};
     for (const auto& cand : library) {
       if (cand.id == tr.id || (cand.actuator_only && !actuator) || used.count(cand.id)) continue;
       double best_r2 = 0;
@@ -1154,7 +1198,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       {"folds", folds},
       {"selection", "forward, by held-out error on contiguous time segments; a term must cut the "
                     "held-out mean square error by >= " + std::to_string(opt.min_gain_pct) +
-                    " % with t >= " + std::to_string(opt.min_t) + " over the segments"},
+                    " % with t >= " + std::to_string(opt.min_t) +
+                        " over the segments, and explain more RMS than the force noise floor"},
       {"moving_only", actuator ? "samples slower than " + std::to_string(opt.min_speed_m_s) +
                                      " m/s are left out: a sticking nut's friction is unknown"
                                : "all samples"}};
@@ -1191,6 +1236,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     e["evidence"] = {{"heldout_gain_pct", ch.gain_pct},
                      {"t_stat", ch.t_stat},
                      {"segments_improved", std::to_string(ch.folds_improved) + "/" + std::to_string(folds)},
+                     {"explained_rms_n", ch.explained_n},
+                     {"worst_segment_pct", ch.worst},
                      {"noise_floor_n", P.noise_floor_n},
                      {"plausible", pp.plausible}};
     e["improvement_pct"] = ch.improvement_pct;
@@ -1254,7 +1301,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     }
     Figure fig;
     fig.file = "map_" + name + ".png";
-    fig.caption = "Mean residual (measured − model) over " + label + (text.empty() ? "" : ": " + text);
+    fig.caption = "Mean residual (measured - model) over " + label + (text.empty() ? "" : ": " + text);
     fig.panels.push_back({"Mean residual over " + label, label + " [" + unit + "]", "residual [N]",
                           {to_series("baseline", b0, scale), to_series("corrected", b1, scale)}});
     R.figures.push_back(fig);
@@ -1318,7 +1365,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
         R.figures.push_back(f);
       };
       heat("heat_angle_position.png", "Residual over screw angle mod one turn and position", ang, 0,
-           2 * kPi, "screw angle mod 2π [rad]", 1.0);
+           2 * kPi, "screw angle mod 2pi [rad]", 1.0);
       heat("heat_velocity_position.png", "Residual over velocity and position", S.v, vlo, vhi,
            "velocity [mm/s]", 1e3);
     } else {
@@ -1417,7 +1464,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
         s1.x.push_back(tt * 1e3);
         s1.y.push_back(acc1[k] / cnt[k]);
       }
-    fr.panels.push_back({"Reversal-locked residual", "time from reversal [ms]", "residual × direction [N]", {s0, s1}});
+    fr.panels.push_back({"Reversal-locked residual", "time from reversal [ms]", "residual x direction [N]", {s0, s1}});
     R.figures.push_back(fr);
     J["reversals"] = reversals;
   }
@@ -1442,7 +1489,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     f.file = "force_time.png";
     f.caption = "Measured force and the models' predictions from measured motion; residuals below";
     f.panels.push_back({"Force", "time [s]", "force [N]", {m, b, c}});
-    f.panels.push_back({"Residual (measured − model)", "time [s]", "residual [N]", {rb, rc}});
+    f.panels.push_back({"Residual (measured - model)", "time [s]", "residual [N]", {rb, rc}});
     R.figures.insert(R.figures.begin(), f);
     Figure v;
     v.file = "heldout.png";
