@@ -2,10 +2,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 
 #include "cli_common.hpp"
 #include "maglead/physics/estimator.hpp"
 #include "maglead/tools/plot.hpp"
+#include "maglead/twin/monitor.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -42,8 +44,10 @@ void add_estimate(CLI::App& app) {
   cmd->add_option("--recording", o->recording,
                   "mls-recording/1 with t_s, screw or motor angle, nut_pos_m, load_force_n")
       ->required();
-  cmd->add_option("--estimator", o->estimator, "static: the paper's eq. 6")
-      ->check(CLI::IsMember({"static"}))
+  cmd->add_option("--estimator", o->estimator,
+                  "static: the paper's eq. 6; twin: the digital twin's dynamic observer "
+                  "(M p'' + C p' + hybrid stick/slip friction, config/model.toml)")
+      ->check(CLI::IsMember({"static", "twin"}))
       ->capture_default_str();
   cmd->add_option("--plot", o->plot, "PNG to write (default: next to the recording)");
   cmd->add_option("--calibration", o->calibration, "Calibration file (default: CONFIG/calibration.toml)");
@@ -61,15 +65,36 @@ void add_estimate(CLI::App& app) {
     if (n < 2) throw RecordingError(o->recording + ": needs at least two samples");
     const double period = (t.back() - t.front()) / static_cast<double>(n - 1);
 
-    // The same causal estimator the controller runs: window velocity, eq. 6.
-    StaticForceEstimator est(cal, act.coulomb_n, 1e-5);
-    EncoderVelocityEstimator vel(period > 0 ? period : 1e-3, act.linear_count_m);
     std::vector<double> measured(n), estimate(n), error(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const double v = i == 0 ? (vel.reset(pos[i]), 0.0) : vel.update(pos[i]);
-      estimate[i] = est.output_force_n(phase_rad(screw[i], pos[i], act.lead_m), v);
-      measured[i] = -load[i];  // output force = −(force on the nut from the load)
-      error[i] = estimate[i] - measured[i];
+    if (o->estimator == "twin") {
+      // The TwinMonitor the controller runs, fed row by row exactly as the loop would.
+      twin::TwinMonitorConfig tc = twin::load_monitor_config(o->config);
+      tc.actuator = act;
+      tc.actuator.sample_rate_hz = period > 0 ? 1.0 / period : act.sample_rate_hz;
+      tc.integrator.max_step_s = 1.0 / tc.actuator.sample_rate_hz;
+      tc.calibration = cal;
+      for (const auto& id : tc.model.unsimulated_terms())
+        std::fprintf(stderr, "note: model term '%s' is not simulated by the twin\n", id.c_str());
+      twin::TwinMonitor mon(tc);
+      mon.reset(t[0], screw[0], pos[0]);
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      const std::vector<double>* fset = rec.has("force_set_n") ? &rec.column("force_set_n") : nullptr;
+      for (std::size_t i = 0; i < n; ++i) {
+        const auto out = mon.step({t[i], screw[i], pos[i], fset ? (*fset)[i] : nan});
+        estimate[i] = out.dynamic_output_force_est_n;
+        measured[i] = -load[i];
+        error[i] = estimate[i] - measured[i];
+      }
+    } else {
+      // The same causal estimator the controller runs: window velocity, eq. 6.
+      StaticForceEstimator est(cal, act.coulomb_n, 1e-5);
+      EncoderVelocityEstimator vel(period > 0 ? period : 1e-3, act.linear_count_m);
+      for (std::size_t i = 0; i < n; ++i) {
+        const double v = i == 0 ? (vel.reset(pos[i]), 0.0) : vel.update(pos[i]);
+        estimate[i] = est.output_force_n(phase_rad(screw[i], pos[i], act.lead_m), v);
+        measured[i] = -load[i];  // output force = −(force on the nut from the load)
+        error[i] = estimate[i] - measured[i];
+      }
     }
     const ErrorStats s = error_stats(error);
     std::printf("force estimate (%s) against load cell, %s, %zu samples\n", o->estimator.c_str(),

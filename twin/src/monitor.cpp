@@ -1,1 +1,399 @@
 #include "maglead/twin/monitor.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <numbers>
+
+#include "maglead/physics/estimator.hpp"
+
+namespace maglead::twin {
+
+TwinMonitorConfig load_monitor_config(const std::string& dir) {
+  TwinMonitorConfig c;
+  const auto path = [&](const char* name) { return (std::filesystem::path(dir) / name).string(); };
+  if (std::filesystem::exists(path("actuator.toml"))) c.actuator = load_actuator_params(path("actuator.toml"));
+  c.calibration = std::filesystem::exists(path("calibration.toml"))
+                      ? load_calibration(path("calibration.toml"))
+                      : paper_calibration();
+  if (std::filesystem::exists(path("model.toml"))) c.model = load_twin_model(path("model.toml"));
+  c.integrator.max_step_s = 1.0 / c.actuator.sample_rate_hz;
+  return c;
+}
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+/// Linear trends over the look-ahead horizon: θ and F_ext continue as they have been moving.
+class TrendInput final : public InputSource {
+ public:
+  double t0 = 0, th0 = 0, th_rate = 0, f0 = 0, f_rate = 0;
+  double screw_rad(double t) const noexcept override { return th0 + th_rate * (t - t0); }
+  double ext_force_n(double t) const noexcept override { return f0 + f_rate * (t - t0); }
+};
+
+/// Posterior of the friction force while the nut sticks. n = D0 + F_ext (everything but friction,
+/// D0 the model's drive without F_ext) must stay inside [−b₋, b₊] or the nut would move. F_ext is a
+/// random walk; the grid holds p(n | stuck so far), shifted by the model's change of D0, diffused
+/// and absorbed at the edges (an absorbed path would have broken loose, which it did not).
+class StickFilter {
+ public:
+  static constexpr int kN = 81;
+  /// n0: friction level at entry; NaN: unknown, start from the load prior N(centre, sd²).
+  void start(double lo_n, double hi_n, double n0, double centre_n, double sd_n) noexcept {
+    lo_ = lo_n, hi_ = hi_n;
+    dx_ = (hi_ - lo_) / (kN - 1);
+    w_.fill(0.0);
+    if (!std::isfinite(n0)) {
+      for (int i = 1; i < kN - 1; ++i) {
+        const double z = (lo_ + i * dx_ - centre_n) / sd_n;
+        w_[i] = std::exp(-0.5 * z * z);
+      }
+    } else {
+      const double x = std::clamp((n0 - lo_) / dx_, 1.0, kN - 2.0);
+      const int i = std::min(static_cast<int>(x), kN - 2);
+      const double f = x - i;
+      w_[i] = 1.0 - f;
+      w_[i + 1] += f;
+    }
+    normalise();
+  }
+  /// One tick: n' = c + (n + shift − c)·λ (the model's drive change, and the load relaxing
+  /// towards its expected level, c = D0 + expected F_ext), then diffusion of `variance_n2`.
+  void step(double shift_n, double centre_n, double lambda, double variance_n2) noexcept {
+    if (shift_n != 0.0 || lambda != 1.0) {
+      for (int i = 0; i < kN; ++i) {
+        const double n_new = lo_ + i * dx_;
+        const double n_old = (n_new - centre_n) / lambda + centre_n - shift_n;
+        const double src = (n_old - lo_) / dx_;
+        const int j = static_cast<int>(std::floor(src));
+        const double f = src - j;
+        double v = 0.0;
+        if (j >= 0 && j < kN) v += (1.0 - f) * w_[j];
+        if (j + 1 >= 0 && j + 1 < kN) v += f * w_[j + 1];
+        tmp_[i] = v;
+      }
+      w_ = tmp_;
+    }
+    const double alpha_total = variance_n2 / (2.0 * dx_ * dx_);
+    const int sub = std::max(1, static_cast<int>(std::ceil(alpha_total / 0.4)));
+    const double alpha = alpha_total / sub;
+    for (int k = 0; k < sub; ++k) {
+      tmp_[0] = tmp_[kN - 1] = 0.0;  // absorbing edges
+      for (int i = 1; i < kN - 1; ++i) tmp_[i] = w_[i] + alpha * (w_[i - 1] - 2.0 * w_[i] + w_[i + 1]);
+      w_ = tmp_;
+    }
+    normalise();
+  }
+  double mean() const noexcept {
+    double m = 0.0;
+    for (int i = 0; i < kN; ++i) m += w_[i] * (lo_ + i * dx_);
+    return m;
+  }
+
+ private:
+  void normalise() noexcept {
+    double s = 0.0;
+    for (double v : w_) s += v;
+    if (!(s > 1e-300)) {  // everything absorbed (model and data disagree): fall back to flat
+      w_.fill(1.0);
+      w_.front() = w_.back() = 0.0;
+      s = kN - 2;
+    }
+    for (double& v : w_) v /= s;
+  }
+  std::array<double, kN> w_{}, tmp_{};
+  double lo_ = -1, hi_ = 1, dx_ = 0.025;
+};
+
+}  // namespace
+
+struct TwinMonitor::Impl {
+  TwinMonitorConfig cfg;
+  NutModel model;
+  HybridTwin twin, look;
+  StaticForceEstimator static_est;
+  EncoderVelocityEstimator static_vel;
+  StickFilter stick;
+  TrendInput trend;
+  double dt, q_m, lead_m;
+
+  // Encoder reconstruction
+  long long count = 0;
+  double edge_t = 0, edge_pos = 0, interval = 0.0;
+  int edge_dir = 0;
+  double vel = 0, vel_prev = 0, acc = 0, pos_hat = 0;
+  FrictionMode mode = FrictionMode::stick;
+  double d0_prev = 0;  // model drive without F_ext at the previous tick (stick filter shift)
+
+  // Force
+  double fext_hat = 0;        // load convention, along +p
+  double fext_rate = 0;       // N/s, smoothed, for the look-ahead
+  double theta_prev = 0, theta_rate = 0;
+  double fset_prev = std::numeric_limits<double>::quiet_NaN(), fset_rate = 0;
+  double t_prev = 0;
+  bool started = false;
+
+  // Twin prediction
+  double next_resync_t = 0;
+  int ticks = 0;
+  bool solver_ok = true;
+
+  // Step-out
+  double branch_center = 0;
+  int slips = 0;
+  bool step_out = false, warn = false;
+  double margin = kPi / 2;
+
+  // Drift: friction-window episodes
+  double d0_entry = 0;
+  int entry_dir = 0;
+  double cusum_lo = 0, cusum_hi = 0, gain_est = 1.0;
+  bool drift = false;
+
+  explicit Impl(const TwinMonitorConfig& c)
+      : cfg(c),
+        model(c.actuator, c.calibration.periodic, c.model),
+        twin(model, c.integrator),
+        look(model, c.integrator),
+        static_est(c.calibration, c.actuator.coulomb_n, 1e-5),
+        static_vel(1.0 / c.actuator.sample_rate_hz, c.actuator.linear_count_m),
+        dt(1.0 / c.actuator.sample_rate_hz),
+        q_m(c.actuator.linear_count_m),
+        lead_m(c.actuator.lead_m) {}
+
+  double phase_of(double theta, double p) const noexcept { return phase_rad(theta, p, lead_m); }
+
+  /// Output-force estimate from a motion state (the observer's formula, also used on the twin).
+  double ext_force(FrictionMode m, double t, double theta, double p, double v, double a,
+                   double n_stick) const noexcept {
+    const double d0 = model.drive_force_n(t, theta, p, v, 0.0);
+    if (m == FrictionMode::stick) return n_stick - d0;
+    const int dir = static_cast<int>(m);
+    return model.mass_kg() * a - d0 + dir * model.sliding_friction_n(dir, v);
+  }
+
+  void enter_stick(double t, double theta, int from_dir) noexcept {
+    mode = FrictionMode::stick;
+    vel = 0.0;
+    const double d0 = model.drive_force_n(t, theta, pos_hat, 0.0, 0.0);
+    d0_prev = d0;
+    // Leaving a slide, friction was at its sliding level: that is where n starts.
+    const double n0 = from_dir == 0 ? std::numeric_limits<double>::quiet_NaN()
+                                    : from_dir * model.sliding_friction_n(from_dir, 0.0);
+    stick.start(-model.breakaway_n(-1), model.breakaway_n(1), n0, d0 + expected_fext,
+                load_sd_n());
+    d0_entry = d0;
+    entry_dir = from_dir;
+  }
+
+  // Load prior: an Ornstein-Uhlenbeck process around the expected external force (minus the
+  // force setpoint in force control, zero otherwise), stationary spread load_sd_n().
+  double expected_fext = 0.0;
+  double load_sd_n() const noexcept {
+    return std::sqrt(cfg.load_force_rate_n2_per_s * cfg.load_force_time_constant_s / 2.0);
+  }
+
+  void reset(double t, double theta, double p) noexcept {
+    expected_fext = 0.0;
+    count = std::llround(p / q_m);
+    pos_hat = (static_cast<double>(count) + 0.5) * q_m;  // floor quantizer: middle of the cell
+    edge_t = t, edge_pos = pos_hat, interval = 0.0, edge_dir = 0;
+    vel = vel_prev = acc = 0.0;
+    static_vel.reset(p);
+    enter_stick(t, theta, 0);
+    fext_hat = stick.mean() - d0_prev;
+    fext_rate = theta_rate = fset_rate = 0.0;
+    theta_prev = theta;
+    fset_prev = std::numeric_limits<double>::quiet_NaN();
+    t_prev = t;
+    started = true;
+    const double phi = phase_of(theta, pos_hat);
+    branch_center = 2.0 * kPi * std::round(phi / (2.0 * kPi));
+    slips = 0;
+    step_out = warn = false;
+    margin = kPi / 2;
+    cusum_lo = cusum_hi = 0.0;
+    gain_est = 1.0;
+    drift = false;
+    twin.reset(t, {pos_hat, 0.0, FrictionMode::stick}, theta, fext_hat);
+    next_resync_t = t + cfg.resync_s;
+    ticks = 0;
+    solver_ok = true;
+  }
+
+  /// Friction-window test at a reversal after a stick episode. Stuck, the nut's net force n
+  /// walked from the sliding level on one side to break-away on the other: a change of
+  /// b₊ + b₋ ≈ 2 F_c. When the screw did that work (force control: the load is constant while
+  /// the nut is stuck), the model's own drive change ΔD0 must equal it; a coupling gain g
+  /// makes the model see ΔD0 = 2F_c / g. Episodes driven by the load (screw held, hand pushes)
+  /// carry no information about the gain and are skipped.
+  void window_episode(double d0_exit, int exit_dir) noexcept {
+    if (entry_dir == 0 || exit_dir != -entry_dir) return;
+    const double expected = model.sliding_friction_n(entry_dir, 0.0) + model.breakaway_n(exit_dir);
+    const double seen = -entry_dir * (d0_exit - d0_entry);
+    const double ratio = seen / expected;  // ≈ 1/g
+    if (ratio < 0.6 || ratio > 1.6) return;  // load moved too during the episode: no evidence
+    // Noise of one episode: φ at both ends is quantized (one count ≈ 2π q / L rad) and the exit
+    // edge comes up to one count late; slope of the coupling at the ends ~ its value at φ = 0.
+    const double slope = std::abs(cfg.calibration.periodic.slope_n_per_rad(0.0));
+    const double sigma = slope * (2.0 * kPi * q_m / lead_m) / expected;  // ≈ 0.07
+    // Page's CUSUM for a shift ±δ of the ratio (gain 1/(1±δ)): log-likelihood ratio increments.
+    const double d = cfg.drift_shift;
+    const double x = ratio - 1.0;
+    cusum_hi = std::max(0.0, cusum_hi + (d * x - 0.5 * d * d) / (sigma * sigma));
+    cusum_lo = std::max(0.0, cusum_lo + (-d * x - 0.5 * d * d) / (sigma * sigma));
+    gain_est = 0.9 * gain_est + 0.1 / ratio;
+    if (std::max(cusum_hi, cusum_lo) >= cfg.drift_threshold) drift = true;
+  }
+
+  TwinOutputs step(const TwinInputs& in) noexcept {
+    TwinOutputs o;
+    if (!started) reset(in.t_s, in.screw_angle_rad, in.nut_pos_m);
+    const double t = in.t_s, theta = in.screw_angle_rad;
+    const double h = std::max(t - t_prev, 1e-9);
+    ++ticks;
+
+    // --- encoder reconstruction: exact position at edges, bounded extrapolation between ---
+    const long long k = std::llround(in.nut_pos_m / q_m);
+    if (k != count) {
+      const int dir = k > count ? 1 : -1;
+      const double e_pos = dir > 0 ? static_cast<double>(k) * q_m : static_cast<double>(k + 1) * q_m;
+      const double e_t = t - 0.5 * h;
+      const double gap = e_t - edge_t;
+      if (dir == edge_dir && mode != FrictionMode::stick && gap > 0) {
+        interval = gap;
+        vel = (e_pos - edge_pos) / gap;
+      } else {
+        // First edge of a motion: the nut broke loose somewhere in the last interval.
+        const double since = std::max(h, std::min(gap, cfg.stop_min_s * 4));
+        vel = (e_pos - (dir > 0 ? e_pos - q_m : e_pos + q_m)) / since;
+        interval = since;
+        if (mode == FrictionMode::stick) window_episode(model.drive_force_n(t, theta, e_pos, 0.0, 0.0), dir);
+      }
+      edge_t = e_t, edge_pos = e_pos, edge_dir = dir, count = k;
+      mode = dir > 0 ? FrictionMode::slide_pos : FrictionMode::slide_neg;
+    } else if (mode != FrictionMode::stick) {
+      const double since = t - edge_t;
+      const double bound = q_m / std::max(since, h);
+      if (std::abs(vel) > bound) vel = edge_dir * bound;
+      if (since > std::max(cfg.stop_after_intervals * interval, cfg.stop_min_s)) {
+        const double lo = static_cast<double>(count) * q_m, hi = lo + q_m;
+        pos_hat = std::clamp(edge_pos + vel * 0.5 * since, lo, hi);
+        enter_stick(t, theta, edge_dir);
+      }
+    }
+    if (mode != FrictionMode::stick) {
+      const double lo = static_cast<double>(count) * q_m, hi = lo + q_m;
+      pos_hat = std::clamp(edge_pos + vel * (t - edge_t), lo, hi);
+      // Acceleration from the reconstructed velocity, smoothed over ~10 ms (quantization).
+      const double a_raw = (vel - vel_prev) / h;
+      acc += (a_raw - acc) * std::min(1.0, h / 0.010);
+    } else {
+      acc = 0.0;
+    }
+    vel_prev = vel;
+
+    // --- force: sliding friction is known; stuck, the filter's posterior mean ---
+    double n_stick = 0.0;
+    if (mode == FrictionMode::stick) {
+      const double d0 = model.drive_force_n(t, theta, pos_hat, 0.0, 0.0);
+      expected_fext = std::isfinite(in.force_setpoint_n) ? -in.force_setpoint_n : 0.0;
+      const double tau = cfg.load_force_time_constant_s;
+      stick.step(d0 - d0_prev, d0 + expected_fext, tau > 0 ? std::exp(-h / tau) : 1.0,
+                 cfg.load_force_rate_n2_per_s * h);
+      d0_prev = d0;
+      n_stick = stick.mean();
+    }
+    const double fext_new = ext_force(mode, t, theta, pos_hat, vel, acc, n_stick);
+    const double rate_raw = (fext_new - fext_hat) / h;
+    fext_rate += (rate_raw - fext_rate) * std::min(1.0, h / 0.050);
+    const double th_rate_raw = (theta - theta_prev) / h;
+    theta_rate += (th_rate_raw - theta_rate) * std::min(1.0, h / 0.020);
+    if (std::isfinite(in.force_setpoint_n) && std::isfinite(fset_prev))
+      fset_rate += ((in.force_setpoint_n - fset_prev) / h - fset_rate) * std::min(1.0, h / 0.050);
+    else
+      fset_rate = 0.0;
+
+    // --- the twin: driven by θ and last tick's force estimate, open loop between re-syncs ---
+    bool ok = twin.advance(t, theta, fext_hat) == TwinStatus::ok;
+    const NutState& ts = twin.state();
+    o.predicted_nut_pos_m = ts.pos_m;
+    o.residual_pos_m = pos_hat - ts.pos_m;
+    const double twin_acc = model.accel_m_s2(ts.mode, t, theta, ts.pos_m, ts.vel_m_s, fext_hat);
+    o.predicted_output_force_n =
+        -ext_force(ts.mode, t, theta, ts.pos_m, ts.vel_m_s, twin_acc,
+                   ts.mode == FrictionMode::stick ? fext_hat + model.drive_force_n(t, theta, ts.pos_m, 0, 0) : 0.0);
+    fext_hat = fext_new;
+    if (t >= next_resync_t || !ok) {
+      twin.reset(t, {pos_hat, vel, mode}, theta, fext_hat);
+      next_resync_t = t + cfg.resync_s;
+    }
+
+    // --- step-out: measured φ against the stable branch, and the look-ahead ---
+    const double phi = phase_of(theta, pos_hat);
+    double rel = phi - branch_center;
+    const double edge_hi = cfg.calibration.stable_max_rad, edge_lo = cfg.calibration.stable_min_rad;
+    if (rel > edge_hi || rel < edge_lo) step_out = true;
+    while (rel > kPi) branch_center += 2 * kPi, ++slips, rel -= 2 * kPi;
+    while (rel < -kPi) branch_center -= 2 * kPi, --slips, rel += 2 * kPi;
+    if (ticks % std::max(1, cfg.lookahead_every_ticks) == 0) {
+      trend.t0 = t, trend.th0 = theta, trend.th_rate = theta_rate, trend.f0 = fext_hat;
+      trend.f_rate = fext_rate;
+      look.reset(t, {pos_hat, vel, mode}, theta, fext_hat);
+      double worst = std::max(rel - edge_hi, edge_lo - rel);  // ≤ 0 inside the branch
+      const int n_out = 10;
+      for (int i = 1; i <= n_out && ok; ++i) {
+        const double tt = t + cfg.lookahead_s * i / n_out;
+        ok = look.integrate_to(tt, trend) == TwinStatus::ok;
+        const double r = phase_of(trend.screw_rad(tt), look.state().pos_m) - branch_center;
+        worst = std::max(worst, std::max(r - edge_hi, edge_lo - r));
+      }
+      margin = -worst;
+      // A setpoint trend heading beyond the calibrated peak is a warning of its own.
+      if (std::isfinite(in.force_setpoint_n)) {
+        const double f_ahead = in.force_setpoint_n + fset_rate * cfg.lookahead_s;
+        if (f_ahead > cfg.calibration.peak_push_n || f_ahead < cfg.calibration.peak_pull_n)
+          margin = std::min(margin, 0.0);
+      }
+      warn = margin < cfg.step_out_warn_margin_rad;
+    }
+    if (std::isfinite(in.force_setpoint_n)) fset_prev = in.force_setpoint_n;
+    theta_prev = theta;
+    t_prev = t;
+    solver_ok = ok;
+
+    // --- outputs ---
+    o.dynamic_output_force_est_n = -fext_hat;
+    const double v_static = static_vel.update(in.nut_pos_m);
+    o.static_output_force_est_n =
+        static_est.output_force_n(phase_rad(theta, in.nut_pos_m, lead_m), v_static);
+    o.residual_force_n = o.dynamic_output_force_est_n - o.predicted_output_force_n;
+    o.phase_rad = phi;
+    o.step_out_margin_rad = margin;
+    o.step_out = step_out;
+    o.step_out_warning = warn || step_out;
+    o.slips = slips;
+    o.drift_statistic = std::max(cusum_hi, cusum_lo) / cfg.drift_threshold;
+    o.drift_gain_estimate = gain_est;
+    o.drift_warning = drift;
+    o.friction_mode = static_cast<int>(mode);
+    o.solver_ok = ok;
+    o.healthy = ok && !drift && !step_out &&
+                std::abs(o.residual_pos_m) < cfg.healthy_residual_counts * q_m;
+    return o;
+  }
+};
+
+TwinMonitor::TwinMonitor(const TwinMonitorConfig& config) : impl_(std::make_unique<Impl>(config)) {}
+TwinMonitor::~TwinMonitor() = default;
+void TwinMonitor::reset(double t_s, double screw_angle_rad, double nut_pos_m) {
+  impl_->reset(t_s, screw_angle_rad, nut_pos_m);
+}
+TwinOutputs TwinMonitor::step(const TwinInputs& in) noexcept { return impl_->step(in); }
+const TwinMonitorConfig& TwinMonitor::config() const { return impl_->cfg; }
+
+}  // namespace maglead::twin

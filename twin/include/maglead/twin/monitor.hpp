@@ -10,6 +10,7 @@
 
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
+#include "maglead/twin/hybrid_twin.hpp"
 #include "maglead/twin/model.hpp"
 
 namespace maglead::twin {
@@ -31,22 +32,37 @@ struct TwinOutputs {
   double phase_rad = 0.0;                   // measured φ, unwrapped
   double step_out_margin_rad = 0.0;         // π/2 − max |φ| over the look-ahead (<0: crossing)
   double drift_statistic = 0.0;             // CUSUM value / threshold (≥ 1 raises drift_warning)
+  double drift_gain_estimate = 1.0;         // coupling gain the friction windows suggest (≈1)
   bool healthy = true;          // twin and measurement agree within noise (no fault, no drift)
   bool drift_warning = false;   // calibration no longer matches the actuator (latched)
   bool step_out = false;        // φ left the stable branch / nut slipped a lead (latched)
   bool step_out_warning = false;  // look-ahead crosses ±π/2 (not latched)
   int slips = 0;                // signed number of leads slipped since reset
+  int friction_mode = 0;        // observer's mode: −1 sliding −p, 0 stuck, +1 sliding +p
+  bool solver_ok = true;        // every SUNDIALS call of this tick succeeded
 };
 
 struct TwinMonitorConfig {
   ActuatorParams actuator;        // geometry, encoders, sample rate
   ForceCalibration calibration;   // the controller's calibration (periodic model used)
   TwinModel model;                // mass, friction, extra terms (config/model.toml)
-  double lookahead_s = 0.050;     // step-out warning horizon
-  double step_out_warn_margin_rad = 0.0;  // warn when look-ahead |φ| exceeds π/2 − this
-  // Drift detector (CUSUM on the normalised force residual); see monitor.cpp for the rationale.
-  double drift_threshold = 0.0;   // 0: derived from noise and quantization (default)
-  double drift_warmup_s = 5.0;    // no drift decision before this much data
+  IntegratorOptions integrator;   // CVODE settings of the twin (step cap = sample period)
+  // Observer. While the nut sticks its friction is unknown within ± break-away, so the external
+  // force needs a prior: a mean-reverting random walk (Ornstein-Uhlenbeck) of this intensity
+  // [N²/s] that relaxes with this time constant towards the expected load (−setpoint in force
+  // control, else zero: loads come and go). time constant 0 = pure random walk.
+  double load_force_rate_n2_per_s = 5.0;
+  double load_force_time_constant_s = 1.0;
+  double stop_after_intervals = 2.0;  // no encoder edge for this many edge intervals: stopped
+  double stop_min_s = 0.010;          // … and at least this long
+  double resync_s = 0.020;            // twin runs open loop this long, then re-syncs
+  double lookahead_s = 0.050;         // step-out warning horizon
+  int lookahead_every_ticks = 5;      // look-ahead cadence (its cost is ~horizon/cap steps)
+  double step_out_warn_margin_rad = 0.0;  // warn when look-ahead |φ| exceeds the edge − this
+  // Drift detector: CUSUM on the friction-window ratio of stick episodes (see monitor.cpp).
+  double drift_shift = 0.05;          // relative calibration error to detect (5 %)
+  double drift_threshold = 8.0;       // CUSUM decision threshold (log-likelihood units)
+  double healthy_residual_counts = 6.0;  // |position residual| above this: twin not healthy
 };
 
 /// Loads config/model.toml, calibration.toml and actuator.toml from a config directory.

@@ -1,0 +1,143 @@
+#pragma once
+// The twin's nut dynamics as a hybrid system integrated by SUNDIALS CVODE (BDF).
+//
+//   M p̈ = F_m(θ, p) + F_other(θ, p) + F_ext − C ṗ − friction(mode)
+//
+// The friction mode (stick, slide +p, slide −p) is a discrete state kept outside the right-hand
+// side: a sign() inside it makes the integrator chatter at ṗ = 0 and a tanh leaves a bias. Roots
+// switch it: ṗ crossing zero while sliding, the drive force crossing ± break-away while stuck;
+// cos φ crossing zero marks the edge of the stable branch (step-out). After each event the
+// integrator is re-initialised (BDF history is invalid across a mode switch).
+//
+// Independent of the simulated plant's code on purpose (the plant plays the real machine).
+#include <cstdint>
+#include <memory>
+
+#include "maglead/physics/actuator.hpp"
+#include "maglead/physics/force_model.hpp"
+#include "maglead/twin/model.hpp"
+
+namespace maglead::twin {
+
+enum class FrictionMode : std::int8_t { slide_neg = -1, stick = 0, slide_pos = 1 };
+
+struct NutState {
+  double pos_m = 0.0;
+  double vel_m_s = 0.0;
+  FrictionMode mode = FrictionMode::stick;
+};
+
+/// The force law: calibration, actuator geometry and the model file's terms, resolved once.
+class NutModel {
+ public:
+  NutModel(const ActuatorParams& actuator, const PeriodicForceModel& coupling,
+           const TwinModel& model);
+  double mass_kg() const { return mass_kg_; }
+  double lead_m() const { return lead_m_; }
+  /// Magnetic force on the nut along +p (F_m = −gain · F̂_s(φ)).
+  double coupling_force_n(double t_s, double screw_rad, double pos_m) const noexcept;
+  /// Everything except friction and inertia: F_m + extra terms + F_ext − C ṗ.
+  double drive_force_n(double t_s, double screw_rad, double pos_m, double vel_m_s,
+                       double ext_force_n) const noexcept;
+  /// Force needed to break the nut loose in direction dir (±1).
+  double breakaway_n(int dir) const noexcept { return coulomb_n_ + dir * asym_n_ + stribeck_n_; }
+  /// Friction magnitude while sliding in direction dir at speed v.
+  double sliding_friction_n(int dir, double vel_m_s) const noexcept;
+  /// Mode the nut takes at rest under a drive force (stick unless beyond break-away).
+  FrictionMode mode_at_rest(double drive_n) const noexcept;
+  /// Acceleration in a mode (0 when stuck).
+  double accel_m_s2(FrictionMode mode, double t_s, double screw_rad, double pos_m, double vel_m_s,
+                    double ext_force_n) const noexcept;
+
+ private:
+  PeriodicForceModel coupling_;
+  double lead_m_, stroke_min_m_, stroke_max_m_;
+  double mass_kg_, viscous_, coulomb_n_, asym_n_ = 0, stribeck_n_ = 0, stribeck_v_ = 2e-3;
+  double offset_n_ = 0, spring_k_ = 0, spring_center_m_ = 0;
+  double gain_ = 1.0, gain_drift_per_s_ = 0.0;
+  double angle_ripple_n_ = 0, angle_ripple_phase_ = 0;
+  double pos_ripple_n_ = 0, pos_ripple_period_m_ = 5e-3, pos_ripple_phase_ = 0;
+  double end_m_ = 0, end_depth_ = 0.5;
+};
+
+/// Continuous-time inputs: screw angle θ(t) and external force F_ext(t) (load convention).
+class InputSource {
+ public:
+  virtual ~InputSource() = default;
+  virtual double screw_rad(double t_s) const noexcept = 0;
+  virtual double ext_force_n(double t_s) const noexcept = 0;
+};
+
+struct IntegratorOptions {
+  double rel_tol = 1e-6;
+  double abs_tol_pos_m = 1e-9;     // well below one encoder count (21.6 µm)
+  double abs_tol_vel_m_s = 1e-7;
+  double max_step_s = 1e-3;        // the sample period; 0 removes the cap (tests show why not)
+  int max_events_per_call = 64;    // Zeno guard: more mode switches than this in one call fail
+  long max_internal_steps = 100000;
+};
+
+struct TwinStats {
+  long steps = 0, rhs_evals = 0, jac_evals = 0, root_events = 0, mode_switches = 0;
+  long reinits = 0, step_out_crossings = 0, failures = 0;
+};
+
+enum class TwinStatus : std::uint8_t { ok, solver_error, zeno };
+
+class HybridTwin {
+ public:
+  HybridTwin(NutModel model, IntegratorOptions options = {});
+  ~HybridTwin();
+  HybridTwin(const HybridTwin&) = delete;
+  HybridTwin& operator=(const HybridTwin&) = delete;
+
+  /// Sets the state at time t_s (the mode is re-derived if the given one is inconsistent).
+  void reset(double t_s, const NutState& state, double screw_rad, double ext_force_n) noexcept;
+  /// One control tick: θ moves linearly from its last value to screw_end_rad, F_ext is held at
+  /// ext_force_n; integrates with a stop time at t_end_s. No allocation.
+  TwinStatus advance(double t_end_s, double screw_end_rad, double ext_force_n) noexcept;
+  /// Integrates against continuous inputs to tout without forcing a step boundary there (the
+  /// output is interpolated); the step cap alone bounds the steps. Call with increasing tout.
+  TwinStatus integrate_to(double tout_s, const InputSource& inputs) noexcept;
+
+  const NutState& state() const noexcept { return state_; }
+  double time_s() const noexcept { return t_s_; }
+  double screw_rad() const noexcept { return screw_rad_; }
+  const NutModel& model() const noexcept { return model_; }
+  /// Counters summed over re-initialisations.
+  TwinStats stats() const noexcept;
+
+ private:
+  struct Impl;
+  TwinStatus run(double tout_s, bool stop_at_tout) noexcept;
+  NutModel model_;
+  IntegratorOptions opt_;
+  std::unique_ptr<Impl> impl_;
+  NutState state_;
+  double t_s_ = 0.0, screw_rad_ = 0.0;
+};
+
+/// Fixed-step classical RK4 of the same hybrid model (events located at step ends), for the
+/// benchmark's accuracy-for-cost comparison.
+class Rk4Twin {
+ public:
+  Rk4Twin(NutModel model, double step_s) : model_(std::move(model)), h_(step_s) {}
+  void reset(double t_s, const NutState& s) noexcept { t_s_ = t_s, state_ = s; }
+  void integrate_to(double tout_s, const InputSource& inputs) noexcept;
+  const NutState& state() const noexcept { return state_; }
+  long rhs_evals() const noexcept { return rhs_evals_; }
+
+ private:
+  NutModel model_;
+  double h_;
+  double t_s_ = 0.0;
+  NutState state_;
+  long rhs_evals_ = 0;
+};
+
+/// A reproducible test drive: screw moves and hand-like force pulses (sin² shapes, 10–35 N,
+/// random directions), fixed by the seed. Used by the reference test and the benchmark.
+std::unique_ptr<InputSource> make_demo_drive(std::uint64_t seed, double duration_s,
+                                             double lead_m);
+
+}  // namespace maglead::twin
