@@ -561,10 +561,9 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
         i = j;
       }
     }
-    for (const auto& [ts, k] : P.slips) {
-      (void)k;
-      for (std::size_t i = 0; i < n; ++i)
-        if (std::abs(t[i] - ts) < 0.2) s.valid[i] = 0;
+    for (const auto& slip : P.slips) {
+      auto i = static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), slip.first - 0.2) - t.begin());
+      for (; i < n && t[i] < slip.first + 0.2; ++i) s.valid[i] = 0;
     }
   } else {
     s.y = P.y_raw;
@@ -906,18 +905,20 @@ double scan_position_period(const Signals& s, const std::vector<double>& r0, dou
   const auto b = bin(s.p, r0, s.valid, lo, hi, nb);
   double best = 0.0, best_p = 0.005;
   for (double per = 1e-3; per <= std::min(20e-3, 0.5 * (hi - lo)); per *= 1.005) {
-    Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+    // With a straight line beside the sine, so a spring-like trend does not pose as a period.
+    Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
     for (int k = 0; k < nb; ++k) {
       if (b.count[k] < 1) continue;
       const double w = std::sqrt(b.count[k]);  // damp bins with many samples a little
-      const Eigen::Vector3d x(1.0, std::sin(2 * kPi * b.centre[k] / per),
+      const Eigen::Vector4d x(1.0, (b.centre[k] - 0.5 * (lo + hi)) / (hi - lo),
+                              std::sin(2 * kPi * b.centre[k] / per),
                               std::cos(2 * kPi * b.centre[k] / per));
       a += w * x * x.transpose();
       rhs += w * x * b.mean[k];
     }
-    const Eigen::Vector3d c = a.ldlt().solve(rhs);
-    const double amp_k = std::hypot(c[1], c[2]);
+    const Eigen::Vector4d c = a.ldlt().solve(rhs);
+    const double amp_k = std::hypot(c[2], c[3]);
     if (amp_k > best) {
       best = amp_k;
       best_p = per;
@@ -937,8 +938,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   };
   progress("prepare", 0.0);
   Prepared P = prepare(rec, model, cal, act, opt);
-  if (!P.decimated) P.id = P.full;  // copy of a few vectors: fine next to the fit's cost
-  Signals& S = P.id;
+  Signals& S = P.decimated ? P.id : P.full;  // no copy: an hour at 1 kHz is 3.6 M samples
   const bool actuator = S.actuator;
   progress("prepare", 1.0);
 
@@ -977,7 +977,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   S.pos_period_m = scan_position_period(S, r0, &pos_amp);
   P.full.pos_period_m = S.pos_period_m;
   const auto bursts = find_bursts(S, r0, P.fs_hz / P.decimation, actuator ? P.filter_hz : 0.0);
-  if (!P.decimated) P.full.burst = S.burst;
+
   if (P.decimated) {
     P.full.burst.assign(P.full.size(), 0.0);
     decimate_columns(P, all_columns());  // now with the period and the bursts
@@ -1179,9 +1179,10 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   const Errors eb = errors(S.y, yb, S.valid), ef = errors(S.y, yf, S.valid);
   // Full rate: raw force against the model evaluated on every sample (axis: undecimated).
   Signals& F = P.full;
-  const auto yb_full = predict(F, g, base_fit);
-  const auto yf_full = predict(F, g, final_fit);
-  const Errors eb_full = errors(P.y_raw, yb_full, F.valid), ef_full = errors(P.y_raw, yf_full, F.valid);
+  const auto yb_full = P.decimated ? predict(F, g, base_fit) : std::vector<double>{};
+  const auto yf_full = P.decimated ? predict(F, g, final_fit) : std::vector<double>{};
+  const Errors eb_full = errors(P.y_raw, P.decimated ? yb_full : yb, F.valid),
+               ef_full = errors(P.y_raw, P.decimated ? yf_full : yf, F.valid);
 
   AnalysisResult R;
   Json& J = R.json;
