@@ -15,6 +15,7 @@
 
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/signal.hpp"
+#include "twin_check.hpp"
 
 namespace maglead::analysis {
 namespace {
@@ -462,30 +463,42 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
   // (force on the moving part along +p enters the measured force with the opposite sign on the
   // actuator's load cell and with the same sign in an axis' drive force).
   const double other_sign = actuator ? -1.0 : 1.0;
+  // Term values resolved once: this runs for every sample of an hour-long recording.
+  const auto* st = model.find("stribeck_friction");
+  const auto* sp = model.find("spring");
+  const auto* pr = model.find("position_ripple");
+  const auto* ar = model.find("angle_ripple");
+  const auto* ee = model.find("end_effect");
+  const double mass_fixed = fit_m ? 0.0 : model.nut_mass_kg + term_value("mass_error", "kg", 0.0);
+  const double visc_fixed = fit_c ? 0.0 : model.viscous_n_s_per_m + term_value("viscous_friction", "n_s_per_m", 0.0);
+  const double coul_fixed = (fit_f ? 0.0 : model.coulomb_n) + term_value("coulomb_friction", "n", 0.0);
+  const double asym = term_value("asymmetric_friction", "n", 0.0);
+  const double strib_n = st ? st->get("n", 0.0) : 0.0, strib_v = st ? st->get("velocity_m_s", 2e-3) : 1.0;
+  const double offset = term_value("offset", "force_n", 0.0);
+  const double spring_k = sp ? sp->get("n_per_m", 0.0) : 0.0, spring_c = sp ? sp->get("center_m", s.mid_m) : 0.0;
+  const double pr_n = pr ? pr->get("n", 0.0) : 0.0, pr_per = pr ? pr->get("period_m", 5e-3) : 1.0,
+               pr_ph = pr ? pr->get("phase_rad", 0.0) : 0.0;
+  const double ar_n = ar ? ar->get("n", 0.0) : 0.0, ar_ph = ar ? ar->get("phase_rad", 0.0) : 0.0;
+  const double drift = term_value("gain_drift", "per_min", 0.0);
+  const double ee_m = ee ? ee->get("m", 1e-3) : 0.0, ee_depth = ee ? ee->get("depth", 0.5) : 0.0;
   auto fixed_dynamics = [&](std::size_t i, double gain_fs, double fs_raw) {
     const double v = s.v[i];
-    double y = gain_fs;
-    y += (fit_m ? 0.0 : model.nut_mass_kg + term_value("mass_error", "kg", 0.0)) * s.a[i];
-    y += (fit_c ? 0.0 : model.viscous_n_s_per_m + term_value("viscous_friction", "n_s_per_m", 0.0)) * v;
+    double y = gain_fs + mass_fixed * s.a[i] + visc_fixed * v;
     const double dir = sgn(v);
-    double fc = (fit_f ? 0.0 : model.coulomb_n) + term_value("coulomb_friction", "n", 0.0);
-    fc += dir * term_value("asymmetric_friction", "n", 0.0);
-    if (const auto* st = model.find("stribeck_friction")) {
-      const double r = v / st->get("velocity_m_s", 2e-3);
-      fc += st->get("n", 0.0) * std::exp(-r * r);
+    double fc = coul_fixed + dir * asym;
+    if (st) {
+      const double r = v / strib_v;
+      fc += strib_n * std::exp(-r * r);
     }
     y += dir * fc;
-    double other = term_value("offset", "force_n", 0.0);
-    if (const auto* sp = model.find("spring")) other -= sp->get("n_per_m", 0.0) * (s.p[i] - sp->get("center_m", s.mid_m));
-    if (const auto* pr = model.find("position_ripple"))
-      other += pr->get("n", 0.0) * std::sin(2 * kPi * s.p[i] / pr->get("period_m", 5e-3) + pr->get("phase_rad", 0.0));
+    double other = offset;
+    if (sp) other -= spring_k * (s.p[i] - spring_c);
+    if (pr) other += pr_n * std::sin(2 * kPi * s.p[i] / pr_per + pr_ph);
     if (actuator) {
-      if (const auto* ar = model.find("angle_ripple"))
-        other += ar->get("n", 0.0) * std::sin(s.theta[i] + ar->get("phase_rad", 0.0));
+      if (ar) other += ar_n * std::sin(s.theta[i] + ar_ph);
       // Coupling strength changes scale F̂_s (the load-cell image of F_m).
-      double g = 1.0 + term_value("gain_drift", "per_min", 0.0) * s.t[i] / 60.0;
-      if (const auto* ee = model.find("end_effect"))
-        g *= 1.0 - ee->get("depth", 0.5) * std::clamp(1.0 - s.to_end[i] / ee->get("m", 1e-3), 0.0, 1.0);
+      double g = 1.0 + drift * s.t[i] / 60.0;
+      if (ee) g *= 1.0 - ee_depth * std::clamp(1.0 - s.to_end[i] / ee_m, 0.0, 1.0);
       y += (g - 1.0) * fs_raw;
     }
     return y + other_sign * other;
@@ -1550,6 +1563,17 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   M.source = (model.source.empty() ? std::string("baseline") : model.source) +
              "; corrected by maglead analyze from " + rec.path;
   R.corrected = M;
+  if (actuator) {
+    progress("twin", 0.0);
+    try {
+      J["twin_simulation"] = simulate_twins({S.t, S.p, S.v, S.theta, S.y, act, cal.periodic, P.fs_hz, 0.1}, model, M);
+    } catch (const std::exception& e) {
+      J["twin_simulation"] = {{"available", false}, {"reason", e.what()}};
+    }
+  } else {
+    J["twin_simulation"] = {{"available", false},
+                            {"reason", "the twin models the magnetic actuator; this is a force-driven axis"}};
+  }
   progress("done", 1.0);
   return R;
 }
