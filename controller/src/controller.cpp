@@ -177,6 +177,7 @@ void Controller::apply(const Command& c) noexcept {
       phase_offset_rad_ += leads * kTwoPi;
       s_.phase_rad -= leads * kTwoPi;
       last_phase_rad_ = s_.phase_rad;
+      if (twin_) twin_->resync(s_.t_s, s_.screw_angle_rad, s_.nut_pos_m);
       command_bits_ |= static_cast<std::uint16_t>(bit(registers::kResyncAck) | bit(registers::kResyncDone));
     }
   }
@@ -259,6 +260,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
       last_heartbeat_s_ = now_s;
       state_ = DriveState::ready;
       synced_ = true;
+      if (twin_) twin_->resync(now_s, screw, pos);
     }
     s_.screw_angle_rad = screw;
     s_.nut_pos_m = pos;

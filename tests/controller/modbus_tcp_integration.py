@@ -45,6 +45,7 @@ def main():
     try:
         run(port)
         read_only_server()
+        allow_list_and_cap()
     finally:
         tail = srv.stop()
     check("stopped after" in tail, "serve stops cleanly on SIGINT: " + tail.strip().splitlines()[-1] if tail.strip() else "no output")
@@ -204,6 +205,34 @@ def mbpoll(port, *args, write=None):
         cmd.append(str(write))
     p = subprocess.run(cmd, capture_output=True, text=True, timeout=10)
     return p.stdout + p.stderr
+
+
+def allow_list_and_cap():
+    srv = Server(MAGLEAD, CONFIG, "--port", "0", "--allow", "10.0.0.0/8")
+    try:
+        try:
+            closed = raw_request(srv.port, struct.pack(">BHH", 4, 0, 1)) is None
+        except (ConnectionResetError, BrokenPipeError):
+            closed = True
+        check(closed, "a client not on the allow-list is disconnected unanswered")
+    finally:
+        srv.stop()
+    srv = Server(MAGLEAD, CONFIG, "--port", "0", "--max-connections", "2")
+    try:
+        held = [socket.create_connection(("127.0.0.1", srv.port), timeout=2) for _ in range(2)]
+        time.sleep(0.1)
+        try:
+            refused = raw_request(srv.port, struct.pack(">BHH", 4, 0, 1)) is None
+        except (ConnectionResetError, BrokenPipeError):
+            refused = True
+        check(refused, "a connection beyond --max-connections is refused")
+        held[0].close()
+        time.sleep(0.1)
+        check(raw_request(srv.port, struct.pack(">BHH", 4, 0, 1)) == bytes([4, 2, 0x4D, 0x4C]),
+              "a freed slot serves the next client")
+        held[1].close()
+    finally:
+        srv.stop()
 
 
 def read_only_server():

@@ -274,7 +274,8 @@ TEST(Controller, DisableReturnsToReadyAndHolds) {
 
 namespace {
 struct FakeTwin final : TwinHook {
-  int calls = 0;
+  int calls = 0, resyncs = 0;
+  void resync(double, double, double) noexcept override { ++resyncs; }
   double last_pos = 0.0;
   void step(const TwinInputs& in, TwinOutputs& out) noexcept override {
     ++calls;
@@ -291,6 +292,7 @@ TEST(Controller, TwinHookRunsEveryCycleAndPublishes) {
   FakeTwin twin;
   Rig rig(2000.0, &twin);
   const int before = twin.calls;
+  EXPECT_EQ(twin.resyncs, 1);  // at start-up synchronisation
   rig.run(0.2);
   EXPECT_EQ(twin.calls - before, 200);
   const auto s = rig.snap();

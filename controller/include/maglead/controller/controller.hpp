@@ -43,11 +43,25 @@ struct TwinInputs {
   double force_setpoint_n;  // NaN unless in force mode
 };
 /// The twin's wiring point: step() is called once per control cycle on the loop thread, after
-/// the measurement and before the state machine, and must not block or allocate.
+/// the measurement and before supervision and control, and must not block or allocate;
+/// resync() at start-up and when a client re-synchronises after a step-out. Wiring
+/// twin::TwinMonitor is an adapter of a few lines, e.g.
+///   struct MonitorHook final : TwinHook {
+///     twin::TwinMonitor& m;
+///     void step(const TwinInputs& in, TwinOutputs& out) noexcept override {
+///       const auto o = m.step({in.t_s, in.screw_angle_rad, in.nut_pos_m, in.force_setpoint_n});
+///       out = {o.predicted_nut_pos_m, o.predicted_output_force_n, o.residual_pos_m,
+///              o.residual_force_n, o.dynamic_output_force_est_n, o.healthy, o.drift_warning,
+///              o.step_out_warning};
+///     }
+///     void resync(double t, double th, double p) noexcept override { m.reset(t, th, p); }
+///   };
+/// then controller.attach_twin(&hook) before the loop starts (cmd_serve.cpp).
 class TwinHook {
  public:
   virtual ~TwinHook() = default;
   virtual void step(const TwinInputs& in, TwinOutputs& out) noexcept = 0;
+  virtual void resync(double /*t_s*/, double /*screw_angle_rad*/, double /*nut_pos_m*/) noexcept {}
 };
 
 /// Everything a client can read, from one cycle.
