@@ -1202,20 +1202,28 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   J["recording"] = rec.path;
   J["system"] = model.system;
   J["samples"] = rec.rows();
-  J["samples_used"] = n_total;
+  J["samples_used"] = static_cast<std::size_t>(n_total);
+  auto fmt = [](double v) {
+    std::ostringstream o;
+    o << v;
+    return o.str();
+  };
   J["method"] = {
       {"domain", "force (inverse model: measured force predicted from measured motion)"},
       {"filter", "4th-order Butterworth, zero phase (forward-backward), position at " +
-                     std::to_string(P.filter_hz) + " Hz; central differences"},
+                     fmt(P.filter_hz) + " Hz; central differences" +
+                     (actuator ? "; load force filtered alike" : "")},
       {"decimation", P.decimation},
       {"identification_bandwidth_hz", P.bandwidth_hz},
       {"folds", folds},
       {"selection", "forward, by held-out error on contiguous time segments; a term must cut the "
-                    "held-out mean square error by >= " + std::to_string(opt.min_gain_pct) +
-                    " % with t >= " + std::to_string(opt.min_t) +
-                        " over the segments, and explain more RMS than the force noise floor"},
-      {"moving_only", actuator ? "samples slower than " + std::to_string(opt.min_speed_m_s) +
-                                     " m/s are left out: a sticking nut's friction is unknown"
+                    "held-out mean square error by >= " + fmt(opt.min_gain_pct) +
+                    " % with t >= " + fmt(opt.min_t) +
+                    " over the segments (or >= 10x that gain with no segment worse), and explain "
+                    "more RMS than the force noise floor"},
+      {"moving_only", actuator ? "samples slower than " + fmt(opt.min_speed_m_s) +
+                                     " m/s, and within half a filter period of a start, stop or "
+                                     "reversal, are left out: a sticking nut's friction is unknown"
                                : "all samples"}};
   J["noise_floor_n"] = P.noise_floor_n;
   auto fitted_base = [&](const Fit& fit) {
@@ -1444,16 +1452,14 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     ft.caption = "Residual RMS in time windows";
     ft.panels.push_back({"Residual RMS over time", "time [s]", "RMS [N]", {rms_t0, rms_t1}});
     R.figures.push_back(ft);
-    // Reversal-locked average: the friction step and what is left of it.
+    // Event-locked averages: the residual around velocity reversals and input edges.
     const double fs_id = P.fs_hz / P.decimation;
     const int half = static_cast<int>(0.15 * fs_id);
-    std::vector<double> acc0(static_cast<std::size_t>(2 * half + 1), 0.0), acc1(acc0.size(), 0.0), cnt(acc0.size(), 0.0);
-    int reversals = 0;
-    double last_dir = 0;
-    for (std::size_t i = 0; i < S.size(); ++i) {
-      const double d = std::abs(S.v[i]) > std::max(S.moving_speed, 1e-6) ? sgn(S.v[i]) : 0.0;
-      if (d != 0 && last_dir != 0 && d != last_dir) {
-        ++reversals;
+    auto locked = [&](const std::vector<std::pair<std::size_t, double>>& at, const std::string& file,
+                      const std::string& what) {
+      std::vector<double> acc0(static_cast<std::size_t>(2 * half + 1), 0.0), acc1(acc0.size(), 0.0),
+          cnt(acc0.size(), 0.0);
+      for (const auto& [i, d] : at)
         for (int k = -half; k <= half; ++k) {
           const auto ii = static_cast<std::ptrdiff_t>(i) + k;
           if (ii < 0 || ii >= static_cast<std::ptrdiff_t>(S.size()) || !S.valid[static_cast<std::size_t>(ii)]) continue;
@@ -1462,25 +1468,50 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
           acc1[kk] += d * res1[static_cast<std::size_t>(ii)];
           cnt[kk] += 1;
         }
-      }
+      Figure fr;
+      fr.file = file;
+      fr.caption = "Residual averaged around " + std::to_string(at.size()) + " " + what +
+                   " (signed by the new direction)";
+      plot::Series s0{"baseline", {}, {}}, s1{"corrected", {}, {}};
+      for (std::size_t k = 0; k < cnt.size(); ++k)
+        if (cnt[k] > 0) {
+          const double tt = (static_cast<double>(k) - half) / fs_id;
+          s0.x.push_back(tt * 1e3);
+          s0.y.push_back(acc0[k] / cnt[k]);
+          s1.x.push_back(tt * 1e3);
+          s1.y.push_back(acc1[k] / cnt[k]);
+        }
+      fr.panels.push_back({"Residual locked to " + what, "time from event [ms]", "residual x direction [N]", {s0, s1}});
+      R.figures.push_back(fr);
+    };
+    std::vector<std::pair<std::size_t, double>> rev;
+    double last_dir = 0;
+    for (std::size_t i = 0; i < S.size(); ++i) {
+      const double d = std::abs(S.v[i]) > std::max(S.moving_speed, 1e-6) ? sgn(S.v[i]) : 0.0;
+      if (d != 0 && last_dir != 0 && d != last_dir) rev.emplace_back(i, d);
       if (d != 0) last_dir = d;
     }
-    Figure fr;
-    fr.file = "reversal_locked.png";
-    fr.caption = "Residual averaged around " + std::to_string(reversals) +
-                 " velocity reversals (signed by the new direction)";
-    plot::Series s0{"baseline", {}, {}}, s1{"corrected", {}, {}};
-    for (std::size_t k = 0; k < cnt.size(); ++k)
-      if (cnt[k] > 0) {
-        const double tt = (static_cast<double>(k) - half) / fs_id;
-        s0.x.push_back(tt * 1e3);
-        s0.y.push_back(acc0[k] / cnt[k]);
-        s1.x.push_back(tt * 1e3);
-        s1.y.push_back(acc1[k] / cnt[k]);
+    locked(rev, "reversal_locked.png", "velocity reversals");
+    J["reversals"] = rev.size();
+    // Input edges: steps in a setpoint column, if the recording has one.
+    for (const char* col : {"force_set_n", "pos_set_m", "ref_pos_m"}) {
+      if (!rec.has(col)) continue;
+      const auto& x = rec.column(col);
+      double lo = INFINITY, hi = -INFINITY;
+      for (double e : x)
+        if (std::isfinite(e)) lo = std::min(lo, e), hi = std::max(hi, e);
+      std::vector<std::pair<std::size_t, double>> edges;
+      for (std::size_t i = 1; i < x.size(); ++i) {
+        const double d = x[i] - x[i - 1];
+        if (std::isfinite(d) && std::abs(d) > 0.05 * (hi - lo) && hi > lo)
+          edges.emplace_back(i / static_cast<std::size_t>(P.decimation), sgn(d));
       }
-    fr.panels.push_back({"Reversal-locked residual", "time from reversal [ms]", "residual x direction [N]", {s0, s1}});
-    R.figures.push_back(fr);
-    J["reversals"] = reversals;
+      if (!edges.empty()) {
+        locked(edges, std::string("edge_locked_") + col + ".png", std::string("steps of ") + col);
+        J["input_edges"] = edges.size();
+      }
+      break;
+    }
   }
   J["events"] = events;
   J["where"] = where;

@@ -68,6 +68,10 @@ nlohmann::json simulate_twins(const TwinCheckInput& in, const ModelFile& baselin
   out["corrected_rms_position_error_m"] = rc;
   out["baseline_failures"] = fb;
   out["corrected_failures"] = fc;
+  // Terms the twin accepts but does not simulate leave the re-simulation unchanged: say so.
+  nlohmann::json unsim = nlohmann::json::array();
+  for (const auto& id : to_twin(corrected).unsimulated_terms()) unsim.push_back(id);
+  out["not_simulated_by_twin"] = unsim;
   out["steps"] = sc.steps;
   out["root_events"] = sc.root_events;
   return out;
