@@ -14,6 +14,7 @@ packages=(
   googletest libgtest-dev                   # tests
   python3-pymodbus mbpoll socat             # independent Modbus clients for integration tests
   python3-serial python3-serial-asyncio     # pymodbus.client imports these even for TCP
+  chromium                                  # headless browser: the anomaly report renders (tests)
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -1,0 +1,81 @@
+"""The operator commands over Modbus RTU: `maglead serve` on one end of a socat pty pair (8E1,
+unit 3), poll / enable / set / record / disable on the other, a wrong unit id answered by silence.
+Usage: operator_rtu.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+from op_common import Server, check, finish, one_line, run, watchdog
+
+MAGLEAD, CONFIG, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
+UNIT = 3
+
+
+def main():
+    watchdog(85)
+    os.makedirs(WORK, exist_ok=True)
+    tmp = tempfile.mkdtemp(prefix="maglead-op-rtu-")
+    dev_a, dev_b = os.path.join(tmp, "ttyA"), os.path.join(tmp, "ttyB")
+    socat = subprocess.Popen(["socat", f"pty,raw,echo=0,link={dev_a}", f"pty,raw,echo=0,link={dev_b}"],
+                             stderr=subprocess.DEVNULL)
+    try:
+        end = time.time() + 5
+        while not (os.path.exists(dev_a) and os.path.exists(dev_b)) and time.time() < end:
+            time.sleep(0.05)
+        check(os.path.exists(dev_b), "socat made a pty pair")
+        srv = Server(MAGLEAD, CONFIG, "--no-tcp", "--rtu-device", dev_a, "--rtu-unit", str(UNIT))
+        try:
+            scenario(dev_b)
+        finally:
+            tail = srv.stop()
+        check("stopped after" in tail, "serve stops cleanly")
+    finally:
+        socat.terminate()
+        socat.wait(5)
+    finish()
+
+
+def scenario(dev):
+    line = ["--serial", dev, "--baud", "19200", "--parity", "E", "--unit", str(UNIT)]
+    rc, out, err = run(MAGLEAD, "poll", *line, "--json")
+    j = json.loads(out) if rc == 0 else {}
+    check(rc == 0 and j.get("drive_state") == "ready", f"poll over RTU: {err.strip()}")
+    check(abs(j.get("values", {}).get("nut_pos_um", 0) - 0.02) < 1e-3, "position about 20 mm over RTU")
+    check(j.get("values", {}).get("control_owner") == 0, "nobody owns control")
+
+    rc, _, err = run(MAGLEAD, "set", *line, "force", "-60", "--config", CONFIG)
+    check(rc == 2 and "safe limit" in err and one_line(err), f"set force -60 refused locally: {err.strip()}")
+    rc, out, err = run(MAGLEAD, "enable", *line)
+    check(rc == 0, f"enable over RTU: {out.strip()} {err.strip()}")
+    rc, out, err = run(MAGLEAD, "set", *line, "force", "-8", "--config", CONFIG)
+    check(rc == 0 and "done" in out, f"set force -8 over RTU: {out.strip()} {err.strip()}")
+    rc, out, err = run(MAGLEAD, "poll", *line, "--json", "--names", "active_mode,active_force_setpoint_mn,force_est_mn,"
+                       "status_word,drive_state,alarm_code")
+    v = json.loads(out)["values"] if rc == 0 else {}
+    check(v.get("active_mode") == 2 and abs(v.get("active_force_setpoint_mn", 0) + 8) < 1e-9,
+          f"controller holds -8 N: {v}")
+    check(abs(v.get("force_est_mn", 0) + 8) < 2.0, f"estimate near -8 N ({v.get('force_est_mn')})")
+
+    rec = os.path.join(WORK, "rtu_rec.csv")
+    rc, out, err = run(MAGLEAD, "record", *line, "--duration", "1s", "--rate", "20", "--out", rec)
+    check(rc == 0 and "dropped polls:" in out, f"record over RTU: {out.strip()}")
+    with open(rec) as f:
+        rows = [l for l in f.read().splitlines() if l and not l.startswith("#")]
+    check(15 <= len(rows) - 1 <= 22, f"about 20 rows at 20 Hz ({len(rows) - 1})")
+
+    t0 = time.time()
+    rc, _, err = run(MAGLEAD, "poll", "--serial", dev, "--unit", str(UNIT + 1), "--timeout", "0.5")
+    check(rc == 3 and f"no reply from unit {UNIT + 1}" in err and one_line(err) and time.time() - t0 < 5,
+          f"wrong unit over RTU: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "poll", "--serial", os.path.join(os.path.dirname(dev), "nonexistent"))
+    check(rc == 3 and "cannot open serial line" in err and one_line(err), f"missing device: {err.strip()}")
+
+    rc, out, err = run(MAGLEAD, "disable", *line)
+    check(rc == 0, f"disable over RTU: {err.strip()}")
+
+
+if __name__ == "__main__":
+    main()

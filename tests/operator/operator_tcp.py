@@ -1,0 +1,231 @@
+"""The operator commands (poll, set, enable, disable, reset, record, watch) against `maglead serve`
+on the simulated actuator over Modbus TCP. What they print is checked against raw Modbus reads;
+refusals are checked to send nothing (the server's FC8 message counter does not move).
+Usage: operator_tcp.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
+import csv
+import json
+import os
+import pty
+import select
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import time
+
+from op_common import (Server, bus_message_count, check, finish, i32, one_line, raw_request, read_regs, run,
+                       watchdog)
+
+MAGLEAD, CONFIG, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def main():
+    watchdog(85)
+    os.makedirs(WORK, exist_ok=True)
+    srv = Server(MAGLEAD, CONFIG, "--port", "0")
+    try:
+        check(srv.port is not None, f"serve listens on a free port {srv.port}")
+        scenario(srv.port)
+    finally:
+        tail = srv.stop()
+    check("stopped after" in tail, "serve stops cleanly")
+    dropped_connection()
+    finish()
+
+
+def scenario(port):
+    conn = ["--port", str(port)]
+
+    # poll: table, JSON, CSV, raw; values agree with an independent raw read.
+    rc, out, err = run(MAGLEAD, "poll", *conn)
+    check(rc == 0 and "nut_pos_um" in out and "drive_state" in out and "ready" in out,
+          f"poll prints a table (rc {rc}) {err.strip()}")
+    check("float32" not in out and "nut_pos_m_f32" not in out, "poll hides the float32 duplicates by default")
+    rc, out, err = run(MAGLEAD, "poll", *conn, "--json")
+    j = json.loads(out) if rc == 0 else {}
+    raw_pos_um = i32(read_regs(port, 4, 20, 2))
+    pos = j.get("values", {}).get("nut_pos_um", float("nan"))
+    check(abs(pos * 1e6 - raw_pos_um) <= 100, f"poll --json position {pos} m matches raw read {raw_pos_um} um")
+    check(j.get("units", {}).get("nut_pos_um") == "m" and j.get("units", {}).get("force_est_mn") == "N",
+          "poll --json gives SI units from the register table")
+    check(j.get("drive_state") == "ready" and "ready" in j.get("status_bits", []), "poll --json spells out state")
+    check(j.get("alarm", {}).get("name") == "none", "poll --json: no alarm")
+    rc, out, _ = run(MAGLEAD, "poll", *conn, "--csv", "--names", "nut_pos_um,loop_rate_hz")
+    rows = list(csv.reader(out.splitlines()))
+    check(rc == 0 and rows[0] == ["name", "value", "unit"] and len(rows) == 3 and rows[1][0] == "nut_pos_um"
+          and rows[2] == ["loop_rate_hz", "1000", "Hz"],
+          f"poll --csv --names {rows}")
+    rc, out, _ = run(MAGLEAD, "poll", *conn, "--csv", "--raw", "--names", "nut_pos_um")
+    raw = int(out.splitlines()[1].split(",")[1]) if rc == 0 else -1
+    check(abs(raw - 20000) < 500, f"poll --raw gives the integer as sent ({raw} um)")
+
+    # Refusals before anything is sent: the server's message counter moves only by our own query.
+    n0 = bus_message_count(port)
+    rc, _, err = run(MAGLEAD, "set", *conn, "force", "60", "--config", CONFIG)
+    check(rc == 2 and "safe limit" in err and "nothing sent" in err and one_line(err),
+          f"set force 60 refused with the reason: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "force", "150N", "--config", CONFIG)
+    check(rc == 2 and "outside its range -100 .. 100 N" in err, f"set force 150N: register range: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "45mm", "--config", CONFIG)
+    check(rc == 2 and "outside" in err and one_line(err), f"set position 45mm refused: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "20 furlongs", "--config", CONFIG)
+    check(rc == 2 and "unit" in err, f"unknown unit refused: {err.strip()}")
+    n1 = bus_message_count(port)
+    check(n1 == n0 + 1, f"refusals sent nothing to the controller (messages {n0} -> {n1})")
+
+    # The controller's own rejection, through the handshake: execute on a drive not enabled.
+    rc, _, err = run(MAGLEAD, "set", *conn, "force", "5", "--config", CONFIG)
+    check(rc == 4 and "not_enabled" in err and one_line(err), f"execute before enable: reject reason: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "reset", *conn, "--resync")
+    check(rc == 4 and "not_stepped_out" in err, f"resync without step-out rejected: {err.strip()}")
+
+    rc, out, err = run(MAGLEAD, "enable", *conn)
+    check(rc == 0 and "enabled" in out, f"enable: {out.strip()} {err.strip()}")
+    check(read_regs(port, 4, 13, 1)[0] == 2, "drive_state is enabled (raw read)")
+    rc, out, err = run(MAGLEAD, "set", *conn, "force", "10", "--config", CONFIG)
+    check(rc == 0 and "done" in out, f"set force 10: {out.strip()} {err.strip()}")
+    w = read_regs(port, 4, 14, 1) + read_regs(port, 4, 34, 2)
+    check(w[0] == 2 and i32(w[1:3]) == 10000, f"controller holds 10 N in force mode (raw {w})")
+    est = i32(read_regs(port, 4, 28, 2)) * 1e-3
+    check(abs(est - 10.0) < 2.0, f"force estimate near the setpoint: {est:.2f} N")
+
+    # record while in force mode: load cell, setpoint and the sign convention.
+    rec = os.path.join(WORK, "tcp_rec.csv")
+    t0 = time.time()
+    rc, out, err = run(MAGLEAD, "record", *conn, "--duration", "2s", "--rate", "50", "--out", rec)
+    dt = time.time() - t0
+    check(rc == 0 and "dropped polls:" in out, f"record 2 s: {out.strip()} {err.strip()}")
+    check(dt < 6, f"record ended by itself ({dt:.1f} s)")
+    with open(rec) as f:
+        lines = f.read().splitlines()
+    check(lines[0] == "# format: mls-recording/1", "recording starts with the format line")
+    header_at = next(i for i, l in enumerate(lines) if not l.startswith("#"))
+    names = lines[header_at].split(",")
+    data = [[float(x) if x else float("nan") for x in l.split(",")] for l in lines[header_at + 1:]]
+    col = {n: [r[i] for r in data] for i, n in enumerate(names)}
+    for need in ("t_s", "screw_angle_rad", "nut_pos_m", "out_force_est_n", "force_set_n", "load_force_n"):
+        check(need in names, f"recording has column {need}")
+    check(70 <= len(data) <= 110, f"about 100 rows at 50 Hz over 2 s ({len(data)})")
+    check(all(b >= a for a, b in zip(col["t_s"], col["t_s"][1:])), "t_s non-decreasing")
+    span = col["t_s"][-1] - col["t_s"][0]
+    check(1.8 <= span <= 2.2, f"controller time spans ~2 s ({span:.3f})")
+    check(all(abs(x - 10.0) < 1e-9 for x in col["force_set_n"]), "force_set_n is 10 N throughout")
+    # Held at standstill, Coulomb friction takes up to 7.5 N of the 10 N: the spring (load cell)
+    # sees less than the estimate, but the same sign of push. The column is the force on the
+    # nut (load cell convention), the register the output force: opposite signs.
+    mean_load = sum(col["load_force_n"]) / len(data)
+    mean_est = sum(col["out_force_est_n"]) / len(data)
+    lc_out = i32(read_regs(port, 4, 30, 2)) * 1e-3
+    check(abs(mean_est - 10.0) < 2.0, f"recorded estimate near 10 N ({mean_est:.2f})")
+    check(mean_load < 0 < lc_out and abs(mean_load + lc_out) < 1.0,
+          f"load_force_n = -load-cell output force: column {mean_load:.2f} N, register {lc_out:.2f} N")
+    rc, out, err = run(MAGLEAD, "report", "--recording", rec, "--out", os.path.join(WORK, "tcp_report"),
+                       "--config", CONFIG, "--no-analysis")
+    check(rc == 0 and os.path.exists(os.path.join(WORK, "tcp_report", "index.html")),
+          f"report reads what record wrote: {out.strip()} {err.strip()[-300:]}")
+
+    rc, out, err = run(MAGLEAD, "set", *conn, "position", "22mm", "--speed", "10mm/s", "--config", CONFIG)
+    check(rc == 0 and "done" in out, f"set position 22mm: {out.strip()} {err.strip()}")
+    pos_um = i32(read_regs(port, 4, 20, 2))
+    check(abs(pos_um - 22000) < 100, f"nut at 22 mm ({pos_um} um, raw read)")
+    check(i32(read_regs(port, 3, 1008, 2)) == 10000, "speed limit staged as 10 mm/s")
+    rc, out, err = run(MAGLEAD, "set", *conn, "position", "21mm", "--no-wait", "--config", CONFIG)
+    check(rc == 0 and "acknowledged" in out, f"set --no-wait returns on ack: {out.strip()} {err.strip()}")
+    rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
+    check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
+
+    # watch under a pseudo-terminal: draws, quits on q, restores the screen.
+    watch_pty(conn, b"q", "q")
+    watch_pty(conn, None, "Ctrl-C")
+
+    # Another client owns control: exception 06, one line.
+    with socket.create_connection(("127.0.0.1", port), timeout=2) as plc:
+        plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, 1000, 1))  # FC6 control_word = enable
+        plc.recv(64)
+        rc, _, err = run(MAGLEAD, "set", *conn, "force", "5", "--config", CONFIG)
+        check(rc == 4 and "exception 06" in err and "owns control" in err and one_line(err),
+              f"another owner: {err.strip()}")
+    time.sleep(0.1)
+
+    # Wrong unit id and a port with nobody listening.
+    rc, _, err = run(MAGLEAD, "poll", *conn, "--unit", "7")
+    check(rc == 3 and "does not serve unit 7" in err and one_line(err), f"wrong unit: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "poll", "--port", str(free_port()))
+    check(rc == 3 and "connection refused" in err and one_line(err), f"nobody listening: {err.strip()}")
+
+    rc, out, err = run(MAGLEAD, "disable", *conn)
+    check(rc == 0 and read_regs(port, 4, 13, 1)[0] == 1, f"disable: drive ready again {err.strip()}")
+    rc, out, err = run(MAGLEAD, "reset", *conn)
+    check(rc == 0 and "fault reset done" in out, f"reset without a fault is acknowledged: {err.strip()}")
+
+
+def watch_pty(conn, key, how):
+    pid, fd = pty.fork()
+    if pid == 0:
+        os.execv(MAGLEAD, [MAGLEAD, "watch", *conn, "--rate", "10"])
+    out = b""
+    end = time.time() + 10
+    while time.time() < end and out.count(b"maglead watch") < 3:
+        if select.select([fd], [], [], 0.2)[0]:
+            try:
+                out += os.read(fd, 65536)
+            except OSError:
+                break
+    if key:
+        os.write(fd, key)
+    else:
+        os.kill(pid, signal.SIGINT)
+    end = time.time() + 5
+    status = None
+    while time.time() < end:
+        if select.select([fd], [], [], 0.1)[0]:
+            try:
+                out += os.read(fd, 65536)
+            except OSError:
+                pass
+        done, st = os.waitpid(pid, os.WNOHANG)
+        if done:
+            status = st
+            break
+    if status is None:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+    os.close(fd)
+    text = out.decode(errors="replace")
+    check(status is not None and os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, f"watch quits on {how}")
+    check("\x1b[?1049h" in text and text.rfind("\x1b[?1049l") > text.rfind("\x1b[?1049h") and "\x1b[?25h" in text,
+          f"watch ({how}) restores the screen and cursor")
+    check("drive" in text and "enabled" in text and "force" in text and any(c in text for c in "▁▂▃▄▅▆▇█"),
+          f"watch ({how}) shows state and a trend")
+
+
+def dropped_connection():
+    """The controller goes away during a recording: one line, exit 3, the rows so far kept."""
+    srv = Server(MAGLEAD, CONFIG, "--port", "0")
+    rec = os.path.join(WORK, "tcp_dropped.csv")
+    rec_proc = subprocess.Popen([MAGLEAD, "record", "--port", str(srv.port), "--duration", "20s", "--rate", "50",
+                                 "--out", rec], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1.5)
+    srv.stop()
+    try:
+        out, err = rec_proc.communicate(timeout=15)
+    except subprocess.TimeoutExpired:
+        rec_proc.kill()
+        out, err = rec_proc.communicate()
+    rc = rec_proc.returncode
+    check(rc == 3 and one_line(err) and ("dropped" in err or "connection" in err),
+          f"record across a dropped connection: rc {rc}: {err.strip()[-300:]}")
+    with open(rec) as f:
+        rows = [l for l in f.read().splitlines() if l and not l.startswith("#")]
+    check(len(rows) > 10, f"rows before the drop are kept ({len(rows) - 1})")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,151 @@
+#pragma once
+// A Modbus client for maglead controllers (TCP or RTU), speaking in register-table names and
+// SI values: what the operator commands (poll, watch, set, enable, record …) share. Scaled
+// integers exist only inside this library, through registers::encode / decode.
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "maglead/physics/actuator.hpp"
+#include "maglead/physics/force_model.hpp"
+#include "maglead/registers/registers.hpp"
+
+namespace maglead::op {
+
+struct Endpoint {
+  std::string host = "127.0.0.1";
+  int port = 1502;
+  std::string serial;  // non-empty: Modbus RTU on this device instead of TCP
+  int baud = 19200;
+  char parity = 'E';
+  int data_bits = 8;
+  int stop_bits = 1;
+  int unit = 1;
+  double timeout_s = 1.0;  // per request
+  std::string describe() const;  // "127.0.0.1:1502 unit 1" / "/dev/ttyUSB0 19200 8E1 unit 3"
+};
+
+/// Everything that can go wrong, each with a one-line message meant for an operator.
+class ClientError : public std::runtime_error {
+ public:
+  enum class Kind : std::uint8_t {
+    refused_locally,  // a value failed the checks: nothing was sent
+    connection,       // cannot connect, or the connection dropped
+    no_reply,         // timeout: wrong unit id (RTU), wrong line settings, controller off
+    exception,        // the controller answered with a Modbus exception
+    rejected,         // the controller rejected an edge command (command_reject_reason)
+    protocol,         // a malformed or mismatched reply, or not a maglead controller
+  };
+  ClientError(Kind kind, const std::string& message) : std::runtime_error(message), kind_(kind) {}
+  Kind kind() const { return kind_; }
+  /// Exit codes: 2 refused locally, 3 communication, 4 refused by the controller.
+  int exit_code() const;
+
+ private:
+  Kind kind_;
+};
+
+/// Named values of one read, SI units; raw words kept for --raw.
+struct Values {
+  std::vector<const registers::Register*> regs;
+  std::vector<double> si;
+  std::vector<std::uint32_t> raw;  // the register's words as one number (bit pattern for f32)
+  std::optional<double> get(std::string_view name) const;
+  double at(std::string_view name) const;  // throws ClientError(protocol) when absent
+};
+
+/// Contiguous runs of one table that one request can read (≤125 words, 32-bit values whole).
+struct Block {
+  registers::Table table;
+  std::uint16_t start, count;
+};
+std::vector<Block> read_blocks(registers::Table table);
+
+class Client {
+ public:
+  /// Connects; throws ClientError with the reason.
+  explicit Client(const Endpoint& endpoint);
+  ~Client();
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  const Endpoint& endpoint() const { return ep_; }
+
+  /// Reads the device type and map version and refuses anything that is not a maglead
+  /// controller speaking register map 1.
+  void check_identity();
+  /// Reads words [start, start+count) of a table (FC4 for input registers, FC3 for holding).
+  std::vector<std::uint16_t> read_words(registers::Table table, std::uint16_t start, std::uint16_t count);
+  /// Reads every register of the given tables in as few requests as possible.
+  Values read_tables(const std::vector<registers::Table>& tables);
+  /// Reads the named registers whose addresses lie in one block (one request, one cycle).
+  Values read_range(registers::Table table, std::uint16_t start, std::uint16_t count);
+  /// Writes named registers, each checked with registers::in_range first (nothing is sent when
+  /// one fails). Consecutive addresses go out in one FC16 request, in the given order.
+  void write(const std::vector<std::pair<std::string, double>>& values);
+
+  /// Flushes the line after a timeout so a late reply cannot be taken for the next one.
+  void flush();
+
+ private:
+  [[noreturn]] void fail(const std::string& what) const;
+  Endpoint ep_;
+  void* ctx_ = nullptr;  // modbus_t*
+};
+
+// ---------------------------------------------------------------------------- values and units
+
+/// "12.5", "20mm", "12.5N", "5 mm/s" → SI value for a quantity whose SI unit is `si_unit`
+/// (N, m, m/s, m/s^2, s). Throws ClientError(refused_locally) naming the accepted units.
+double parse_quantity(const std::string& text, std::string_view si_unit);
+
+/// Name and meaning of a code (alarm, reject reason, drive state, mode); "unknown (N)" if none.
+std::string code_name(std::span<const registers::Code> codes, double value);
+std::string code_meaning(std::span<const registers::Code> codes, double value);
+/// The names of the status bits that are set.
+std::vector<std::string> status_bits(std::uint16_t status_word);
+
+/// The limits the controller enforces, from the same configuration it reads.
+struct Limits {
+  ActuatorParams actuator;
+  ForceCalibration calibration;
+  std::string calibration_source;
+};
+/// Checks an output-force setpoint as the server does (register range, then the calibrated
+/// safe limit); returns the reason it would be refused, or nothing.
+std::optional<std::string> check_force(const Limits& limits, double force_n);
+std::optional<std::string> check_position(const Limits& limits, double position_m);
+/// Range check of any writable register, with the reason.
+std::optional<std::string> check_register(const registers::Register& reg, double value_si);
+
+// ---------------------------------------------------------------------------- commands
+
+struct CommandOptions {
+  double ack_timeout_s = 2.0;   // the loop must see the edge within this
+  double done_timeout_s = 30.0; // and finish (in position / force reached) within this
+  bool wait_done = true;
+  double poll_period_s = 0.01;
+};
+struct CommandResult {
+  bool done = false;      // execute done (target reached) seen
+  double elapsed_s = 0.0;
+};
+
+/// Stages a setpoint and applies it with an execute edge, following the handshake of
+/// docs/registers.md: mode_command and the control word with execute in one write, wait for
+/// ack or rejection (reason from command_reject_reason), drop execute, optionally wait for done.
+/// `setpoints` are the staged registers written before the edge.
+CommandResult execute(Client& client, registers::Mode mode,
+                      const std::vector<std::pair<std::string, double>>& setpoints,
+                      const CommandOptions& options);
+/// Enable (rising edge of the enable level) and wait for drive_state enabled.
+void enable(Client& client, const CommandOptions& options);
+void disable(Client& client, const CommandOptions& options);
+/// Fault reset edge (optionally a resync edge first), with the ack/done handshake.
+void reset(Client& client, bool resync_first, const CommandOptions& options);
+
+}  // namespace maglead::op

@@ -1,0 +1,510 @@
+#include "maglead/operator/client.hpp"
+
+#include <modbus/modbus.h>
+
+#include <arpa/inet.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <thread>
+
+#include "maglead/physics/estimator.hpp"
+
+namespace maglead::op {
+
+namespace reg = maglead::registers;
+using Kind = ClientError::Kind;
+
+namespace {
+
+modbus_t* ctx_of(void* p) { return static_cast<modbus_t*>(p); }
+
+std::string fmt(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.6g", v);
+  return b;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------- basics
+
+std::string Endpoint::describe() const {
+  if (!serial.empty())
+    return serial + " " + std::to_string(baud) + " " + std::to_string(data_bits) + parity +
+           std::to_string(stop_bits) + " unit " + std::to_string(unit);
+  return host + ":" + std::to_string(port) + " unit " + std::to_string(unit);
+}
+
+int ClientError::exit_code() const {
+  switch (kind_) {
+    case Kind::refused_locally: return 2;
+    case Kind::connection:
+    case Kind::no_reply:
+    case Kind::protocol: return 3;
+    case Kind::exception:
+    case Kind::rejected: return 4;
+  }
+  return 3;
+}
+
+std::optional<double> Values::get(std::string_view name) const {
+  for (std::size_t i = 0; i < regs.size(); ++i)
+    if (regs[i]->name == name) return si[i];
+  return std::nullopt;
+}
+
+double Values::at(std::string_view name) const {
+  if (auto v = get(name)) return *v;
+  throw ClientError(Kind::protocol, "internal: register '" + std::string(name) + "' was not read");
+}
+
+std::vector<Block> read_blocks(reg::Table table) {
+  std::vector<const reg::Register*> regs;
+  for (const auto& r : reg::table())
+    if (r.table == table) regs.push_back(&r);
+  std::sort(regs.begin(), regs.end(), [](auto* a, auto* b) { return a->address < b->address; });
+  std::vector<Block> blocks;
+  for (const auto* r : regs) {
+    const auto n = static_cast<std::uint16_t>(reg::word_count(r->type));
+    // A gap in the map is an exception 02 on the server: start a new request there.
+    if (!blocks.empty() && blocks.back().start + blocks.back().count == r->address &&
+        blocks.back().count + n <= 125) {
+      blocks.back().count = static_cast<std::uint16_t>(blocks.back().count + n);
+    } else {
+      blocks.push_back({table, r->address, n});
+    }
+  }
+  return blocks;
+}
+
+// ------------------------------------------------------------------------------- client
+
+Client::Client(const Endpoint& endpoint) : ep_(endpoint) {
+  if (!ep_.serial.empty()) {
+    ctx_ = modbus_new_rtu(ep_.serial.c_str(), ep_.baud, ep_.parity, ep_.data_bits, ep_.stop_bits);
+  } else {
+    ctx_ = modbus_new_tcp(ep_.host.c_str(), ep_.port);
+  }
+  if (!ctx_) throw ClientError(Kind::connection, "cannot set up a Modbus context for " + ep_.describe() + ": " +
+                                                     modbus_strerror(errno));
+  auto* ctx = ctx_of(ctx_);
+  if (modbus_set_slave(ctx, ep_.unit) != 0) {
+    modbus_free(ctx);
+    ctx_ = nullptr;
+    throw ClientError(Kind::refused_locally, "unit id " + std::to_string(ep_.unit) + " is not valid (0..247, TCP 255)");
+  }
+  const double t = std::max(ep_.timeout_s, 0.01);
+  const auto sec = static_cast<std::uint32_t>(t);
+  modbus_set_response_timeout(ctx, sec, static_cast<std::uint32_t>((t - sec) * 1e6));
+  if (modbus_connect(ctx) != 0) {
+    const int e = errno;
+    modbus_free(ctx);
+    ctx_ = nullptr;
+    if (!ep_.serial.empty())
+      throw ClientError(Kind::connection, "cannot open serial line " + ep_.serial + ": " + std::strerror(e));
+    throw ClientError(Kind::connection, "cannot connect to " + ep_.host + ":" + std::to_string(ep_.port) + ": " +
+                                            (e == ECONNREFUSED ? std::string("connection refused (no controller "
+                                                                             "listening on that port?)")
+                                                               : std::string(modbus_strerror(e))));
+  }
+}
+
+Client::~Client() {
+  if (ctx_) {
+    modbus_close(ctx_of(ctx_));
+    modbus_free(ctx_of(ctx_));
+  }
+}
+
+void Client::flush() {
+  if (ctx_) modbus_flush(ctx_of(ctx_));
+}
+
+void Client::fail(const std::string& what) const {
+  const int e = errno;
+  const std::string where = ep_.describe();
+  const char* exc = nullptr;
+  switch (e) {
+    case EMBXILFUN: exc = "01 illegal function (a read-only controller refuses every write)"; break;
+    case EMBXILADD: exc = "02 illegal data address (register not in this controller's map, or read-only)"; break;
+    case EMBXILVAL: exc = "03 illegal data value (out of range or beyond its limits)"; break;
+    case EMBXSFAIL: exc = "04 server device failure"; break;
+    case EMBXSBUSY: exc = "06 server busy (another client owns control, or its command queue is full)"; break;
+    case EMBXGPATH: exc = "0A gateway path unavailable"; break;
+    default: break;
+  }
+  if (exc) throw ClientError(Kind::exception, what + ": controller at " + where + " answered with exception " + exc);
+  switch (e) {
+    case EMBXGTAR:
+      throw ClientError(Kind::no_reply, what + ": " + ep_.host + ":" + std::to_string(ep_.port) +
+                                            " does not serve unit " + std::to_string(ep_.unit) +
+                                            " (exception 0B gateway target failed): check --unit");
+    case EMBBADCRC:
+    case EMBBADDATA:
+    case EMBBADEXC:
+    case EMBUNKEXC:
+    case EMBMDATA:
+    case EMBBADSLAVE:
+      throw ClientError(Kind::protocol, what + ": malformed or mismatched reply from " + where + " (" +
+                                            modbus_strerror(e) + ")");
+    case ETIMEDOUT:
+      if (!ep_.serial.empty())
+        throw ClientError(Kind::no_reply, what + ": no reply from unit " + std::to_string(ep_.unit) + " on " +
+                                              ep_.serial + " within " + fmt(ep_.timeout_s) +
+                                              " s: wrong --unit, --baud or --parity, or the controller is off");
+      throw ClientError(Kind::no_reply, what + ": no reply from " + where + " within " + fmt(ep_.timeout_s) + " s");
+    case ECONNRESET:
+    case EPIPE:
+    case ENOTCONN:
+    case EBADF:
+      throw ClientError(Kind::connection, what + ": connection to " + where + " dropped");
+    default:
+      throw ClientError(Kind::connection, what + ": " + where + ": " + modbus_strerror(e));
+  }
+}
+
+void Client::check_identity() {
+  const auto w = read_words(reg::Table::input_register, 0, 3);
+  if (w[0] != reg::kDeviceType)
+    throw ClientError(Kind::protocol, ep_.describe() + " is not a maglead controller (device type 0x" +
+                                          [&] { char b[8]; std::snprintf(b, sizeof b, "%04X", w[0]); return std::string(b); }() +
+                                          ", expected 0x4D4C)");
+  if (w[2] != reg::kMapVersion)
+    throw ClientError(Kind::protocol, ep_.describe() + " speaks register map version " + std::to_string(w[2]) +
+                                          ", this tool knows version " + std::to_string(reg::kMapVersion));
+}
+
+std::vector<std::uint16_t> Client::read_words(reg::Table table, std::uint16_t start, std::uint16_t count) {
+  std::vector<std::uint16_t> words(count);
+  int rc = -1;
+  if (table == reg::Table::input_register)
+    rc = modbus_read_input_registers(ctx_of(ctx_), start, count, words.data());
+  else if (table == reg::Table::holding_register)
+    rc = modbus_read_registers(ctx_of(ctx_), start, count, words.data());
+  else
+    throw ClientError(Kind::protocol, "internal: read_words needs a register table");
+  if (rc != count) {
+    if (rc >= 0) errno = EMBMDATA;
+    fail("reading " + std::string(reg::to_string(table)) + "s " + std::to_string(start) + ".." +
+         std::to_string(start + count - 1));
+  }
+  return words;
+}
+
+Values Client::read_range(reg::Table table, std::uint16_t start, std::uint16_t count) {
+  const auto words = read_words(table, start, count);
+  Values v;
+  for (const auto& r : reg::table()) {
+    if (r.table != table || r.address < start || r.address + reg::word_count(r.type) > start + count) continue;
+    const std::uint16_t* w = words.data() + (r.address - start);
+    v.regs.push_back(&r);
+    v.si.push_back(reg::decode(r, w));
+    v.raw.push_back(reg::word_count(r.type) == 2 ? (static_cast<std::uint32_t>(w[0]) << 16) | w[1] : w[0]);
+  }
+  return v;
+}
+
+Values Client::read_tables(const std::vector<reg::Table>& tables) {
+  Values all;
+  for (auto t : tables)
+    for (const auto& b : read_blocks(t)) {
+      Values part = read_range(t, b.start, b.count);
+      all.regs.insert(all.regs.end(), part.regs.begin(), part.regs.end());
+      all.si.insert(all.si.end(), part.si.begin(), part.si.end());
+      all.raw.insert(all.raw.end(), part.raw.begin(), part.raw.end());
+    }
+  return all;
+}
+
+void Client::write(const std::vector<std::pair<std::string, double>>& values) {
+  // Check everything first: a refused value must leave the controller untouched.
+  struct Item {
+    const reg::Register* r;
+    double v;
+  };
+  std::vector<Item> items;
+  for (const auto& [name, v] : values) {
+    const auto* r = reg::find(name);
+    if (!r) throw ClientError(Kind::refused_locally, "no register named '" + name + "'");
+    if (r->table != reg::Table::holding_register || r->access != reg::Access::read_write)
+      throw ClientError(Kind::refused_locally, "'" + name + "' is not a writable holding register");
+    if (auto why = check_register(*r, v)) throw ClientError(Kind::refused_locally, *why);
+    items.push_back({r, v});
+  }
+  std::size_t i = 0;
+  while (i < items.size()) {
+    std::vector<std::uint16_t> words;
+    const std::uint16_t start = items[i].r->address;
+    std::string names;
+    std::size_t j = i;
+    for (; j < items.size(); ++j) {
+      if (items[j].r->address != start + words.size()) break;
+      std::uint16_t w[2];
+      reg::encode(*items[j].r, items[j].v, w);
+      words.insert(words.end(), w, w + reg::word_count(items[j].r->type));
+      names += (names.empty() ? "" : ", ") + std::string(items[j].r->name);
+    }
+    const int n = static_cast<int>(words.size());
+    if (modbus_write_registers(ctx_of(ctx_), start, n, words.data()) != n) fail("writing " + names);
+    i = j;
+  }
+}
+
+// ------------------------------------------------------------------------------- values, units
+
+double parse_quantity(const std::string& text, std::string_view si_unit) {
+  struct U {
+    std::string_view si, name;
+    double factor;
+  };
+  static constexpr U kUnits[] = {
+      {"N", "N", 1}, {"N", "mN", 1e-3}, {"N", "kN", 1e3},
+      {"m", "m", 1}, {"m", "mm", 1e-3}, {"m", "um", 1e-6}, {"m", "µm", 1e-6},
+      {"m/s", "m/s", 1}, {"m/s", "mm/s", 1e-3}, {"m/s", "um/s", 1e-6},
+      {"m/s^2", "m/s^2", 1}, {"m/s^2", "mm/s^2", 1e-3}, {"m/s^2", "m/s2", 1}, {"m/s^2", "mm/s2", 1e-3},
+      {"s", "s", 1}, {"s", "ms", 1e-3},
+  };
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    throw ClientError(Kind::refused_locally, "'" + text + "' is not a number");
+  }
+  std::string unit = text.substr(used);
+  unit.erase(std::remove(unit.begin(), unit.end(), ' '), unit.end());
+  if (unit.empty()) {
+    if (!std::isfinite(v)) throw ClientError(Kind::refused_locally, "'" + text + "' is not a finite number");
+    return v;  // a bare number is in the SI unit
+  }
+  std::string accepted;
+  for (const auto& u : kUnits) {
+    if (u.si != si_unit) continue;
+    if (u.name == unit) return v * u.factor;
+    accepted += (accepted.empty() ? "" : ", ") + std::string(u.name);
+  }
+  throw ClientError(Kind::refused_locally, "'" + text + "': unit '" + unit + "' is not one of " +
+                                               (accepted.empty() ? std::string(si_unit) : accepted));
+}
+
+std::string code_name(std::span<const reg::Code> codes, double value) {
+  for (const auto& c : codes)
+    if (c.value == value) return std::string(c.name);
+  return "unknown (" + fmt(value) + ")";
+}
+
+std::string code_meaning(std::span<const reg::Code> codes, double value) {
+  for (const auto& c : codes)
+    if (c.value == value) return std::string(c.description);
+  return "not in this tool's register map";
+}
+
+std::vector<std::string> status_bits(std::uint16_t status_word) {
+  std::vector<std::string> out;
+  for (const auto& r : reg::table())
+    if (r.table == reg::Table::discrete_input && ((status_word >> r.address) & 1u)) out.emplace_back(r.name);
+  return out;
+}
+
+std::optional<std::string> check_register(const reg::Register& r, double v) {
+  if (reg::in_range(r, v)) return std::nullopt;
+  return std::string(r.name) + " = " + fmt(v) + (r.unit.empty() ? "" : " ") + std::string(r.unit) +
+         " is outside its range " + fmt(r.min) + " .. " + fmt(r.max) + (r.unit.empty() ? "" : " ") +
+         std::string(r.unit);
+}
+
+std::optional<std::string> check_force(const Limits& limits, double force_n) {
+  if (auto why = check_register(*reg::find("force_setpoint_mn"), force_n)) return why;
+  // The server's own check: the calibrated inverse refuses beyond safe_fraction × peak.
+  const auto inv = phase_for_output_force(limits.calibration, force_n, limits.actuator.safe_force_fraction);
+  if (inv.status != InverseStatus::ok)
+    return "force " + fmt(force_n) + " N is beyond the safe limit " + fmt(inv.limit_n) + " N (" +
+           fmt(limits.actuator.safe_force_fraction) + " x peak " +
+           fmt(force_n >= 0 ? limits.calibration.peak_push_n : limits.calibration.peak_pull_n) +
+           " N of calibration " + limits.calibration_source + ")";
+  return std::nullopt;
+}
+
+std::optional<std::string> check_position(const Limits& limits, double position_m) {
+  if (auto why = check_register(*reg::find("position_setpoint_um"), position_m)) return why;
+  const auto& a = limits.actuator;
+  if (!(position_m >= a.stroke_min_m && position_m <= a.stroke_max_m))
+    return "position " + fmt(position_m * 1e3) + " mm is outside the stroke " + fmt(a.stroke_min_m * 1e3) +
+           " .. " + fmt(a.stroke_max_m * 1e3) + " mm";
+  return std::nullopt;
+}
+
+// ------------------------------------------------------------------------------- commands
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+/// The loop's command-side state: one read of input registers 10..53 (one control cycle).
+struct Status {
+  std::uint16_t status_word = 0, alarm = 0, drive_state = 0, command_status = 0, reject = 0;
+  std::uint32_t cycle = 0;
+  bool bit(int b) const { return (command_status >> b) & 1u; }
+};
+
+Status read_status(Client& c) {
+  const auto* first = reg::find("status_word");
+  const auto* last = reg::find("loop_cycle_count");
+  const auto v = c.read_range(reg::Table::input_register, first->address,
+                              static_cast<std::uint16_t>(last->address + 2 - first->address));
+  Status s;
+  s.status_word = static_cast<std::uint16_t>(v.at("status_word"));
+  s.alarm = static_cast<std::uint16_t>(v.at("alarm_code"));
+  s.drive_state = static_cast<std::uint16_t>(v.at("drive_state"));
+  s.command_status = static_cast<std::uint16_t>(v.at("command_status"));
+  s.reject = static_cast<std::uint16_t>(v.at("command_reject_reason"));
+  s.cycle = static_cast<std::uint32_t>(v.at("loop_cycle_count"));
+  return s;
+}
+
+struct Image {
+  std::uint16_t control_word = 0;
+  double watchdog_s = 0.0;
+};
+Image read_image(Client& c) {
+  const auto v = c.read_range(reg::Table::holding_register, reg::find("control_word")->address, 4);
+  return {static_cast<std::uint16_t>(v.at("control_word")), v.at("watchdog_ms")};
+}
+
+void write_cw(Client& c, std::uint16_t cw) { c.write({{"control_word", cw}}); }
+constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b); }
+
+/// Waits until the loop has run two cycles past `after` (our write was posted before the reply,
+/// so by then it was applied), feeding the watchdog if one is set.
+Status settle(Client& c, std::uint32_t after, const Image& im, const CommandOptions& o, const char* what) {
+  const auto t0 = Clock::now();
+  for (;;) {
+    const Status s = read_status(c);
+    if (static_cast<std::uint32_t>(s.cycle - after) >= 2u) return s;
+    if (since(t0) > o.ack_timeout_s)
+      throw ClientError(Kind::no_reply, std::string(what) + ": the controller's loop did not run within " +
+                                            fmt(o.ack_timeout_s) + " s");
+    if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});
+    std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
+  }
+}
+
+std::string alarm_text(double alarm) {
+  return code_name(reg::alarm_codes(), alarm) + ": " + code_meaning(reg::alarm_codes(), alarm);
+}
+
+[[noreturn]] void rejected(const char* what, const Status& s) {
+  throw ClientError(Kind::rejected, std::string(what) + " rejected by the controller: " +
+                                        code_name(reg::reject_codes(), s.reject) + " (" +
+                                        code_meaning(reg::reject_codes(), s.reject) + ")");
+}
+
+}  // namespace
+
+CommandResult execute(Client& c, reg::Mode mode, const std::vector<std::pair<std::string, double>>& setpoints,
+                      const CommandOptions& o) {
+  const auto t0 = Clock::now();
+  const Image im = read_image(c);
+  std::uint16_t cw = im.control_word;
+  if (!setpoints.empty()) c.write(setpoints);
+  // A rising edge needs the bit low first (a previous client may have left it high).
+  if (cw & bit(reg::kExecute)) write_cw(c, cw = static_cast<std::uint16_t>(cw & ~bit(reg::kExecute)));
+  cw = static_cast<std::uint16_t>(cw & ~(bit(reg::kFaultReset) | bit(reg::kResync)));
+  // The mode and the edge in one request: the loop applies both in the same cycle.
+  c.write({{"control_word", cw | bit(reg::kExecute)}, {"mode_command", static_cast<double>(mode)}});
+  const Status before = read_status(c);
+  Status s = settle(c, before.cycle, im, o, "execute");
+  write_cw(c, cw);  // drop execute again: the handshake's falling edge
+  if (s.bit(reg::kRejected) && !s.bit(reg::kExecuteAck)) rejected("execute", s);
+  if (!s.bit(reg::kExecuteAck) && !s.bit(reg::kExecuteDone))
+    throw ClientError(Kind::protocol, "execute: the controller neither acknowledged nor rejected the edge");
+  CommandResult r;
+  if (!o.wait_done || mode == reg::Mode::idle) {
+    r.elapsed_s = since(t0);
+    return r;
+  }
+  for (;;) {
+    if (s.bit(reg::kExecuteDone)) {
+      r.done = true;
+      break;
+    }
+    if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
+      throw ClientError(Kind::rejected, "execute: the drive faulted before reaching the target: alarm " +
+                                            alarm_text(s.alarm));
+    if (s.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled))
+      throw ClientError(Kind::rejected, "execute: the drive was disabled before reaching the target");
+    if (since(t0) > o.done_timeout_s)
+      throw ClientError(Kind::no_reply, "execute: acknowledged, but not done (in position / force reached) within " +
+                                            fmt(o.done_timeout_s) + " s");
+    if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});
+    std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
+    s = read_status(c);
+  }
+  r.elapsed_s = since(t0);
+  return r;
+}
+
+void enable(Client& c, const CommandOptions& o) {
+  const Image im = read_image(c);
+  Status s = read_status(c);
+  using DS = reg::DriveState;
+  if (s.drive_state == static_cast<std::uint16_t>(DS::enabled)) return;
+  // The controller ignores an enable edge outside "ready" without a reason code: say why here.
+  if (s.drive_state == static_cast<std::uint16_t>(DS::fault))
+    throw ClientError(Kind::rejected, "enable: the drive is in fault (alarm " + alarm_text(s.alarm) +
+                                          "); run 'maglead reset' first");
+  if (s.drive_state != static_cast<std::uint16_t>(DS::ready))
+    throw ClientError(Kind::rejected, "enable: the drive is not ready (" +
+                                          code_meaning(reg::drive_states(), s.drive_state) + ")");
+  std::uint16_t cw = static_cast<std::uint16_t>(im.control_word & ~(bit(reg::kExecute) | bit(reg::kFaultReset) |
+                                                                     bit(reg::kResync)));
+  if (im.control_word & bit(reg::kEnable)) write_cw(c, static_cast<std::uint16_t>(cw & ~bit(reg::kEnable)));
+  write_cw(c, cw | bit(reg::kEnable));
+  const auto t0 = Clock::now();
+  for (;;) {
+    s = read_status(c);
+    if (s.drive_state == static_cast<std::uint16_t>(DS::enabled)) return;
+    if (since(t0) > o.ack_timeout_s)
+      throw ClientError(Kind::rejected, "enable: the drive did not enable within " + fmt(o.ack_timeout_s) +
+                                            " s (state " + code_name(reg::drive_states(), s.drive_state) +
+                                            (s.alarm ? ", alarm " + alarm_text(s.alarm) : std::string()) + ")");
+    std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
+  }
+}
+
+void disable(Client& c, const CommandOptions& o) {
+  const Image im = read_image(c);
+  write_cw(c, static_cast<std::uint16_t>(im.control_word & ~(bit(reg::kEnable) | bit(reg::kExecute))));
+  const auto t0 = Clock::now();
+  for (;;) {
+    const Status s = read_status(c);
+    if (s.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled)) return;
+    if (since(t0) > o.ack_timeout_s)
+      throw ClientError(Kind::no_reply, "disable: the drive is still enabled after " + fmt(o.ack_timeout_s) + " s");
+    std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
+  }
+}
+
+void reset(Client& c, bool resync_first, const CommandOptions& o) {
+  const Image im = read_image(c);
+  std::uint16_t cw = static_cast<std::uint16_t>(im.control_word & ~bit(reg::kExecute));
+  const auto edge = [&](int b, int ack, int done, const char* what) {
+    if (cw & bit(b)) write_cw(c, cw = static_cast<std::uint16_t>(cw & ~bit(b)));
+    write_cw(c, cw | bit(b));
+    const Status before = read_status(c);
+    const Status s = settle(c, before.cycle, im, o, what);
+    write_cw(c, cw);
+    if (s.bit(reg::kRejected) && !s.bit(ack)) rejected(what, s);
+    if (!s.bit(done)) throw ClientError(Kind::protocol, std::string(what) + ": no acknowledgement from the controller");
+  };
+  if (resync_first) edge(reg::kResync, reg::kResyncAck, reg::kResyncDone, "resync");
+  edge(reg::kFaultReset, reg::kResetAck, reg::kResetDone, "fault reset");
+}
+
+}  // namespace maglead::op

@@ -1,0 +1,167 @@
+// maglead set / enable / disable / reset: command a controller over Modbus the way a PLC does
+// (staged setpoint, mode_command, execute edge, ack/done handshake). Every value is checked as
+// the server checks it, before anything is sent.
+#include <cstdio>
+
+#include "operator_cli.hpp"
+
+namespace maglead::cli {
+namespace {
+
+namespace reg = maglead::registers;
+using op::ClientError;
+using Kind = ClientError::Kind;
+
+struct CommandFlags {
+  std::string config = default_config_dir(), calibration, wait = "30s";
+  bool no_wait = false;
+  op::CommandOptions options() const {
+    op::CommandOptions c;
+    c.wait_done = !no_wait;
+    c.done_timeout_s = parse_duration_s(wait);
+    return c;
+  }
+};
+
+void add_command_flags(CLI::App* cmd, const std::shared_ptr<CommandFlags>& f, bool limits) {
+  if (limits) {
+    cmd->add_option("--config", f->config, "Configuration directory (stroke, safe force fraction)")
+        ->capture_default_str();
+    cmd->add_option("--calibration", f->calibration,
+                    "Force calibration the controller uses (default: CONFIG/calibration.toml)");
+  }
+  cmd->add_flag("--no-wait", f->no_wait, "Return once the controller acknowledged, not when done");
+  cmd->add_option("--wait", f->wait, "How long to wait for done (e.g. 30s)")->capture_default_str();
+}
+
+void add_set(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "set", "Apply a setpoint: 'set force 12.5' [N], 'set position 20mm', 'set idle' (stop and hold), or "
+             "'set NAME VALUE' for a writable holding register (e.g. watchdog_ms 0.5s)");
+  auto conn = add_connection_options(cmd);
+  auto f = std::make_shared<CommandFlags>();
+  struct Opts {
+    std::string what, value, speed, accel;
+  };
+  auto o = std::make_shared<Opts>();
+  cmd->add_option("what", o->what, "force, position, idle, or a register name")->required();
+  cmd->add_option("value", o->value, "Value with optional unit: 12.5, 12.5N, 20mm, 0.02m");
+  cmd->add_option("--speed", o->speed, "Position moves: speed limit (e.g. 5mm/s)");
+  cmd->add_option("--accel", o->accel, "Position moves: acceleration limit (e.g. 0.1m/s^2)");
+  add_command_flags(cmd, f, true);
+  cmd->callback([o, f, conn] {
+    run_operator("set", [&] {
+      const auto need_value = [&] {
+        if (o->value.empty()) throw ClientError(Kind::refused_locally, "'set " + o->what + "' needs a value");
+      };
+      // All checks happen here, before the connection is even opened.
+      reg::Mode mode = reg::Mode::idle;
+      std::vector<std::pair<std::string, double>> setpoints;
+      std::string summary;
+      char buf[160];
+      if (o->what == "force") {
+        need_value();
+        const double force_n = op::parse_quantity(o->value, "N");
+        if (auto why = op::check_force(load_limits(f->config, f->calibration), force_n))
+          throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
+        mode = reg::Mode::force;
+        setpoints.emplace_back("force_setpoint_mn", force_n);
+        std::snprintf(buf, sizeof buf, "force %.3f N", force_n);
+        summary = buf;
+      } else if (o->what == "position") {
+        need_value();
+        const double pos_m = op::parse_quantity(o->value, "m");
+        if (auto why = op::check_position(load_limits(f->config, f->calibration), pos_m))
+          throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
+        mode = reg::Mode::position;
+        setpoints.emplace_back("position_setpoint_um", pos_m);
+        if (!o->speed.empty()) setpoints.emplace_back("velocity_limit_um_s", op::parse_quantity(o->speed, "m/s"));
+        if (!o->accel.empty()) setpoints.emplace_back("accel_limit_um_s2", op::parse_quantity(o->accel, "m/s^2"));
+        for (const auto& [name, v] : setpoints)
+          if (auto why = op::check_register(*reg::find(name), v))
+            throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
+        std::snprintf(buf, sizeof buf, "position %.3f mm", pos_m * 1e3);
+        summary = buf;
+      } else if (o->what == "idle") {
+        summary = "idle (stop and hold)";
+      } else {
+        // A plain register write (limits, watchdog …): checked, written, no execute edge.
+        need_value();
+        const auto* r = reg::find(o->what);
+        if (!r) throw ClientError(Kind::refused_locally, "no register or setpoint named '" + o->what + "'");
+        if (r->table != reg::Table::holding_register || r->access != reg::Access::read_write ||
+            r->name == "control_word")
+          throw ClientError(Kind::refused_locally, "'" + o->what + "' is not a writable setting (use enable, "
+                                                   "disable, reset or set force/position)");
+        const double v = r->unit.empty() ? op::parse_quantity(o->value, "") : op::parse_quantity(o->value, r->unit);
+        if (auto why = op::check_register(*r, v)) throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
+        if (r->name.starts_with("force_setpoint"))
+          if (auto why = op::check_force(load_limits(f->config, f->calibration), v))
+            throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
+        if (r->name.starts_with("position_setpoint"))
+          if (auto why = op::check_position(load_limits(f->config, f->calibration), v))
+            throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
+        op::Client client(endpoint_of(*conn));
+        client.check_identity();
+        client.write({{std::string(r->name), v}});
+        std::printf("%s = %.9g %s written\n", std::string(r->name).c_str(), v, std::string(r->unit).c_str());
+        return;
+      }
+      op::Client client(endpoint_of(*conn));
+      client.check_identity();
+      const auto res = op::execute(client, mode, setpoints, f->options());
+      if (res.done)
+        std::printf("%s: done (%s) after %.2f s\n", summary.c_str(),
+                    mode == reg::Mode::force ? "force reached" : "in position", res.elapsed_s);
+      else
+        std::printf("%s: acknowledged by the controller\n", summary.c_str());
+    });
+  });
+}
+
+/// A command that connects, checks the identity and runs one step of the drive's state machine.
+template <class Step>
+void add_drive_command(CLI::App& app, const char* name, const char* help, Step step) {
+  auto* cmd = app.add_subcommand(name, help);
+  auto conn = add_connection_options(cmd);
+  auto resync = std::make_shared<bool>(false);
+  if (std::string_view(name) == "reset")
+    cmd->add_flag("--resync", *resync, "First re-synchronise the phase (after a step-out: the nut's new lead is zero)");
+  cmd->callback([conn, resync, name, step] {
+    run_operator(name, [&] {
+      op::Client client(endpoint_of(*conn));
+      client.check_identity();
+      std::printf("%s\n", step(client, *resync).c_str());
+    });
+  });
+}
+
+void add_enable(CLI::App& app) {
+  add_drive_command(app, "enable", "Enable a ready drive (rising edge of the enable bit) and wait for it",
+                    [](op::Client& c, bool) {
+                      op::enable(c, {});
+                      return std::string("drive enabled");
+                    });
+}
+void add_disable(CLI::App& app) {
+  add_drive_command(app, "disable", "Disable the drive (falling edge of the enable bit)",
+                    [](op::Client& c, bool) {
+                      op::disable(c, {});
+                      return std::string("drive disabled");
+                    });
+}
+void add_reset(CLI::App& app) {
+  add_drive_command(app, "reset", "Clear a latched fault (fault_reset edge, ack/done handshake)",
+                    [](op::Client& c, bool resync) {
+                      op::reset(c, resync, {});
+                      return std::string(resync ? "resync and " : "") + "fault reset done; enable again to resume";
+                    });
+}
+
+MAGLEAD_COMMAND(81, add_set);
+MAGLEAD_COMMAND(82, add_enable);
+MAGLEAD_COMMAND(83, add_disable);
+MAGLEAD_COMMAND(84, add_reset);
+
+}  // namespace
+}  // namespace maglead::cli
