@@ -3,6 +3,7 @@
 // nothing concealed, and the real EMPS recording. Only bench columns reach the analysis.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -197,6 +198,36 @@ TEST(GeneratedSuite, TwoEffectsAtOnce) {
   const auto r = run("position-moves", 40.0, {{"spring", 300.0}, {"position_ripple", 1.5}});
   expect_found(r, "spring", "position-moves", "spring_n_per_m", 300.0, 0.05);
   expect_found(r, "position_ripple", "position-moves", "amplitude_n", 1.5, 0.1);
+}
+
+TEST(GeneratedSuite, StepOutIsAnEventWithItsTime) {
+  // The plant's scenarios keep the nut on its branch, so the slip is made in the recording:
+  // from t = 10 s the encoder reads one lead less, as after the nut fell back one period.
+  maglead::ScenarioOptions opt;
+  opt.scenario = "position-moves";
+  opt.duration_s = 20.0;
+  const std::string path = testing::TempDir() + "/analysis_stepout.csv";
+  maglead::run_scenario(opt, path);
+  auto rec = maglead::read_recording(path);
+  std::filesystem::remove(path);
+  const auto& t = rec.column("t_s");
+  auto& p = rec.columns[static_cast<std::size_t>(
+      std::find(rec.names.begin(), rec.names.end(), "nut_pos_m") - rec.names.begin())];
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (t[i] >= 10.0) p[i] -= 0.006;
+  const maglead::ActuatorParams act;
+  const auto r = maglead::analysis::analyze_recording(
+      rec, maglead::analysis::actuator_model_from_config(act), maglead::paper_calibration(), act, {});
+  int slips = 0;
+  for (const auto& e : r.json["events"])
+    if (e["type"] == "step_out") {
+      ++slips;
+      EXPECT_NEAR(e["t_s"].get<double>(), 10.0, 0.01);
+      EXPECT_EQ(e["leads"].get<int>(), 1);
+    }
+  EXPECT_EQ(slips, 1);
+  Json params;
+  EXPECT_NE(finding(r, "step_out", &params), nullptr);
 }
 
 TEST(Emps, FindsCoulombOffsetThenDirectionDependentFriction) {
