@@ -6,6 +6,7 @@ import csv
 import json
 import os
 import pty
+import re
 import select
 import signal
 import socket
@@ -202,7 +203,8 @@ def watch_pty(conn, key, how):
     check(status is not None and os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, f"watch quits on {how}")
     check("\x1b[?1049h" in text and text.rfind("\x1b[?1049l") > text.rfind("\x1b[?1049h") and "\x1b[?25h" in text,
           f"watch ({how}) restores the screen and cursor")
-    check("drive" in text and "enabled" in text and "force" in text and any(c in text for c in "▁▂▃▄▅▆▇█"),
+    check(re.search(r"drive\s+enabled\s+mode\s+position", text) is not None and "nut position" in text
+          and re.search(r"force\s+\[", text) is not None and any(c in text for c in "▁▂▃▄▅▆▇█"),
           f"watch ({how}) shows state and a trend")
 
 

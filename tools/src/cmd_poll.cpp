@@ -30,6 +30,17 @@ std::string meaning(const reg::Register& r, double v) {
   if (r.name == "command_reject_reason") return op::code_name(reg::reject_codes(), v);
   if (r.name == "drive_state") return op::code_name(reg::drive_states(), v);
   if (r.name == "active_mode" || r.name == "mode_command") return op::code_name(reg::modes(), v);
+  if (r.name == "device_type") {
+    char b[32];
+    std::snprintf(b, sizeof b, "0x%04X%s", static_cast<unsigned>(v), v == reg::kDeviceType ? " (maglead)" : "");
+    return b;
+  }
+  if (r.name == "control_owner_ipv4" && v != 0) {
+    const auto a = static_cast<std::uint32_t>(v);
+    return std::to_string(a >> 24) + "." + std::to_string((a >> 16) & 255) + "." + std::to_string((a >> 8) & 255) +
+           "." + std::to_string(a & 255);
+  }
+  if (r.name == "control_owner") return v == 0 ? "nobody" : v == 65535 ? "the RTU master" : "TCP connection";
   if (r.name == "control_word") {
     std::string s;
     for (const auto& c : reg::table())
