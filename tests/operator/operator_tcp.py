@@ -228,6 +228,43 @@ def dropped_connection():
         rows = [l for l in f.read().splitlines() if l and not l.startswith("#")]
     check(len(rows) > 10, f"rows before the drop are kept ({len(rows) - 1})")
 
+    # watch when the controller goes away: screen restored first, then one line, exit 3.
+    srv = Server(MAGLEAD, CONFIG, "--port", "0")
+    pid, fd = pty.fork()
+    if pid == 0:
+        os.execv(MAGLEAD, [MAGLEAD, "watch", "--port", str(srv.port), "--rate", "10"])
+    out = read_pty(fd, 1.0)
+    srv.stop()
+    status = None
+    end = time.time() + 8
+    while time.time() < end and status is None:
+        out += read_pty(fd, 0.1)
+        done, st = os.waitpid(pid, os.WNOHANG)
+        status = st if done else None
+    if status is None:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+    out += read_pty(fd, 0.2)
+    os.close(fd)
+    text = out.decode(errors="replace")
+    tail = text[text.rfind("\x1b[?1049l"):] if "\x1b[?1049l" in text else ""
+    check(status is not None and os.WIFEXITED(status) and os.WEXITSTATUS(status) == 3,
+          f"watch exits 3 when the connection drops ({status})")
+    check("maglead watch:" in tail and "dropped" in tail and tail.count("\n") <= 2,
+          f"watch: screen restored, then one line: {tail.strip()!r}")
+
+
+def read_pty(fd, seconds):
+    out = b""
+    end = time.time() + seconds
+    while time.time() < end:
+        if select.select([fd], [], [], 0.05)[0]:
+            try:
+                out += os.read(fd, 65536)
+            except OSError:
+                break
+    return out
+
 
 if __name__ == "__main__":
     main()

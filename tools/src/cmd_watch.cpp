@@ -131,13 +131,15 @@ void add_watch(CLI::App& app) {
                         v.at("step_out_count"), v.at("loop_cycle_count"));
           s += b;
           s += "status ";
+          int shown_bits = 0;
           for (const auto& r : reg::table()) {
             if (r.table != reg::Table::discrete_input) continue;
+            if (shown_bits++ == 7) s += "\n       ";  // two rows fit an 80-column terminal
             const bool on = (sw >> r.address) & 1u;
             const bool bad = r.name == "fault" || r.name == "step_out" || r.name == "drift_warning" ||
                              r.name == "watchdog_expired" || r.name == "step_out_warning" || r.name == "stroke_limit";
             s += on ? (bad ? "\x1b[1;31m" : "\x1b[1;32m") : "\x1b[2m";
-            s += std::string(r.name) + "\x1b[0m ";
+            s += (on ? "\u25CF " : "\u25CB ") + std::string(r.name) + "\x1b[0m  ";  // ● set, ○ clear
           }
           s += "\n";
           if (alarm != 0)
@@ -163,10 +165,16 @@ void add_watch(CLI::App& app) {
           line("force setpoint held", v.at("active_force_setpoint_mn"), "N");
           line("target position", v.at("active_target_pos_um") * 1e3, "mm");
           line("profile position", v.at("profile_pos_um") * 1e3, "mm");
-          line("twin: predicted position", v.at("twin_pred_nut_pos_um") * 1e3, "mm");
-          line("twin: position residual", v.at("twin_residual_pos_um") * 1e6, "um");
-          line("twin: force residual", v.at("twin_residual_force_mn"), "N");
-          line("twin: dynamic force estimate", v.at("twin_dynamic_force_mn"), "N");
+          // The registers read 0 without a twin: say so rather than show zeros as predictions.
+          if (v.at("twin_pred_nut_pos_um") == 0 && v.at("twin_pred_force_mn") == 0 &&
+              v.at("twin_residual_pos_um") == 0 && v.at("twin_dynamic_force_mn") == 0) {
+            s += "  twin                           not running on this controller\n";
+          } else {
+            line("twin: predicted position", v.at("twin_pred_nut_pos_um") * 1e3, "mm");
+            line("twin: position residual", v.at("twin_residual_pos_um") * 1e6, "um");
+            line("twin: force residual", v.at("twin_residual_force_mn"), "N");
+            line("twin: dynamic force estimate", v.at("twin_dynamic_force_mn"), "N");
+          }
           line("watchdog", v.at("watchdog_ms"), "s");
           std::snprintf(b, sizeof b, "\nforce    [%8.2f .. %8.2f N ] %s\n", *fmin, *fmax,
                         sparkline(force_n, *fmin, *fmax).c_str());
