@@ -225,6 +225,7 @@ HybridTwin::HybridTwin(NutModel model, IntegratorOptions options)
   check(CVodeSetNoInactiveRootWarn(m.mem), "CVodeSetNoInactiveRootWarn");
   check(CVodeSetMaxNumSteps(m.mem, opt_.max_internal_steps), "CVodeSetMaxNumSteps");
   if (opt_.max_step_s > 0.0) check(CVodeSetMaxStep(m.mem, opt_.max_step_s), "CVodeSetMaxStep");
+  check(CVodeSetMaxOrd(m.mem, opt_.max_order), "CVodeSetMaxOrd");
 }
 
 HybridTwin::~HybridTwin() = default;
@@ -264,8 +265,8 @@ TwinStatus HybridTwin::advance(double t_end_s, double screw_end_rad, double ext_
   m.segment.t1 = t_end_s;
   m.segment.th0 = screw_rad_;
   m.segment.th1 = screw_end_rad;
-  // A new force level can break a stuck nut loose at the tick boundary.
-  if (ext_force_n != m.segment.f && state_.mode == FrictionMode::stick) m.fresh = true;
+  // A new force level that breaks a stuck nut loose shows as a sign change of the break-away
+  // root function in the first step of this tick; CVODE locates it there without a restart.
   m.segment.f = ext_force_n;
   m.inputs = &m.segment;
   const TwinStatus st = run(t_end_s, true);

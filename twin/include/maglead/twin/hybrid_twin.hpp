@@ -73,6 +73,7 @@ struct IntegratorOptions {
   double abs_tol_pos_m = 1e-9;     // well below one encoder count (21.6 µm)
   double abs_tol_vel_m_s = 1e-7;
   double max_step_s = 1e-3;        // the sample period; 0 removes the cap (tests show why not)
+  int max_order = 5;               // BDF order limit
   int max_events_per_call = 64;    // Zeno guard: more mode switches than this in one call fail
   long max_internal_steps = 100000;
 };

@@ -57,7 +57,7 @@ struct TwinMonitorConfig {
   double stop_min_s = 0.010;          // … and at least this long
   double resync_s = 0.020;            // twin runs open loop this long, then re-syncs
   double lookahead_s = 0.050;         // step-out warning horizon
-  int lookahead_every_ticks = 5;      // look-ahead cadence (its cost is ~horizon/cap steps)
+  int lookahead_every_ticks = 10;      // look-ahead cadence (its cost is ~horizon/cap steps)
   double step_out_warn_margin_rad = 0.0;  // warn when look-ahead |φ| exceeds the edge − this
   // Drift detector: CUSUM on the friction-window ratio of stick episodes (see monitor.cpp).
   double drift_shift = 0.05;          // relative calibration error to detect (5 %)
