@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench_common.hpp"
 #include "cli_common.hpp"
 #include "maglead/controller/controller.hpp"
 #include "maglead/controller/loop_runner.hpp"
@@ -222,15 +223,7 @@ Jitter jitter_of(std::vector<double> periods, double nominal_s) {
 }
 
 void add_bench_modbus(CLI::App& app) {
-  // `bench` groups the benchmarks; whichever file registers first creates it.
-  CLI::App* bench = nullptr;
-  for (auto* sub : app.get_subcommands([](CLI::App*) { return true; }))
-    if (sub->get_name() == "bench") bench = sub;
-  if (!bench) {
-    bench = app.add_subcommand("bench", "Benchmarks (printed side by side with a reference)");
-    bench->require_subcommand(1);
-  }
-  auto* cmd = bench->add_subcommand(
+  auto* cmd = bench_command(app)->add_subcommand(
       "modbus", "Modbus TCP requests/s and latency of the controller's server, with the 1 kHz loop "
                 "running, beside a plain libmodbus server; and loop jitter meanwhile");
   struct Opts {
