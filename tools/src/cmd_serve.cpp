@@ -13,8 +13,10 @@
 #include "maglead/controller/modbus_rtu.hpp"
 #include "maglead/controller/modbus_tcp.hpp"
 #include "maglead/controller/network_config.hpp"
+#include "maglead/controller/twin_hook.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
+#include "maglead/twin/monitor.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -32,7 +34,7 @@ void add_serve(CLI::App& app) {
         rtu_data_bits = -1;
     double frame_timeout_s = -1, idle_timeout_s = -1, watchdog_ms = -1;
     std::vector<std::string> allow;
-    bool read_only = false, no_tcp = false, rs485 = false;
+    bool read_only = false, no_tcp = false, rs485 = false, no_twin = false;
     std::uint64_t seed = 1;
     double spring_n_per_m = 2000.0, spring_anchor_m = 0.02, start_pos_m = 0.02;
   };
@@ -60,6 +62,7 @@ void add_serve(CLI::App& app) {
   r->add_option("--rtu-unit", o->rtu_unit, "RTU unit id (default 1)")->check(CLI::Range(1, 247));
   r->add_flag("--rtu-rs485", o->rs485, "Switch the line to RS-485 mode");
   cmd->add_flag("--read-only", o->read_only, "Refuse every write (exception 01)");
+  cmd->add_flag("--no-twin", o->no_twin, "Run without the digital twin (its registers read 0)");
   cmd->add_option("--watchdog", o->watchdog_ms, "Communication watchdog at start [ms], 0 = off")->check(CLI::Range(0.0, 60000.0));
   auto* s = cmd->add_option_group("Simulated actuator");
   s->add_option("--sim-seed", o->seed, "Random seed of the simulated plant")->capture_default_str();
@@ -114,6 +117,15 @@ void add_serve(CLI::App& app) {
       actuator.set_load(load);
     }
     controller::Controller ctl(cfg, actuator);
+    std::unique_ptr<controller::TwinMonitorHook> twin_hook;
+    if (!o->no_twin) {
+      twin::TwinMonitorConfig twin_cfg = twin::load_monitor_config(o->config);
+      twin_cfg.actuator = cfg.actuator;  // the twin sees the same actuator and calibration
+      twin_cfg.calibration = cfg.calibration;
+      twin_cfg.integrator.max_step_s = 1.0 / cfg.actuator.sample_rate_hz;
+      twin_hook = std::make_unique<controller::TwinMonitorHook>(twin_cfg);
+      ctl.attach_twin(twin_hook.get());
+    }
     controller::ModbusCore core(ctl, {net.read_only, "simulated actuator"});
     std::unique_ptr<controller::TcpServer> tcp;
     std::unique_ptr<controller::RtuServer> rtu;
@@ -126,11 +138,12 @@ void add_serve(CLI::App& app) {
     loop.start();
     if (tcp) tcp->start();
     if (rtu) rtu->start();
-    std::printf("maglead serve: control loop %.0f Hz on the simulated actuator (%s), %s\n",
+    std::printf("maglead serve: control loop %.0f Hz on the simulated actuator (%s), %s, %s\n",
                 cfg.actuator.sample_rate_hz,
                 o->spring_n_per_m > 0 ? ("spring " + std::to_string(static_cast<int>(o->spring_n_per_m)) + " N/m").c_str()
                                       : "free nut",
-                loop.realtime() ? "SCHED_FIFO" : "normal scheduling");
+                loop.realtime() ? "SCHED_FIFO" : "normal scheduling",
+                twin_hook ? "digital twin running" : "no twin");
     if (tcp)
       std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(), tcp->port(),
                   net.tcp.unit_id, net.read_only ? ", read-only" : "");
