@@ -1,6 +1,8 @@
 // The `maglead` command line end to end, as a user runs it: results and error messages.
 #include <gtest/gtest.h>
 
+#include "test_tmp.hpp"
+
 #include <array>
 #include <cmath>
 #include <cstdlib>
@@ -27,7 +29,7 @@ Run run(const std::string& args) {
   return r;
 }
 
-std::string tmp(const std::string& name) { return testing::TempDir() + "/" + name; }
+std::string tmp(const std::string& name) { return test_tmp_dir() + "/" + name; }
 
 double number_after(const std::string& text, const std::string& label) {
   const auto at = text.find(label);

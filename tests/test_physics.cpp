@@ -1,6 +1,8 @@
 // Ties the physics core to the paper (eq. 2, 3, 6, 7) and to physics.md's signs.
 #include <gtest/gtest.h>
 
+#include "test_tmp.hpp"
+
 #include <cmath>
 #include <fstream>
 #include <numbers>
@@ -144,7 +146,7 @@ TEST(VelocityEstimator, FollowsSlowAndFastQuantizedMotionAndStops) {
 }
 
 TEST(CalibrationFile, RoundTripsAndRejectsBadContent) {
-  const std::string path = testing::TempDir() + "/cal.toml";
+  const std::string path = test_tmp_dir() + "/cal.toml";
   const auto cal = paper_calibration();
   save_calibration(path, cal);
   const auto back = load_calibration(path);

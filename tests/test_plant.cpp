@@ -2,6 +2,8 @@
 // calibration procedure run on it recovers its curve.
 #include <gtest/gtest.h>
 
+#include "test_tmp.hpp"
+
 #include <cmath>
 #include <numbers>
 
@@ -69,7 +71,7 @@ TEST(Plant, UnknownEffectAndScenarioNameTheBadWord) {
   EXPECT_EQ(e.offset_n, 3.0);
   ScenarioOptions o;
   o.scenario = "moonwalk";
-  EXPECT_THROW(run_scenario(o, testing::TempDir() + "/x.csv"), std::invalid_argument);
+  EXPECT_THROW(run_scenario(o, test_tmp_dir() + "/x.csv"), std::invalid_argument);
 }
 
 TEST(Plant, OffsetEffectShowsOnTheLoadCellWhileHeld) {
@@ -77,8 +79,8 @@ TEST(Plant, OffsetEffectShowsOnTheLoadCellWhileHeld) {
   ScenarioOptions o;
   o.scenario = "static-calibration";
   o.duration_s = 12;
-  const std::string base = testing::TempDir() + "/cal_base.csv";
-  const std::string off = testing::TempDir() + "/cal_off.csv";
+  const std::string base = test_tmp_dir() + "/cal_base.csv";
+  const std::string off = test_tmp_dir() + "/cal_off.csv";
   run_scenario(o, base);
   o.plant.effects.offset_n = 3.0;
   run_scenario(o, off);
@@ -94,7 +96,7 @@ TEST(PlantCalibration, RecoversThePlantCurveWithinEncoderResolution) {
   o.scenario = "static-calibration";
   o.duration_s = 30;
   o.seed = 5;
-  const std::string path = testing::TempDir() + "/cal.csv";
+  const std::string path = test_tmp_dir() + "/cal.csv";
   run_scenario(o, path);
   const auto rec = read_recording(path);
   const auto& t = rec.column("t_s");

@@ -1,6 +1,8 @@
 // The mls-recording/1 reader: round trip, and errors that name the file, line and column.
 #include <gtest/gtest.h>
 
+#include "test_tmp.hpp"
+
 #include <cmath>
 #include <fstream>
 
@@ -10,7 +12,7 @@ using namespace maglead;
 
 namespace {
 std::string write_file(const std::string& name, const std::string& text) {
-  const std::string path = testing::TempDir() + "/" + name;
+  const std::string path = test_tmp_dir() + "/" + name;
   std::ofstream(path) << text;
   return path;
 }
@@ -29,7 +31,7 @@ TEST(Recording, RoundTripKeepsMetadataColumnsAndMissingValues) {
   r.metadata = {{"sample_rate_hz", "1000"}, {"source", "test: with colon"}};
   r.add_column("t_s", {0.0, 0.001, 0.002});
   r.add_column("nut_pos_m", {1e-5, NAN, 3.25e-5});
-  const std::string path = testing::TempDir() + "/rt.csv";
+  const std::string path = test_tmp_dir() + "/rt.csv";
   write_recording(path, r);
   const Recording b = read_recording(path, {"t_s", "nut_pos_m"});
   EXPECT_EQ(b.meta("format"), "mls-recording/1");
@@ -72,6 +74,6 @@ TEST(Recording, RaggedRowsAndForeignFormatsAreErrors) {
   EXPECT_NE(error_of(write_file("long.csv", "t_s,a_m\n0,1,2\n")).find("more fields"), std::string::npos);
   EXPECT_NE(error_of(write_file("fmt.csv", "# format: other/2\nt_s\n0\n")).find("other/2"),
             std::string::npos);
-  EXPECT_NE(error_of(testing::TempDir() + "/does-not-exist.csv").find("cannot open"),
+  EXPECT_NE(error_of(test_tmp_dir() + "/does-not-exist.csv").find("cannot open"),
             std::string::npos);
 }
