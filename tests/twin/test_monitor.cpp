@@ -1,5 +1,6 @@
 // TwinMonitor on the simulated plant (its own dynamics code, not the twin's): force estimate,
 // step-out warning and flag, drift detection. Recordings are made here with fixed seeds.
+#include <unistd.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -36,7 +37,7 @@ MonitorRun run_recording(const std::string& scenario, double duration_s, std::ui
   opt.duration_s = duration_s;
   opt.seed = seed;
   opt.plant.effects.gain_drift_per_min = gain_drift_per_min;
-  const std::string path = std::string(MAGLEAD_TEST_TMP) + "/twin_" + scenario + "_" +
+  const std::string path = std::string(MAGLEAD_TEST_TMP) + "/twin_" + std::to_string(::getpid()) + "_" + scenario + "_" +
                            std::to_string(seed) + ".csv";
   run_scenario(opt, path);
   const Recording rec = read_recording(path);
