@@ -946,6 +946,7 @@ double scan_position_period(const Signals& s, const std::vector<double>& r0, dou
 AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& opt) {
+  if (model.system == "actuator") return analyze_actuator(rec, model, cal, act, opt);
   auto progress = [&](const std::string& stage, double f) {
     if (opt.progress) opt.progress(stage, f);
   };

@@ -49,6 +49,11 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& baseline
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& options);
 
+/// The actuator path of analyze_recording (stages over the effect library).
+AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& baseline,
+                                const ForceCalibration& cal, const ActuatorParams& act,
+                                const AnalysisOptions& options);
+
 /// Writes analysis.json, report.html, the figures and model_corrected.toml into out_dir.
 void write_outputs(const AnalysisResult& result, const std::string& out_dir);
 

@@ -1,0 +1,82 @@
+#pragma once
+// The effect library (docs/effects.md): one unit per physical effect a baseline model may lack.
+// Each unit states its parameters with units and plausible ranges, its law (the force it adds to
+// the nut's balance M p̈ = F_m − C v − F_f + F_ext, as the twin and the analysis apply it), and
+// its regressors: the same law linear in a few coefficients once a shape value (a period, a zone,
+// a velocity scale) is fixed, which is how the analysis fits it. Adding an effect is one file in
+// effects/src plus its test; the registry lists it.
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace maglead::effects {
+
+struct ParamSpec {
+  std::string name;  // spec name, unit in the name (offset_n, delay_s)
+  std::string meaning;
+  double min, max;   // plausible range: a fit outside it is not this physics
+};
+
+using Params = std::map<std::string, double>;
+
+/// One instant of the actuator as the twin or the analysis sees it (SI units).
+struct State {
+  double t_s = 0;            // time since the start of the recording
+  double p_m = 0, v_m_s = 0, a_m_s2 = 0;
+  double theta_rad = 0, phi_rad = 0, phi_rate_rad_s = 0;
+  double coupling_n = 0;                // F_m(φ): calibrated magnetic force on the nut along +p
+  double coupling_slope_n_per_rad = 0;  // dF_m/dφ
+  double load_n = 0, load_rate_n_s = 0;  // F_ext as the load cell reads it, and its rate
+  double stroke_min_m = 0, stroke_max_m = 0.04, lead_m = 0.006;
+  // The baseline model's own values: friction and mass effects are stated as totals and act
+  // as the difference from these.
+  double coulomb_n = 7.5, viscous_n_s_per_m = 2.0, nut_mass_kg = 0.12;
+};
+
+/// Evidence an effect reports in the time domain (events: step-outs, disturbance pulses).
+struct Event {
+  double t_s = 0, duration_s = 0, value = 0;  // value: leads slipped or force [N]
+};
+
+class Effect {
+ public:
+  virtual ~Effect() = default;
+  virtual std::string_view id() const = 0;
+  virtual std::string_view law() const = 0;  // one line, as in docs/effects.md
+  virtual std::vector<ParamSpec> params() const = 0;
+
+  /// The law: force added to the nut's balance along +p [N] (sliding; stuck is the friction
+  /// units' break-away below). Exact where cheap, else first order in the small parameter.
+  virtual double force_n(const Params& p, const State& s) const = 0;
+  /// Extra break-away friction for motion in direction `dir` (+1/−1) over the kinetic level [N].
+  virtual double breakaway_extra_n(const Params&, const State& /*model*/, double /*dir*/) const {
+    return 0.0;
+  }
+
+  // ---- how the analysis fits it: force_n = Σ c_k x_k(s) for a fixed shape value
+  /// Shape values to scan (an empty list: one shape, no value).
+  virtual std::vector<double> shapes() const { return {}; }
+  virtual int columns() const = 0;
+  virtual void regressors(double shape, const State& s, double* x) const = 0;
+  /// Physical parameters from the coefficients; nullopt when they make no physical sense.
+  virtual std::optional<Params> parameters(double shape, const double* c,
+                                           const State& model) const = 0;
+  /// False for effects the analysis only names as an alternative (identifiability).
+  virtual bool selectable() const { return true; }
+};
+
+/// Every effect, in the order the analysis prefers among explanations it cannot tell apart.
+const std::vector<const Effect*>& library();
+/// nullptr if unknown.
+const Effect* find(std::string_view id);
+/// Throws std::invalid_argument naming the effect and parameter when a required one is absent
+/// or outside its range.
+void check(const Effect& e, const Params& p);
+/// True when every value lies inside its documented plausible range.
+bool plausible(const Effect& e, const Params& p);
+
+double sgn(double x);
+
+}  // namespace maglead::effects

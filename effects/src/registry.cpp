@@ -1,0 +1,55 @@
+// The registry: every effect unit, in the analysis's order of preference among explanations
+// the data cannot tell apart (common mechanical causes first, sensor artefacts last).
+#include <cmath>
+#include <stdexcept>
+
+#include "maglead/effects/effect.hpp"
+#include "units.hpp"
+
+namespace maglead::effects {
+
+double sgn(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : 0.0); }
+
+const std::vector<const Effect*>& library() {
+  static const std::vector<const Effect*> all = {
+      &coulomb_friction(), &viscous_friction(), &offset(),          &asymmetric_friction(),
+      &stribeck_friction(), &spring(),          &mass_error(),      &gain_drift(),
+      &angle_ripple(),     &position_ripple(),  &end_effect(),      &backlash(),
+      &load_cell_delay(),  &coupling_gain_error(), &sensor_delay(), &external_disturbance(),
+      &step_out()};
+  return all;
+}
+
+const Effect* find(std::string_view id) {
+  for (const Effect* e : library())
+    if (e->id() == id) return e;
+  return nullptr;
+}
+
+void check(const Effect& e, const Params& p) {
+  for (const auto& [name, value] : p) {
+    bool known = false;
+    for (const auto& s : e.params()) known |= s.name == name;
+    if (!known)
+      throw std::invalid_argument("effect '" + std::string(e.id()) + "' has no parameter '" +
+                                  name + "'");
+    if (!std::isfinite(value))
+      throw std::invalid_argument("effect '" + std::string(e.id()) + "': parameter '" + name +
+                                  "' is not a finite number");
+  }
+}
+
+bool plausible(const Effect& e, const Params& p) {
+  for (const auto& s : e.params()) {
+    const auto it = p.find(s.name);
+    if (it != p.end() && (it->second < s.min || it->second > s.max)) return false;
+  }
+  return true;
+}
+
+double param(const Params& p, const char* name, double fallback) {
+  const auto it = p.find(name);
+  return it == p.end() ? fallback : it->second;
+}
+
+}  // namespace maglead::effects

@@ -1,0 +1,553 @@
+// The actuator analysis as stages: prepare (filtered states and the baseline's force residual on
+// sliding samples) → locate → select (forward selection of effect units on held-out time
+// segments) → break-away test on stuck episodes → refit and validate → events. Every law and
+// regressor comes from the effect library (effects/); nothing here knows an effect's formula.
+#include "actuator_analysis.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+#include <stdexcept>
+
+#include "maglead/analysis/signal.hpp"
+
+namespace maglead::analysis::actuator {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+using effects::State;
+
+double median_of(std::vector<double> x) {
+  if (x.empty()) return 0.0;
+  const auto mid = x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2);
+  std::nth_element(x.begin(), mid, x.end());
+  return *mid;
+}
+
+double robust_sigma(std::vector<double> x) {
+  if (x.empty()) return 0.0;
+  const double m = median_of(x);
+  for (double& v : x) v = std::abs(v - m);
+  return 1.4826 * median_of(x);
+}
+
+double sample_rate(const Recording& rec) {
+  if (auto s = rec.meta("sample_rate_hz")) {
+    try {
+      const double f = std::stod(*s);
+      if (f > 0) return f;
+    } catch (const std::exception&) {
+    }
+  }
+  const auto& t = rec.column("t_s");
+  std::vector<double> d;
+  for (std::size_t i = 1; i < t.size() && d.size() < 20000; ++i) d.push_back(t[i] - t[i - 1]);
+  const double dt = median_of(d);
+  if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
+  return 1.0 / dt;
+}
+
+// Coupling force on the nut, F_m = −F̂_s: the polynomial on the calibrated branch, the periodic
+// model past it (step-out), so the force is defined for every phase.
+struct Coupling {
+  const ForceCalibration& cal;
+  double force(double phi) const {
+    if (phi >= cal.stable_min_rad && phi <= cal.stable_max_rad) return -cal.polynomial.load_force_n(phi);
+    return -cal.periodic.load_force_n(phi);
+  }
+  double slope(double phi) const {
+    if (phi >= cal.stable_min_rad && phi <= cal.stable_max_rad)
+      return -cal.polynomial.slope_n_per_rad(phi);
+    return -cal.periodic.slope_n_per_rad(phi);
+  }
+};
+
+std::vector<double> angle_column(const Recording& rec, const ActuatorParams& act) {
+  if (rec.has("screw_angle_rad")) return rec.column("screw_angle_rad");
+  if (rec.has("motor_angle_rad")) {
+    double gear = act.gear_ratio;
+    if (auto g = rec.meta("gear_ratio")) gear = std::stod(*g);
+    auto th = rec.column("motor_angle_rad");
+    for (double& x : th) x /= gear;
+    return th;
+  }
+  throw RecordingError(rec.path + ": needs column 'screw_angle_rad' or 'motor_angle_rad'");
+}
+
+void require_finite(const Recording& rec, const std::vector<double>& x, const std::string& name) {
+  for (std::size_t i = 0; i < x.size(); ++i)
+    if (!std::isfinite(x[i]))
+      throw RecordingError(rec.path + ": column '" + name + "' has no number at data row " +
+                           std::to_string(i + 1));
+}
+
+// Step-outs from the raw phase: a slip carries φ past ±π from the branch it sat on.
+std::vector<SlipEvent> find_slips(const std::vector<double>& t, const std::vector<double>& phi) {
+  std::vector<SlipEvent> out;
+  if (phi.empty()) return out;
+  double branch = 2 * kPi * std::round(phi[0] / (2 * kPi));
+  std::size_t left_stable = 0;  // last sample inside the stable branch
+  for (std::size_t i = 0; i < phi.size(); ++i) {
+    const double rel = phi[i] - branch;
+    if (std::abs(rel) <= kPi / 2) left_stable = i;
+    if (std::abs(rel) > kPi) {
+      const double new_branch = 2 * kPi * std::round(phi[i] / (2 * kPi));
+      const int leads = static_cast<int>(std::lround((new_branch - branch) / (2 * kPi)));
+      out.push_back({t[i], t[left_stable], leads});
+      branch = new_branch;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------- prepare
+Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
+                 const ActuatorParams& act, const Options& opt) {
+  Prepared P;
+  for (const char* c : {"t_s", "nut_pos_m", "load_force_n"}) require_finite(rec, rec.column(c), c);
+  const auto& t = rec.column("t_s");
+  const std::size_t n = t.size();
+  if (n < 200) throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(n) + " rows)");
+  const auto theta_raw = angle_column(rec, act);
+  require_finite(rec, theta_raw, "screw_angle_rad");
+  const auto& pos_raw = rec.column("nut_pos_m");
+  const auto& load_raw = rec.column("load_force_n");
+  P.fs_hz = sample_rate(rec);
+  // The nut's mechanics (mass on the coupling stiffness) sit near 100 Hz; the effects live
+  // below a few tens of Hz. The filter keeps those and averages encoder steps and load-cell noise.
+  P.filter_hz = std::min(opt.filter_hz, 0.2 * P.fs_hz);
+  const double dt = 1.0 / P.fs_hz;
+  P.lead_m = act.lead_m;
+  P.count_m = act.linear_count_m;
+  if (auto c = rec.meta("linear_encoder_m_per_count")) P.count_m = std::stod(*c);
+
+  const auto p = filtfilt_butter4(pos_raw, P.filter_hz, P.fs_hz);
+  const auto th = filtfilt_butter4(theta_raw, P.filter_hz, P.fs_hz);
+  const auto load = filtfilt_butter4(load_raw, P.filter_hz, P.fs_hz);
+  const auto v = central_diff(p, dt);
+  const auto a = central_diff2(p, dt);
+  const auto load_rate = central_diff(load, dt);
+  std::vector<double> phi(n), phi_raw(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    phi[i] = th[i] - 2 * kPi * p[i] / act.lead_m;
+    phi_raw[i] = theta_raw[i] - 2 * kPi * pos_raw[i] / act.lead_m;
+  }
+  const auto phi_rate = central_diff(phi, dt);
+  P.slips = find_slips(t, phi_raw);
+
+  // Noise of the load cell from its sample-to-sample roughness (white noise: var(Δ²y) = 6σ²).
+  {
+    std::vector<double> d2;
+    d2.reserve(n);
+    for (std::size_t i = 1; i + 1 < n; ++i) d2.push_back(load_raw[i + 1] - 2 * load_raw[i] + load_raw[i - 1]);
+    P.load_noise_n = robust_sigma(d2) / std::sqrt(6.0);
+  }
+
+  // Sliding samples: moving in one direction for the whole filter support around the sample,
+  // faster than one encoder count per filter time constant (slower, the nut may be stuck and its
+  // friction is anywhere in the break-away band), and away from step-outs.
+  const double v_min = P.count_m * P.filter_hz;
+  P.v_min_m_s = v_min;
+  const auto w = static_cast<std::size_t>(std::ceil(P.fs_hz / P.filter_hz));
+  std::vector<unsigned char> ok(n, 0);
+  for (std::size_t i = 0; i < n; ++i) ok[i] = std::abs(v[i]) > v_min;
+  {
+    std::size_t i = 0;
+    while (i < n) {
+      if (!ok[i]) {
+        ++i;
+        continue;
+      }
+      std::size_t j = i;
+      while (j < n && ok[j] && (v[j] > 0) == (v[i] > 0)) ++j;
+      for (std::size_t k = i; k < j; ++k)
+        if (k < i + w || k + w >= j) ok[k] = 0;
+      i = j;
+    }
+  }
+  for (const auto& s : P.slips)
+    for (std::size_t i = 0; i < n; ++i)
+      if (t[i] > s.start_s - 0.1 && t[i] < s.t_s + 0.3) ok[i] = 0;
+
+  // Keep every `decim`-th sliding sample: the signals are band-limited to filter_hz, so samples
+  // closer than a fifth of its period add no information, only work.
+  P.decimation = std::max(1, static_cast<int>(std::floor(P.fs_hz / (5 * P.filter_hz))));
+  const Coupling cp{cal};
+  P.t0_s = t.front();
+  auto state_at = [&](std::size_t i) {
+    State s;
+    s.t_s = t[i] - P.t0_s;
+    s.p_m = p[i];
+    s.v_m_s = v[i];
+    s.a_m_s2 = a[i];
+    s.theta_rad = th[i];
+    s.phi_rad = phi[i];
+    s.phi_rate_rad_s = phi_rate[i];
+    s.coupling_n = cp.force(phi[i]);
+    s.coupling_slope_n_per_rad = cp.slope(phi[i]);
+    s.load_n = load[i];
+    s.load_rate_n_s = load_rate[i];
+    s.stroke_min_m = act.stroke_min_m;
+    s.stroke_max_m = act.stroke_max_m;
+    s.lead_m = act.lead_m;
+    s.coulomb_n = base.coulomb_n;
+    s.viscous_n_s_per_m = base.viscous_n_s_per_m;
+    s.nut_mass_kg = base.nut_mass_kg;
+    return s;
+  };
+  auto missing_force = [&](const State& s) {
+    // What the baseline leaves out of M p̈ = F_m − C v − F_c sign(v) + F_ext + Σ terms.
+    double r = base.nut_mass_kg * s.a_m_s2 - s.coupling_n + base.viscous_n_s_per_m * s.v_m_s +
+               base.coulomb_n * effects::sgn(s.v_m_s) - s.load_n;
+    for (const auto& term : base.terms) r -= term.effect->force_n(term.params, s);
+    return r;
+  };
+  for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(P.decimation)) {
+    if (!ok[i]) continue;
+    P.states.push_back(state_at(i));
+    P.residual.push_back(missing_force(P.states.back()));
+  }
+  P.samples = n;
+  P.duration_s = t.back() - t.front();
+
+  // Stuck episodes (raw nut count unchanged) and the net force on the nut as each one ends.
+  const double hold_s = std::max(0.02, 4.0 / P.fs_hz);
+  std::size_t i = 0;
+  while (i < n) {
+    std::size_t j = i;
+    while (j + 1 < n && std::abs(pos_raw[j + 1] - pos_raw[i]) < 0.5 * P.count_m) ++j;
+    if (t[j] - t[i] >= hold_s && j + 1 < n) {
+      // Released: which way, and did it keep going (a slip, not encoder chatter)?
+      const double dir = pos_raw[j + 1] > pos_raw[i] ? 1.0 : -1.0;
+      const std::size_t k_end = std::min(n - 1, j + static_cast<std::size_t>(0.03 * P.fs_hz) + 1);
+      const bool slipped = dir * (pos_raw[k_end] - pos_raw[i]) >= 2.5 * P.count_m;
+      bool near_slip = false;
+      for (const auto& s : P.slips) near_slip |= std::abs(t[j] - s.t_s) < 0.3;
+      if (slipped && !near_slip) {
+        StuckEpisode e;
+        e.t_release_s = t[j] - P.t0_s;
+        e.dir = dir;
+        // Net force just before release, from unfiltered signals: the filter would smear the
+        // release into the stuck part.
+        State s = state_at(j);
+        s.coupling_n = cp.force(phi_raw[j]);
+        s.load_n = load_raw[j];
+        s.v_m_s = 0;
+        s.a_m_s2 = 0;
+        e.net_n = s.coupling_n + s.load_n;
+        for (const auto& term : base.terms) e.net_n += term.effect->force_n(term.params, s);
+        e.state = s;
+        P.stuck.push_back(e);
+      }
+    }
+    i = j + 1;
+  }
+  return P;
+}
+
+// ------------------------------------------------------------------------------- fitting
+namespace {
+
+struct Column {
+  const effects::Effect* effect;
+  double shape;
+  int index;  // within the effect's columns
+};
+
+// Per-segment normal equations over a set of columns; a fit is a small solve on their sums.
+struct Grams {
+  std::vector<Eigen::MatrixXd> xx;
+  std::vector<Eigen::VectorXd> xr;
+  std::vector<double> rr;
+  std::vector<std::size_t> n;
+};
+
+Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) {
+  const auto m = static_cast<Eigen::Index>(cols.size());
+  Grams g;
+  g.xx.assign(static_cast<std::size_t>(folds), Eigen::MatrixXd::Zero(m, m));
+  g.xr.assign(static_cast<std::size_t>(folds), Eigen::VectorXd::Zero(m));
+  g.rr.assign(static_cast<std::size_t>(folds), 0.0);
+  g.n.assign(static_cast<std::size_t>(folds), 0);
+  Eigen::VectorXd x(m);
+  double buf[8];
+  for (std::size_t i = 0; i < P.states.size(); ++i) {
+    const auto& s = P.states[i];
+    for (Eigen::Index j = 0; j < m;) {
+      const auto& c = cols[static_cast<std::size_t>(j)];
+      c.effect->regressors(c.shape, s, buf);
+      const int k = c.effect->columns();
+      for (int q = 0; q < k; ++q) x[j + q] = buf[q];
+      j += k;
+    }
+    auto f = static_cast<std::size_t>(std::min<double>(folds - 1, std::floor(folds * s.t_s / P.duration_s)));
+    g.xx[f].selfadjointView<Eigen::Lower>().rankUpdate(x);
+    g.xr[f] += x * P.residual[i];
+    g.rr[f] += P.residual[i] * P.residual[i];
+    ++g.n[f];
+  }
+  for (auto& a : g.xx) a = a.selfadjointView<Eigen::Lower>();
+  return g;
+}
+
+struct Fit {
+  std::vector<int> idx;
+  Eigen::VectorXd theta;
+};
+
+Fit solve(const Grams& g, const std::vector<int>& idx, int skip_fold) {
+  const auto m = static_cast<Eigen::Index>(idx.size());
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(m, m);
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(m);
+  for (std::size_t f = 0; f < g.xx.size(); ++f) {
+    if (static_cast<int>(f) == skip_fold) continue;
+    for (Eigen::Index r = 0; r < m; ++r) {
+      b[r] += g.xr[f][idx[static_cast<std::size_t>(r)]];
+      for (Eigen::Index c = 0; c < m; ++c)
+        A(r, c) += g.xx[f](idx[static_cast<std::size_t>(r)], idx[static_cast<std::size_t>(c)]);
+    }
+  }
+  // A whisper of ridge on the scaled normal equations keeps collinear columns finite.
+  for (Eigen::Index r = 0; r < m; ++r) A(r, r) += 1e-9 * A(r, r) + 1e-300;
+  Fit fit{idx, m ? Eigen::VectorXd(A.ldlt().solve(b)) : Eigen::VectorXd()};
+  return fit;
+}
+
+double sse(const Grams& g, const Fit& fit, std::size_t f) {
+  double s = g.rr[f];
+  const auto m = static_cast<Eigen::Index>(fit.idx.size());
+  for (Eigen::Index r = 0; r < m; ++r) {
+    s -= 2 * fit.theta[r] * g.xr[f][fit.idx[static_cast<std::size_t>(r)]];
+    for (Eigen::Index c = 0; c < m; ++c)
+      s += fit.theta[r] * fit.theta[c] *
+           g.xx[f](fit.idx[static_cast<std::size_t>(r)], fit.idx[static_cast<std::size_t>(c)]);
+  }
+  return std::max(0.0, s);
+}
+
+// Held-out error per segment: fit on the others, score on this one.
+std::vector<double> heldout(const Grams& g, const std::vector<int>& idx) {
+  std::vector<double> out(g.xx.size(), 0.0);
+  for (std::size_t f = 0; f < g.xx.size(); ++f) {
+    if (g.n[f] == 0) continue;
+    out[f] = sse(g, solve(g, idx, static_cast<int>(f)), f);
+  }
+  return out;
+}
+
+double total(const std::vector<double>& x) { return std::accumulate(x.begin(), x.end(), 0.0); }
+
+// Share of `a`'s fitted contribution (beyond `base`) that columns `b` reproduce: partial R².
+double partial_r2(const Grams& g, const std::vector<int>& base, const std::vector<int>& a,
+                  const Eigen::VectorXd& wa, const std::vector<int>& b) {
+  std::vector<int> all = base;
+  all.insert(all.end(), a.begin(), a.end());
+  all.insert(all.end(), b.begin(), b.end());
+  const auto m = static_cast<Eigen::Index>(all.size());
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(m, m);
+  for (std::size_t f = 0; f < g.xx.size(); ++f)
+    for (Eigen::Index r = 0; r < m; ++r)
+      for (Eigen::Index c = 0; c < m; ++c) S(r, c) += g.xx[f](all[r], all[c]);
+  const auto nb = static_cast<Eigen::Index>(base.size()), na = static_cast<Eigen::Index>(a.size()),
+             nn = static_cast<Eigen::Index>(b.size());
+  // Residualise on `base`, then ask how much of z = X_a wa the span of X_b explains.
+  Eigen::MatrixXd Sbb = S.topLeftCorner(nb, nb);
+  Eigen::MatrixXd R = S;
+  if (nb > 0) {
+    Eigen::MatrixXd Sbr = S.topRows(nb);
+    Eigen::LDLT<Eigen::MatrixXd> ld(Sbb + 1e-12 * Eigen::MatrixXd::Identity(nb, nb) * (Sbb.trace() / static_cast<double>(nb) + 1e-300));
+    R = S - Sbr.transpose() * ld.solve(Sbr);
+  }
+  const Eigen::MatrixXd Raa = R.block(nb, nb, na, na), Rab = R.block(nb, nb + na, na, nn),
+                        Rbb = R.block(nb + na, nb + na, nn, nn);
+  const double zz = wa.dot(Raa * wa);
+  if (!(zz > 0)) return 0.0;
+  const Eigen::VectorXd bz = Rab.transpose() * wa;
+  Eigen::LDLT<Eigen::MatrixXd> lb(Rbb + 1e-12 * Eigen::MatrixXd::Identity(nn, nn) * (Rbb.trace() / static_cast<double>(nn) + 1e-300));
+  return std::clamp(bz.dot(lb.solve(bz)) / zz, 0.0, 1.0);
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------- select
+Selection select(const Prepared& P, const Options& opt,
+                 const std::function<void(double)>& progress) {
+  Selection out;
+  const int folds = std::max(4, opt.folds);
+  // Every candidate column, once.
+  std::vector<Column> cols;
+  struct Variant {
+    const effects::Effect* effect;
+    double shape;
+    std::vector<int> idx;
+  };
+  std::vector<Variant> variants;
+  for (const effects::Effect* e : effects::library()) {
+    if (!e->selectable() || e->columns() == 0) continue;
+    bool in_base = false;
+    for (const auto& id : opt.exclude) in_base |= id == e->id();
+    if (in_base) continue;
+    auto shapes = e->shapes();
+    if (shapes.empty()) shapes.push_back(0.0);
+    for (double sh : shapes) {
+      Variant v{e, sh, {}};
+      for (int k = 0; k < e->columns(); ++k) {
+        v.idx.push_back(static_cast<int>(cols.size()));
+        cols.push_back({e, sh, k});
+      }
+      variants.push_back(v);
+    }
+  }
+  const Grams g = accumulate(P, cols, folds);
+  std::size_t n_used = 0;
+  for (auto c : g.n) n_used += c;
+  out.samples_used = n_used;
+  if (n_used < 50) {
+    out.too_little_sliding = true;
+    return out;
+  }
+  const State model = P.states.empty() ? State{} : P.states.front();
+  std::vector<int> current;
+  std::vector<double> cur_ho = heldout(g, current);
+  out.baseline_heldout_sse = total(cur_ho);
+  out.baseline_sse = total(g.rr);
+  std::vector<const effects::Effect*> used;
+  for (int step = 0; step < opt.max_terms; ++step) {
+    if (progress) progress(static_cast<double>(step) / opt.max_terms);
+    struct Trial {
+      const Variant* var = nullptr;
+      std::vector<double> ho;
+      double gain = 0, t = 0;
+      int improved = 0;
+      effects::Params params;
+    };
+    std::vector<Trial> trials;
+    for (const auto* e : effects::library()) {
+      if (std::find(used.begin(), used.end(), e) != used.end()) continue;
+      Trial best;
+      double best_sse = INFINITY;
+      for (const auto& var : variants) {
+        if (var.effect != e) continue;
+        std::vector<int> idx = current;
+        idx.insert(idx.end(), var.idx.begin(), var.idx.end());
+        const Fit full = solve(g, idx, -1);
+        const auto prm = e->parameters(var.shape, full.theta.tail(static_cast<Eigen::Index>(var.idx.size())).data(), model);
+        if (!prm || !effects::plausible(*e, *prm)) continue;
+        auto ho = heldout(g, idx);
+        const double s = total(ho);
+        if (s < best_sse) {
+          best_sse = s;
+          best.var = &var;
+          best.ho = std::move(ho);
+          best.params = *prm;
+        }
+      }
+      if (!best.var) continue;
+      // Consistency over segments: t statistic of per-segment relative gains.
+      std::vector<double> d;
+      for (std::size_t f = 0; f < cur_ho.size(); ++f) {
+        if (!(cur_ho[f] > 0)) continue;
+        d.push_back((cur_ho[f] - best.ho[f]) / cur_ho[f]);
+        best.improved += d.back() > 0;
+      }
+      const double nd = static_cast<double>(d.size());
+      const double mean = nd > 0 ? std::accumulate(d.begin(), d.end(), 0.0) / nd : 0.0;
+      double var = 0;
+      for (double x : d) var += (x - mean) * (x - mean);
+      var /= std::max(1.0, nd - 1);
+      best.t = var > 0 ? mean / std::sqrt(var / nd) : (mean > 0 ? 1e9 : 0.0);
+      best.gain = 100.0 * (total(cur_ho) - best_sse) / total(cur_ho);
+      trials.push_back(std::move(best));
+    }
+    if (trials.empty()) break;
+    auto it = std::max_element(trials.begin(), trials.end(),
+                               [](const Trial& a, const Trial& b) { return a.gain < b.gain; });
+    const bool significant = it->gain >= opt.min_gain_pct && it->t >= opt.min_t;
+    if (!significant) {
+      out.next_best = Candidate{std::string(it->var->effect->id()), it->params, it->gain, it->t,
+                                it->improved, folds, {}};
+      break;
+    }
+    Candidate c{std::string(it->var->effect->id()), it->params, it->gain, it->t, it->improved, folds, {}};
+    c.shape = it->var->shape;
+    // Alternatives: other effects whose columns reproduce this one's contribution.
+    const Fit full_new = [&] {
+      std::vector<int> idx = current;
+      idx.insert(idx.end(), it->var->idx.begin(), it->var->idx.end());
+      return solve(g, idx, -1);
+    }();
+    const Eigen::VectorXd w = full_new.theta.tail(static_cast<Eigen::Index>(it->var->idx.size()));
+    for (const auto* e : effects::library()) {
+      if (e == it->var->effect || std::find(used.begin(), used.end(), e) != used.end()) continue;
+      double best_r2 = 0;
+      const Variant* best_v = nullptr;
+      for (const auto& var : variants) {
+        if (var.effect != e) continue;
+        const double r2 = partial_r2(g, current, it->var->idx, w, var.idx);
+        if (r2 > best_r2) best_r2 = r2, best_v = &var;
+      }
+      if (!best_v || best_r2 < opt.alternative_r2) continue;
+      std::vector<int> idx = current;
+      idx.insert(idx.end(), best_v->idx.begin(), best_v->idx.end());
+      const Fit fa = solve(g, idx, -1);
+      const auto pa = e->parameters(best_v->shape, fa.theta.tail(static_cast<Eigen::Index>(best_v->idx.size())).data(), model);
+      if (!pa || !effects::plausible(*e, *pa)) continue;
+      c.alternatives.push_back({std::string(e->id()), *pa, 100.0 * best_r2});
+    }
+    current.insert(current.end(), it->var->idx.begin(), it->var->idx.end());
+    used.push_back(it->var->effect);
+    cur_ho = it->ho;
+    out.chosen.push_back(std::move(c));
+    out.heldout_sse_after.push_back(total(cur_ho));
+  }
+  // Final fit on everything: parameters and the corrected residual.
+  const Fit final_fit = solve(g, current, -1);
+  out.final_sse = 0;
+  for (std::size_t f = 0; f < g.xx.size(); ++f) out.final_sse += sse(g, final_fit, f);
+  std::size_t off = 0;
+  for (auto& c : out.chosen) {
+    const auto* e = effects::find(c.id);
+    const auto k = static_cast<Eigen::Index>(e->columns());
+    if (auto prm = e->parameters(c.shape, final_fit.theta.segment(static_cast<Eigen::Index>(off), k).data(), model))
+      c.params = *prm;
+    off += static_cast<std::size_t>(k);
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------------------- break-away
+BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
+                             const std::vector<Candidate>& chosen) {
+  BreakawayTest out;
+  // The model's break-away level per direction, with the terms found so far.
+  std::vector<std::pair<const effects::Effect*, effects::Params>> terms;
+  for (const auto& c : chosen) terms.emplace_back(effects::find(c.id), c.params);
+  for (int side = 0; side < 2; ++side) {
+    const double dir = side == 0 ? 1.0 : -1.0;
+    std::vector<double> excess;
+    for (const auto& e : P.stuck) {
+      if (e.dir != dir) continue;
+      double net = e.net_n;
+      double level = base.coulomb_n;
+      for (const auto& [eff, prm] : terms) {
+        net += eff->force_n(prm, e.state);  // forces that act while stuck (offset, gain …)
+        level += eff->breakaway_extra_n(prm, e.state, dir);
+      }
+      // At release the net driving force equals the break-away friction.
+      excess.push_back(dir * net - level);
+    }
+    auto& s = side == 0 ? out.pos : out.neg;
+    s.episodes = excess.size();
+    if (excess.size() < 3) continue;
+    s.median_excess_n = median_of(excess);
+    // Spread of the median: 1.25 σ/√n for a normal sample, σ from the median deviation.
+    s.se_n = 1.2533 * robust_sigma(excess) / std::sqrt(static_cast<double>(excess.size()));
+  }
+  return out;
+}
+
+}  // namespace maglead::analysis::actuator

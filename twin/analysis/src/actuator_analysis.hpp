@@ -1,0 +1,96 @@
+#pragma once
+// Stages of the actuator analysis with typed results (see actuator_analysis.cpp).
+#include <cstddef>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "maglead/effects/effect.hpp"
+#include "maglead/physics/actuator.hpp"
+#include "maglead/physics/force_model.hpp"
+#include "maglead/recording/recording.hpp"
+
+namespace maglead::analysis::actuator {
+
+struct BaselineTerm {
+  const effects::Effect* effect;
+  effects::Params params;
+};
+
+/// The model the recording is compared with: nominal dynamics plus the terms it already has.
+struct Baseline {
+  double nut_mass_kg = 0.12, viscous_n_s_per_m = 2.0, coulomb_n = 7.5;
+  std::vector<BaselineTerm> terms;
+};
+
+struct Options {
+  int folds = 10;                 // contiguous held-out time segments
+  double filter_hz = 20.0;        // zero-phase low-pass of every signal
+  double min_gain_pct = 1.0;      // held-out mean-square error a term must remove …
+  double min_t = 3.0;             // … consistently over the segments (t of per-segment gains)
+  double alternative_r2 = 0.95;   // another effect reproducing this much is named beside it
+  double breakaway_sigmas = 3.0;  // break-away excess significance (standard errors)
+  int max_terms = 6;
+  std::vector<std::string> exclude;  // ids already in the baseline model
+};
+
+struct SlipEvent {
+  double t_s;      // the phase passed ±π: the nut is mid-slip
+  double start_s;  // it last sat inside the stable branch (|φ| ≤ π/2)
+  int leads;
+};
+
+struct StuckEpisode {
+  double t_release_s = 0, dir = 0, net_n = 0;  // net driving force on the nut at release
+  effects::State state;
+};
+
+struct Prepared {
+  double fs_hz = 0, filter_hz = 0, lead_m = 0, count_m = 0, v_min_m_s = 0, t0_s = 0;
+  double duration_s = 0, load_noise_n = 0;
+  int decimation = 1;
+  std::size_t samples = 0;
+  std::vector<effects::State> states;  // sliding samples (decimated)
+  std::vector<double> residual;        // the baseline's missing force at those samples [N]
+  std::vector<SlipEvent> slips;
+  std::vector<StuckEpisode> stuck;
+};
+
+struct Alternative {
+  std::string id;
+  effects::Params params;
+  double explains_pct;
+};
+
+struct Candidate {
+  std::string id;
+  effects::Params params;
+  double gain_pct = 0, t_stat = 0;
+  int segments_improved = 0, segments = 0;
+  std::vector<Alternative> alternatives;
+  double shape = 0;
+};
+
+struct Selection {
+  std::vector<Candidate> chosen;
+  std::vector<double> heldout_sse_after;  // after each chosen term
+  Candidate next_best;                     // the best rejected one (id empty if none)
+  double baseline_sse = 0, baseline_heldout_sse = 0, final_sse = 0;
+  std::size_t samples_used = 0;
+  bool too_little_sliding = false;
+};
+
+struct BreakawayTest {
+  struct Side {
+    std::size_t episodes = 0;
+    double median_excess_n = 0, se_n = 0;
+  } pos, neg;
+};
+
+Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
+                 const ActuatorParams& act, const Options& opt);
+Selection select(const Prepared& P, const Options& opt, const std::function<void(double)>& progress);
+BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
+                             const std::vector<Candidate>& chosen);
+
+}  // namespace maglead::analysis::actuator
