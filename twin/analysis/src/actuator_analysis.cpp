@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
@@ -177,6 +178,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   // closer than a fifth of its period add no information, only work.
   P.decimation = std::max(1, static_cast<int>(std::floor(P.fs_hz / (5 * P.filter_hz))));
   const Coupling cp{cal};
+  P.count_force_n = std::abs(cp.slope(0.0)) * 2 * kPi * P.count_m / act.lead_m;
   P.t0_s = t.front();
   auto state_at = [&](std::size_t i) {
     State s;
@@ -262,7 +264,7 @@ struct Column {
 struct Grams {
   std::vector<Eigen::MatrixXd> xx;
   std::vector<Eigen::VectorXd> xr;
-  std::vector<double> rr;
+  std::vector<double> rr, yy;  // residual and measured force, sums of squares
   std::vector<std::size_t> n;
 };
 
@@ -272,6 +274,7 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
   g.xx.assign(static_cast<std::size_t>(folds), Eigen::MatrixXd::Zero(m, m));
   g.xr.assign(static_cast<std::size_t>(folds), Eigen::VectorXd::Zero(m));
   g.rr.assign(static_cast<std::size_t>(folds), 0.0);
+  g.yy.assign(static_cast<std::size_t>(folds), 0.0);
   g.n.assign(static_cast<std::size_t>(folds), 0);
   Eigen::VectorXd x(m);
   double buf[8];
@@ -288,6 +291,7 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
     g.xx[f].selfadjointView<Eigen::Lower>().rankUpdate(x);
     g.xr[f] += x * P.residual[i];
     g.rr[f] += P.residual[i] * P.residual[i];
+    g.yy[f] += s.load_n * s.load_n;
     ++g.n[f];
   }
   for (auto& a : g.xx) a = a.selfadjointView<Eigen::Lower>();
@@ -415,6 +419,7 @@ Selection select(const Prepared& P, const Options& opt,
   std::vector<double> cur_ho = heldout(g, current);
   out.baseline_heldout_sse = total(cur_ho);
   out.baseline_sse = total(g.rr);
+  out.measured_ss = total(g.yy);
   std::vector<const effects::Effect*> used;
   for (int step = 0; step < opt.max_terms; ++step) {
     if (progress) progress(static_cast<double>(step) / opt.max_terms);
@@ -466,7 +471,19 @@ Selection select(const Prepared& P, const Options& opt,
     if (trials.empty()) break;
     auto it = std::max_element(trials.begin(), trials.end(),
                                [](const Trial& a, const Trial& b) { return a.gain < b.gain; });
-    const bool significant = it->gain >= opt.min_gain_pct && it->t >= opt.min_t;
+    // Parsimony: an explanation with fewer parameters that achieves nearly all of the best one's
+    // reduction (the data cannot prefer the richer one) is named instead; the richer one then
+    // appears as its alternative.
+    for (auto jt = trials.begin(); jt != trials.end(); ++jt) {
+      const bool fewer = jt->var->idx.size() < it->var->idx.size();
+      if (fewer && jt->gain >= opt.parsimony * it->gain) it = jt;
+    }
+    // Significant: a real share of the held-out error, consistent over the segments, and a
+    // force worth a model term (a tenth of what one encoder count resolves).
+    const double explained_n =
+        std::sqrt(std::max(0.0, total(cur_ho) - total(it->ho)) / static_cast<double>(n_used));
+    const bool significant = it->gain >= opt.min_gain_pct && it->t >= opt.min_t &&
+                             explained_n >= opt.min_explained_counts * P.count_force_n;
     if (!significant) {
       out.next_best = Candidate{std::string(it->var->effect->id()), it->params, it->gain, it->t,
                                 it->improved, folds, {}};
@@ -508,6 +525,21 @@ Selection select(const Prepared& P, const Options& opt,
   const Fit final_fit = solve(g, current, -1);
   out.final_sse = 0;
   for (std::size_t f = 0; f < g.xx.size(); ++f) out.final_sse += sse(g, final_fit, f);
+  out.final_residual = P.residual;
+  {
+    std::vector<Column> used_cols;
+    for (int k : current) used_cols.push_back(cols[static_cast<std::size_t>(k)]);
+    double buf[8];
+    for (std::size_t i = 0; i < P.states.size(); ++i) {
+      std::size_t j = 0;
+      while (j < used_cols.size()) {
+        const auto& c = used_cols[j];
+        c.effect->regressors(c.shape, P.states[i], buf);
+        for (int q = 0; q < c.effect->columns(); ++q, ++j)
+          out.final_residual[i] -= final_fit.theta[static_cast<Eigen::Index>(j)] * buf[q];
+      }
+    }
+  }
   std::size_t off = 0;
   for (auto& c : out.chosen) {
     const auto* e = effects::find(c.id);
@@ -528,7 +560,7 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
   for (const auto& c : chosen) terms.emplace_back(effects::find(c.id), c.params);
   for (int side = 0; side < 2; ++side) {
     const double dir = side == 0 ? 1.0 : -1.0;
-    std::vector<double> excess;
+    std::vector<double> excess, count_force;
     for (const auto& e : P.stuck) {
       if (e.dir != dir) continue;
       double net = e.net_n;
@@ -539,15 +571,62 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
       }
       // At release the net driving force equals the break-away friction.
       excess.push_back(dir * net - level);
+      count_force.push_back(std::abs(e.state.coupling_slope_n_per_rad) * 2 * kPi * P.count_m / P.lead_m);
     }
     auto& s = side == 0 ? out.pos : out.neg;
     s.episodes = excess.size();
     if (excess.size() < 3) continue;
     s.median_excess_n = median_of(excess);
+    s.count_force_n = median_of(count_force);
     // Spread of the median: 1.25 σ/√n for a normal sample, σ from the median deviation.
     s.se_n = 1.2533 * robust_sigma(excess) / std::sqrt(static_cast<double>(excess.size()));
   }
   return out;
+}
+
+}  // namespace maglead::analysis::actuator
+
+namespace maglead::analysis::actuator {
+
+// Break-away above the kinetic level in both directions is static friction (Stribeck's law);
+// the release is seen only once the nut has crossed an encoder count, so up to one count's
+// worth of coupling force of excess is resolution, not physics.
+std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
+                                                 const Selection& sel, const BreakawayTest& bt,
+                                                 const Options& opt) {
+  for (const auto& c : sel.chosen)
+    if (c.id == "stribeck_friction" || c.id == "coulomb_friction") return std::nullopt;
+  auto margin = [&](const BreakawayTest::Side& s) {
+    if (s.episodes < 3 || !(s.se_n > 0)) return -std::numeric_limits<double>::infinity();
+    return (s.median_excess_n - s.count_force_n) / s.se_n;
+  };
+  const double t_pos = margin(bt.pos), t_neg = margin(bt.neg);
+  if (std::min(t_pos, t_neg) < opt.breakaway_sigmas) return std::nullopt;
+  // Expected reading bias at release: half a count of coupling force.
+  const double excess = 0.5 * (bt.pos.median_excess_n - 0.5 * bt.pos.count_force_n +
+                               bt.neg.median_excess_n - 0.5 * bt.neg.count_force_n);
+  const auto* e = effects::find("stribeck_friction");
+  State model = P.states.empty() ? State{} : P.states.front();
+  model.coulomb_n = base.coulomb_n;
+  // The Stribeck velocity: the one whose low-speed friction rise best fits the sliding residual.
+  double best_vs = e->shapes().front(), best_sse = INFINITY;
+  for (double vs : e->shapes()) {
+    double s = 0, x = 0;
+    for (std::size_t i = 0; i < P.states.size(); ++i) {
+      e->regressors(vs, P.states[i], &x);
+      const double r = sel.final_residual[i] - excess * x;
+      s += r * r;
+    }
+    if (s < best_sse) best_sse = s, best_vs = vs;
+  }
+  Candidate c;
+  c.id = "stribeck_friction";
+  c.shape = best_vs;
+  const double coef = excess;
+  c.params = *e->parameters(best_vs, &coef, model);
+  c.t_stat = std::min(t_pos, t_neg);
+  c.segments = static_cast<int>(bt.pos.episodes + bt.neg.episodes);
+  return c;
 }
 
 }  // namespace maglead::analysis::actuator

@@ -2,6 +2,7 @@
 // Stages of the actuator analysis with typed results (see actuator_analysis.cpp).
 #include <cstddef>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,8 @@ struct Options {
   double filter_hz = 20.0;        // zero-phase low-pass of every signal
   double min_gain_pct = 1.0;      // held-out mean-square error a term must remove …
   double min_t = 3.0;             // … consistently over the segments (t of per-segment gains)
+  double min_explained_counts = 0.1;  // … and explain this share of one count's force (RMS)
+  double parsimony = 0.99;        // a simpler term reaching this share of the best gain wins
   double alternative_r2 = 0.95;   // another effect reproducing this much is named beside it
   double breakaway_sigmas = 3.0;  // break-away excess significance (standard errors)
   int max_terms = 6;
@@ -48,6 +51,7 @@ struct StuckEpisode {
 struct Prepared {
   double fs_hz = 0, filter_hz = 0, lead_m = 0, count_m = 0, v_min_m_s = 0, t0_s = 0;
   double duration_s = 0, load_noise_n = 0;
+  double count_force_n = 0;  // coupling force of one linear encoder count at φ = 0
   int decimation = 1;
   std::size_t samples = 0;
   std::vector<effects::State> states;  // sliding samples (decimated)
@@ -75,7 +79,8 @@ struct Selection {
   std::vector<Candidate> chosen;
   std::vector<double> heldout_sse_after;  // after each chosen term
   Candidate next_best;                     // the best rejected one (id empty if none)
-  double baseline_sse = 0, baseline_heldout_sse = 0, final_sse = 0;
+  double baseline_sse = 0, baseline_heldout_sse = 0, final_sse = 0, measured_ss = 0;
+  std::vector<double> final_residual;  // at Prepared::states, after every chosen term
   std::size_t samples_used = 0;
   bool too_little_sliding = false;
 };
@@ -84,12 +89,16 @@ struct BreakawayTest {
   struct Side {
     std::size_t episodes = 0;
     double median_excess_n = 0, se_n = 0;
+    double count_force_n = 0;  // coupling force of one encoder count at release (resolution)
   } pos, neg;
 };
 
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
                  const ActuatorParams& act, const Options& opt);
 Selection select(const Prepared& P, const Options& opt, const std::function<void(double)>& progress);
+std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
+                                                 const Selection& sel, const BreakawayTest& bt,
+                                                 const Options& opt);
 BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
                              const std::vector<Candidate>& chosen);
 

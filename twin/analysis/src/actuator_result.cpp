@@ -77,6 +77,7 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   auto sel = actuator::select(P, o, [&](double f) { progress("selection", f); });
   progress("selection", 1.0);
   const auto bt = actuator::breakaway_test(P, base, sel.chosen);
+  const auto stribeck = actuator::stribeck_from_breakaway(P, base, sel, bt, o);
 
   Json J;
   J["system"] = "actuator";
@@ -98,14 +99,15 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   J["noise_floor_n"] = P.load_noise_n;
   const double n_used = std::max<double>(1.0, static_cast<double>(sel.samples_used));
   auto rms = [&](double s) { return std::sqrt(s / n_used); };
+  auto rel = [&](double s) { return sel.measured_ss > 0 ? 100.0 * std::sqrt(s / sel.measured_ss) : 0.0; };
   J["baseline"] = {{"rms", rms(sel.baseline_sse)},
-                   {"relative_error_pct", 0.0},
-                   {"full_rate", {{"rms", rms(sel.baseline_sse)}, {"relative_error_pct", 0.0}}},
+                   {"relative_error_pct", rel(sel.baseline_sse)},
+                   {"full_rate", {{"rms", rms(sel.baseline_sse)}, {"relative_error_pct", rel(sel.baseline_sse)}}},
                    {"heldout_rms", rms(sel.baseline_heldout_sse)}};
   Json effects_json = Json::array();
   Json validation = Json::array();
   validation.push_back({{"model", "baseline"}, {"heldout_rms", rms(sel.baseline_heldout_sse)},
-                        {"heldout_relative_error_pct", 0.0}});
+                        {"heldout_relative_error_pct", rel(sel.baseline_heldout_sse)}});
   double prev = sel.baseline_heldout_sse;
   for (std::size_t k = 0; k < sel.chosen.size(); ++k) {
     const auto& c = sel.chosen[k];
@@ -127,8 +129,24 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
       e["finding"] = "the data cannot tell these apart here; " + c.id + " is preferred";
     }
     prev = sel.heldout_sse_after[k];
-    validation.push_back({{"model", "+ " + c.id}, {"heldout_rms", rms(prev)}, {"heldout_relative_error_pct", 0.0}});
+    validation.push_back({{"model", "+ " + c.id}, {"heldout_rms", rms(prev)}, {"heldout_relative_error_pct", rel(prev)}});
     effects_json.push_back(e);
+  }
+  if (stribeck) {
+    effects_json.push_back(
+        {{"id", stribeck->id},
+         {"parameters", params_json(stribeck->params)},
+         {"where", "stuck episodes: the nut breaks away above its sliding friction in both directions"},
+         {"evidence", {{"heldout_gain_pct", nullptr},
+                       {"t_stat", stribeck->t_stat},
+                       {"segments_improved", std::to_string(stribeck->segments) + " releases"},
+                       {"breakaway_excess_pos_n", bt.pos.median_excess_n},
+                       {"breakaway_excess_neg_n", bt.neg.median_excess_n},
+                       {"encoder_count_force_n", bt.pos.count_force_n}}},
+         {"improvement_pct", 0.0},
+         {"note", "break-away from the net force at release; the Stribeck velocity is the one the "
+                  "sliding samples prefer"}});
+    sel.chosen.push_back(*stribeck);
   }
   Json events = Json::array();
   for (const auto& s : P.slips)
@@ -145,8 +163,8 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
                          {"neg", {{"episodes", bt.neg.episodes}, {"median_excess_n", bt.neg.median_excess_n}, {"se_n", bt.neg.se_n}}}};
   J["validation"] = validation;
   J["final"] = {{"rms", rms(sel.final_sse)},
-                {"relative_error_pct", 0.0},
-                {"full_rate", {{"rms", rms(sel.final_sse)}, {"relative_error_pct", 0.0}}}};
+                {"relative_error_pct", rel(sel.final_sse)},
+                {"full_rate", {{"rms", rms(sel.final_sse)}, {"relative_error_pct", rel(sel.final_sse)}}}};
   J["not_selected"] = Json::array();
   if (!sel.next_best.id.empty())
     J["not_selected"].push_back({{"id", sel.next_best.id}, {"heldout_gain_pct", sel.next_best.gain_pct},
