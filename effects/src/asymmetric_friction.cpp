@@ -29,6 +29,7 @@ struct Asymmetric final : Effect {
   double breakaway_extra_n(const Params& p, const State& m, double dir) const override {
     return param(p, dir > 0 ? "coulomb_pos_n" : "coulomb_neg_n", m.coulomb_n) - m.coulomb_n;
   }
+  bool friction() const override { return true; }
   int columns() const override { return 2; }
   void regressors(double, const State& s, double* x) const override {
     x[0] = s.v_m_s > 0 ? -1.0 : 0.0;

@@ -19,6 +19,7 @@ struct Coulomb final : Effect {
   double breakaway_extra_n(const Params& p, const State& m, double) const override {
     return param(p, "coulomb_n", m.coulomb_n) - m.coulomb_n;
   }
+  bool friction() const override { return true; }
   int columns() const override { return 1; }
   void regressors(double, const State& s, double* x) const override { x[0] = -sgn(s.v_m_s); }
   std::optional<Params> parameters(double, const double* c, const State& m) const override {

@@ -26,6 +26,7 @@ struct Stribeck final : Effect {
     return param(p, "breakaway_n", m.coulomb_n) - m.coulomb_n;
   }
   std::vector<double> shapes() const override { return {0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3, 16e-3}; }
+  bool friction() const override { return true; }
   int columns() const override { return 1; }
   void regressors(double vs, const State& s, double* x) const override {
     const double r = s.v_m_s / vs;

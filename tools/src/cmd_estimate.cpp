@@ -38,7 +38,8 @@ void add_estimate(CLI::App& app) {
       "estimate", "Estimate the output force from a recording's angles and positions and "
                   "compare it with the load cell; plot as in the paper's Fig. 11");
   struct Opts {
-    std::string recording, plot, calibration, config = default_config_dir(), estimator = "static";
+    std::string recording, plot, calibration, model, config = default_config_dir(),
+                                                     estimator = "static";
   };
   auto o = std::make_shared<Opts>();
   cmd->add_option("--recording", o->recording,
@@ -49,6 +50,10 @@ void add_estimate(CLI::App& app) {
                   "(M p'' + C p' + hybrid stick/slip friction, config/model.toml)")
       ->check(CLI::IsMember({"static", "twin"}))
       ->capture_default_str();
+  cmd->add_option("--model", o->model,
+                  "Model file for --estimator twin (default: CONFIG/model.toml), e.g. the "
+                  "model_corrected.toml that maglead analyze wrote")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--plot", o->plot, "PNG to write (default: next to the recording)");
   cmd->add_option("--calibration", o->calibration, "Calibration file (default: CONFIG/calibration.toml)");
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
@@ -73,8 +78,7 @@ void add_estimate(CLI::App& app) {
       tc.actuator.sample_rate_hz = period > 0 ? 1.0 / period : act.sample_rate_hz;
       tc.integrator.max_step_s = 1.0 / tc.actuator.sample_rate_hz;
       tc.calibration = cal;
-      for (const auto& id : tc.model.unsimulated_terms())
-        std::fprintf(stderr, "note: model term '%s' is not simulated by the twin\n", id.c_str());
+      if (!o->model.empty()) tc.model = twin::load_twin_model(o->model);
       twin::TwinMonitor mon(tc);
       mon.reset(t[0], screw[0], pos[0]);
       const double nan = std::numeric_limits<double>::quiet_NaN();

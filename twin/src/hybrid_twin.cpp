@@ -28,67 +28,77 @@ NutModel::NutModel(const ActuatorParams& a, const PeriodicForceModel& coupling, 
       viscous_(m.viscous_n_s_per_m),
       coulomb_n_(m.coulomb_n) {
   validate_twin_model(m);
-  spring_center_m_ = 0.5 * (a.stroke_min_m + a.stroke_max_m);
+  effects::State base;
+  base.coulomb_n = coulomb_n_;
+  base.viscous_n_s_per_m = viscous_;
+  base.nut_mass_kg = mass_kg_;
   for (const auto& t : m.terms) {
     if (!t.enabled) continue;
-    if (t.id == "coulomb_friction") coulomb_n_ += t.get("n", 0.0);
-    else if (t.id == "viscous_friction") viscous_ += t.get("n_s_per_m", 0.0);
-    else if (t.id == "asymmetric_friction") asym_n_ += t.get("n", 0.0);
-    else if (t.id == "stribeck_friction") {
-      stribeck_n_ += t.get("n", 0.0);
-      stribeck_v_ = t.get("velocity_m_s", stribeck_v_);
-    } else if (t.id == "offset") offset_n_ += t.get("force_n", 0.0);
-    else if (t.id == "spring") {
-      spring_k_ += t.get("n_per_m", 0.0);
-      spring_center_m_ = t.get("center_m", spring_center_m_);
-    } else if (t.id == "mass_error") mass_kg_ += t.get("kg", 0.0);
-    else if (t.id == "gain") gain_ *= t.get("factor", 1.0);
-    else if (t.id == "gain_drift") gain_drift_per_s_ += t.get("per_min", 0.0) / 60.0;
-    else if (t.id == "angle_ripple") {
-      angle_ripple_n_ = t.get("n", 0.0);
-      angle_ripple_phase_ = t.get("phase_rad", 0.0);
-    } else if (t.id == "position_ripple") {
-      pos_ripple_n_ = t.get("n", 0.0);
-      pos_ripple_period_m_ = t.get("period_m", pos_ripple_period_m_);
-      pos_ripple_phase_ = t.get("phase_rad", 0.0);
-    } else if (t.id == "end_effect") {
-      end_m_ = t.get("m", 0.0);
-      end_depth_ = t.get("depth", end_depth_);
+    const effects::Effect* e = effects::find(t.id);
+    const effects::Params p(t.parameters.begin(), t.parameters.end());
+    if (t.id == "mass_error") {
+      mass_kg_ = p.count("nut_mass_kg") ? p.at("nut_mass_kg") : mass_kg_;  // the total mass
+      continue;
     }
+    (e->friction() ? friction_terms_ : drive_terms_).push_back({e, p});
+    breakaway_extra_pos_n_ += e->breakaway_extra_n(p, base, 1.0);
+    breakaway_extra_neg_n_ += e->breakaway_extra_n(p, base, -1.0);
   }
   if (!(mass_kg_ > 0.0)) throw std::invalid_argument("twin model: total moving mass must be > 0");
-  if (!(coulomb_n_ - std::abs(asym_n_) >= 0.0))
-    throw std::invalid_argument("twin model: asymmetric friction exceeds Coulomb friction");
-  if (!(pos_ripple_period_m_ > 0.0) || !(stribeck_v_ > 0.0))
-    throw std::invalid_argument("twin model: ripple period and Stribeck velocity must be > 0");
+  if (!(breakaway_n(1) >= 0.0) || !(breakaway_n(-1) >= 0.0))
+    throw std::invalid_argument("twin model: break-away friction below zero");
 }
 
-double NutModel::coupling_force_n(double t_s, double screw_rad, double pos_m) const noexcept {
-  double gain = gain_ * (1.0 + gain_drift_per_s_ * t_s);
-  if (end_m_ > 0.0) {
-    const double to_end = std::min(pos_m - stroke_min_m_, stroke_max_m_ - pos_m);
-    gain *= 1.0 - end_depth_ * std::clamp(1.0 - to_end / end_m_, 0.0, 1.0);
-  }
-  return -gain * coupling_.load_force_n(phase_rad(screw_rad, pos_m, lead_m_));
+effects::State NutModel::state(double t_s, double screw_rad, double pos_m, double vel_m_s,
+                               double ext_force_n, double screw_rate_rad_s,
+                               double ext_rate_n_s) const noexcept {
+  effects::State s;
+  s.t_s = t_s;
+  s.p_m = pos_m;
+  s.v_m_s = vel_m_s;
+  s.theta_rad = screw_rad;
+  s.phi_rad = phase_rad(screw_rad, pos_m, lead_m_);
+  s.phi_rate_rad_s = screw_rate_rad_s - 2.0 * std::numbers::pi * vel_m_s / lead_m_;
+  s.coupling_n = -coupling_.load_force_n(s.phi_rad);
+  s.coupling_slope_n_per_rad = -coupling_.slope_n_per_rad(s.phi_rad);
+  s.load_n = ext_force_n;
+  s.load_rate_n_s = ext_rate_n_s;
+  s.stroke_min_m = stroke_min_m_;
+  s.stroke_max_m = stroke_max_m_;
+  s.lead_m = lead_m_;
+  s.coulomb_n = coulomb_n_;
+  s.viscous_n_s_per_m = viscous_;
+  s.nut_mass_kg = mass_kg_;
+  return s;
+}
+
+double NutModel::coupling_force_n(double, double screw_rad, double pos_m) const noexcept {
+  return -coupling_.load_force_n(phase_rad(screw_rad, pos_m, lead_m_));
 }
 
 double NutModel::drive_force_n(double t_s, double screw_rad, double pos_m, double vel_m_s,
-                               double ext_force_n) const noexcept {
-  double f = coupling_force_n(t_s, screw_rad, pos_m) + ext_force_n + offset_n_ - viscous_ * vel_m_s;
-  if (spring_k_ != 0.0) f -= spring_k_ * (pos_m - spring_center_m_);
-  if (angle_ripple_n_ != 0.0) f += angle_ripple_n_ * std::sin(screw_rad + angle_ripple_phase_);
-  if (pos_ripple_n_ != 0.0)
-    f += pos_ripple_n_ *
-         std::sin(2.0 * std::numbers::pi * pos_m / pos_ripple_period_m_ + pos_ripple_phase_);
+                               double ext_force_n, double screw_rate_rad_s,
+                               double ext_rate_n_s) const noexcept {
+  const auto s = state(t_s, screw_rad, pos_m, vel_m_s, ext_force_n, screw_rate_rad_s, ext_rate_n_s);
+  double f = s.coupling_n + ext_force_n - viscous_ * vel_m_s;
+  for (const auto& t : drive_terms_) f += t.effect->force_n(t.params, s);
   return f;
 }
 
+double NutModel::breakaway_n(int dir) const noexcept {
+  return coulomb_n_ + (dir > 0 ? breakaway_extra_pos_n_ : breakaway_extra_neg_n_);
+}
+
 double NutModel::sliding_friction_n(int dir, double vel_m_s) const noexcept {
-  double f = coulomb_n_ + dir * asym_n_;
-  if (stribeck_n_ != 0.0) {
-    const double s = vel_m_s / stribeck_v_;
-    f += stribeck_n_ * std::exp(-s * s);
-  }
+  // Friction units give their force against the motion; at the first instant of sliding the
+  // speed is still zero, so the direction comes from the mode.
+  effects::State s;
+  s.v_m_s = dir * std::max(std::abs(vel_m_s), 1e-12);
+  s.coulomb_n = coulomb_n_;
+  s.viscous_n_s_per_m = viscous_;
+  s.nut_mass_kg = mass_kg_;
+  double f = coulomb_n_;
+  for (const auto& t : friction_terms_) f -= dir * t.effect->force_n(t.params, s);
   return f;
 }
 
@@ -99,10 +109,12 @@ FrictionMode NutModel::mode_at_rest(double drive_n) const noexcept {
 }
 
 double NutModel::accel_m_s2(FrictionMode mode, double t_s, double screw_rad, double pos_m,
-                            double vel_m_s, double ext_force_n) const noexcept {
+                            double vel_m_s, double ext_force_n, double screw_rate_rad_s,
+                            double ext_rate_n_s) const noexcept {
   if (mode == FrictionMode::stick) return 0.0;
   const int dir = static_cast<int>(mode);
-  const double drive = drive_force_n(t_s, screw_rad, pos_m, vel_m_s, ext_force_n);
+  const double drive =
+      drive_force_n(t_s, screw_rad, pos_m, vel_m_s, ext_force_n, screw_rate_rad_s, ext_rate_n_s);
   return (drive - dir * sliding_friction_n(dir, vel_m_s)) / mass_kg_;
 }
 
@@ -114,13 +126,17 @@ namespace {
 /// θ linear over one tick, F_ext held: the per-tick input of advance().
 class SegmentInput final : public InputSource {
  public:
-  double t0 = 0, t1 = 1, th0 = 0, th1 = 0, f = 0;
+  double t0 = 0, t1 = 1, th0 = 0, th1 = 0, f = 0, f_rate = 0;
   double screw_rad(double t) const noexcept override {
     const double span = t1 - t0;
     if (!(span > 0.0)) return th1;
     return th0 + (th1 - th0) * std::clamp((t - t0) / span, 0.0, 1.0);
   }
   double ext_force_n(double) const noexcept override { return f; }
+  double screw_rate_rad_s(double) const noexcept override {
+    return t1 > t0 ? (th1 - th0) / (t1 - t0) : 0.0;
+  }
+  double ext_rate_n_s(double) const noexcept override { return f_rate; }
 };
 
 }  // namespace
@@ -158,7 +174,8 @@ struct HybridTwin::Impl {
     }
     d[0] = s[1];
     d[1] = self->model->accel_m_s2(self->mode, t, self->inputs->screw_rad(t), s[0], s[1],
-                                   self->inputs->ext_force_n(t));
+                                   self->inputs->ext_force_n(t), self->inputs->screw_rate_rad_s(t),
+                                   self->inputs->ext_rate_n_s(t));
     return std::isfinite(d[1]) ? 0 : 1;  // recoverable: CVODE retries with a smaller step
   }
 
@@ -267,6 +284,8 @@ TwinStatus HybridTwin::advance(double t_end_s, double screw_end_rad, double ext_
   m.segment.th1 = screw_end_rad;
   // A new force level that breaks a stuck nut loose shows as a sign change of the break-away
   // root function in the first step of this tick; CVODE locates it there without a restart.
+  // The load's rate over the last tick (for a delayed load-cell term).
+  m.segment.f_rate = t_end_s > t_s_ ? (ext_force_n - m.segment.f) / (t_end_s - t_s_) : 0.0;
   m.segment.f = ext_force_n;
   m.inputs = &m.segment;
   const TwinStatus st = run(t_end_s, true);
@@ -363,7 +382,8 @@ void Rk4Twin::integrate_to(double tout_s, const InputSource& in) noexcept {
     }
     const auto f = [&](double tt, double p, double v, double& dp, double& dv) {
       dp = v;
-      dv = model_.accel_m_s2(s.mode, tt, in.screw_rad(tt), p, v, in.ext_force_n(tt));
+      dv = model_.accel_m_s2(s.mode, tt, in.screw_rad(tt), p, v, in.ext_force_n(tt),
+                             in.screw_rate_rad_s(tt), in.ext_rate_n_s(tt));
       ++rhs_evals_;
     };
     double k1p, k1v, k2p, k2v, k3p, k3v, k4p, k4v;

@@ -2,10 +2,13 @@
 
 #include <toml++/toml.h>
 
+#include "maglead/effects/effect.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <sstream>
 #include <stdexcept>
 
 namespace maglead::twin {
@@ -16,65 +19,55 @@ double ModelTerm::get(const std::string& name, double fallback) const {
   return fallback;
 }
 
-const std::vector<TermInfo>& known_terms() {
-  static const std::vector<TermInfo> terms = {
-      {"coulomb_friction", {"n"}, "extra Coulomb friction level [N], adds to coulomb_n", true},
-      {"viscous_friction", {"n_s_per_m"}, "extra viscous friction [N s/m], adds to C", true},
-      {"asymmetric_friction", {"n"}, "Coulomb + n moving +p, - n moving -p [N]", true},
-      {"stribeck_friction", {"n", "velocity_m_s"}, "break-away excess n exp(-(v/v_s)^2)", true},
-      {"offset", {"force_n"}, "constant force on the nut along +p [N]", true},
-      {"spring", {"n_per_m", "center_m"}, "force -k (p - center) [N/m, m]", true},
-      {"mass_error", {"kg"}, "extra moving mass [kg]", true},
-      {"gain", {"factor"}, "coupling strength factor (1 = as calibrated)", true},
-      {"gain_drift", {"per_min"}, "coupling strength x (1 + per_min t / 60 s)", true},
-      {"angle_ripple", {"n", "phase_rad"}, "n sin(theta + phase), once per screw turn", true},
-      {"position_ripple", {"n", "period_m", "phase_rad"}, "n sin(2 pi p / period + phase)", true},
-      {"end_effect", {"m", "depth"}, "coupling weakens within m of a stroke end", true},
-      {"step_out", {}, "always modelled (periodic coupling)", true},
-      {"backlash", {"rad"}, "gear play at the screw (not simulated by the twin)", false},
-      {"sensor_delay", {"s"}, "linear-encoder delay (not simulated by the twin)", false},
-      {"external_disturbance", {"n", "t_s", "duration_s"},
-       "isolated force pulses (not simulated by the twin)", false},
-  };
-  return terms;
+void ModelTerm::set(const std::string& name, double value) {
+  for (auto& [k, v] : parameters)
+    if (k == name) {
+      v = value;
+      return;
+    }
+  parameters.emplace_back(name, value);
 }
 
-std::vector<std::string> TwinModel::unsimulated_terms() const {
-  std::vector<std::string> out;
-  for (const auto& t : terms) {
-    if (!t.enabled) continue;
-    for (const auto& k : known_terms())
-      if (k.id == t.id && !k.simulated) out.push_back(t.id);
-  }
-  return out;
+const ModelTerm* TwinModel::find(const std::string& id) const {
+  for (const auto& t : terms)
+    if (t.id == id && t.enabled) return &t;
+  return nullptr;
+}
+
+ModelTerm& TwinModel::term(const std::string& id) {
+  for (auto& t : terms)
+    if (t.id == id) return t;
+  terms.push_back({id, true, "", {}});
+  return terms.back();
 }
 
 void validate_twin_model(const TwinModel& m) {
-  if (!(m.nut_mass_kg > 0.0) || !std::isfinite(m.nut_mass_kg))
+  if (m.system != "actuator" && m.system != "axis")
+    throw std::invalid_argument("[model] system = '" + m.system + "' (expected \"actuator\" or \"axis\")");
+  if (!(m.nut_mass_kg >= 0.0) || !std::isfinite(m.nut_mass_kg) ||
+      (m.system == "actuator" && !(m.nut_mass_kg > 0.0)))
     throw std::invalid_argument("nut_mass_kg must be positive");
   if (!(m.viscous_n_s_per_m >= 0.0) || !(m.coulomb_n >= 0.0))
     throw std::invalid_argument("viscous_n_s_per_m and coulomb_n must be >= 0");
+  for (const auto& k : m.fit)
+    if (k != "nut_mass_kg" && k != "viscous_n_s_per_m" && k != "coulomb_n")
+      throw std::invalid_argument("[model] fit: '" + k + "' (expected nut_mass_kg, viscous_n_s_per_m or coulomb_n)");
   for (std::size_t i = 0; i < m.terms.size(); ++i) {
     const auto& t = m.terms[i];
-    const auto it = std::find_if(known_terms().begin(), known_terms().end(),
-                                 [&](const TermInfo& k) { return k.id == t.id; });
-    if (it == known_terms().end()) {
+    const auto* e = effects::find(t.id);
+    if (!e) {
       std::string known;
-      for (const auto& k : known_terms()) known += (known.empty() ? "" : ", ") + k.id;
+      for (const auto* k : effects::library()) known += (known.empty() ? "" : ", ") + std::string(k->id());
       throw std::invalid_argument("term " + std::to_string(i + 1) + ": unknown id '" + t.id +
                                   "' (known: " + known + ")");
     }
-    for (const auto& [name, value] : t.parameters) {
-      if (std::find(it->parameters.begin(), it->parameters.end(), name) == it->parameters.end()) {
-        std::string allowed;
-        for (const auto& p : it->parameters) allowed += (allowed.empty() ? "" : ", ") + p;
-        throw std::invalid_argument("term " + std::to_string(i + 1) + " (" + t.id +
-                                    "): unknown parameter '" + name + "' (allowed: " +
-                                    (allowed.empty() ? "none" : allowed) + ")");
-      }
-      if (!std::isfinite(value))
-        throw std::invalid_argument("term " + std::to_string(i + 1) + " (" + t.id + "): " + name +
-                                    " is not finite");
+    try {
+      effects::check(*e, effects::Params(t.parameters.begin(), t.parameters.end()));
+    } catch (const std::invalid_argument& err) {
+      std::string allowed;
+      for (const auto& p : e->params()) allowed += (allowed.empty() ? "" : ", ") + p.name;
+      throw std::invalid_argument("term " + std::to_string(i + 1) + ": " + err.what() +
+                                  " (parameters: " + allowed + ")");
     }
   }
 }
@@ -84,7 +77,8 @@ TwinModel load_twin_model(const std::string& path) {
   try {
     root = toml::parse_file(path);
   } catch (const toml::parse_error& e) {
-    throw std::runtime_error(path + ":" + std::to_string(e.source().begin.line) + ": " +
+    throw std::runtime_error(path + ":" + std::to_string(e.source().begin.line) + ":" +
+                             std::to_string(e.source().begin.column) + ": " +
                              std::string(e.description()));
   }
   const toml::table* mt = root["model"].as_table();
@@ -98,12 +92,19 @@ TwinModel load_twin_model(const std::string& path) {
     out = *v;
   };
   m.source = (*mt)["source"].value_or(std::string(path));
+  m.system = (*mt)["system"].value_or(std::string("actuator"));
+  if (const toml::node* f = mt->get("fit")) {
+    const toml::array* arr = f->as_array();
+    if (!arr) throw std::runtime_error(path + ": [model] fit must be a list of key names");
+    for (const auto& e : *arr) m.fit.insert(e.value_or(std::string("?")));
+  }
   num(*mt, "nut_mass_kg", m.nut_mass_kg, "[model]");
   num(*mt, "viscous_n_s_per_m", m.viscous_n_s_per_m, "[model]");
   num(*mt, "coulomb_n", m.coulomb_n, "[model]");
   for (const auto& [k, v] : *mt) {
     const std::string key(k.str());
-    if (key != "source" && key != "nut_mass_kg" && key != "viscous_n_s_per_m" && key != "coulomb_n")
+    if (key != "source" && key != "system" && key != "fit" && key != "nut_mass_kg" &&
+        key != "viscous_n_s_per_m" && key != "coulomb_n")
       throw std::runtime_error(path + ": [model] unknown key '" + key + "'");
     (void)v;
   }
@@ -158,13 +159,21 @@ void save_twin_model(const std::string& path, const TwinModel& m, const std::str
     }
     return q + "\"";
   };
-  out << "# maglead twin model (format: twin/include/maglead/twin/model.hpp)\n";
-  if (!header_comment.empty()) out << "# " << header_comment << "\n";
-  out << std::setprecision(12) << "[model]\n"
-      << "source = " << quoted(m.source) << "\n"
+  out << "# format: mls-model/1 (maglead model file: twin/include/maglead/twin/model.hpp)\n";
+  std::string line;
+  for (std::istringstream lines(header_comment); std::getline(lines, line);) out << "# " << line << "\n";
+  out << std::setprecision(17) << "[model]\n";
+  if (m.system != "actuator") out << "system = " << quoted(m.system) << "\n";
+  out << "source = " << quoted(m.source) << "\n"
       << "nut_mass_kg = " << m.nut_mass_kg << "\n"
       << "viscous_n_s_per_m = " << m.viscous_n_s_per_m << "\n"
       << "coulomb_n = " << m.coulomb_n << "\n";
+  if (!m.fit.empty()) {
+    out << "fit = [";
+    bool first = true;
+    for (const auto& k : m.fit) out << (first ? "" : ", ") << quoted(k), first = false;
+    out << "]\n";
+  }
   for (const auto& t : m.terms) {
     out << "\n[[term]]\nid = " << quoted(t.id) << "\n";
     if (!t.enabled) out << "enabled = false\n";

@@ -565,6 +565,7 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
       if (e.dir != dir) continue;
       double net = e.net_n;
       double level = base.coulomb_n;
+      for (const auto& t : base.terms) level += t.effect->breakaway_extra_n(t.params, e.state, dir);
       for (const auto& [eff, prm] : terms) {
         net += eff->force_n(prm, e.state);  // forces that act while stuck (offset, gain …)
         level += eff->breakaway_extra_n(prm, e.state, dir);
@@ -596,6 +597,8 @@ std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseli
                                                  const Options& opt) {
   for (const auto& c : sel.chosen)
     if (c.id == "stribeck_friction" || c.id == "coulomb_friction") return std::nullopt;
+  for (const auto& id : opt.exclude)
+    if (id == "stribeck_friction") return std::nullopt;
   auto margin = [&](const BreakawayTest::Side& s) {
     if (s.episodes < 3 || !(s.se_n > 0)) return -std::numeric_limits<double>::infinity();
     return (s.median_excess_n - s.count_force_n) / s.se_n;

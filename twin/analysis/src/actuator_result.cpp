@@ -78,6 +78,15 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   progress("selection", 1.0);
   const auto bt = actuator::breakaway_test(P, base, sel.chosen);
   const auto stribeck = actuator::stribeck_from_breakaway(P, base, sel, bt, o);
+  if (stribeck) {
+    // Its sliding part belongs to the corrected model's error too.
+    const auto* e = effects::find(stribeck->id);
+    sel.final_sse = 0;
+    for (std::size_t i = 0; i < P.states.size(); ++i) {
+      sel.final_residual[i] -= e->force_n(stribeck->params, P.states[i]);
+      sel.final_sse += sel.final_residual[i] * sel.final_residual[i];
+    }
+  }
 
   Json J;
   J["system"] = "actuator";

@@ -462,30 +462,40 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
   // Fixed part of the baseline: known dynamics plus any extra term the model file switches on
   // (force on the moving part along +p enters the measured force with the opposite sign on the
   // actuator's load cell and with the same sign in an axis' drive force).
-  const double other_sign = actuator ? -1.0 : 1.0;
-  // Term values resolved once: this runs for every sample of an hour-long recording.
+  // Forces on the moving part along +p (offset, spring, ripple) are what the drive force does
+  // not have to supply, and what the actuator's load cell does not see: both subtract.
+  const double other_sign = -1.0;
+  // Term values resolved once, in the effect library's names (totals for mass and friction).
   const auto* st = model.find("stribeck_friction");
   const auto* sp = model.find("spring");
   const auto* pr = model.find("position_ripple");
   const auto* ar = model.find("angle_ripple");
   const auto* ee = model.find("end_effect");
-  const double mass_fixed = fit_m ? 0.0 : model.nut_mass_kg + term_value("mass_error", "kg", 0.0);
-  const double visc_fixed = fit_c ? 0.0 : model.viscous_n_s_per_m + term_value("viscous_friction", "n_s_per_m", 0.0);
-  const double coul_fixed = (fit_f ? 0.0 : model.coulomb_n) + term_value("coulomb_friction", "n", 0.0);
-  const double asym = term_value("asymmetric_friction", "n", 0.0);
-  const double strib_n = st ? st->get("n", 0.0) : 0.0, strib_v = st ? st->get("velocity_m_s", 2e-3) : 1.0;
-  const double offset = term_value("offset", "force_n", 0.0);
-  const double spring_k = sp ? sp->get("n_per_m", 0.0) : 0.0, spring_c = sp ? sp->get("center_m", s.mid_m) : 0.0;
-  const double pr_n = pr ? pr->get("n", 0.0) : 0.0, pr_per = pr ? pr->get("period_m", 5e-3) : 1.0,
+  const auto* as = model.find("asymmetric_friction");
+  const double mass_fixed = fit_m ? 0.0 : term_value("mass_error", "nut_mass_kg", model.nut_mass_kg);
+  const double visc_fixed = fit_c ? 0.0 : term_value("viscous_friction", "viscous_n_s_per_m", model.viscous_n_s_per_m);
+  const double coul_fixed = fit_f ? 0.0 : term_value("coulomb_friction", "coulomb_n", model.coulomb_n);
+  // Direction-dependent friction: its levels replace the symmetric ones in their direction.
+  const double coul_pos = as ? as->get("coulomb_pos_n", coul_fixed) - coul_fixed : 0.0;
+  const double coul_neg = as ? as->get("coulomb_neg_n", coul_fixed) - coul_fixed : 0.0;
+  const double visc_pos = as ? as->get("viscous_pos_n_s_per_m", visc_fixed) - visc_fixed : 0.0;
+  const double visc_neg = as ? as->get("viscous_neg_n_s_per_m", visc_fixed) - visc_fixed : 0.0;
+  const double strib_c = st ? st->get("coulomb_n", coul_fixed) : 0.0;
+  const double strib_n = st ? st->get("breakaway_n", strib_c) - strib_c : 0.0,
+               strib_v = st ? st->get("stribeck_velocity_m_s", 2e-3) : 1.0;
+  const double offset = term_value("offset", "offset_n", 0.0);
+  const double spring_k = sp ? sp->get("stiffness_n_per_m", 0.0) : 0.0,
+               spring_c = sp ? sp->get("rest_position_m", s.mid_m) : 0.0;
+  const double pr_n = pr ? pr->get("amplitude_n", 0.0) : 0.0, pr_per = pr ? pr->get("period_m", 5e-3) : 1.0,
                pr_ph = pr ? pr->get("phase_rad", 0.0) : 0.0;
-  const double ar_n = ar ? ar->get("n", 0.0) : 0.0, ar_ph = ar ? ar->get("phase_rad", 0.0) : 0.0;
-  const double drift = term_value("gain_drift", "per_min", 0.0);
-  const double ee_m = ee ? ee->get("m", 1e-3) : 0.0, ee_depth = ee ? ee->get("depth", 0.5) : 0.0;
+  const double ar_n = ar ? ar->get("relative_amplitude", 0.0) : 0.0, ar_ph = ar ? ar->get("phase_rad", 0.0) : 0.0;
+  const double drift = term_value("gain_drift", "gain_change_per_min", 0.0);
+  const double ee_m = ee ? ee->get("zone_m", 1e-3) : 0.0, ee_depth = ee ? ee->get("max_reduction", 0.5) : 0.0;
   auto fixed_dynamics = [&](std::size_t i, double gain_fs, double fs_raw) {
     const double v = s.v[i];
-    double y = gain_fs + mass_fixed * s.a[i] + visc_fixed * v;
     const double dir = sgn(v);
-    double fc = coul_fixed + dir * asym;
+    double y = gain_fs + mass_fixed * s.a[i] + visc_fixed * v + (v > 0 ? visc_pos : visc_neg) * v;
+    double fc = (st ? strib_c : coul_fixed) + (v > 0 ? coul_pos : v < 0 ? coul_neg : 0.0);
     if (st) {
       const double r = v / strib_v;
       fc += strib_n * std::exp(-r * r);
@@ -495,10 +505,13 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
     if (sp) other -= spring_k * (s.p[i] - spring_c);
     if (pr) other += pr_n * std::sin(2 * kPi * s.p[i] / pr_per + pr_ph);
     if (actuator) {
-      if (ar) other += ar_n * std::sin(s.theta[i] + ar_ph);
+      if (ar) other += ar_n * std::sin(s.theta[i] + ar_ph) * -fs_raw;
       // Coupling strength changes scale F̂_s (the load-cell image of F_m).
       double g = 1.0 + drift * s.t[i] / 60.0;
-      if (ee) g *= 1.0 - ee_depth * std::clamp(1.0 - s.to_end[i] / ee_m, 0.0, 1.0);
+      if (ee) {
+        const double x = std::clamp(1.0 - s.to_end[i] / ee_m, 0.0, 1.0);
+        g *= 1.0 - ee_depth * x * x * (3 - 2 * x);
+      }
       y += (g - 1.0) * fs_raw;
     }
     return y + other_sign * other;
@@ -776,8 +789,10 @@ Params physical(const std::string& id, const std::vector<int>& cols, const Eigen
       }
     p.plausible = p.values["stribeck_n"].get<double>() > 0;
   } else if (id == "offset") {
-    // Actuator: the load cell reads minus the extra force on the nut; axis: force the drive adds.
-    p.values["offset_n"] = act ? -coef(kOne) : coef(kOne);
+    // A force on the moving part along +p: the load cell does not see it (actuator) and the drive
+    // need not supply it (axis), so both measured forces fall by it.
+    p.values["offset_n"] = -coef(kOne);
+    (void)act;
   } else if (id == "spring") {
     p.values["spring_n_per_m"] = coef(kSpring);
     p.values["free_position_m"] = s.mid_m;
@@ -1551,11 +1566,12 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
 
   // ------------------------------------------------------------ corrected model file
   ModelFile M = model;
-  M.fit.clear();
+  M.fit.clear();  // the corrected model is a model: every value fixed, as fitted here
   const Json fb = fitted_base(final_fit);
   if (fb.contains("mass_kg")) M.nut_mass_kg = fb["mass_kg"].get<double>();
   if (fb.contains("viscous_n_s_per_m")) M.viscous_n_s_per_m = fb["viscous_n_s_per_m"].get<double>();
   if (fb.contains("coulomb_n")) M.coulomb_n = fb["coulomb_n"].get<double>();
+  bool has_asym = false;
   for (const auto& e : J["effects"]) {
     const std::string id = e["id"];
     const Json& p = e["parameters"];
@@ -1576,20 +1592,22 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     else if (id == "coulomb_friction") M.coulomb_n = val("coulomb_n");
     else if (id == "viscous_friction") M.viscous_n_s_per_m = val("viscous_n_s_per_m");
     else if (id == "asymmetric_friction") {
-      add({{"n", val("coulomb_asymmetry_n")}});
-      // The twin's format has no viscous asymmetry; an axis model keeps it as an extra key.
-      if (!actuator) M.term(id).set("n_s_per_m", val("viscous_asymmetry_n_s_per_m"));
-    } else if (id == "stribeck_friction") add({{"n", val("stribeck_n")}, {"velocity_m_s", val("stribeck_velocity_m_s")}});
-    else if (id == "offset") add({{"force_n", val("offset_n")}});
-    else if (id == "spring") add({{"n_per_m", val("spring_n_per_m")}, {"center_m", val("free_position_m")}});
-    else if (id == "gain_drift") add({{"per_min", val("gain_drift_per_min")}});
-    else if (id == "angle_ripple") add({{"n", val("amplitude_n")}, {"phase_rad", val("phase_rad")}});
+      // The benchmark's direction-dependent form: it already holds any constant force, so a
+      // separate offset finding is not written beside it.
+      add({{"coulomb_pos_n", val("equivalent_coulomb_pos_n")},
+           {"coulomb_neg_n", val("equivalent_coulomb_neg_n")},
+           {"viscous_pos_n_s_per_m", val("equivalent_viscous_pos_n_s_per_m")},
+           {"viscous_neg_n_s_per_m", val("equivalent_viscous_neg_n_s_per_m")}});
+      std::erase_if(M.terms, [](const ModelTerm& t) { return t.id == "offset"; });
+      has_asym = true;
+    } else if (id == "offset" && !has_asym) add({{"offset_n", val("offset_n")}});
+    else if (id == "stribeck_friction")
+      add({{"breakaway_n", M.coulomb_n + val("stribeck_n")}, {"coulomb_n", M.coulomb_n},
+           {"stribeck_velocity_m_s", val("stribeck_velocity_m_s")}});
+    else if (id == "spring")
+      add({{"stiffness_n_per_m", val("spring_n_per_m")}, {"rest_position_m", val("free_position_m")}});
     else if (id == "position_ripple")
-      add({{"n", val("amplitude_n")}, {"period_m", val("period_m")}, {"phase_rad", val("phase_rad")}});
-    else if (id == "end_effect") add({{"m", val("distance_m")}, {"depth", val("depth")}});
-    else if (id == "backlash") add({{"rad", val("backlash_rad")}});
-    else if (id == "sensor_delay") add({{"s", val("delay_s")}});
-    else if (id == "external_disturbance") add({{"n", val("amplitude_n")}});
+      add({{"amplitude_n", val("amplitude_n")}, {"period_m", val("period_m")}, {"phase_rad", val("phase_rad")}});
     // step_out: the twin's coupling is periodic, slips are always modelled.
   }
   M.source = (model.source.empty() ? std::string("baseline") : model.source) +

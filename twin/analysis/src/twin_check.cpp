@@ -12,17 +12,6 @@
 namespace maglead::analysis {
 
 #ifdef MAGLEAD_HAVE_TWIN
-namespace {
-twin::TwinModel to_twin(const ModelFile& m) {
-  twin::TwinModel t;
-  t.source = m.source;
-  t.nut_mass_kg = m.nut_mass_kg;
-  t.viscous_n_s_per_m = m.viscous_n_s_per_m;
-  t.coulomb_n = m.coulomb_n;
-  for (const auto& term : m.terms) t.terms.push_back({term.id, term.enabled, term.note, term.parameters});
-  return t;
-}
-}  // namespace
 
 nlohmann::json simulate_twins(const TwinCheckInput& in, const ModelFile& baseline,
                               const ModelFile& corrected) {
@@ -32,7 +21,7 @@ nlohmann::json simulate_twins(const TwinCheckInput& in, const ModelFile& baselin
   if (n < horizon * 4) return {{"available", false}, {"reason", "recording too short"}};
   const int windows = static_cast<int>(std::min<std::size_t>(40, n / horizon / 2));
   auto run = [&](const ModelFile& m, twin::TwinStats& stats) {
-    twin::HybridTwin tw(twin::NutModel(in.act, in.coupling, to_twin(m)));
+    twin::HybridTwin tw(twin::NutModel(in.act, in.coupling, m));
     double se = 0;
     std::size_t cnt = 0;
     int failures = 0;
@@ -68,10 +57,6 @@ nlohmann::json simulate_twins(const TwinCheckInput& in, const ModelFile& baselin
   out["corrected_rms_position_error_m"] = rc;
   out["baseline_failures"] = fb;
   out["corrected_failures"] = fc;
-  // Terms the twin accepts but does not simulate leave the re-simulation unchanged: say so.
-  nlohmann::json unsim = nlohmann::json::array();
-  for (const auto& id : to_twin(corrected).unsimulated_terms()) unsim.push_back(id);
-  out["not_simulated_by_twin"] = unsim;
   out["steps"] = sc.steps;
   out["root_events"] = sc.root_events;
   return out;

@@ -63,6 +63,9 @@ class Effect {
   /// Physical parameters from the coefficients; nullopt when they make no physical sense.
   virtual std::optional<Params> parameters(double shape, const double* c,
                                            const State& model) const = 0;
+  /// Friction laws act only while sliding and against the motion (the twin's stick/slip logic
+  /// treats them apart from the forces that drive the nut).
+  virtual bool friction() const { return false; }
   /// False for effects the analysis only names as an alternative (identifiability).
   virtual bool selectable() const { return true; }
 };

@@ -15,6 +15,7 @@
 
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
+#include "maglead/effects/effect.hpp"
 #include "maglead/twin/model.hpp"
 
 namespace maglead::twin {
@@ -27,37 +28,44 @@ struct NutState {
   FrictionMode mode = FrictionMode::stick;
 };
 
-/// The force law: calibration, actuator geometry and the model file's terms, resolved once.
+/// The force law: calibration, actuator geometry and the model file's terms (effect units of
+/// effects/), resolved once.
 class NutModel {
  public:
   NutModel(const ActuatorParams& actuator, const PeriodicForceModel& coupling,
            const TwinModel& model);
   double mass_kg() const { return mass_kg_; }
   double lead_m() const { return lead_m_; }
-  /// Magnetic force on the nut along +p (F_m = −gain · F̂_s(φ)).
+  /// Magnetic force on the nut along +p as calibrated, F_m = −F̂_s(φ) (terms scale it elsewhere).
   double coupling_force_n(double t_s, double screw_rad, double pos_m) const noexcept;
-  /// Everything except friction and inertia: F_m + extra terms + F_ext − C ṗ.
+  /// Everything except friction and inertia: F_m + F_ext − C ṗ + every non-friction term.
+  /// The rates feed terms that need them (sensor and load-cell delays); 0 when unknown.
   double drive_force_n(double t_s, double screw_rad, double pos_m, double vel_m_s,
-                       double ext_force_n) const noexcept;
+                       double ext_force_n, double screw_rate_rad_s = 0.0,
+                       double ext_rate_n_s = 0.0) const noexcept;
   /// Force needed to break the nut loose in direction dir (±1).
-  double breakaway_n(int dir) const noexcept { return coulomb_n_ + dir * asym_n_ + stribeck_n_; }
+  double breakaway_n(int dir) const noexcept;
   /// Friction magnitude while sliding in direction dir at speed v.
   double sliding_friction_n(int dir, double vel_m_s) const noexcept;
   /// Mode the nut takes at rest under a drive force (stick unless beyond break-away).
   FrictionMode mode_at_rest(double drive_n) const noexcept;
   /// Acceleration in a mode (0 when stuck).
   double accel_m_s2(FrictionMode mode, double t_s, double screw_rad, double pos_m, double vel_m_s,
-                    double ext_force_n) const noexcept;
+                    double ext_force_n, double screw_rate_rad_s = 0.0,
+                    double ext_rate_n_s = 0.0) const noexcept;
 
  private:
+  struct Term {
+    const effects::Effect* effect;
+    effects::Params params;
+  };
+  effects::State state(double t_s, double screw_rad, double pos_m, double vel_m_s, double ext_force_n,
+                       double screw_rate_rad_s, double ext_rate_n_s) const noexcept;
   PeriodicForceModel coupling_;
   double lead_m_, stroke_min_m_, stroke_max_m_;
-  double mass_kg_, viscous_, coulomb_n_, asym_n_ = 0, stribeck_n_ = 0, stribeck_v_ = 2e-3;
-  double offset_n_ = 0, spring_k_ = 0, spring_center_m_ = 0;
-  double gain_ = 1.0, gain_drift_per_s_ = 0.0;
-  double angle_ripple_n_ = 0, angle_ripple_phase_ = 0;
-  double pos_ripple_n_ = 0, pos_ripple_period_m_ = 5e-3, pos_ripple_phase_ = 0;
-  double end_m_ = 0, end_depth_ = 0.5;
+  double mass_kg_, viscous_, coulomb_n_;
+  std::vector<Term> drive_terms_, friction_terms_;
+  double breakaway_extra_pos_n_ = 0, breakaway_extra_neg_n_ = 0;
 };
 
 /// Continuous-time inputs: screw angle θ(t) and external force F_ext(t) (load convention).
@@ -66,6 +74,9 @@ class InputSource {
   virtual ~InputSource() = default;
   virtual double screw_rad(double t_s) const noexcept = 0;
   virtual double ext_force_n(double t_s) const noexcept = 0;
+  /// Rates for terms that need them (delays); 0 unless the source knows them.
+  virtual double screw_rate_rad_s(double) const noexcept { return 0.0; }
+  virtual double ext_rate_n_s(double) const noexcept { return 0.0; }
 };
 
 struct IntegratorOptions {

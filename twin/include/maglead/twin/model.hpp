@@ -1,39 +1,25 @@
 #pragma once
-// The twin's model file (config/model.toml): nut dynamics parameters plus an extensible list of
-// named physical terms. The analysis tool (issue 5) writes the same format back after it has
-// found missing physics, so the twin loads its corrections without code changes.
+// The model file: the one model vocabulary of maglead. The twin runs it, `maglead analyze`
+// compares it with recordings and writes corrected ones in the same form, so a corrected model
+// is loaded by the twin (and by the analysis again) without translation.
 //
-//   # maglead twin model
+//   # format: mls-model/1
 //   [model]
 //   source = "paper defaults"          # free text: where the numbers came from
 //   nut_mass_kg = 0.12                 # M
 //   viscous_n_s_per_m = 2.0            # C
-//   coulomb_n = 7.5                    # F_c (break-away = sliding level unless stribeck is on)
+//   coulomb_n = 7.5                    # F_c (kinetic and break-away unless a term says more)
 //
-//   [[term]]                           # zero or more; order does not matter
-//   id = "asymmetric_friction"         # one of known_terms()
+//   [[term]]                           # zero or more: one effect of the effect library
+//   id = "offset"                      # an id of docs/effects.md
 //   enabled = true                     # optional, default true
-//   note = "found at reversals"        # optional free text (evidence, fit quality …)
-//   n = 0.8                            # parameters: key = number, names carry units
+//   note = "found by maglead analyze"  # optional free text
+//   offset_n = -3.5                    # the effect's parameters, names and units as in the spec
 //
-// Terms and parameters (force on the nut along +p unless said otherwise):
-//   coulomb_friction     n                 extra Coulomb level, adds to coulomb_n
-//   viscous_friction     n_s_per_m         extra viscous coefficient, adds to C
-//   asymmetric_friction  n                 Coulomb + n moving +p, − n moving −p
-//   stribeck_friction    n, velocity_m_s   break-away excess n·exp(−(v/v_s)²) (v_s default 2 mm/s)
-//   offset               force_n           constant force (gravity, constant load)
-//   spring               n_per_m, center_m force −k (p − center) (center default mid-stroke)
-//   mass_error           kg                extra moving mass
-//   gain                 factor            coupling strength × factor (1 = calibrated)
-//   gain_drift           per_min           coupling strength × (1 + per_min · t/60 s)
-//   angle_ripple         n, phase_rad      n·sin(θ + phase), once per screw turn
-//   position_ripple      n, period_m, phase_rad   n·sin(2π p / period + phase) (period 5 mm)
-//   end_effect           m, depth          coupling × (1 − depth·max(0, 1 − d_end/m)) (depth 0.5)
-//   step_out             (none)            always modelled: the coupling is periodic
-//   backlash, sensor_delay, external_disturbance
-//                        any               accepted and kept, not simulated by the twin
-//                                          (unsimulated_terms() lists them for a warning)
-// Unknown ids or parameters are errors (a typo must not silently drop physics).
+// Two additions for systems that are not the actuator (the EMPS axis), which the twin never
+// runs: `system = "axis"` and `fit = ["nut_mass_kg", …]` naming values fitted from the data.
+// Unknown ids or parameters are errors: a typo must not silently drop physics.
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -47,33 +33,29 @@ struct ModelTerm {
   std::vector<std::pair<std::string, double>> parameters;  // in file order
   /// Value of a parameter, or `fallback` if absent.
   double get(const std::string& name, double fallback) const;
+  void set(const std::string& name, double value);
 };
 
 struct TwinModel {
+  std::string system = "actuator";  // "actuator" (magnetic lead screw) or "axis" (force-driven)
   std::string source = "paper defaults";
   double nut_mass_kg = 0.12;
   double viscous_n_s_per_m = 2.0;
   double coulomb_n = 7.5;
+  std::set<std::string> fit;  // [model] keys whose values are unknown (fitted by the analysis)
   std::vector<ModelTerm> terms;
 
-  /// Enabled terms the twin's dynamics do not simulate (accepted for round trips).
-  std::vector<std::string> unsimulated_terms() const;
+  const ModelTerm* find(const std::string& id) const;  // enabled terms only
+  ModelTerm& term(const std::string& id);               // finds or appends
 };
 
-struct TermInfo {
-  std::string id;
-  std::vector<std::string> parameters;  // allowed parameter names
-  std::string description;
-  bool simulated;
-};
-const std::vector<TermInfo>& known_terms();
-
-/// Throws std::runtime_error naming the file, the term index and the bad key or value.
+/// Throws std::runtime_error naming the file, line and column, and the term and key at fault.
 TwinModel load_twin_model(const std::string& path);
-/// Writes the format above (used by the analysis tool); throws std::runtime_error on I/O error.
+/// Writes the format above; throws std::runtime_error on I/O error or an invalid model.
 void save_twin_model(const std::string& path, const TwinModel& model,
                      const std::string& header_comment = "");
-/// Validates ids and parameter names (what load does after parsing); throws std::invalid_argument.
+/// Validates values, ids and parameter names against the effect library; throws
+/// std::invalid_argument naming the term and parameter.
 void validate_twin_model(const TwinModel& model);
 
 }  // namespace maglead::twin
