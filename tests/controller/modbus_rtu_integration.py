@@ -78,7 +78,7 @@ def run(dev):
     check(not rr.isError() and rr.registers[0] == 0x4D4C and rr.registers[4:6] == [0x1234, 0x5678],
           "identity and word-order probe over RTU")
     t0 = time.perf_counter()
-    rr = c.read_input_registers(60, 1, slave=UNIT)
+    rr = c.read_input_registers(200, 1, slave=UNIT)
     dt = time.perf_counter() - t0
     check(rr.isError() and getattr(rr, "exception_code", None) == 2 and dt < 0.3,
           f"exception 02 over RTU, answered at once ({dt * 1e3:.0f} ms)")
@@ -98,10 +98,21 @@ def run(dev):
     c.close()
 
     # Raw frames: broadcast write acts without a reply; other units and bad CRCs get nothing.
-    reply = raw(dev, struct.pack(">BBHH", 0, 6, 1001, 2))
-    check(reply == b"", "broadcast write: no reply")
-    reply = raw(dev, struct.pack(">BBHH", UNIT, 3, 1001, 1))
-    check(reply[:5] == bytes([UNIT, 3, 2, 0, 2]), "broadcast write was honoured")
+    reply = raw(dev, struct.pack(">BBHHBHH", 0, 16, 1012, 2, 4, *f32_words(2.5)))
+    check(reply == b"", "broadcast setpoint write: no reply")
+    reply = raw(dev, struct.pack(">BBHH", UNIT, 3, 1012, 2))
+    check(reply[:7] == bytes([UNIT, 3, 4, 0x40, 0x20, 0, 0]), "broadcast setpoint write was honoured")
+    # Finding 7: the enable coil by broadcast does not enable the drive (nor does mode change).
+    reply = raw(dev, struct.pack(">BBHH", UNIT, 6, 1000, 0))
+    check(reply[:6] == struct.pack(">BBHH", UNIT, 6, 1000, 0), "disabled by a write addressed to the unit")
+    check(raw(dev, struct.pack(">BBHH", 0, 5, 0, 0xFF00)) == b"", "broadcast enable coil: no reply")
+    check(raw(dev, struct.pack(">BBHH", 0, 6, 1001, 2)) == b"", "broadcast mode write: no reply")
+    reply = raw(dev, struct.pack(">BBHH", UNIT, 4, 13, 1))
+    check(reply[:5] == bytes([UNIT, 4, 2, 0, 1]), f"broadcast enable refused: drive still ready ({reply[:5].hex()})")
+    reply = raw(dev, struct.pack(">BBHH", UNIT, 3, 1000, 2))
+    check(reply[3:7] == bytes([0, 0, 0, 0]), "control word and mode unchanged by broadcast")
+    reply = raw(dev, struct.pack(">BBHH", UNIT, 4, 55, 1))
+    check(reply[:5] == bytes([UNIT, 4, 2, 0, 2]), "write_refusal_reason: broadcast_state_change")
     check(raw(dev, struct.pack(">BBHH", 0, 4, 0, 1)) == b"", "broadcast read: ignored")
     check(raw(dev, struct.pack(">BBHH", UNIT + 1, 4, 0, 1)) == b"", "other unit id: ignored")
     check(raw(dev, struct.pack(">BBHH", UNIT, 4, 0, 1), crc=b"\x00\x00") == b"", "bad CRC: ignored")
