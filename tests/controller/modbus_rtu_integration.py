@@ -123,6 +123,27 @@ def run(dev):
     check(reply[:5] == bytes([UNIT, 4, 2, 0x4D, 0x4C]) and reply[5:7] == crc16(reply[:5]),
           "served normally after the bad frame, reply CRC correct")
 
+    # Finding 4: a frame cut short is discarded after t3.5 of silence (2.0 ms at 19200 8E1); the
+    # next request, 30 ms later, is answered (before: swallowed for ~200 ms).
+    fd = os.open(dev, os.O_RDWR | os.O_NOCTTY)
+    try:
+        answered = 0
+        for _ in range(10):
+            good = struct.pack(">BBHH", UNIT, 4, 0, 1)
+            os.write(fd, (good + crc16(good))[:5])  # truncated: 5 of 8 bytes
+            time.sleep(0.03)
+            os.write(fd, good + crc16(good))
+            out = b""
+            end = time.time() + 0.5
+            while len(out) < 7 and time.time() < end:
+                if select.select([fd], [], [], 0.05)[0]:
+                    out += os.read(fd, 256)
+            answered += out[:5] == bytes([UNIT, 4, 2, 0x4D, 0x4C])
+            time.sleep(0.01)
+    finally:
+        os.close(fd)
+    check(answered == 10, f"after a truncated frame and silence, the next request is answered ({answered} of 10)")
+
     out = subprocess.run(["mbpoll", "-1", "-0", "-m", "rtu", "-b", "19200", "-P", "even", "-a", str(UNIT),
                           "-t", "3:hex", "-r", "4", "-c", "2", "-o", "1", dev],
                          capture_output=True, text=True, timeout=10)

@@ -215,6 +215,9 @@ def run(port):
     other.write_register(CW, 0, slave=UNIT)
     other.close()
     owner_loss_releases_force(port)
+    half_close(port)
+    idle_flood(port)
+    non_reader(port)
 
 
 def wait_alarm(client, alarm, timeout=2.0):
@@ -277,20 +280,100 @@ def allow_list_and_cap():
         srv.stop()
     srv = Server(MAGLEAD, CONFIG, "--port", "0", "--max-connections", "2")
     try:
+        # At the cap the connection idle longest makes room (finding 5): idle connections
+        # cannot lock a PLC out.
         held = [socket.create_connection(("127.0.0.1", srv.port), timeout=2) for _ in range(2)]
+        time.sleep(0.1)
+        check(raw_request(srv.port, struct.pack(">BHH", 4, 0, 1)) == bytes([4, 2, 0x4D, 0x4C]),
+              "a connection at the cap is served: the idle one makes room")
+        try:
+            evicted = held[0].recv(16) == b""
+        except (ConnectionResetError, socket.timeout):
+            evicted = False
+        check(evicted, "the connection idle longest was closed for it")
+        # The owner and a connection with a request under way are never evicted.
+        owner = socket.create_connection(("127.0.0.1", srv.port), timeout=2)
+        owner.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, CW, ENABLE))
+        read_response(owner, 1)
+        busy = socket.create_connection(("127.0.0.1", srv.port), timeout=2)
+        busy.sendall(struct.pack(">HHHB", 9, 0, 6, 1) + b"\x04")  # half a request
         time.sleep(0.1)
         try:
             refused = raw_request(srv.port, struct.pack(">BHH", 4, 0, 1)) is None
         except (ConnectionResetError, BrokenPipeError):
             refused = True
-        check(refused, "a connection beyond --max-connections is refused")
-        held[0].close()
-        time.sleep(0.1)
-        check(raw_request(srv.port, struct.pack(">BHH", 4, 0, 1)) == bytes([4, 2, 0x4D, 0x4C]),
-              "a freed slot serves the next client")
-        held[1].close()
+        check(refused, "at the cap with nobody idle (owner, a request under way): refused")
+        for h in held + [owner, busy]:
+            h.close()
     finally:
         srv.stop()
+
+
+def half_close(port):
+    """Finding 3: a client that sends a request and shuts down its sending side gets its reply."""
+    ok = 0
+    for t in range(50):
+        with socket.create_connection(("127.0.0.1", port), timeout=2) as s:
+            s.sendall(b"".join(struct.pack(">HHHB", t * 2 + k, 0, 6, 1) + struct.pack(">BHH", 4, 0, 1) for k in (0, 1)))
+            s.shutdown(socket.SHUT_WR)
+            if all(read_response(s, t * 2 + k) == bytes([4, 2, 0x4D, 0x4C]) for k in (0, 1)) and s.recv(16) == b"":
+                ok += 1
+    check(ok == 50, f"half-close after two requests: both answered, then closed, in {ok} of 50 trials")
+
+
+def idle_flood(port):
+    """Finding 5 with the defaults: 65 idle connections, then the PLC still gets in."""
+    idle = []
+    for _ in range(65):
+        try:
+            idle.append(socket.create_connection(("127.0.0.1", port), timeout=2))
+        except OSError:
+            break
+    time.sleep(0.2)
+    plc = ModbusTcpClient("127.0.0.1", port=port, timeout=2)
+    rr = plc.read_input_registers(0, 1, slave=UNIT) if plc.connect() else None
+    check(rr is not None and not rr.isError() and rr.registers[0] == 0x4D4C,
+          "after 65 idle connections (cap 32) a PLC connects and is served")
+    plc.close()
+    for s in idle:
+        s.close()
+
+
+def non_reader(port):
+    """Finding 6: a client that never reads its replies is dropped after a bounded backlog; the
+    server does not keep answering it while others wait."""
+    def counter():
+        rsp = raw_request(port, struct.pack(">BHH", 8, 0x0B, 0))
+        return struct.unpack(">H", rsp[3:5])[0]
+    before = counter()
+    hog = socket.socket()
+    hog.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    hog.connect(("127.0.0.1", port))
+    hog.setblocking(False)
+    req = struct.pack(">HHHBBHH", 1, 0, 6, 1, 4, 0, 124)  # reply: 257 bytes
+    sent, dropped = 0, False
+    end = time.time() + 10
+    while sent < 20000 and time.time() < end:  # replies for up to 5 MB
+        try:
+            sent += hog.send(req * 16) // len(req)
+        except BlockingIOError:
+            time.sleep(0.01)
+        except (ConnectionResetError, BrokenPipeError):
+            dropped = True
+            break
+    if not dropped:
+        try:
+            hog.setblocking(True)
+            hog.settimeout(2)
+            hog.sendall(req)
+            time.sleep(0.3)
+            hog.sendall(req)
+        except (ConnectionResetError, BrokenPipeError):
+            dropped = True
+    hog.close()
+    answered = counter() - before - 1
+    check(dropped, f"a client that never reads is dropped (it sent {sent} requests)")
+    check(answered <= 1000, f"the server answered it at most 1000 times before dropping it ({answered})")
 
 
 def read_only_server():

@@ -359,6 +359,17 @@ TEST(ModbusCore, RegistersCarryTheLoopsValues) {
   EXPECT_EQ(word_at(st, 0), static_cast<std::uint16_t>(reg::DriveState::ready));
 }
 
+TEST(ModbusRtu, SilenceTimesFollowTheSerialLineSpec) {
+  // 11-bit characters (8E1): 3.5 characters at 9600 Bd are 4.01 ms, at 19200 Bd 2.005 ms.
+  EXPECT_NEAR(rtu_timing(9600, 11).t3_5_s, 3.5 * 11 / 9600.0, 1e-12);
+  EXPECT_NEAR(rtu_timing(9600, 11).t1_5_s, 1.5 * 11 / 9600.0, 1e-12);
+  EXPECT_NEAR(rtu_timing(19200, 11).t3_5_s, 2.005e-3, 1e-6);
+  EXPECT_NEAR(rtu_timing(19200, 10).t3_5_s, 1.823e-3, 1e-6);  // 8N1
+  // Above 19200 Bd, fixed values.
+  EXPECT_EQ(rtu_timing(38400, 11).t3_5_s, 1.75e-3);
+  EXPECT_EQ(rtu_timing(115200, 11).t1_5_s, 750e-6);
+}
+
 TEST(ModbusRtu, Crc16MatchesTheSpecExample) {
   // Modbus over serial line spec, example: 02 07 → CRC 0x1241 (sent 41 12).
   const std::uint8_t frame[] = {0x02, 0x07};
