@@ -34,6 +34,8 @@ Controller::Controller(const ControllerConfig& config, ActuatorHardware& hardwar
     throw std::invalid_argument("controller: safe_force_fraction must be in (0, 1]");
   if (!(cfg_.velocity_limit_m_s > 0) || !(cfg_.accel_limit_m_s2 > 0) || cfg_.watchdog_s < 0)
     throw std::invalid_argument("controller: limits must be positive, watchdog non-negative");
+  if (!(cfg_.reactions.release_rate_n_per_s > 0) || !std::isfinite(cfg_.reactions.release_rate_n_per_s))
+    throw std::invalid_argument("controller: fault reaction release rate must be positive [N/s]");
   // Position control may use the phase range of the safe forces, never more.
   const double f = a.safe_force_fraction * 0.999;
   phase_hi_rad_ = phase_for_output_force(cal, f * cal.peak_push_n, a.safe_force_fraction).phase_rad;
@@ -82,28 +84,66 @@ void Controller::controlled_stop() noexcept {
   mode_ = Mode::idle;
 }
 
-void Controller::latch_fault(Alarm alarm) noexcept {
-  if (state_ != DriveState::fault) s_.alarm_code = static_cast<std::uint16_t>(alarm);
-  state_ = DriveState::fault;
+FaultReaction Controller::configured_reaction(Alarm alarm) const noexcept {
+  const auto& r = cfg_.reactions;
   switch (alarm) {
+    case Alarm::watchdog: return r.watchdog;
+    case Alarm::owner_lost: return r.owner_lost;
+    case Alarm::sensor_fault: return r.sensor_fault;
     case Alarm::step_out:
-    case Alarm::phase_jump: {
-      // Stop commanding force: park the screw at the rest angle of the lead the nut is in now.
-      const double leads = std::round(s_.phase_rad / kTwoPi);
-      screw_cmd_rad_ = rest_angle_rad(s_.nut_pos_m, cfg_.actuator.lead_m) + phase_offset_rad_ + leads * kTwoPi;
+    case Alarm::phase_jump: return r.step_out;
+    default: return FaultReaction::hold;  // stroke limit, drive fault
+  }
+}
+
+void Controller::latch_fault(Alarm alarm) noexcept {
+  const bool first = state_ != DriveState::fault;
+  if (first) s_.alarm_code = static_cast<std::uint16_t>(alarm);
+  state_ = DriveState::fault;
+  const bool slipped = alarm == Alarm::step_out || alarm == Alarm::phase_jump;
+  if (slipped) lead_rad_ = kTwoPi * std::round(s_.phase_rad / kTwoPi);  // the lead the nut is in now
+  if (!first && !slipped) return;  // the first fault's reaction goes on
+  FaultReaction how = configured_reaction(alarm);
+  if (how == FaultReaction::mode_default) how = mode_ == Mode::force ? FaultReaction::release : FaultReaction::hold;
+  fault_position_hold_ = false;
+  switch (how) {
+    case FaultReaction::release:
+    case FaultReaction::disable: {
+      // Start from the force held now (its setpoint in force mode, else the estimate); past
+      // the stable branch the force curve means nothing: release from zero at once.
+      double f = mode_ == Mode::force ? force_set_n_ : s_.force_est_n;
+      if (slipped || how == FaultReaction::disable || !std::isfinite(f)) f = 0.0;
+      release_force_n_ = std::clamp(f, safe_force_limit_n(-1.0), safe_force_limit_n(1.0));
+      reaction_ = release_force_n_ == 0.0 ? registers::Reaction::released : registers::Reaction::releasing;
       mode_ = Mode::idle;
       prof_pos_m_ = target_m_ = s_.nut_pos_m;
       prof_vel_m_s_ = 0.0;
       break;
     }
-    case Alarm::watchdog:
-    case Alarm::stroke_limit:
-      controlled_stop();
-      stopping_ = true;
-      break;
     default:
-      break;  // hardware faults: keep the last command
+      reaction_ = registers::Reaction::holding;
+      if (slipped) {
+        // Stop commanding force: park the screw at the rest angle of the lead the nut is in now.
+        screw_cmd_rad_ = rest_angle_rad(s_.nut_pos_m, cfg_.actuator.lead_m) + phase_offset_rad_ + lead_rad_;
+        mode_ = Mode::idle;
+        prof_pos_m_ = target_m_ = s_.nut_pos_m;
+        prof_vel_m_s_ = 0.0;
+      } else if (alarm == Alarm::sensor_fault || alarm == Alarm::drive_fault) {
+        // Nothing measured: keep the last command.
+      } else {
+        controlled_stop();
+        stopping_ = true;
+        fault_position_hold_ = true;
+      }
+      break;
   }
+}
+
+void Controller::on_owner_lost() noexcept {
+  if (state_ == DriveState::enabled) latch_fault(Alarm::owner_lost);
+  // Nobody holds the levels any more: the next owner starts from a clear control word, so its
+  // enable is a fresh edge.
+  image_.control_word = 0;
 }
 
 void Controller::on_execute() noexcept {
@@ -146,6 +186,7 @@ void Controller::on_execute() noexcept {
 }
 
 void Controller::apply(const Command& c) noexcept {
+  if (c.owner_lost) on_owner_lost();
   const std::uint16_t old_cw = image_.control_word;
   const std::uint16_t new_cw = c.image.control_word;
   const auto rising = static_cast<std::uint16_t>(new_cw & ~old_cw);
@@ -193,6 +234,9 @@ void Controller::apply(const Command& c) noexcept {
         s_.alarm_code = 0;
         stepped_out_ = watchdog_expired_ = stopping_ = false;
         mode_ = Mode::idle;
+        reaction_ = registers::Reaction::none;
+        fault_position_hold_ = false;
+        lead_rad_ = 0.0;
         last_heartbeat_s_ = s_.t_s;
       }
       command_bits_ |= static_cast<std::uint16_t>(bit(registers::kResetAck) | bit(registers::kResetDone));
@@ -270,6 +314,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     s_.load_cell_force_n = std::isnan(sample.load_force_n) ? 0.0 : -sample.load_force_n;
   }
 
+  if (owner_lost_flag_.exchange(false, std::memory_order_acquire)) on_owner_lost();
   Command c;
   for (int i = 0; i < 64 && commands_.pop(c); ++i) apply(c);
 
@@ -322,9 +367,17 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
       }
       break;
     case DriveState::fault:
-      if (s_.alarm_code == static_cast<std::uint16_t>(Alarm::watchdog) ||
-          s_.alarm_code == static_cast<std::uint16_t>(Alarm::stroke_limit))
-        screw_cmd_rad_ = position_command_rad(dt);  // controlled stop continues
+      if (reaction_ == registers::Reaction::releasing || reaction_ == registers::Reaction::released) {
+        // Ramp the output force to zero, then keep it there: the screw follows the nut.
+        const double step = cfg_.reactions.release_rate_n_per_s * dt;
+        release_force_n_ = std::abs(release_force_n_) <= step ? 0.0 : release_force_n_ - std::copysign(step, release_force_n_);
+        if (release_force_n_ == 0.0) reaction_ = registers::Reaction::released;
+        const auto inv = phase_for_output_force(cal, release_force_n_, a.safe_force_fraction);
+        const double phase = inv.status == InverseStatus::ok ? inv.phase_rad : 0.0;
+        screw_cmd_rad_ = rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + lead_rad_ + phase;
+      } else if (fault_position_hold_) {
+        screw_cmd_rad_ = position_command_rad(dt);  // controlled stop continues, then holds
+      }
       break;
   }
   const bool reached = in_position || force_reached;
@@ -336,7 +389,8 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   }
   if (state_ != DriveState::enabled) execute_pending_ = false;
 
-  if (status == CycleStatus::ok && hw_.write_motor_angle(screw_cmd_rad_ * a.gear_ratio) != HwStatus::ok) {
+  // Also after a sensor fault: the reaction then works from the last good measurement.
+  if (hs != HwStatus::drive_fault && hw_.write_motor_angle(screw_cmd_rad_ * a.gear_ratio) != HwStatus::ok) {
     latch_fault(Alarm::drive_fault);
     status = CycleStatus::hardware_error;
   }
@@ -362,6 +416,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   s_.command_status = command_bits_;
   s_.profile_pos_m = prof_pos_m_;
   s_.active_force_setpoint_n = mode_ == Mode::force ? force_set_n_ : 0.0;
+  s_.fault_reaction = static_cast<std::uint16_t>(state_ == DriveState::fault ? reaction_ : registers::Reaction::none);
   s_.active_target_pos_m = target_m_;
   published_.store(s_);
   return status;

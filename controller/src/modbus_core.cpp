@@ -47,6 +47,8 @@ const ModbusCore::Binding kBindings[] = {
     {"active_mode", SNAP(active_mode), nullptr, nullptr},
     {"command_status", SNAP(command_status), nullptr, nullptr},
     {"command_reject_reason", SNAP(reject_reason), nullptr, nullptr},
+    {"fault_reaction", SNAP(fault_reaction), nullptr, nullptr},
+    {"write_refusal_reason", CONST(0), nullptr, nullptr},  // patched
     {"control_owner", CONST(0), nullptr, nullptr},       // patched
     {"control_owner_ipv4", CONST(0), nullptr, nullptr},  // patched
     {"nut_pos_um", SNAP(nut_pos_m), nullptr, nullptr},
@@ -161,6 +163,16 @@ ModbusCore::ModbusCore(Controller& controller, ServerOptions options)
     }
   }
   if (std::size(kBindings) != table.size()) throw std::logic_error("server bindings name registers not in the table");
+  // Reserved addresses inside the documented blocks read as 0 (writes to them stay refused).
+  for (const auto& range : reg::mapped_ranges()) {
+    if (range.table != reg::Table::input_register && range.table != reg::Table::holding_register) continue;
+    for (std::uint32_t a = range.first; a < range.first + range.count; ++a) {
+      auto& slot = reg_slots_.at(a);
+      if (slot.reg < 0) slot.reg = range.table == reg::Table::input_register ? kReservedInput : kReservedHolding;
+    }
+  }
+  for (const auto& r : table)
+    if (!reg::in_mapped_range(r.table, r.address)) throw std::logic_error("register '" + std::string(r.name) + "' lies outside the mapped ranges");
 }
 
 std::uint16_t ModbusCore::owner() const {
@@ -170,12 +182,23 @@ std::uint16_t ModbusCore::owner() const {
 
 void ModbusCore::client_closed(std::uint16_t client_id) {
   std::lock_guard lock(mutex_);
-  if (owner_ == client_id) owner_ = 0, owner_ipv4_ = 0;
+  if (owner_ == 0 || owner_ != client_id) return;
+  owner_ = 0, owner_ipv4_ = 0;
+  // Owner loss is a fault: the loop runs its reaction at once. Nobody holds the control word's
+  // levels any more, so it starts clear: the next owner claims with a fresh enable edge.
+  image_.control_word = 0;
+  if (!controller_.post(Command{image_, false, true})) controller_.signal_owner_lost();
 }
 
 void ModbusCore::count_comm_error() {
   std::lock_guard lock(mutex_);
   ++comm_errors_;
+}
+
+bool ModbusCore::refuse(registers::Refusal why, Exception& ex) {
+  refusal_ = static_cast<std::uint16_t>(why);
+  ex = Exception::server_device_failure;
+  return false;
 }
 
 std::size_t ModbusCore::exception(std::uint8_t function, Exception code, std::uint8_t* out) {
@@ -190,6 +213,7 @@ double ModbusCore::read_value(std::size_t i, const Snapshot& snap) const {
   if (r.access == reg::Access::read_write) return b.image_get(image_);
   if (r.name == "control_owner") return owner_;
   if (r.name == "control_owner_ipv4") return owner_ipv4_;
+  if (r.name == "write_refusal_reason") return refusal_;
   if (r.name == "loop_rate_hz") return controller_.config().actuator.sample_rate_hz;
   if (r.name == "status_word") return snap.status_word | (owner_ ? 1u << reg::kOwned : 0u);
   return b.get(snap);
@@ -206,6 +230,12 @@ std::size_t ModbusCore::read_registers(bool input_only, std::uint16_t start, std
   std::uint8_t* p = out;
   while (addr < end) {
     const Slot s = reg_slots_[addr];
+    if (s.reg == kReservedInput || (s.reg == kReservedHolding && !input_only)) {
+      put16(p, 0);  // reserved inside a documented block
+      p += 2;
+      ++addr;
+      continue;
+    }
     if (s.reg < 0 || s.word != 0) return ex = Exception::illegal_data_address, 0;
     const auto& r = table[static_cast<std::size_t>(s.reg)];
     if (input_only && r.table != reg::Table::input_register) return ex = Exception::illegal_data_address, 0;
@@ -262,14 +292,20 @@ bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool h
   if (next.position_setpoint_m < a.stroke_min_m - 1e-9 || next.position_setpoint_m > a.stroke_max_m + 1e-9)
     return ex = Exception::illegal_data_value, false;
 
+  // Broadcast (RTU unit 0) may stage setpoints and feed the heartbeat, never change the drive's
+  // state: one frame would enable, switch or reset every drive on the line at once.
+  if (client.broadcast && (next.control_word != image_.control_word || next.mode_command != image_.mode_command))
+    return refuse(registers::Refusal::broadcast_state_change, ex);
+
   const bool changed = std::memcmp(&next, &image_, sizeof next) != 0;
   if (changed || heartbeat) {
     if (!controller_.post(Command{next, heartbeat})) return ex = Exception::server_busy, false;
   }
   const bool old_enable = (image_.control_word >> kEnable) & 1u;
   const bool new_enable = has(kEnable);
-  // Control belongs to the first client that writes the control word with enable set.
-  if (touches_control && new_enable && owner_ == 0 && client.id != 0) owner_ = client.id, owner_ipv4_ = client.ipv4;
+  // Control is claimed only by a rising edge of enable while nobody owns it: never by writing first.
+  if (touches_control && !old_enable && new_enable && owner_ == 0 && client.id != 0)
+    owner_ = client.id, owner_ipv4_ = client.ipv4;
   if (old_enable && !new_enable && owner_ == client.id) owner_ = 0, owner_ipv4_ = 0;
   image_ = next;
   return true;
@@ -300,7 +336,12 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
   const bool is_write = fc == 5 || fc == 6 || fc == 15 || fc == 16 || fc == 23;
   if (is_write) {
     if (options_.read_only) return fail(Exception::illegal_function);
-    if (owner_ != 0 && owner_ != client.id) return fail(Exception::server_busy);
+    // Not busy: retrying cannot help until the owner lets go. 04 is not retried by clients; the
+    // reason is in write_refusal_reason.
+    if (owner_ != 0 && owner_ != client.id) {
+      refuse(registers::Refusal::not_owner, ex);
+      return fail(ex);
+    }
   }
   switch (fc) {
     case 1:

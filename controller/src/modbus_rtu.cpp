@@ -4,7 +4,9 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <chrono>
 #include <cstring>
 #include <stdexcept>
@@ -87,26 +89,40 @@ void RtuServer::stop() {
   if (thread_.joinable()) thread_.join();
 }
 
+RtuTiming rtu_timing(int baud, int bits_per_char) {
+  // Modbus over serial line V1.02, 2.5.1.1: t1.5 and t3.5 are 1.5 and 3.5 character times;
+  // above 19200 Bd they are fixed at 750 us and 1.75 ms.
+  if (baud > 19200) return {750e-6, 1750e-6};
+  const double char_s = static_cast<double>(bits_per_char) / baud;
+  return {1.5 * char_s, 3.5 * char_s};
+}
+
 void RtuServer::run() {
   auto* ctx = static_cast<modbus_t*>(ctx_);
   const int fd = modbus_get_socket(ctx);
-  // Inter-frame silence: 3.5 characters of 11 bits, at least 1.75 ms (the spec's floor above
-  // 19200 baud); a pseudo-terminal delivers in bursts, so never less than 5 ms there.
-  const double silence_s = std::max(0.005, 3.5 * 11.0 / options_.baud);
-  const double frame_timeout_s = std::max(0.2, 300.0 * 11.0 / options_.baud);
+  // A frame ends with t3.5 of silence; a partial frame followed by that silence is discarded,
+  // so the next request is framed from its first byte. (t1.5 between the characters of a frame
+  // is not enforced: USB adapters and pseudo-terminals deliver a frame in bursts.)
+  const int bits = 1 + options_.data_bits + (options_.parity == 'N' ? 0 : 1) + options_.stop_bits;
+  const double silence_s = rtu_timing(options_.baud, bits).t3_5_s;
+  const int silence_ms = static_cast<int>(std::ceil(silence_s * 1000.0));
   std::uint8_t buf[kMaxRtuAdu * 2];
   std::size_t n = 0;
-  double first_byte_s = 0.0, last_byte_s = 0.0;
+  double last_byte_s = 0.0;
   std::uint8_t pdu_out[ModbusCore::kMaxPdu + 1];
+  const auto discard = [&] {
+    core_.count_comm_error();  // truncated, oversized or broken: drop everything received
+    n = 0;
+  };
   while (running_.load(std::memory_order_relaxed)) {
     pollfd pfd{fd, POLLIN, 0};
-    const int timeout_ms = n == 0 ? 100 : static_cast<int>(silence_s * 1000.0) + 1;
-    const int pr = poll(&pfd, 1, timeout_ms);
+    const int pr = poll(&pfd, 1, n == 0 ? 100 : silence_ms);
     const double now = mono_s();
     if (pr > 0 && (pfd.revents & POLLIN)) {
+      // Silence since the last byte ended whatever was there: a new frame starts here.
+      if (n > 0 && now - last_byte_s >= silence_s) discard();
       const ssize_t r = read(fd, buf + n, sizeof buf - n);
       if (r > 0) {
-        if (n == 0) first_byte_s = now;
         n += static_cast<std::size_t>(r);
         last_byte_s = now;
       } else if (r < 0 && errno != EAGAIN && errno != EINTR) {
@@ -117,25 +133,26 @@ void RtuServer::run() {
       // The other end of a pty went away; wait for it to come back rather than spin.
       poll(nullptr, 0, 50);
     }
+    const bool silent = mono_s() - last_byte_s >= silence_s;
     while (n > 0) {
       const long want = expected_length(buf, n);
       std::size_t frame = 0;
-      if (want > 0 && n >= static_cast<std::size_t>(want)) {
+      if (want > static_cast<long>(kMaxRtuAdu) || n >= kMaxRtuAdu + 1) {
+        discard();
+        break;
+      } else if (want > 0 && n >= static_cast<std::size_t>(want)) {
         frame = static_cast<std::size_t>(want);
-      } else if (want < 0 && now - last_byte_s >= silence_s) {
+      } else if (want < 0 && silent) {
         frame = n;  // unknown function: the silence ends it
-      } else if ((want > 0 && now - last_byte_s >= silence_s && now - first_byte_s > frame_timeout_s) ||
-                 want > static_cast<long>(kMaxRtuAdu) || n >= kMaxRtuAdu + 1) {
-        core_.count_comm_error();  // truncated or oversized: discard everything received
-        n = 0;
+      } else if (silent) {
+        discard();  // a frame cut short: t3.5 of silence ends it
         break;
       } else {
         break;  // wait for more
       }
       const bool crc_ok = frame >= 4 && modbus_crc16(buf, frame - 2) == (buf[frame - 2] | (buf[frame - 1] << 8));
       if (!crc_ok) {
-        core_.count_comm_error();
-        n = 0;  // framing is lost: resynchronise on the next silence
+        discard();  // framing is lost: resynchronise on the next silence
         break;
       }
       const std::uint8_t unit = buf[0];
@@ -151,7 +168,6 @@ void RtuServer::run() {
       }
       std::memmove(buf, buf + frame, n - frame);
       n -= frame;
-      first_byte_s = now;
     }
   }
 }

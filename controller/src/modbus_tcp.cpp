@@ -21,7 +21,13 @@ namespace {
 
 constexpr std::size_t kMbap = 7;
 constexpr std::size_t kMaxAdu = 260;
-constexpr std::size_t kMaxPendingOut = 64 * 1024;  // a client that does not read is dropped
+// A client that does not read its replies is dropped once this much waits for it beyond the
+// kernel's send buffer (kSendBuffer, which the kernel doubles): a few hundred replies, not the
+// megabytes an autotuned loopback buffer would take while the others wait.
+constexpr std::size_t kMaxPendingOut = 16 * 1024;
+constexpr int kSendBuffer = 32 * 1024;
+// Reads per connection per wake-up: one client's stream of requests cannot starve the others.
+constexpr int kReadsPerWake = 4;
 
 double mono_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -61,6 +67,7 @@ struct TcpServer::Conn {
   double frame_started_s = 0.0;  // when the bytes of an incomplete frame began
   double last_activity_s = 0.0;
   std::string out;
+  bool read_closed = false;  // the peer shut down its sending side: answer what came, then close
 };
 
 TcpServer::TcpServer(ModbusCore& core, TcpOptions options) : core_(core), options_(std::move(options)) {
@@ -141,8 +148,10 @@ void TcpServer::run() {
         return false;
       }
     }
+    if (c.read_closed && c.out.empty()) return false;  // every answer is out: close
     epoll_event ev{};
-    ev.events = EPOLLIN | EPOLLRDHUP | (c.out.empty() ? 0u : static_cast<std::uint32_t>(EPOLLOUT));
+    ev.events = (c.read_closed ? 0u : static_cast<std::uint32_t>(EPOLLIN | EPOLLRDHUP)) |
+                (c.out.empty() ? 0u : static_cast<std::uint32_t>(EPOLLOUT));
     ev.data.fd = c.fd;
     epoll_ctl(epoll_fd_, EPOLL_CTL_MOD, c.fd, &ev);
     return c.out.size() <= kMaxPendingOut;
@@ -198,12 +207,28 @@ void TcpServer::run() {
           const std::uint32_t ip = ntohl(peer.sin_addr.s_addr);
           bool allowed = allow_.empty();
           for (const auto& [net, mask] : allow_) allowed = allowed || (ip & mask) == net;
-          if (!allowed || conns.size() >= static_cast<std::size_t>(options_.max_connections)) {
-            close(cfd);  // refused: not on the allow-list, or at the connection cap
+          if (!allowed) {
+            close(cfd);  // refused: not on the allow-list
             continue;
+          }
+          if (conns.size() >= static_cast<std::size_t>(options_.max_connections)) {
+            // At the cap, the connection idle longest makes room (never the owner's, nor one
+            // with a request or a reply under way): idle connections cannot lock the PLC out.
+            Conn* oldest = nullptr;
+            const std::uint16_t owner = core_.owner();
+            for (auto& [f, other] : conns) {
+              if (other->id == owner || other->in_len > 0 || !other->out.empty() || other->read_closed) continue;
+              if (!oldest || other->last_activity_s < oldest->last_activity_s) oldest = other.get();
+            }
+            if (!oldest) {
+              close(cfd);  // refused: every connection is busy
+              continue;
+            }
+            drop(*oldest);
           }
           const int one = 1;
           setsockopt(cfd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+          setsockopt(cfd, SOL_SOCKET, SO_SNDBUF, &kSendBuffer, sizeof kSendBuffer);
           auto c = std::make_unique<Conn>();
           c->fd = cfd;
           c->ipv4 = ip;
@@ -229,8 +254,8 @@ void TcpServer::run() {
       if (it == conns.end()) continue;
       Conn& c = *it->second;
       bool ok = true;
-      if (events[i].events & EPOLLIN) {
-        for (;;) {
+      if ((events[i].events & (EPOLLIN | EPOLLRDHUP)) && !c.read_closed) {
+        for (int reads = 0; reads < kReadsPerWake; ++reads) {
           const ssize_t r = recv(c.fd, c.in + c.in_len, sizeof c.in - c.in_len, 0);
           if (r > 0) {
             c.in_len += static_cast<std::size_t>(r);
@@ -241,7 +266,11 @@ void TcpServer::run() {
             }
             if (c.out.size() > kMaxPendingOut) break;
           } else if (r == 0) {
-            ok = false;  // peer closed (also mid-frame: nothing to answer)
+            // The peer shut down its sending side (or closed): every complete request read
+            // has been answered into c.out; send that, then close. An incomplete frame is
+            // dropped: it can never complete.
+            c.read_closed = true;
+            c.in_len = 0;
             break;
           } else {
             if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) ok = false;
@@ -249,7 +278,9 @@ void TcpServer::run() {
           }
         }
       }
-      if (ok && (events[i].events & (EPOLLERR | EPOLLHUP))) ok = false;
+      if (ok && (events[i].events & EPOLLERR)) ok = false;
+      // Both directions gone: nobody can read a reply.
+      if (ok && (events[i].events & EPOLLHUP) && !(events[i].events & EPOLLIN)) ok = false;
       if (ok) ok = flush(c);
       if (!ok) drop(c);
     }
@@ -258,6 +289,7 @@ void TcpServer::run() {
     for (auto& [fd, c] : conns) {
       if (c->in_len > 0 && now - c->frame_started_s > options_.frame_timeout_s) expired.push_back(c.get());
       else if (options_.idle_timeout_s > 0 && now - c->last_activity_s > options_.idle_timeout_s) expired.push_back(c.get());
+      else if (c->read_closed && now - c->last_activity_s > options_.frame_timeout_s) expired.push_back(c.get());
     }
     for (Conn* c : expired) drop(*c);
   }

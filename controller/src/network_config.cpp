@@ -1,5 +1,6 @@
 #include "maglead/controller/network_config.hpp"
 
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <toml++/toml.h>
@@ -51,6 +52,14 @@ struct Reader {
 
 }  // namespace
 
+std::optional<FaultReaction> parse_fault_reaction(std::string_view text) {
+  if (text == "mode_default") return FaultReaction::mode_default;
+  if (text == "release") return FaultReaction::release;
+  if (text == "hold") return FaultReaction::hold;
+  if (text == "disable") return FaultReaction::disable;
+  return std::nullopt;
+}
+
 NetworkConfig load_network_config(const std::string& path) {
   toml::table root;
   try {
@@ -59,8 +68,9 @@ NetworkConfig load_network_config(const std::string& path) {
     throw std::runtime_error(path + ": " + std::string(e.description()));
   }
   for (const auto& [k, v] : root)
-    if (k.str() != "tcp" && k.str() != "rtu" && k.str() != "server")
-      throw std::runtime_error(path + ": " + std::string(k.str()) + ": unknown section (tcp, rtu, server)");
+    if (k.str() != "tcp" && k.str() != "rtu" && k.str() != "server" && k.str() != "fault_reaction")
+      throw std::runtime_error(path + ": " + std::string(k.str()) +
+                               ": unknown section (tcp, rtu, server, fault_reaction)");
   Reader r{path, root};
   NetworkConfig c;
   const auto* tcp = r.section("tcp", {"enabled", "bind_address", "port", "unit_id", "max_connections",
@@ -104,6 +114,19 @@ NetworkConfig load_network_config(const std::string& path) {
   double wd_ms = 0;
   r.get(server, "server", "watchdog_ms", wd_ms, 0, 60000);
   c.watchdog_s = wd_ms * 1e-3;
+  const auto* fr = r.section("fault_reaction", {"watchdog", "owner_lost", "sensor_fault", "step_out",
+                                                "release_rate_n_per_s"});
+  for (auto [key, field] : {std::pair{"watchdog", &c.reactions.watchdog}, std::pair{"owner_lost", &c.reactions.owner_lost},
+                            std::pair{"sensor_fault", &c.reactions.sensor_fault},
+                            std::pair{"step_out", &c.reactions.step_out}}) {
+    std::string v;
+    r.get(fr, "fault_reaction", key, v, 0, 0);
+    if (v.empty()) continue;
+    const auto parsed = parse_fault_reaction(v);
+    if (!parsed) r.fail(std::string("fault_reaction.") + key, "\"" + v + "\" is not one of mode_default, release, hold, disable");
+    *field = *parsed;
+  }
+  r.get(fr, "fault_reaction", "release_rate_n_per_s", c.reactions.release_rate_n_per_s, 1e-3, 1e6);
   return c;
 }
 

@@ -62,13 +62,29 @@ std::string to_markdown() {
         "register of either table, function 4 reads input registers only; only RW holding "
         "registers are writable (functions 6, 16, 23).\n"
         "- Setpoints are staged: a rising edge of `execute` applies `mode_command` with them. "
-        "Writes out of range, to unmapped or read-only addresses, or from a client that does "
-        "not own control change nothing and get an exception.\n\n"
+        "Writes out of range, to unmapped, reserved or read-only addresses, or from a client "
+        "that does not own control change nothing and get an exception.\n"
+        "- Control: a rising edge of `enable` claims control while nobody owns it; the owner "
+        "releases it by clearing `enable`. When the owner's connection closes, the drive faults "
+        "(`owner_lost`) and runs its fault reaction; a new owner resets the fault and claims with "
+        "an enable edge. Writing first never takes control.\n"
+        "- Broadcast (RTU unit 0) writes setpoints and the heartbeat; `control_word`, the coils and "
+        "`mode_command` are refused by broadcast (nothing is answered to a broadcast).\n\n"
         "Exceptions: 01 illegal function (unsupported code, writes on a read-only server), "
-        "02 illegal data address (unmapped, partly unmapped, read-only, or splitting a 32-bit "
-        "value), 03 illegal data value (bad quantity, value out of range, bad control-word "
-        "combination), 06 server busy (another client owns control, or the command queue is "
-        "full).\n";
+        "02 illegal data address (outside the mapped ranges, a write to a reserved or read-only "
+        "address, or splitting a 32-bit value), 03 illegal data value (bad quantity, value out of "
+        "range, bad control-word combination), 04 refused (retrying cannot help: another client "
+        "owns control, or a state change sent by broadcast; the reason is in "
+        "`write_refusal_reason`), 06 server busy (the command queue is full: try again).\n";
+  md << "\n## Blocks\n\nInside these ranges, addresses that no register uses are reserved: they "
+        "read as 0 and refuse writes, so a block read across them works (a read reaching outside "
+        "them gets exception 02).\n\n| table | addresses | contents |\n|---|---|---|\n";
+  for (const auto& r : mapped_ranges())
+    md << "| " << to_string(r.table) << " | " << r.first << "–" << r.first + r.count - 1 << " | " << r.what << " |\n";
+  md << "\nWhat a PLC or SCADA system should poll, one request each (at most 125 registers):\n\n"
+        "| table | start | count | request |\n|---|---:|---:|---|\n";
+  for (const auto& b : poll_blocks())
+    md << "| " << to_string(b.table) << " | " << b.first << " | " << b.count << " | " << b.what << " |\n";
   for (Table t : {Table::input_register, Table::holding_register, Table::coil, Table::discrete_input}) {
     md << "\n## " << to_string(t) << "s\n\n"
        << "| address | name | type | scale | unit | access | range | description |\n"
@@ -85,6 +101,8 @@ std::string to_markdown() {
   code_table(md, "active_mode / mode_command", modes());
   code_table(md, "alarm_code", alarm_codes());
   code_table(md, "command_reject_reason", reject_codes());
+  code_table(md, "fault_reaction", reactions());
+  code_table(md, "write_refusal_reason", refusals());
   return md.str();
 }
 
@@ -110,6 +128,12 @@ std::string to_json() {
     for (const auto& c : cs) a.push_back({{"value", c.value}, {"name", c.name}, {"description", c.description}});
     return a;
   };
+  const auto ranges = [](std::span<const AddressRange> rs) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const auto& r : rs)
+      a.push_back({{"table", to_string(r.table)}, {"start", r.first}, {"count", r.count}, {"what", r.what}});
+    return a;
+  };
   nlohmann::json doc{{"format", "maglead-registers/1"},
                      {"map_version", kMapVersion},
                      {"word_order", "high word first"},
@@ -117,7 +141,11 @@ std::string to_json() {
                      {"drive_states", codes(drive_states())},
                      {"modes", codes(modes())},
                      {"alarm_codes", codes(alarm_codes())},
-                     {"reject_codes", codes(reject_codes())}};
+                     {"reject_codes", codes(reject_codes())},
+                     {"fault_reactions", codes(reactions())},
+                     {"write_refusals", codes(refusals())},
+                     {"mapped_ranges", ranges(mapped_ranges())},
+                     {"poll_blocks", ranges(poll_blocks())}};
   return doc.dump(2) + "\n";
 }
 

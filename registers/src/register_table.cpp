@@ -77,6 +77,10 @@ constexpr std::array kTable = std::to_array<Register>({
     {"loop_period_us", IR, 52, Type::u16, 1e-6, "s", RO, 0, kU16Max * 1e-6, "Last loop period"},
     {"loop_late_max_us", IR, 53, Type::u16, 1e-6, "s", RO, 0, kU16Max * 1e-6,
      "Largest lateness of a cycle start since start"},
+    {"fault_reaction", IR, 54, Type::u16, 1, "", RO, 0, 3,
+     "Fault reaction in progress, see fault reactions (0 none)"},
+    {"write_refusal_reason", IR, 55, Type::u16, 1, "", RO, 0, kU16Max,
+     "Why the last write was refused with exception 04, see write refusals (0 none)"},
     // The same 32-bit values as float32, SI units.
     {"nut_pos_m_f32", IR, 100, Type::f32, 1, "m", RO, -1e9, 1e9, "Measured nut position"},
     {"nut_vel_m_s_f32", IR, 102, Type::f32, 1, "m/s", RO, -1e9, 1e9, "Nut velocity"},
@@ -94,13 +98,14 @@ constexpr std::array kTable = std::to_array<Register>({
     {"twin_dynamic_force_n_f32", IR, 126, Type::f32, 1, "N", RO, -1e9, 1e9, "Twin: dynamic force estimate"},
     // Commands and setpoints. Setpoints are staged: an execute edge applies them.
     {"control_word", HR, 1000, Type::u16, 1, "", RW, 0, 31,
-     "Control bits, see coils; enable and stop are levels, the others act on rising edges"},
+     "Control bits, see coils; enable and stop are levels, the others act on rising edges; "
+     "refused by broadcast"},
     {"mode_command", HR, 1001, Type::u16, 1, "", RW, 0, 2,
-     "Mode the next execute edge applies: 0 idle (stop and hold), 1 position, 2 force"},
+     "Mode the next execute edge applies: 0 idle (stop and hold), 1 position, 2 force; refused by broadcast"},
     {"heartbeat", HR, 1002, Type::u16, 1, "", RW, 0, kU16Max,
      "Write anything to feed the communication watchdog"},
     {"watchdog_ms", HR, 1003, Type::u16, 1e-3, "s", RW, 0, 60.0,
-     "Communication watchdog time, 0 = off: without a heartbeat write the drive stops"},
+     "Communication watchdog time, 0 = off: without a heartbeat write the drive faults (fault reaction)"},
     {"force_setpoint_mn", HR, 1004, Type::i32, 1e-3, "N", RW, -100.0, 100.0,
      "Output-force setpoint (also refused beyond the calibrated safe limit)"},
     {"position_setpoint_um", HR, 1006, Type::i32, 1e-6, "m", RW, 0.0, 0.040,
@@ -113,7 +118,8 @@ constexpr std::array kTable = std::to_array<Register>({
     {"accel_limit_m_s2_f32", HR, 1018, Type::f32, 1, "m/s^2", RW, 1e-4, 5.0, "Acceleration limit, float32"},
     // Control word bits as coils.
     {"enable", CO, kEnable, Type::bit, 1, "", RW, 0, 1,
-     "Level: rising edge enables a ready drive (the client becomes owner); falling edge disables"},
+     "Level: a rising edge claims control when nobody owns it and enables a ready drive; "
+     "falling edge disables and releases control"},
     {"stop", CO, kStop, Type::bit, 1, "", RW, 0, 1, "Level: controlled stop and hold while set"},
     {"fault_reset", CO, kFaultReset, Type::bit, 1, "", RW, 0, 1, "Edge: clear a latched fault"},
     {"resync", CO, kResync, Type::bit, 1, "", RW, 0, 1,
@@ -141,10 +147,23 @@ constexpr std::array kAlarms = std::to_array<Code>({
     {0, "none", "no alarm"},
     {1, "step_out", "phase left the stable branch: the nut slipped; force commanding stopped"},
     {2, "phase_jump", "phase jumped by more than pi in one cycle (sensor or slip)"},
-    {3, "watchdog", "no heartbeat within watchdog_ms: controlled stop"},
+    {3, "watchdog", "no heartbeat within watchdog_ms: fault reaction"},
     {4, "stroke_limit", "nut beyond the configured stroke"},
     {5, "sensor_fault", "actuator reported a sensor fault"},
     {6, "drive_fault", "actuator reported a drive fault"},
+    {7, "owner_lost", "the connection that owned control closed: fault reaction; claim again with "
+                      "fault_reset, then an enable edge"},
+});
+constexpr std::array kReactions = std::to_array<Code>({
+    {0, "none", "no fault reaction running"},
+    {1, "releasing", "ramping the output force to zero"},
+    {2, "holding", "holding position (a running move decelerates first)"},
+    {3, "released", "zero output force: the screw follows the nut"},
+});
+constexpr std::array kRefusals = std::to_array<Code>({
+    {0, "none", "no write refused with exception 04"},
+    {1, "not_owner", "another client owns control: it must release it (enable low) or lose its connection"},
+    {2, "broadcast_state_change", "control word and mode are not accepted by broadcast (unit 0)"},
 });
 constexpr std::array kRejects = std::to_array<Code>({
     {0, "none", "accepted"},
@@ -168,13 +187,35 @@ constexpr std::array kModes = std::to_array<Code>({
     {2, "force", "hold an output-force setpoint"},
 });
 
+constexpr std::array kRanges = std::to_array<AddressRange>({
+    {IR, 0, 128, "identity, status, measurements (scaled and float32), twin, loop"},
+    {HR, 1000, 20, "commands and setpoints"},
+    {CO, 0, 5, "control word bits"},
+    {DI, 0, 14, "status word bits"},
+});
+constexpr std::array kPollBlocks = std::to_array<AddressRange>({
+    {IR, 0, 56, "FC4 (or FC3): identity, status, alarm, owner, scaled measurements, twin, loop, fault reaction"},
+    {IR, 100, 28, "FC4 (or FC3): the same measurements as float32"},
+    {HR, 1000, 20, "FC3: commands and setpoints as written (or FC23: write 1000.. and read 10..55 in one)"},
+});
+
 }  // namespace
 
 std::span<const Register> table() { return kTable; }
+std::span<const AddressRange> mapped_ranges() { return kRanges; }
+std::span<const AddressRange> poll_blocks() { return kPollBlocks; }
+
+bool in_mapped_range(Table t, std::uint16_t address) {
+  for (const auto& r : kRanges)
+    if (r.table == t && address >= r.first && address < r.first + r.count) return true;
+  return false;
+}
 std::span<const Code> alarm_codes() { return kAlarms; }
 std::span<const Code> reject_codes() { return kRejects; }
 std::span<const Code> drive_states() { return kStates; }
 std::span<const Code> modes() { return kModes; }
+std::span<const Code> reactions() { return kReactions; }
+std::span<const Code> refusals() { return kRefusals; }
 
 const Register* find(std::string_view name) {
   for (const auto& r : kTable)

@@ -78,7 +78,7 @@ def run(dev):
     check(not rr.isError() and rr.registers[0] == 0x4D4C and rr.registers[4:6] == [0x1234, 0x5678],
           "identity and word-order probe over RTU")
     t0 = time.perf_counter()
-    rr = c.read_input_registers(60, 1, slave=UNIT)
+    rr = c.read_input_registers(200, 1, slave=UNIT)
     dt = time.perf_counter() - t0
     check(rr.isError() and getattr(rr, "exception_code", None) == 2 and dt < 0.3,
           f"exception 02 over RTU, answered at once ({dt * 1e3:.0f} ms)")
@@ -98,10 +98,21 @@ def run(dev):
     c.close()
 
     # Raw frames: broadcast write acts without a reply; other units and bad CRCs get nothing.
-    reply = raw(dev, struct.pack(">BBHH", 0, 6, 1001, 2))
-    check(reply == b"", "broadcast write: no reply")
-    reply = raw(dev, struct.pack(">BBHH", UNIT, 3, 1001, 1))
-    check(reply[:5] == bytes([UNIT, 3, 2, 0, 2]), "broadcast write was honoured")
+    reply = raw(dev, struct.pack(">BBHHBHH", 0, 16, 1012, 2, 4, *f32_words(2.5)))
+    check(reply == b"", "broadcast setpoint write: no reply")
+    reply = raw(dev, struct.pack(">BBHH", UNIT, 3, 1012, 2))
+    check(reply[:7] == bytes([UNIT, 3, 4, 0x40, 0x20, 0, 0]), "broadcast setpoint write was honoured")
+    # Finding 7: the enable coil by broadcast does not enable the drive (nor does mode change).
+    reply = raw(dev, struct.pack(">BBHH", UNIT, 6, 1000, 0))
+    check(reply[:6] == struct.pack(">BBHH", UNIT, 6, 1000, 0), "disabled by a write addressed to the unit")
+    check(raw(dev, struct.pack(">BBHH", 0, 5, 0, 0xFF00)) == b"", "broadcast enable coil: no reply")
+    check(raw(dev, struct.pack(">BBHH", 0, 6, 1001, 2)) == b"", "broadcast mode write: no reply")
+    reply = raw(dev, struct.pack(">BBHH", UNIT, 4, 13, 1))
+    check(reply[:5] == bytes([UNIT, 4, 2, 0, 1]), f"broadcast enable refused: drive still ready ({reply[:5].hex()})")
+    reply = raw(dev, struct.pack(">BBHH", UNIT, 3, 1000, 2))
+    check(reply[3:7] == bytes([0, 0, 0, 0]), "control word and mode unchanged by broadcast")
+    reply = raw(dev, struct.pack(">BBHH", UNIT, 4, 55, 1))
+    check(reply[:5] == bytes([UNIT, 4, 2, 0, 2]), "write_refusal_reason: broadcast_state_change")
     check(raw(dev, struct.pack(">BBHH", 0, 4, 0, 1)) == b"", "broadcast read: ignored")
     check(raw(dev, struct.pack(">BBHH", UNIT + 1, 4, 0, 1)) == b"", "other unit id: ignored")
     check(raw(dev, struct.pack(">BBHH", UNIT, 4, 0, 1), crc=b"\x00\x00") == b"", "bad CRC: ignored")
@@ -111,6 +122,27 @@ def run(dev):
     reply = raw(dev, struct.pack(">BBHH", UNIT, 4, 0, 1))
     check(reply[:5] == bytes([UNIT, 4, 2, 0x4D, 0x4C]) and reply[5:7] == crc16(reply[:5]),
           "served normally after the bad frame, reply CRC correct")
+
+    # Finding 4: a frame cut short is discarded after t3.5 of silence (2.0 ms at 19200 8E1); the
+    # next request, 30 ms later, is answered (before: swallowed for ~200 ms).
+    fd = os.open(dev, os.O_RDWR | os.O_NOCTTY)
+    try:
+        answered = 0
+        for _ in range(10):
+            good = struct.pack(">BBHH", UNIT, 4, 0, 1)
+            os.write(fd, (good + crc16(good))[:5])  # truncated: 5 of 8 bytes
+            time.sleep(0.03)
+            os.write(fd, good + crc16(good))
+            out = b""
+            end = time.time() + 0.5
+            while len(out) < 7 and time.time() < end:
+                if select.select([fd], [], [], 0.05)[0]:
+                    out += os.read(fd, 256)
+            answered += out[:5] == bytes([UNIT, 4, 2, 0x4D, 0x4C])
+            time.sleep(0.01)
+    finally:
+        os.close(fd)
+    check(answered == 10, f"after a truncated frame and silence, the next request is answered ({answered} of 10)")
 
     out = subprocess.run(["mbpoll", "-1", "-0", "-m", "rtu", "-b", "19200", "-P", "even", "-a", str(UNIT),
                           "-t", "3:hex", "-r", "4", "-c", "2", "-o", "1", dev],

@@ -10,7 +10,7 @@ import threading
 import time
 
 from modbus_common import (Server, check, f32_words, finish, raw_request, read_response,
-                           watchdog, words_f32)
+                           watchdog, words_f32, words_i32)
 from pymodbus.client import ModbusTcpClient
 from pymodbus.diag_message import ReturnQueryDataRequest
 from pymodbus.mei_message import ReadDeviceInformationRequest
@@ -75,8 +75,15 @@ def run(port):
     # Exceptions, via raw frames so that no client-side check interferes.
     def exc(pdu):
         return exc_code(raw_request(port, pdu))
-    check(exc(struct.pack(">BHH", 3, 60, 1)) == 2, "read of an unmapped address: exception 02")
-    check(exc(struct.pack(">BHH", 3, 50, 8)) == 2, "read partly outside the map: exception 02")
+    check(exc(struct.pack(">BHH", 3, 200, 1)) == 2, "read of an unmapped address: exception 02")
+    check(exc(struct.pack(">BHH", 3, 120, 10)) == 2, "read partly outside the map: exception 02")
+    # Finding 8: block reads across reserved addresses (IR 8-9, 56-99) answer, reserved as 0.
+    rr = c.read_input_registers(0, 16, slave=UNIT)
+    check(not rr.isError() and rr.registers[8:10] == [0, 0] and rr.registers[0] == 0x4D4C,
+          "FC4 0..15 reads, reserved 8-9 as 0")
+    rr = c.read_holding_registers(40, 72, slave=UNIT)
+    check(not rr.isError() and len(rr.registers) == 72 and rr.registers[16:60] == [0] * 44,
+          "FC3 40..111 reads, reserved 56-99 as 0")
     check(exc(struct.pack(">BHH", 4, 21, 2)) == 2, "read splitting a 32-bit value: exception 02")
     check(exc(struct.pack(">BHH", 4, 1000, 1)) == 2, "FC4 on a holding register: exception 02")
     check(exc(struct.pack(">BHH", 3, 10, 0)) == 3, "quantity 0: exception 03")
@@ -101,7 +108,10 @@ def run(port):
     other = ModbusTcpClient("127.0.0.1", port=port, timeout=2)
     other.connect()
     rsp = other.write_register(MODE, 1, slave=UNIT)
-    check(rsp.isError() and getattr(rsp, "exception_code", None) == 6, "non-owner write: exception 06")
+    check(rsp.isError() and getattr(rsp, "exception_code", None) == 4,
+          "non-owner write: exception 04 (not 06: retrying cannot help)")
+    rr = other.read_input_registers(55, 1, slave=UNIT)
+    check(not rr.isError() and rr.registers[0] == 1, "write_refusal_reason says not_owner")
     rr = other.read_input_registers(10, 10, slave=UNIT)
     check(not rr.isError() and rr.registers[7] != 0 and rr.registers[0] & ST_OWNED,
           "non-owner reads; control_owner and the owned bit say someone owns")
@@ -136,7 +146,7 @@ def run(port):
     check("1234.57" in out, "mbpoll -B (high word first) reads the f32 probe as 1234.57")
     out = mbpoll(port, "-t", "3:int", "-B", "-r", "4", "-c", "1")
     check("305419896" in out, "mbpoll -B reads the u32 probe as 0x12345678")
-    out = mbpoll(port, "-t", "3", "-r", "60", "-c", "1")
+    out = mbpoll(port, "-t", "3", "-r", "200", "-c", "1")
     check("Illegal data address" in out, "mbpoll sees exception 02 for an unmapped address")
     out = mbpoll(port, "-t", "4", "-r", str(MODE), write=1)
     check("Illegal" in out or "busy" in out.lower() or "fail" in out.lower(), f"mbpoll as non-owner is refused")
@@ -191,12 +201,63 @@ def run(port):
         t.join(20)
     check(len(results) == 16 and all(results), "16 concurrent clients, 50 reads each, all answered")
 
-    # The owner leaves: control is free again.
+    # The owner leaves (position mode): owner loss is a fault, the drive holds position.
     c.close()
-    time.sleep(0.1)
+    check(wait_alarm(other, 7), "owner gone: drive faulted with alarm owner_lost")
+    rr = other.read_input_registers(10, 46, slave=UNIT)
+    check(rr.registers[3] == 3 and rr.registers[44] == 2, f"reaction in position mode: holding ({rr.registers[44]})")
     rsp = other.write_register(MODE, 0, slave=UNIT)
     check(not rsp.isError(), "after the owner disconnects another client may write")
+    # Writing first does not take over: enable + execute at once leaves the drive in fault.
+    other.write_register(CW, ENABLE | EXECUTE, slave=UNIT)
+    time.sleep(0.05)
+    check(other.read_input_registers(13, 1, slave=UNIT).registers[0] == 3, "a write does not re-enable the drive")
+    other.write_register(CW, 0, slave=UNIT)
     other.close()
+    owner_loss_releases_force(port)
+    half_close(port)
+    idle_flood(port)
+    non_reader(port)
+
+
+def wait_alarm(client, alarm, timeout=2.0):
+    end = time.time() + timeout
+    while time.time() < end:
+        rr = client.read_input_registers(11, 1, slave=UNIT)
+        if not rr.isError() and rr.registers[0] == alarm:
+            return True
+        time.sleep(0.01)
+    return False
+
+
+def owner_loss_releases_force(port):
+    """Findings 1 and 2 end to end: a PLC holding 20 N against the 3000 N/m spring goes away;
+    the drive releases the force (load cell), and a new client must reset and claim."""
+    plc = ModbusTcpClient("127.0.0.1", port=port, timeout=2)
+    check(plc.connect(), "PLC connects")
+    plc.write_register(CW, RESET, slave=UNIT)  # clear the previous owner_lost fault
+    plc.write_register(CW, 0, slave=UNIT)
+    plc.write_registers(FORCE_F32, f32_words(20.0), slave=UNIT)
+    plc.write_register(MODE, 2, slave=UNIT)
+    check(not plc.write_register(CW, ENABLE, slave=UNIT).isError(), "PLC claims with an enable edge")
+    plc.write_register(CW, ENABLE | EXECUTE, slave=UNIT)
+    plc.write_register(CW, ENABLE, slave=UNIT)
+    check(wait_status(plc, ST_FORCE_REACHED), "PLC: 20 N reached")
+    time.sleep(0.5)
+    before = words_i32(plc.read_input_registers(30, 2, slave=UNIT).registers) * 1e-3
+    check(before > 12.0, f"load cell carries the force before: {before:.2f} N")
+    plc.close()  # cable pulled / PLC stopped: the connection closes
+    obs = ModbusTcpClient("127.0.0.1", port=port, timeout=2)
+    obs.connect()
+    check(wait_alarm(obs, 7), "drive faulted with alarm owner_lost")
+    end = time.time() + 3
+    while time.time() < end and obs.read_input_registers(54, 1, slave=UNIT).registers[0] != 3:
+        time.sleep(0.02)
+    check(obs.read_input_registers(54, 1, slave=UNIT).registers[0] == 3, "reaction: force released")
+    time.sleep(0.5)
+    after = words_i32(obs.read_input_registers(30, 2, slave=UNIT).registers) * 1e-3
+    check(abs(after) < 8.5, f"load cell after the reaction {after:.2f} N (Coulomb friction 7.5 N holds the rest)")
+    obs.close()
 
 
 def mbpoll(port, *args, write=None):
@@ -219,20 +280,100 @@ def allow_list_and_cap():
         srv.stop()
     srv = Server(MAGLEAD, CONFIG, "--port", "0", "--max-connections", "2")
     try:
+        # At the cap the connection idle longest makes room (finding 5): idle connections
+        # cannot lock a PLC out.
         held = [socket.create_connection(("127.0.0.1", srv.port), timeout=2) for _ in range(2)]
+        time.sleep(0.1)
+        check(raw_request(srv.port, struct.pack(">BHH", 4, 0, 1)) == bytes([4, 2, 0x4D, 0x4C]),
+              "a connection at the cap is served: the idle one makes room")
+        try:
+            evicted = held[0].recv(16) == b""
+        except (ConnectionResetError, socket.timeout):
+            evicted = False
+        check(evicted, "the connection idle longest was closed for it")
+        # The owner and a connection with a request under way are never evicted.
+        owner = socket.create_connection(("127.0.0.1", srv.port), timeout=2)
+        owner.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, CW, ENABLE))
+        read_response(owner, 1)
+        busy = socket.create_connection(("127.0.0.1", srv.port), timeout=2)
+        busy.sendall(struct.pack(">HHHB", 9, 0, 6, 1) + b"\x04")  # half a request
         time.sleep(0.1)
         try:
             refused = raw_request(srv.port, struct.pack(">BHH", 4, 0, 1)) is None
         except (ConnectionResetError, BrokenPipeError):
             refused = True
-        check(refused, "a connection beyond --max-connections is refused")
-        held[0].close()
-        time.sleep(0.1)
-        check(raw_request(srv.port, struct.pack(">BHH", 4, 0, 1)) == bytes([4, 2, 0x4D, 0x4C]),
-              "a freed slot serves the next client")
-        held[1].close()
+        check(refused, "at the cap with nobody idle (owner, a request under way): refused")
+        for h in held + [owner, busy]:
+            h.close()
     finally:
         srv.stop()
+
+
+def half_close(port):
+    """Finding 3: a client that sends a request and shuts down its sending side gets its reply."""
+    ok = 0
+    for t in range(50):
+        with socket.create_connection(("127.0.0.1", port), timeout=2) as s:
+            s.sendall(b"".join(struct.pack(">HHHB", t * 2 + k, 0, 6, 1) + struct.pack(">BHH", 4, 0, 1) for k in (0, 1)))
+            s.shutdown(socket.SHUT_WR)
+            if all(read_response(s, t * 2 + k) == bytes([4, 2, 0x4D, 0x4C]) for k in (0, 1)) and s.recv(16) == b"":
+                ok += 1
+    check(ok == 50, f"half-close after two requests: both answered, then closed, in {ok} of 50 trials")
+
+
+def idle_flood(port):
+    """Finding 5 with the defaults: 65 idle connections, then the PLC still gets in."""
+    idle = []
+    for _ in range(65):
+        try:
+            idle.append(socket.create_connection(("127.0.0.1", port), timeout=2))
+        except OSError:
+            break
+    time.sleep(0.2)
+    plc = ModbusTcpClient("127.0.0.1", port=port, timeout=2)
+    rr = plc.read_input_registers(0, 1, slave=UNIT) if plc.connect() else None
+    check(rr is not None and not rr.isError() and rr.registers[0] == 0x4D4C,
+          "after 65 idle connections (cap 32) a PLC connects and is served")
+    plc.close()
+    for s in idle:
+        s.close()
+
+
+def non_reader(port):
+    """Finding 6: a client that never reads its replies is dropped after a bounded backlog; the
+    server does not keep answering it while others wait."""
+    def counter():
+        rsp = raw_request(port, struct.pack(">BHH", 8, 0x0B, 0))
+        return struct.unpack(">H", rsp[3:5])[0]
+    before = counter()
+    hog = socket.socket()
+    hog.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    hog.connect(("127.0.0.1", port))
+    hog.setblocking(False)
+    req = struct.pack(">HHHBBHH", 1, 0, 6, 1, 4, 0, 124)  # reply: 257 bytes
+    sent, dropped = 0, False
+    end = time.time() + 10
+    while sent < 20000 and time.time() < end:  # replies for up to 5 MB
+        try:
+            sent += hog.send(req * 16) // len(req)
+        except BlockingIOError:
+            time.sleep(0.01)
+        except (ConnectionResetError, BrokenPipeError):
+            dropped = True
+            break
+    if not dropped:
+        try:
+            hog.setblocking(True)
+            hog.settimeout(2)
+            hog.sendall(req)
+            time.sleep(0.3)
+            hog.sendall(req)
+        except (ConnectionResetError, BrokenPipeError):
+            dropped = True
+    hog.close()
+    answered = counter() - before - 1
+    check(dropped, f"a client that never reads is dropped (it sent {sent} requests)")
+    check(answered <= 1000, f"the server answered it at most 1000 times before dropping it ({answered})")
 
 
 def read_only_server():

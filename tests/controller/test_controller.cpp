@@ -318,3 +318,165 @@ TEST(Controller, RejectsInconsistentConfiguration) {
   cfg.actuator.safe_force_fraction = 1.5;
   EXPECT_THROW(Controller(cfg, plant), std::invalid_argument);
 }
+
+// ---------------------------------------------------------------------------- fault reactions
+
+namespace {
+
+/// Force mode at `force_n` against a 3000 N/m spring, settled.
+void hold_force(Rig& rig, double force_n) {
+  rig.enable();
+  rig.image.force_setpoint_n = force_n;
+  rig.execute(reg::Mode::force);
+  rig.run(1.5);
+  ASSERT_TRUE(rig.status(reg::kForceReached));
+  // The spring really carries the force (the nut's Coulomb friction takes up to 7.5 N of it).
+  ASSERT_GT(rig.snap().load_cell_force_n, force_n - rig.cfg.actuator.coulomb_n - 1.0);
+}
+
+void arm_watchdog(Rig& rig, double seconds) {
+  rig.image.watchdog_s = seconds;
+  rig.post();
+}
+
+std::uint16_t reaction(const Rig& rig) { return rig.snap().fault_reaction; }
+
+/// A fresh controller on the rig's plant with this watchdog reaction.
+void use_watchdog_reaction(Rig& rig, FaultReaction how) {
+  rig.cfg.reactions.watchdog = how;
+  rig.ctl = std::make_unique<Controller>(rig.cfg, rig.plant);
+  rig.run(0.01);
+}
+constexpr auto kReleasing = static_cast<std::uint16_t>(reg::Reaction::releasing);
+constexpr auto kReleased = static_cast<std::uint16_t>(reg::Reaction::released);
+constexpr auto kHolding = static_cast<std::uint16_t>(reg::Reaction::holding);
+
+/// The simulated actuator with a sensor that fails for a while.
+struct FlakySensor final : ActuatorHardware {
+  SimulatedActuator& plant;
+  double fail_from_s = 1e9, fail_until_s = 0.0;
+  explicit FlakySensor(SimulatedActuator& p) : plant(p) {}
+  HwStatus read_sensors(double now_s, SensorSample& out) noexcept override {
+    const HwStatus s = plant.read_sensors(now_s, out);
+    return now_s >= fail_from_s && now_s < fail_until_s ? HwStatus::sensor_fault : s;
+  }
+  HwStatus write_motor_angle(double a) noexcept override { return plant.write_motor_angle(a); }
+};
+
+}  // namespace
+
+// Finding 2: in force mode the watchdog's reaction releases the force against the load (load
+// cell, simulated plant), ramping it at the configured rate, instead of holding 20 N.
+TEST(FaultReaction, WatchdogInForceModeRampsTheForceToZero) {
+  Rig rig(3000.0);
+  hold_force(rig, 20.0);
+  arm_watchdog(rig, 0.05);
+  double trip_s = -1.0;
+  rig.run(0.06, [&](const Snapshot& s) {
+    if (trip_s < 0 && s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault)) trip_s = s.t_s;
+  });
+  ASSERT_GT(trip_s, 0.0);
+  EXPECT_EQ(rig.snap().alarm_code, static_cast<std::uint16_t>(reg::Alarm::watchdog));
+  // 20 N at 100 N/s: still ramping 0.1 s after the trip, at zero force after 0.2 s.
+  rig.run(trip_s + 0.1 - rig.t_s);
+  EXPECT_EQ(reaction(rig), kReleasing);
+  rig.run(0.15);
+  EXPECT_EQ(reaction(rig), kReleased);
+  rig.run(1.0);
+  const auto s = rig.snap();
+  // What is left on the spring is what the nut's Coulomb friction holds (7.5 N), plus noise.
+  EXPECT_LT(std::abs(s.load_cell_force_n), rig.cfg.actuator.coulomb_n + 1.0) << s.load_cell_force_n;
+  EXPECT_LT(std::abs(rig.plant.truth().coupling_force_n), 2.0);
+  EXPECT_EQ(s.drive_state, static_cast<std::uint16_t>(reg::DriveState::fault));
+  EXPECT_EQ(s.active_mode, static_cast<std::uint16_t>(reg::Mode::idle));
+}
+
+TEST(FaultReaction, WatchdogInPositionModeHoldsPosition) {
+  Rig rig(3000.0);
+  rig.enable();
+  rig.image.position_setpoint_m = 0.023;
+  rig.execute(reg::Mode::position);
+  rig.run(1.0);
+  ASSERT_NEAR(rig.snap().nut_pos_m, 0.023, 60e-6);
+  const double force_before = rig.snap().load_cell_force_n;  // about 9 N of spring
+  arm_watchdog(rig, 0.05);
+  rig.run(1.0);
+  const auto s = rig.snap();
+  EXPECT_EQ(s.alarm_code, static_cast<std::uint16_t>(reg::Alarm::watchdog));
+  EXPECT_EQ(reaction(rig), kHolding);
+  EXPECT_NEAR(s.nut_pos_m, 0.023, 60e-6);
+  EXPECT_NEAR(s.load_cell_force_n, force_before, 1.0);
+}
+
+TEST(FaultReaction, ConfiguredHoldKeepsTheForceAndDisableDropsItAtOnce) {
+  {
+    Rig rig(3000.0);
+    use_watchdog_reaction(rig, FaultReaction::hold);
+    hold_force(rig, 20.0);
+    arm_watchdog(rig, 0.05);
+    rig.run(1.0);
+    EXPECT_EQ(reaction(rig), kHolding);
+    EXPECT_GT(rig.snap().load_cell_force_n, 20.0 - rig.cfg.actuator.coulomb_n - 1.0);
+  }
+  {
+    Rig rig(3000.0);
+    use_watchdog_reaction(rig, FaultReaction::disable);
+    hold_force(rig, 20.0);
+    arm_watchdog(rig, 0.05);
+    bool releasing_seen = false, released_seen = false;
+    rig.run(0.06, [&](const Snapshot& s) {
+      releasing_seen = releasing_seen || s.fault_reaction == kReleasing;
+      released_seen = released_seen || s.fault_reaction == kReleased;
+    });
+    EXPECT_TRUE(released_seen);
+    EXPECT_FALSE(releasing_seen);  // no ramp
+    rig.run(1.0);
+    EXPECT_LT(std::abs(rig.snap().load_cell_force_n), rig.cfg.actuator.coulomb_n + 1.0);
+  }
+}
+
+// Finding 1, loop side: owner loss is a fault with its reaction; a ready drive just stays ready.
+TEST(FaultReaction, OwnerLossFaultsAnEnabledDriveAndReleasesTheForce) {
+  Rig rig(3000.0);
+  hold_force(rig, 20.0);
+  rig.image.control_word = 0;
+  ASSERT_TRUE(rig.ctl->post(Command{rig.image, false, true}));
+  rig.run(0.002);
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::fault));
+  EXPECT_EQ(rig.snap().alarm_code, static_cast<std::uint16_t>(reg::Alarm::owner_lost));
+  rig.run(1.0);
+  EXPECT_EQ(reaction(rig), kReleased);
+  EXPECT_LT(std::abs(rig.snap().load_cell_force_n), rig.cfg.actuator.coulomb_n + 1.0);
+  // Taking over: fault reset, then a fresh enable edge.
+  rig.control(bit(reg::kFaultReset));
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+  rig.control(bit(reg::kEnable));
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+
+  Rig idle;  // not enabled: nothing to react to
+  idle.ctl->signal_owner_lost();  // the lock-free path (command queue full)
+  idle.run(0.01);
+  EXPECT_EQ(idle.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+}
+
+TEST(FaultReaction, SensorFaultInForceModeReleasesFromTheLastMeasurement) {
+  Rig rig(3000.0);
+  FlakySensor flaky(rig.plant);
+  rig.ctl = std::make_unique<Controller>(rig.cfg, flaky);
+  rig.run(0.01);
+  hold_force(rig, 20.0);
+  flaky.fail_from_s = rig.t_s + 0.0005;
+  flaky.fail_until_s = rig.t_s + 0.005;  // five cycles without sensors
+  rig.run(1.5);
+  const auto s = rig.snap();
+  EXPECT_EQ(s.alarm_code, static_cast<std::uint16_t>(reg::Alarm::sensor_fault));
+  EXPECT_EQ(reaction(rig), kReleased);
+  EXPECT_LT(std::abs(s.load_cell_force_n), rig.cfg.actuator.coulomb_n + 1.0);
+}
+
+TEST(FaultReaction, ReleaseRateMustBePositive) {
+  SimulatedActuator plant(paper_like_plant(), 1, 0.02);
+  ControllerConfig cfg;
+  cfg.reactions.release_rate_n_per_s = 0.0;
+  EXPECT_THROW(Controller(cfg, plant), std::invalid_argument);
+}

@@ -84,8 +84,8 @@ TEST(ModbusCore, ReadsIdentityAndWordOrderProbes) {
 TEST(ModbusCore, AddressExceptions) {
   CoreRig r;
   const auto ill = Exception::illegal_data_address;
-  EXPECT_EQ(r.req(rd(3, 60, 1)), exception(3, ill));    // unmapped
-  EXPECT_EQ(r.req(rd(3, 50, 8)), exception(3, ill));    // partly outside
+  EXPECT_EQ(r.req(rd(3, 200, 1)), exception(3, ill));   // outside the mapped ranges
+  EXPECT_EQ(r.req(rd(3, 120, 10)), exception(3, ill));  // partly outside
   EXPECT_EQ(r.req(rd(3, 21, 2)), exception(3, ill));    // starts in the middle of nut_pos_um
   EXPECT_EQ(r.req(rd(3, 20, 1)), exception(3, ill));    // ends in the middle
   EXPECT_EQ(r.req(rd(4, 1000, 1)), exception(4, ill));  // FC4 does not read holding registers
@@ -95,6 +95,28 @@ TEST(ModbusCore, AddressExceptions) {
   EXPECT_EQ(r.req(write_one(addr("status_word"), 1)), exception(6, ill));            // read-only
   EXPECT_EQ(r.req(write_one(addr("force_setpoint_mn"), 1)), exception(6, ill));      // half of an i32
   EXPECT_EQ(r.req(write_regs(addr("force_setpoint_mn") + 1, {0, 0})), exception(16, ill));
+}
+
+// Finding 8: PLCs poll in blocks; reserved addresses inside the documented ranges read as 0.
+TEST(ModbusCore, BlockReadsAcrossReservedAddressesWork) {
+  CoreRig r;
+  const Bytes a = r.req(rd(4, 0, 16));
+  ASSERT_EQ(a.size(), 2u + 32u);
+  EXPECT_EQ(word_at(a, 8), 0);  // reserved 8 and 9
+  EXPECT_EQ(word_at(a, 9), 0);
+  EXPECT_EQ(word_at(a, 13), static_cast<std::uint16_t>(reg::DriveState::ready));
+  const Bytes b = r.req(rd(3, 40, 72));  // 40..111 crosses the reserved 56..99
+  ASSERT_EQ(b.size(), 2u + 144u);
+  for (std::size_t i = 56 - 40; i < 100 - 40; ++i) EXPECT_EQ(word_at(b, i), 0) << i;
+  EXPECT_EQ(word_at(b, 100 - 40), word_at(r.req(rd(4, 100, 2)), 0));  // nut_pos_m_f32, high word
+  // Every poll block of the generated docs is one working request.
+  for (const auto& blk : reg::poll_blocks()) {
+    const Bytes resp = r.req(rd(blk.table == reg::Table::input_register ? 4 : 3, blk.first, blk.count));
+    EXPECT_EQ(resp.size(), 2u + 2u * blk.count) << blk.first;
+  }
+  // Reserved addresses are not writable, and a read may not split a 32-bit value at a block edge.
+  EXPECT_EQ(r.req(write_one(60, 1)), exception(6, Exception::illegal_data_address));
+  EXPECT_EQ(r.req(rd(4, 0, 21)), exception(4, Exception::illegal_data_address));
 }
 
 TEST(ModbusCore, QuantityAndFunctionExceptions) {
@@ -145,26 +167,75 @@ TEST(ModbusCore, WritesReadBackAndBothScalingsShareOneValue) {
   EXPECT_FLOAT_EQ(v, -12.5f);
 }
 
-TEST(ModbusCore, FirstToEnableOwnsControlOthersGetBusy) {
+TEST(ModbusCore, AnEnableEdgeClaimsControlOthersAreRefusedWith04) {
   CoreRig r;
   const std::uint16_t cw = addr("control_word");
   ASSERT_EQ(r.req(write_one(cw, 1), 7).size(), 5u);  // client 7 enables
   EXPECT_EQ(r.core.owner(), 7);
-  EXPECT_EQ(r.req(write_one(addr("mode_command"), 1), 8), exception(6, Exception::server_busy));
-  EXPECT_EQ(r.req(cat({{5}, u16(0), u16(0)}), 8), exception(5, Exception::server_busy));
+  // Finding 9: a refusal that retrying cannot fix is 04, with the reason readable; 06 stays
+  // for "busy, try again" (a full command queue).
+  EXPECT_EQ(r.req(write_one(addr("mode_command"), 1), 8), exception(6, Exception::server_device_failure));
+  EXPECT_EQ(r.req(cat({{5}, u16(0), u16(0)}), 8), exception(5, Exception::server_device_failure));
+  EXPECT_EQ(word_at(r.req(rd(4, addr("write_refusal_reason"), 1), 8), 0),
+            static_cast<std::uint16_t>(reg::Refusal::not_owner));
   EXPECT_EQ(r.req(rd(3, addr("control_owner"), 1), 8)[3], 7);  // others may read who owns
   r.run(3);
   const Bytes st = r.req(rd(2, 0, 14), 8);
   EXPECT_TRUE(st[2] & (1u << reg::kEnabled));
   EXPECT_TRUE(st[3] & (1u << (reg::kOwned - 8)));
-  r.core.client_closed(7);  // owner gone: ownership is free again
-  EXPECT_EQ(r.req(write_one(addr("mode_command"), 1), 8), write_one(addr("mode_command"), 1));
-  // The owner releases by clearing enable.
-  ASSERT_EQ(r.req(write_one(cw, 0), 9).size(), 5u);
+  // The owner releases by clearing enable; the next one claims with its own edge.
+  ASSERT_EQ(r.req(write_one(cw, 0), 7).size(), 5u);
+  EXPECT_EQ(r.core.owner(), 0);
   ASSERT_EQ(r.req(write_one(cw, 1), 9).size(), 5u);
   EXPECT_EQ(r.core.owner(), 9);
   ASSERT_EQ(r.req(write_one(cw, 0), 9).size(), 5u);
   EXPECT_EQ(r.core.owner(), 0);
+}
+
+// Finding 1: when the owner's connection closes, the drive faults with alarm owner_lost and
+// runs its reaction; the next client does not become owner by writing, and its setpoint does
+// not act, until it clears the fault and claims with an enable edge.
+TEST(ModbusCore, OwnerLossFaultsTheDriveAndANewOwnerMustClaim) {
+  CoreRig r;
+  const std::uint16_t cw = addr("control_word");
+  const std::uint16_t force = addr("force_setpoint_n_f32");
+  ASSERT_EQ(r.req(write_regs(force, f32_words(5.0f)), 7).size(), 5u);
+  ASSERT_EQ(r.req(write_one(addr("mode_command"), 2), 7).size(), 5u);
+  ASSERT_EQ(r.req(write_one(cw, 1), 7).size(), 5u);
+  r.run(3);
+  ASSERT_EQ(r.req(write_one(cw, 1 | 16), 7).size(), 5u);  // execute: force mode
+  r.run(3);
+  ASSERT_EQ(r.ctl.snapshot().active_mode, static_cast<std::uint16_t>(reg::Mode::force));
+
+  r.core.client_closed(7);
+  r.run(2);
+  auto s = r.ctl.snapshot();
+  EXPECT_EQ(s.drive_state, static_cast<std::uint16_t>(reg::DriveState::fault));
+  EXPECT_EQ(s.alarm_code, static_cast<std::uint16_t>(reg::Alarm::owner_lost));
+  EXPECT_NE(s.fault_reaction, static_cast<std::uint16_t>(reg::Reaction::none));
+  EXPECT_EQ(r.core.owner(), 0);
+  EXPECT_EQ(word_at(r.req(rd(3, cw, 1), 8), 0), 0);  // the levels were cleared
+
+  // Client 8 writes a new setpoint with enable and execute at once: no owner, no effect.
+  ASSERT_EQ(r.req(write_regs(force, f32_words(9.0f)), 8).size(), 5u);
+  ASSERT_EQ(r.req(write_one(cw, 1 | 16), 8).size(), 5u);
+  r.run(3);
+  s = r.ctl.snapshot();
+  EXPECT_EQ(s.drive_state, static_cast<std::uint16_t>(reg::DriveState::fault));
+  EXPECT_EQ(s.active_force_setpoint_n, 0.0);
+  // The documented take-over: fault reset, then an enable edge, then execute.
+  ASSERT_EQ(r.req(write_one(cw, 4), 8).size(), 5u);  // fault_reset (enable low: this releases the claim)
+  r.run(3);
+  EXPECT_EQ(r.ctl.snapshot().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+  EXPECT_EQ(r.core.owner(), 0);
+  ASSERT_EQ(r.req(write_one(cw, 1), 8).size(), 5u);
+  EXPECT_EQ(r.core.owner(), 8);
+  r.run(3);
+  EXPECT_EQ(r.ctl.snapshot().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+  // A closed connection that was not the owner changes nothing.
+  r.core.client_closed(7);
+  r.run(2);
+  EXPECT_EQ(r.ctl.snapshot().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
 }
 
 TEST(ModbusCore, CoilsAreControlWordBits) {
@@ -206,7 +277,7 @@ TEST(ModbusCore, DiagnosticsEchoAndCounters) {
   CoreRig r;
   const Bytes echo = {8, 0, 0, 0xAB, 0xCD};
   EXPECT_EQ(r.req(echo), echo);
-  r.req(rd(3, 60, 1));  // one exception
+  r.req(rd(3, 200, 1));  // one exception
   const Bytes exc = r.req({8, 0, 0x0D, 0, 0});
   EXPECT_EQ(exc, (Bytes{8, 0, 0x0D, 0, 1}));
   const Bytes msgs = r.req({8, 0, 0x0E, 0, 0});
@@ -245,12 +316,36 @@ TEST(ModbusCore, FullCommandQueueAnswersBusyAndChangesNothing) {
   EXPECT_EQ(r.req(write_one(mode, 7)).size(), 5u);
 }
 
-TEST(ModbusCore, BroadcastWritesActWithoutReply) {
+TEST(ModbusCore, BroadcastSetpointWritesActWithoutReply) {
   CoreRig r;
-  const Bytes pdu = write_one(addr("mode_command"), 2);
+  const Bytes pdu = write_regs(addr("force_setpoint_n_f32"), f32_words(4.0f));
   std::uint8_t out[ModbusCore::kMaxPdu];
   EXPECT_EQ(r.core.handle(ClientInfo{ModbusCore::kRtuClient, 0, true}, pdu.data(), pdu.size(), out), 0u);
-  EXPECT_EQ(word_at(r.req(rd(3, addr("mode_command"), 1)), 0), 2);
+  EXPECT_EQ(r.req(rd(3, addr("force_setpoint_n_f32"), 2)), (cat({{3, 4}, u16(0x4080), u16(0)})));
+}
+
+// Finding 7: a broadcast may not change the drive's state (enable, mode, fault reset, …).
+TEST(ModbusCore, BroadcastStateChangesAreRefused) {
+  CoreRig r;
+  std::uint8_t out[ModbusCore::kMaxPdu];
+  const ClientInfo bc{ModbusCore::kRtuClient, 0, true};
+  for (const Bytes& pdu : {cat({{5}, u16(reg::kEnable), u16(0xFF00)}), write_one(addr("control_word"), 1),
+                           write_one(addr("mode_command"), 2), cat({{15}, u16(0), u16(3), {1}, {0x05}}),
+                           write_regs(addr("control_word"), {1, 2})}) {
+    EXPECT_EQ(r.core.handle(bc, pdu.data(), pdu.size(), out), 0u);  // nothing is answered
+    EXPECT_EQ(out[0] & 0x80, 0x80);
+    EXPECT_EQ(out[1], static_cast<std::uint8_t>(Exception::server_device_failure));
+  }
+  r.run(3);
+  EXPECT_EQ(r.ctl.snapshot().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+  EXPECT_EQ(word_at(r.req(rd(3, addr("control_word"), 2)), 0), 0);
+  EXPECT_EQ(word_at(r.req(rd(3, addr("control_word"), 2)), 1), 0);
+  EXPECT_EQ(word_at(r.req(rd(4, addr("write_refusal_reason"), 1)), 0),
+            static_cast<std::uint16_t>(reg::Refusal::broadcast_state_change));
+  // The same write addressed to the unit acts.
+  EXPECT_EQ(r.req(write_one(addr("control_word"), 1), ModbusCore::kRtuClient).size(), 5u);
+  r.run(3);
+  EXPECT_EQ(r.ctl.snapshot().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
 }
 
 TEST(ModbusCore, RegistersCarryTheLoopsValues) {
@@ -262,6 +357,17 @@ TEST(ModbusCore, RegistersCarryTheLoopsValues) {
   EXPECT_NEAR(raw * 1e-6, snap.nut_pos_m, 1e-6);
   const Bytes st = r.req(rd(4, 13, 1));
   EXPECT_EQ(word_at(st, 0), static_cast<std::uint16_t>(reg::DriveState::ready));
+}
+
+TEST(ModbusRtu, SilenceTimesFollowTheSerialLineSpec) {
+  // 11-bit characters (8E1): 3.5 characters at 9600 Bd are 4.01 ms, at 19200 Bd 2.005 ms.
+  EXPECT_NEAR(rtu_timing(9600, 11).t3_5_s, 3.5 * 11 / 9600.0, 1e-12);
+  EXPECT_NEAR(rtu_timing(9600, 11).t1_5_s, 1.5 * 11 / 9600.0, 1e-12);
+  EXPECT_NEAR(rtu_timing(19200, 11).t3_5_s, 2.005e-3, 1e-6);
+  EXPECT_NEAR(rtu_timing(19200, 10).t3_5_s, 1.823e-3, 1e-6);  // 8N1
+  // Above 19200 Bd, fixed values.
+  EXPECT_EQ(rtu_timing(38400, 11).t3_5_s, 1.75e-3);
+  EXPECT_EQ(rtu_timing(115200, 11).t1_5_s, 750e-6);
 }
 
 TEST(ModbusRtu, Crc16MatchesTheSpecExample) {

@@ -82,16 +82,22 @@ def scenario(port):
     check(n1 == n0 + 1, f"refusals sent nothing to the controller (messages {n0} -> {n1})")
 
     # The controller's own rejection, through the handshake: execute on a drive not enabled.
-    rc, _, err = run(MAGLEAD, "set", *conn, "force", "5", "--config", CONFIG)
+    rc, _, err = run(MAGLEAD, "set", *conn, "force", "5", "--no-claim", "--config", CONFIG)
     check(rc == 4 and "not_enabled" in err and one_line(err), f"execute before enable: reject reason: {err.strip()}")
     rc, _, err = run(MAGLEAD, "reset", *conn, "--resync")
     check(rc == 4 and "not_stepped_out" in err, f"resync without step-out rejected: {err.strip()}")
 
-    rc, out, err = run(MAGLEAD, "enable", *conn)
-    check(rc == 0 and "enabled" in out, f"enable: {out.strip()} {err.strip()}")
-    check(read_regs(port, 4, 13, 1)[0] == 2, "drive_state is enabled (raw read)")
-    rc, out, err = run(MAGLEAD, "set", *conn, "force", "10", "--config", CONFIG)
-    check(rc == 0 and "done" in out, f"set force 10: {out.strip()} {err.strip()}")
+    rc, out, err = run(MAGLEAD, "enable", *conn, "--hold", "0.3s")
+    check(rc == 0 and "enabled" in out and "held" in out, f"enable --hold: {out.strip()} {err.strip()}")
+    # Control ended with the command: owner loss, a fault with its reaction (hold in idle mode).
+    w = read_regs(port, 4, 11, 3)
+    check(w[0] == 7 and w[2] == 3, f"after the command: fault owner_lost (raw {w})")
+    # set claims control itself (clears the owner_lost fault, enable edge) and holds it.
+    holder = subprocess.Popen([MAGLEAD, "set", *conn, "force", "10", "--config", CONFIG, "--hold", "8s"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    end = time.time() + 10
+    while time.time() < end and not (read_regs(port, 4, 10, 1)[0] & (1 << 5)):
+        time.sleep(0.05)
     w = read_regs(port, 4, 14, 1) + read_regs(port, 4, 34, 2)
     check(w[0] == 2 and i32(w[1:3]) == 10000, f"controller holds 10 N in force mode (raw {w})")
     est = i32(read_regs(port, 4, 28, 2)) * 1e-3
@@ -131,6 +137,15 @@ def scenario(port):
                        "--config", CONFIG, "--no-analysis")
     check(rc == 0 and os.path.exists(os.path.join(WORK, "tcp_report", "index.html")),
           f"report reads what record wrote: {out.strip()} {err.strip()[-300:]}")
+    hout, herr = holder.communicate(timeout=20)
+    check(holder.returncode == 0 and "done" in hout and "held for 8.0 s" in hout,
+          f"set force 10 --hold 8s: {hout.strip()} {herr.strip()}")
+    # The holder is gone: owner loss in force mode releases the force (ramp, then zero).
+    end = time.time() + 3
+    while time.time() < end and read_regs(port, 4, 54, 1)[0] != 3:
+        time.sleep(0.05)
+    w = read_regs(port, 4, 11, 1) + read_regs(port, 4, 54, 1)
+    check(w == [7, 3], f"holder gone: alarm owner_lost, force released (raw {w})")
 
     rc, out, err = run(MAGLEAD, "set", *conn, "position", "22mm", "--speed", "10mm/s", "--config", CONFIG)
     check(rc == 0 and "done" in out, f"set position 22mm: {out.strip()} {err.strip()}")
@@ -151,7 +166,7 @@ def scenario(port):
         plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, 1000, 1))  # FC6 control_word = enable
         plc.recv(64)
         rc, _, err = run(MAGLEAD, "set", *conn, "force", "5", "--config", CONFIG)
-        check(rc == 4 and "exception 06" in err and "owns control" in err and one_line(err),
+        check(rc == 4 and "exception 04" in err and "owns control" in err and one_line(err),
               f"another owner: {err.strip()}")
     time.sleep(0.1)
 
@@ -160,9 +175,28 @@ def scenario(port):
     check(rc == 3 and "does not serve unit 7" in err and one_line(err), f"wrong unit: {err.strip()}")
     rc, _, err = run(MAGLEAD, "poll", "--port", str(free_port()))
     check(rc == 3 and "connection refused" in err and one_line(err), f"nobody listening: {err.strip()}")
+    # Finding 10: host names and IPv6 addresses are resolved (localhost went to 255.255.255.255).
+    rc, out, err = run(MAGLEAD, "poll", "--host", "localhost", "--port", str(port), "--json")
+    check(rc == 0 and json.loads(out).get("values", {}).get("device_type") == 0x4D4C, f"--host localhost: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "poll", "--host", "no-such-host.invalid", "--port", str(port))
+    check(rc == 3 and "cannot resolve host 'no-such-host.invalid'" in err and one_line(err),
+          f"unknown host name: {err.strip()}")
+    v6 = free_port()
+    relay = subprocess.Popen(["socat", f"TCP6-LISTEN:{v6},bind=[::1],reuseaddr,fork", f"TCP4:127.0.0.1:{port}"],
+                             stderr=subprocess.DEVNULL)
+    try:
+        time.sleep(0.3)
+        rc, out, err = run(MAGLEAD, "poll", "--host", "::1", "--port", str(v6), "--json")
+        check(rc == 0 and json.loads(out).get("values", {}).get("device_type") == 0x4D4C, f"--host ::1 (IPv6): {err.strip()}")
+    finally:
+        relay.terminate()
+        relay.wait(5)
 
+    rc, out, err = run(MAGLEAD, "reset", *conn)
+    check(rc == 0 and "fault reset done" in out and read_regs(port, 4, 13, 1)[0] == 1,
+          f"reset clears the owner_lost fault: {err.strip()}")
     rc, out, err = run(MAGLEAD, "disable", *conn)
-    check(rc == 0 and read_regs(port, 4, 13, 1)[0] == 1, f"disable: drive ready again {err.strip()}")
+    check(rc == 0 and read_regs(port, 4, 13, 1)[0] == 1, f"disable: drive ready {err.strip()}")
     rc, out, err = run(MAGLEAD, "reset", *conn)
     check(rc == 0 and "fault reset done" in out, f"reset without a fault is acknowledged: {err.strip()}")
 
@@ -203,7 +237,9 @@ def watch_pty(conn, key, how):
     check(status is not None and os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, f"watch quits on {how}")
     check("\x1b[?1049h" in text and text.rfind("\x1b[?1049l") > text.rfind("\x1b[?1049h") and "\x1b[?25h" in text,
           f"watch ({how}) restores the screen and cursor")
-    check(re.search(r"drive\s+enabled\s+mode\s+position", text) is not None and "nut position" in text
+    # The last one-shot command has ended: the drive holds position in fault owner_lost.
+    check(re.search(r"drive\s+fault\s+mode\s+idle", text) is not None and "owner_lost" in text
+          and "nut position" in text
           and re.search(r"force\s+\[", text) is not None and any(c in text for c in "▁▂▃▄▅▆▇█"),
           f"watch ({how}) shows state and a trend")
 

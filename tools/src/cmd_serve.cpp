@@ -102,6 +102,7 @@ void add_serve(CLI::App& app) {
     cfg.calibration = load_calibration(o->calibration.empty() ? config_file(o->config, "calibration.toml")
                                                               : o->calibration);
     cfg.watchdog_s = net.watchdog_s;
+    cfg.reactions = net.reactions;
     if (!(o->start_pos_m >= cfg.actuator.stroke_min_m && o->start_pos_m <= cfg.actuator.stroke_max_m))
       throw CLI::ValidationError("--sim-start", "must lie within the stroke");
 

@@ -13,11 +13,12 @@ using op::ClientError;
 using Kind = ClientError::Kind;
 
 struct CommandFlags {
-  std::string config = default_config_dir(), calibration, wait = "30s";
-  bool no_wait = false;
+  std::string config = default_config_dir(), calibration, wait = "30s", hold;
+  bool no_wait = false, no_claim = false;
   op::CommandOptions options() const {
     op::CommandOptions c;
     c.wait_done = !no_wait;
+    c.claim = !no_claim;
     c.done_timeout_s = parse_duration_s(wait);
     return c;
   }
@@ -34,6 +35,10 @@ void add_command_flags(CLI::App* cmd, const std::shared_ptr<CommandFlags>& f, bo
   cmd->add_option("--wait", f->wait, "How long to wait for done (e.g. 30s)")->capture_default_str();
 }
 
+constexpr const char* kHoldHelp =
+    "Keep control this long afterwards (e.g. 10s). Control ends with the command: the drive then runs its "
+    "owner-loss fault reaction (force released, position held)";
+
 void add_set(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "set", "Apply a setpoint: 'set force 12.5' [N], 'set position 20mm', 'set idle' (stop and hold), or "
@@ -49,6 +54,9 @@ void add_set(CLI::App& app) {
   cmd->add_option("--speed", o->speed, "Position moves: speed limit (e.g. 5mm/s)");
   cmd->add_option("--accel", o->accel, "Position moves: acceleration limit (e.g. 0.1m/s^2)");
   add_command_flags(cmd, f, true);
+  cmd->add_option("--hold", f->hold, kHoldHelp);
+  cmd->add_flag("--no-claim", f->no_claim,
+                "Do not take control (by default: clear an owner_lost fault and enable when nobody owns the drive)");
   cmd->callback([o, f, conn] {
     run_operator("set", [&] {
       const auto need_value = [&] {
@@ -109,12 +117,18 @@ void add_set(CLI::App& app) {
       }
       op::Client client(endpoint_of(*conn));
       client.check_identity();
+      const double hold_s = f->hold.empty() ? 0.0 : parse_duration_s(f->hold);
       const auto res = op::execute(client, mode, setpoints, f->options());
       if (res.done)
         std::printf("%s: done (%s) after %.2f s\n", summary.c_str(),
                     mode == reg::Mode::force ? "force reached" : "in position", res.elapsed_s);
       else
         std::printf("%s: acknowledged by the controller\n", summary.c_str());
+      if (hold_s > 0) {
+        std::fflush(stdout);
+        op::hold(client, hold_s, f->options());
+        std::printf("held for %.1f s; control ends now (owner-loss fault reaction)\n", hold_s);
+      }
     });
   });
 }
@@ -125,19 +139,29 @@ void add_drive_command(CLI::App& app, const char* name, const char* help, Step s
   auto* cmd = app.add_subcommand(name, help);
   auto conn = add_connection_options(cmd);
   auto resync = std::make_shared<bool>(false);
+  auto hold = std::make_shared<std::string>();
   if (std::string_view(name) == "reset")
     cmd->add_flag("--resync", *resync, "First re-synchronise the phase (after a step-out: the nut's new lead is zero)");
-  cmd->callback([conn, resync, name, step] {
+  if (std::string_view(name) == "enable") cmd->add_option("--hold", *hold, kHoldHelp);
+  cmd->callback([conn, resync, hold, name, step] {
     run_operator(name, [&] {
+      const double hold_s = hold->empty() ? 0.0 : parse_duration_s(*hold);
       op::Client client(endpoint_of(*conn));
       client.check_identity();
       std::printf("%s\n", step(client, *resync).c_str());
+      if (hold_s > 0) {
+        std::fflush(stdout);
+        op::hold(client, hold_s, {});
+        std::printf("held for %.1f s; control ends now (owner-loss fault reaction)\n", hold_s);
+      }
     });
   });
 }
 
 void add_enable(CLI::App& app) {
-  add_drive_command(app, "enable", "Enable a ready drive (rising edge of the enable bit) and wait for it",
+  add_drive_command(app, "enable",
+                    "Claim control and enable a ready drive (rising edge of the enable bit); control ends with "
+                    "the command (see --hold)",
                     [](op::Client& c, bool) {
                       op::enable(c, {});
                       return std::string("drive enabled");

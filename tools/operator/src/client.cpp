@@ -3,6 +3,8 @@
 #include <modbus/modbus.h>
 
 #include <arpa/inet.h>
+#include <netdb.h>
+#include <sys/socket.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -37,7 +39,8 @@ std::string Endpoint::describe() const {
   if (!serial.empty())
     return serial + " " + std::to_string(baud) + " " + std::to_string(data_bits) + parity +
            std::to_string(stop_bits) + " unit " + std::to_string(unit);
-  return host + ":" + std::to_string(port) + " unit " + std::to_string(unit);
+  const bool v6 = host.find(':') != std::string::npos;
+  return (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port) + " unit " + std::to_string(unit);
 }
 
 int ClientError::exit_code() const {
@@ -88,7 +91,18 @@ Client::Client(const Endpoint& endpoint) : ep_(endpoint) {
   if (!ep_.serial.empty()) {
     ctx_ = modbus_new_rtu(ep_.serial.c_str(), ep_.baud, ep_.parity, ep_.data_bits, ep_.stop_bits);
   } else {
-    ctx_ = modbus_new_tcp(ep_.host.c_str(), ep_.port);
+    // Host names and IPv6 addresses: resolve here (modbus_new_tcp takes dotted IPv4 only, and
+    // turns "localhost" into 255.255.255.255), so a wrong name gets its own message.
+    addrinfo hints{};
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    addrinfo* found = nullptr;
+    const std::string service = std::to_string(ep_.port);
+    const int gai = getaddrinfo(ep_.host.c_str(), service.c_str(), &hints, &found);
+    if (gai != 0) throw ClientError(Kind::connection, "cannot resolve host '" + ep_.host + "': " + gai_strerror(gai));
+    freeaddrinfo(found);
+    // Tries every address the name resolves to (e.g. ::1, then 127.0.0.1), in order.
+    ctx_ = modbus_new_tcp_pi(ep_.host.c_str(), service.c_str());
   }
   if (!ctx_) throw ClientError(Kind::connection, "cannot set up a Modbus context for " + ep_.describe() + ": " +
                                                      modbus_strerror(errno));
@@ -133,8 +147,11 @@ void Client::fail(const std::string& what) const {
     case EMBXILFUN: exc = "01 illegal function (a read-only controller refuses every write)"; break;
     case EMBXILADD: exc = "02 illegal data address (register not in this controller's map, or read-only)"; break;
     case EMBXILVAL: exc = "03 illegal data value (out of range or beyond its limits)"; break;
-    case EMBXSFAIL: exc = "04 server device failure"; break;
-    case EMBXSBUSY: exc = "06 server busy (another client owns control, or its command queue is full)"; break;
+    case EMBXSFAIL:
+      exc = "04 refused (another client owns control, or a state change sent by broadcast; the reason is in "
+            "write_refusal_reason)";
+      break;
+    case EMBXSBUSY: exc = "06 server busy (its command queue is full: try again)"; break;
     case EMBXGPATH: exc = "0A gateway path unavailable"; break;
     default: break;
   }
@@ -410,6 +427,15 @@ std::string alarm_text(double alarm) {
 CommandResult execute(Client& c, reg::Mode mode, const std::vector<std::pair<std::string, double>>& setpoints,
                       const CommandOptions& o) {
   const auto t0 = Clock::now();
+  if (o.claim) {
+    // Take control the documented way: a previous owner's connection that ended left an
+    // owner_lost fault (its reaction has run); clear it, then claim with an enable edge.
+    const Status st = read_status(c);
+    if (st.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault) &&
+        st.alarm == static_cast<std::uint16_t>(reg::Alarm::owner_lost))
+      reset(c, false, o);
+    if (read_status(c).drive_state == static_cast<std::uint16_t>(reg::DriveState::ready)) enable(c, o);
+  }
   const Image im = read_image(c);
   std::uint16_t cw = im.control_word;
   if (!setpoints.empty()) c.write(setpoints);
@@ -505,6 +531,24 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
   };
   if (resync_first) edge(reg::kResync, reg::kResyncAck, reg::kResyncDone, "resync");
   edge(reg::kFaultReset, reg::kResetAck, reg::kResetDone, "fault reset");
+}
+
+}  // namespace maglead::op
+
+namespace maglead::op {
+
+void hold(Client& c, double seconds, const CommandOptions& o) {
+  const Image im = read_image(c);
+  const auto t0 = Clock::now();
+  while (since(t0) < seconds) {
+    const Status s = read_status(c);
+    if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
+      throw ClientError(Kind::rejected, "hold: the drive faulted: alarm " + alarm_text(s.alarm));
+    if (s.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled))
+      throw ClientError(Kind::rejected, "hold: the drive was disabled");
+    if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});
+    std::this_thread::sleep_for(std::chrono::duration<double>(std::max(o.poll_period_s, 0.02)));
+  }
 }
 
 }  // namespace maglead::op

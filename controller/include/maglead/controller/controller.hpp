@@ -2,6 +2,7 @@
 // The control loop's one cycle: read encoders, compute phase and force, run the drive state
 // machine and the active mode, command the motor, publish a snapshot. Time comes from the
 // caller (LoopRunner in service, a fake clock in tests); no allocation or lock in step().
+#include <atomic>
 #include <cstdint>
 
 #include "maglead/controller/detail/seqlock.hpp"
@@ -12,6 +13,22 @@
 #include "maglead/registers/registers.hpp"
 
 namespace maglead::controller {
+
+/// What the drive does when a fault latches (CiA 402's fault-reaction option code, Festo's
+/// "fault reaction"), chosen per cause.
+enum class FaultReaction : std::uint8_t {
+  mode_default = 0,  // force mode: release; position and idle: hold
+  release = 1,       // ramp the output force to zero at release_rate_n_per_s, then stay at zero force
+  hold = 2,          // hold position (a running move decelerates at its acceleration limit first)
+  disable = 3,       // zero force at once (the screw follows the nut)
+};
+struct FaultReactions {
+  FaultReaction watchdog = FaultReaction::mode_default;
+  FaultReaction owner_lost = FaultReaction::mode_default;
+  FaultReaction sensor_fault = FaultReaction::mode_default;
+  FaultReaction step_out = FaultReaction::mode_default;
+  double release_rate_n_per_s = 100.0;  // force ramp of "release"
+};
 
 struct ControllerConfig {
   ActuatorParams actuator;
@@ -25,6 +42,7 @@ struct ControllerConfig {
   // Position loop: phase correction per metre of error, and its integral action.
   double position_gain_rad_per_m = 1500.0;
   double position_integral_rad_per_m_s = 12000.0;
+  FaultReactions reactions;
 };
 
 /// What the twin publishes each cycle; zero / false until a twin is attached.
@@ -76,6 +94,7 @@ struct Snapshot {
   TwinOutputs twin;
   std::uint16_t status_word = 0, alarm_code = 0, step_out_count = 0, drive_state = 0;
   std::uint16_t active_mode = 0, command_status = 0, reject_reason = 0;
+  std::uint16_t fault_reaction = 0;  // registers::Reaction
 };
 
 /// The client-writable image (SI units), posted whole on every change so the loop sees every
@@ -93,6 +112,7 @@ struct CommandImage {
 struct Command {
   CommandImage image;
   bool heartbeat = false;  // the heartbeat register was written (feeds the watchdog)
+  bool owner_lost = false; // the owner's connection closed: fault reaction if enabled, before the image
 };
 
 enum class CycleStatus : std::uint8_t { ok, hardware_error };
@@ -111,6 +131,9 @@ class Controller {
   /// Network side: queue a command for the next cycle. False when the queue is full.
   /// Callers on several threads must serialise.
   bool post(const Command& command) noexcept { return commands_.push(command); }
+  /// Network side, when posting an owner_lost command failed (queue full): the loop reacts at
+  /// its next cycle all the same. Lock-free.
+  void signal_owner_lost() noexcept { owner_lost_flag_.store(true, std::memory_order_release); }
   Snapshot snapshot() const noexcept { return published_.load(); }
 
   const ControllerConfig& config() const noexcept { return cfg_; }
@@ -128,6 +151,8 @@ class Controller {
   void run_profile(double dt) noexcept;
   double position_command_rad(double dt) noexcept;
   void reject(registers::Reject why) noexcept;
+  void on_owner_lost() noexcept;
+  FaultReaction configured_reaction(registers::Alarm alarm) const noexcept;
 
   ControllerConfig cfg_;
   ActuatorHardware& hw_;
@@ -136,6 +161,7 @@ class Controller {
   StaticForceEstimator estimator_;
   detail::SpscQueue<Command, 1024> commands_;
   detail::SeqLock<Snapshot> published_;
+  std::atomic<bool> owner_lost_flag_{false};
   double phase_lo_rad_ = 0.0, phase_hi_rad_ = 0.0;  // commandable phase range (safe forces)
 
   // Loop state (loop thread only).
@@ -154,6 +180,11 @@ class Controller {
   double force_set_n_ = 0.0, force_phase_rad_ = 0.0;
   double settled_s_ = 0.0;
   std::uint16_t command_bits_ = 0;
+  // Fault reaction in progress (fault state only).
+  registers::Reaction reaction_ = registers::Reaction::none;
+  bool fault_position_hold_ = false;  // hold: the position loop keeps running (controlled stop)
+  double release_force_n_ = 0.0;      // release: the output force being ramped to zero
+  double lead_rad_ = 0.0;             // after a slip: the lead (2π k) the nut sits in now
 };
 
 }  // namespace maglead::controller

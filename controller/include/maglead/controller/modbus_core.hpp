@@ -20,12 +20,13 @@ struct ServerOptions {
 struct ClientInfo {
   std::uint16_t id = 0;        // TCP connection number (1…), or kRtuClient
   std::uint32_t ipv4 = 0;      // host order; 0 for RTU
-  bool broadcast = false;      // RTU unit 0: writes act, nothing is answered
+  bool broadcast = false;      // RTU unit 0: setpoint writes act, nothing is answered
 };
 
 /// Modbus exception codes used here.
 enum class Exception : std::uint8_t {
-  illegal_function = 1, illegal_data_address = 2, illegal_data_value = 3, server_busy = 6,
+  illegal_function = 1, illegal_data_address = 2, illegal_data_value = 3, server_device_failure = 4,
+  server_busy = 6,
   gateway_target_failed = 0x0B,
 };
 
@@ -51,8 +52,9 @@ class ModbusCore {
   struct Binding;  // how a table entry gets its value (defined in the .cpp)
 
  private:
+  static constexpr std::int16_t kUnmapped = -1, kReservedInput = -2, kReservedHolding = -3;
   struct Slot {
-    std::int16_t reg = -1;  // index into registers::table()
+    std::int16_t reg = kUnmapped;  // index into registers::table(), or unmapped / reserved
     std::int8_t word = 0;
   };
   std::size_t dispatch(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len, std::uint8_t* out);
@@ -62,6 +64,7 @@ class ModbusCore {
   bool decode_registers(std::uint16_t start, std::uint16_t count, const std::uint8_t* data,
                         CommandImage& image, bool& heartbeat, bool& touches_control, Exception& ex) const;
   double read_value(std::size_t reg_index, const Snapshot& snap) const;
+  bool refuse(registers::Refusal why, Exception& ex);  // exception 04 with its reason; false
 
   Controller& controller_;
   ServerOptions options_;
@@ -71,6 +74,7 @@ class ModbusCore {
   CommandImage image_;
   std::uint16_t owner_ = 0;
   std::uint32_t owner_ipv4_ = 0;
+  std::uint16_t refusal_ = 0;  // registers::Refusal of the last exception 04
   // Diagnostics counters (function 8).
   std::uint16_t bus_messages_ = 0, comm_errors_ = 0, exceptions_ = 0, server_messages_ = 0,
                 no_response_ = 0, busy_ = 0;

@@ -40,6 +40,14 @@ class RtuServer {
   std::atomic<bool> running_{false};
 };
 
+/// Inter-character (t1.5) and inter-frame (t3.5) times of the serial line [s].
+struct RtuTiming {
+  double t1_5_s, t3_5_s;
+};
+/// From the baud rate and the bits per character (start + data + parity + stop); fixed at
+/// 750 us / 1.75 ms above 19200 Bd, as the serial-line specification says.
+RtuTiming rtu_timing(int baud, int bits_per_char);
+
 /// Modbus CRC-16 (poly 0xA001, init 0xFFFF) as sent on the line (low byte first).
 std::uint16_t modbus_crc16(const std::uint8_t* data, std::size_t len);
 

@@ -1,7 +1,9 @@
 #pragma once
 // Modbus TCP server: one network thread, epoll over non-blocking sockets, MBAP framing per
-// connection with a deadline for a started frame, an idle timeout, a connection cap and an
-// IPv4 allow-list, so a slow, half-open or broken client never delays the others.
+// connection with a deadline for a started frame, an idle timeout, a connection cap (the
+// connection idle longest makes room), a bounded output buffer per client and an IPv4
+// allow-list, so a slow, half-open or broken client never delays the others. A half-closed
+// connection gets every complete request it sent answered before it is closed.
 #include <atomic>
 #include <cstdint>
 #include <string>
@@ -16,9 +18,13 @@ struct TcpOptions {
   std::string bind_address = "127.0.0.1";
   int port = 1502;                 // 0: any free port (see TcpServer::port())
   std::uint8_t unit_id = 1;        // also answered: 255 (the TCP "no unit" id)
-  int max_connections = 32;
+  int max_connections = 32;        // at the cap, the connection idle longest makes room
   double frame_timeout_s = 1.0;    // a started frame must complete within this
-  double idle_timeout_s = 0.0;     // 0: connections may stay idle forever
+  // Close a connection with no request for this long (0: never). Any polling client is far
+  // inside it; a client gone without a FIN (cable pulled, crash behind NAT) is found, and an
+  // owner that vanished loses control (its fault reaction) within a minute even without a
+  // communication watchdog.
+  double idle_timeout_s = 60.0;
   std::vector<std::string> allow;  // IPv4 "a.b.c.d" or "a.b.c.d/len"; empty: everyone
 };
 

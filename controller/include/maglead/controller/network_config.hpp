@@ -1,7 +1,10 @@
 #pragma once
 // config/network.toml: the Modbus server's options (every one is also on the command line).
+#include <optional>
 #include <string>
+#include <string_view>
 
+#include "maglead/controller/controller.hpp"
 #include "maglead/controller/modbus_rtu.hpp"
 #include "maglead/controller/modbus_tcp.hpp"
 
@@ -13,10 +16,13 @@ struct NetworkConfig {
   RtuOptions rtu;  // rtu.device empty: no RTU
   bool read_only = false;
   double watchdog_s = 0.0;
+  FaultReactions reactions;  // [fault_reaction]
 };
 
-/// Reads [tcp], [rtu] and [server]; absent keys keep their defaults. Throws std::runtime_error
+/// Reads [tcp], [rtu], [server] and [fault_reaction]; absent keys keep their defaults. Throws std::runtime_error
 /// naming the file and key on a malformed value or an unknown key.
 NetworkConfig load_network_config(const std::string& path);
+/// "mode_default", "release", "hold" or "disable"; nothing otherwise.
+std::optional<FaultReaction> parse_fault_reaction(std::string_view text);
 
 }  // namespace maglead::controller

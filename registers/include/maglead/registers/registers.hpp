@@ -43,8 +43,13 @@ enum class DriveState : std::uint16_t { disabled = 0, ready = 1, enabled = 2, fa
 enum class Mode : std::uint16_t { idle = 0, position = 1, force = 2 };
 enum class Alarm : std::uint16_t {
   none = 0, step_out = 1, phase_jump = 2, watchdog = 3, stroke_limit = 4, sensor_fault = 5,
-  drive_fault = 6,
+  drive_fault = 6, owner_lost = 7,
 };
+/// The fault reaction the drive is carrying out (register fault_reaction).
+enum class Reaction : std::uint16_t { none = 0, releasing = 1, holding = 2, released = 3 };
+/// Why the last write was refused with exception 04 (register write_refusal_reason): refusals
+/// that retrying cannot fix.
+enum class Refusal : std::uint16_t { none = 0, not_owner = 1, broadcast_state_change = 2 };
 enum class Reject : std::uint16_t {
   none = 0, not_enabled = 1, in_fault = 2, force_beyond_safe_limit = 3, target_outside_stroke = 4,
   stopped = 5, still_faulty = 6, not_stepped_out = 7,
@@ -59,6 +64,8 @@ std::span<const Code> alarm_codes();
 std::span<const Code> reject_codes();
 std::span<const Code> drive_states();
 std::span<const Code> modes();
+std::span<const Code> reactions();
+std::span<const Code> refusals();
 
 /// Identity and word-order probe values.
 inline constexpr std::uint16_t kDeviceType = 0x4D4C;  // "ML"
@@ -67,6 +74,19 @@ inline constexpr std::uint32_t kWordOrderProbeU32 = 0x12345678u;
 inline constexpr float kWordOrderProbeF32 = 1234.5678f;
 
 std::span<const Register> table();
+
+/// Address ranges of the map. Inside them, addresses no register uses are reserved: they read
+/// as 0 and refuse writes, so that a block read across them works.
+struct AddressRange {
+  Table table;
+  std::uint16_t first, count;
+  std::string_view what;
+};
+std::span<const AddressRange> mapped_ranges();
+/// The requests a PLC or SCADA system should poll (each within 125 registers).
+std::span<const AddressRange> poll_blocks();
+/// True when (table, address) lies inside a mapped range (used or reserved).
+bool in_mapped_range(Table table, std::uint16_t address);
 /// nullptr when absent.
 const Register* find(std::string_view name);
 /// The entry covering (table, address) and which of its words it is; nullptr when unmapped.

@@ -129,6 +129,8 @@ struct CommandOptions {
   double done_timeout_s = 30.0; // and finish (in position / force reached) within this
   bool wait_done = true;
   double poll_period_s = 0.01;
+  /// execute: take control first when nobody has it (clear an owner_lost fault, enable edge).
+  bool claim = true;
 };
 struct CommandResult {
   bool done = false;      // execute done (target reached) seen
@@ -147,5 +149,9 @@ void enable(Client& client, const CommandOptions& options);
 void disable(Client& client, const CommandOptions& options);
 /// Fault reset edge (optionally a resync edge first), with the ack/done handshake.
 void reset(Client& client, bool resync_first, const CommandOptions& options);
+/// Keeps control for `seconds` (polling, feeding a watchdog); throws when the drive faults or
+/// is disabled meanwhile. Control ends with the connection: the drive then runs its owner-loss
+/// fault reaction.
+void hold(Client& client, double seconds, const CommandOptions& options);
 
 }  // namespace maglead::op
