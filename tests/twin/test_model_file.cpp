@@ -41,21 +41,51 @@ TEST(ModelFile, RoundTripKeepsTermsAndParameters) {
   EXPECT_EQ(r.unsimulated_terms(), std::vector<std::string>{"backlash"});
 }
 
-TEST(ModelFile, TyposAreErrorsNamingTheKey) {
-  std::ofstream(tmp("bad_id.toml")) << "[model]\nnut_mass_kg = 0.12\n[[term]]\nid = \"ofset\"\n";
-  std::ofstream(tmp("bad_par.toml")) << "[model]\n[[term]]\nid = \"offset\"\nforce = 1.0\n";
-  std::ofstream(tmp("bad_key.toml")) << "[model]\nmass_kg = 0.12\n";
-  const auto message = [](const std::string& path) {
-    try {
-      load_twin_model(path);
-    } catch (const std::runtime_error& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
-  EXPECT_NE(message(tmp("bad_id.toml")).find("'ofset'"), std::string::npos);
-  EXPECT_NE(message(tmp("bad_par.toml")).find("'force'"), std::string::npos);
-  EXPECT_NE(message(tmp("bad_key.toml")).find("'mass_kg'"), std::string::npos);
+std::string load_error(const std::string& path) {
+  try {
+    load_twin_model(path);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(ModelFile, TyposAreErrorsNamingTheKeyAndWhereItIs) {
+  const std::string fmt = std::string(kModelFormatLine) + "\n";
+  std::ofstream(tmp("bad_id.toml")) << fmt << "[model]\nnut_mass_kg = 0.12\n[[term]]\nid = \"ofset\"\n";
+  std::ofstream(tmp("bad_par.toml")) << fmt << "[model]\n[[term]]\nid = \"offset\"\nforce = 1.0\n";
+  std::ofstream(tmp("bad_key.toml")) << fmt << "[model]\nmass_kg = 0.12\n";
+  std::ofstream(tmp("bad_num.toml")) << fmt << "[model]\nnut_mass_kg = 0.12\ncoulomb_n =   \"7.5\"\n";
+  const std::string id = load_error(tmp("bad_id.toml"));
+  EXPECT_NE(id.find("'ofset'"), std::string::npos) << id;
+  EXPECT_NE(id.find("bad_id.toml:4:1:"), std::string::npos) << id;  // the [[term]] header
+  const std::string par = load_error(tmp("bad_par.toml"));
+  EXPECT_NE(par.find("'force'"), std::string::npos) << par;
+  const std::string key = load_error(tmp("bad_key.toml"));
+  EXPECT_NE(key.find("'mass_kg'"), std::string::npos) << key;
+  EXPECT_NE(key.find("bad_key.toml:3:11:"), std::string::npos) << key;  // the value of mass_kg
+  const std::string num = load_error(tmp("bad_num.toml"));
+  EXPECT_NE(num.find("bad_num.toml:4:15: [model] coulomb_n is not a number"), std::string::npos) << num;
+}
+
+TEST(ModelFile, SyntaxErrorNamesLineAndColumn) {
+  std::ofstream(tmp("syntax.toml")) << kModelFormatLine << "\n[model]\nnut_mass_kg = = 0.12\n";
+  const std::string e = load_error(tmp("syntax.toml"));
+  EXPECT_NE(e.find("syntax.toml:3:"), std::string::npos) << e;
+  EXPECT_EQ(e.find("syntax.toml:3:1:"), std::string::npos) << "a column, not just the line: " << e;
+}
+
+TEST(ModelFile, FormatLineIsRequired) {
+  std::ofstream(tmp("no_format.toml")) << "[model]\nnut_mass_kg = 0.12\n";
+  std::ofstream(tmp("other_format.toml")) << "# format: mls-recording/1\n[model]\n";
+  const std::string none = load_error(tmp("no_format.toml"));
+  EXPECT_NE(none.find("no_format.toml:1:1:"), std::string::npos) << none;
+  EXPECT_NE(none.find("# format: maglead-model/1"), std::string::npos) << none;
+  const std::string other = load_error(tmp("other_format.toml"));
+  EXPECT_NE(other.find("mls-recording/1"), std::string::npos) << other;
+  // What save_twin_model writes carries it.
+  save_twin_model(tmp("saved.toml"), TwinModel{});
+  EXPECT_NO_THROW(check_model_format(tmp("saved.toml")));
 }
 
 TEST(ModelFile, TermsChangeTheDynamics) {

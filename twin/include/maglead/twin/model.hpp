@@ -3,7 +3,7 @@
 // named physical terms. The analysis tool (issue 5) writes the same format back after it has
 // found missing physics, so the twin loads its corrections without code changes.
 //
-//   # maglead twin model
+//   # format: maglead-model/1          # required first line (check_model_format)
 //   [model]
 //   source = "paper defaults"          # free text: where the numbers came from
 //   nut_mass_kg = 0.12                 # M
@@ -68,7 +68,11 @@ struct TermInfo {
 };
 const std::vector<TermInfo>& known_terms();
 
-/// Throws std::runtime_error naming the file, the term index and the bad key or value.
+/// The first line every model file carries (the twin's and the analysis tool's).
+inline constexpr const char* kModelFormatLine = "# format: maglead-model/1";
+/// Throws std::runtime_error "FILE:1:1: ..." unless the file's first line is kModelFormatLine.
+void check_model_format(const std::string& path);
+/// Throws std::runtime_error naming FILE:LINE:COLUMN, the term and the bad key or value.
 TwinModel load_twin_model(const std::string& path);
 /// Writes the format above (used by the analysis tool); throws std::runtime_error on I/O error.
 void save_twin_model(const std::string& path, const TwinModel& model,
