@@ -15,6 +15,8 @@ packages=(
   python3-pymodbus mbpoll socat             # independent Modbus clients for integration tests
   python3-serial python3-serial-asyncio     # pymodbus.client imports these even for TCP
   chromium                                  # headless browser: the anomaly report renders (tests)
+  tmux                                      # a real terminal for the `maglead watch` test
+  dpkg-dev file                             # cpack's .deb: dpkg-shlibdeps for the dependencies (test)
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -210,6 +210,7 @@ void Controller::apply(const Command& c) noexcept {
 
   if (rising & bit(registers::kResync)) {
     command_bits_ &= static_cast<std::uint16_t>(~(bit(registers::kResyncDone) | bit(registers::kRejected)));
+    s_.reject_reason = 0;  // a reason stays only while its command is the last one
     if (!stepped_out_) {
       reject(Reject::not_stepped_out);
     } else {
@@ -224,6 +225,7 @@ void Controller::apply(const Command& c) noexcept {
   }
   if (rising & bit(registers::kFaultReset)) {
     command_bits_ &= static_cast<std::uint16_t>(~(bit(registers::kResetDone) | bit(registers::kRejected)));
+    s_.reject_reason = 0;
     const auto& cal = cfg_.calibration;
     const bool phase_ok = s_.phase_rad >= cal.stable_min_rad && s_.phase_rad <= cal.stable_max_rad;
     if (state_ == DriveState::fault && !phase_ok) {

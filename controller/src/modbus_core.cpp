@@ -23,7 +23,8 @@ struct ModbusCore::Binding {
 namespace {
 
 using B = ModbusCore;
-constexpr std::uint16_t kFirmwareVersion = 0x0001;  // 0.1
+// From the CMake project version (controller/CMakeLists.txt passes it to this file).
+constexpr std::uint16_t kFirmwareVersion = MAGLEAD_VERSION_MAJOR * 256 + MAGLEAD_VERSION_MINOR;
 
 #define SNAP(field) [](const Snapshot& s) { return static_cast<double>(s.field); }
 #define TWIN(field) [](const Snapshot& s) { return static_cast<double>(s.twin.field); }
@@ -481,11 +482,10 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
       if (pdu[1] != 0x0E) return fail(Exception::illegal_function);
       const std::uint8_t code = pdu[2];
       std::uint8_t object = pdu[3];
-      static const char* const kRevision = "0.1.0";
       const std::array<DeviceObject, 6> objects{{{0, "maglead project"},
                                                  {1, "MAGLEAD-CTRL"},
-                                                 {2, kRevision},
-                                                 {3, "https://example.invalid/maglead"},
+                                                 {2, MAGLEAD_VERSION},
+                                                 {3, MAGLEAD_VENDOR_URL},
                                                  {4, "maglead magnetic lead-screw actuator controller"},
                                                  {5, options_.model_name}}};
       if (code < 1 || code > 4) return fail(Exception::illegal_data_value);

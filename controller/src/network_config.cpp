@@ -3,7 +3,8 @@
 #include <optional>
 #include <set>
 #include <stdexcept>
-#include <toml++/toml.h>
+
+#include "maglead/physics/toml_config.hpp"
 
 namespace maglead::controller {
 namespace {
@@ -12,16 +13,17 @@ struct Reader {
   const std::string& path;
   const toml::table& root;
 
-  [[noreturn]] void fail(const std::string& key, const std::string& why) const {
-    throw std::runtime_error(path + ": " + key + ": " + why);
+  /// FILE:LINE:COLUMN: key: why, at the node (or the file's start).
+  [[noreturn]] void fail(const toml::node* at, const std::string& key, const std::string& why) const {
+    config::fail(path, at, key + ": " + why);
   }
   const toml::table* section(const char* name, const std::set<std::string>& known) const {
     const auto* node = root.get(name);
     if (!node) return nullptr;
     const auto* t = node->as_table();
-    if (!t) fail(name, "must be a table");
+    if (!t) fail(node, name, "must be a table");
     for (const auto& [k, v] : *t)
-      if (!known.count(std::string(k.str()))) fail(std::string(name) + "." + std::string(k.str()), "unknown key");
+      if (!known.count(std::string(k.str()))) fail(&v, std::string(name) + "." + std::string(k.str()), "unknown key");
     return t;
   }
   template <class T>
@@ -32,18 +34,18 @@ struct Reader {
     const std::string name = std::string(sec) + "." + key;
     if constexpr (std::is_same_v<T, bool>) {
       const auto v = node->value<bool>();
-      if (!v) fail(name, "must be true or false");
+      if (!v) fail(node, name, "must be true or false");
       out = *v;
     } else if constexpr (std::is_same_v<T, std::string>) {
       const auto v = node->value<std::string>();
-      if (!v) fail(name, "must be a string");
+      if (!v) fail(node, name, "must be a string");
       out = *v;
     } else {
       const auto v = node->value<double>();
-      if (!v) fail(name, "must be a number");
-      if (!(*v >= lo && *v <= hi)) fail(name, std::to_string(*v) + " is outside " + std::to_string(lo) + " .. " + std::to_string(hi));
+      if (!v) fail(node, name, "must be a number");
+      if (!(*v >= lo && *v <= hi)) fail(node, name, std::to_string(*v) + " is outside " + std::to_string(lo) + " .. " + std::to_string(hi));
       if constexpr (std::is_integral_v<T>) {
-        if (*v != static_cast<double>(static_cast<long long>(*v))) fail(name, "must be a whole number");
+        if (*v != static_cast<double>(static_cast<long long>(*v))) fail(node, name, "must be a whole number");
       }
       out = static_cast<T>(*v);
     }
@@ -61,16 +63,11 @@ std::optional<FaultReaction> parse_fault_reaction(std::string_view text) {
 }
 
 NetworkConfig load_network_config(const std::string& path) {
-  toml::table root;
-  try {
-    root = toml::parse_file(path);
-  } catch (const toml::parse_error& e) {
-    throw std::runtime_error(path + ": " + std::string(e.description()));
-  }
+  const toml::table root = config::parse_file(path);
   for (const auto& [k, v] : root)
     if (k.str() != "tcp" && k.str() != "rtu" && k.str() != "server" && k.str() != "fault_reaction")
-      throw std::runtime_error(path + ": " + std::string(k.str()) +
-                               ": unknown section (tcp, rtu, server, fault_reaction)");
+      config::fail(path, &v,
+                   std::string(k.str()) + ": unknown section (tcp, rtu, server, fault_reaction)");
   Reader r{path, root};
   NetworkConfig c;
   const auto* tcp = r.section("tcp", {"enabled", "bind_address", "port", "unit_id", "max_connections",
@@ -85,14 +82,14 @@ NetworkConfig load_network_config(const std::string& path) {
   if (tcp) {
     if (const auto* node = tcp->get("allow")) {
       const auto* arr = node->as_array();
-      if (!arr) r.fail("tcp.allow", "must be an array of strings");
+      if (!arr) r.fail(node, "tcp.allow", "must be an array of strings");
       for (const auto& e : *arr) {
         const auto s = e.value<std::string>();
-        if (!s) r.fail("tcp.allow", "must be an array of strings");
+        if (!s) r.fail(&e, "tcp.allow", "must be an array of strings");
         try {
           parse_ipv4_cidr(*s);
         } catch (const std::exception& ex) {
-          r.fail("tcp.allow", ex.what());
+          r.fail(&e, "tcp.allow", ex.what());
         }
         c.tcp.allow.push_back(*s);
       }
@@ -103,7 +100,8 @@ NetworkConfig load_network_config(const std::string& path) {
   r.get(rtu, "rtu", "baud", c.rtu.baud, 50, 4000000);
   std::string parity(1, c.rtu.parity);
   r.get(rtu, "rtu", "parity", parity, 0, 0);
-  if (parity != "N" && parity != "E" && parity != "O") r.fail("rtu.parity", "must be \"N\", \"E\" or \"O\"");
+  if (parity != "N" && parity != "E" && parity != "O")
+    r.fail(rtu ? rtu->get("parity") : nullptr, "rtu.parity", "must be \"N\", \"E\" or \"O\"");
   c.rtu.parity = parity[0];
   r.get(rtu, "rtu", "data_bits", c.rtu.data_bits, 7, 8);
   r.get(rtu, "rtu", "stop_bits", c.rtu.stop_bits, 1, 2);
@@ -123,7 +121,9 @@ NetworkConfig load_network_config(const std::string& path) {
     r.get(fr, "fault_reaction", key, v, 0, 0);
     if (v.empty()) continue;
     const auto parsed = parse_fault_reaction(v);
-    if (!parsed) r.fail(std::string("fault_reaction.") + key, "\"" + v + "\" is not one of mode_default, release, hold, disable");
+    if (!parsed)
+      r.fail(fr ? fr->get(key) : nullptr, std::string("fault_reaction.") + key,
+             "\"" + v + "\" is not one of mode_default, release, hold, disable");
     *field = *parsed;
   }
   r.get(fr, "fault_reaction", "release_rate_n_per_s", c.reactions.release_rate_n_per_s, 1e-3, 1e6);

@@ -7,7 +7,7 @@
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
-#include <toml++/toml.h>
+#include "maglead/physics/toml_config.hpp"
 
 namespace maglead {
 
@@ -119,12 +119,13 @@ std::string join(const std::vector<double>& v) {
 
 std::vector<double> read_array(const toml::table& t, const std::string& path, const char* key) {
   const toml::array* arr = t[key].as_array();
-  if (!arr) throw std::runtime_error(path + ": [calibration] " + key + " missing or not an array");
+  if (!arr)
+    config::fail(path, t.get(key) ? t.get(key) : static_cast<const toml::node*>(&t),
+                 std::string("[calibration] ") + key + " missing or not an array");
   std::vector<double> out;
   for (const auto& el : *arr) {
     auto v = el.value<double>();
-    if (!v || !std::isfinite(*v))
-      throw std::runtime_error(path + ": [calibration] " + key + " holds a non-numeric value");
+    if (!v || !std::isfinite(*v)) config::fail(path, &el, std::string("[calibration] ") + key + " holds a non-numeric value");
     out.push_back(*v);
   }
   return out;
@@ -150,31 +151,27 @@ void save_calibration(const std::string& path, const ForceCalibration& cal,
 }
 
 ForceCalibration load_calibration(const std::string& path) {
-  toml::table root;
-  try {
-    root = toml::parse_file(path);
-  } catch (const toml::parse_error& e) {
-    throw std::runtime_error(path + ":" + std::to_string(e.source().begin.line) + ": " +
-                             std::string(e.description()));
-  }
+  const toml::table root = config::parse_file(path);
   const toml::table* t = root["calibration"].as_table();
-  if (!t) throw std::runtime_error(path + ": missing [calibration] table");
+  if (!t) config::fail(path, root.get("calibration"), "missing [calibration] table");
   ForceCalibration cal;
   cal.source = (*t)["source"].value_or(std::string(path));
   cal.polynomial.coeffs_ascending = read_array(*t, path, "polynomial_coeffs_ascending");
   if (cal.polynomial.coeffs_ascending.size() < 2)
-    throw std::runtime_error(path + ": [calibration] polynomial needs order 1 or more");
+    config::fail(path, t->get("polynomial_coeffs_ascending"), "[calibration] polynomial needs order 1 or more");
   auto mean = (*t)["periodic_mean_n"].value<double>();
-  if (!mean) throw std::runtime_error(path + ": [calibration] periodic_mean_n missing");
+  if (!mean)
+    config::fail(path, t->get("periodic_mean_n") ? t->get("periodic_mean_n") : static_cast<const toml::node*>(t),
+                 "[calibration] periodic_mean_n missing or not a number");
   cal.periodic.mean_n = *mean;
   cal.periodic.cos_n = read_array(*t, path, "periodic_cos_n");
   cal.periodic.sin_n = read_array(*t, path, "periodic_sin_n");
   if (cal.periodic.cos_n.size() != cal.periodic.sin_n.size())
-    throw std::runtime_error(path + ": [calibration] periodic_cos_n and periodic_sin_n differ in length");
+    config::fail(path, t->get("periodic_sin_n"), "[calibration] periodic_cos_n and periodic_sin_n differ in length");
   cal.derive_limits();
   if (!(cal.peak_push_n > 0.0) || !(cal.peak_pull_n < 0.0))
-    throw std::runtime_error(path + ": [calibration] curve has no stable branch around phi = 0 "
-                             "(force must fall with phase)");
+    config::fail(path, t->get("polynomial_coeffs_ascending"),
+                 "[calibration] curve has no stable branch around phi = 0 (force must fall with phase)");
   return cal;
 }
 

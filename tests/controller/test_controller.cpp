@@ -23,7 +23,8 @@ struct Rig {
   CommandImage image;
   double t_s = 0.0;
 
-  explicit Rig(double spring_n_per_m = 2000.0, TwinHook* twin = nullptr) : plant(paper_like_plant(), 7, 0.02) {
+  explicit Rig(double spring_n_per_m = 2000.0, TwinHook* twin = nullptr, const ControllerConfig& config = {})
+      : plant(paper_like_plant(), 7, 0.02), cfg(config) {
     if (spring_n_per_m > 0) {
       LoadSetting load;
       load.kind = LoadSetting::Kind::spring_to_wall;
@@ -170,6 +171,59 @@ TEST(Controller, ForceBeyondTheSafeLimitIsRefusedAndChangesNothing) {
   EXPECT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::force_beyond_safe_limit));
   EXPECT_EQ(rig.snap().active_mode, static_cast<std::uint16_t>(reg::Mode::idle));
   EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+}
+
+TEST(Controller, RejectReasonClearsOnTheNextAcceptedCommand) {
+  Rig rig;
+  rig.execute(reg::Mode::position);  // not enabled: rejected
+  ASSERT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::not_enabled));
+  rig.control(bit(reg::kFaultReset));  // an accepted fault reset (no fault to clear)
+  rig.control(0);
+  EXPECT_TRUE(rig.cmd(reg::kResetDone));
+  EXPECT_FALSE(rig.cmd(reg::kRejected));
+  EXPECT_EQ(rig.snap().reject_reason, 0) << "a stale reason after an accepted reset";
+  rig.control(bit(reg::kResync));  // rejected: nothing stepped out
+  rig.control(0);
+  ASSERT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::not_stepped_out));
+  rig.enable();
+  rig.image.position_setpoint_m = 0.021;
+  rig.execute(reg::Mode::position);  // accepted
+  EXPECT_EQ(rig.snap().active_mode, static_cast<std::uint16_t>(reg::Mode::position));
+  EXPECT_FALSE(rig.cmd(reg::kRejected));
+  EXPECT_EQ(rig.snap().reject_reason, 0) << "a stale reason after an accepted execute";
+}
+
+TEST(Controller, ForceReachedMeansWithinTheToleranceForTheWholeDwell) {
+  // A tolerance and dwell of our own: the bit must be set exactly when the estimate has stayed
+  // within the tolerance of the setpoint for the dwell, and never otherwise.
+  ControllerConfig cfg;
+  cfg.force_tol_n = 0.8;
+  cfg.settle_s = 0.2;
+  Rig rig(2000.0, nullptr, cfg);
+  rig.enable();
+  rig.image.force_setpoint_n = 12.0;
+  rig.image.mode_command = static_cast<std::uint16_t>(reg::Mode::force);
+  rig.image.control_word = static_cast<std::uint16_t>(rig.image.control_word | bit(reg::kExecute));
+  ASSERT_TRUE(rig.ctl->post(Command{rig.image, false}));
+  double within_since = -1.0, first_set = -1.0;
+  int violations = 0, cycles_set = 0;
+  rig.run(2.0, [&](const Snapshot& s) {
+    const bool within = std::abs(s.force_est_n - 12.0) <= cfg.force_tol_n && s.active_mode == 2;
+    if (!within) within_since = -1.0;
+    else if (within_since < 0) within_since = s.t_s;
+    const bool set = (s.status_word >> reg::kForceReached) & 1u;
+    if (set) {
+      ++cycles_set;
+      if (first_set < 0) first_set = s.t_s;
+      // Set only after the estimate stayed within the tolerance for the dwell (one cycle slack).
+      if (!(within_since >= 0 && s.t_s - within_since >= cfg.settle_s - 1.5e-3)) ++violations;
+    } else if (within_since >= 0 && s.t_s - within_since >= cfg.settle_s + 1.5e-3) {
+      ++violations;  // and not left clear once it has
+    }
+  });
+  EXPECT_GT(cycles_set, 100) << "the bit was never set: nothing was tested";
+  EXPECT_EQ(violations, 0);
+  EXPECT_GE(first_set, cfg.settle_s);
 }
 
 TEST(Controller, StepOutLatchesAFaultStopsForceAndNeedsResyncThenReset) {

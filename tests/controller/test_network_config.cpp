@@ -66,6 +66,10 @@ TEST(NetworkConfig, BadFilesNameTheKey) {
   EXPECT_NE(error_of(write_temp("n6.toml", "[modbus]\n")).find("unknown section"), std::string::npos);
   EXPECT_NE(error_of(write_temp("n7.toml", "[tcp\n")).find("n7.toml"), std::string::npos);
   EXPECT_NE(error_of(write_temp("n8.toml", "[rtu]\nunit_id = 1.5\n")).find("whole number"), std::string::npos);
+  // Every error points at FILE:LINE:COLUMN (the value, the key's line, or the syntax error).
+  EXPECT_NE(error_of(write_temp("n2.toml", "[tcp]\nport = 70000\n")).find("n2.toml:2:8: tcp.port"), std::string::npos);
+  EXPECT_NE(error_of(write_temp("n1.toml", "[tcp]\nprot = 1\n")).find("n1.toml:2:8: tcp.prot"), std::string::npos);
+  EXPECT_NE(error_of(write_temp("n7.toml", "[tcp\n")).find("n7.toml:1:"), std::string::npos);
 }
 
 TEST(NetworkConfig, AllowListParsesCidr) {

@@ -23,39 +23,69 @@ TEST(ModelFile, RoundTripKeepsTermsAndParameters) {
   TwinModel m;
   m.source = "analysis of \"run 7\"";
   m.coulomb_n = 6.0;
-  m.terms.push_back({"asymmetric_friction", true, "at reversals", {{"n", 0.75}}});
-  m.terms.push_back({"offset", true, "", {{"force_n", -1.5}}});
-  m.terms.push_back({"angle_ripple", false, "", {{"n", 0.4}, {"phase_rad", 1.0}}});
-  m.terms.push_back({"backlash", true, "", {{"rad", 0.002}}});
+  m.terms.push_back({"asymmetric_friction", true, "at reversals", {{"coulomb_pos_n", 6.75}, {"coulomb_neg_n", 5.25}}});
+  m.terms.push_back({"offset", true, "", {{"offset_n", -1.5}}});
+  m.terms.push_back({"angle_ripple", false, "", {{"relative_amplitude", 0.04}, {"phase_rad", 1.0}}});
+  m.terms.push_back({"backlash", true, "", {{"backlash_rad", 0.002}}});
   save_twin_model(tmp("model_rt.toml"), m, "test");
   const TwinModel r = load_twin_model(tmp("model_rt.toml"));
   EXPECT_EQ(r.source, m.source);
   EXPECT_DOUBLE_EQ(r.coulomb_n, 6.0);
   ASSERT_EQ(r.terms.size(), 4u);
   EXPECT_EQ(r.terms[0].id, "asymmetric_friction");
-  EXPECT_DOUBLE_EQ(r.terms[0].get("n", 0.0), 0.75);
+  EXPECT_DOUBLE_EQ(r.terms[0].get("coulomb_pos_n", 0.0), 6.75);
   EXPECT_EQ(r.terms[0].note, "at reversals");
-  EXPECT_DOUBLE_EQ(r.terms[1].get("force_n", 0.0), -1.5);
+  EXPECT_DOUBLE_EQ(r.terms[1].get("offset_n", 0.0), -1.5);
   EXPECT_FALSE(r.terms[2].enabled);
   EXPECT_DOUBLE_EQ(r.terms[2].get("phase_rad", 0.0), 1.0);
-  EXPECT_EQ(r.unsimulated_terms(), std::vector<std::string>{"backlash"});
+  EXPECT_DOUBLE_EQ(r.terms[3].get("backlash_rad", 0.0), 0.002);
 }
 
-TEST(ModelFile, TyposAreErrorsNamingTheKey) {
-  std::ofstream(tmp("bad_id.toml")) << "[model]\nnut_mass_kg = 0.12\n[[term]]\nid = \"ofset\"\n";
-  std::ofstream(tmp("bad_par.toml")) << "[model]\n[[term]]\nid = \"offset\"\nforce = 1.0\n";
-  std::ofstream(tmp("bad_key.toml")) << "[model]\nmass_kg = 0.12\n";
-  const auto message = [](const std::string& path) {
-    try {
-      load_twin_model(path);
-    } catch (const std::runtime_error& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
-  EXPECT_NE(message(tmp("bad_id.toml")).find("'ofset'"), std::string::npos);
-  EXPECT_NE(message(tmp("bad_par.toml")).find("'force'"), std::string::npos);
-  EXPECT_NE(message(tmp("bad_key.toml")).find("'mass_kg'"), std::string::npos);
+std::string load_error(const std::string& path) {
+  try {
+    load_twin_model(path);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(ModelFile, TyposAreErrorsNamingTheKeyAndWhereItIs) {
+  const std::string fmt = std::string(kModelFormatLine) + "\n";
+  std::ofstream(tmp("bad_id.toml")) << fmt << "[model]\nnut_mass_kg = 0.12\n[[term]]\nid = \"ofset\"\n";
+  std::ofstream(tmp("bad_par.toml")) << fmt << "[model]\n[[term]]\nid = \"offset\"\nforce = 1.0\n";
+  std::ofstream(tmp("bad_key.toml")) << fmt << "[model]\nmass_kg = 0.12\n";
+  std::ofstream(tmp("bad_num.toml")) << fmt << "[model]\nnut_mass_kg = 0.12\ncoulomb_n =   \"7.5\"\n";
+  const std::string id = load_error(tmp("bad_id.toml"));
+  EXPECT_NE(id.find("'ofset'"), std::string::npos) << id;
+  EXPECT_NE(id.find("bad_id.toml:4:1:"), std::string::npos) << id;  // the [[term]] header
+  const std::string par = load_error(tmp("bad_par.toml"));
+  EXPECT_NE(par.find("'force'"), std::string::npos) << par;
+  const std::string key = load_error(tmp("bad_key.toml"));
+  EXPECT_NE(key.find("'mass_kg'"), std::string::npos) << key;
+  EXPECT_NE(key.find("bad_key.toml:3:11:"), std::string::npos) << key;  // the value of mass_kg
+  const std::string num = load_error(tmp("bad_num.toml"));
+  EXPECT_NE(num.find("bad_num.toml:4:15: [model] coulomb_n is not a number"), std::string::npos) << num;
+}
+
+TEST(ModelFile, SyntaxErrorNamesLineAndColumn) {
+  std::ofstream(tmp("syntax.toml")) << kModelFormatLine << "\n[model]\nnut_mass_kg = = 0.12\n";
+  const std::string e = load_error(tmp("syntax.toml"));
+  EXPECT_NE(e.find("syntax.toml:3:"), std::string::npos) << e;
+  EXPECT_EQ(e.find("syntax.toml:3:1:"), std::string::npos) << "a column, not just the line: " << e;
+}
+
+TEST(ModelFile, FormatLineIsRequired) {
+  std::ofstream(tmp("no_format.toml")) << "[model]\nnut_mass_kg = 0.12\n";
+  std::ofstream(tmp("other_format.toml")) << "# format: mls-recording/1\n[model]\n";
+  const std::string none = load_error(tmp("no_format.toml"));
+  EXPECT_NE(none.find("no_format.toml:1:1:"), std::string::npos) << none;
+  EXPECT_NE(none.find("# format: maglead-model/1"), std::string::npos) << none;
+  const std::string other = load_error(tmp("other_format.toml"));
+  EXPECT_NE(other.find("mls-recording/1"), std::string::npos) << other;
+  // What save_twin_model writes carries it.
+  save_twin_model(tmp("saved.toml"), TwinModel{});
+  EXPECT_NO_THROW(check_model_format(tmp("saved.toml")));
 }
 
 TEST(ModelFile, TermsChangeTheDynamics) {
@@ -63,12 +93,37 @@ TEST(ModelFile, TermsChangeTheDynamics) {
   // exceeds F_c = 7.5 N, so the same inputs now make the nut slide.
   const ActuatorParams act;
   TwinModel with_offset;
-  with_offset.terms.push_back({"offset", true, "", {{"force_n", 6.0}}});
+  with_offset.terms.push_back({"offset", true, "", {{"offset_n", 6.0}}});
   const NutModel base(act, paper_calibration().periodic, TwinModel{});
   const NutModel off(act, paper_calibration().periodic, with_offset);
   const double screw = rest_angle_rad(0.02, act.lead_m);
   EXPECT_EQ(base.mode_at_rest(base.drive_force_n(0, screw, 0.02, 0, 0)), FrictionMode::stick);
   EXPECT_EQ(off.mode_at_rest(off.drive_force_n(0, screw, 0.02, 0, 0)), FrictionMode::slide_pos);
+}
+
+// Every effect of the library that has a law changes what the twin computes: no term is
+// accepted and then ignored. Parameters at a tenth of the way into each plausible range.
+TEST(ModelFile, EveryLawInTheLibraryIsSimulated) {
+  const ActuatorParams act;
+  const NutModel base(act, paper_calibration().periodic, TwinModel{});
+  for (const auto* e : effects::library()) {
+    if (e->columns() == 0) continue;  // events (step-out, disturbances), not laws
+    TwinModel m;
+    auto& t = m.term(std::string(e->id()));
+    for (const auto& p : e->params()) t.set(p.name, p.min + 0.1 * (p.max - p.min) + 1e-3 * p.max);
+    const NutModel tw(act, paper_calibration().periodic, m);
+    bool differs = tw.mass_kg() != base.mass_kg();
+    for (int dir : {-1, 1}) {
+      differs |= tw.breakaway_n(dir) != base.breakaway_n(dir);
+      differs |= tw.sliding_friction_n(dir, 0.002) != base.sliding_friction_n(dir, 0.002);
+    }
+    for (double pos : {0.001, 0.02}) {
+      const double screw = rest_angle_rad(pos, act.lead_m) + 0.3;
+      differs |= tw.drive_force_n(30.0, screw, pos, 0.01, 5.0, 2.0, 100.0) !=
+                 base.drive_force_n(30.0, screw, pos, 0.01, 5.0, 2.0, 100.0);
+    }
+    EXPECT_TRUE(differs) << e->id() << " is accepted by the twin but changes nothing";
+  }
 }
 
 }  // namespace

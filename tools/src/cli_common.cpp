@@ -1,5 +1,7 @@
 #include "cli_common.hpp"
 
+#include "maglead/physics/toml_config.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -28,18 +30,27 @@ void register_all(CLI::App& app) {
   for (auto& [order, fn] : r) fn(app);
 }
 
-std::string default_config_dir() {
-  if (const char* env = std::getenv("MAGLEAD_CONFIG")) return env;
+std::vector<std::string> config_dir_candidates() {
   namespace fs = std::filesystem;
+  std::vector<std::string> out;
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   if (!ec) {
-    for (const fs::path& candidate :
-         {exe.parent_path() / "../../config", exe.parent_path() / "../share/maglead/config"}) {
-      if (fs::exists(candidate / "actuator.toml", ec)) return fs::weakly_canonical(candidate).string();
-    }
+    out.push_back(fs::weakly_canonical(exe.parent_path() / "../share/maglead", ec).string());
+    out.push_back(fs::weakly_canonical(exe.parent_path() / "../config", ec).string());
   }
-  return "config";
+  out.emplace_back("/etc/maglead");
+  return out;
+}
+
+std::string default_config_dir() {
+  if (const char* env = std::getenv("MAGLEAD_CONFIG"); env && *env) return env;
+  std::error_code ec;
+  const auto candidates = config_dir_candidates();
+  // calibration.toml is the one file every controller needs.
+  for (const auto& c : candidates)
+    if (std::filesystem::exists(std::filesystem::path(c) / "calibration.toml", ec)) return c;
+  return candidates.back();
 }
 
 std::string config_file(const std::string& config_dir, const std::string& name) {
@@ -65,24 +76,61 @@ double parse_duration_s(const std::string& text) {
   return v * scale;
 }
 
-Progress::Progress(std::string label) : label_(std::move(label)), tty_(isatty(2) != 0) {}
+bool& quiet() {
+  static bool q = false;
+  return q;
+}
+
+bool show_progress() { return !quiet() && isatty(STDERR_FILENO) != 0; }
+
+void note(const std::string& text) {
+  if (show_progress()) std::fprintf(stderr, "%s\n", text.c_str());
+}
+
+Progress::Progress(std::string label) : label_(std::move(label)), show_(show_progress()) {}
 
 void Progress::operator()(double fraction) {
-  const int pct = static_cast<int>(fraction * 100.0);
-  if (tty_) {
-    if (pct == last_) return;
-    const int filled = pct * 30 / 100;
-    std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%", label_.c_str(), filled,
-                 "##############################", 30 - filled, "", pct);
-    std::fflush(stderr);
-  } else if (pct / 10 != last_ / 10) {
-    std::fprintf(stderr, "%s: %d%%\n", label_.c_str(), pct);
-  }
+  const int pct = std::clamp(static_cast<int>(fraction * 100.0), 0, 100);
+  if (!show_ || pct == last_) return;
+  const int filled = pct * 30 / 100;
+  std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%", label_.c_str(), filled, "##############################",
+               30 - filled, "", pct);
+  std::fflush(stderr);
   last_ = pct;
 }
 
 void Progress::done() {
-  if (tty_ && last_ >= 0) std::fprintf(stderr, "\n");
+  if (show_ && last_ >= 0) std::fprintf(stderr, "\n");
+  last_ = -1;
+}
+
+std::string closest_match(const std::string& word, const std::vector<std::string>& candidates) {
+  const auto distance = [](const std::string& a, const std::string& b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+      std::size_t diag = row[0];
+      row[0] = i;
+      for (std::size_t j = 1; j <= b.size(); ++j) {
+        const std::size_t up = row[j];
+        row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0u : 1u)});
+        diag = up;
+      }
+    }
+    return row[b.size()];
+  };
+  std::string best;
+  std::size_t best_d = std::max<std::size_t>(1, word.size() / 3) + 1;
+  for (const auto& c : candidates) {
+    const std::size_t d = distance(word, c);
+    // A prefix counts as close too: "--calib" for "--calibration".
+    const bool prefix = word.size() >= 3 && c.starts_with(word);
+    if (d < best_d || (prefix && best.empty())) {
+      best = c;
+      best_d = prefix ? 0 : d;
+    }
+  }
+  return best;
 }
 
 }  // namespace maglead::cli
@@ -104,6 +152,45 @@ ActuatorParams load_actuator_or_default(const std::string& config_dir) {
   const std::string path = config_file(config_dir, "actuator.toml");
   if (!std::filesystem::exists(path)) return {};
   return load_actuator_params(path);
+}
+
+}  // namespace maglead::cli
+
+namespace maglead::cli {
+
+void load_reached_settings(const std::string& config_dir, ReachedSettings& r) {
+  const std::string path = config_file(config_dir, "actuator.toml");
+  if (!std::filesystem::exists(path)) return;
+  const toml::table root = config::parse_file(path);
+  const toml::node* node = root.get("control");
+  if (!node) return;
+  const toml::table* t = node->as_table();
+  if (!t) config::fail(path, node, "[control] must be a table");
+  const struct {
+    const char* key;
+    double* out;
+    double lo, hi;
+  } keys[] = {{"force_reached_tolerance_n", &r.force_tolerance_n, 0.0, 100.0},
+              {"in_position_tolerance_m", &r.position_tolerance_m, 0.0, 0.01},
+              {"reached_dwell_s", &r.dwell_s, 0.0, 60.0}};
+  for (const auto& [k, v] : *t) {
+    bool known = false;
+    for (const auto& key : keys) known = known || k.str() == key.key;
+    if (!known)
+      config::fail(path, &v, "[control] unknown key '" + std::string(k.str()) +
+                                 "' (force_reached_tolerance_n, in_position_tolerance_m, reached_dwell_s)");
+  }
+  for (const auto& key : keys) {
+    const toml::node* n = t->get(key.key);
+    if (!n) continue;
+    const auto v = n->value<double>();
+    if (!v || !(*v >= key.lo && *v <= key.hi)) {
+      char b[160];
+      std::snprintf(b, sizeof b, "[control] %s must be a number in %g .. %g", key.key, key.lo, key.hi);
+      config::fail(path, n, b);
+    }
+    *key.out = *v;
+  }
 }
 
 }  // namespace maglead::cli

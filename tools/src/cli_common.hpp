@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace maglead::cli {
 
@@ -13,15 +14,25 @@ struct CommandRegistration {
 };
 void register_all(CLI::App& app);
 
-/// Where config/ lives: --config, else $MAGLEAD_CONFIG, else the repository's config/ next to
-/// the executable (build/bin/../../config), else ./config.
+/// Where the configuration lives when --config is not given: $MAGLEAD_CONFIG, else next to the
+/// executable (BIN/../share/maglead, then BIN/../config: the build tree's copy), else
+/// /etc/maglead. Nothing of the source or build tree is compiled in.
 std::string default_config_dir();
+/// The candidates default_config_dir() tries after $MAGLEAD_CONFIG, in order (for messages).
+std::vector<std::string> config_dir_candidates();
 std::string config_file(const std::string& config_dir, const std::string& name);
 
 /// "30s", "2min", "500ms", "1h" or a plain number of seconds. Throws CLI::ValidationError.
 double parse_duration_s(const std::string& text);
 
-/// A one-line progress bar on stderr when it is a terminal, else a line every 10 %.
+/// --quiet (a global option): no progress and no notes, only results and errors.
+bool& quiet();
+/// Progress and notes go to stderr only when it is a terminal and --quiet is not given.
+bool show_progress();
+/// A note on stderr (e.g. "reading FILE"), shown only when show_progress().
+void note(const std::string& text);
+
+/// A one-line progress bar on stderr, drawn only when show_progress(); silent otherwise.
 class Progress {
  public:
   explicit Progress(std::string label);
@@ -30,9 +41,14 @@ class Progress {
 
  private:
   std::string label_;
-  bool tty_;
+  bool show_;
   int last_ = -1;
 };
+
+/// The candidate closest to `word` by edit distance, if it is close enough to be a likely typo
+/// (at most a third of the word's length, at least 1); empty otherwise.
+std::string closest_match(const std::string& word, const std::vector<std::string>& candidates);
+
 
 /// Exit code for errors the user can fix (bad input, bad file).
 inline constexpr int kExitBadInput = 2;
@@ -55,4 +71,13 @@ namespace maglead::cli {
 std::vector<double> screw_angle_of(const Recording& rec, const ActuatorParams& act);
 /// Loads config/actuator.toml (defaults when the file is absent).
 ActuatorParams load_actuator_or_default(const std::string& config_dir);
+
+/// The controller's "reached" judgement from [control] in config/actuator.toml; keys absent from
+/// the file (or no file) keep the values passed in. Errors name FILE:LINE:COLUMN.
+struct ReachedSettings {
+  double force_tolerance_n;
+  double position_tolerance_m;
+  double dwell_s;
+};
+void load_reached_settings(const std::string& config_dir, ReachedSettings& settings);
 }  // namespace maglead::cli

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "cli_common.hpp"
+#include "maglead/twin/model.hpp"
 #include "maglead/analysis/analysis.hpp"
 
 namespace maglead::cli {
@@ -45,13 +46,14 @@ void add_analyze(CLI::App& app) {
     std::string model_path = o->model;
     if (model_path.empty() && std::filesystem::exists(config_file(o->config, "model.toml")))
       model_path = config_file(o->config, "model.toml");
+    if (!model_path.empty()) twin::check_model_format(model_path);  // the analysis reader does not check it
     model = model_path.empty() ? analysis::actuator_model_from_config(act)
                                : analysis::load_model(model_path);
     ForceCalibration cal = paper_calibration();
     if (model.system == "actuator")
       cal = load_calibration(o->calibration.empty() ? config_file(o->config, "calibration.toml")
                                                     : o->calibration);
-    std::fprintf(stderr, "reading %s\n", o->recording.c_str());
+    note("reading " + o->recording);
     const Recording rec = read_recording(o->recording);
     std::string last_stage;
     Progress* bar = nullptr;

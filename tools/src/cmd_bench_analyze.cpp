@@ -9,6 +9,7 @@
 
 #include "bench_common.hpp"
 #include "cli_common.hpp"
+#include "maglead/twin/model.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/plant/scenario.hpp"
 
@@ -64,8 +65,9 @@ void add_bench_analyze(CLI::App& app) {
                   path.c_str(), opt.duration_s, secs(t0));
     }
     const std::string out = o->out.empty() ? (tmp / "out").string() : o->out;
-    const auto model = std::filesystem::exists(config_file(o->config, "model.toml"))
-                           ? analysis::load_model(config_file(o->config, "model.toml"))
+    const bool has_model = std::filesystem::exists(config_file(o->config, "model.toml"));
+    if (has_model) twin::check_model_format(config_file(o->config, "model.toml"));
+    const auto model = has_model ? analysis::load_model(config_file(o->config, "model.toml"))
                            : analysis::actuator_model_from_config(act);
     const auto cal = load_calibration(config_file(o->config, "calibration.toml"));
 
@@ -76,7 +78,7 @@ void add_bench_analyze(CLI::App& app) {
     analysis::AnalysisOptions aopt;
     std::string last;
     aopt.progress = [&](const std::string& stage, double) {
-      if (stage != last) std::fprintf(stderr, "  %s (%.1f s)\n", stage.c_str(), secs(t_all));
+      if (stage != last) note("  " + stage + " (" + std::to_string(secs(t_all)) + " s)");
       last = stage;
     };
     t0 = Clock::now();

@@ -1,6 +1,7 @@
 // maglead poll: read a controller's registers once over Modbus and print them by name, in SI
 // units (table, JSON or CSV), with status bits, alarm and drive state spelled out.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -12,12 +13,6 @@ namespace {
 
 namespace reg = maglead::registers;
 
-std::string value_text(const reg::Register& r, double v) {
-  char b[64];
-  if (r.type == reg::Type::f32 || r.scale != 1.0) std::snprintf(b, sizeof b, "%.9g", v);
-  else std::snprintf(b, sizeof b, "%.0f", v);
-  return b;
-}
 
 /// What a code register means, for the table's last column.
 std::string meaning(const reg::Register& r, double v) {
@@ -61,24 +56,41 @@ void add_poll(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   auto* fmt = cmd->add_option_group("Output format");
-  fmt->add_flag("--json", o->json, "JSON: {\"values\": {name: value}, \"units\": …, \"status_bits\": …}");
+  fmt->add_flag("--json", o->json,
+                "JSON: {\"values\": {name: value}, \"units\": …, \"status_bits\": …}; values rounded to the "
+                "register's resolution");
   fmt->add_flag("--csv", o->csv, "CSV: name,value,unit");
   fmt->require_option(0, 1);
-  cmd->add_flag("--raw", o->raw, "Raw register contents (integers as sent) instead of SI values");
+  cmd->add_flag("--raw", o->raw,
+                "Raw register contents (integers as sent) under the register names (nut_pos_um in um), "
+                "instead of SI values under SI names (nut_pos_m in m)");
   cmd->add_flag("--all", o->all, "Also the float32 duplicates and identity probes");
-  cmd->add_option("--names", o->names, "Only these registers (names from 'maglead registers')")->delimiter(',');
+  cmd->add_option("--names", o->names,
+                  "Only these registers: register names from 'maglead registers' or their SI names "
+                  "(nut_pos_um or nut_pos_m)")
+      ->delimiter(',');
   cmd->callback([o, conn] {
     run_operator("poll", [&] {
-      for (const auto& n : o->names)
-        if (!reg::find(n)) throw op::ClientError(op::ClientError::Kind::refused_locally, "no register named '" + n + "'");
+      std::vector<const reg::Register*> wanted;
+      for (const auto& n : o->names) {
+        const auto* r = op::find_by_any_name(n);
+        if (!r) {
+          std::vector<std::string> all;
+          for (const auto& x : reg::table()) all.push_back(std::string(x.name)), all.push_back(op::si_name(x));
+          const std::string guess = closest_match(n, all);
+          throw op::ClientError(op::ClientError::Kind::refused_locally,
+                                "no register named '" + n + "'" + (guess.empty() ? "" : "; did you mean '" + guess + "'?"));
+        }
+        wanted.push_back(r);
+      }
       op::Client client(endpoint_of(*conn));
       client.check_identity();
       const auto v = client.read_tables({reg::Table::input_register, reg::Table::holding_register});
       std::vector<std::size_t> shown;  // --names order if given, else the table's
-      if (!o->names.empty()) {
-        for (const auto& n : o->names)
+      if (!wanted.empty()) {
+        for (const auto* w : wanted)
           for (std::size_t i = 0; i < v.regs.size(); ++i)
-            if (v.regs[i]->name == n) shown.push_back(i);
+            if (v.regs[i] == w) shown.push_back(i);
       } else {
         for (std::size_t i = 0; i < v.regs.size(); ++i) {
           const auto& r = *v.regs[i];
@@ -86,12 +98,17 @@ void add_poll(CLI::App& app) {
           shown.push_back(i);
         }
       }
-      const auto value_of = [&](std::size_t i) { return o->raw ? static_cast<double>(v.raw[i]) : v.si[i]; };
+      // SI values go under SI names (nut_pos_m), raw integers under the register names (nut_pos_um).
+      const auto name_of = [&](std::size_t i) { return o->raw ? std::string(v.regs[i]->name) : op::si_name(*v.regs[i]); };
+      const auto text_of = [&](std::size_t i) { return o->raw ? std::to_string(v.raw[i]) : op::si_text(*v.regs[i], v.si[i]); };
       if (o->json) {
         nlohmann::ordered_json j, vals = nlohmann::ordered_json::object(), units = nlohmann::ordered_json::object();
         for (auto i : shown) {
-          vals[std::string(v.regs[i]->name)] = value_of(i);
-          units[std::string(v.regs[i]->name)] = o->raw ? "raw" : std::string(v.regs[i]->unit);
+          const auto& r = *v.regs[i];
+          if (o->raw) vals[name_of(i)] = v.raw[i];
+          else if (op::si_decimals(r) == 0 && r.type != reg::Type::f32) vals[name_of(i)] = std::llround(v.si[i]);
+          else vals[name_of(i)] = op::si_rounded(r, v.si[i]);
+          units[name_of(i)] = o->raw ? "raw" : std::string(r.unit);
         }
         j["controller"] = client.endpoint().describe();
         j["values"] = vals;
@@ -106,15 +123,13 @@ void add_poll(CLI::App& app) {
       } else if (o->csv) {
         std::printf("name,value,unit\n");
         for (auto i : shown)
-          std::printf("%s,%s,%s\n", std::string(v.regs[i]->name).c_str(),
-                      o->raw ? std::to_string(v.raw[i]).c_str() : value_text(*v.regs[i], v.si[i]).c_str(),
+          std::printf("%s,%s,%s\n", name_of(i).c_str(), text_of(i).c_str(),
                       o->raw ? "raw" : std::string(v.regs[i]->unit).c_str());
       } else {
         std::printf("%s\n", client.endpoint().describe().c_str());
         for (auto i : shown) {
           const auto& r = *v.regs[i];
-          std::printf("  %-28s %16s %-6s %s\n", std::string(r.name).c_str(),
-                      o->raw ? std::to_string(v.raw[i]).c_str() : value_text(r, v.si[i]).c_str(),
+          std::printf("  %-28s %16s %-6s %s\n", name_of(i).c_str(), text_of(i).c_str(),
                       o->raw ? "raw" : std::string(r.unit).c_str(), meaning(r, v.si[i]).c_str());
         }
       }

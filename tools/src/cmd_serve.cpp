@@ -103,6 +103,11 @@ void add_serve(CLI::App& app) {
                                                               : o->calibration);
     cfg.watchdog_s = net.watchdog_s;
     cfg.reactions = net.reactions;
+    ReachedSettings reached{cfg.force_tol_n, cfg.in_position_tol_m, cfg.settle_s};
+    load_reached_settings(o->config, reached);
+    cfg.force_tol_n = reached.force_tolerance_n;
+    cfg.in_position_tol_m = reached.position_tolerance_m;
+    cfg.settle_s = reached.dwell_s;
     if (!(o->start_pos_m >= cfg.actuator.stroke_min_m && o->start_pos_m <= cfg.actuator.stroke_max_m))
       throw CLI::ValidationError("--sim-start", "must lie within the stroke");
 
@@ -145,6 +150,8 @@ void add_serve(CLI::App& app) {
                                       : "free nut",
                 loop.realtime() ? "SCHED_FIFO" : "normal scheduling",
                 twin_hook ? "digital twin running" : "no twin");
+    std::printf("maglead serve: configuration from %s\n",
+                std::filesystem::absolute(o->config).lexically_normal().string().c_str());
     if (tcp)
       std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(), tcp->port(),
                   net.tcp.unit_id, net.read_only ? ", read-only" : "");

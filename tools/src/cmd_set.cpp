@@ -118,7 +118,23 @@ void add_set(CLI::App& app) {
       op::Client client(endpoint_of(*conn));
       client.check_identity();
       const double hold_s = f->hold.empty() ? 0.0 : parse_duration_s(f->hold);
-      const auto res = op::execute(client, mode, setpoints, f->options());
+      op::CommandResult res;
+      try {
+        res = op::execute(client, mode, setpoints, f->options());
+      } catch (const ClientError& e) {
+        // The controller's own limit refused it (exception 03 on the staged setpoint, or a reject
+        // reason): say the value and the limit as this machine's configuration has it, and where.
+        const std::string msg = e.what();
+        const bool limit = e.kind() == Kind::exception ? msg.find("exception 03") != std::string::npos
+                           : e.kind() == Kind::rejected ? (msg.find("force_beyond_safe_limit") != std::string::npos ||
+                                                           msg.find("target_outside_stroke") != std::string::npos)
+                                                        : false;
+        if (!limit || mode == reg::Mode::idle) throw;
+        const auto l = load_limits(f->config, f->calibration);
+        throw ClientError(e.kind(), summary + " refused by the controller (" + msg + "); the controller applies "
+                                        "its own configuration, which this machine's copy puts at " +
+                                        (mode == reg::Mode::force ? op::force_limit_text(l) : op::position_limit_text(l)));
+      }
       if (res.done)
         std::printf("%s: done (%s) after %.2f s\n", summary.c_str(),
                     mode == reg::Mode::force ? "force reached" : "in position", res.elapsed_s);

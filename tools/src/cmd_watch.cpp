@@ -1,18 +1,27 @@
-// maglead watch: a live full-screen view of a controller (ANSI escape codes, no curses):
-// values by name in SI units, status bits and alarm spelled out, a force/position trend.
-// q or Ctrl-C quits and the terminal is restored, also when the connection drops.
+// maglead watch: a live view of a controller. On a terminal: a full screen (ANSI escape codes,
+// no curses) laid out for the terminal's size (80x24 and down to 60x20): drive state, status bits
+// and alarm spelled out, values in SI units, and a force trend (setpoint, estimate and load cell
+// against a time axis). When stdout is not a terminal, or with --once: plain lines, no escape
+// codes. When the connection drops it shows "reconnecting" and carries on once the controller
+// answers again. q or Ctrl-C quits and the terminal is restored.
 #include <poll.h>
+#include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdarg>
 #include <cstdio>
 #include <deque>
+#include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "operator_cli.hpp"
 
@@ -21,6 +30,7 @@ namespace {
 
 namespace reg = maglead::registers;
 using Clock = std::chrono::steady_clock;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 volatile std::sig_atomic_t g_quit = 0;
 void on_quit(int) { g_quit = 1; }
@@ -47,152 +57,333 @@ class Terminal {
   }
   Terminal(const Terminal&) = delete;
   Terminal& operator=(const Terminal&) = delete;
-  /// Waits up to timeout for a key; true when q was pressed.
-  bool wait_for_quit(double timeout_s) const {
-    pollfd p{STDIN_FILENO, POLLIN, 0};
-    const int ms = static_cast<int>(timeout_s * 1e3);
-    if (!tty_in_) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(ms));
-      return false;
-    }
-    if (poll(&p, 1, ms) > 0 && (p.revents & POLLIN)) {
-      char buf[16];
-      const auto n = read(STDIN_FILENO, buf, sizeof buf);
-      for (ssize_t i = 0; i < n; ++i)
-        if (buf[i] == 'q' || buf[i] == 'Q') return true;
-    }
-    return false;
-  }
 
  private:
   termios saved_{};
   bool tty_in_ = false, restore_ = false;
 };
 
-/// One row of block characters scaled to [lo, hi].
-std::string sparkline(const std::deque<double>& v, double lo, double hi) {
-  static const char* const kBlocks[] = {"▁", "▂", "▃", "▄", "▅", "▆", "▇", "█"};
-  std::string s;
-  for (double x : v) {
-    const double f = hi > lo ? (x - lo) / (hi - lo) : 0.5;
-    s += kBlocks[std::clamp(static_cast<int>(std::lround(f * 7.0)), 0, 7)];
+/// Waits up to timeout for a key on a terminal stdin; true when q was pressed (or on a signal).
+bool wait_for_quit(double timeout_s) {
+  const auto until = Clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!g_quit) {
+    const double left = std::chrono::duration<double>(until - Clock::now()).count();
+    if (left <= 0) return false;
+    const int ms = std::max(1, static_cast<int>(std::min(left, 0.05) * 1e3));
+    if (isatty(STDIN_FILENO)) {
+      pollfd p{STDIN_FILENO, POLLIN, 0};
+      if (poll(&p, 1, ms) > 0 && (p.revents & POLLIN)) {
+        char buf[16];
+        const auto n = read(STDIN_FILENO, buf, sizeof buf);
+        for (ssize_t i = 0; i < n; ++i)
+          if (buf[i] == 'q' || buf[i] == 'Q') return true;
+      }
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+    }
+  }
+  return true;
+}
+
+/// One trend sample: force setpoint (NaN outside force mode), estimate and load cell [N].
+struct Sample {
+  double t_s, set_n, est_n, load_n;
+};
+
+struct Screen {
+  int width = 80, height = 24;
+};
+
+Screen screen_size() {
+  winsize ws{};
+  Screen s;
+  if (ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0 && ws.ws_row > 0) {
+    s.width = ws.ws_col;
+    s.height = ws.ws_row;
   }
   return s;
 }
 
+std::string fit(std::string s, int width) {
+  if (static_cast<int>(s.size()) > width) s.resize(static_cast<std::size_t>(std::max(0, width)));
+  return s;
+}
+
+std::string printf_str(const char* format, ...) __attribute__((format(printf, 1, 2)));
+std::string printf_str(const char* format, ...) {
+  char b[512];
+  va_list ap;
+  va_start(ap, format);
+  std::vsnprintf(b, sizeof b, format, ap);
+  va_end(ap);
+  return b;
+}
+
+std::string set_bits_text(std::uint16_t sw) {
+  std::string s;
+  for (const auto& n : op::status_bits(sw)) s += (s.empty() ? "" : " ") + n;
+  return s.empty() ? "(no bits set)" : s;
+}
+
+/// Everything one refresh shows.
+struct View {
+  std::string endpoint;
+  bool connected = true;
+  std::string problem;       // why the connection is down
+  double down_since_s = 0;   // when it went down (watch time)
+  double now_s = 0;
+  std::optional<op::Values> v;  // the latest values read (kept while reconnecting)
+};
+
+/// The trend: force against watch time over the last `window_s`, in `rows` x `cols` cells with
+/// a y axis (7 columns) and a time axis (2 rows) below.
+std::vector<std::string> trend(const std::deque<Sample>& samples, double now_s, double window_s, int rows,
+                               int width) {
+  const int cols = width - 8;
+  std::vector<std::string> out;
+  if (cols < 10 || rows < 3) return out;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const auto& s : samples)
+    for (double x : {s.set_n, s.est_n, s.load_n})
+      if (std::isfinite(x)) lo = std::min(lo, x), hi = std::max(hi, x);
+  if (!std::isfinite(lo)) lo = -1, hi = 1;
+  if (hi - lo < 1.0) {  // at least 1 N of span, centred
+    const double mid = 0.5 * (hi + lo);
+    lo = mid - 0.5, hi = mid + 0.5;
+  }
+  const double pad = 0.05 * (hi - lo);
+  lo -= pad, hi += pad;
+  std::vector<std::string> grid(static_cast<std::size_t>(rows), std::string(static_cast<std::size_t>(cols), ' '));
+  const auto plot = [&](double t, double value, char mark) {
+    if (!std::isfinite(value)) return;
+    const int c = static_cast<int>(std::floor((t - (now_s - window_s)) / window_s * cols));
+    if (c < 0 || c >= cols) return;
+    const int r = std::clamp(static_cast<int>(std::lround((hi - value) / (hi - lo) * (rows - 1))), 0, rows - 1);
+    grid[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)] = mark;
+  };
+  for (const auto& s : samples) plot(s.t_s, s.set_n, '-');
+  for (const auto& s : samples) plot(s.t_s, s.load_n, 'o');
+  for (const auto& s : samples) plot(s.t_s, s.est_n, '*');
+  for (int r = 0; r < rows; ++r) {
+    std::string label(7, ' ');
+    if (r == 0 || r == rows - 1 || r == rows / 2) {
+      const double y = hi - (hi - lo) * r / (rows - 1);
+      label = printf_str("%7.1f", y).substr(0, 7);
+    }
+    out.push_back(label + "|" + grid[static_cast<std::size_t>(r)]);
+  }
+  out.push_back("       +" + std::string(static_cast<std::size_t>(cols), '-'));
+  // Time labels: the window's start, its middle and now.
+  std::string axis(static_cast<std::size_t>(width), ' ');
+  const auto put = [&](int at, const std::string& text) {
+    at = std::clamp(at, 0, width - static_cast<int>(text.size()));
+    axis.replace(static_cast<std::size_t>(at), text.size(), text);
+  };
+  put(8, printf_str("-%.0fs", window_s));
+  put(8 + cols / 2 - 2, printf_str("-%.0fs", window_s / 2));
+  put(width - 3, "now");
+  out.push_back(axis);
+  return out;
+}
+
+/// The full screen for a terminal of `scr` size: each line at most scr.width columns, at most
+/// scr.height lines. Styles (bold, reverse) are whole-line prefixes.
+std::vector<std::string> render(const View& view, const std::deque<Sample>& samples, double window_s, Screen scr,
+                                bool* reverse_title) {
+  const int w = scr.width;
+  std::vector<std::string> L;
+  *reverse_title = !view.connected;
+  if (view.connected)
+    L.push_back(fit("maglead watch  " + view.endpoint + "  connected  (q quits)", w));
+  else
+    L.push_back(fit(printf_str("RECONNECTING to %s for %.0f s: %s", view.endpoint.c_str(),
+                               view.now_s - view.down_since_s, view.problem.c_str()),
+                    w));
+  if (!view.v) {
+    L.push_back("no values read yet");
+    return L;
+  }
+  const op::Values& v = *view.v;
+  const auto at = [&](const char* name) { return v.at(name); };
+  const double alarm = at("alarm_code");
+  L.push_back(fit(printf_str("drive %s   mode %s   alarm %s%s", op::code_name(reg::drive_states(), at("drive_state")).c_str(),
+                             op::code_name(reg::modes(), at("active_mode")).c_str(),
+                             op::code_name(reg::alarm_codes(), alarm).c_str(),
+                             view.connected ? "" : "   (values from before the drop)"),
+                  w));
+  // Status bits by name (monochrome terminals too), wrapped over at most two rows.
+  std::string bits = "status " + set_bits_text(static_cast<std::uint16_t>(at("status_word")));
+  std::string row2;
+  if (static_cast<int>(bits.size()) > w) {
+    const auto cut = bits.rfind(' ', static_cast<std::size_t>(w));
+    row2 = "       " + bits.substr(cut + 1);
+    bits.resize(cut);
+  }
+  L.push_back(bits);
+  L.push_back(fit(row2, w));
+  const double rej = at("command_reject_reason");
+  L.push_back(fit(rej != 0 ? "last command rejected: " + op::code_name(reg::reject_codes(), rej) + " (" +
+                                 op::code_meaning(reg::reject_codes(), rej) + ")"
+                           : alarm != 0 ? "alarm: " + op::code_meaning(reg::alarm_codes(), alarm)
+                                        : std::string(),
+                  w));
+  // Values in two columns of half the width each.
+  const int half = w / 2;
+  const auto cell = [&](const char* label, const std::string& value) {
+    return fit(printf_str("%-11s %s", label, value.c_str()), half - 1);
+  };
+  const auto pair = [&](const std::string& a, const std::string& b) {
+    std::string s = a;
+    s.resize(static_cast<std::size_t>(half), ' ');
+    L.push_back(fit(s + b, w));
+  };
+  const bool twin = !(at("twin_pred_nut_pos_um") == 0 && at("twin_pred_force_mn") == 0 &&
+                      at("twin_residual_pos_um") == 0 && at("twin_dynamic_force_mn") == 0);
+  const bool force_mode = at("active_mode") == static_cast<double>(reg::Mode::force);
+  pair(cell("position", printf_str("%.3f mm", at("nut_pos_um") * 1e3)),
+       cell("velocity", printf_str("%.3f mm/s", at("nut_vel_um_s") * 1e3)));
+  pair(cell("estimate", printf_str("%.2f N", at("force_est_mn"))),
+       cell("load cell", printf_str("%.2f N", at("load_cell_force_mn"))));
+  pair(cell("setpoint", force_mode ? printf_str("%.2f N", at("active_force_setpoint_mn")) : std::string("- (not force)")),
+       cell("target", printf_str("%.3f mm", at("active_target_pos_um") * 1e3)));
+  pair(cell("phase", printf_str("%.4f rad", at("phase_urad"))),
+       cell("twin", twin ? printf_str("%.2f N, %.1f um", at("twin_dynamic_force_mn"), at("twin_residual_pos_um") * 1e6)
+                         : std::string("not running")));
+  // The trend takes what is left: legend, chart rows, two axis rows.
+  const int rows = scr.height - static_cast<int>(L.size()) - 3;
+  if (rows >= 3) {
+    L.push_back(fit(printf_str("force [N] over %.0f s:  * estimate  o load cell  - setpoint", window_s), w));
+    for (auto& line : trend(samples, view.now_s, window_s, rows, w)) L.push_back(fit(line, w));
+  }
+  if (static_cast<int>(L.size()) > scr.height) L.resize(static_cast<std::size_t>(scr.height));
+  return L;
+}
+
+/// One plain line (no escape codes): watch time, connection, state and the trend's values.
+std::string plain_line(const View& view) {
+  std::string s = printf_str("t_s=%.2f ", view.now_s);
+  if (!view.connected) return s + "reconnecting to " + view.endpoint + ": " + view.problem;
+  const op::Values& v = *view.v;
+  s += "drive=" + op::code_name(reg::drive_states(), v.at("drive_state")) +
+       " mode=" + op::code_name(reg::modes(), v.at("active_mode")) +
+       " alarm=" + op::code_name(reg::alarm_codes(), v.at("alarm_code"));
+  for (const char* name : {"nut_pos_um", "force_est_mn", "load_cell_force_mn", "active_force_setpoint_mn"}) {
+    const auto* r = reg::find(name);
+    s += " " + op::si_name(*r) + "=" + op::si_text(*r, v.at(name));
+  }
+  std::string bits;
+  for (const auto& n : op::status_bits(static_cast<std::uint16_t>(v.at("status_word"))))
+    bits += (bits.empty() ? "" : ",") + n;
+  return s + " status=" + (bits.empty() ? "none" : bits);
+}
+
 void add_watch(CLI::App& app) {
-  auto* cmd = app.add_subcommand("watch", "Live full-screen view of a controller: values, status bits, alarm, "
-                                          "force/position trend (q or Ctrl-C quits)");
+  auto* cmd = app.add_subcommand(
+      "watch", "Live view of a controller: state, status bits, values and a force trend (setpoint, estimate, "
+               "load cell over time); reconnects when the controller restarts; plain lines when stdout is not "
+               "a terminal (q or Ctrl-C quits)");
   auto conn = add_connection_options(cmd);
   struct Opts {
     double rate_hz = 10.0;
     int count = 0;
-    int trend = 60;
+    std::string window = "30s";
+    bool once = false;
   };
   auto o = std::make_shared<Opts>();
   cmd->add_option("--rate", o->rate_hz, "Refreshes per second")->check(CLI::Range(0.5, 50.0))->capture_default_str();
   cmd->add_option("--count", o->count, "Quit after this many refreshes (0: until q or Ctrl-C)")->capture_default_str();
-  cmd->add_option("--trend", o->trend, "Trend length in samples")->check(CLI::Range(10, 200))->capture_default_str();
+  cmd->add_option("--window", o->window, "Time span of the trend (e.g. 30s, 2min)")->capture_default_str();
+  cmd->add_flag("--once", o->once, "Print one plain line and exit (exit 3 when the controller cannot be read)");
   cmd->callback([o, conn] {
     run_operator("watch", [&] {
-      op::Client client(endpoint_of(*conn));  // connect before taking the screen: errors stay visible
-      client.check_identity();
+      const double window_s = parse_duration_s(o->window);
+      const op::Endpoint ep = endpoint_of(*conn);
+      // Connect before taking the screen: a wrong address stays visible as one line, exit 3.
+      auto client = std::make_unique<op::Client>(ep);
+      client->check_identity();
+      const bool full_screen = !o->once && isatty(STDOUT_FILENO) != 0;
+      g_quit = 0;
       std::signal(SIGINT, on_quit);
       std::signal(SIGTERM, on_quit);
-      std::deque<double> force_n, pos_mm;
-      int frames = 0;
+      const auto t0 = Clock::now();
+      const auto now = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
+      std::deque<Sample> samples;
+      View view;
+      view.endpoint = ep.describe();
+      int frames = 0, reconnects = 0;
       std::optional<op::ClientError> error;
       {
-        Terminal term;
+        std::optional<Terminal> term;
+        if (full_screen) term.emplace();
         while (!g_quit) {
-          op::Values v;
-          try {
-            v = client.read_tables({reg::Table::input_register, reg::Table::holding_register});
-          } catch (const op::ClientError& e) {
-            error = e;
-            break;  // the terminal is restored first, then the one-line error
+          view.now_s = now();
+          if (!client) {
+            try {
+              client = std::make_unique<op::Client>(ep);
+              client->check_identity();
+              view.connected = true;
+              ++reconnects;
+              if (!full_screen) {
+                std::printf("t_s=%.2f reconnected to %s\n", now(), view.endpoint.c_str());
+                std::fflush(stdout);
+              }
+            } catch (const op::ClientError& e) {
+              client.reset();
+              view.problem = e.what();
+            }
           }
-          const double f = v.at("force_est_mn"), p = v.at("nut_pos_um") * 1e3;
-          force_n.push_back(f);
-          pos_mm.push_back(p);
-          while (static_cast<int>(force_n.size()) > o->trend) force_n.pop_front(), pos_mm.pop_front();
-          const auto [fmin, fmax] = std::minmax_element(force_n.begin(), force_n.end());
-          const auto [pmin, pmax] = std::minmax_element(pos_mm.begin(), pos_mm.end());
-          const auto sw = static_cast<std::uint16_t>(v.at("status_word"));
-          const double alarm = v.at("alarm_code");
-          std::string s = "\x1b[H\x1b[2J";
-          char b[256];
-          std::snprintf(b, sizeof b, "\x1b[1mmaglead watch\x1b[0m  %s   (q or Ctrl-C quits)\n\n",
-                        client.endpoint().describe().c_str());
-          s += b;
-          std::snprintf(b, sizeof b, "drive  %-9s  mode %-9s  owner %-5.0f  step-outs %.0f  cycles %.0f\n",
-                        op::code_name(reg::drive_states(), v.at("drive_state")).c_str(),
-                        op::code_name(reg::modes(), v.at("active_mode")).c_str(), v.at("control_owner"),
-                        v.at("step_out_count"), v.at("loop_cycle_count"));
-          s += b;
-          s += "status ";
-          int shown_bits = 0;
-          for (const auto& r : reg::table()) {
-            if (r.table != reg::Table::discrete_input) continue;
-            if (shown_bits++ == 7) s += "\n       ";  // two rows fit an 80-column terminal
-            const bool on = (sw >> r.address) & 1u;
-            const bool bad = r.name == "fault" || r.name == "step_out" || r.name == "drift_warning" ||
-                             r.name == "watchdog_expired" || r.name == "step_out_warning" || r.name == "stroke_limit";
-            s += on ? (bad ? "\x1b[1;31m" : "\x1b[1;32m") : "\x1b[2m";
-            s += (on ? "\u25CF " : "\u25CB ") + std::string(r.name) + "\x1b[0m  ";  // ● set, ○ clear
+          if (client) {
+            try {
+              view.v = client->read_tables({reg::Table::input_register, reg::Table::holding_register});
+              const op::Values& v = *view.v;
+              const bool force_mode = v.at("active_mode") == static_cast<double>(reg::Mode::force);
+              samples.push_back({view.now_s, force_mode ? v.at("active_force_setpoint_mn") : kNaN,
+                                 v.at("force_est_mn"), v.at("load_cell_force_mn")});
+              while (!samples.empty() && samples.front().t_s < view.now_s - window_s) samples.pop_front();
+            } catch (const op::ClientError& e) {
+              if (o->once) {
+                error = e;
+                break;
+              }
+              client.reset();
+              view.connected = false;
+              view.down_since_s = view.now_s;
+              view.problem = e.what();
+              if (!full_screen) {
+                std::printf("%s\n", plain_line(view).c_str());
+                std::fflush(stdout);
+              }
+            }
           }
-          s += "\n";
-          if (alarm != 0)
-            s += "\x1b[1;31malarm  " + op::code_name(reg::alarm_codes(), alarm) + ": " +
-                 op::code_meaning(reg::alarm_codes(), alarm) + "\x1b[0m\n";
-          else
-            s += "alarm  none\n";
-          const double rej = v.at("command_reject_reason");
-          if (rej != 0)
-            s += "last command rejected: " + op::code_name(reg::reject_codes(), rej) + " (" +
-                 op::code_meaning(reg::reject_codes(), rej) + ")\n";
-          s += "\n";
-          const auto line = [&](const char* label, double value, const char* unit) {
-            std::snprintf(b, sizeof b, "  %-30s %12.4f %s\n", label, value, unit);
-            s += b;
-          };
-          line("nut position", v.at("nut_pos_um") * 1e3, "mm");
-          line("nut velocity", v.at("nut_vel_um_s") * 1e3, "mm/s");
-          line("screw angle", v.at("screw_angle_urad"), "rad");
-          line("phase", v.at("phase_urad"), "rad");
-          line("output force estimate", v.at("force_est_mn"), "N");
-          line("load cell (output force)", v.at("load_cell_force_mn"), "N");
-          line("force setpoint held", v.at("active_force_setpoint_mn"), "N");
-          line("target position", v.at("active_target_pos_um") * 1e3, "mm");
-          line("profile position", v.at("profile_pos_um") * 1e3, "mm");
-          // The registers read 0 without a twin: say so rather than show zeros as predictions.
-          if (v.at("twin_pred_nut_pos_um") == 0 && v.at("twin_pred_force_mn") == 0 &&
-              v.at("twin_residual_pos_um") == 0 && v.at("twin_dynamic_force_mn") == 0) {
-            s += "  twin                           not running on this controller\n";
-          } else {
-            line("twin: predicted position", v.at("twin_pred_nut_pos_um") * 1e3, "mm");
-            line("twin: position residual", v.at("twin_residual_pos_um") * 1e6, "um");
-            line("twin: force residual", v.at("twin_residual_force_mn"), "N");
-            line("twin: dynamic force estimate", v.at("twin_dynamic_force_mn"), "N");
+          if (full_screen) {
+            bool reverse = false;
+            const auto lines = render(view, samples, window_s, screen_size(), &reverse);
+            std::string s = "\x1b[H";
+            for (std::size_t i = 0; i < lines.size(); ++i) {
+              if (i == 0) s += reverse ? "\x1b[7m" : "\x1b[1m";
+              s += lines[i];
+              if (i == 0) s += "\x1b[0m";
+              s += "\x1b[K";
+              if (i + 1 < lines.size()) s += "\n";  // no newline after the last row: nothing scrolls
+            }
+            s += "\x1b[J";
+            std::fputs(s.c_str(), stdout);
+            std::fflush(stdout);
+          } else if (view.connected) {
+            std::printf("%s\n", plain_line(view).c_str());
+            std::fflush(stdout);
           }
-          line("watchdog", v.at("watchdog_ms"), "s");
-          std::snprintf(b, sizeof b, "\nforce    [%8.2f .. %8.2f N ] %s\n", *fmin, *fmax,
-                        sparkline(force_n, *fmin, *fmax).c_str());
-          s += b;
-          std::snprintf(b, sizeof b, "position [%8.3f .. %8.3f mm] %s\n", *pmin, *pmax,
-                        sparkline(pos_mm, *pmin, *pmax).c_str());
-          s += b;
-          std::fputs(s.c_str(), stdout);
-          std::fflush(stdout);
           ++frames;
-          if (o->count > 0 && frames >= o->count) break;
-          if (term.wait_for_quit(1.0 / o->rate_hz)) break;
+          if (o->once || (o->count > 0 && frames >= o->count)) break;
+          if (wait_for_quit(view.connected ? 1.0 / o->rate_hz : 0.5)) break;
         }
       }
       std::signal(SIGINT, SIG_DFL);
       std::signal(SIGTERM, SIG_DFL);
       if (error) throw *error;
-      std::printf("maglead watch: %d refreshes from %s\n", frames, client.endpoint().describe().c_str());
+      if (full_screen)
+        std::printf("maglead watch: %d refreshes from %s, %d reconnect%s\n", frames, view.endpoint.c_str(), reconnects,
+                    reconnects == 1 ? "" : "s");
     });
   });
 }

@@ -1,19 +1,122 @@
 // maglead: the command line of the magnetic lead-screw actuator controller and its twin.
 #include <cstdio>
 #include <exception>
+#include <string>
+#include <vector>
 
 #include "cli_common.hpp"
+
+namespace {
+
+using maglead::cli::closest_match;
+
+std::string path_of(const CLI::App* app) {
+  std::string s;
+  for (; app; app = app->get_parent())
+    if (!app->get_name().empty()) s = app->get_name() + (s.empty() ? "" : " " + s);
+  return s;
+}
+
+std::vector<std::string> subcommand_names(const CLI::App* app) {
+  std::vector<std::string> out;
+  for (const auto* sub : app->get_subcommands([](const CLI::App* s) { return !s->get_name().empty(); }))
+    out.push_back(sub->get_name());
+  return out;
+}
+
+/// Long option names of an app, its option groups and (options fall through) its parents.
+std::vector<std::string> option_names(const CLI::App* app) {
+  std::vector<std::string> out;
+  for (; app; app = app->get_parent()) {
+    std::vector<const CLI::App*> scopes{app};
+    for (const auto* g : app->get_subcommands([](const CLI::App* s) { return s->get_name().empty(); }))
+      scopes.push_back(g);
+    for (const auto* scope : scopes)
+      for (const auto* opt : scope->get_options())
+        for (const auto& n : opt->get_lnames()) out.push_back("--" + n);
+  }
+  return out;
+}
+
+bool knows_option(const CLI::App* app, const std::string& name) {
+  for (; app; app = app->get_parent())
+    if (app->get_option_no_throw(name)) return true;
+  return false;
+}
+
+/// After a parse error: the first unknown command or option in argv, answered with the closest
+/// match and the usage line. False when argv holds neither (CLI11's own message is better then).
+bool explain_unknown(CLI::App& root, int argc, char** argv) {
+  const CLI::App* at = &root;
+  bool expect_value = false;  // the previous token was an option that takes a value
+  for (int i = 1; i < argc; ++i) {
+    const std::string tok = argv[i];
+    if (tok == "--") break;
+    if (tok.size() > 1 && tok[0] == '-') {
+      expect_value = false;
+      std::string name = tok.substr(0, tok.find('='));
+      if (name.rfind("--", 0) != 0 && name.size() > 2) name = name.substr(0, 2);  // -abc: short -a
+      if (knows_option(at, name)) {
+        const CLI::App* scope = at;
+        const CLI::Option* opt = nullptr;
+        for (; scope && !opt; scope = scope->get_parent()) opt = scope->get_option_no_throw(name);
+        expect_value = opt && opt->get_type_size_max() > 0 && tok.find('=') == std::string::npos;
+        continue;
+      }
+      const std::string guess = closest_match(name, option_names(at));
+      std::fprintf(stderr, "maglead: unknown option '%s' for '%s'%s\nusage: %s [OPTIONS]   ('%s --help' lists them)\n",
+                   name.c_str(), path_of(at).c_str(), guess.empty() ? "" : ("; did you mean '" + guess + "'?").c_str(),
+                   path_of(at).c_str(), path_of(at).c_str());
+      return true;
+    }
+    if (expect_value) {
+      expect_value = false;
+      continue;
+    }
+    const auto names = subcommand_names(at);
+    if (names.empty()) continue;  // a positional value of a leaf command
+    const auto subs = at->get_subcommands([&](const CLI::App* s) { return !s->get_name().empty() && s->check_name(tok); });
+    if (!subs.empty()) {
+      at = subs.front();
+      continue;
+    }
+    std::string list;
+    for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+    const std::string guess = closest_match(tok, names);
+    std::fprintf(stderr, "maglead: unknown command '%s'%s\nusage: %s COMMAND [OPTIONS]   (commands: %s)\n",
+                 tok.c_str(), guess.empty() ? "" : ("; did you mean '" + path_of(at) + " " + guess + "'?").c_str(),
+                 path_of(at).c_str(), list.c_str());
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
       "maglead: force-estimating controller for a magnetic lead-screw actuator, with its "
-      "simulated plant and digital twin.\nRun 'maglead COMMAND --help' for a command's options."};
+      "simulated plant and digital twin.\nRun 'maglead COMMAND --help' for a command's options.",
+      "maglead"};
+  app.set_version_flag("--version", "maglead " MAGLEAD_VERSION, "Print the version and exit");
+  app.add_flag("-q,--quiet", maglead::cli::quiet(),
+               "No progress or notes on stderr (results and errors still print); progress is only ever "
+               "drawn when stderr is a terminal");
   app.require_subcommand(1);
   app.fallthrough();
   maglead::cli::register_all(app);
   try {
     app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::RuntimeError& e) {
+    return app.exit(e);  // a command's own exit code; its message is already printed
   } catch (const CLI::ParseError& e) {
+    if (explain_unknown(app, argc, argv)) return maglead::cli::kExitBadInput;
     return app.exit(e);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "maglead: error: %s\n", e.what());

@@ -2,6 +2,7 @@
 // What the operator commands (poll, watch, set, enable, disable, reset, record) share on the
 // command line: the connection options and one-line error reporting with distinct exit codes.
 #include <csignal>
+#include <filesystem>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -56,6 +57,8 @@ void run_operator(const char* command, Fn&& fn) {
 inline op::Limits load_limits(const std::string& config_dir, const std::string& calibration_path) {
   op::Limits l;
   l.actuator = load_actuator_or_default(config_dir);
+  const std::string actuator_path = config_file(config_dir, "actuator.toml");
+  if (std::filesystem::exists(actuator_path)) l.actuator_source = actuator_path;
   const std::string path = calibration_path.empty() ? config_file(config_dir, "calibration.toml") : calibration_path;
   l.calibration = load_calibration(path);
   l.calibration_source = path;

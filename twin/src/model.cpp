@@ -1,10 +1,11 @@
 #include "maglead/twin/model.hpp"
 
-#include <toml++/toml.h>
+#include "maglead/physics/toml_config.hpp"
 
 #include "maglead/effects/effect.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -72,30 +73,38 @@ void validate_twin_model(const TwinModel& m) {
   }
 }
 
+void check_model_format(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw std::runtime_error(path + ": cannot open");
+  std::string first;
+  std::getline(f, first);
+  while (!first.empty() && (first.back() == '\r' || first.back() == ' ')) first.pop_back();
+  if (first.rfind("# format:", 0) != 0)
+    throw std::runtime_error(path + ":1:1: a model file starts with the line '" + std::string(kModelFormatLine) +
+                             "' (add it; without it another TOML file could be taken for a model)");
+  if (first != kModelFormatLine)
+    throw std::runtime_error(path + ":1:11: format '" + first.substr(first.find_first_not_of(' ', 9)) +
+                             "' is not maglead-model/1");
+}
+
 TwinModel load_twin_model(const std::string& path) {
-  toml::table root;
-  try {
-    root = toml::parse_file(path);
-  } catch (const toml::parse_error& e) {
-    throw std::runtime_error(path + ":" + std::to_string(e.source().begin.line) + ":" +
-                             std::to_string(e.source().begin.column) + ": " +
-                             std::string(e.description()));
-  }
+  check_model_format(path);
+  const toml::table root = config::parse_file(path);
   const toml::table* mt = root["model"].as_table();
-  if (!mt) throw std::runtime_error(path + ": missing [model] table");
+  if (!mt) config::fail(path, root.get("model"), "missing [model] table");
   TwinModel m;
   const auto num = [&](const toml::table& t, const char* key, double& out, const std::string& where) {
     const toml::node* n = t.get(key);
     if (!n) return;
     const auto v = n->value<double>();
-    if (!v) throw std::runtime_error(path + ": " + where + " " + key + " is not a number");
+    if (!v) config::fail(path, n, where + " " + key + " is not a number");
     out = *v;
   };
   m.source = (*mt)["source"].value_or(std::string(path));
   m.system = (*mt)["system"].value_or(std::string("actuator"));
   if (const toml::node* f = mt->get("fit")) {
     const toml::array* arr = f->as_array();
-    if (!arr) throw std::runtime_error(path + ": [model] fit must be a list of key names");
+    if (!arr) config::fail(path, f, "[model] fit must be a list of key names");
     for (const auto& e : *arr) m.fit.insert(e.value_or(std::string("?")));
   }
   num(*mt, "nut_mass_kg", m.nut_mass_kg, "[model]");
@@ -105,33 +114,34 @@ TwinModel load_twin_model(const std::string& path) {
     const std::string key(k.str());
     if (key != "source" && key != "system" && key != "fit" && key != "nut_mass_kg" &&
         key != "viscous_n_s_per_m" && key != "coulomb_n")
-      throw std::runtime_error(path + ": [model] unknown key '" + key + "'");
-    (void)v;
+      config::fail(path, &v, "[model] unknown key '" + key + "'");
   }
+  std::vector<const toml::node*> term_nodes;  // for errors found by validation
   if (const toml::node* terms = root.get("term")) {
     const toml::array* arr = terms->as_array();
-    if (!arr) throw std::runtime_error(path + ": 'term' must be an array of tables ([[term]])");
+    if (!arr) config::fail(path, terms, "'term' must be an array of tables ([[term]])");
     for (std::size_t i = 0; i < arr->size(); ++i) {
-      const toml::table* t = (*arr)[i].as_table();
+      const toml::node& node = (*arr)[i];
+      const toml::table* t = node.as_table();
       const std::string where = "[[term]] " + std::to_string(i + 1);
-      if (!t) throw std::runtime_error(path + ": " + where + " is not a table");
+      if (!t) config::fail(path, &node, where + " is not a table");
+      term_nodes.push_back(&node);
       ModelTerm term;
       const auto id = (*t)["id"].value<std::string>();
-      if (!id) throw std::runtime_error(path + ": " + where + " has no id");
+      if (!id) config::fail(path, t->get("id") ? t->get("id") : &node, where + " has no id (a string)");
       term.id = *id;
-      for (const auto& [k, node] : *t) {
+      for (const auto& [k, value] : *t) {
         const std::string key(k.str());
         if (key == "id") continue;
         if (key == "enabled") {
-          const auto b = node.value<bool>();
-          if (!b) throw std::runtime_error(path + ": " + where + " enabled must be true or false");
+          const auto b = value.value<bool>();
+          if (!b) config::fail(path, &value, where + " enabled must be true or false");
           term.enabled = *b;
         } else if (key == "note") {
-          term.note = node.value_or(std::string());
+          term.note = value.value_or(std::string());
         } else {
-          const auto v = node.value<double>();
-          if (!v) throw std::runtime_error(path + ": " + where + " (" + term.id + ") " + key +
-                                           " is not a number");
+          const auto v = value.value<double>();
+          if (!v) config::fail(path, &value, where + " (" + term.id + ") " + key + " is not a number");
           term.parameters.emplace_back(key, *v);
         }
       }
@@ -141,7 +151,14 @@ TwinModel load_twin_model(const std::string& path) {
   try {
     validate_twin_model(m);
   } catch (const std::invalid_argument& e) {
-    throw std::runtime_error(path + ": " + e.what());
+    // "term N ..." points at that [[term]]; anything else at [model].
+    const std::string what = e.what();
+    const toml::node* at = root.get("model");
+    if (what.rfind("term ", 0) == 0) {
+      const auto n = static_cast<std::size_t>(std::atoi(what.c_str() + 5));
+      if (n >= 1 && n <= term_nodes.size()) at = term_nodes[n - 1];
+    }
+    config::fail(path, at, what);
   }
   return m;
 }
@@ -159,7 +176,7 @@ void save_twin_model(const std::string& path, const TwinModel& m, const std::str
     }
     return q + "\"";
   };
-  out << "# format: mls-model/1 (maglead model file: twin/include/maglead/twin/model.hpp)\n";
+  out << kModelFormatLine << "\n# maglead model file (format: twin/include/maglead/twin/model.hpp)\n";
   std::string line;
   for (std::istringstream lines(header_comment); std::getline(lines, line);) out << "# " << line << "\n";
   out << std::setprecision(17) << "[model]\n";

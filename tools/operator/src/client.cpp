@@ -321,6 +321,53 @@ std::string code_meaning(std::span<const reg::Code> codes, double value) {
   return "not in this tool's register map";
 }
 
+std::string si_name(const reg::Register& r) {
+  std::string n(r.name);
+  if (r.scale == 1.0) return n;
+  // Raw suffix -> SI suffix, longest first (_um_s2 before _um_s before _um).
+  static const std::pair<std::string_view, std::string_view> kSuffixes[] = {
+      {"_um_s2", "_m_s2"}, {"_um_s", "_m_s"}, {"_um", "_m"}, {"_urad", "_rad"},
+      {"_mn", "_n"},       {"_ms", "_s"},     {"_us", "_s"}};
+  for (const auto& [raw, si] : kSuffixes)
+    if (n.ends_with(raw)) return n.substr(0, n.size() - raw.size()) + std::string(si);
+  return n;
+}
+
+const reg::Register* find_by_any_name(std::string_view name) {
+  if (const auto* r = reg::find(name)) return r;
+  for (const auto& r : reg::table())
+    if (si_name(r) == name) return &r;
+  return nullptr;
+}
+
+int si_decimals(const reg::Register& r) {
+  if (r.type == reg::Type::f32 || r.scale >= 1.0) return 0;
+  return static_cast<int>(std::lround(-std::log10(r.scale)));
+}
+
+double si_rounded(const reg::Register& r, double v) {
+  if (!std::isfinite(v)) return v;
+  char b[64];
+  if (r.type == reg::Type::f32) std::snprintf(b, sizeof b, "%.7g", v);
+  else std::snprintf(b, sizeof b, "%.*f", si_decimals(r), v);
+  return std::strtod(b, nullptr);
+}
+
+std::string si_text(const reg::Register& r, double v) {
+  char b[64];
+  // %.17g of the rounded value prints the shortest decimal only by luck; %g with enough digits
+  // for the resolution, then trailing zeros trimmed, does it by construction.
+  if (r.type == reg::Type::f32) std::snprintf(b, sizeof b, "%.7g", v);
+  else std::snprintf(b, sizeof b, "%.*f", si_decimals(r), v);
+  std::string s = b;
+  if (s.find('.') != std::string::npos && s.find('e') == std::string::npos) {
+    s.erase(s.find_last_not_of('0') + 1);
+    if (s.back() == '.') s.pop_back();
+  }
+  if (s == "-0") s = "0";
+  return s;
+}
+
 std::vector<std::string> status_bits(std::uint16_t status_word) {
   std::vector<std::string> out;
   for (const auto& r : reg::table())
@@ -332,7 +379,7 @@ std::optional<std::string> check_register(const reg::Register& r, double v) {
   if (reg::in_range(r, v)) return std::nullopt;
   return std::string(r.name) + " = " + fmt(v) + (r.unit.empty() ? "" : " ") + std::string(r.unit) +
          " is outside its range " + fmt(r.min) + " .. " + fmt(r.max) + (r.unit.empty() ? "" : " ") +
-         std::string(r.unit);
+         std::string(r.unit) + " (the register map: docs/registers.md, maglead registers)";
 }
 
 std::optional<std::string> check_force(const Limits& limits, double force_n) {
@@ -340,20 +387,31 @@ std::optional<std::string> check_force(const Limits& limits, double force_n) {
   // The server's own check: the calibrated inverse refuses beyond safe_fraction × peak.
   const auto inv = phase_for_output_force(limits.calibration, force_n, limits.actuator.safe_force_fraction);
   if (inv.status != InverseStatus::ok)
-    return "force " + fmt(force_n) + " N is beyond the safe limit " + fmt(inv.limit_n) + " N (" +
-           fmt(limits.actuator.safe_force_fraction) + " x peak " +
-           fmt(force_n >= 0 ? limits.calibration.peak_push_n : limits.calibration.peak_pull_n) +
-           " N of calibration " + limits.calibration_source + ")";
+    return "force " + fmt(force_n) + " N is beyond the safe limit " + fmt(inv.limit_n) + " N; allowed " +
+           force_limit_text(limits);
   return std::nullopt;
 }
 
+std::string force_limit_text(const Limits& limits) {
+  const auto& cal = limits.calibration;
+  const double f = limits.actuator.safe_force_fraction;
+  return fmt(f * cal.peak_pull_n) + " .. " + fmt(f * cal.peak_push_n) + " N (safe_force_fraction " + fmt(f) +
+         " in " + limits.actuator_source + " x calibration peaks " + fmt(cal.peak_pull_n) + " / " +
+         fmt(cal.peak_push_n) + " N in " + limits.calibration_source + ")";
+}
+
+std::string position_limit_text(const Limits& limits) {
+  const auto& a = limits.actuator;
+  return fmt(a.stroke_min_m * 1e3) + " .. " + fmt(a.stroke_max_m * 1e3) + " mm (stroke_min_m, stroke_max_m in " +
+         limits.actuator_source + ")";
+}
+
 std::optional<std::string> check_position(const Limits& limits, double position_m) {
-  if (auto why = check_register(*reg::find("position_setpoint_um"), position_m)) return why;
+  // The stroke first: it is the configured limit, usually inside the register's range.
   const auto& a = limits.actuator;
   if (!(position_m >= a.stroke_min_m && position_m <= a.stroke_max_m))
-    return "position " + fmt(position_m * 1e3) + " mm is outside the stroke " + fmt(a.stroke_min_m * 1e3) +
-           " .. " + fmt(a.stroke_max_m * 1e3) + " mm";
-  return std::nullopt;
+    return "position " + fmt(position_m * 1e3) + " mm is outside the stroke " + position_limit_text(limits);
+  return check_register(*reg::find("position_setpoint_um"), position_m);
 }
 
 // ------------------------------------------------------------------------------- commands

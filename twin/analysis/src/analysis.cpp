@@ -532,7 +532,7 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
       throw RecordingError(rec.path + ": needs column 'screw_angle_rad' or 'motor_angle_rad'");
     }
     s.lead_m = act.lead_m;
-    const double gain = term_value("gain", "factor", 1.0);
+    const double gain = term_value("coupling_gain_error", "gain", 1.0);
     // Step-outs: the raw phase leaves its period (hysteresis of 0.3 rad against chatter).
     int lead_count = 0;
     for (std::size_t i = 0; i < n; ++i) {

@@ -36,6 +36,8 @@ struct ControllerConfig {
   double velocity_limit_m_s = 0.01;   // profile defaults until a client writes its own
   double accel_limit_m_s2 = 0.1;
   double watchdog_s = 0.0;            // 0: communication watchdog off
+  // "in position" / "force reached": |target − measured| or |setpoint − estimate| within the
+  // tolerance, continuously for settle_s ([control] in config/actuator.toml, README "Status").
   double in_position_tol_m = 50e-6;   // about two linear-encoder counts
   double force_tol_n = 1.5;           // about one count of phase near φ = 0, plus noise
   double settle_s = 0.05;             // "reached" must hold this long

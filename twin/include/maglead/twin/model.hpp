@@ -3,7 +3,7 @@
 // compares it with recordings and writes corrected ones in the same form, so a corrected model
 // is loaded by the twin (and by the analysis again) without translation.
 //
-//   # format: mls-model/1
+//   # format: maglead-model/1          # required first line (check_model_format)
 //   [model]
 //   source = "paper defaults"          # free text: where the numbers came from
 //   nut_mass_kg = 0.12                 # M
@@ -49,6 +49,9 @@ struct TwinModel {
   ModelTerm& term(const std::string& id);               // finds or appends
 };
 
+inline constexpr const char* kModelFormatLine = "# format: maglead-model/1";
+/// Throws std::runtime_error "FILE:1:1: ..." unless the file's first line is kModelFormatLine.
+void check_model_format(const std::string& path);
 /// Throws std::runtime_error naming the file, line and column, and the term and key at fault.
 TwinModel load_twin_model(const std::string& path);
 /// Writes the format above; throws std::runtime_error on I/O error or an invalid model.

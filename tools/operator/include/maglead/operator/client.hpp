@@ -103,6 +103,21 @@ class Client {
 /// (N, m, m/s, m/s^2, s). Throws ClientError(refused_locally) naming the accepted units.
 double parse_quantity(const std::string& text, std::string_view si_unit);
 
+/// The name a value carries when shown in SI units: the register name with its raw unit suffix
+/// replaced by the SI one (nut_pos_um -> nut_pos_m, force_est_mn -> force_est_n, watchdog_ms ->
+/// watchdog_s); unscaled registers keep their name. The register name itself names the raw
+/// integer (--raw).
+std::string si_name(const registers::Register& reg);
+/// The register whose name or SI name is `name`; nullptr when none.
+const registers::Register* find_by_any_name(std::string_view name);
+/// Decimal places of the register's resolution in SI units (scale 1e-6 -> 6; 0 for integers).
+int si_decimals(const registers::Register& reg);
+/// The SI value rounded to the register's resolution, as the nearest double to that decimal
+/// (0.3, never 0.30000000000000004); float32 registers to 7 significant digits.
+double si_rounded(const registers::Register& reg, double value_si);
+/// The SI value as text at the register's resolution ("0.3", "20.0001", "1000").
+std::string si_text(const registers::Register& reg, double value_si);
+
 /// Name and meaning of a code (alarm, reject reason, drive state, mode); "unknown (N)" if none.
 std::string code_name(std::span<const registers::Code> codes, double value);
 std::string code_meaning(std::span<const registers::Code> codes, double value);
@@ -114,7 +129,13 @@ struct Limits {
   ActuatorParams actuator;
   ForceCalibration calibration;
   std::string calibration_source;
+  std::string actuator_source = "built-in defaults";  // where stroke and safe_force_fraction come from
 };
+/// The allowed range of a force or position setpoint with where its limits are set, e.g.
+/// "-38.4 .. 38.4 N (safe_force_fraction 0.8 in config/actuator.toml x calibration peaks
+/// -48 / 48 N in config/calibration.toml)".
+std::string force_limit_text(const Limits& limits);
+std::string position_limit_text(const Limits& limits);
 /// Checks an output-force setpoint as the server does (register range, then the calibrated
 /// safe limit); returns the reason it would be refused, or nothing.
 std::optional<std::string> check_force(const Limits& limits, double force_n);

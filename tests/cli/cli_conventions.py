@@ -1,0 +1,234 @@
+"""The command line's conventions, as a user meets them: --version (and the same version in the
+controller's FC43 device identification), unknown commands and options answered with the closest
+match and the usage line, paths relative to the working directory, progress only on a terminal
+and --quiet, errors in config and model files with FILE:LINE:COLUMN, poll's SI names and JSON
+rounded to each register's resolution, and limit errors that say the value, the limit and where
+the limit is set.
+Usage: cli_conventions.py MAGLEAD_BIN CONFIG_DIR WORK_DIR VERSION"""
+import json
+import os
+import pty
+import re
+import select
+import shutil
+import struct
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "controller"))
+from modbus_common import Server, check, finish, raw_request, watchdog  # noqa: E402
+
+MAGLEAD, CONFIG, WORK, VERSION = (os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2]),
+                                  os.path.abspath(sys.argv[3]), sys.argv[4])
+
+
+def run(*args, cwd=None, env=None, timeout=120):
+    p = subprocess.run([MAGLEAD, *args], capture_output=True, text=True, timeout=timeout, cwd=cwd,
+                       env=env)
+    return p.returncode, p.stdout, p.stderr
+
+
+def run_in_pty(*args, cwd=None):
+    """Runs maglead with stdout and stderr on a pseudo-terminal; returns (exit code, output)."""
+    pid, fd = pty.fork()
+    if pid == 0:
+        if cwd:
+            os.chdir(cwd)
+        os.execv(MAGLEAD, [MAGLEAD, *args])
+    out = b""
+    while True:
+        r, _, _ = select.select([fd], [], [], 60)
+        if not r:
+            break
+        try:
+            chunk = os.read(fd, 65536)
+        except OSError:
+            break
+        if not chunk:
+            break
+        out += chunk
+    _, status = os.waitpid(pid, 0)
+    os.close(fd)
+    return os.WEXITSTATUS(status) if os.WIFEXITED(status) else -1, out.decode(errors="replace")
+
+
+def copy_config(name):
+    d = os.path.join(WORK, name)
+    shutil.rmtree(d, ignore_errors=True)
+    shutil.copytree(CONFIG, d)
+    return d
+
+
+def main():
+    watchdog(240)
+    shutil.rmtree(WORK, ignore_errors=True)
+    os.makedirs(WORK)
+    version_and_usage()
+    relative_paths_and_progress()
+    file_errors()
+    against_a_server()
+    finish()
+
+
+def version_and_usage():
+    rc, out, err = run("--version")
+    check(rc == 0 and out.strip() == f"maglead {VERSION}", f"--version prints the CMake project version: {out!r}")
+    rc, out, err = run("pol")
+    check(rc == 2 and "unknown command 'pol'" in err and "did you mean 'maglead poll'?" in err
+          and "usage: maglead COMMAND [OPTIONS]" in err, f"unknown command: {err.strip()!r}")
+    rc, out, err = run("moonwalk")
+    check(rc == 2 and "unknown command 'moonwalk'" in err and "did you mean" not in err and "poll" in err,
+          f"unknown command with nothing close lists the commands: {err.strip()!r}")
+    rc, out, err = run("poll", "--prot", "1502")
+    check(rc == 2 and "unknown option '--prot' for 'maglead poll'" in err and "did you mean '--port'?" in err
+          and "usage: maglead poll [OPTIONS]" in err, f"unknown option: {err.strip()!r}")
+    rc, out, err = run("bench", "modbsu")
+    check(rc == 2 and "did you mean 'maglead bench modbus'?" in err, f"unknown subcommand of bench: {err.strip()!r}")
+    rc, out, err = run("simulate", "--scenario", "hand-push", "--duraton", "1s", "--out", os.path.join(WORK, "x.csv"))
+    check(rc == 2 and "did you mean '--duration'?" in err, f"option typo after valid ones: {err.strip()!r}")
+
+
+def relative_paths_and_progress():
+    # From a directory that is neither the source nor the build tree, every path is relative to it.
+    elsewhere = os.path.join(WORK, "elsewhere")
+    os.makedirs(os.path.join(elsewhere, "sub"))
+    cfg = os.path.relpath(copy_config("cfg_rel"), elsewhere)
+    shutil.copy(os.path.join(CONFIG, "model.toml"), os.path.join(elsewhere, "sub", "my_model.toml"))
+    rc, out, err = run("simulate", "--scenario", "hand-push", "--duration", "2s", "--seed", "1",
+                       "--out", "sub/rec.csv", "--config", cfg, cwd=elsewhere)
+    check(rc == 0 and os.path.exists(os.path.join(elsewhere, "sub", "rec.csv")),
+          f"simulate --out relative to the working directory: {err.strip()[-200:]}")
+    check(err == "", f"no progress when stderr is not a terminal: {err!r}")
+    rc, out, err = run("twin-check", "--recording", "sub/rec.csv", "--model", "sub/my_model.toml", "--config", cfg,
+                       cwd=elsewhere)
+    check(rc == 0, f"twin-check with relative --recording, --model and --config: {err.strip()[-300:]}")
+    # Progress only on a terminal, and never with --quiet.
+    rc, text = run_in_pty("simulate", "--scenario", "hand-push", "--duration", "2s", "--out", "sub/rec2.csv",
+                          "--config", cfg, cwd=elsewhere)
+    check(rc == 0 and "simulate hand-push [" in text and "100%" in text, "progress bar on a terminal")
+    rc, text = run_in_pty("--quiet", "simulate", "--scenario", "hand-push", "--duration", "2s", "--out",
+                          "sub/rec3.csv", "--config", cfg, cwd=elsewhere)
+    check(rc == 0 and "[" not in text and "%" not in text and "wrote" in text, f"--quiet: no progress: {text!r}")
+    rc, text = run_in_pty("simulate", "--quiet", "--scenario", "hand-push", "--duration", "2s", "--out",
+                          "sub/rec4.csv", "--config", cfg, cwd=elsewhere)
+    check(rc == 0 and "%" not in text, "--quiet after the command name works too")
+
+
+def file_errors():
+    # A model file without its format line, a TOML syntax error, a bad value: FILE:LINE:COLUMN.
+    no_fmt = os.path.join(WORK, "no_format.toml")
+    with open(os.path.join(CONFIG, "model.toml")) as f:
+        body = f.read().split("\n", 1)[1]
+    with open(no_fmt, "w") as f:
+        f.write(body)
+    rec = os.path.join(WORK, "elsewhere", "sub", "rec.csv")
+    rc, _, err = run("twin-check", "--recording", rec, "--model", no_fmt, "--config", CONFIG)
+    check(rc == 2 and f"{no_fmt}:1:1:" in err and "# format: maglead-model/1" in err,
+          f"model without '# format' refused: {err.strip()!r}")
+    rc, _, err = run("analyze", "--recording", rec, "--model", no_fmt, "--out", os.path.join(WORK, "an"),
+                     "--config", CONFIG)
+    check(rc == 2 and f"{no_fmt}:1:1:" in err, f"analyze refuses it too: {err.strip()[-200:]!r}")
+
+    cfg = copy_config("cfg_bad_net")
+    with open(os.path.join(cfg, "network.toml"), "a") as f:
+        f.write("\n[server]\nread_only = tru\n")
+    rc, _, err = run("serve", "--config", cfg, "--port", "0", "--duration", "1s")
+    m = re.search(r"network\.toml:(\d+):(\d+): ", err)
+    check(rc == 2 and m is not None, f"TOML syntax error with line and column: {err.strip()!r}")
+    cfg = copy_config("cfg_bad_act")
+    with open(os.path.join(cfg, "actuator.toml")) as f:
+        lines = f.read().splitlines()
+    at = next(i for i, l in enumerate(lines) if l.startswith("coulomb_n"))
+    lines[at] = "coulomb_n = -7.5"
+    with open(os.path.join(cfg, "actuator.toml"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    rc, _, err = run("serve", "--config", cfg, "--port", "0", "--duration", "1s")
+    check(rc == 2 and f"actuator.toml:{at + 1}:13: [actuator] coulomb_n must be a positive number" in err,
+          f"bad value at its line and column: {err.strip()!r}")
+    cfg = copy_config("cfg_bad_control")
+    with open(os.path.join(cfg, "actuator.toml"), "a") as f:
+        f.write("force_reached_tolerance = 1.0\n")
+    rc, _, err = run("serve", "--config", cfg, "--port", "0", "--duration", "1s")
+    check(rc == 2 and re.search(r"actuator\.toml:\d+:27: \[control\] unknown key 'force_reached_tolerance'", err)
+          is not None, f"unknown [control] key: {err.strip()!r}")
+
+
+def against_a_server():
+    # The controller runs with a tighter safe force than the client's configuration believes.
+    tight = copy_config("cfg_tight")
+    with open(os.path.join(tight, "actuator.toml")) as f:
+        text = f.read()
+    with open(os.path.join(tight, "actuator.toml"), "w") as f:
+        f.write(re.sub(r"safe_force_fraction = [0-9.]+", "safe_force_fraction = 0.4", text))
+    srv = Server(MAGLEAD, tight, "--port", "0")
+    try:
+        port = str(srv.port)
+        check(any("configuration from " + tight in l for l in srv.lines), f"serve names its configuration: {srv.lines}")
+        # FC43 device identification: revision = --version, vendor URL names the project.
+        rsp = raw_request(srv.port, bytes([43, 14, 2, 0]))
+        objs, p = {}, 7
+        for _ in range(rsp[6]):
+            oid, n = rsp[p], rsp[p + 1]
+            objs[oid] = rsp[p + 2:p + 2 + n].decode()
+            p += 2 + n
+        check(objs.get(2) == VERSION, f"FC43 revision is the project version: {objs.get(2)!r}")
+        check("example" not in objs.get(3, "example") and "maglead" in objs.get(3, ""),
+              f"FC43 vendor URL names the project: {objs.get(3)!r}")
+        major, minor = (int(x) for x in VERSION.split(".")[:2])
+        fw = struct.unpack(">H", raw_request(srv.port, struct.pack(">BHH", 4, 1, 1))[2:4])[0]
+        check(fw == major * 256 + minor, f"firmware_version register {fw:#06x} from the project version")
+
+        # poll: SI names carry the unit they print; JSON at each register's resolution.
+        rc, out, err = run("poll", "--port", port, "--json")
+        j = json.loads(out) if rc == 0 else {}
+        rc2, regs_json, _ = run("registers", "--format", "json")
+        regs = {r["name"]: r for r in json.loads(regs_json)["registers"]} if rc2 == 0 else {}
+        suffix = {"m": "_m", "m/s": "_m_s", "m/s^2": "_m_s2", "rad": "_rad", "N": "_n", "s": "_s"}
+        bad_names, noisy = [], []
+        raw_text = out.split('"values"', 1)[1].split("}", 1)[0] if rc == 0 else ""
+        for name, unit in j.get("units", {}).items():
+            if unit in suffix and not name.endswith(suffix[unit]):
+                bad_names.append(f"{name} [{unit}]")
+        for m in re.finditer(r'"(\w+)": (-?[0-9.eE+-]+)', raw_text):
+            name, literal = m.group(1), m.group(2)
+            reg = regs.get(name) or next((r for r in regs.values() if r["name"] != name and
+                                          name == si_name(r["name"], r["scale"])), None)
+            if reg is None or reg["type"] == "f32":
+                continue
+            decimals = max(0, round(-__import__("math").log10(reg["scale"]))) if reg["scale"] < 1 else 0
+            frac = literal.split(".")[1] if "." in literal and "e" not in literal.lower() else ""
+            if "e" in literal.lower() or len(frac) > decimals:
+                noisy.append(f"{name}={literal}")
+        check(rc == 0 and not bad_names and "nut_pos_m" in j.get("values", {}),
+              f"poll --json: every SI name carries its unit ({bad_names})")
+        check(rc == 0 and not noisy and len(raw_text) > 100, f"poll --json: no digits beyond the resolution ({noisy})")
+
+        # Limits: locally (value, limit, where it is set) and from the controller's own configuration.
+        rc, _, err = run("set", "--port", port, "force", "60", "--config", CONFIG)
+        check(rc == 2 and "force 60 N" in err and "safe limit 36.2626 N" in err and "safe_force_fraction 0.8 in " +
+              os.path.join(CONFIG, "actuator.toml") in err and "calibration.toml" in err,
+              f"local limit error: value, limit, where: {err.strip()!r}")
+        rc, _, err = run("set", "--port", port, "position", "45mm", "--config", CONFIG)
+        check(rc == 2 and "45 mm" in err and "0 .. 40 mm" in err and "stroke_max_m" in err,
+              f"stroke error: value, limit, where: {err.strip()!r}")
+        run("enable", "--port", port)
+        rc, _, err = run("set", "--port", port, "force", "25", "--config", CONFIG)
+        check(rc == 4 and "force 25.000 N refused by the controller" in err and "exception 03" in err
+              and "safe_force_fraction 0.8" in err, f"the controller's refusal names value and limit: {err.strip()!r}")
+    finally:
+        srv.stop()
+
+
+def si_name(name, scale):
+    if scale == 1:
+        return name
+    for raw, si in (("_um_s2", "_m_s2"), ("_um_s", "_m_s"), ("_um", "_m"), ("_urad", "_rad"), ("_mn", "_n"),
+                    ("_ms", "_s"), ("_us", "_s")):
+        if name.endswith(raw):
+            return name[:-len(raw)] + si
+    return name
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,166 @@
+"""`maglead watch` as a person sees it, in a real terminal: tmux at 80x24, then 60x20. The screen
+must fit (nothing wraps or scrolls away), show the values the controller reports, and draw the
+force trend (setpoint, estimate, load cell) against a time axis. When the server restarts the
+screen says "reconnecting", then recovers. Without a terminal (a pipe, or --once) watch prints
+plain lines with no escape codes, and also reconnects.
+Usage: watch_tmux.py MAGLEAD_BIN CONFIG_DIR"""
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+from op_common import Server, check, finish, run, watchdog
+
+MAGLEAD, CONFIG = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
+SOCKET = f"maglead_watch_test_{os.getpid()}"
+SESSION = "watch"
+
+
+def tmux(*args, check_rc=True):
+    p = subprocess.run(["tmux", "-L", SOCKET, "-f", "/dev/null", *args], capture_output=True, text=True, timeout=10)
+    if check_rc and p.returncode != 0:
+        raise RuntimeError(f"tmux {' '.join(args)}: {p.stderr.strip()}")
+    return p.stdout
+
+
+def screen():
+    """The pane as the person sees it: one string per terminal row."""
+    return tmux("capture-pane", "-p", "-t", SESSION).split("\n")[:-1]
+
+
+def wait_screen(pred, seconds=15):
+    """Waits until pred(rows) holds (or gives up after `seconds`); returns the last rows seen."""
+    end = time.time() + seconds
+    rows = screen()
+    while not pred(rows) and time.time() < end:
+        time.sleep(0.1)
+        rows = screen()
+    return rows
+
+
+def value_after(rows, label):
+    for r in rows:
+        m = re.search(re.escape(label) + r"\s+(-?[0-9.]+)", r)
+        if m:
+            return float(m.group(1))
+    return float("nan")
+
+
+def chart_rows(rows):
+    return [r[8:] for r in rows if len(r) >= 8 and r[7] == "|"]
+
+
+def fits(rows, width, height, what):
+    text = "\n".join(rows)
+    check(len(rows) <= height and all(len(r) <= width for r in rows),
+          f"{what}: {len(rows)} rows, widest {max(len(r) for r in rows)} columns fit {width}x{height}")
+    check(rows[0].startswith("maglead watch"), f"{what}: the title is on the first row (nothing scrolled): {rows[0]!r}")
+    last = [r for r in rows if r.strip()][-1]
+    check(last.rstrip().endswith("now") and re.search(r"-30s", last) is not None,
+          f"{what}: the time axis (-30s .. now) is on the last row: {last!r}")
+    check("* estimate" in text and "o load cell" in text and "- setpoint" in text, f"{what}: the trend's legend")
+    check(len(chart_rows(rows)) >= 3, f"{what}: a chart of {len(chart_rows(rows))} rows")
+
+
+def main():
+    watchdog(150)
+    if shutil.which("tmux") is None:
+        check(False, "tmux is installed (tools/setup.sh installs it)")
+        finish()
+    srv = Server(MAGLEAD, CONFIG, "--port", "0")
+    port = srv.port
+    conn = ["--port", str(port)]
+    try:
+        tmux("new-session", "-d", "-s", SESSION, "-x", "80", "-y", "24",
+             f"{MAGLEAD} watch --port {port} --rate 5")
+        tmux("set-option", "-t", SESSION, "remain-on-exit", "on")
+        rows = wait_screen(lambda r: "now" in "\n".join(r) and "position" in "\n".join(r))
+        fits(rows, 80, 24, "80x24")
+        _, out, _ = run(MAGLEAD, "poll", *conn, "--json")
+        poll = json.loads(out)["values"]
+        pos_mm = value_after(rows, "position")
+        check(abs(pos_mm - poll["nut_pos_m"] * 1e3) < 0.1,
+              f"80x24: position {pos_mm} mm as poll reads {poll['nut_pos_m'] * 1e3:.3f} mm")
+        check(re.search(r"drive ready\s+mode idle", "\n".join(rows)) is not None, "80x24: drive state spelled out")
+
+        # Force control: the setpoint, the estimate and the load cell all appear in the trend.
+        rc, _, err = run(MAGLEAD, "enable", *conn)
+        rc2, _, err2 = run(MAGLEAD, "set", *conn, "force", "10", "--config", CONFIG)
+        check(rc == 0 and rc2 == 0, f"enable and set force 10 ({err.strip()} {err2.strip()})")
+        rows = wait_screen(lambda r: value_after(r, "setpoint") == 10.0 and "force_reached" in "\n".join(r) and
+                           all(any(m in c for c in chart_rows(r)) for m in "*o-"))
+        text = "\n".join(rows)
+        check(value_after(rows, "setpoint") == 10.0 and "drive enabled" in text and "force_reached" in text,
+              "80x24: setpoint 10.00 N, drive enabled, force_reached shown")
+        est = value_after(rows, "estimate")
+        check(abs(est - 10.0) < 2.0, f"80x24: estimate {est} N near the setpoint")
+        check(all(any(m in c for c in chart_rows(rows)) for m in "*o-"),
+              "80x24: the chart plots estimate (*), load cell (o) and setpoint (-)")
+        fits(rows, 80, 24, "80x24 in force control")
+
+        tmux("resize-window", "-t", SESSION, "-x", "60", "-y", "20")
+        rows = wait_screen(lambda r: len(r) == 20 and r[0].startswith("maglead watch") and
+                           [x for x in r if x.strip()][-1].rstrip().endswith("now"))
+        fits(rows, 60, 20, "60x20")
+        check(value_after(rows, "setpoint") == 10.0 and value_after(rows, "position") > 0,
+              "60x20: the values are still there")
+
+        # The server restarts on the same port: "reconnecting", then back with fresh values.
+        srv.stop()
+        rows = wait_screen(lambda r: r[0].startswith("RECONNECTING"))
+        check(rows[0].startswith("RECONNECTING to 127.0.0.1:" + str(port)), f"restart: the screen says so: {rows[0]!r}")
+        fits_rows = len(rows) <= 20 and all(len(r) <= 60 for r in rows)
+        check(fits_rows, "60x20 while reconnecting")
+        srv = Server(MAGLEAD, CONFIG, "--port", str(port))
+        rows = wait_screen(lambda r: r[0].startswith("maglead watch") and "connected" in r[0]
+                           and "drive ready" in "\n".join(r))
+        check(rows[0].startswith("maglead watch") and "drive ready" in "\n".join(rows),
+              f"restart: recovered, the new controller's state shown: {rows[:2]}")
+        tmux("resize-window", "-t", SESSION, "-x", "80", "-y", "24")  # room for the closing line
+        tmux("send-keys", "-t", SESSION, "q")
+        rows = wait_screen(lambda r: any("refreshes from" in x for x in r))
+        last = [x for x in rows if "maglead watch:" in x]
+        check(bool(last) and "1 reconnect" in last[0], f"q quits, the screen is restored, one line: {last}")
+    finally:
+        tmux("kill-server", check_rc=False)
+        srv.stop()
+    plain()
+    finish()
+
+
+def plain():
+    srv = Server(MAGLEAD, CONFIG, "--port", "0")
+    port = str(srv.port)
+    try:
+        rc, out, err = run(MAGLEAD, "watch", "--port", port, "--once")
+        check(rc == 0 and out.count("\n") == 1 and "\x1b" not in out and "drive=ready" in out and "nut_pos_m=" in out,
+              f"--once: one plain line: {out!r}")
+        rc, out, err = run(MAGLEAD, "watch", "--port", port, "--count", "3", "--rate", "20")
+        check(rc == 0 and out.count("\n") == 3 and "\x1b" not in out, f"stdout a pipe: plain lines: {out!r}")
+        p = subprocess.Popen([MAGLEAD, "watch", "--port", port, "--rate", "10"], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+        lines = [p.stdout.readline() for _ in range(2)]
+        srv.stop()
+        seen = [""]
+        while seen[-1] is not None and not any("reconnecting" in x for x in seen):
+            seen.append(p.stdout.readline() or None)
+        srv = Server(MAGLEAD, CONFIG, "--port", port)
+        while seen[-1] is not None and not any("reconnected" in x for x in seen if x):
+            seen.append(p.stdout.readline() or None)
+        after = p.stdout.readline()
+        p.terminate()
+        p.wait(5)
+        check(all("drive=" in x for x in lines), "pipe: lines before the drop")
+        check(any(x and "reconnecting to" in x for x in seen) and any(x and "reconnected" in x for x in seen)
+              and "drive=ready" in after, f"pipe: reconnecting, reconnected, then lines again: {seen[-2:]} {after!r}")
+    finally:
+        srv.stop()
+    rc, out, err = run(MAGLEAD, "watch", "--port", port, "--once")
+    check(rc == 3 and "connection refused" in err, f"--once without a controller: exit 3 ({err.strip()})")
+
+
+if __name__ == "__main__":
+    main()
