@@ -343,6 +343,17 @@ std::vector<double> heldout(const Grams& g, const std::vector<int>& idx) {
   return out;
 }
 
+// Mean over its standard error (one-sample t); large when every value is positive alike.
+double t_statistic(const std::vector<double>& x) {
+  const double n = static_cast<double>(x.size());
+  if (n < 2) return 0.0;
+  const double mean = std::accumulate(x.begin(), x.end(), 0.0) / n;
+  double var = 0;
+  for (double v : x) var += (v - mean) * (v - mean);
+  var /= n - 1;
+  return var > 0 ? mean / std::sqrt(var / n) : (mean > 0 ? 1e9 : 0.0);
+}
+
 double total(const std::vector<double>& x) { return std::accumulate(x.begin(), x.end(), 0.0); }
 
 // Share of `a`'s fitted contribution (beyond `base`) that columns `b` reproduce: partial R².
@@ -452,19 +463,32 @@ Selection select(const Prepared& P, const Options& opt,
         }
       }
       if (!best.var) continue;
-      // Consistency over segments: t statistic of per-segment relative gains.
-      std::vector<double> d;
+      // Consistency over the segments where the term acts (its fitted contribution carries at
+      // least a tenth of the segment's error; elsewhere it predicts nothing and tells nothing,
+      // as a drift early in a recording): t statistic of the error each one removes.
+      const Fit full = [&] {
+        std::vector<int> idx = current;
+        idx.insert(idx.end(), best.var->idx.begin(), best.var->idx.end());
+        return solve(g, idx, -1);
+      }();
+      const auto k = static_cast<Eigen::Index>(best.var->idx.size());
+      const Eigen::VectorXd w = full.theta.tail(k);
+      std::vector<double> d, rel;
       for (std::size_t f = 0; f < cur_ho.size(); ++f) {
         if (!(cur_ho[f] > 0)) continue;
-        d.push_back((cur_ho[f] - best.ho[f]) / cur_ho[f]);
+        Eigen::MatrixXd xx(k, k);
+        for (Eigen::Index r = 0; r < k; ++r)
+          for (Eigen::Index c = 0; c < k; ++c)
+            xx(r, c) = g.xx[f](best.var->idx[static_cast<std::size_t>(r)], best.var->idx[static_cast<std::size_t>(c)]);
+        if (w.dot(xx * w) < opt.acting_share * cur_ho[f]) continue;
+        d.push_back(cur_ho[f] - best.ho[f]);
+        rel.push_back(d.back() / cur_ho[f]);
         best.improved += d.back() > 0;
       }
-      const double nd = static_cast<double>(d.size());
-      const double mean = nd > 0 ? std::accumulate(d.begin(), d.end(), 0.0) / nd : 0.0;
-      double var = 0;
-      for (double x : d) var += (x - mean) * (x - mean);
-      var /= std::max(1.0, nd - 1);
-      best.t = var > 0 ? mean / std::sqrt(var / nd) : (mean > 0 ? 1e9 : 0.0);
+      // Relative gains weigh every segment alike (an effect spread over the recording); the
+      // error removed weighs segments by what is at stake (an effect that grows, as a drift).
+      // Either must be consistent.
+      best.t = std::max(t_statistic(d), t_statistic(rel));
       best.gain = 100.0 * (total(cur_ho) - best_sse) / total(cur_ho);
       trials.push_back(std::move(best));
     }

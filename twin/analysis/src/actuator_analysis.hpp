@@ -29,6 +29,7 @@ struct Options {
   double filter_hz = 20.0;        // zero-phase low-pass of every signal
   double min_gain_pct = 1.0;      // held-out mean-square error a term must remove …
   double min_t = 3.0;             // … consistently over the segments (t of per-segment gains)
+  double acting_share = 0.1;      // segments where the term carries this share of the error count
   double min_explained_counts = 0.1;  // … and explain this share of one count's force (RMS)
   double parsimony = 0.99;        // a simpler term reaching this share of the best gain wins
   double alternative_r2 = 0.95;   // another effect reproducing this much is named beside it
