@@ -1,4 +1,4 @@
-// Ties the physics core to the paper (eq. 2, 3, 6, 7) and to physics.md's signs.
+// Ties the physics core to the paper (eq. 2, 3, 6, 7) and to the signs of docs/conventions.md.
 #include <gtest/gtest.h>
 
 #include "test_tmp.hpp"
@@ -18,7 +18,7 @@ constexpr double kPi = std::numbers::pi;
 
 TEST(PaperCalibration, Eq7AtQuarterLeadMatchesThePaper) {
   const auto cal = paper_calibration();
-  // physics.md: eq. 7 at φ = ±π/2 gives about −44.6 N / +46.2 N.
+  // docs/conventions.md: eq. 7 at φ = ±π/2 gives about −44.6 N / +46.2 N.
   EXPECT_NEAR(cal.polynomial.load_force_n(kPi / 2), -44.6, 0.1);
   EXPECT_NEAR(cal.polynomial.load_force_n(-kPi / 2), 46.3, 0.15);
   EXPECT_NEAR(cal.polynomial.load_force_n(0.0), -4.28, 1e-12);
@@ -61,7 +61,7 @@ TEST(Encoders, CountsToAnglesAndPositions) {
   EXPECT_NEAR(nut_pos_m_from_counts(1, a), 21.6e-6, 0.05e-6);
   EXPECT_EQ(linear_counts_from_m(nut_pos_m_from_counts(1234, a) + 1e-9, a), 1234);
   EXPECT_EQ(motor_counts_from_rad(-1e-9, a), -1);  // floor, like an encoder edge
-  // One linear count is about 0.023 rad of phase (physics.md).
+  // One linear count is about 0.023 rad of phase (docs/conventions.md).
   EXPECT_NEAR(rest_angle_rad(a.linear_count_m, a.lead_m), 0.0226, 0.0005);
 }
 

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# The test command: set up, build, run every test; then again under ASan/UBSan.
+# The test command: set up, check the tree, build, run every test; then again under ASan/UBSan.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/setup.sh
+bash tools/check_tree.sh
 bash tools/build.sh build
 (cd build && ctest --output-on-failure -j 2)
 if [ "${MAGLEAD_SKIP_SANITIZERS:-0}" != 1 ]; then

@@ -1,6 +1,6 @@
 #pragma once
-// Actuator geometry, sensors and nominal dynamics (physics.md, "Machine"), and the conversions
-// between encoder counts, angles and positions.
+// Actuator geometry, sensors and nominal dynamics (docs/conventions.md, "The machine"), and the
+// conversions between encoder counts, angles and positions.
 #include <cmath>
 #include <cstdint>
 #include <numbers>

@@ -1,6 +1,6 @@
 #pragma once
-// Coupling force models in the load-cell convention of physics.md: F̂_s(φ) is the force on the
-// nut from the load that holds it still at phase φ, so the magnetic force is F_m ≈ −F̂_s.
+// Coupling force models in the load-cell convention of docs/conventions.md: F̂_s(φ) is the force
+// on the nut from the load that holds it still at phase φ, so the magnetic force is F_m ≈ −F̂_s.
 #include <string>
 #include <vector>
 

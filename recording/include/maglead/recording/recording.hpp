@@ -1,5 +1,5 @@
 #pragma once
-// The `mls-recording/1` time-series format (shared/spec/recording.md): CSV with `# key: value`
+// The `mls-recording/1` time-series format (docs/recording-format.md): CSV with `# key: value`
 // metadata, one header row of `<quantity>_<unit>` names, numeric rows, empty field = missing.
 #include <cstddef>
 #include <optional>
