@@ -15,6 +15,7 @@ packages=(
   python3-pymodbus mbpoll socat             # independent Modbus clients for integration tests
   python3-serial python3-serial-asyncio     # pymodbus.client imports these even for TCP
   chromium                                  # headless browser: the anomaly report renders (tests)
+  python3-pandas                            # bench analyze: read_csv as the CSV reading reference
 )
 missing=()
 for p in "${packages[@]}"; do
