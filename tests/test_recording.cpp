@@ -210,8 +210,14 @@ TEST(Recording, EveryErrorNamesFileLineAndColumn) {
        "# format: mls-recording/1\n\nt_s,a_m,a_m\n",
        {},
        {"twice.csv:3: ", "column 'a_m' appears twice"}},
-      {"short", head + "0,1,2\n0.001,1\n", {}, {"short.csv:4: ", "has 2 fields, header has 3"}},
-      {"long", head + "0,1,2,3\n", {}, {"long.csv:3: ", "more fields than the header's 3"}},
+      {"short",
+       head + "0,1,2\n0.001,1\n",
+       {},
+       {"short.csv:4: ", "has 2 fields, header has 3", "column 3 (temp_c) is missing"}},
+      {"long",
+       head + "0,1,2,3\n",
+       {},
+       {"long.csv:3: ", "more fields than the header's 3", "column 4 has no name in the header"}},
   };
   for (const auto& c : cases) {
     const std::string e = error_of(write_file(std::string(c.name) + ".csv", c.text), c.required);

@@ -157,11 +157,13 @@ class RowParser {
       if (comma == std::string_view::npos) {
         if (c + 1 != ncol_)
           throw RecordingError(where(path, line_no_) + "has " + std::to_string(c + 1) +
-                               " fields, header has " + std::to_string(ncol_));
+                               " fields, header has " + std::to_string(ncol_) + ": column " +
+                               std::to_string(c + 2) + " (" + rec_.names[c + 1] + ") is missing");
         comma = line.size();
       } else if (c + 1 == ncol_) {
         throw RecordingError(where(path, line_no_) + "has more fields than the header's " +
-                             std::to_string(ncol_));
+                             std::to_string(ncol_) + ": column " + std::to_string(ncol_ + 1) +
+                             " has no name in the header");
       }
       std::string_view field = line.substr(start, comma - start);
       while (!field.empty() && field.front() == ' ') field.remove_prefix(1);
