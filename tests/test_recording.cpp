@@ -3,8 +3,12 @@
 
 #include "test_tmp.hpp"
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <fstream>
+#include <random>
 
 #include "maglead/recording/recording.hpp"
 
@@ -76,4 +80,240 @@ TEST(Recording, RaggedRowsAndForeignFormatsAreErrors) {
             std::string::npos);
   EXPECT_NE(error_of(test_tmp_dir() + "/does-not-exist.csv").find("cannot open"),
             std::string::npos);
+}
+
+namespace {
+std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
+
+// Doubles of every kind a recording can hold: random bit patterns (all exponents, subnormals),
+// ordinary magnitudes, small integers, signed zeros; NaN (missing) now and then.
+double sample_value(std::mt19937_64& rng, std::size_t col) {
+  switch (rng() % 6) {
+    case 0: {
+      double v;
+      do {
+        v = std::bit_cast<double>(rng());
+      } while (!std::isfinite(v));
+      return v;
+    }
+    case 1:
+      return std::ldexp(static_cast<double>(rng() % 1000 + 1),
+                        -1074 + static_cast<int>(rng() % 40));
+    case 2:
+      return static_cast<double>(static_cast<std::int64_t>(rng() % 2001) - 1000);
+    case 3:
+      return (rng() % 2 ? -0.0 : 0.0);
+    case 4:
+      return col > 1 && rng() % 4 == 0 ? NAN : std::uniform_real_distribution<double>(-5, 5)(rng);
+    default:
+      return std::normal_distribution<double>(0, 1e-3)(rng);
+  }
+}
+
+void expect_same_bits(const Recording& a, const std::vector<std::vector<double>>& cols) {
+  ASSERT_EQ(a.columns.size(), cols.size());
+  for (std::size_t c = 0; c < cols.size(); ++c) {
+    ASSERT_EQ(a.columns[c].size(), cols[c].size()) << "column " << c;
+    for (std::size_t r = 0; r < cols[c].size(); ++r) {
+      const double got = a.columns[c][r], want = cols[c][r];
+      if (std::isnan(want))
+        ASSERT_TRUE(std::isnan(got)) << "row " << r << " column " << c;
+      else
+        ASSERT_EQ(bits(got), bits(want))
+            << "row " << r << " column " << c << ": " << got << " != " << want;
+    }
+  }
+}
+}  // namespace
+
+// Tens of megabytes, so the reader crosses many read blocks; written by RecordingWriter
+// (shortest round-trip, to_chars) and by hand with %.17g: both read back bit for bit.
+TEST(Recording, LargeFileRoundTripIsBitExact) {
+  std::mt19937_64 rng(20240610);
+  const std::size_t rows = 200000, ncol = 6;
+  std::vector<std::string> names = {"t_s", "nut_pos_m", "a_m", "b_n", "c_rad", "d_a"};
+  std::vector<std::vector<double>> cols(ncol, std::vector<double>(rows));
+  double t = 0;
+  for (std::size_t r = 0; r < rows; ++r) {
+    t += (r % 10 == 3) ? 0.0 : 1e-3 * (1.0 + 1e-3 * static_cast<double>(rng() % 7));
+    cols[0][r] = t;
+    for (std::size_t c = 1; c < ncol; ++c) cols[c][r] = sample_value(rng, c);
+  }
+
+  const std::string shortest = test_tmp_dir() + "/large_to_chars.csv";
+  {
+    RecordingWriter w(shortest, {{"sample_rate_hz", "1000"}}, names);
+    std::vector<double> row(ncol);
+    for (std::size_t r = 0; r < rows; ++r) {
+      for (std::size_t c = 0; c < ncol; ++c) row[c] = cols[c][r];
+      w.write_row(row.data(), ncol);
+    }
+    w.close();
+  }
+  const Recording a = read_recording(shortest, {"t_s"});
+  EXPECT_EQ(a.names, names);
+  expect_same_bits(a, cols);
+
+  const std::string g17 = test_tmp_dir() + "/large_g17.csv";
+  {
+    std::FILE* f = std::fopen(g17.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fprintf(f, "# format: mls-recording/1\nt_s,nut_pos_m,a_m,b_n,c_rad,d_a\n");
+    for (std::size_t r = 0; r < rows; ++r)
+      for (std::size_t c = 0; c < ncol; ++c) {
+        if (!std::isnan(cols[c][r])) std::fprintf(f, "%.17g", cols[c][r]);
+        std::fputc(c + 1 < ncol ? ',' : '\n', f);
+      }
+    ASSERT_EQ(std::fclose(f), 0);
+  }
+  expect_same_bits(read_recording(g17), cols);
+}
+
+// Every malformed input names the file, the line and the column (by number and name where
+// there is one).
+TEST(Recording, EveryErrorNamesFileLineAndColumn) {
+  struct Case {
+    const char* name;
+    std::string text;
+    std::vector<std::string> required;
+    std::vector<std::string> expected;
+  };
+  const std::string head = "# format: mls-recording/1\nt_s,nut_pos_m,temp_c\n";
+  const std::vector<Case> cases = {
+      {"required",
+       head + "0,1,2\n",
+       {"t_s", "load_force_n"},
+       {"required.csv:2: ", "'load_force_n'"}},
+      {"word",
+       head + "0,1,2\n0.001,abc,2\n",
+       {},
+       {"word.csv:4: ", "column 2 (nut_pos_m)", "'abc'"}},
+      {"inf", head + "0,1,inf\n", {}, {"inf.csv:3: ", "column 3 (temp_c)", "'inf'"}},
+      {"nantext", head + "0,nan,1\n", {}, {"nantext.csv:3: ", "column 2 (nut_pos_m)", "'nan'"}},
+      {"range", head + "0,1e400,1\n", {}, {"range.csv:3: ", "column 2 (nut_pos_m)", "'1e400'"}},
+      {"tail", head + "0,1.5x,1\n", {}, {"tail.csv:3: ", "column 2 (nut_pos_m)", "'1.5x'"}},
+      {"sign", head + "0,1,--2\n", {}, {"sign.csv:3: ", "column 3 (temp_c)", "'--2'"}},
+      {"inner", head + "0,1 2,3\n", {}, {"inner.csv:3: ", "column 2 (nut_pos_m)", "'1 2'"}},
+      {"notime",
+       head + "0,1,2\n,1,2\n",
+       {},
+       {"notime.csv:4: ", "column 1 (t_s)", "time is missing"}},
+      {"back",
+       head + "0,1,2\n0.002,1,2\n# note\n\n0.001,1,2\n",
+       {},
+       {"back.csv:7: ", "column 1 (t_s)", "time decreases (0.001 after 0.002)"}},
+      {"noname",
+       "# format: mls-recording/1\nt_s,,temp_c\n",
+       {},
+       {"noname.csv:2: ", "column 2 has no name"}},
+      {"twice",
+       "# format: mls-recording/1\n\nt_s,a_m,a_m\n",
+       {},
+       {"twice.csv:3: ", "column 'a_m' appears twice"}},
+      {"short",
+       head + "0,1,2\n0.001,1\n",
+       {},
+       {"short.csv:4: ", "has 2 fields, header has 3", "column 3 (temp_c) is missing"}},
+      {"long",
+       head + "0,1,2,3\n",
+       {},
+       {"long.csv:3: ", "more fields than the header's 3", "column 4 has no name in the header"}},
+  };
+  for (const auto& c : cases) {
+    const std::string e = error_of(write_file(std::string(c.name) + ".csv", c.text), c.required);
+    for (const auto& want : c.expected)
+      EXPECT_NE(e.find(want), std::string::npos) << c.name << ": " << e;
+  }
+  EXPECT_NE(error_of(write_file("empty.csv", "# format: mls-recording/1\n\n"))
+                .find("empty.csv: no header row"),
+            std::string::npos);
+}
+
+// A bad field far into a large file: the line count survives the block boundaries, comment and
+// blank lines and CRLF endings.
+TEST(Recording, ErrorLineIsExactDeepInALargeFile) {
+  for (const std::string eol : {"\n", "\r\n"}) {
+    std::string text =
+        "# format: mls-recording/1" + eol + "# source: test" + eol + "t_s,x_m,y_n" + eol;
+    std::size_t line = 3;
+    for (int r = 0; r < 150000; ++r) {
+      if (r % 1000 == 999) text += "# comment" + eol, ++line;
+      if (r % 777 == 0) text += eol, ++line;
+      text +=
+          std::to_string(r) + ".125," + std::to_string(r % 97) + ",-1.0000000000000002e-05" + eol;
+      ++line;
+    }
+    text += "150000,7,12.5e" + eol;
+    ++line;
+    text += "150001,7,12.5" + eol;
+    const std::string e =
+        error_of(write_file(eol.size() == 1 ? "deep_lf.csv" : "deep_crlf.csv", text));
+    const std::string at =
+        (eol.size() == 1 ? "deep_lf.csv:" : "deep_crlf.csv:") + std::to_string(line) + ": ";
+    EXPECT_NE(e.find(at), std::string::npos) << e << " (want " << at << ")";
+    EXPECT_NE(e.find("column 3 (y_n): '12.5e' is not a number"), std::string::npos) << e;
+  }
+}
+
+TEST(Recording, CrLfLineEndings) {
+  const auto p =
+      write_file("crlf.csv",
+                 "# format: mls-recording/1\r\n# source: bench 3\r\n\r\nt_s,x_m,temp_c\r\n"
+                 "0,1.5,20\r\n0.001,,21\r\n0.002,2.5,\r\n");
+  const Recording r = read_recording(p, {"t_s", "temp_c"});
+  EXPECT_EQ(r.meta("source"), "bench 3");
+  EXPECT_EQ(r.names, (std::vector<std::string>{"t_s", "x_m", "temp_c"}));
+  ASSERT_EQ(r.rows(), 3u);
+  EXPECT_EQ(r.column("t_s")[2], 0.002);
+  EXPECT_TRUE(std::isnan(r.column("x_m")[1]));
+  EXPECT_EQ(r.column("x_m")[2], 2.5);
+  EXPECT_EQ(r.column("temp_c")[1], 21.0);
+  EXPECT_TRUE(std::isnan(r.column("temp_c")[2]));
+
+  const std::string e = error_of(write_file("crlf_bad.csv", "t_s,x_m\r\n0,1\r\n1,2x\r\n"));
+  EXPECT_NE(e.find("crlf_bad.csv:3: column 2 (x_m): '2x' is not a number"), std::string::npos) << e;
+}
+
+TEST(Recording, TrailingLineWithoutNewline) {
+  Recording r = read_recording(write_file("nonl.csv", "t_s,a_m\n0,1\n1,2"));
+  ASSERT_EQ(r.rows(), 2u);
+  EXPECT_EQ(r.column("a_m")[1], 2.0);
+
+  r = read_recording(write_file("nonl_empty.csv", "t_s,a_m\n0,1\n1,"));
+  ASSERT_EQ(r.rows(), 2u);
+  EXPECT_TRUE(std::isnan(r.column("a_m")[1]));
+
+  r = read_recording(write_file("nonl_cr.csv", "t_s,a_m\r\n0,1\r\n1,3\r"));
+  ASSERT_EQ(r.rows(), 2u);
+  EXPECT_EQ(r.column("a_m")[1], 3.0);
+
+  r = read_recording(write_file("header_only.csv", "# format: mls-recording/1\nt_s,a_m"));
+  EXPECT_EQ(r.names, (std::vector<std::string>{"t_s", "a_m"}));
+  EXPECT_EQ(r.rows(), 0u);
+
+  const std::string e = error_of(write_file("nonl_bad.csv", "t_s,a_m\n0,1\n1,z"));
+  EXPECT_NE(e.find("nonl_bad.csv:3: column 2 (a_m): 'z' is not a number"), std::string::npos) << e;
+}
+
+// Rows need not be tidy: spaces around fields, a '+' sign, comment and blank lines between rows.
+TEST(Recording, UntidyRowsAreRead) {
+  const Recording r = read_recording(
+      write_file("untidy.csv", "t_s, a_m ,b_n\n 0 , +1.5,2\n\n# pause\n0.5,-0, \n1,1e-3,+7\n"));
+  EXPECT_EQ(r.names, (std::vector<std::string>{"t_s", "a_m", "b_n"}));
+  ASSERT_EQ(r.rows(), 3u);
+  EXPECT_EQ(r.column("a_m")[0], 1.5);
+  EXPECT_EQ(bits(r.column("a_m")[1]), bits(-0.0));
+  EXPECT_TRUE(std::isnan(r.column("b_n")[1]));
+  EXPECT_EQ(r.column("b_n")[2], 7.0);
+  EXPECT_EQ(r.column("t_s")[2], 1.0);
+}
+
+// A line longer than the reader's block (1 MiB) is read whole.
+TEST(Recording, LinesLongerThanTheReadBlock) {
+  const std::string note(3 << 20, 'n');
+  const Recording r =
+      read_recording(write_file("longline.csv", "# note: " + note + "\nt_s\n0\n1\n"));
+  EXPECT_EQ(r.meta("note"), note);
+  ASSERT_EQ(r.rows(), 2u);
+  EXPECT_EQ(r.column("t_s")[1], 1.0);
 }

@@ -17,6 +17,7 @@ packages=(
   chromium                                  # headless browser: the anomaly report renders (tests)
   tmux                                      # a real terminal for the `maglead watch` test
   dpkg-dev file                             # cpack's .deb: dpkg-shlibdeps for the dependencies (test)
+  python3-pandas                            # bench analyze: read_csv as the CSV reading reference
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -2,8 +2,6 @@
 // with SUNDIALS statistics, beside a fixed-step RK4 of the same hybrid model at equal accuracy
 // (both measured against a tight-tolerance reference in the same run), and the cost of a whole
 // TwinMonitor tick.
-#include <time.h>
-
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -18,12 +16,6 @@ namespace maglead::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-/// CPU time of this thread: on a shared, loaded machine wall time measures the neighbours too.
-double thread_cpu_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 constexpr double kGrid_s = 1e-3;  // 1 kHz output grid
 
 struct GridRun {
