@@ -657,3 +657,42 @@ std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseli
 }
 
 }  // namespace maglead::analysis::actuator
+
+namespace maglead::analysis::actuator {
+
+// Force pulses no input explains: short runs of the corrected residual far outside its own
+// spread (robust σ) and larger than one encoder count's worth of force, few and far between.
+// A model that is merely wrong leaves structure everywhere, not a handful of isolated pulses.
+std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt) {
+  std::vector<Pulse> out;
+  const auto& r = sel.final_residual;
+  if (r.size() < 100) return out;
+  const double sigma = robust_sigma(r);
+  const double thr = std::max(opt.pulse_sigmas * sigma, P.count_force_n);
+  const double dt = static_cast<double>(P.decimation) / P.fs_hz;
+  std::size_t i = 0;
+  while (i < r.size()) {
+    if (std::abs(r[i]) <= thr) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    double peak = 0;
+    // One pulse: consecutive samples (no gap in time) beyond the threshold.
+    while (j < r.size() && std::abs(r[j]) > thr &&
+           (j == i || P.states[j].t_s - P.states[j - 1].t_s < 1.5 * dt)) {
+      if (std::abs(r[j]) > std::abs(peak)) peak = r[j];
+      ++j;
+    }
+    const double duration = P.states[j - 1].t_s - P.states[i].t_s + dt;
+    // Shorter than the filter resolves is ringing of a transition, not a force that acted.
+    if (duration <= opt.pulse_max_s && duration >= 0.5 / P.filter_hz)
+      out.push_back({P.states[i].t_s, duration, peak});
+    i = j;
+  }
+  // Isolated: pulses every few seconds at most; more is a misfit, not a disturbance.
+  if (static_cast<double>(out.size()) > P.duration_s / opt.pulse_min_spacing_s) out.clear();
+  return out;
+}
+
+}  // namespace maglead::analysis::actuator

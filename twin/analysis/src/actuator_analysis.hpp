@@ -35,6 +35,9 @@ struct Options {
   double alternative_r2 = 0.95;   // another effect reproducing this much is named beside it
   double breakaway_sigmas = 3.0;  // break-away excess significance (standard errors)
   int max_terms = 6;
+  double pulse_sigmas = 8.0;          // a disturbance pulse stands this far out of the residual …
+  double pulse_max_s = 1.0;           // … for at most this long …
+  double pulse_min_spacing_s = 2.0;   // … and pulses are at least this far apart on average
   std::vector<std::string> exclude;  // ids already in the baseline model
 };
 
@@ -86,6 +89,10 @@ struct Selection {
   bool too_little_sliding = false;
 };
 
+struct Pulse {
+  double t_s, duration_s, force_n;  // force_n: the residual's peak, the missing force on the nut
+};
+
 struct BreakawayTest {
   struct Side {
     std::size_t episodes = 0;
@@ -100,6 +107,7 @@ Selection select(const Prepared& P, const Options& opt, const std::function<void
 std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
                                                  const Selection& sel, const BreakawayTest& bt,
                                                  const Options& opt);
+std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt);
 BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
                              const std::vector<Candidate>& chosen);
 

@@ -160,6 +160,20 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   Json events = Json::array();
   for (const auto& s : P.slips)
     events.push_back({{"type", "step_out"}, {"t_s", s.t_s - P.t0_s}, {"start_s", s.start_s - P.t0_s}, {"leads", s.leads}});
+  const auto pulses = actuator::find_pulses(P, sel, o);
+  if (!pulses.empty()) {
+    double largest = 0;
+    for (const auto& q : pulses) {
+      events.push_back({{"type", "external_disturbance"}, {"t_s", q.t_s}, {"duration_s", q.duration_s},
+                        {"force_n", q.force_n}});
+      if (std::abs(q.force_n) > std::abs(largest)) largest = q.force_n;
+    }
+    effects_json.push_back({{"id", "external_disturbance"},
+                            {"parameters", {{"count", pulses.size()}, {"force_n", largest}}},
+                            {"where", "isolated force pulses no input explains (see events)"},
+                            {"evidence", {{"events", pulses.size()}, {"heldout_gain_pct", nullptr}}},
+                            {"improvement_pct", 0.0}});
+  }
   if (!P.slips.empty())
     effects_json.push_back({{"id", "step_out"},
                             {"parameters", {{"count", P.slips.size()}}},

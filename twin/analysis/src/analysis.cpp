@@ -756,13 +756,11 @@ Params physical(const std::string& id, const std::vector<int>& cols, const Eigen
   if (id == "coulomb_friction") {
     const double d = coef(kSign);
     p.values["coulomb_n"] = base("coulomb_n", kSign) + d;
-    p.values["change_n"] = d;
     p.plausible = p.values["coulomb_n"].get<double>() >= 0;
   } else if (id == "viscous_friction") {
     const double d = coef(kVel);
     const double b = base("viscous_n_s_per_m", kVel);
     p.values["viscous_n_s_per_m"] = b + d;
-    p.values["change_n_s_per_m"] = d;
     p.plausible = b + d >= 0;
   } else if (id == "asymmetric_friction") {
     const double dv = coef(kAbsV), dc = coef(kMoving);
@@ -771,16 +769,14 @@ Params physical(const std::string& id, const std::vector<int>& cols, const Eigen
         if (g.cols[static_cast<std::size_t>(full.idx[j])] == col) return full.theta[static_cast<Eigen::Index>(j)];
       return 0.0;
     };
-    p.values["coulomb_asymmetry_n"] = dc;          // (Fc+ − Fc−)/2 beyond any offset
-    p.values["viscous_asymmetry_n_s_per_m"] = dv;  // (Fv+ − Fv−)/2
     // The same fit written as the benchmark's direction-dependent model (no separate offset).
     const double fc = base("coulomb_n", kSign) + (model.fit.count("coulomb_n") ? 0.0 : in_full(kSign));
     const double fv = base("viscous_n_s_per_m", kVel) + (model.fit.count("viscous_n_s_per_m") ? 0.0 : in_full(kVel));
     const double off = in_full(kOne) + dc;  // constant force in the measured-force domain
-    p.values["equivalent_coulomb_pos_n"] = fc + off;
-    p.values["equivalent_coulomb_neg_n"] = fc - off;
-    p.values["equivalent_viscous_pos_n_s_per_m"] = fv + dv;
-    p.values["equivalent_viscous_neg_n_s_per_m"] = fv - dv;
+    p.values["coulomb_pos_n"] = fc + off;
+    p.values["coulomb_neg_n"] = fc - off;
+    p.values["viscous_pos_n_s_per_m"] = fv + dv;
+    p.values["viscous_neg_n_s_per_m"] = fv - dv;
   } else if (id == "stribeck_friction") {
     for (int k = 0; k < 6; ++k)
       if (!cols.empty() && cols[0] == kStrib0 + k) {
@@ -798,8 +794,7 @@ Params physical(const std::string& id, const std::vector<int>& cols, const Eigen
     p.values["free_position_m"] = s.mid_m;
   } else if (id == "mass_error") {
     const double b = base("nut_mass_kg", kAcc);
-    p.values["mass_error_kg"] = coef(kAcc);
-    p.values["mass_kg"] = b + coef(kAcc);
+    p.values["nut_mass_kg"] = b + coef(kAcc);
     // A known mass wrong by more than five times itself is not a mass error but something else.
     p.plausible = b + coef(kAcc) > 0 && (model.fit.count("nut_mass_kg") || std::abs(coef(kAcc)) <= 5 * b);
   } else if (id == "gain_drift") {
@@ -1249,7 +1244,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       double v = 0;
       for (std::size_t k = 0; k < fit.idx.size(); ++k)
         if (fit.idx[k] == g.index(c)) v = fit.theta[static_cast<Eigen::Index>(k)];
-      b[c == kAcc ? "mass_kg" : c == kVel ? "viscous_n_s_per_m" : c == kSign ? "coulomb_n" : "offset_n"] = v;
+      b[c == kAcc ? "nut_mass_kg" : c == kVel ? "viscous_n_s_per_m" : c == kSign ? "coulomb_n" : "offset_n"] = v;
     }
     return b;
   };
@@ -1568,7 +1563,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   ModelFile M = model;
   M.fit.clear();  // the corrected model is a model: every value fixed, as fitted here
   const Json fb = fitted_base(final_fit);
-  if (fb.contains("mass_kg")) M.nut_mass_kg = fb["mass_kg"].get<double>();
+  if (fb.contains("nut_mass_kg")) M.nut_mass_kg = fb["nut_mass_kg"].get<double>();
   if (fb.contains("viscous_n_s_per_m")) M.viscous_n_s_per_m = fb["viscous_n_s_per_m"].get<double>();
   if (fb.contains("coulomb_n")) M.coulomb_n = fb["coulomb_n"].get<double>();
   bool has_asym = false;
@@ -1588,16 +1583,16 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       t.note = note.str();
       for (const auto& [k, v] : kv) t.set(k, v);
     };
-    if (id == "mass_error") M.nut_mass_kg = val("mass_kg");
+    if (id == "mass_error") M.nut_mass_kg = val("nut_mass_kg");
     else if (id == "coulomb_friction") M.coulomb_n = val("coulomb_n");
     else if (id == "viscous_friction") M.viscous_n_s_per_m = val("viscous_n_s_per_m");
     else if (id == "asymmetric_friction") {
       // The benchmark's direction-dependent form: it already holds any constant force, so a
       // separate offset finding is not written beside it.
-      add({{"coulomb_pos_n", val("equivalent_coulomb_pos_n")},
-           {"coulomb_neg_n", val("equivalent_coulomb_neg_n")},
-           {"viscous_pos_n_s_per_m", val("equivalent_viscous_pos_n_s_per_m")},
-           {"viscous_neg_n_s_per_m", val("equivalent_viscous_neg_n_s_per_m")}});
+      add({{"coulomb_pos_n", val("coulomb_pos_n")},
+           {"coulomb_neg_n", val("coulomb_neg_n")},
+           {"viscous_pos_n_s_per_m", val("viscous_pos_n_s_per_m")},
+           {"viscous_neg_n_s_per_m", val("viscous_neg_n_s_per_m")}});
       std::erase_if(M.terms, [](const ModelTerm& t) { return t.id == "offset"; });
       has_asym = true;
     } else if (id == "offset" && !has_asym) add({{"offset_n", val("offset_n")}});
