@@ -981,24 +981,31 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   auto stage = [&](const std::string& name) {
     return [&, name](double f) { progress(name, f); };
   };
-  std::vector<double> r0(S.size());
+  std::vector<double> r0(S.size()), r_scan(S.size());
   {
+    // The friction terms every drive has (Coulomb, offset, direction-dependent) dwarf a position
+    // ripple in the baseline residual: the ripple's period is looked for once they are out.
+    std::vector<int> rich = base_cols;
+    for (int c : {kSign, kOne, kAbsV, kMoving, kVel})
+      if (std::find(rich.begin(), rich.end(), c) == rich.end()) rich.push_back(c);
     Grams gb;
     if (P.decimated) {
       decimate_columns(P, all_columns());
       gb = accumulate_matrix(P, folds);
     } else {
-      gb = accumulate(S, base_cols.empty() ? std::vector<int>{kOne} : base_cols, folds,
-                      stage("baseline"));
+      gb = accumulate(S, rich, folds, stage("baseline"));
     }
-    std::vector<int> idx;
+    std::vector<int> idx, idx_rich;
     for (int c : base_cols) idx.push_back(gb.index(c));
+    for (int c : rich) idx_rich.push_back(gb.index(c));
     const Fit f = fit_all(gb, idx);
     const auto yb = P.decimated ? predict_decimated(P, gb, f) : predict(S, gb, f);
-    for (std::size_t i = 0; i < S.size(); ++i) r0[i] = S.y[i] - yb[i];
+    const Fit fr = fit_all(gb, idx_rich);
+    const auto yr = P.decimated ? predict_decimated(P, gb, fr) : predict(S, gb, fr);
+    for (std::size_t i = 0; i < S.size(); ++i) r0[i] = S.y[i] - yb[i], r_scan[i] = S.y[i] - yr[i];
   }
   double pos_amp = 0;
-  S.pos_period_m = scan_position_period(S, r0, &pos_amp);
+  S.pos_period_m = scan_position_period(S, r_scan, &pos_amp);
   P.full.pos_period_m = S.pos_period_m;
   const auto bursts = find_bursts(S, r0, P.fs_hz / P.decimation, actuator ? P.filter_hz : 0.0);
 
