@@ -87,6 +87,8 @@ class SimulatedActuator final : public ActuatorHardware {
   void advance_to(double t_s) noexcept;
   const PlantTruth& truth() const { return truth_; }
   const PlantParams& params() const { return params_; }
+  /// Starts of the external_disturbance pulses (50 ms each); empty when that effect is off.
+  const std::vector<double>& disturbance_times_s() const { return disturbance_times_s_; }
 
  private:
   void step(double dt) noexcept;
