@@ -1,4 +1,8 @@
+// The plant's --effect keys: the ids of ../shared/spec/effects.md, each with the value of its
+// main parameter, and ID.PARAMETER keys (the spec's parameter names) for the shape parameters.
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 #include "maglead/plant/simulated_actuator.hpp"
@@ -6,27 +10,62 @@
 namespace maglead {
 namespace {
 
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
 struct EffectEntry {
   const char* name;
   double PlantEffects::*field;
+  double min, max;  // accepted values (inclusive)
   const char* help;
 };
 
 constexpr EffectEntry kEffects[] = {
-    {"viscous_friction", &PlantEffects::viscous_friction_n_s_per_m, "N·s/m  extra viscous friction"},
-    {"stribeck_friction", &PlantEffects::stribeck_friction_n, "N  break-away excess over Coulomb (Stribeck velocity 2 mm/s)"},
-    {"asymmetric_friction", &PlantEffects::asymmetric_friction_n, "N  Coulomb friction +value moving +p, −value moving −p"},
-    {"offset", &PlantEffects::offset_n, "N  constant force on the nut along +p (gravity, a constant load)"},
-    {"gain_drift", &PlantEffects::gain_drift_per_min, "1/min  relative change of magnet coupling per minute (−0.05: −5 %/min)"},
-    {"angle_ripple", &PlantEffects::angle_ripple_n, "N  force ripple once per screw turn (eccentricity), amplitude"},
-    {"position_ripple", &PlantEffects::position_ripple_n, "N  force ripple fixed to nut position, 5 mm period, amplitude"},
-    {"backlash", &PlantEffects::backlash_rad, "rad  gearbox play at the screw"},
-    {"end_effect", &PlantEffects::end_effect_m, "m  coupling weakens (to 50 %) within this distance of a stroke end"},
-    {"load_cell_delay", &PlantEffects::load_cell_delay_s, "s  load-cell signal delay"},
-    {"sensor_delay", &PlantEffects::sensor_delay_s, "s  linear-encoder signal delay"},
-    {"spring", &PlantEffects::spring_n_per_m, "N/m  spring pulling the nut towards mid-stroke"},
-    {"mass_error", &PlantEffects::mass_error_kg, "kg  moving mass beyond the nominal"},
-    {"external_disturbance", &PlantEffects::external_disturbance_n, "N  50 ms force pulses at random times, amplitude"},
+    {"coulomb_friction", &PlantEffects::coulomb_friction_n, -kInf, kInf,
+     "N  added to the Coulomb friction F_c, kinetic and break-away (coulomb_n = F_c + value)"},
+    {"viscous_friction", &PlantEffects::viscous_friction_n_s_per_m, -kInf, kInf,
+     "N·s/m  added to the viscous coefficient C (viscous_n_s_per_m = C + value)"},
+    {"asymmetric_friction", &PlantEffects::asymmetric_friction_n, -kInf, kInf,
+     "N  kinetic and break-away friction F_c + value moving +p, F_c − value moving −p "
+     "(coulomb_pos_n, coulomb_neg_n)"},
+    {"stribeck_friction", &PlantEffects::stribeck_friction_n, 0.0, kInf,
+     "N  break-away excess F_s − F_c: F_k(v) = F_c + value·exp(−(v/v_s)²), stuck while "
+     "|F_m + F_ext| ≤ F_c + value (breakaway_n = F_c + value)"},
+    {"stribeck_friction.stribeck_velocity_m_s", &PlantEffects::stribeck_velocity_m_s, 1e-6, kInf,
+     "m/s  Stribeck velocity v_s (default 0.002)"},
+    {"offset", &PlantEffects::offset_n, -kInf, kInf,
+     "N  constant force on the nut along +p, unseen by the load cell (offset_n)"},
+    {"spring", &PlantEffects::spring_n_per_m, -kInf, kInf,
+     "N/m  spring −k (p − p₀) on the nut, p₀ mid-stroke (stiffness_n_per_m)"},
+    {"mass_error", &PlantEffects::mass_error_kg, -0.1, kInf,
+     "kg  added to the moving mass M (nut_mass_kg = M + value)"},
+    {"coupling_gain_error", &PlantEffects::coupling_gain_error, -0.9, kInf,
+     "1  F_m scaled by g = 1 + value (gain)"},
+    {"gain_drift", &PlantEffects::gain_drift_per_min, -kInf, kInf,
+     "1/min  F_m scaled by 1 + value·t/60, t from the start (gain_change_per_min)"},
+    {"angle_ripple", &PlantEffects::angle_ripple, 0.0, 0.99,
+     "1  F_m scaled by 1 + value·sin(θ + ψ), θ the screw angle (relative_amplitude)"},
+    {"angle_ripple.phase_rad", &PlantEffects::angle_ripple_phase_rad, -kInf, kInf,
+     "rad  ψ of angle_ripple (default 0)"},
+    {"position_ripple", &PlantEffects::position_ripple_n, -kInf, kInf,
+     "N  extra force value·sin(2πp/λ + ψ) on the nut (amplitude_n)"},
+    {"position_ripple.period_m", &PlantEffects::position_ripple_period_m, 1e-6, kInf,
+     "m  λ of position_ripple (default 0.005)"},
+    {"position_ripple.phase_rad", &PlantEffects::position_ripple_phase_rad, -kInf, kInf,
+     "rad  ψ of position_ripple (default 0)"},
+    {"end_effect", &PlantEffects::end_effect_zone_m, 0.0, kInf,
+     "m  zone z: F_m scaled by 1 − D·s(x), s(x) = x²(3 − 2x), x = clip((z − d)/z, 0, 1), d the "
+     "distance to the nearer stroke end (zone_m)"},
+    {"end_effect.max_reduction", &PlantEffects::end_effect_max_reduction, 0.0, 1.0,
+     "1  D of end_effect (default 0.5)"},
+    {"backlash", &PlantEffects::backlash_rad, 0.0, kInf,
+     "rad  total gear play b at the screw: the screw lags the motor by b/2 on the side of the "
+     "transmitted torque (backlash_rad)"},
+    {"load_cell_delay", &PlantEffects::load_cell_delay_s, 0.0, 1.0,
+     "s  the load-cell reading lags the true force (delay_s)"},
+    {"sensor_delay", &PlantEffects::sensor_delay_s, 0.0, 1.0,
+     "s  the linear and motor encoder readings lag the true position and angle (delay_s)"},
+    {"external_disturbance", &PlantEffects::external_disturbance_n, -kInf, kInf,
+     "N  50 ms force pulses on the nut at random times (force_n)"},
 };
 
 }  // namespace
@@ -36,11 +75,14 @@ void set_plant_effect(PlantEffects& effects, const std::string& name, double val
     throw std::invalid_argument("effect '" + name + "': value must be a finite number");
   for (const auto& e : kEffects) {
     if (name == e.name) {
-      const bool must_be_positive = name == "backlash" || name == "end_effect" ||
-                                    name == "load_cell_delay" || name == "sensor_delay" ||
-                                    name == "stribeck_friction";
-      if (must_be_positive && value < 0.0)
-        throw std::invalid_argument("effect '" + name + "': value must not be negative");
+      if (value < e.min || value > e.max) {
+        char range[96];
+        if (std::isinf(e.max))
+          std::snprintf(range, sizeof range, "at least %g", e.min);
+        else
+          std::snprintf(range, sizeof range, "between %g and %g", e.min, e.max);
+        throw std::invalid_argument("effect '" + name + "': value must be " + range);
+      }
       effects.*(e.field) = value;
       return;
     }

@@ -255,7 +255,10 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
   }
   writer.close();
   if (opt.progress) opt.progress(1.0);
-  return {n, plant.truth().slips};
+  ScenarioSummary summary{n, plant.truth().slips, {}};
+  for (double t : plant.disturbance_times_s())
+    if (t < opt.duration_s) summary.disturbance_times_s.push_back(t);
+  return summary;
 }
 
 }  // namespace maglead

@@ -1,14 +1,34 @@
 // The analysis on data where the answer is known: recordings from the simulated plant with one
-// or two effects switched on that the baseline lacks (fixed seeds, made here), a control with
-// nothing concealed, and the real EMPS recording. Only bench columns reach the analysis.
+// effect of ../shared/spec/effects.md switched on that the baseline lacks (fixed seeds, made
+// here), controls with nothing concealed, and the real EMPS recording. Only bench columns reach
+// the analysis; the effects are named in the spec's ids and parameter names.
+//
+// Every generated case asserts: the effect is named (as a finding's id, or as an alternative
+// that explains >= 95 % of it); nothing else is claimed; its parameters are within a tolerance
+// set by the effect's size against what is left unexplained (below); and the held-out error
+// falls below half (not for findings made outside the sliding fit: Stribeck friction from
+// stuck episodes, events). Cases the analysis does not pass yet are in GeneratedSuiteKnownGaps
+// (CMakeLists.txt expects them to fail, so the branch stays green and a fixed gap shows up).
+//
+// Tolerance of a fitted coefficient c (the law linear in it, y = c·x + r): the least-squares
+// error is <x, r>/<x, x>, at most |r|/|x| by Cauchy–Schwarz, i.e. relative to c at most
+// rms(r)/rms(c·x) = what is left unexplained / what the effect explains. Both are measured by
+// the analysis (held-out RMS after, explained_rms_n); the tolerance is that ratio, and no less
+// than 5 %. Shape values the analysis scans on a grid (zone, period, Stribeck velocity) are set
+// on a grid point and must come back within one grid step. Effect sizes are chosen to stand
+// well above the controls' held-out RMS (0.03–0.06 N), and above the analysis's documented
+// floor (a term must explain a tenth of one encoder count's force, about 0.11 N RMS).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <numbers>
 #include <string>
 
+#include "../test_tmp.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "maglead/plant/scenario.hpp"
@@ -18,24 +38,38 @@ namespace {
 using maglead::analysis::AnalysisResult;
 using Json = nlohmann::json;
 
-struct Concealed {
-  std::string name;
+constexpr double kPi = std::numbers::pi;
+
+struct Key {
+  std::string name;  // a plant --effect key
   double value;
 };
 
-AnalysisResult run(const std::string& scenario, double duration_s,
-                   const std::vector<Concealed>& effects, std::uint64_t seed = 5) {
+struct Generated {
+  AnalysisResult result;
+  maglead::ScenarioSummary truth;
+};
+
+maglead::ActuatorParams actuator() { return {}; }
+
+AnalysisResult analyze(const maglead::Recording& rec) {
+  const auto act = actuator();
+  return maglead::analysis::analyze_recording(
+      rec, maglead::analysis::actuator_model_from_config(act),
+      maglead::load_calibration(std::string(MAGLEAD_CONFIG_DIR) + "/calibration.toml"), act, {});
+}
+
+// Seed 5 unless MAGLEAD_SUITE_SEED says otherwise (to see that a case is not one seed's luck).
+Generated run(const std::string& scenario, double duration_s, const std::vector<Key>& keys) {
+  std::uint64_t seed = 5;
+  if (const char* env = std::getenv("MAGLEAD_SUITE_SEED")) seed = std::stoull(env);
   maglead::ScenarioOptions opt;
   opt.scenario = scenario;
   opt.duration_s = duration_s;
   opt.seed = seed;
-  std::string tag = scenario;
-  for (const auto& e : effects) {
-    maglead::set_plant_effect(opt.plant.effects, e.name, e.value);
-    tag += "_" + e.name;
-  }
-  const std::string path = testing::TempDir() + "/analysis_" + tag + ".csv";
-  maglead::run_scenario(opt, path);
+  for (const auto& k : keys) maglead::set_plant_effect(opt.plant.effects, k.name, k.value);
+  const std::string path = test_tmp_dir() + "/" + scenario + ".csv";
+  const auto summary = maglead::run_scenario(opt, path);
   // Only what a bench logs: the recording holds no truth columns.
   const auto rec = maglead::read_recording(path);
   for (const auto& n : rec.names)
@@ -43,15 +77,13 @@ AnalysisResult run(const std::string& scenario, double duration_s,
                 n == "nut_pos_m" || n == "load_force_n" || n == "out_force_est_n" ||
                 n == "force_set_n" || n == "pos_set_m")
         << n;
-  const maglead::ActuatorParams act;
-  auto result = maglead::analysis::analyze_recording(
-      rec, maglead::analysis::actuator_model_from_config(act),
-      maglead::load_calibration(std::string(MAGLEAD_CONFIG_DIR) + "/calibration.toml"), act, {});
+  auto result = analyze(rec);
   std::filesystem::remove(path);
-  return result;
+  return {std::move(result), summary};
 }
 
-// The finding that names `id`, as the chosen term or as an alternative of a combined finding.
+// The finding that names `id`: its own id, or an alternative explaining >= 95 % of it.
+// `params` receives the parameters given for `id`.
 const Json* finding(const AnalysisResult& r, const std::string& id, Json* params) {
   for (const auto& e : r.json["effects"]) {
     if (e["id"] == id) {
@@ -60,7 +92,7 @@ const Json* finding(const AnalysisResult& r, const std::string& id, Json* params
     }
     if (e.contains("alternatives"))
       for (const auto& a : e["alternatives"])
-        if (a["id"] == id) {
+        if (a["id"] == id && a["explains_pct"].get<double>() >= 95.0) {
           *params = a["parameters"];
           return &e;
         }
@@ -68,15 +100,10 @@ const Json* finding(const AnalysisResult& r, const std::string& id, Json* params
   return nullptr;
 }
 
-double heldout_before(const AnalysisResult& r) { return r.json["validation"].front()["heldout_rms"]; }
-double heldout_after(const AnalysisResult& r) { return r.json["validation"].back()["heldout_rms"]; }
-
-// One row of the README table, printed by the test.
-void row(const std::string& effect, const std::string& scenario, double truth, double found,
-         const AnalysisResult& r, const std::string& named) {
-  std::printf("| %s | %s | %g | %.4g | %s | %.3f | %.3f |\n", effect.c_str(), scenario.c_str(),
-              truth, found, named.c_str(), heldout_before(r), heldout_after(r));
+double heldout_before(const AnalysisResult& r) {
+  return r.json["validation"].front()["heldout_rms"];
 }
+double heldout_after(const AnalysisResult& r) { return r.json["validation"].back()["heldout_rms"]; }
 
 std::string named_as(const AnalysisResult& r) {
   std::string s;
@@ -85,149 +112,392 @@ std::string named_as(const AnalysisResult& r) {
     s += e["id"].get<std::string>();
     if (e.contains("alternatives")) {
       s += " (or";
-      for (const auto& a : e["alternatives"]) s += " " + a["id"].get<std::string>();
+      for (const auto& a : e["alternatives"]) {
+        char pct[32];
+        std::snprintf(pct, sizeof pct, " %.0f %%", a["explains_pct"].get<double>());
+        s += " " + a["id"].get<std::string>() + pct;
+      }
       s += ")";
     }
   }
   return s.empty() ? "nothing" : s;
 }
 
-// Checks the effect is found, its parameter within `tol` (relative), held-out error falls.
-void expect_found(const AnalysisResult& r, const std::string& effect, const std::string& scenario,
-                  const std::string& key, double truth, double tol_rel) {
-  Json params;
-  const Json* e = finding(r, effect, &params);
-  ASSERT_NE(e, nullptr) << effect << " not named; found: " << named_as(r);
-  ASSERT_TRUE(params.contains(key)) << params.dump();
-  const double found = params[key].get<double>();
-  row(effect, scenario, truth, found, r, named_as(r));
-  EXPECT_NEAR(found, truth, tol_rel * std::abs(truth)) << effect << " " << key;
-  EXPECT_LT(heldout_after(r), 0.6 * heldout_before(r)) << "held-out error must fall";
+std::string join(const std::vector<double>& v) {
+  std::string s;
+  for (double x : v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.5g", x);
+    s += (s.empty() ? "" : " / ") + std::string(b);
+  }
+  return s.empty() ? "–" : s;
 }
 
-TEST(GeneratedSuite, ControlsWithNothingConcealedYieldNoEffect) {
-  for (const char* sc : {"hand-push", "position-moves", "force-steps"}) {
-    const auto r = run(sc, 40.0, {});
-    EXPECT_TRUE(r.json["effects"].empty()) << sc << ": " << named_as(r);
-    EXPECT_TRUE(r.json["nothing_missing"].get<bool>());
-    row("(control)", sc, 0, 0, r, named_as(r));
+// One row of the README table, printed by the test.
+void row(const std::string& effect, const std::string& scenario, const std::vector<double>& truth,
+         const std::vector<double>& found, const AnalysisResult& r) {
+  std::printf("| %s | %s | %s | %s | %s | %.3f | %.3f |\n", effect.c_str(), scenario.c_str(),
+              join(truth).c_str(), join(found).c_str(), named_as(r).c_str(), heldout_before(r),
+              heldout_after(r));
+}
+
+// How a parameter's tolerance follows (see the top of the file).
+struct Param {
+  enum Kind { coefficient, grid, factor, angle, offset_over, absolute };
+  std::string name;  // the spec's parameter name
+  double truth;
+  Kind kind = coefficient;
+  double x = 0;  // coefficient: the nominal the fit adds to (the coefficient is truth − x);
+                 // grid: the grid step; factor: the grid's ratio; offset_over: the stiffness
+                 // that turns a force offset into this parameter; absolute: the tolerance
+};
+
+Param coef(std::string name, double truth, double nominal = 0) {
+  return {std::move(name), truth, Param::coefficient, nominal};
+}
+Param on_grid(std::string name, double truth, double step) {
+  return {std::move(name), truth, Param::grid, step};
+}
+Param on_log_grid(std::string name, double truth, double ratio) {
+  return {std::move(name), truth, Param::factor, ratio};
+}
+Param phase(std::string name, double truth) { return {std::move(name), truth, Param::angle, 0}; }
+
+// Relative tolerance of a fitted coefficient: unexplained / explained, at least 5 %.
+double coefficient_tol(const AnalysisResult& r, const Json& f) {
+  const double explained = f["evidence"].value("explained_rms_n", 0.0);
+  if (!(explained > 0)) return 0.05;
+  return std::max(0.05, heldout_after(r) / explained);
+}
+
+// The effect is named, nothing else is, its parameters are right and the held-out error falls.
+void expect_found(const AnalysisResult& r, const std::string& effect, const std::string& scenario,
+                  const std::vector<Param>& params, bool heldout_falls = true) {
+  Json p;
+  const Json* f = finding(r, effect, &p);
+  std::vector<double> truth, found;
+  for (const auto& q : params) {
+    truth.push_back(q.truth);
+    found.push_back(f && p.contains(q.name) ? p[q.name].get<double>() : NAN);
+  }
+  row(effect, scenario, truth, found, r);
+  ASSERT_NE(f, nullptr) << effect << " not named; found: " << named_as(r);
+  EXPECT_EQ(r.json["effects"].size(), 1u) << "claimed beyond " << effect << ": " << named_as(r);
+  const double rel = coefficient_tol(r, *f);
+  for (const auto& q : params) {
+    ASSERT_TRUE(p.contains(q.name)) << effect << ": no " << q.name << " in " << p.dump();
+    const double v = p[q.name].get<double>();
+    if (q.kind == Param::factor) {
+      EXPECT_TRUE(v >= q.truth / q.x * 0.999 && v <= q.truth * q.x * 1.001)
+          << effect << " " << q.name << " = " << v << ", not within a factor " << q.x << " of "
+          << q.truth;
+      continue;
+    }
+    double tol = 0;
+    switch (q.kind) {
+      case Param::coefficient:
+        tol = rel * std::abs(q.truth - q.x);
+        break;
+      case Param::grid:
+        tol = q.x;
+        break;
+      case Param::angle:
+        tol = std::asin(std::min(1.0, rel));
+        break;
+      case Param::offset_over:
+        tol = heldout_after(r) / q.x;
+        break;
+      case Param::absolute:
+        tol = q.x;
+        break;
+      case Param::factor:
+        break;
+    }
+    const double d = q.kind == Param::angle ? std::remainder(v - q.truth, 2 * kPi) : v - q.truth;
+    EXPECT_LE(std::abs(d), tol) << effect << " " << q.name << " = " << v << ", true " << q.truth
+                                << " (tolerance " << tol << ")";
+  }
+  if (heldout_falls) {
+    EXPECT_LT(heldout_after(r), 0.5 * heldout_before(r)) << "held-out error must fall";
   }
 }
 
-TEST(GeneratedSuite, OffsetIsOneFindingWithDirectionDependentFriction) {
-  const auto r = run("hand-push", 40.0, {{"offset", 2.0}});
-  expect_found(r, "offset", "hand-push", "offset_n", 2.0, 0.1);
-  // A constant force and direction-dependent Coulomb friction look the same while the nut moves.
-  ASSERT_FALSE(r.json["effects"].empty());
-  EXPECT_FALSE(r.json["effects"][0]["identifiable"].get<bool>());
+// ------------------------------------------------------------------------- controls
+
+void expect_nothing(const AnalysisResult& r, const std::string& scenario) {
+  row("(control)", scenario, {}, {}, r);
+  EXPECT_TRUE(r.json["effects"].empty()) << scenario << ": " << named_as(r);
+  EXPECT_TRUE(r.json["events"].empty()) << scenario << ": " << r.json["events"].dump();
+}
+
+TEST(GeneratedSuite, ControlHandPushNamesNothing) {
+  expect_nothing(run("hand-push", 40.0, {}).result, "hand-push");
+}
+TEST(GeneratedSuite, ControlPositionMovesNamesNothing) {
+  expect_nothing(run("position-moves", 40.0, {}).result, "position-moves");
+}
+TEST(GeneratedSuite, ControlForceStepsNamesNothing) {
+  expect_nothing(run("force-steps", 40.0, {}).result, "force-steps");
+}
+TEST(GeneratedSuite, ControlStaticCalibrationNamesNothing) {
+  expect_nothing(run("static-calibration", 40.0, {}).result, "static-calibration");
+}
+
+// ------------------------------------------------------------------------- friction and mass
+
+TEST(GeneratedSuite, CoulombFriction) {
+  const auto g = run("position-moves", 40.0, {{"coulomb_friction", 2.0}});
+  expect_found(g.result, "coulomb_friction", "position-moves", {coef("coulomb_n", 9.5, 7.5)});
+}
+
+TEST(GeneratedSuite, ViscousFriction) {
+  const auto g = run("position-moves", 40.0, {{"viscous_friction", 50.0}});
+  expect_found(g.result, "viscous_friction", "position-moves",
+               {coef("viscous_n_s_per_m", 52.0, 2.0)});
+}
+
+TEST(GeneratedSuite, AsymmetricFrictionOrItsOffset) {
+  // F_c+ 9.5 N, F_c− 5.5 N: with Coulomb friction the same as 7.5 N and an offset of −2 N.
+  const auto g = run("hand-push", 40.0, {{"asymmetric_friction", 2.0}});
+  expect_found(g.result, "asymmetric_friction", "hand-push",
+               {coef("coulomb_pos_n", 9.5, 7.5), coef("coulomb_neg_n", 5.5, 7.5)});
+}
+
+// F_s 12 N over F_c 7.5 N, v_s 2 mm/s (on the analysis's grid, steps of a factor 2). The
+// break-away level is read at release, when the nut has crossed one encoder count: one count's
+// coupling force (about 1.1 N at φ = 0) is the resolution. No held-out gain is required: the
+// analysis finds Stribeck friction from stuck episodes, which the sliding fit leaves out.
+const std::vector<Param> kStribeck = {{"breakaway_n", 12.0, Param::absolute, 1.1},
+                                      {"coulomb_n", 7.5, Param::absolute, 1.1},
+                                      on_log_grid("stribeck_velocity_m_s", 0.002, 2.0)};
+
+TEST(GeneratedSuiteKnownGaps, StribeckFrictionInMovesWithStops) {
+  // The nut stick-slips in the slow moves: about 300 releases each way, 4.1 N above F_c at
+  // release. The sliding fit names coulomb_friction (8.0 N) and mass_error (1.6 kg) instead, and
+  // a chosen coulomb_friction rules out the break-away stage (seeds 5–8 alike).
+  const auto g = run("position-moves", 40.0, {{"stribeck_friction", 4.5}});
+  expect_found(g.result, "stribeck_friction", "position-moves", kStribeck, false);
+}
+
+TEST(GeneratedSuiteKnownGaps, StribeckFrictionUnderHandPushes) {
+  // Named alone with F_s 11.3 N, but no sample slides (screw held, small motions), and the
+  // Stribeck velocity reported is the grid's first (0.5 mm/s), four times too small.
+  const auto g = run("hand-push", 40.0, {{"stribeck_friction", 4.5}});
+  expect_found(g.result, "stribeck_friction", "hand-push", kStribeck, false);
+}
+
+TEST(GeneratedSuite, MassErrorOfATwoKilogramPayload) {
+  // The force-steps sweep and steps accelerate the nut against the spring; 2 kg on the 0.12 kg
+  // nut explains about 0.16 N RMS, above the analysis's floor.
+  const auto g = run("force-steps", 40.0, {{"mass_error", 2.0}});
+  expect_found(g.result, "mass_error", "force-steps", {coef("nut_mass_kg", 2.12, 0.12)});
+}
+
+TEST(GeneratedSuiteKnownGaps, MassErrorOfAOneKilogramPayload) {
+  // Half of that: the analysis's fit has it (70 % of the held-out error, t ≈ 4), but it explains
+  // less than a tenth of a count's force, so it is not named.
+  const auto g = run("force-steps", 40.0, {{"mass_error", 1.0}});
+  expect_found(g.result, "mass_error", "force-steps", {coef("nut_mass_kg", 1.12, 0.12)});
+}
+
+// ------------------------------------------------------------------------- forces on the nut
+
+TEST(GeneratedSuite, OffsetOrDirectionDependentFriction) {
+  const auto g = run("hand-push", 40.0, {{"offset", 2.0}});
+  expect_found(g.result, "offset", "hand-push", {coef("offset_n", 2.0)});
   Json p;
-  EXPECT_NE(finding(r, "asymmetric_friction", &p), nullptr);
-}
-
-TEST(GeneratedSuite, AsymmetricFrictionIsNamedAsTheAlternativeOfAnOffset) {
-  const auto r = run("hand-push", 40.0, {{"asymmetric_friction", 2.0}});
-  expect_found(r, "asymmetric_friction", "hand-push", "coulomb_asymmetry_n", 2.0, 0.1);
-}
-
-TEST(GeneratedSuite, ViscousFrictionWithSensorDelayAsAlternative) {
-  const auto r = run("position-moves", 40.0, {{"viscous_friction", 50.0}});
-  expect_found(r, "viscous_friction", "position-moves", "change_n_s_per_m", 50.0, 0.15);
-}
-
-TEST(GeneratedSuite, SensorDelayIsFoundAsOneFindingWithViscousFriction) {
-  const auto r = run("position-moves", 40.0, {{"sensor_delay", 0.002}});
-  expect_found(r, "sensor_delay", "position-moves", "delay_s", 0.002, 0.15);
-}
-
-TEST(GeneratedSuite, GainDriftGrowsOverTime) {
-  const auto r = run("hand-push", 60.0, {{"gain_drift", -0.05}});
-  expect_found(r, "gain_drift", "hand-push", "gain_drift_per_min", -0.05, 0.25);
-}
-
-TEST(GeneratedSuite, AngleRippleIsOneFindingWithPositionRippleWhileTheNutTracks) {
-  const auto r = run("position-moves", 40.0, {{"angle_ripple", 1.5}});
-  expect_found(r, "angle_ripple", "position-moves", "amplitude_n", 1.5, 0.1);
-  Json p;
-  EXPECT_NE(finding(r, "position_ripple", &p), nullptr) << "must be named as the alternative";
-  EXPECT_FALSE(r.json["effects"][0]["identifiable"].get<bool>());
-}
-
-TEST(GeneratedSuite, PositionRippleWithItsPeriod) {
-  const auto r = run("position-moves", 40.0, {{"position_ripple", 1.5}});
-  expect_found(r, "position_ripple", "position-moves", "amplitude_n", 1.5, 0.1);
-  Json p;
-  finding(r, "position_ripple", &p);
-  EXPECT_NEAR(p["period_m"].get<double>(), 0.005, 0.0002);
-}
-
-TEST(GeneratedSuite, EndEffectNearTheStrokeEnds) {
-  const auto r = run("position-moves", 40.0, {{"end_effect", 0.004}});
-  expect_found(r, "end_effect", "position-moves", "depth", 0.5, 0.2);
-  Json p;
-  finding(r, "end_effect", &p);
-  EXPECT_NEAR(p["distance_m"].get<double>(), 0.004, 0.0015);
+  EXPECT_NE(finding(g.result, "asymmetric_friction", &p), nullptr) << "the pair of the spec";
 }
 
 TEST(GeneratedSuite, SpringTowardsMidStroke) {
-  const auto r = run("position-moves", 40.0, {{"spring", 300.0}});
-  expect_found(r, "spring", "position-moves", "spring_n_per_m", 300.0, 0.05);
-  // The corrected twin, re-simulated with SUNDIALS from measured states, tracks the nut better.
-  const auto& tw = r.json["twin_simulation"];
-  ASSERT_TRUE(tw["available"].get<bool>()) << tw.dump();
-  std::printf("twin re-simulation (spring): baseline %.2f um, corrected %.2f um RMS position error\n",
-              tw["baseline_rms_position_error_m"].get<double>() * 1e6,
-              tw["corrected_rms_position_error_m"].get<double>() * 1e6);
-  EXPECT_LT(tw["corrected_rms_position_error_m"].get<double>(),
-            0.7 * tw["baseline_rms_position_error_m"].get<double>());
+  const auto g = run("position-moves", 40.0, {{"spring", 300.0}});
+  // rest_position_m = mid-stroke + (force at mid-stroke)/k: a force offset's error over k.
+  expect_found(
+      g.result, "spring", "position-moves",
+      {coef("stiffness_n_per_m", 300.0), {"rest_position_m", 0.020, Param::offset_over, 300.0}});
+}
+
+TEST(GeneratedSuite, PositionRippleWithItsPeriodAndPhase) {
+  const auto g =
+      run("position-moves", 40.0, {{"position_ripple", 1.5}, {"position_ripple.phase_rad", 1.0}});
+  // Period 5 mm on the analysis's grid (4, 5, 6 mm around it); the phase within the angle
+  // whose sine is the amplitude's relative tolerance.
+  expect_found(
+      g.result, "position_ripple", "position-moves",
+      {coef("amplitude_n", 1.5), on_grid("period_m", 0.005, 0.001), phase("phase_rad", 1.0)});
+}
+
+// ------------------------------------------------------------------------- laws that scale F_m
+
+TEST(GeneratedSuite, CouplingGainError) {
+  const auto g = run("hand-push", 40.0, {{"coupling_gain_error", 0.1}});
+  expect_found(g.result, "coupling_gain_error", "hand-push", {coef("gain", 1.1, 1.0)});
+}
+
+TEST(GeneratedSuite, GainDriftOverTime) {
+  const auto g = run("hand-push", 60.0, {{"gain_drift", -0.05}});
+  expect_found(g.result, "gain_drift", "hand-push", {coef("gain_change_per_min", -0.05)});
+}
+
+TEST(GeneratedSuite, AngleRippleOrPositionRippleWhileTheNutTracks) {
+  // a = 0.1 of F_m (about 10 N while moving: 1 N), ψ = 0.5 rad.
+  const auto g =
+      run("position-moves", 40.0, {{"angle_ripple", 0.1}, {"angle_ripple.phase_rad", 0.5}});
+  expect_found(g.result, "angle_ripple", "position-moves",
+               {coef("relative_amplitude", 0.1), phase("phase_rad", 0.5)});
+}
+
+TEST(GeneratedSuiteKnownGaps, EndEffectNearTheStrokeEnds) {
+  // The fit has it exactly (D 0.50, z 5 mm, 98 % of the held-out error), but the nut is near an
+  // end in only some of the ten segments, so the gains' t over segments is 2.0 < 3: nothing is
+  // named. Zone 5 mm (grid 4, 5, 6 mm), D 0.5: the nut goes to 2 mm and 38 mm from the ends.
+  const auto g = run("position-moves", 40.0, {{"end_effect", 0.005}});
+  expect_found(g.result, "end_effect", "position-moves",
+               {coef("max_reduction", 0.5), on_grid("zone_m", 0.005, 0.001)});
 }
 
 TEST(GeneratedSuite, BacklashInTheGearbox) {
-  const auto r = run("force-steps", 40.0, {{"backlash", 0.05}});
-  expect_found(r, "backlash", "force-steps", "backlash_rad", 0.05, 0.15);
+  const auto g = run("force-steps", 40.0, {{"backlash", 0.05}});
+  expect_found(g.result, "backlash", "force-steps", {coef("backlash_rad", 0.05)});
 }
 
-TEST(GeneratedSuite, ExternalDisturbancePulsesAreEvents) {
-  const auto r = run("position-moves", 60.0, {{"external_disturbance", 8.0}});
-  expect_found(r, "external_disturbance", "position-moves", "amplitude_n", 8.0, 0.2);
-  int pulses = 0;
-  for (const auto& e : r.json["events"]) pulses += e["type"] == "isolated_disturbance";
-  EXPECT_GE(pulses, 2);
+// ------------------------------------------------------------------------- sensors
+
+TEST(GeneratedSuite, SensorDelay) {
+  // Both encoders 10 ms late: the motion is late against the load cell; the sweep's force rate
+  // (up to 250 N/s) makes that up to 2.5 N.
+  const auto g = run("force-steps", 40.0, {{"sensor_delay", 0.010}});
+  expect_found(g.result, "sensor_delay", "force-steps", {coef("delay_s", 0.010)});
 }
 
-TEST(GeneratedSuite, TwoEffectsAtOnce) {
-  const auto r = run("position-moves", 40.0, {{"spring", 300.0}, {"position_ripple", 1.5}});
-  expect_found(r, "spring", "position-moves", "spring_n_per_m", 300.0, 0.05);
-  expect_found(r, "position_ripple", "position-moves", "amplitude_n", 1.5, 0.1);
+TEST(GeneratedSuite, LoadCellDelay) {
+  const auto g = run("force-steps", 40.0, {{"load_cell_delay", 0.010}});
+  expect_found(g.result, "load_cell_delay", "force-steps", {coef("delay_s", 0.010)});
+}
+
+// ------------------------------------------------------------------------- events
+
+TEST(GeneratedSuiteKnownGaps, ExternalDisturbancePulsesAreEvents) {
+  // The actuator analysis has no pulse detector yet: no finding, no events.
+  const auto g = run("position-moves", 60.0, {{"external_disturbance", 8.0}});
+  ASSERT_GE(g.truth.disturbance_times_s.size(), 2u) << "the seed must give pulses in the run";
+  expect_found(g.result, "external_disturbance", "position-moves", {}, false);
+  // One event per pulse, at its time, with its force.
+  std::vector<double> seen;
+  for (const auto& e : g.result.json["events"])
+    if (e["type"] == "external_disturbance") {
+      seen.push_back(e["t_s"].get<double>());
+      EXPECT_NEAR(e.value("force_n", 0.0), 8.0, 1.6) << "at " << e["t_s"];
+    }
+  for (double t : g.truth.disturbance_times_s) {
+    const bool found =
+        std::any_of(seen.begin(), seen.end(), [&](double s) { return std::abs(s - t) < 0.05; });
+    EXPECT_TRUE(found) << "pulse at " << t << " s not reported";
+  }
+  EXPECT_EQ(seen.size(), g.truth.disturbance_times_s.size());
+}
+
+// A hand pushes the nut on a held screw (like hand-push); one push exceeds what the coupling
+// holds (about 44.5 N), the nut steps out by one lead, the hand follows it. `overload` false: the
+// same pushes, all within the coupling's strength (the control).
+struct StepOutRun {
+  maglead::Recording rec;
+  std::vector<double> slip_times_s;  // true: the phase passed ±π from its branch
+  std::vector<int> leads;
+};
+
+StepOutRun step_out_recording(bool overload) {
+  auto params = maglead::paper_like_plant();
+  const auto& act = params.actuator;
+  const double L = act.lead_m, p0 = 0.020;
+  maglead::SimulatedActuator plant(params, 11, p0);
+  const double screw0 = maglead::rest_angle_rad(p0, L);
+  constexpr double k_hand = 1500.0, c_hand = 100.0;
+  // Pushes of 2 s, alternating, peaks 20 … 30 N; the eighth pulls −56 N if overloading: past
+  // the coupling's peak and static friction (45 + 7.5 N) the nut slips a lead, which relaxes
+  // the hand by 9 N (1500 N/m × 6 mm); the hand's damping keeps the nut from running on.
+  auto push = [](double t) { return static_cast<int>(t / 2.2); };
+  auto hand_n = [&](double t) {
+    const int i = push(t);
+    const double tau = (t - 2.2 * i) / 2.0;
+    if (tau >= 1.0) return 0.0;
+    double peak = (i % 2 ? -1.0 : 1.0) * (20.0 + 2.0 * (i % 6));
+    if (i == 7 && overload) peak = -56.0;
+    const double s = std::sin(kPi * tau);
+    return peak * s * s;
+  };
+  StepOutRun out;
+  std::vector<std::vector<double>> cols(5);
+  maglead::SensorSample s;
+  double branch = maglead::phase_rad(plant.truth().screw_angle_rad, p0, L);
+  int slips_before_push = 0, last_push = -1;
+  for (int k = 0; k <= 30000; ++k) {
+    const double t = k * 1e-3;
+    const double f = hand_n(t);
+    const double phi = maglead::balancing_phase_rad(params.coupling, f);
+    // The hand holds the nut where the coupling balances its force, on the branch the nut was
+    // on when the push began (it follows a slipped nut from the next push on).
+    if (push(t) != last_push) last_push = push(t), slips_before_push = plant.truth().slips;
+    const double anchor = (screw0 - phi) * L / (2 * kPi) - slips_before_push * L + f / k_hand;
+    maglead::LoadSetting load;
+    load.kind = maglead::LoadSetting::Kind::compliant;
+    load.stiffness_n_per_m = k_hand;
+    load.damping_n_s_per_m = c_hand;
+    load.anchor_pos_m = anchor;
+    plant.set_load(load);
+    plant.read_sensors(t, s);
+    const double true_phi =
+        maglead::phase_rad(plant.truth().screw_angle_rad, plant.truth().nut_pos_m, L);
+    if (std::abs(true_phi - branch) > kPi) {
+      const double nb = branch + 2 * kPi * std::round((true_phi - branch) / (2 * kPi));
+      out.slip_times_s.push_back(t);
+      out.leads.push_back(static_cast<int>(std::lround((nb - branch) / (2 * kPi))));
+      branch = nb;
+    }
+    const double motor = maglead::motor_angle_rad_from_counts(s.motor_counts, act);
+    cols[0].push_back(t);
+    cols[1].push_back(motor);
+    cols[2].push_back(maglead::screw_angle_rad_from_motor_rad(motor, act));
+    cols[3].push_back(maglead::nut_pos_m_from_counts(s.linear_counts, act));
+    cols[4].push_back(s.load_force_n);
+  }
+  out.rec.path = overload ? "step-out (generated)" : "step-out control (generated)";
+  out.rec.metadata = {{"sample_rate_hz", "1000"}, {"lead_m", "0.006"}, {"gear_ratio", "6.6"}};
+  out.rec.names = {"t_s", "motor_angle_rad", "screw_angle_rad", "nut_pos_m", "load_force_n"};
+  out.rec.columns = std::move(cols);
+  return out;
 }
 
 TEST(GeneratedSuite, StepOutIsAnEventWithItsTime) {
-  // The plant's scenarios keep the nut on its branch, so the slip is made in the recording:
-  // from t = 10 s the encoder reads one lead less, as after the nut fell back one period.
-  maglead::ScenarioOptions opt;
-  opt.scenario = "position-moves";
-  opt.duration_s = 20.0;
-  const std::string path = testing::TempDir() + "/analysis_stepout.csv";
-  maglead::run_scenario(opt, path);
-  auto rec = maglead::read_recording(path);
-  std::filesystem::remove(path);
-  const auto& t = rec.column("t_s");
-  auto& p = rec.columns[static_cast<std::size_t>(
-      std::find(rec.names.begin(), rec.names.end(), "nut_pos_m") - rec.names.begin())];
-  for (std::size_t i = 0; i < p.size(); ++i)
-    if (t[i] >= 10.0) p[i] -= 0.006;
-  const maglead::ActuatorParams act;
-  const auto r = maglead::analysis::analyze_recording(
-      rec, maglead::analysis::actuator_model_from_config(act), maglead::paper_calibration(), act, {});
-  int slips = 0;
+  const auto run_ = step_out_recording(true);
+  ASSERT_FALSE(run_.slip_times_s.empty()) << "the plant must step out";
+  const auto r = analyze(run_.rec);
+  std::vector<double> times;
+  std::vector<int> leads;
   for (const auto& e : r.json["events"])
     if (e["type"] == "step_out") {
-      ++slips;
-      EXPECT_NEAR(e["t_s"].get<double>(), 10.0, 0.01);
-      EXPECT_EQ(e["leads"].get<int>(), 1);
+      times.push_back(e["t_s"].get<double>());
+      leads.push_back(e["leads"].get<int>());
     }
-  EXPECT_EQ(slips, 1);
+  row("step_out [t_s]", "hand overload", run_.slip_times_s, times, r);
+  // One event per slip of the plant, at its time: the raw phase passes ±π within a sample or
+  // two of the truth (one encoder count is 0.023 rad; the phase moves radians per millisecond
+  // while the nut slips).
+  ASSERT_EQ(times.size(), run_.slip_times_s.size()) << r.json["events"].dump();
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    EXPECT_NEAR(times[i], run_.slip_times_s[i], 0.002) << "slip " << i;
+    EXPECT_EQ(leads[i], run_.leads[i]) << "slip " << i;
+  }
   Json params;
-  EXPECT_NE(finding(r, "step_out", &params), nullptr);
+  ASSERT_NE(finding(r, "step_out", &params), nullptr);
+  EXPECT_EQ(params.value("count", 0), static_cast<int>(times.size()));
+  EXPECT_EQ(r.json["effects"].size(), 1u) << named_as(r);
+}
+
+TEST(GeneratedSuite, ControlStepOutHandNamesNothing) {
+  const auto run_ = step_out_recording(false);
+  ASSERT_TRUE(run_.slip_times_s.empty());
+  expect_nothing(analyze(run_.rec), "hand (no overload)");
 }
 
 TEST(Emps, FindsCoulombOffsetThenDirectionDependentFriction) {

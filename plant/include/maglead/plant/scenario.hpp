@@ -29,6 +29,7 @@ struct ScenarioOptions {
 struct ScenarioSummary {
   std::size_t samples = 0;
   int slips = 0;  // step-outs the plant went through (truth, not logged in the recording)
+  std::vector<double> disturbance_times_s;  // starts of external_disturbance pulses (truth)
 };
 
 /// Runs the scenario and writes the recording to `out_path`. Throws std::invalid_argument on an

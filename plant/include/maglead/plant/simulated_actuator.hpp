@@ -13,31 +13,38 @@
 
 namespace maglead {
 
-/// Physics beyond the paper's model, each off at 0 and given by one physical parameter.
+/// Physics beyond the paper's model, with the ids and laws of ../shared/spec/effects.md. Each is
+/// off at its default. Where the spec's parameter is a total (C, F_c, M, g) the plant's value is
+/// the change from the nominal actuator, so 0 always means "off"; the comments give the spec's
+/// parameter in terms of these fields (nominal values from ActuatorParams).
 struct PlantEffects {
-  double viscous_friction_n_s_per_m = 0.0;  // extra viscous friction
-  double stribeck_friction_n = 0.0;         // break-away excess over Coulomb, decays with speed
-  double asymmetric_friction_n = 0.0;       // Coulomb +this moving +p, −this moving −p
-  double offset_n = 0.0;                    // constant force on the nut along +p (gravity …)
-  double gain_drift_per_min = 0.0;          // relative change of coupling strength per minute
-  double angle_ripple_n = 0.0;              // force ripple once per screw turn, amplitude
-  double position_ripple_n = 0.0;           // force ripple fixed to nut position (guide), amp.
-  double backlash_rad = 0.0;                // gearbox play, at the screw
-  double end_effect_m = 0.0;                // coupling weakens within this distance of an end
-  double load_cell_delay_s = 0.0;           // load-cell signal delay
-  double sensor_delay_s = 0.0;              // linear-encoder signal delay
-  double spring_n_per_m = 0.0;              // spring pulling the nut to mid-stroke
-  double mass_error_kg = 0.0;               // extra moving mass
-  double external_disturbance_n = 0.0;      // brief force pulses at random times, amplitude
-
-  static constexpr double kStribeckVelocity_m_s = 2e-3;
-  static constexpr double kPositionRipplePeriod_m = 5e-3;
-  static constexpr double kEndEffectDepth = 0.5;  // coupling fraction lost right at the end
+  double coulomb_friction_n = 0.0;          // coulomb_n = F_c + this (kinetic and break-away)
+  double viscous_friction_n_s_per_m = 0.0;  // viscous_n_s_per_m = C + this
+  double asymmetric_friction_n = 0.0;       // coulomb_pos_n F_c + this, coulomb_neg_n F_c − this
+  double stribeck_friction_n = 0.0;         // breakaway_n = F_c + this; kinetic falls to F_c …
+  double stribeck_velocity_m_s = 2e-3;      // … with stribeck_velocity_m_s (v_s)
+  double offset_n = 0.0;                    // offset_n: constant force on the nut along +p
+  double spring_n_per_m = 0.0;              // stiffness_n_per_m; rest_position_m = mid-stroke
+  double mass_error_kg = 0.0;               // nut_mass_kg = M + this
+  double coupling_gain_error = 0.0;         // gain = 1 + this
+  double gain_drift_per_min = 0.0;          // gain_change_per_min (r): F_m × (1 + r t/60)
+  double angle_ripple = 0.0;                // relative_amplitude (a): F_m × (1 + a sin(θ + ψ))
+  double angle_ripple_phase_rad = 0.0;      // phase_rad (ψ)
+  double position_ripple_n = 0.0;           // amplitude_n: + A sin(2πp/λ + ψ)
+  double position_ripple_period_m = 5e-3;   // period_m (λ)
+  double position_ripple_phase_rad = 0.0;   // phase_rad (ψ)
+  double end_effect_zone_m = 0.0;           // zone_m (z): F_m × (1 − D s(x)), see effects.md
+  double end_effect_max_reduction = 0.5;    // max_reduction (D)
+  double backlash_rad = 0.0;                // backlash_rad (b): gear play, at the screw
+  double sensor_delay_s = 0.0;              // delay_s: linear and motor encoder readings lag
+  double load_cell_delay_s = 0.0;           // delay_s: the load-cell reading lags
+  double external_disturbance_n = 0.0;      // force_n of 50 ms pulses at random times
 };
 
-/// Sets the effect `name` to `value`; throws std::invalid_argument naming the bad word.
+/// Sets the effect `name` (an id, or ID.PARAMETER for a shape parameter such as
+/// angle_ripple.phase_rad) to `value`; throws std::invalid_argument naming the bad word.
 void set_plant_effect(PlantEffects& effects, const std::string& name, double value);
-/// Effect names with units and meaning, for --help and error messages.
+/// Effect keys with units and meaning, for --help and error messages.
 std::vector<std::pair<std::string, std::string>> plant_effect_help();
 
 struct PlantParams {
@@ -62,9 +69,10 @@ struct LoadSetting {
   double force_n = 0.0;            // constant: force along +p
 };
 
+/// The plant's state at one instant t_s (every field at that same instant).
 struct PlantTruth {
   double t_s, motor_angle_rad, screw_angle_rad, nut_pos_m, nut_vel_m_s, load_force_n;
-  double coupling_force_n;  // F_m on the nut along +p
+  double coupling_force_n;  // F_m on the nut along +p, with every law that scales it
   int slips;                // completed step-outs so far (signed count of leads)
 };
 
@@ -79,10 +87,21 @@ class SimulatedActuator final : public ActuatorHardware {
   void advance_to(double t_s) noexcept;
   const PlantTruth& truth() const { return truth_; }
   const PlantParams& params() const { return params_; }
+  /// Starts of the external_disturbance pulses (50 ms each); empty when that effect is off.
+  const std::vector<double>& disturbance_times_s() const { return disturbance_times_s_; }
 
  private:
   void step(double dt) noexcept;
   double external_force_n() const noexcept;
+  /// The laws that scale F_m (gain error, drift, angle ripple, end effect) at one state.
+  double coupling_gain(double t_s, double nut_pos_m, double screw_angle_rad) const noexcept;
+  /// F_m on the nut along +p at one state (the plant's true coupling times coupling_gain).
+  double coupling_force_n(double t_s, double nut_pos_m, double screw_angle_rad) const noexcept;
+  /// Screw angle for a motor angle and nut position: the gear output, or with backlash the
+  /// point of the play where the coupling's torque puts it (see simulated_actuator.cpp).
+  double screw_angle_at(double motor_rad, double nut_pos_m) const noexcept;
+  /// A delay line's value `delay_s` ago, interpolated between substeps.
+  double delayed(const std::vector<double>& line, double delay_s) const noexcept;
 
   PlantParams params_;
   LoadSetting load_;
@@ -94,11 +113,12 @@ class SimulatedActuator final : public ActuatorHardware {
   double screw_rad_ = 0.0;
   double pos_m_ = 0.0, vel_m_s_ = 0.0;
   bool stuck_ = true;
-  double last_load_n_ = 0.0;
+  double load_n_ = 0.0;             // F_ext at the current state
+  double coupling_zero_rad_ = 0.0;  // φ at which the true coupling force is zero (stable branch)
   double phase_start_ = 0.0;
   std::vector<double> disturbance_times_s_;
   // Delay lines for sensors, sampled every substep (ring buffers, allocated once).
-  std::vector<double> load_delay_, pos_delay_;
+  std::vector<double> load_delay_, pos_delay_, motor_delay_;
   std::size_t delay_head_ = 0;
   PlantTruth truth_{};
 };
