@@ -1,4 +1,4 @@
-// Each law of the simulated plant against ../shared/spec/effects.md. The plant is run substep by
+// Each law of the simulated plant against docs/effects.md. The plant is run substep by
 // substep; between two substeps its own velocity change gives the net force it applied, which
 // must equal the spec's formula, written out here at the state the step started from:
 //

@@ -1,4 +1,4 @@
-// The plant's --effect keys: the ids of ../shared/spec/effects.md, each with the value of its
+// The plant's --effect keys: the ids of docs/effects.md, each with the value of its
 // main parameter, and ID.PARAMETER keys (the spec's parameter names) for the shape parameters.
 #include <cmath>
 #include <cstdio>

@@ -75,7 +75,7 @@ double SimulatedActuator::external_force_n() const noexcept {
   return 0.0;
 }
 
-// The laws of ../shared/spec/effects.md that scale the coupling force F_m.
+// The laws of docs/effects.md that scale the coupling force F_m.
 double SimulatedActuator::coupling_gain(double t_s, double nut_pos_m,
                                         double screw_angle_rad) const noexcept {
   const auto& a = params_.actuator;

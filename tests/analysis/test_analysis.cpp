@@ -1,5 +1,5 @@
 // The analysis on data where the answer is known: recordings from the simulated plant with one
-// effect of ../shared/spec/effects.md switched on that the baseline lacks (fixed seeds, made
+// effect of docs/effects.md switched on that the baseline lacks (fixed seeds, made
 // here), controls with nothing concealed, and the real EMPS recording. Only bench columns reach
 // the analysis; the effects are named in the spec's ids and parameter names.
 //

@@ -13,7 +13,7 @@
 
 namespace maglead {
 
-/// Physics beyond the paper's model, with the ids and laws of ../shared/spec/effects.md. Each is
+/// Physics beyond the paper's model, with the ids and laws of docs/effects.md. Each is
 /// off at its default. Where the spec's parameter is a total (C, F_c, M, g) the plant's value is
 /// the change from the nominal actuator, so 0 always means "off"; the comments give the spec's
 /// parameter in terms of these fields (nominal values from ActuatorParams).
