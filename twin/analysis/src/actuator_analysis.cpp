@@ -619,8 +619,12 @@ namespace maglead::analysis::actuator {
 std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
                                                  const Selection& sel, const BreakawayTest& bt,
                                                  const Options& opt) {
-  for (const auto& c : sel.chosen)
-    if (c.id == "stribeck_friction" || c.id == "coulomb_friction") return std::nullopt;
+  // A kinetic level found by the sliding fit stays: Stribeck's law carries it as its coulomb_n.
+  double kinetic_n = base.coulomb_n;
+  for (const auto& c : sel.chosen) {
+    if (c.id == "stribeck_friction") return std::nullopt;
+    if (c.id == "coulomb_friction") kinetic_n = c.params.at("coulomb_n");
+  }
   for (const auto& id : opt.exclude)
     if (id == "stribeck_friction") return std::nullopt;
   auto margin = [&](const BreakawayTest::Side& s) {
@@ -634,24 +638,31 @@ std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseli
                                bt.neg.median_excess_n - 0.5 * bt.neg.count_force_n);
   const auto* e = effects::find("stribeck_friction");
   State model = P.states.empty() ? State{} : P.states.front();
-  model.coulomb_n = base.coulomb_n;
+  model.coulomb_n = kinetic_n;
   // The Stribeck velocity: the one whose low-speed friction rise best fits the sliding residual.
-  double best_vs = e->shapes().front(), best_sse = INFINITY;
-  for (double vs : e->shapes()) {
+  // Without slow sliding the data say nothing about it: then the middle of the scanned range
+  // (on a log scale), and the finding says so.
+  const auto shapes = e->shapes();
+  double best_vs = std::sqrt(shapes.front() * shapes.back()), best_sse = INFINITY, worst_sse = 0;
+  for (double vs : shapes) {
     double s = 0, x = 0;
     for (std::size_t i = 0; i < P.states.size(); ++i) {
       e->regressors(vs, P.states[i], &x);
       const double r = sel.final_residual[i] - excess * x;
       s += r * r;
     }
+    worst_sse = std::max(worst_sse, s);
     if (s < best_sse) best_sse = s, best_vs = vs;
   }
+  const bool determined = worst_sse - best_sse > 0.01 * worst_sse;
+  if (!determined) best_vs = std::sqrt(shapes.front() * shapes.back());
   Candidate c;
   c.id = "stribeck_friction";
   c.shape = best_vs;
   const double coef = excess;
   c.params = *e->parameters(best_vs, &coef, model);
   c.t_stat = std::min(t_pos, t_neg);
+  c.velocity_determined = determined;
   c.segments = static_cast<int>(bt.pos.episodes + bt.neg.episodes);
   return c;
 }

@@ -77,6 +77,7 @@ struct Candidate {
   int segments_improved = 0, segments = 0;
   std::vector<Alternative> alternatives;
   double shape = 0;
+  bool velocity_determined = true;  // Stribeck: did slow sliding pin down v_s?
 };
 
 struct Selection {

@@ -79,11 +79,15 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   const auto bt = actuator::breakaway_test(P, base, sel.chosen);
   const auto stribeck = actuator::stribeck_from_breakaway(P, base, sel, bt, o);
   if (stribeck) {
-    // Its sliding part belongs to the corrected model's error too.
+    // Its sliding part belongs to the corrected model's error too; a kinetic level the sliding
+    // fit already found is in it (and in the residual) once.
     const auto* e = effects::find(stribeck->id);
+    const auto* coulomb = effects::find("coulomb_friction");
+    const effects::Params kinetic{{"coulomb_n", stribeck->params.at("coulomb_n")}};
     sel.final_sse = 0;
     for (std::size_t i = 0; i < P.states.size(); ++i) {
-      sel.final_residual[i] -= e->force_n(stribeck->params, P.states[i]);
+      sel.final_residual[i] -= e->force_n(stribeck->params, P.states[i]) -
+                               coulomb->force_n(kinetic, P.states[i]);
       sel.final_sse += sel.final_residual[i] * sel.final_residual[i];
     }
   }
@@ -142,6 +146,13 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
     effects_json.push_back(e);
   }
   if (stribeck) {
+    // Stribeck's law holds the kinetic level: a coulomb_friction finding becomes part of it.
+    std::erase_if(sel.chosen, [](const actuator::Candidate& c) { return c.id == "coulomb_friction"; });
+    for (auto it = effects_json.begin(); it != effects_json.end(); ++it)
+      if ((*it)["id"] == "coulomb_friction") {
+        effects_json.erase(it);
+        break;
+      }
     effects_json.push_back(
         {{"id", stribeck->id},
          {"parameters", params_json(stribeck->params)},
@@ -153,8 +164,12 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
                        {"breakaway_excess_neg_n", bt.neg.median_excess_n},
                        {"encoder_count_force_n", bt.pos.count_force_n}}},
          {"improvement_pct", 0.0},
-         {"note", "break-away from the net force at release; the Stribeck velocity is the one the "
-                  "sliding samples prefer"}});
+         {"note", stribeck->velocity_determined
+                      ? "break-away from the net force at release; the Stribeck velocity is the one "
+                        "the sliding samples prefer"
+                      : "break-away from the net force at release; the Stribeck velocity is not "
+                        "determined (no slow sliding in the recording): the middle of the range "
+                        "scanned"}});
     sel.chosen.push_back(*stribeck);
   }
   Json events = Json::array();
