@@ -6,6 +6,17 @@ namespace maglead::effects {
 
 double param(const Params& p, const char* name, double fallback);
 
+/// An effect seen as events in time (a slip, a pulse), not as a force law the analysis fits.
+struct EventEffect : Effect {
+  double force_n(const Params&, const State&) const override { return 0.0; }
+  int columns() const override { return 0; }
+  void regressors(double, const State&, double*) const override {}
+  std::optional<Params> parameters(double, const double*, const State&) const override {
+    return std::nullopt;
+  }
+  bool selectable() const override { return false; }
+};
+
 const Effect& coulomb_friction();
 const Effect& viscous_friction();
 const Effect& asymmetric_friction();

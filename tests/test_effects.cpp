@@ -1,0 +1,80 @@
+// The effect library: each unit's regressors are its law, linear in the coefficients the
+// analysis fits, so a corrected model reproduces the analysis's error exactly; ids and
+// parameter names are those of docs/effects.md.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include "maglead/effects/effect.hpp"
+
+namespace maglead::effects {
+namespace {
+
+State random_state(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  State s;
+  s.t_s = 30.0 + 20.0 * u(rng);
+  s.p_m = 0.02 + 0.019 * u(rng);
+  s.v_m_s = 0.05 * u(rng);
+  s.a_m_s2 = 2.0 * u(rng);
+  s.theta_rad = 20.0 * u(rng);
+  s.phi_rad = 0.8 * u(rng);
+  s.phi_rate_rad_s = 3.0 * u(rng);
+  s.coupling_n = 40.0 * u(rng);
+  s.coupling_slope_n_per_rad = 45.0 + 5.0 * u(rng);
+  s.load_n = 20.0 * u(rng);
+  s.load_rate_n_s = 200.0 * u(rng);
+  return s;
+}
+
+TEST(Effects, RegressorsAreTheLawLinearInTheFittedCoefficients) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0.05, 0.3);  // positive: sign-constrained units
+  for (const Effect* e : library()) {
+    if (e->columns() == 0) continue;
+    auto shapes = e->shapes();
+    if (shapes.empty()) shapes.push_back(0.0);
+    for (double shape : shapes) {
+      std::vector<double> c(static_cast<std::size_t>(e->columns()));
+      for (double& x : c) x = u(rng);
+      const State model = random_state(rng);
+      const auto p = e->parameters(shape, c.data(), model);
+      ASSERT_TRUE(p.has_value()) << e->id();
+      for (int k = 0; k < 20; ++k) {
+        State s = random_state(rng);
+        s.coulomb_n = model.coulomb_n;
+        s.viscous_n_s_per_m = model.viscous_n_s_per_m;
+        s.nut_mass_kg = model.nut_mass_kg;
+        std::vector<double> x(c.size());
+        e->regressors(shape, s, x.data());
+        double lin = 0;
+        for (std::size_t j = 0; j < c.size(); ++j) lin += c[j] * x[j];
+        EXPECT_NEAR(e->force_n(*p, s), lin, 1e-9 * (1 + std::abs(lin))) << e->id() << " shape " << shape;
+      }
+    }
+  }
+}
+
+TEST(Effects, IdsAndParameterNamesAreTheDocumentedOnes) {
+  std::ifstream f(MAGLEAD_EFFECTS_DOC);
+  ASSERT_TRUE(f) << "docs/effects.md not found at " << MAGLEAD_EFFECTS_DOC;
+  std::stringstream doc;
+  doc << f.rdbuf();
+  const std::string text = doc.str();
+  for (const Effect* e : library()) {
+    EXPECT_NE(text.find("`" + std::string(e->id()) + "`"), std::string::npos) << e->id();
+    if (e->columns() == 0) continue;  // events: their fields are the events' own
+    for (const auto& p : e->params())
+      EXPECT_NE(text.find("`" + p.name + "`"), std::string::npos) << e->id() << "." << p.name;
+  }
+  EXPECT_EQ(find("no_such_effect"), nullptr);
+  EXPECT_THROW(check(*find("offset"), {{"force_n", 1.0}}), std::invalid_argument);
+  EXPECT_FALSE(plausible(*find("coupling_gain_error"), {{"gain", 3.0}}));
+}
+
+}  // namespace
+}  // namespace maglead::effects
