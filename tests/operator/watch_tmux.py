@@ -7,6 +7,7 @@ Usage: watch_tmux.py MAGLEAD_BIN CONFIG_DIR"""
 import json
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -75,8 +76,10 @@ def main():
     conn = ["--port", str(port)]
     holder = None
     try:
+        # The shell stays after watch: tmux discards what a process wrote if it exits before tmux
+        # has read it (on a loaded machine, the restored screen and watch's closing line).
         tmux("new-session", "-d", "-s", SESSION, "-x", "80", "-y", "24",
-             f"{MAGLEAD} watch --port {port} --rate 5")
+             f"{shlex.quote(MAGLEAD)} watch --port {port} --rate 5; echo \"watch exited $?\"; sleep 60")
         tmux("set-option", "-t", SESSION, "remain-on-exit", "on")
         rows = wait_screen(lambda r: "now" in "\n".join(r) and "position" in "\n".join(r))
         fits(rows, 80, 24, "80x24")
@@ -132,9 +135,10 @@ def main():
               f"restart: recovered, the new controller's state shown: {rows[:2]}")
         tmux("resize-window", "-t", SESSION, "-x", "80", "-y", "24")  # room for the closing line
         tmux("send-keys", "-t", SESSION, "q")
-        rows = wait_screen(lambda r: any("refreshes from" in x for x in r))
+        rows = wait_screen(lambda r: any("watch exited" in x for x in r))
         last = [x for x in rows if "maglead watch:" in x]
         check(bool(last) and "1 reconnect" in last[0], f"q quits, the screen is restored, one line: {last}")
+        check(any(x.strip() == "watch exited 0" for x in rows), f"watch exits 0 on q: {[x for x in rows if 'watch exited' in x]}")
     finally:
         tmux("kill-server", check_rc=False)
         if holder is not None and holder.poll() is None:
