@@ -66,6 +66,9 @@ struct TcpServer::Conn {
   std::size_t in_len = 0;
   double frame_started_s = 0.0;  // when the bytes of an incomplete frame began
   double last_activity_s = 0.0;
+  // Order of last activity among all connections: last_activity_s is the wake-up's clock, the
+  // same for every connection accepted or read in one wake-up, so "idle longest" needs this.
+  std::uint64_t activity_order = 0;
   std::string out;
   bool read_closed = false;  // the peer shut down its sending side: answer what came, then close
 };
@@ -128,6 +131,7 @@ void TcpServer::stop() {
 void TcpServer::run() {
   std::unordered_map<int, std::unique_ptr<Conn>> conns;
   std::uint16_t next_id = 1;
+  std::uint64_t activity_count = 0;
   const auto drop = [&](Conn& c) {
     epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, c.fd, nullptr);
     close(c.fd);
@@ -218,7 +222,7 @@ void TcpServer::run() {
             const std::uint16_t owner = core_.owner();
             for (auto& [f, other] : conns) {
               if (other->id == owner || other->in_len > 0 || !other->out.empty() || other->read_closed) continue;
-              if (!oldest || other->last_activity_s < oldest->last_activity_s) oldest = other.get();
+              if (!oldest || other->activity_order < oldest->activity_order) oldest = other.get();
             }
             if (!oldest) {
               close(cfd);  // refused: every connection is busy
@@ -233,6 +237,7 @@ void TcpServer::run() {
           c->fd = cfd;
           c->ipv4 = ip;
           c->last_activity_s = now;
+          c->activity_order = ++activity_count;
           do {  // connection numbers stay unique among open connections
             c->id = next_id;
             next_id = static_cast<std::uint16_t>(next_id >= 0xFFFE ? 1 : next_id + 1);
@@ -260,6 +265,7 @@ void TcpServer::run() {
           if (r > 0) {
             c.in_len += static_cast<std::size_t>(r);
             c.last_activity_s = now;
+            c.activity_order = ++activity_count;
             if (!serve(c, now)) {
               ok = false;
               break;

@@ -291,6 +291,14 @@ def allow_list_and_cap():
         except (ConnectionResetError, socket.timeout):
             evicted = False
         check(evicted, "the connection idle longest was closed for it")
+        # Accepted in one wake-up of the server, both carry the same clock reading: the order
+        # they came in still decides, so the younger one stays open and is served.
+        held[1].sendall(struct.pack(">HHHB", 7, 0, 6, 1) + struct.pack(">BHH", 4, 0, 1))
+        try:
+            kept = read_response(held[1], 7) == bytes([4, 2, 0x4D, 0x4C])
+        except (ConnectionResetError, socket.timeout, AssertionError):
+            kept = False
+        check(kept, "the other idle connection stays open and is served")
         # The owner and a connection with a request under way are never evicted.
         owner = socket.create_connection(("127.0.0.1", srv.port), timeout=2)
         owner.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, CW, ENABLE))

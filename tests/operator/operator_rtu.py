@@ -43,7 +43,7 @@ def scenario(dev):
     rc, out, err = run(MAGLEAD, "poll", *line, "--json")
     j = json.loads(out) if rc == 0 else {}
     check(rc == 0 and j.get("drive_state") == "ready", f"poll over RTU: {err.strip()}")
-    check(abs(j.get("values", {}).get("nut_pos_um", 0) - 0.02) < 1e-3, "position about 20 mm over RTU")
+    check(abs(j.get("values", {}).get("nut_pos_m", 0) - 0.02) < 1e-3, "position about 20 mm over RTU")
     check(j.get("values", {}).get("control_owner") == 0, "nobody owns control")
 
     rc, _, err = run(MAGLEAD, "set", *line, "force", "-60", "--config", CONFIG)
@@ -52,12 +52,16 @@ def scenario(dev):
     check(rc == 0, f"enable over RTU: {out.strip()} {err.strip()}")
     rc, out, err = run(MAGLEAD, "set", *line, "force", "-8", "--config", CONFIG)
     check(rc == 0 and "done" in out, f"set force -8 over RTU: {out.strip()} {err.strip()}")
-    rc, out, err = run(MAGLEAD, "poll", *line, "--json", "--names", "active_mode,active_force_setpoint_mn,force_est_mn,"
+    # poll shows SI values under SI names (register names work in --names too).
+    rc, out, err = run(MAGLEAD, "poll", *line, "--json", "--names", "active_mode,active_force_setpoint_n,force_est_mn,"
                        "status_word,drive_state,alarm_code")
     v = json.loads(out)["values"] if rc == 0 else {}
-    check(v.get("active_mode") == 2 and abs(v.get("active_force_setpoint_mn", 0) + 8) < 1e-9,
+    check(v.get("active_mode") == 2 and abs(v.get("active_force_setpoint_n", 0) + 8) < 1e-9,
           f"controller holds -8 N: {v}")
-    check(abs(v.get("force_est_mn", 0) + 8) < 2.0, f"estimate near -8 N ({v.get('force_est_mn')})")
+    check(abs(v.get("force_est_n", 0) + 8) < 2.0, f"estimate near -8 N ({v.get('force_est_n')})")
+    # RTU has no connection to lose: control outlives the command (the watchdog is the only
+    # owner-loss detection there), unlike TCP where the drive faults with owner_lost.
+    check(v.get("drive_state") == 2 and v.get("alarm_code") == 0, f"still enabled after set exits over RTU: {v}")
 
     rec = os.path.join(WORK, "rtu_rec.csv")
     rc, out, err = run(MAGLEAD, "record", *line, "--duration", "1s", "--rate", "20", "--out", rec)

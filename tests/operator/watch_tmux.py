@@ -7,6 +7,7 @@ Usage: watch_tmux.py MAGLEAD_BIN CONFIG_DIR"""
 import json
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -73,9 +74,12 @@ def main():
     srv = Server(MAGLEAD, CONFIG, "--port", "0")
     port = srv.port
     conn = ["--port", str(port)]
+    holder = None
     try:
+        # The shell stays after watch: tmux discards what a process wrote if it exits before tmux
+        # has read it (on a loaded machine, the restored screen and watch's closing line).
         tmux("new-session", "-d", "-s", SESSION, "-x", "80", "-y", "24",
-             f"{MAGLEAD} watch --port {port} --rate 5")
+             f"{shlex.quote(MAGLEAD)} watch --port {port} --rate 5; echo \"watch exited $?\"; sleep 60")
         tmux("set-option", "-t", SESSION, "remain-on-exit", "on")
         rows = wait_screen(lambda r: "now" in "\n".join(r) and "position" in "\n".join(r))
         fits(rows, 80, 24, "80x24")
@@ -87,9 +91,10 @@ def main():
         check(re.search(r"drive ready\s+mode idle", "\n".join(rows)) is not None, "80x24: drive state spelled out")
 
         # Force control: the setpoint, the estimate and the load cell all appear in the trend.
-        rc, _, err = run(MAGLEAD, "enable", *conn)
-        rc2, _, err2 = run(MAGLEAD, "set", *conn, "force", "10", "--config", CONFIG)
-        check(rc == 0 and rc2 == 0, f"enable and set force 10 ({err.strip()} {err2.strip()})")
+        # Control ends with the command that claimed it (owner loss), so `set` holds it while the
+        # screen is checked at 80x24 and at 60x20.
+        holder = subprocess.Popen([MAGLEAD, "set", *conn, "force", "10", "--config", CONFIG, "--hold", "60s"],
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         rows = wait_screen(lambda r: value_after(r, "setpoint") == 10.0 and "force_reached" in "\n".join(r) and
                            all(any(m in c for c in chart_rows(r)) for m in "*o-"))
         text = "\n".join(rows)
@@ -107,6 +112,15 @@ def main():
         fits(rows, 60, 20, "60x20")
         check(value_after(rows, "setpoint") == 10.0 and value_after(rows, "position") > 0,
               "60x20: the values are still there")
+        check(holder.poll() is None, "set force 10 --hold 60s still holds control")
+        # The holder goes away: its connection closes, the drive faults with owner_lost.
+        holder.terminate()
+        hout, herr = holder.communicate(timeout=10)
+        check("force 10.000 N: done" in hout, f"set force 10 reached the force: {hout.strip()} {herr.strip()}")
+        rows = wait_screen(lambda r: re.search(r"drive fault\s+mode", "\n".join(r)) is not None
+                           and "owner_lost" in "\n".join(r))
+        check(re.search(r"drive fault\s+mode", "\n".join(rows)) is not None and "owner_lost" in "\n".join(rows),
+              f"60x20: the holder gone, the screen shows the owner_lost fault: {rows[:2]}")
 
         # The server restarts on the same port: "reconnecting", then back with fresh values.
         srv.stop()
@@ -121,11 +135,15 @@ def main():
               f"restart: recovered, the new controller's state shown: {rows[:2]}")
         tmux("resize-window", "-t", SESSION, "-x", "80", "-y", "24")  # room for the closing line
         tmux("send-keys", "-t", SESSION, "q")
-        rows = wait_screen(lambda r: any("refreshes from" in x for x in r))
+        rows = wait_screen(lambda r: any("watch exited" in x for x in r))
         last = [x for x in rows if "maglead watch:" in x]
         check(bool(last) and "1 reconnect" in last[0], f"q quits, the screen is restored, one line: {last}")
+        check(any(x.strip() == "watch exited 0" for x in rows), f"watch exits 0 on q: {[x for x in rows if 'watch exited' in x]}")
     finally:
         tmux("kill-server", check_rc=False)
+        if holder is not None and holder.poll() is None:
+            holder.kill()
+            holder.wait()
         srv.stop()
     plain()
     finish()

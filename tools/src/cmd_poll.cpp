@@ -46,6 +46,17 @@ std::string meaning(const reg::Register& r, double v) {
   return "";
 }
 
+/// The JSON literal of one value: the raw integer, or the SI value at the register's resolution
+/// in plain decimals. nlohmann writes doubles below 1e-4 with an exponent (0.000071 s as
+/// 7.1e-05), so fixed-point registers are written here from si_text (%.*f, zeros trimmed).
+std::string json_literal(const reg::Register& r, double si, std::uint32_t raw_word, bool raw) {
+  if (raw) return nlohmann::json(raw_word).dump();
+  if (!std::isfinite(si)) return "null";
+  if (r.type == reg::Type::f32) return nlohmann::json(op::si_rounded(r, si)).dump();
+  if (op::si_decimals(r) == 0) return nlohmann::json(std::llround(si)).dump();
+  return op::si_text(r, si);
+}
+
 void add_poll(CLI::App& app) {
   auto* cmd = app.add_subcommand("poll", "Read a maglead controller's registers once (Modbus TCP or RTU) and "
                                          "print them by name in SI units");
@@ -102,16 +113,19 @@ void add_poll(CLI::App& app) {
       const auto name_of = [&](std::size_t i) { return o->raw ? std::string(v.regs[i]->name) : op::si_name(*v.regs[i]); };
       const auto text_of = [&](std::size_t i) { return o->raw ? std::to_string(v.raw[i]) : op::si_text(*v.regs[i], v.si[i]); };
       if (o->json) {
-        nlohmann::ordered_json j, vals = nlohmann::ordered_json::object(), units = nlohmann::ordered_json::object();
+        // "values" is written by hand (json_literal) and put in place of a marker after dump().
+        static const std::string kMarker = "\"values\": \"@values@\"";
+        std::string vals = shown.empty() ? "\"values\": {}" : "\"values\": {";
+        nlohmann::ordered_json j, units = nlohmann::ordered_json::object();
         for (auto i : shown) {
           const auto& r = *v.regs[i];
-          if (o->raw) vals[name_of(i)] = v.raw[i];
-          else if (op::si_decimals(r) == 0 && r.type != reg::Type::f32) vals[name_of(i)] = std::llround(v.si[i]);
-          else vals[name_of(i)] = op::si_rounded(r, v.si[i]);
+          vals += std::string(vals.back() == '{' ? "" : ",") + "\n    " + nlohmann::json(name_of(i)).dump() + ": " +
+                  json_literal(r, v.si[i], v.raw[i], o->raw);
           units[name_of(i)] = o->raw ? "raw" : std::string(r.unit);
         }
+        if (!shown.empty()) vals += "\n  }";
         j["controller"] = client.endpoint().describe();
-        j["values"] = vals;
+        j["values"] = "@values@";
         j["units"] = units;
         const auto sw = static_cast<std::uint16_t>(v.at("status_word"));
         j["status_bits"] = op::status_bits(sw);
@@ -119,7 +133,9 @@ void add_poll(CLI::App& app) {
         j["alarm"] = {{"code", v.at("alarm_code")},
                       {"name", op::code_name(reg::alarm_codes(), v.at("alarm_code"))},
                       {"meaning", op::code_meaning(reg::alarm_codes(), v.at("alarm_code"))}};
-        std::printf("%s\n", j.dump(2).c_str());
+        std::string text = j.dump(2);
+        text.replace(text.find(kMarker), kMarker.size(), vals);
+        std::printf("%s\n", text.c_str());
       } else if (o->csv) {
         std::printf("name,value,unit\n");
         for (auto i : shown)
