@@ -2,11 +2,13 @@
 
 #include <pthread.h>
 #include <sched.h>
+#include <sys/mman.h>
 #include <time.h>
 
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
 namespace maglead::controller {
@@ -28,6 +30,14 @@ class SteadyLoopClock final : public LoopClock {
 
 }  // namespace
 
+bool parse_realtime_policy(const std::string& text, RealtimePolicy& out) {
+  if (text == "off") out = RealtimePolicy::off;
+  else if (text == "try") out = RealtimePolicy::attempt;
+  else if (text == "require") out = RealtimePolicy::require;
+  else return false;
+  return true;
+}
+
 LoopClock& steady_loop_clock() noexcept {
   static SteadyLoopClock clock;
   return clock;
@@ -43,12 +53,67 @@ LoopRunner::~LoopRunner() { stop(); }
 
 void LoopRunner::start() {
   if (running_.exchange(true)) return;
+  set_up_.store(false);
   try {
-    thread_ = std::thread([this] { run(); });
+    thread_ = std::thread([this] {
+      apply_realtime();
+      const bool go = policy_ != RealtimePolicy::require || grant_.refused.empty();
+      if (!go) running_.store(false);
+      set_up_.store(true);
+      set_up_.notify_one();
+      if (go) run();
+    });
   } catch (const std::system_error& e) {
     running_.store(false);
     throw std::runtime_error(std::string("control loop: cannot start its thread: ") + e.what());
   }
+  set_up_.wait(false);
+  if (!running_.load()) {
+    thread_.join();
+    throw std::runtime_error("control loop: realtime = \"require\" and not granted: " + grant_.refused);
+  }
+}
+
+void LoopRunner::apply_realtime() {
+  grant_ = RealtimeGrant{};
+  if (policy_ == RealtimePolicy::off) return;
+  std::string refused;
+  const auto refuse = [&](const char* what, int err) {
+    if (!refused.empty()) refused += ", ";
+    refused += std::string(what) + " (" + std::strerror(err) + ")";
+  };
+  // Pinned to one core: by default the last one this process may use.
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  int cpu = cpu_;
+  if (cpu < 0 && sched_getaffinity(0, sizeof allowed, &allowed) == 0)
+    for (int c = CPU_SETSIZE - 1; c >= 0 && cpu < 0; --c)
+      if (CPU_ISSET(c, &allowed)) cpu = c;
+  if (cpu >= 0 && cpu < CPU_SETSIZE) {
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(cpu, &one);
+    const int err = pthread_setaffinity_np(pthread_self(), sizeof one, &one);
+    grant_.pinned = err == 0;
+    grant_.cpu = cpu;
+    if (err != 0) refuse("pinning to a core", err);
+  } else {
+    refuse("pinning to a core", EINVAL);
+  }
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  // A sanitizer's shadow memory is terabytes of address space: never lock it.
+  refused += std::string(refused.empty() ? "" : ", ") + "memory lock (not under a sanitizer)";
+#else
+  grant_.locked = mlockall(MCL_CURRENT | MCL_FUTURE) == 0;
+  if (!grant_.locked) refuse("memory lock", errno);
+#endif
+  sched_param sp{};
+  sp.sched_priority = 50;
+  const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+  grant_.fifo = err == 0;
+  if (err != 0) refuse("SCHED_FIFO", err);
+  realtime_.store(grant_.fifo);
+  grant_.refused = refused;
 }
 
 void LoopRunner::stop() {
@@ -121,10 +186,7 @@ void LoopRunner::cycle() noexcept {
 }
 
 void LoopRunner::run() {
-  // Real-time priority when the system grants it; the loop is correct without, just noisier.
-  sched_param sp{};
-  sp.sched_priority = 50;
-  realtime_.store(pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp) == 0);
+  // The loop is correct without real-time scheduling, just noisier (apply_realtime).
   while (running_.load(std::memory_order_relaxed)) cycle();
 }
 

@@ -127,3 +127,47 @@ TEST(LoopRunner, OnItsThreadTradesCommandsAndSnapshotsWithAnotherThread) {
   const auto& d = rig.clock.deadlines();
   for (std::size_t k = 1; k < d.size(); ++k) ASSERT_EQ(d[k] - d[k - 1], kPeriod) << k;
 }
+
+// [runtime] realtime. What is granted depends on the machine's privileges, so these assert
+// what holds either way: "off" asks for nothing; "try" starts and reports exactly what it did
+// not get; "require" either gets all three or does not start, naming what was refused.
+TEST(LoopRunner, RealtimeOffAsksForNothing) {
+  RunnerRig rig;
+  rig.loop.set_realtime(RealtimePolicy::off);
+  rig.loop.start();
+  rig.loop.stop();
+  const RealtimeGrant& g = rig.loop.realtime_grant();
+  EXPECT_FALSE(g.fifo || g.pinned || g.locked);
+  EXPECT_TRUE(g.refused.empty());
+  EXPECT_FALSE(rig.loop.realtime());
+}
+
+TEST(LoopRunner, RealtimeTryStartsAndReportsWhatItDidNotGet) {
+  RunnerRig rig;
+  rig.loop.set_realtime(RealtimePolicy::attempt);
+  rig.loop.start();
+  while (rig.loop.stats().cycles < 10) std::this_thread::yield();
+  rig.loop.stop();
+  const RealtimeGrant& g = rig.loop.realtime_grant();
+  EXPECT_EQ(g.refused.find("SCHED_FIFO") == std::string::npos, g.fifo) << g.refused;
+  EXPECT_EQ(g.refused.find("pinning") == std::string::npos, g.pinned) << g.refused;
+  EXPECT_EQ(g.refused.find("memory lock") == std::string::npos, g.locked) << g.refused;
+  EXPECT_EQ(rig.loop.realtime(), g.fifo);
+  EXPECT_TRUE(!g.pinned || g.cpu >= 0);
+}
+
+TEST(LoopRunner, RealtimeRequireStartsOnlyWithEverything) {
+  RunnerRig rig;
+  rig.loop.set_realtime(RealtimePolicy::require);
+  try {
+    rig.loop.start();
+    const RealtimeGrant& g = rig.loop.realtime_grant();
+    EXPECT_TRUE(g.fifo && g.pinned && g.locked);
+    rig.loop.stop();
+  } catch (const std::runtime_error& e) {
+    const RealtimeGrant& g = rig.loop.realtime_grant();
+    EXPECT_FALSE(g.refused.empty());
+    EXPECT_NE(std::string(e.what()).find(g.refused), std::string::npos) << e.what();
+    EXPECT_EQ(rig.loop.stats().cycles, 0u) << "the loop did not run";
+  }
+}

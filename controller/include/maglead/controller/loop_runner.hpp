@@ -4,6 +4,7 @@
 // CycleStatus each step returns, and logs cycle periods on request for jitter statistics.
 #include <atomic>
 #include <cstdint>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -25,6 +26,22 @@ class LoopClock {
 /// the clock steady_clock reads on Linux. Stateless; one instance serves every runner.
 LoopClock& steady_loop_clock() noexcept;
 
+/// `[runtime] realtime` in config/network.toml: what the loop thread asks of Linux.
+/// off: nothing; attempt ("try"): SCHED_FIFO, the thread pinned to one core, mlockall, and
+/// whatever is refused is reported; require: the loop does not start without all three.
+enum class RealtimePolicy : std::uint8_t { off, attempt, require };
+/// "off", "try" or "require"; false otherwise.
+bool parse_realtime_policy(const std::string& text, RealtimePolicy& out);
+
+/// What the loop thread got (after start()).
+struct RealtimeGrant {
+  bool fifo = false;    // SCHED_FIFO
+  bool pinned = false;  // bound to cpu
+  bool locked = false;  // mlockall(MCL_CURRENT | MCL_FUTURE)
+  int cpu = -1;
+  std::string refused;  // what was asked and not granted, with the reason ("" = nothing)
+};
+
 /// What the runner saw (any thread may read; updated once per cycle).
 struct LoopStats {
   std::uint64_t cycles = 0;
@@ -42,9 +59,17 @@ class LoopRunner {
   LoopRunner(const LoopRunner&) = delete;
   LoopRunner& operator=(const LoopRunner&) = delete;
 
-  void start();  // throws std::runtime_error if the thread cannot start
+  /// Before start(). Default off. cpu < 0: the last core this process may run on.
+  void set_realtime(RealtimePolicy policy, int cpu = -1) {
+    policy_ = policy;
+    cpu_ = cpu;
+  }
+  /// Starts the loop thread once it has applied the realtime policy. Throws std::runtime_error
+  /// if the thread cannot start, or (policy require) naming what was refused.
+  void start();
   void stop();
   bool realtime() const { return realtime_.load(); }  // SCHED_FIFO granted
+  const RealtimeGrant& realtime_grant() const { return grant_; }  // after start()
 
   /// Runs `cycles` cycles on the calling thread (not while started), on the same deadlines
   /// as the thread would; time continues from the previous run.
@@ -61,12 +86,17 @@ class LoopRunner {
 
  private:
   void run();
+  void apply_realtime();
   void cycle() noexcept;
   Controller& controller_;
   LoopClock& clock_;
   std::int64_t period_ns_;
   std::thread thread_;
   std::atomic<bool> running_{false}, realtime_{false};
+  RealtimePolicy policy_ = RealtimePolicy::off;
+  int cpu_ = -1;
+  RealtimeGrant grant_;  // written by the loop thread before it sets set_up_
+  std::atomic<bool> set_up_{false};
   // Loop state (the thread that runs cycles).
   bool timed_ = false, logged_one_ = false;
   std::int64_t t0_ = 0, next_ = 0, last_start_ = 0;
