@@ -65,9 +65,10 @@ std::optional<FaultReaction> parse_fault_reaction(std::string_view text) {
 NetworkConfig load_network_config(const std::string& path) {
   const toml::table root = config::parse_file(path);
   for (const auto& [k, v] : root)
-    if (k.str() != "tcp" && k.str() != "rtu" && k.str() != "server" && k.str() != "fault_reaction")
+    if (k.str() != "tcp" && k.str() != "rtu" && k.str() != "server" && k.str() != "fault_reaction" &&
+        k.str() != "runtime")
       config::fail(path, &v,
-                   std::string(k.str()) + ": unknown section (tcp, rtu, server, fault_reaction)");
+                   std::string(k.str()) + ": unknown section (tcp, rtu, server, fault_reaction, runtime)");
   Reader r{path, root};
   NetworkConfig c;
   const auto* tcp = r.section("tcp", {"enabled", "bind_address", "port", "unit_id", "max_connections",
@@ -127,6 +128,12 @@ NetworkConfig load_network_config(const std::string& path) {
     *field = *parsed;
   }
   r.get(fr, "fault_reaction", "release_rate_n_per_s", c.reactions.release_rate_n_per_s, 1e-3, 1e6);
+  const auto* rt = r.section("runtime", {"realtime"});
+  std::string realtime;
+  r.get(rt, "runtime", "realtime", realtime, 0, 0);
+  if (!realtime.empty() && !parse_realtime_policy(realtime, c.realtime))
+    r.fail(rt ? rt->get("realtime") : nullptr, "runtime.realtime",
+           "\"" + realtime + "\" is not one of off, try, require");
   return c;
 }
 

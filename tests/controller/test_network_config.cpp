@@ -79,3 +79,14 @@ TEST(NetworkConfig, AllowListParsesCidr) {
   EXPECT_THROW(parse_ipv4_cidr("10.0.0.0/33"), std::invalid_argument);
   EXPECT_THROW(parse_ipv4_cidr("localhost"), std::invalid_argument);
 }
+
+TEST(NetworkConfig, RuntimeRealtimePolicy) {
+  EXPECT_EQ(load_network_config(MAGLEAD_CONFIG_DIR "/network.toml").realtime, RealtimePolicy::attempt);
+  EXPECT_EQ(load_network_config(write_temp("rt_req.toml", "[runtime]\nrealtime = \"require\"\n")).realtime,
+            RealtimePolicy::require);
+  EXPECT_EQ(load_network_config(write_temp("rt_off.toml", "[runtime]\nrealtime = \"off\"\n")).realtime,
+            RealtimePolicy::off);
+  const std::string e = error_of(write_temp("rt_bad.toml", "[runtime]\nrealtime = \"yes\"\n"));
+  EXPECT_NE(e.find("runtime.realtime"), std::string::npos) << e;
+  EXPECT_NE(e.find("off, try, require"), std::string::npos) << e;
+}

@@ -259,6 +259,7 @@ void add_bench_modbus(CLI::App& app) {
     Jitter idle;
     {
       controller::LoopRunner loop(ctl);
+      loop.set_realtime(controller::RealtimePolicy::attempt);
       loop.start();
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
       loop.begin_period_log();
@@ -277,6 +278,7 @@ void add_bench_modbus(CLI::App& app) {
       for (int clients : {1, 16}) {
         const Result ref = measure(reference.port(), work, clients, seconds);  // no loop running
         controller::LoopRunner loop(ctl);
+        loop.set_realtime(controller::RealtimePolicy::attempt);
         loop.start();
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
         loop.begin_period_log();

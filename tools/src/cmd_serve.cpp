@@ -138,10 +138,13 @@ void add_serve(CLI::App& app) {
     if (net.tcp_enabled) tcp = std::make_unique<controller::TcpServer>(core, net.tcp);
     if (!net.rtu.device.empty()) rtu = std::make_unique<controller::RtuServer>(core, net.rtu);
     controller::LoopRunner loop(ctl);
+    loop.set_realtime(net.realtime);  // [runtime] realtime; "require" makes start() throw
 
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     loop.start();
+    if (!loop.realtime_grant().refused.empty())
+      std::printf("maglead serve: realtime \"try\": not granted: %s\n", loop.realtime_grant().refused.c_str());
     if (tcp) tcp->start();
     if (rtu) rtu->start();
     std::printf("maglead serve: control loop %.0f Hz on the simulated actuator (%s), %s, %s\n",

@@ -5,6 +5,7 @@
 #include <string_view>
 
 #include "maglead/controller/controller.hpp"
+#include "maglead/controller/loop_runner.hpp"
 #include "maglead/controller/modbus_rtu.hpp"
 #include "maglead/controller/modbus_tcp.hpp"
 
@@ -17,9 +18,10 @@ struct NetworkConfig {
   bool read_only = false;
   double watchdog_s = 0.0;
   FaultReactions reactions;  // [fault_reaction]
+  RealtimePolicy realtime = RealtimePolicy::attempt;  // [runtime] realtime: "off" | "try" | "require"
 };
 
-/// Reads [tcp], [rtu], [server] and [fault_reaction]; absent keys keep their defaults. Throws std::runtime_error
+/// Reads [tcp], [rtu], [server], [fault_reaction] and [runtime]; absent keys keep their defaults. Throws std::runtime_error
 /// naming the file and key on a malformed value or an unknown key.
 NetworkConfig load_network_config(const std::string& path);
 /// "mode_default", "release", "hold" or "disable"; nothing otherwise.
