@@ -77,8 +77,10 @@ TEST(HardwareFault, SensorFaultMidMoveLatchesAlarm5AndStopsTheMotor) {
   FaultRig rig;
   rig.control(bit(reg::kEnable));
   rig.move_to(0.03);
+  const double start_m = rig.plant.truth().nut_pos_m;
   rig.loop.run_cycles(200);  // moving at 10 mm/s
-  ASSERT_GT(std::abs(rig.plant.truth().nut_vel_m_s), 2e-3);
+  // Moving: the nut may stick and slip against the spring, so judge the travel, not the speed now.
+  ASSERT_GT(rig.plant.truth().nut_pos_m - start_m, 1e-3);
   const std::uint64_t before = rig.loop.stats().cycles;
   rig.hw.inject(Fault::sensor);
   const std::size_t at_fault = rig.hw.commands().size();
