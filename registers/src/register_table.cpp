@@ -90,11 +90,11 @@ constexpr std::array kTable = std::to_array<Register>({
     {"twin_step_out_reason", IR, 58, Type::u16, 1, "", RO, 0, 3,
      "Twin: why step_out_warning is set: 0 none, 1 look-ahead leaves the stable branch, "
      "2 setpoint trend beyond the calibrated peak, 3 stepped out"},
-    {"twin_gain_ppm", IR, 60, Type::i32, 1e-6, "", RO, -kI32 * 1e-6, kI32 * 1e-6,
+    {"twin_gain_f32", IR, 70, Type::f32, 1, "", RO, -1e9, 1e9,
      "Twin: coupling gain estimate relative to the calibration (0 until estimated)"},
-    {"twin_gain_stderr_ppm", IR, 62, Type::i32, 1e-6, "", RO, -kI32 * 1e-6, kI32 * 1e-6,
+    {"twin_gain_stderr_f32", IR, 72, Type::f32, 1, "", RO, -1e9, 1e9,
      "Twin: standard error of the gain estimate"},
-    {"twin_gain_reference_ppm", IR, 64, Type::i32, 1e-6, "", RO, -kI32 * 1e-6, kI32 * 1e-6,
+    {"twin_gain_reference_f32", IR, 74, Type::f32, 1, "", RO, -1e9, 1e9,
      "Twin: early reference of the gain the drift warning compares with (0 until set)"},
     // The same 32-bit values as float32, SI units.
     {"nut_pos_m_f32", IR, 100, Type::f32, 1, "m", RO, -1e9, 1e9, "Measured nut position"},

@@ -120,6 +120,8 @@ TEST(TwinMonitor, MagnetGainDriftIsDetected) {
 
 // Constant effects the baseline model lacks (of the size found on the bench) must be taken up by
 // the nuisance parameters, not by the gain: ten simulated minutes each, no drift warning.
+// (In force-steps' later sweeps the gain is rarely precise enough to be compared at all: the
+// statistic printed shows how close a warning came.)
 class ConstantEffect : public ::testing::TestWithParam<int> {};
 
 TEST_P(ConstantEffect, TenMinutesWithoutDriftWarning) {
@@ -212,7 +214,7 @@ TEST(TwinMonitor, OverloadRampIsWarnedBeforeStepOutAndFlagged) {
   ASSERT_TRUE(std::isfinite(t_flag));
   ASSERT_TRUE(std::isfinite(t_warn));
   EXPECT_LE(t_flag, t_slip);
-  EXPECT_GE(t_flag - t_warn, 0.010);  // a warning worth having: at least 10 ms ahead
+  EXPECT_GE(t_flag - t_warn, 0.040);  // a warning worth having: at least 40 ms ahead
   // … and not a warning that is always on: the load was still below 75 % of the peak then.
   EXPECT_GT(15.0 * t_warn, 0.75 * paper_calibration().peak_push_n);
 }

@@ -206,6 +206,7 @@ struct TwinMonitor::Impl {
   long long count = 0;
   double edge_t = 0, edge_pos = 0, interval = 0.0;
   int edge_dir = 0;
+  int run_edges = 0;  // edges in a row of the current slide
   double vel = 0, vel_prev = 0, acc = 0, pos_hat = 0;
   FrictionMode mode = FrictionMode::stick;
   double d0_prev = 0;  // model drive without F_ext at the previous tick (stick filter shift)
@@ -356,7 +357,9 @@ struct TwinMonitor::Impl {
     const double f_count = slope * 2.0 * kPi * q_m / lead_m;  // force of one linear count near φ = 0
     const double end_zone = std::isfinite(cfg.drift_end_exclusion_m) ? cfg.drift_end_exclusion_m : lead_m;
     const double edge = std::min(cfg.calibration.stable_max_rad, -cfg.calibration.stable_min_rad);
-    const bool rich = dir != 0 && t - slide_start_t >= cfg.drift_settle_s && std::isfinite(load_n) &&
+    // A slide the encoder follows: several edges in a row, so velocity and the interpolated
+    // position are measured, not guessed from one edge (slow creep, stick-slip).
+    const bool rich = dir != 0 && run_edges >= cfg.drift_min_edges && t - slide_start_t >= cfg.drift_settle_s && std::isfinite(load_n) &&
                       std::isfinite(load_rate) && std::abs(u) >= cfg.drift_min_force_counts * f_count &&
                       std::abs(rel_phase) <= cfg.drift_phase_fraction * edge &&
                       pos_hat - cfg.actuator.stroke_min_m >= end_zone &&
@@ -412,7 +415,12 @@ struct TwinMonitor::Impl {
       }
       return;
     }
-    if (!std::isfinite(gain_se)) return;
+    // Like the reference, the current estimate counts only while it can resolve the minimum
+    // change by itself (excitation that leaves g collinear with the nuisance terms cannot).
+    if (!std::isfinite(gain_se) || cfg.drift_sigmas * gain_se > cfg.drift_min_change) {
+      cond_since = std::numeric_limits<double>::quiet_NaN();
+      return;
+    }
     // Significant (beyond drift_sigmas combined standard errors) and physical (beyond
     // drift_min_change of the reference), sustained for drift_sustain_s.
     const double diff = gain_est - ref_g;
@@ -445,10 +453,12 @@ struct TwinMonitor::Impl {
       const double e_t = t - 0.5 * h;
       const double gap = e_t - edge_t;
       if (dir == edge_dir && mode != FrictionMode::stick && gap > 0) {
+        ++run_edges;
         interval = gap;
         vel = (e_pos - edge_pos) / gap;
       } else {
         // First edge of a motion: the nut broke loose somewhere in the last interval.
+        run_edges = 1;
         const double since = std::max(h, std::min(gap, cfg.stop_min_s * 4));
         vel = (e_pos - (dir > 0 ? e_pos - q_m : e_pos + q_m)) / since;
         interval = since;

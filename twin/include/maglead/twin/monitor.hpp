@@ -104,6 +104,7 @@ struct TwinMonitorConfig {
   double drift_min_force_counts = 10.0;  // |F_m| ≥ this many counts' worth of force (≈ 11 N)
   double drift_phase_fraction = 0.75;  // |φ| within this fraction of the stable branch
   double drift_settle_s = 0.010;       // skip this long after the nut breaks loose
+  int drift_min_edges = 3;             // … and until the encoder has counted this many edges
   double drift_end_exclusion_m = std::numeric_limits<double>::quiet_NaN();  // NaN: one lead
   // Health: the twin's prediction at the end of an open-loop interval (resync_s) misses the
   // measured position by more than this many linear counts, in this many intervals in a row.
