@@ -226,6 +226,8 @@ void Controller::apply(const Command& c) noexcept {
   if (rising & bit(registers::kFaultReset)) {
     command_bits_ &= static_cast<std::uint16_t>(~(bit(registers::kResetDone) | bit(registers::kRejected)));
     s_.reject_reason = 0;
+    // The operator has seen the twin's latched drift warning: clear it (README "Digital twin").
+    if (twin_) twin_->clear_warnings();
     const auto& cal = cfg_.calibration;
     const bool phase_ok = s_.phase_rad >= cal.stable_min_rad && s_.phase_rad <= cal.stable_max_rad;
     if (state_ == DriveState::fault && !phase_ok) {
@@ -314,6 +316,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     s_.nut_vel_m_s = velocity_.update(pos);
     s_.force_est_n = estimator_.output_force_n(s_.phase_rad, s_.nut_vel_m_s);
     s_.load_cell_force_n = std::isnan(sample.load_force_n) ? 0.0 : -sample.load_force_n;
+    load_force_n_ = sample.load_force_n;
   }
 
   if (owner_lost_flag_.exchange(false, std::memory_order_acquire)) on_owner_lost();
@@ -324,7 +327,8 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   if (twin_) {
     const TwinInputs in{now_s, s_.screw_angle_rad, screw_cmd_rad_, s_.nut_pos_m, s_.nut_vel_m_s, s_.phase_rad,
                         s_.force_est_n,
-                        mode_ == Mode::force ? force_set_n_ : std::numeric_limits<double>::quiet_NaN()};
+                        mode_ == Mode::force ? force_set_n_ : std::numeric_limits<double>::quiet_NaN(),
+                        load_force_n_};
     twin_->step(in, tw);
   }
   s_.twin = tw;

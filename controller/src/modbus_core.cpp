@@ -50,6 +50,12 @@ const ModbusCore::Binding kBindings[] = {
     {"command_reject_reason", SNAP(reject_reason), nullptr, nullptr},
     {"fault_reaction", SNAP(fault_reaction), nullptr, nullptr},
     {"write_refusal_reason", CONST(0), nullptr, nullptr},  // patched
+    {"twin_drift_reason", TWIN(drift_reason), nullptr, nullptr},
+    {"twin_health_reason", TWIN(health_reason), nullptr, nullptr},
+    {"twin_step_out_reason", TWIN(step_out_reason), nullptr, nullptr},
+    {"twin_gain_f32", TWIN(gain), nullptr, nullptr},
+    {"twin_gain_stderr_f32", TWIN(gain_stderr), nullptr, nullptr},
+    {"twin_gain_reference_f32", TWIN(gain_reference), nullptr, nullptr},
     {"control_owner", CONST(0), nullptr, nullptr},       // patched
     {"control_owner_ipv4", CONST(0), nullptr, nullptr},  // patched
     {"nut_pos_um", SNAP(nut_pos_m), nullptr, nullptr},

@@ -81,6 +81,21 @@ constexpr std::array kTable = std::to_array<Register>({
      "Fault reaction in progress, see fault reactions (0 none)"},
     {"write_refusal_reason", IR, 55, Type::u16, 1, "", RO, 0, kU16Max,
      "Why the last write was refused with exception 04, see write refusals (0 none)"},
+    {"twin_drift_reason", IR, 56, Type::u16, 1, "", RO, 0, 2,
+     "Twin: why drift_warning is set: 0 none, 1 coupling gain fell, 2 rose (latched with the "
+     "warning; fault_reset clears both)"},
+    {"twin_health_reason", IR, 57, Type::u16, 1, "", RO, 0, 3,
+     "Twin: why twin_healthy is off: 0 healthy, 1 position residual beyond tolerance, "
+     "2 stepped out, 3 solver error"},
+    {"twin_step_out_reason", IR, 58, Type::u16, 1, "", RO, 0, 3,
+     "Twin: why step_out_warning is set: 0 none, 1 look-ahead leaves the stable branch, "
+     "2 setpoint trend beyond the calibrated peak, 3 stepped out"},
+    {"twin_gain_f32", IR, 70, Type::f32, 1, "", RO, -1e9, 1e9,
+     "Twin: coupling gain estimate relative to the calibration (0 until estimated)"},
+    {"twin_gain_stderr_f32", IR, 72, Type::f32, 1, "", RO, -1e9, 1e9,
+     "Twin: standard error of the gain estimate"},
+    {"twin_gain_reference_f32", IR, 74, Type::f32, 1, "", RO, -1e9, 1e9,
+     "Twin: early reference of the gain the drift warning compares with (0 until set)"},
     // The same 32-bit values as float32, SI units.
     {"nut_pos_m_f32", IR, 100, Type::f32, 1, "m", RO, -1e9, 1e9, "Measured nut position"},
     {"nut_vel_m_s_f32", IR, 102, Type::f32, 1, "m/s", RO, -1e9, 1e9, "Nut velocity"},

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <limits>
 
 #include "maglead/plant/scenario.hpp"
@@ -28,14 +29,17 @@ struct MonitorRun {
   double first_drift_s = kNaN;
   bool step_out = false, warning = false;
   double max_drift_statistic = 0;
+  double healthy_fraction = 0;
+  TwinOutputs at_drift{}, last{};
 };
 
 MonitorRun run_recording(const std::string& scenario, double duration_s, std::uint64_t seed,
-                         double gain_drift_per_min = 0.0) {
+                         double gain_drift_per_min = 0.0, const PlantEffects& effects = {}) {
   ScenarioOptions opt;
   opt.scenario = scenario;
   opt.duration_s = duration_s;
   opt.seed = seed;
+  opt.plant.effects = effects;
   opt.plant.effects.gain_drift_per_min = gain_drift_per_min;
   const std::string path = std::string(MAGLEAD_TEST_TMP) + "/twin_" + std::to_string(::getpid()) + "_" + scenario + "_" +
                            std::to_string(seed) + ".csv";
@@ -50,14 +54,18 @@ MonitorRun run_recording(const std::string& scenario, double duration_s, std::ui
   mon.reset(t[0], th[0], p[0]);
   MonitorRun r;
   for (std::size_t i = 0; i < t.size(); ++i) {
-    const auto o = mon.step({t[i], th[i], p[i], fset ? (*fset)[i] : kNaN});
+    const auto o = mon.step({t[i], th[i], p[i], fset ? (*fset)[i] : kNaN, load[i]});
     r.mae_twin_n += std::abs(o.dynamic_output_force_est_n + load[i]);
     r.mae_static_n += std::abs(o.static_output_force_est_n + load[i]);
-    if (o.drift_warning && std::isnan(r.first_drift_s)) r.first_drift_s = t[i];
+    if (o.drift_warning && std::isnan(r.first_drift_s)) r.first_drift_s = t[i], r.at_drift = o;
+    r.healthy_fraction += o.healthy;
+    r.last = o;
     r.step_out |= o.step_out;
     r.warning |= o.step_out_warning;
     r.max_drift_statistic = std::max(r.max_drift_statistic, o.drift_statistic);
   }
+  r.healthy_fraction /= static_cast<double>(t.size());
+  std::remove(path.c_str());
   r.mae_twin_n /= static_cast<double>(t.size());
   r.mae_static_n /= static_cast<double>(t.size());
   return r;
@@ -75,10 +83,16 @@ TEST(TwinMonitor, DynamicEstimateBeatsStaticOnHandPush) {
 
 TEST(TwinMonitor, HealthyForceControlRaisesNothing) {
   const MonitorRun r = run_recording("force-steps", 60.0, 5);
-  std::printf("force-steps seed 5: MAE twin %.2f N, static %.2f N, drift statistic max %.2f\n",
-              r.mae_twin_n, r.mae_static_n, r.max_drift_statistic);
+  std::printf("force-steps seed 5: MAE twin %.2f N, static %.2f N, drift statistic max %.2f, "
+              "gain %.3f +/- %.3f, healthy %.1f %%\n",
+              r.mae_twin_n, r.mae_static_n, r.max_drift_statistic, r.last.drift_gain_estimate,
+              r.last.drift_gain_stderr, 100 * r.healthy_fraction);
   EXPECT_FALSE(std::isfinite(r.first_drift_s));
-  EXPECT_LT(r.max_drift_statistic, 0.8);  // not just below the threshold: well below it
+  // The plant is the model: the gain is 1 within a few of its standard errors, and the twin
+  // explains the encoders within their resolution nearly all the time.
+  ASSERT_TRUE(std::isfinite(r.last.drift_gain_estimate));
+  EXPECT_NEAR(r.last.drift_gain_estimate, 1.0, std::max(0.01, 4 * r.last.drift_gain_stderr));
+  EXPECT_GE(r.healthy_fraction, 0.99);
   EXPECT_FALSE(r.step_out);
   EXPECT_FALSE(r.warning);
   EXPECT_LT(r.mae_twin_n, r.mae_static_n);
@@ -91,6 +105,81 @@ TEST(TwinMonitor, MagnetGainDriftIsDetected) {
               r.first_drift_s);
   ASSERT_TRUE(std::isfinite(r.first_drift_s));
   EXPECT_FALSE(r.step_out);
+  // The estimate at the warning is the plant's gain then (within two percent), the reference is
+  // the early gain, and the message says what was seen.
+  const double g_true = 1.0 - 0.05 * r.first_drift_s / 60.0;
+  const auto& o = r.at_drift;
+  std::printf("  %s; plant gain then %.3f\n", drift_message(o).c_str(), g_true);
+  EXPECT_NEAR(o.drift_warning_gain, g_true, 0.02);
+  EXPECT_NEAR(o.drift_reference_gain, 1.0 - 0.05 * o.drift_reference_t_s / 60.0, 0.02);
+  EXPECT_EQ(o.drift_reason, DriftReason::gain_fell);
+  EXPECT_NE(drift_message(o).find("coupling gain fell from"), std::string::npos);
+  // A warning is not raised before the gain changed by the physical minimum.
+  EXPECT_LT(g_true, 1.0 - test_config().drift_min_change);
+}
+
+// Constant effects the baseline model lacks (of the size found on the bench) must be taken up by
+// the nuisance parameters, not by the gain: ten simulated minutes each, no drift warning.
+// (In force-steps' later sweeps the gain is rarely precise enough to be compared at all: the
+// statistic printed shows how close a warning came.)
+class ConstantEffect : public ::testing::TestWithParam<int> {};
+
+TEST_P(ConstantEffect, TenMinutesWithoutDriftWarning) {
+  PlantEffects e;
+  const char* name = "";
+  switch (GetParam()) {
+    case 0: e.offset_n = -3.5, name = "offset -3.5 N"; break;
+    case 1: e.asymmetric_friction_n = 1.5, name = "asymmetric friction 1.5 N"; break;
+    case 2: e.backlash_rad = 0.09, name = "backlash 0.09 rad"; break;
+    default: e.load_cell_delay_s = 0.005, name = "load-cell delay 5 ms"; break;
+  }
+  const MonitorRun r = run_recording("force-steps", 600.0, 11 + GetParam(), 0.0, e);
+  std::printf("force-steps 600 s, %s: drift statistic max %.2f, gain %.3f +/- %.3f, healthy %.1f %%\n",
+              name, r.max_drift_statistic, r.last.drift_gain_estimate, r.last.drift_gain_stderr,
+              100 * r.healthy_fraction);
+  EXPECT_FALSE(std::isfinite(r.first_drift_s)) << drift_message(r.at_drift) << " at " << r.first_drift_s;
+  EXPECT_FALSE(r.step_out);
+}
+
+INSTANTIATE_TEST_SUITE_P(TwinMonitor, ConstantEffect, ::testing::Range(0, 4));
+
+TEST(TwinMonitor, DriftWarningLatchesUntilCleared) {
+  // −10 %/min: the warning comes, stays set while the run goes on, and clear_drift() (what a
+  // fault_reset edge does) clears it and restarts the reference.
+  ScenarioOptions opt;
+  opt.scenario = "force-steps";
+  opt.duration_s = 90.0;
+  opt.seed = 8;
+  opt.plant.effects.gain_drift_per_min = -0.10;
+  const std::string path = std::string(MAGLEAD_TEST_TMP) + "/twin_latch_" + std::to_string(::getpid()) + ".csv";
+  run_scenario(opt, path);
+  const Recording rec = read_recording(path);
+  std::remove(path.c_str());
+  const auto& t = rec.column("t_s");
+  TwinMonitor mon(test_config());
+  mon.reset(t[0], rec.column("screw_angle_rad")[0], rec.column("nut_pos_m")[0]);
+  double t_warn = kNaN;
+  bool dropped = false, cleared = false, after_clear = false;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const auto o = mon.step({t[i], rec.column("screw_angle_rad")[i], rec.column("nut_pos_m")[i],
+                             rec.column("force_set_n")[i], rec.column("load_force_n")[i]});
+    if (o.drift_warning && std::isnan(t_warn)) t_warn = t[i];
+    if (std::isfinite(t_warn) && !cleared) dropped |= !o.drift_warning;
+    if (std::isfinite(t_warn) && !cleared && t[i] > t_warn + 5.0) {
+      mon.clear_drift();
+      cleared = true;
+      continue;
+    }
+    if (cleared && !after_clear) {
+      after_clear = true;
+      EXPECT_FALSE(o.drift_warning);
+      EXPECT_EQ(o.drift_reason, DriftReason::none);
+      EXPECT_TRUE(std::isnan(o.drift_reference_gain));
+    }
+  }
+  ASSERT_TRUE(std::isfinite(t_warn));
+  EXPECT_FALSE(dropped);  // latched
+  EXPECT_TRUE(after_clear);
 }
 
 TEST(TwinMonitor, OverloadRampIsWarnedBeforeStepOutAndFlagged) {
@@ -125,7 +214,7 @@ TEST(TwinMonitor, OverloadRampIsWarnedBeforeStepOutAndFlagged) {
   ASSERT_TRUE(std::isfinite(t_flag));
   ASSERT_TRUE(std::isfinite(t_warn));
   EXPECT_LE(t_flag, t_slip);
-  EXPECT_GE(t_flag - t_warn, 0.010);  // a warning worth having: at least 10 ms ahead
+  EXPECT_GE(t_flag - t_warn, 0.040);  // a warning worth having: at least 40 ms ahead
   // … and not a warning that is always on: the load was still below 75 % of the peak then.
   EXPECT_GT(15.0 * t_warn, 0.75 * paper_calibration().peak_push_n);
 }

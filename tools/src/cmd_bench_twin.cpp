@@ -148,7 +148,7 @@ void add_bench_twin(CLI::App& app) {
                   .dynamic_output_force_est_n;
     }
     const double wall = thread_cpu_s() - c0;
-    std::printf("\n  TwinMonitor (observer, twin, %g ms look-ahead every %d ticks, drift CUSUM)\n",
+    std::printf("\n  TwinMonitor (observer, twin, %g ms look-ahead every %d ticks, coupling-gain RLS)\n",
                 cfg.lookahead_s * 1e3, cfg.lookahead_every_ticks);
     std::printf("    real-time factor   %10.0f  (%.1f us thread CPU per 1 ms tick)%s\n", T / wall,
                 wall / static_cast<double>(n) * 1e6, std::isfinite(sink) ? "" : " (non-finite!)");

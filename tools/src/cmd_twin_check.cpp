@@ -13,21 +13,20 @@ namespace {
 
 void add_twin_check(CLI::App& app) {
   auto* cmd = app.add_subcommand(
-      "twin-check", "Run the digital twin monitor over a recording: drift warning (with time to "
-                    "detect), step-out warning and flag, residuals, force error if a load cell is "
-                    "logged");
+      "twin-check", "Run the digital twin monitor over a recording, tick by tick as the controller "
+                    "does: drift warning (coupling gain against its early value; needs a logged "
+                    "load cell), health, step-out warning and flag, force error against the load cell");
   struct Opts {
-    std::string recording, config = default_config_dir(), model;
-    double drift_start_s = 0.0;
+    std::string recording, config = default_config_dir(), model, trace;
   };
   auto o = std::make_shared<Opts>();
   cmd->add_option("--recording", o->recording, "mls-recording/1 with t_s, screw or motor angle, nut_pos_m")
       ->required();
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
   cmd->add_option("--model", o->model, "Twin model file (default: CONFIG/model.toml)");
-  cmd->add_option("--drift-start", o->drift_start_s,
-                  "When the calibration started to drift, for the time-to-detect [s]")
-      ->capture_default_str();
+  cmd->add_option("--trace", o->trace,
+                  "Write the monitor's outputs every 10 ms to this CSV (gain, its error, reference, "
+                  "statistic, flags and reason codes)");
   cmd->callback([o] {
     twin::TwinMonitorConfig tc = twin::load_monitor_config(o->config);
     if (!o->model.empty()) tc.model = twin::load_twin_model(o->model);
@@ -48,16 +47,30 @@ void add_twin_check(CLI::App& app) {
     mon.reset(t[0], screw[0], pos[0]);
     double t_drift = nan, t_warn = nan, t_step = nan, max_res = 0, err_dyn = 0, err_static = 0;
     std::size_t healthy = 0, counted = 0;
-    double gain_est = 1.0, drift_stat = 0.0;
+    double drift_stat = 0.0;
+    twin::TwinOutputs last{}, at_drift{};
+    std::FILE* trace = o->trace.empty() ? nullptr : std::fopen(o->trace.c_str(), "w");
+    if (!o->trace.empty() && !trace) throw std::runtime_error("cannot write " + o->trace);
+    if (trace)
+      std::fprintf(trace, "t_s,gain,gain_stderr,reference_gain,reference_stderr,drift_statistic,"
+                          "drift_warning,drift_reason,healthy,health_reason,residual_pos_m,"
+                          "step_out_warning,step_out_reason\n");
     const auto t0 = std::chrono::steady_clock::now();
     for (std::size_t i = 0; i < n; ++i) {
-      const auto out = mon.step({t[i], screw[i], pos[i], fset ? (*fset)[i] : nan});
-      if (out.drift_warning && std::isnan(t_drift)) t_drift = t[i];
+      const auto out = mon.step({t[i], screw[i], pos[i], fset ? (*fset)[i] : nan, load ? (*load)[i] : nan});
+      if (out.drift_warning && std::isnan(t_drift)) t_drift = t[i], at_drift = out;
       if (out.step_out_warning && std::isnan(t_warn)) t_warn = t[i];
       if (out.step_out && std::isnan(t_step)) t_step = t[i];
       max_res = std::max(max_res, std::abs(out.residual_pos_m));
       healthy += out.healthy;
-      gain_est = out.drift_gain_estimate;
+      last = out;
+      if (trace && i % 10 == 0)
+        std::fprintf(trace, "%.3f,%.5f,%.5f,%.5f,%.5f,%.3f,%d,%d,%d,%d,%.3e,%d,%d\n", t[i],
+                     out.drift_gain_estimate, out.drift_gain_stderr, out.drift_reference_gain,
+                     out.drift_reference_stderr, out.drift_statistic, out.drift_warning,
+                     static_cast<int>(out.drift_reason), out.healthy,
+                     static_cast<int>(out.health_reason), out.residual_pos_m, out.step_out_warning,
+                     static_cast<int>(out.step_out_reason));
       drift_stat = std::max(drift_stat, out.drift_statistic);
       if (load && std::isfinite((*load)[i])) {
         err_dyn += std::abs(out.dynamic_output_force_est_n + (*load)[i]);
@@ -65,6 +78,7 @@ void add_twin_check(CLI::App& app) {
         ++counted;
       }
     }
+    if (trace) std::fclose(trace);
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf("twin check of %s: %.1f s, %zu ticks (%.0f x real time)\n", o->recording.c_str(),
                 t.back() - t.front(), n, (t.back() - t.front()) / wall_s);
@@ -73,13 +87,17 @@ void add_twin_check(CLI::App& app) {
                   err_dyn / static_cast<double>(counted), err_static / static_cast<double>(counted));
     std::printf("  position residual: max %.1f um; healthy %.1f %% of ticks\n", max_res * 1e6,
                 100.0 * static_cast<double>(healthy) / static_cast<double>(n));
-    if (std::isnan(t_drift))
-      std::printf("  drift warning: none (max statistic %.2f of threshold, gain estimate %.3f)\n",
-                  drift_stat, gain_est);
+    if (!load)
+      std::printf("  drift: not estimated (the recording has no load_force_n column)\n");
+    else if (std::isnan(t_drift))
+      std::printf("  drift warning: none (coupling gain %.3f +/- %.3f at the end, reference %.3f +/- "
+                  "%.3f, max statistic %.2f of the margin)\n",
+                  last.drift_gain_estimate, last.drift_gain_stderr, last.drift_reference_gain,
+                  last.drift_reference_stderr, drift_stat);
     else
-      std::printf("  drift warning: at t = %.2f s, %.2f s after the drift started (gain estimate "
-                  "%.3f)\n",
-                  t_drift, t_drift - o->drift_start_s, gain_est);
+      std::printf("  drift warning: at t = %.2f s: %s [reason %d, gain %.3f +/- %.3f]\n", t_drift,
+                  twin::drift_message(at_drift).c_str(), static_cast<int>(at_drift.drift_reason),
+                  at_drift.drift_warning_gain, at_drift.drift_warning_stderr);
     if (std::isnan(t_warn) && std::isnan(t_step))
       std::printf("  step-out: none, no warning\n");
     else {

@@ -76,6 +76,18 @@ double NutModel::coupling_force_n(double, double screw_rad, double pos_m) const 
   return -coupling_.load_force_n(phase_rad(screw_rad, pos_m, lead_m_));
 }
 
+double NutModel::model_coupling_force_n(double t_s, double screw_rad, double pos_m,
+                                        double vel_m_s) const noexcept {
+  // A term's share that vanishes with the coupling is part of the coupling.
+  auto s = state(t_s, screw_rad, pos_m, vel_m_s, 0.0, 0.0, 0.0);
+  auto s0 = s;
+  s0.coupling_n = 0.0;
+  s0.coupling_slope_n_per_rad = 0.0;
+  double f = s.coupling_n;
+  for (const auto& t : drive_terms_) f += t.effect->force_n(t.params, s) - t.effect->force_n(t.params, s0);
+  return f;
+}
+
 double NutModel::drive_force_n(double t_s, double screw_rad, double pos_m, double vel_m_s,
                                double ext_force_n, double screw_rate_rad_s,
                                double ext_rate_n_s) const noexcept {

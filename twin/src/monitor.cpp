@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <numbers>
@@ -21,6 +23,16 @@ TwinMonitorConfig load_monitor_config(const std::string& dir) {
   if (std::filesystem::exists(path("model.toml"))) c.model = load_twin_model(path("model.toml"));
   c.integrator.max_step_s = 1.0 / c.actuator.sample_rate_hz;
   return c;
+}
+
+std::string drift_message(const TwinOutputs& o) {
+  if (!o.drift_warning) return {};
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "coupling gain %s from %.2f to %.2f over %.0f s (±%.2f)",
+                o.drift_reason == DriftReason::gain_rose ? "rose" : "fell", o.drift_reference_gain,
+                o.drift_warning_gain, o.drift_warning_t_s - o.drift_reference_t_s,
+                std::hypot(o.drift_warning_stderr, o.drift_reference_stderr));
+  return buf;
 }
 
 namespace {
@@ -109,6 +121,75 @@ class StickFilter {
   double lo_ = -1, hi_ = 1, dx_ = 0.025;
 };
 
+
+/// Recursive least squares with exponential forgetting for y = xᵀθ, with an estimate of the
+/// noise variance from the a-priori residuals and of their lag-1 correlation (successive blocks
+/// share slow model errors: the standard error is inflated by (1+ρ)/(1−ρ), the AR(1) factor).
+template <int N>
+class Rls {
+ public:
+  void reset(double prior_var) noexcept {
+    for (int i = 0; i < N; ++i) {
+      th_[i] = 0.0;
+      for (int j = 0; j < N; ++j) P_[i][j] = i == j ? prior_var : 0.0;
+    }
+    s2_ = 0, w_ = 0, c1_ = 0, e_prev_ = 0, n_ = 0;
+  }
+  void set(int i, double v) noexcept { th_[i] = v; }
+  /// Moves the origin of a trend: θ_i += d·θ_j (θ_j the slope of θ_i), P = T P Tᵀ.
+  void shift(int i, int j, double d) noexcept {
+    th_[i] += d * th_[j];
+    for (int k = 0; k < N; ++k) P_[i][k] += d * P_[j][k];
+    for (int k = 0; k < N; ++k) P_[k][i] += d * P_[k][j];
+  }
+  /// lambda = 1: no forgetting.
+  void update(const std::array<double, N>& x, double y, double lambda) noexcept {
+    std::array<double, N> Px{};
+    double xPx = 0.0, e = y;
+    for (int i = 0; i < N; ++i) {
+      e -= x[i] * th_[i];
+      for (int j = 0; j < N; ++j) Px[i] += P_[i][j] * x[j];
+    }
+    for (int i = 0; i < N; ++i) xPx += x[i] * Px[i];
+    const double den = lambda + xPx;
+    for (int i = 0; i < N; ++i) th_[i] += Px[i] / den * e;
+    for (int i = 0; i < N; ++i)
+      for (int j = 0; j < N; ++j) P_[i][j] = (P_[i][j] - Px[i] * Px[j] / den) / lambda;
+    // Residual statistics, with the same forgetting (a-priori residual scaled to a-posteriori).
+    const double ea = e * lambda / den;
+    w_ = lambda * w_ + 1.0;
+    s2_ = lambda * s2_ + ea * ea;
+    if (n_ > 0) c1_ = lambda * c1_ + ea * e_prev_;
+    e_prev_ = ea;
+    ++n_;
+  }
+  /// Bounds the covariance of directions the data stopped exciting (forgetting would grow it
+  /// without limit): scales row and column i so that P_ii ≤ cap (P stays positive definite).
+  void cap(double max_var) noexcept {
+    for (int i = 0; i < N; ++i) {
+      if (!(P_[i][i] > max_var)) continue;
+      const double f = std::sqrt(max_var / P_[i][i]);
+      for (int j = 0; j < N; ++j) P_[i][j] *= f, P_[j][i] *= f;
+    }
+  }
+  double theta(int i) const noexcept { return th_[i]; }
+  long count() const noexcept { return n_; }
+  /// Standard error of θ_i (NaN until there are more samples than parameters).
+  double stderr_of(int i) const noexcept {
+    if (n_ <= 2 * N || !(w_ > N)) return std::numeric_limits<double>::quiet_NaN();
+    const double var = s2_ / (w_ - N);
+    const double rho = std::clamp(s2_ > 0 ? c1_ / s2_ : 0.0, 0.0, 0.95);
+    // P holds (Σλ^k x xᵀ)⁻¹; with forgetting the estimate's variance is about var·P.
+    return std::sqrt(std::max(0.0, var * P_[i][i] * (1.0 + rho) / (1.0 - rho)));
+  }
+
+ private:
+  std::array<double, N> th_{};
+  std::array<std::array<double, N>, N> P_{};
+  double s2_ = 0, w_ = 0, c1_ = 0, e_prev_ = 0;
+  long n_ = 0;
+};
+
 }  // namespace
 
 struct TwinMonitor::Impl {
@@ -125,6 +206,7 @@ struct TwinMonitor::Impl {
   long long count = 0;
   double edge_t = 0, edge_pos = 0, interval = 0.0;
   int edge_dir = 0;
+  int run_edges = 0;  // edges in a row of the current slide
   double vel = 0, vel_prev = 0, acc = 0, pos_hat = 0;
   FrictionMode mode = FrictionMode::stick;
   double d0_prev = 0;  // model drive without F_ext at the previous tick (stick filter shift)
@@ -147,12 +229,28 @@ struct TwinMonitor::Impl {
   int slips = 0;
   bool step_out = false, warn = false;
   double margin = kPi / 2;
+  bool margin_from_setpoint = false;
 
-  // Drift: friction-window episodes
-  double d0_entry = 0;
-  int entry_dir = 0;
-  double cusum_lo = 0, cusum_hi = 0, gain_est = 1.0;
+  // Drift: the coupling gain g, estimated jointly with nuisance parameters (see gain_block()).
+  // g, its trend per minute, bias b, friction level, backlash, viscous, load-cell delay
+  static constexpr int kP = 7;
+  double trend_origin_t = 0, ref_origin_t = 0;
+  Rls<kP> gain_rls, ref_rls;
+  int block_ticks = 20, block_n = 0;
+  std::array<double, kP> block_x{};
+  double block_y = 0, block_t = 0;
+  double slide_start_t = 0, load_prev = std::numeric_limits<double>::quiet_NaN();
+  double excited_s = 0;              // excitation-rich time used since the reference restarted
+  double ref_t_sum = 0;              // mean time of the reference blocks
+  bool ref_frozen = false;
+  double ref_g = std::numeric_limits<double>::quiet_NaN(), ref_se = 0, ref_t = 0;
+  double gain_est = std::numeric_limits<double>::quiet_NaN(), gain_se = 0, drift_stat = 0;
+  double cond_since = std::numeric_limits<double>::quiet_NaN();
   bool drift = false;
+  DriftReason drift_reason = DriftReason::none;
+  double drift_t = 0, drift_g = 0, drift_se = 0;
+  // Health: open-loop intervals in a row whose prediction missed by more than the tolerance.
+  int bad_intervals = 0;
 
   explicit Impl(const TwinMonitorConfig& c)
       : cfg(c),
@@ -186,8 +284,6 @@ struct TwinMonitor::Impl {
                                     : from_dir * model.sliding_friction_n(from_dir, 0.0);
     stick.start(-model.breakaway_n(-1), model.breakaway_n(1), n0, d0 + expected_fext,
                 load_sd_n());
-    d0_entry = d0;
-    entry_dir = from_dir;
   }
 
   // Load prior: an Ornstein-Uhlenbeck process around the expected external force (minus the
@@ -216,38 +312,130 @@ struct TwinMonitor::Impl {
     slips = 0;
     step_out = warn = false;
     margin = kPi / 2;
-    cusum_lo = cusum_hi = 0.0;
-    gain_est = 1.0;
-    drift = false;
+    clear_drift();
+    bad_intervals = 0;
+    load_prev = std::numeric_limits<double>::quiet_NaN();
+    slide_start_t = t;
     twin.reset(t, {pos_hat, 0.0, FrictionMode::stick}, theta, fext_hat);
     next_resync_t = t + cfg.resync_s;
     ticks = 0;
     solver_ok = true;
   }
 
-  /// Friction-window test at a reversal after a stick episode. Stuck, the nut's net force n
-  /// walked from the sliding level on one side to break-away on the other: a change of
-  /// b₊ + b₋ ≈ 2 F_c. When the screw did that work (force control: the load is constant while
-  /// the nut is stuck), the model's own drive change ΔD0 must equal it; a coupling gain g
-  /// makes the model see ΔD0 = 2F_c / g. Episodes driven by the load (screw held, hand pushes)
-  /// carry no information about the gain and are skipped.
-  void window_episode(double d0_exit, int exit_dir) noexcept {
-    if (entry_dir == 0 || exit_dir != -entry_dir) return;
-    const double expected = model.sliding_friction_n(entry_dir, 0.0) + model.breakaway_n(exit_dir);
-    const double seen = -entry_dir * (d0_exit - d0_entry);
-    const double ratio = seen / expected;  // ≈ 1/g
-    if (ratio < 0.6 || ratio > 1.6) return;  // load moved too during the episode: no evidence
-    // Noise of one episode: φ at both ends is quantized (one count ≈ 2π q / L rad) and the exit
-    // edge comes up to one count late; slope of the coupling at the ends ~ its value at φ = 0.
+  /// Forgets the gain history and the warning: the next excitation-rich stretch becomes the
+  /// reference again (after the operator has acted on a warning, e.g. recalibrated).
+  void clear_drift() noexcept {
+    gain_rls.reset(1e4);
+    ref_rls.reset(1e4);
+    gain_rls.set(0, 1.0);
+    ref_rls.set(0, 1.0);
+    block_n = 0;
+    trend_origin_t = 0;
+    excited_s = 0, ref_t_sum = 0;
+    ref_frozen = false;
+    ref_g = gain_est = std::numeric_limits<double>::quiet_NaN();
+    ref_se = gain_se = drift_stat = 0;
+    cond_since = std::numeric_limits<double>::quiet_NaN();
+    drift = false;
+    drift_reason = DriftReason::none;
+  }
+
+  /// One tick of the gain estimator. Force balance of the sliding nut, with the load cell as F_ext:
+  ///   M p̈ − (D0 − u) + F_f(v) − F_load = g·u + b + f·sign(v) + k·sign(u)·|F_m'| + c·v + τ·Ḟ_load
+  /// u the model's coupling, D0 the model's drive without F_ext (coupling, −C v, additive terms).
+  /// g is the coupling gain relative to the model; the nuisance terms take up what a constant
+  /// mismatch does (offset: b; friction level or asymmetry: f and b; backlash: k, the force of a
+  /// phase error ±b/2 carried on the side of the torque; viscous: c; a late load cell: τ), so that
+  /// these do not end up in g. Only excitation-rich ticks count (see the config), averaged over
+  /// blocks of block_ticks consecutive ones (quantization averages out along the motion).
+  void gain_tick(double t, double theta, double rel_phase, double load_n, double h) noexcept {
+    const double load_rate = std::isfinite(load_prev) ? (load_n - load_prev) / h : std::numeric_limits<double>::quiet_NaN();
+    load_prev = load_n;
+    const int dir = static_cast<int>(mode);
+    const double u = model.model_coupling_force_n(t, theta, pos_hat, vel);
     const double slope = std::abs(cfg.calibration.periodic.slope_n_per_rad(0.0));
-    const double sigma = slope * (2.0 * kPi * q_m / lead_m) / expected;  // ≈ 0.07
-    // Page's CUSUM for a shift ±δ of the ratio (gain 1/(1±δ)): log-likelihood ratio increments.
-    const double d = cfg.drift_shift;
-    const double x = ratio - 1.0;
-    cusum_hi = std::max(0.0, cusum_hi + (d * x - 0.5 * d * d) / (sigma * sigma));
-    cusum_lo = std::max(0.0, cusum_lo + (-d * x - 0.5 * d * d) / (sigma * sigma));
-    gain_est = 0.9 * gain_est + 0.1 / ratio;
-    if (std::max(cusum_hi, cusum_lo) >= cfg.drift_threshold) drift = true;
+    const double f_count = slope * 2.0 * kPi * q_m / lead_m;  // force of one linear count near φ = 0
+    const double end_zone = std::isfinite(cfg.drift_end_exclusion_m) ? cfg.drift_end_exclusion_m : lead_m;
+    const double edge = std::min(cfg.calibration.stable_max_rad, -cfg.calibration.stable_min_rad);
+    // A slide the encoder follows: several edges in a row, so velocity and the interpolated
+    // position are measured, not guessed from one edge (slow creep, stick-slip).
+    const bool rich = dir != 0 && run_edges >= cfg.drift_min_edges && t - slide_start_t >= cfg.drift_settle_s && std::isfinite(load_n) &&
+                      std::isfinite(load_rate) && std::abs(u) >= cfg.drift_min_force_counts * f_count &&
+                      std::abs(rel_phase) <= cfg.drift_phase_fraction * edge &&
+                      pos_hat - cfg.actuator.stroke_min_m >= end_zone &&
+                      cfg.actuator.stroke_max_m - pos_hat >= end_zone && !step_out;
+    if (!rich) {
+      block_n = 0;
+      return;
+    }
+    const double d0 = model.drive_force_n(t, theta, pos_hat, vel, 0.0);
+    const double y = model.mass_kg() * acc - (d0 - u) + dir * model.sliding_friction_n(dir, vel) - load_n;
+    const double slope_here = std::abs(model.model_coupling_force_n(t, theta + 1e-4, pos_hat, vel) - u) / 1e-4;
+    // The gain as a local linear trend, g + ġ·(t − t_o), t_o moved to the newest block: g is the
+    // gain now, not the average over the memory (a drift would otherwise be seen late).
+    const std::array<double, kP> x{u, u * (t - trend_origin_t) / 60.0, 1.0, static_cast<double>(dir),
+                                   (u > 0 ? 1.0 : -1.0) * slope_here * 0.05, vel * 100.0,
+                                   load_rate * 0.01};  // scaled to forces of a few N
+    if (block_n == 0) {
+      block_x.fill(0.0);
+      block_y = 0, block_t = 0;
+    }
+    for (int i = 0; i < kP; ++i) block_x[i] += x[i];
+    block_y += y, block_t += t;
+    if (++block_n < block_ticks) return;
+    for (double& v : block_x) v /= block_n;
+    block_y /= block_n, block_t /= block_n;
+    const double block_s = block_n * dt;
+    block_n = 0;
+    excited_s += block_s;
+    gain_rls.update(block_x, block_y, std::exp(-block_s / cfg.drift_memory_s));
+    gain_rls.cap(1e4);
+    const double t_prev_origin = trend_origin_t;
+    gain_rls.shift(0, 1, (t - trend_origin_t) / 60.0);
+    trend_origin_t = t;
+    gain_est = gain_rls.theta(0);
+    gain_se = gain_rls.stderr_of(0);
+    if (!ref_frozen) {
+      // The reference fits its stretch with a trend too (the gain may already move), origin at
+      // the stretch's first block; its value is taken at the stretch's mean time.
+      if (ref_rls.count() == 0) ref_origin_t = t_prev_origin;
+      block_x[1] += block_x[0] * (t_prev_origin - ref_origin_t) / 60.0;
+      ref_rls.update(block_x, block_y, 1.0);
+      ref_t_sum += block_t;
+      // Frozen once it is long enough and can resolve the minimum change (4 σ within it);
+      // until then it keeps accumulating.
+      const double se = ref_rls.stderr_of(0);
+      if (excited_s >= cfg.drift_reference_s && std::isfinite(se) &&
+          cfg.drift_sigmas * se <= cfg.drift_min_change) {
+        ref_frozen = true;
+        ref_t = ref_t_sum / static_cast<double>(ref_rls.count());
+        ref_rls.shift(0, 1, (ref_t - ref_origin_t) / 60.0);
+        ref_g = ref_rls.theta(0);
+        ref_se = ref_rls.stderr_of(0);
+      }
+      return;
+    }
+    // Like the reference, the current estimate counts only while it can resolve the minimum
+    // change by itself (excitation that leaves g collinear with the nuisance terms cannot).
+    if (!std::isfinite(gain_se) || cfg.drift_sigmas * gain_se > cfg.drift_min_change) {
+      cond_since = std::numeric_limits<double>::quiet_NaN();
+      return;
+    }
+    // Significant (beyond drift_sigmas combined standard errors) and physical (beyond
+    // drift_min_change of the reference), sustained for drift_sustain_s.
+    const double diff = gain_est - ref_g;
+    const double need = std::max(cfg.drift_sigmas * std::hypot(gain_se, ref_se), cfg.drift_min_change * std::abs(ref_g));
+    drift_stat = std::abs(diff) / need;
+    if (drift_stat < 1.0) {
+      cond_since = std::numeric_limits<double>::quiet_NaN();
+      return;
+    }
+    if (!std::isfinite(cond_since)) cond_since = t;
+    if (!drift && t - cond_since >= cfg.drift_sustain_s) {
+      drift = true;
+      drift_reason = diff < 0 ? DriftReason::gain_fell : DriftReason::gain_rose;
+      drift_t = t, drift_g = gain_est, drift_se = gain_se;
+    }
   }
 
   TwinOutputs step(const TwinInputs& in) noexcept {
@@ -265,14 +453,16 @@ struct TwinMonitor::Impl {
       const double e_t = t - 0.5 * h;
       const double gap = e_t - edge_t;
       if (dir == edge_dir && mode != FrictionMode::stick && gap > 0) {
+        ++run_edges;
         interval = gap;
         vel = (e_pos - edge_pos) / gap;
       } else {
         // First edge of a motion: the nut broke loose somewhere in the last interval.
+        run_edges = 1;
         const double since = std::max(h, std::min(gap, cfg.stop_min_s * 4));
         vel = (e_pos - (dir > 0 ? e_pos - q_m : e_pos + q_m)) / since;
         interval = since;
-        if (mode == FrictionMode::stick) window_episode(model.drive_force_n(t, theta, e_pos, 0.0, 0.0), dir);
+        if (mode == FrictionMode::stick) slide_start_t = t;
       }
       edge_t = e_t, edge_pos = e_pos, edge_dir = dir, count = k;
       mode = dir > 0 ? FrictionMode::slide_pos : FrictionMode::slide_neg;
@@ -329,6 +519,8 @@ struct TwinMonitor::Impl {
                    ts.mode == FrictionMode::stick ? fext_hat + model.drive_force_n(t, theta, ts.pos_m, 0, 0) : 0.0);
     fext_hat = fext_new;
     if (t >= next_resync_t || !ok) {
+      // Health: judged on what the twin predicted over one open-loop interval, in counts.
+      bad_intervals = std::abs(o.residual_pos_m) > cfg.healthy_residual_counts * q_m ? bad_intervals + 1 : 0;
       twin.reset(t, {pos_hat, vel, mode}, theta, fext_hat);
       next_resync_t = t + cfg.resync_s;
     }
@@ -353,6 +545,7 @@ struct TwinMonitor::Impl {
         worst = std::max(worst, std::max(r - edge_hi, edge_lo - r));
       }
       margin = -worst;
+      const double worst_only = margin;
       // A setpoint trend heading beyond the calibrated peak is a warning of its own.
       if (std::isfinite(in.force_setpoint_n)) {
         const double f_ahead = in.force_setpoint_n + fset_rate * cfg.lookahead_s;
@@ -360,7 +553,9 @@ struct TwinMonitor::Impl {
           margin = std::min(margin, 0.0);
       }
       warn = margin < cfg.step_out_warn_margin_rad;
+      margin_from_setpoint = warn && !(worst_only < cfg.step_out_warn_margin_rad);
     }
+    gain_tick(t, theta, rel, in.load_force_n, h);
     if (std::isfinite(in.force_setpoint_n)) fset_prev = in.force_setpoint_n;
     theta_prev = theta;
     t_prev = t;
@@ -377,13 +572,30 @@ struct TwinMonitor::Impl {
     o.step_out = step_out;
     o.step_out_warning = warn || step_out;
     o.slips = slips;
-    o.drift_statistic = std::max(cusum_hi, cusum_lo) / cfg.drift_threshold;
+    o.drift_statistic = drift_stat;
     o.drift_gain_estimate = gain_est;
+    o.drift_gain_stderr = gain_se;
+    o.drift_reference_gain = ref_g;
+    o.drift_reference_stderr = ref_se;
+    o.drift_reference_t_s = ref_t;
     o.drift_warning = drift;
+    o.drift_reason = drift_reason;
+    if (drift) o.drift_warning_t_s = drift_t, o.drift_warning_gain = drift_g, o.drift_warning_stderr = drift_se;
     o.friction_mode = static_cast<int>(mode);
     o.solver_ok = ok;
-    o.healthy = ok && !drift && !step_out &&
-                std::abs(o.residual_pos_m) < cfg.healthy_residual_counts * q_m;
+    // Health: the twin explains the measurements within their resolution. Its prediction over
+    // each open-loop interval (resync_s) is judged in linear-encoder counts, and only a miss
+    // repeated over healthy_intervals intervals in a row counts: a stick or a slip the twin
+    // times a few ms differently is not a fault.
+    o.health_reason = !ok        ? HealthReason::solver
+                      : step_out ? HealthReason::step_out
+                      : bad_intervals >= cfg.healthy_intervals ? HealthReason::position_residual
+                                                               : HealthReason::none;
+    o.healthy = o.health_reason == HealthReason::none;
+    o.step_out_reason = step_out ? StepOutReason::stepped_out
+                        : warn   ? (margin_from_setpoint ? StepOutReason::setpoint_beyond_peak
+                                                         : StepOutReason::lookahead_crosses_edge)
+                                 : StepOutReason::none;
     return o;
   }
 };
@@ -393,6 +605,7 @@ TwinMonitor::~TwinMonitor() = default;
 void TwinMonitor::reset(double t_s, double screw_angle_rad, double nut_pos_m) {
   impl_->reset(t_s, screw_angle_rad, nut_pos_m);
 }
+void TwinMonitor::clear_drift() noexcept { impl_->clear_drift(); }
 TwinOutputs TwinMonitor::step(const TwinInputs& in) noexcept { return impl_->step(in); }
 const TwinMonitorConfig& TwinMonitor::config() const { return impl_->cfg; }
 

@@ -4,6 +4,7 @@
 // caller (LoopRunner in service, a fake clock in tests); no allocation or lock in step().
 #include <atomic>
 #include <cstdint>
+#include <limits>
 
 #include "maglead/controller/detail/seqlock.hpp"
 #include "maglead/physics/actuator.hpp"
@@ -57,10 +58,15 @@ struct TwinOutputs {
   bool healthy = false;
   bool drift_warning = false;
   bool step_out_warning = false;
+  // Reason codes (twin::DriftReason, HealthReason, StepOutReason) and the coupling gain the drift
+  // warning is about (0 until estimated).
+  std::uint16_t drift_reason = 0, health_reason = 0, step_out_reason = 0;
+  double gain = 0.0, gain_stderr = 0.0, gain_reference = 0.0;
 };
 struct TwinInputs {
   double t_s, screw_angle_rad, screw_cmd_rad, nut_pos_m, nut_vel_m_s, phase_rad, static_force_n;
   double force_setpoint_n;  // NaN unless in force mode
+  double load_force_n;      // load cell, force on the nut from the load (NaN without one)
 };
 /// The twin's wiring point: step() is called once per control cycle on the loop thread, after
 /// the measurement and before supervision and control, and must not block or allocate;
@@ -82,6 +88,8 @@ class TwinHook {
   virtual ~TwinHook() = default;
   virtual void step(const TwinInputs& in, TwinOutputs& out) noexcept = 0;
   virtual void resync(double /*t_s*/, double /*screw_angle_rad*/, double /*nut_pos_m*/) noexcept {}
+  /// A fault_reset edge: clear the latched drift warning (the twin takes a new reference).
+  virtual void clear_warnings() noexcept {}
 };
 
 /// Everything a client can read, from one cycle.
@@ -180,6 +188,7 @@ class Controller {
   double target_m_ = 0.0, prof_pos_m_ = 0.0, prof_vel_m_s_ = 0.0, integral_rad_ = 0.0;
   double vmax_ = 0.01, amax_ = 0.1;
   double force_set_n_ = 0.0, force_phase_rad_ = 0.0;
+  double load_force_n_ = std::numeric_limits<double>::quiet_NaN();  // last load-cell sample (twin)
   double settled_s_ = 0.0;
   std::uint16_t command_bits_ = 0;
   // Fault reaction in progress (fault state only).

@@ -16,6 +16,7 @@ class TwinMonitorHook final : public TwinHook {
   /// Builds the monitor (allocates; before the loop starts). Throws on a bad model.
   explicit TwinMonitorHook(const twin::TwinMonitorConfig& config);
   ~TwinMonitorHook() override;
+  void clear_warnings() noexcept override;
   void step(const TwinInputs& in, TwinOutputs& out) noexcept override;
   void resync(double t_s, double screw_angle_rad, double nut_pos_m) noexcept override;
 

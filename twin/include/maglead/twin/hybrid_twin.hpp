@@ -38,6 +38,11 @@ class NutModel {
   double lead_m() const { return lead_m_; }
   /// Magnetic force on the nut along +p as calibrated, F_m = −F̂_s(φ) (terms scale it elsewhere).
   double coupling_force_n(double t_s, double screw_rad, double pos_m) const noexcept;
+  /// The coupling as the model applies it: F_m with every term that scales it (gain, ripple,
+  /// end effect), without the terms that add a force of their own (offset, spring, ...). The
+  /// drift detector estimates the factor between the actuator's coupling and this.
+  double model_coupling_force_n(double t_s, double screw_rad, double pos_m,
+                                double vel_m_s) const noexcept;
   /// Everything except friction and inertia: F_m + F_ext − C ṗ + every non-friction term.
   /// The rates feed terms that need them (sensor and load-cell delays); 0 when unknown.
   double drive_force_n(double t_s, double screw_rad, double pos_m, double vel_m_s,

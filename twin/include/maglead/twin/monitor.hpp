@@ -5,6 +5,7 @@
 // Per tick: feed the measured screw angle and nut position (quantized encoders, SI units) and
 // the force setpoint if force control is active (NaN otherwise). step() is noexcept, does not
 // allocate and does not block; everything is created in the constructor / reset().
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -20,6 +21,29 @@ struct TwinInputs {
   double screw_angle_rad = 0.0;   // measured θ (motor encoder / gear ratio), continuous
   double nut_pos_m = 0.0;         // measured p (linear encoder)
   double force_setpoint_n = 0.0;  // output-force setpoint F_out; NaN if not in force control
+  double load_force_n = std::numeric_limits<double>::quiet_NaN();  // load cell (force on the nut
+                                  // from the load, F_ext); NaN without one: no gain estimate
+};
+
+/// Why drift_warning is set (README "Digital twin"). Latched with the warning.
+enum class DriftReason : int {
+  none = 0,
+  gain_fell = 1,  // the coupling gain fell from its early reference beyond the margin
+  gain_rose = 2,  // … rose
+};
+/// Why healthy is false (not latched: it follows the measurements).
+enum class HealthReason : int {
+  none = 0,
+  position_residual = 1,  // measured − predicted position beyond tolerance for a whole window
+  step_out = 2,           // the nut stepped out (latched until re-sync)
+  solver = 3,             // a SUNDIALS call failed this tick
+};
+/// Why step_out_warning is set.
+enum class StepOutReason : int {
+  none = 0,
+  lookahead_crosses_edge = 1,  // the look-ahead's φ leaves the stable branch within lookahead_s
+  setpoint_beyond_peak = 2,    // the force setpoint's trend passes the calibrated peak
+  stepped_out = 3,             // the step-out flag itself (latched until re-sync)
 };
 
 struct TwinOutputs {
@@ -31,10 +55,20 @@ struct TwinOutputs {
   double residual_force_n = 0.0;            // dynamic − static estimate (drift statistic input)
   double phase_rad = 0.0;                   // measured φ, unwrapped
   double step_out_margin_rad = 0.0;         // π/2 − max |φ| over the look-ahead (<0: crossing)
-  double drift_statistic = 0.0;             // CUSUM value / threshold (≥ 1 raises drift_warning)
-  double drift_gain_estimate = 1.0;         // coupling gain the friction windows suggest (≈1)
-  bool healthy = true;          // twin and measurement agree within noise (no fault, no drift)
-  bool drift_warning = false;   // calibration no longer matches the actuator (latched)
+  // Drift: coupling gain g relative to the model (1 = as calibrated), NaN until estimated.
+  double drift_statistic = 0.0;        // |g − g_ref| / margin (≥ 1, sustained: drift_warning)
+  double drift_gain_estimate = std::numeric_limits<double>::quiet_NaN();  // current g
+  double drift_gain_stderr = 0.0;                                         // its standard error
+  double drift_reference_gain = std::numeric_limits<double>::quiet_NaN(); // early g (reference)
+  double drift_reference_stderr = 0.0;
+  double drift_reference_t_s = 0.0;    // mean time of the reference stretch
+  double drift_warning_t_s = 0.0;      // when the warning was raised, with g and its error then
+  double drift_warning_gain = 0.0, drift_warning_stderr = 0.0;
+  DriftReason drift_reason = DriftReason::none;
+  HealthReason health_reason = HealthReason::none;
+  StepOutReason step_out_reason = StepOutReason::none;
+  bool healthy = true;          // the twin explains the measurements within their resolution
+  bool drift_warning = false;   // coupling gain moved away from its early value (latched)
   bool step_out = false;        // φ left the stable branch / nut slipped a lead (latched)
   bool step_out_warning = false;  // look-ahead crosses ±π/2 (not latched)
   int slips = 0;                // signed number of leads slipped since reset
@@ -59,11 +93,29 @@ struct TwinMonitorConfig {
   double lookahead_s = 0.050;         // step-out warning horizon
   int lookahead_every_ticks = 10;      // look-ahead cadence (its cost is ~horizon/cap steps)
   double step_out_warn_margin_rad = 0.0;  // warn when look-ahead |φ| exceeds the edge − this
-  // Drift detector: CUSUM on the friction-window ratio of stick episodes (see monitor.cpp).
-  double drift_shift = 0.05;          // relative calibration error to detect (5 %)
-  double drift_threshold = 8.0;       // CUSUM decision threshold (log-likelihood units)
-  double healthy_residual_counts = 6.0;  // |position residual| above this: twin not healthy
+  // Drift detector: recursive least squares of the coupling gain g with nuisance terms, on
+  // excitation-rich ticks only (monitor.cpp gain_tick; README "Digital twin").
+  double drift_block_s = 0.020;        // ticks averaged into one least-squares sample
+  double drift_memory_s = 4.0;         // forgetting time constant, in excitation-rich time
+  double drift_reference_s = 5.0;      // excitation-rich time that makes the early reference
+  double drift_sigmas = 4.0;           // significance: combined standard errors of g and g_ref
+  double drift_min_change = 0.03;      // physical: relative change of g worth an operator's action
+  double drift_sustain_s = 2.0;        // both must hold this long
+  double drift_min_force_counts = 10.0;  // |F_m| ≥ this many counts' worth of force (≈ 11 N)
+  double drift_phase_fraction = 0.75;  // |φ| within this fraction of the stable branch
+  double drift_settle_s = 0.010;       // skip this long after the nut breaks loose
+  int drift_min_edges = 3;             // … and until the encoder has counted this many edges
+  double drift_end_exclusion_m = std::numeric_limits<double>::quiet_NaN();  // NaN: one lead
+  // Health: the twin's prediction at the end of an open-loop interval (resync_s) misses the
+  // measured position by more than this many linear counts, in this many intervals in a row.
+  double healthy_residual_counts = 3.0;
+  int healthy_intervals = 3;
 };
+
+/// What an operator reads for a raised drift warning, e.g. "coupling gain fell from 1.00 to 0.94
+/// over 60 s (±0.01)" (the change, from the reference stretch to the warning, with the combined
+/// standard error). Empty without a warning.
+std::string drift_message(const TwinOutputs& o);
 
 /// Loads config/model.toml, calibration.toml and actuator.toml from a config directory.
 TwinMonitorConfig load_monitor_config(const std::string& config_dir);
@@ -78,6 +130,9 @@ class TwinMonitor {
   /// Re-synchronises to a measured state (start-up, after re-homing or step-out re-sync):
   /// clears the latched flags and the drift statistic.
   void reset(double t_s, double screw_angle_rad, double nut_pos_m);
+  /// Clears the drift warning and forgets the gain history: the next excitation-rich stretch
+  /// becomes the new reference (operator: `maglead reset`, i.e. a fault_reset edge).
+  void clear_drift() noexcept;
   /// One control tick. Call at the sample rate with strictly increasing t_s.
   TwinOutputs step(const TwinInputs& in) noexcept;
 
