@@ -4,6 +4,7 @@
 set -euo pipefail
 packages=(
   g++ cmake ninja-build pkg-config          # toolchain
+  clang libclang-rt-14-dev                  # libFuzzer and its sanitizers (tools/fuzz.sh)
   libmodbus-dev                             # Modbus TCP/RTU framing, CRC, serial line
   libeigen3-dev                             # least squares for calibration and analysis
   libsundials-dev                           # CVODE: the twin's hybrid ODE integration

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The test command: set up, check the tree, build, run every test; then again under ASan/UBSan,
-# and the tests that start threads (label threads) under ThreadSanitizer.
+# the tests that start threads (label threads) under ThreadSanitizer, and the fuzz targets (clang,
+# libFuzzer) for 60 s in all.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/setup.sh
@@ -16,4 +17,5 @@ if [ "${MAGLEAD_SKIP_SANITIZERS:-0}" != 1 ]; then
   cmake --build build-tsan -j "$(nproc)" --target test_loop_runner test_threads
   (cd build-tsan && TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
     ctest --output-on-failure -j 2 -L threads)
+  bash tools/fuzz.sh
 fi
