@@ -45,8 +45,14 @@ constexpr std::uint16_t kInspector = 0xFFFE;                   // reads only: ne
 
 std::uint16_t be16(const std::uint8_t* p) { return static_cast<std::uint16_t>((p[0] << 8) | p[1]); }
 
+// Fitted once: the same parameters for every input.
+const PlantParams& plant_params() {
+  static const PlantParams params = paper_like_plant();
+  return params;
+}
+
 struct Rig {
-  SimulatedActuator plant{paper_like_plant(), 3, 0.02};
+  SimulatedActuator plant{plant_params(), 3, 0.02};
   ControllerConfig cfg;
   Controller ctl{cfg, plant};
   ModbusCore core{ctl, {false, "fuzz"}};
