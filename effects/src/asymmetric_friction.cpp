@@ -1,12 +1,10 @@
 // asymmetric_friction: kinetic and break-away friction differ by direction.
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct Asymmetric final : Effect {
   std::string_view id() const override { return "asymmetric_friction"; }
   std::string_view law() const override { return "F_f = F_c+ (v > 0), -F_c- (v < 0); break-away likewise"; }

@@ -1,12 +1,10 @@
 // backlash: lost motion between the motor encoder and the screw; the screw lags the motor by b/2 on the side of the transmitted torque.
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct Backlash final : Effect {
   std::string_view id() const override { return "backlash"; }
   std::string_view law() const override { return "theta_screw = theta_motor/N - (b/2) sign(torque)"; }

@@ -1,12 +1,10 @@
 // coulomb_friction: F_f = F_c sign(v) while sliding; stuck while |F_m + F_ext| <= F_c.
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct Coulomb final : Effect {
   std::string_view id() const override { return "coulomb_friction"; }
   std::string_view law() const override { return "F_f = F_c sign(v); stuck while |F_m + F_ext| <= F_c"; }

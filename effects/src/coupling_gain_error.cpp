@@ -1,12 +1,10 @@
 // coupling_gain_error: F_m scaled by a constant g (magnet strength, air gap).
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct GainError final : Effect {
   std::string_view id() const override { return "coupling_gain_error"; }
   std::string_view law() const override { return "F_m scaled by g"; }

@@ -1,13 +1,11 @@
 // end_effect: F_m scaled by 1 - D s(x), s = x^2 (3 - 2x), x = clip((z - d)/z, 0, 1).
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct EndEffect final : Effect {
   std::string_view id() const override { return "end_effect"; }
   std::string_view law() const override { return "F_m scaled by 1 - D s(x), x = clip((z - d)/z, 0, 1)"; }

@@ -1,12 +1,10 @@
 // gain_drift: F_m scaled by g(t) = 1 + r t / 60, t from the start of the recording.
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct GainDrift final : Effect {
   std::string_view id() const override { return "gain_drift"; }
   std::string_view law() const override { return "F_m scaled by 1 + r t/60"; }

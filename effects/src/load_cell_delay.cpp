@@ -1,12 +1,10 @@
 // load_cell_delay: the force reading lags the true force by tau.
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct LoadCellDelay final : Effect {
   std::string_view id() const override { return "load_cell_delay"; }
   std::string_view law() const override { return "F_read(t) = F_ext(t - tau)"; }

@@ -1,12 +1,10 @@
 // mass_error: the moving mass differs (the parameter is the total).
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct MassError final : Effect {
   std::string_view id() const override { return "mass_error"; }
   std::string_view law() const override { return "M p'' with M the total moving mass"; }

@@ -1,12 +1,10 @@
 // offset: a constant force on the nut along +p that the load cell does not see.
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct Offset final : Effect {
   std::string_view id() const override { return "offset"; }
   std::string_view law() const override { return "F = F_o (constant, along +p, unseen by the load cell)"; }

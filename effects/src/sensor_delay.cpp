@@ -1,12 +1,10 @@
 // sensor_delay: the position and angle readings lag the true values by tau.
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct SensorDelay final : Effect {
   std::string_view id() const override { return "sensor_delay"; }
   std::string_view law() const override { return "phi_read(t) = phi(t - tau), p_read(t) = p(t - tau)"; }

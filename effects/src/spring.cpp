@@ -1,12 +1,10 @@
 // spring: F = -k (p - p0) on the nut (a return spring, a cable chain).
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct Spring final : Effect {
   std::string_view id() const override { return "spring"; }
   std::string_view law() const override { return "F = -k (p - p0)"; }

@@ -1,12 +1,10 @@
 // stribeck_friction: F_k(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2); stuck while |F_m + F_ext| <= F_s.
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct Stribeck final : Effect {
   std::string_view id() const override { return "stribeck_friction"; }
   std::string_view law() const override {

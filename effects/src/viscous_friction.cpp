@@ -1,12 +1,10 @@
 // viscous_friction: the viscous term C v (the parameter is the total C).
 #include <cmath>
-#include <numbers>
 
 #include "units.hpp"
 
 namespace maglead::effects {
 namespace {
-constexpr double kPi = std::numbers::pi;
 struct Viscous final : Effect {
   std::string_view id() const override { return "viscous_friction"; }
   std::string_view law() const override { return "F = -C v"; }
