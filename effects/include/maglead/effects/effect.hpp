@@ -5,6 +5,7 @@
 // its regressors: the same law linear in a few coefficients once a shape value (a period, a zone,
 // a velocity scale) is fixed, which is how the analysis fits it. Adding an effect is one file in
 // effects/src plus its test; the registry lists it.
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -19,7 +20,9 @@ struct ParamSpec {
   double min, max;   // plausible range: a fit outside it is not this physics
 };
 
-using Params = std::map<std::string, double>;
+// Transparent comparison: the twin looks parameters up by name inside the 1 kHz cycle, and a
+// lookup must not build a std::string (an allocation for names past the small-string buffer).
+using Params = std::map<std::string, double, std::less<>>;
 
 /// One instant of the actuator as the twin or the analysis sees it (SI units).
 struct State {
