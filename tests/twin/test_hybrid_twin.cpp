@@ -144,6 +144,45 @@ TEST(HybridTwin, StuckNutStaysStuckBelowBreakaway) {
   EXPECT_GT(tw.stats().mode_switches, 0);
 }
 
+/// Screw held, the load rising linearly: the nut breaks loose at a known instant.
+class LoadRamp final : public InputSource {
+ public:
+  LoadRamp(double screw_rad, double rate_n_s) : screw_(screw_rad), rate_(rate_n_s) {}
+  double screw_rad(double) const noexcept override { return screw_; }
+  double ext_force_n(double t) const noexcept override { return rate_ * t; }
+
+ private:
+  double screw_, rate_;
+};
+
+TEST(HybridTwin, ReleaseIsLocatedBetweenTheBreakawayChecks) {
+  // Stuck phases are checked once per step cap (1 ms); the release between two checks must
+  // still come at the instant the drive reaches break-away, not at the next check.
+  const ActuatorParams act;
+  const double screw = rest_angle_rad(0.02, act.lead_m), rate_n_s = 7.0;
+  IntegratorOptions tight = reference_options();  // the default 1e-7 m/s is 10 % of v below
+  tight.stiff = false;
+  tight.max_step_s = 1e-3;  // checks 1 ms apart
+  HybridTwin tw(paper_model(), tight);
+  const double fm = tw.model().coupling_force_n(0.0, screw, 0.02);
+  const double release_s = (tw.model().breakaway_n(1) - fm) / rate_n_s;  // about 0.46 s
+  const LoadRamp ramp(screw, rate_n_s);
+  tw.reset(0.0, {0.02, 0.0, FrictionMode::stick}, screw, 0.0);
+  ASSERT_EQ(tw.integrate_to(release_s - 1e-6, ramp), TwinStatus::ok);
+  EXPECT_EQ(tw.state().mode, FrictionMode::stick);
+  EXPECT_EQ(tw.state().pos_m, 0.02);
+  // In one call from the start (checks at whole milliseconds), 0.2 ms past the release: the
+  // net force has grown as rate·δ since the release, so v = rate·δ²/(2M) (the coupling's
+  // stiffness and the viscous term take off 0.3 % over 0.2 ms). 1 % is 1 µs of release time;
+  // a release at a check would be up to 1 ms off.
+  tw.reset(0.0, {0.02, 0.0, FrictionMode::stick}, screw, 0.0);
+  const double after_s = 0.2e-3;
+  ASSERT_EQ(tw.integrate_to(release_s + after_s, ramp), TwinStatus::ok);
+  EXPECT_EQ(tw.state().mode, FrictionMode::slide_pos);
+  const double expected_m_s = rate_n_s * after_s * after_s / (2.0 * tw.model().mass_kg());
+  EXPECT_NEAR(tw.state().vel_m_s, expected_m_s, 0.01 * expected_m_s);
+}
+
 TEST(HybridTwin, RootsMarkTheStableBranchEdge) {
   // Turning the screw a whole lead ahead of a nut held by a large load crosses cos φ = 0 twice.
   const ActuatorParams act;
