@@ -1,8 +1,11 @@
-// maglead bench twin: real-time factor of the twin's CVODE integration on a 1 kHz output grid,
-// with SUNDIALS statistics, beside a fixed-step RK4 of the same hybrid model at equal accuracy
-// (both measured against a tight-tolerance reference in the same run), and the cost of a whole
-// TwinMonitor tick.
+// maglead bench twin: real-time factor of the twin's integration on a 1 kHz output grid, with
+// SUNDIALS statistics, beside a fixed-step RK4 of the same hybrid model at the target accuracy
+// and at the twin's (both measured against a tight-tolerance BDF reference in the same run), and
+// the cost of a whole TwinMonitor tick.
 #include <chrono>
+#include <cstdlib>
+#include <memory>
+#include <thread>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -53,9 +56,30 @@ double max_abs_diff(const std::vector<double>& a, const std::vector<double>& b) 
   return m;
 }
 
+/// Runs a freshly made integrator `repeats` times and keeps the least CPU and wall time: on a
+/// shared machine the neighbours only ever add time, and every run's trajectory is the same.
+template <class Make>
+GridRun best_of(int repeats, const Make& make, const twin::InputSource& drive, double duration_s) {
+  GridRun best;
+  for (int i = 0; i < repeats; ++i) {
+    auto integ = make();
+    GridRun r = run_grid(*integ, drive, duration_s);
+    if constexpr (std::is_same_v<std::decay_t<decltype(*integ)>, twin::HybridTwin>)
+      r.stats = integ->stats();
+    else
+      r.rhs_evals = integ->rhs_evals();
+    if (i > 0) r.cpu_s = std::min(r.cpu_s, best.cpu_s), r.wall_s = std::min(r.wall_s, best.wall_s);
+    best = std::move(r);
+  }
+  return best;
+}
+
+constexpr double kTargetRtf = 1000.0;       // the twin leaves the loop's core nearly free
+constexpr double kTargetError_m = 1e-6;     // a twentieth of a linear-encoder count
+
 void add_bench_twin(CLI::App& app) {
   auto* cmd = bench_command(app)->add_subcommand(
-      "twin", "Digital twin: CVODE real-time factor and statistics beside fixed-step RK4 at equal "
+      "twin", "Digital twin: real-time factor and CVODE statistics beside fixed-step RK4 at equal "
               "accuracy, and the TwinMonitor's cost per control tick");
   struct Opts {
     bool quick = false;
@@ -77,51 +101,69 @@ void add_bench_twin(CLI::App& app) {
     const twin::NutState s0{0.02, 0.0, twin::FrictionMode::stick};
     const double th0 = drive->screw_rad(0.0), f0 = drive->ext_force_n(0.0);
 
-    std::printf("maglead bench twin: %.0f s of simulated time, 1 kHz output grid, single thread\n",
-                T);
+    const int repeats = o->quick ? 1 : 3;
+    double load[1] = {std::numeric_limits<double>::quiet_NaN()};
+    getloadavg(load, 1);
+    std::printf("maglead bench twin: %.0f s of simulated time, 1 kHz output grid, single thread, "
+                "best of %d runs\n", T, repeats);
     std::printf("  drive: screw moves and hand-like pushes with knocks (seed %llu); model %s\n",
                 static_cast<unsigned long long>(o->seed), cfg.model.source.c_str());
+    std::printf("  machine: %u CPUs, load average %.2f; real-time factors are simulated s per "
+                "thread-CPU s\n", std::thread::hardware_concurrency(), load[0]);
 
-    // Reference: tight tolerances and a 0.1 ms cap.
+    // Reference: BDF (independent of the twin's Adams), tight tolerances and a 0.1 ms cap.
     twin::IntegratorOptions ref_opt;
     ref_opt.rel_tol = 1e-11;
     ref_opt.abs_tol_pos_m = 1e-14;
     ref_opt.abs_tol_vel_m_s = 1e-12;
     ref_opt.max_step_s = 1e-4;
     ref_opt.max_internal_steps = 100000000;
-    twin::HybridTwin ref(model, ref_opt);
-    ref.reset(0.0, s0, th0, f0);
-    const GridRun r_ref = run_grid(ref, *drive, T);
+    ref_opt.stiff = true;
+    std::printf("  reference: CVODE BDF, rtol %.0e, max step %.3g ms; errors are max |p - p_ref| "
+                "over the grid\n", ref_opt.rel_tol, ref_opt.max_step_s * 1e3);
+    const auto fresh_twin = [&](const twin::IntegratorOptions& opt) {
+      return [&model, &drive, s0, th0, f0, opt] {
+        auto tw = std::make_unique<twin::HybridTwin>(model, opt);
+        tw->reset(0.0, s0, th0, f0);
+        return tw;
+      };
+    };
+    const GridRun r_ref = best_of(1, fresh_twin(ref_opt), *drive, T);
 
-    twin::HybridTwin tw(model, cfg.integrator);
-    tw.reset(0.0, s0, th0, f0);
-    const GridRun r_cv = run_grid(tw, *drive, T);
-    const twin::TwinStats st = tw.stats();
-    const double err_cv = max_abs_diff(r_cv.pos_m, r_ref.pos_m);
-    std::printf("\n  CVODE BDF (rtol %.0e, max step %.3g ms)%s\n", cfg.integrator.rel_tol,
-                cfg.integrator.max_step_s * 1e3, r_cv.ok ? "" : "  ** solver reported failures **");
-    std::printf("    real-time factor   %10.0f  (simulated s per thread-CPU s; target >= 500)\n",
-                T / r_cv.cpu_s);
-    std::printf("                       %10.0f  (per wall s, load average of this machine "
-                "included)\n",
+    const GridRun r_cv = best_of(repeats, fresh_twin(cfg.integrator), *drive, T);
+    const twin::TwinStats& st = r_cv.stats;
+    const double err_cv = max_abs_diff(r_cv.pos_m, r_ref.pos_m), rtf_cv = T / r_cv.cpu_s;
+    std::printf("\n  twin: CVODE %s (rtol %.0e, max step %.3g ms)%s\n",
+                cfg.integrator.stiff ? "BDF, dense Newton" : "Adams, fixed-point iteration",
+                cfg.integrator.rel_tol, cfg.integrator.max_step_s * 1e3,
+                r_cv.ok ? "" : "  ** solver reported failures **");
+    std::printf("    real-time factor   %10.0f  (per thread-CPU s)\n", rtf_cv);
+    std::printf("                       %10.0f  (per wall s, the machine's load included)\n",
                 T / r_cv.wall_s);
     std::printf("    max |p - p_ref|    %10.3g um\n", err_cv * 1e6);
-    std::printf("    steps %ld, RHS evaluations %ld, Jacobian evaluations %ld\n", st.steps,
-                st.rhs_evals, st.jac_evals);
+    std::printf("    steps %ld (sliding), RHS evaluations %ld, Jacobian evaluations %ld, "
+                "break-away checks while stuck %ld\n",
+                st.steps, st.rhs_evals, st.jac_evals, st.stuck_checks);
     std::printf("    root events %ld (mode switches %ld, stable-branch edge crossings %ld), "
                 "re-initialisations %ld\n",
                 st.root_events, st.mode_switches, st.step_out_crossings, st.reinits);
 
-    // RK4 at halving steps until it is as accurate as CVODE.
+    // RK4 at halving steps until it is as accurate as the twin.
     std::printf("\n  fixed-step RK4 of the same hybrid model (events at step ends)\n");
     std::printf("    %10s %14s %14s %12s\n", "step [ms]", "max err [um]", "RHS evals", "RTF (CPU)");
-    double rtf_equal = std::numeric_limits<double>::quiet_NaN(), h_equal = 0;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    double rtf_equal = nan, h_equal = 0, rtf_target = nan, h_target = 0, err_target = nan;
     for (double h = 1e-3; h >= 0.99e-6; h /= 2) {
-      twin::Rk4Twin rk(model, h);
-      rk.reset(0.0, s0);
-      GridRun r = run_grid(rk, *drive, T);
+      const auto fresh_rk4 = [&model, &s0, h] {
+        auto rk = std::make_unique<twin::Rk4Twin>(model, h);
+        rk->reset(0.0, s0);
+        return rk;
+      };
+      const GridRun r = best_of(repeats, fresh_rk4, *drive, T);
       const double err = max_abs_diff(r.pos_m, r_ref.pos_m);
-      std::printf("    %10.4f %14.3g %14ld %12.0f\n", h * 1e3, err * 1e6, rk.rhs_evals(), T / r.cpu_s);
+      std::printf("    %10.4f %14.3g %14ld %12.0f\n", h * 1e3, err * 1e6, r.rhs_evals, T / r.cpu_s);
+      if (err <= kTargetError_m && std::isnan(rtf_target))
+        rtf_target = T / r.cpu_s, h_target = h, err_target = err;
       if (err <= err_cv) {
         rtf_equal = T / r.cpu_s;
         h_equal = h;
@@ -129,17 +171,22 @@ void add_bench_twin(CLI::App& app) {
       }
     }
     if (std::isnan(rtf_equal))
-      std::printf("    RK4 did not reach CVODE's accuracy down to 1 us steps\n");
+      std::printf("    RK4 did not reach the twin's accuracy down to 1 us steps\n");
     else
-      std::printf("    at equal accuracy (step %.4g ms): RK4 real-time factor %.0f vs CVODE %.0f\n",
-                  h_equal * 1e3, rtf_equal, T / r_cv.cpu_s);
+      std::printf("    at the twin's accuracy (step %.4g ms): RK4 real-time factor %.0f vs twin "
+                  "%.0f\n", h_equal * 1e3, rtf_equal, rtf_cv);
+
+    const bool met = rtf_cv >= kTargetRtf && err_cv <= kTargetError_m;
+    std::printf("\n  target: real-time factor >= %.0f at max |p - p_ref| <= %.0f um: twin %.0f at "
+                "%.3g um, %s; RK4 %.0f at %.3g um (step %.4g ms)\n",
+                kTargetRtf, kTargetError_m * 1e6, rtf_cv, err_cv * 1e6, met ? "met" : "NOT met",
+                rtf_target, err_target * 1e6, h_target * 1e3);
 
     // The whole monitor per tick: quantized positions of the reference run as the measurement.
     twin::TwinMonitor mon(cfg);
     const auto n = r_ref.pos_m.size();
     const double q = cfg.actuator.linear_count_m;
     mon.reset(0.0, th0, std::floor(s0.pos_m / q) * q);
-    const double nan = std::numeric_limits<double>::quiet_NaN();
     const double c0 = thread_cpu_s();
     double sink = 0;
     for (std::size_t k = 0; k < n; ++k) {

@@ -1,13 +1,16 @@
 #pragma once
-// The twin's nut dynamics as a hybrid system integrated by SUNDIALS CVODE (BDF).
+// The twin's nut dynamics as a hybrid system; the sliding nut is integrated by SUNDIALS CVODE
+// (Adams, fixed-point iteration: see IntegratorOptions::stiff).
 //
 //   M p̈ = F_m(θ, p) + F_other(θ, p) + F_ext − C ṗ − friction(mode)
 //
 // The friction mode (stick, slide +p, slide −p) is a discrete state kept outside the right-hand
 // side: a sign() inside it makes the integrator chatter at ṗ = 0 and a tanh leaves a bias. Roots
-// switch it: ṗ crossing zero while sliding, the drive force crossing ± break-away while stuck;
-// cos φ crossing zero marks the edge of the stable branch (step-out). After each event the
-// integrator is re-initialised (BDF history is invalid across a mode switch).
+// switch it: ṗ crossing zero while sliding (CVODE's root finding), the drive force crossing
+// ± break-away while stuck; cos φ crossing zero marks the edge of the stable branch (step-out).
+// A stuck nut's state is constant, so it is not integrated: the break-away guard is sampled at
+// the step cap and its crossing located between samples. Each slide starts the integrator
+// afresh (its history is invalid across a mode switch).
 //
 // Independent of the simulated plant's code on purpose (the plant plays the real machine).
 #include <cstdint>
@@ -64,6 +67,8 @@ class NutModel {
     const effects::Effect* effect;
     effects::Params params;
   };
+  /// The calibration's F̂_s(φ) (load convention) and, when asked, its slope dF̂_s/dφ.
+  void calibrated_load_n(double phi_rad, double& load_n, double* slope) const noexcept;
   effects::State state(double t_s, double screw_rad, double pos_m, double vel_m_s, double ext_force_n,
                        double screw_rate_rad_s, double ext_rate_n_s) const noexcept;
   PeriodicForceModel coupling_;
@@ -89,7 +94,13 @@ struct IntegratorOptions {
   double abs_tol_pos_m = 1e-9;     // well below one encoder count (21.6 µm)
   double abs_tol_vel_m_s = 1e-7;
   double max_step_s = 1e-3;        // the sample period; 0 removes the cap (tests show why not)
-  int max_order = 5;               // BDF order limit
+  // The nut on its coupling is a lightly damped oscillator (about 100 Hz, damping ratio ~0.01):
+  // its eigenvalues lie near the imaginary axis, not far out on the negative real one, so the
+  // system is not stiff. Adams with fixed-point iteration fits it; BDF with a dense Newton
+  // solve (stiff = true) pays for Jacobians and linear solves it does not need, and damps the
+  // oscillation numerically. The reference solutions use BDF, a method independent of Adams.
+  bool stiff = false;
+  int max_order = 5;               // order limit (Adams: small orders have the larger stability region)
   int max_events_per_call = 64;    // Zeno guard: more mode switches than this in one call fail
   long max_internal_steps = 100000;
 };
@@ -97,6 +108,7 @@ struct IntegratorOptions {
 struct TwinStats {
   long steps = 0, rhs_evals = 0, jac_evals = 0, root_events = 0, mode_switches = 0;
   long reinits = 0, step_out_crossings = 0, failures = 0;
+  long stuck_checks = 0;  // break-away checks while stuck (no integration steps then)
 };
 
 enum class TwinStatus : std::uint8_t { ok, solver_error, zeno };
@@ -126,7 +138,10 @@ class HybridTwin {
 
  private:
   struct Impl;
+  enum class Leg : std::uint8_t { reached_tout, switched, failed };
   TwinStatus run(double tout_s, bool stop_at_tout) noexcept;
+  Leg hold_stuck(double tout_s) noexcept;
+  Leg slide(double tout_s, bool stop_at_tout) noexcept;
   NutModel model_;
   IntegratorOptions opt_;
   std::unique_ptr<Impl> impl_;
