@@ -4,9 +4,10 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <span>
 
 #include "cli_common.hpp"
-#include "maglead/twin/monitor.hpp"
+#include "maglead/twin/replay.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -33,18 +34,12 @@ void add_twin_check(CLI::App& app) {
     const Recording rec = read_recording(o->recording, {"t_s", "nut_pos_m"});
     const auto screw = screw_angle_of(rec, tc.actuator);
     const auto& t = rec.column("t_s");
-    const auto& pos = rec.column("nut_pos_m");
     const std::size_t n = t.size();
-    if (n < 2) throw RecordingError(o->recording + ": needs at least two samples");
-    const double period = (t.back() - t.front()) / static_cast<double>(n - 1);
-    if (period > 0) tc.actuator.sample_rate_hz = 1.0 / period;
-    tc.integrator.max_step_s = 1.0 / tc.actuator.sample_rate_hz;
     const double nan = std::numeric_limits<double>::quiet_NaN();
-    const std::vector<double>* fset = rec.has("force_set_n") ? &rec.column("force_set_n") : nullptr;
-    const std::vector<double>* load = rec.has("load_force_n") ? &rec.column("load_force_n") : nullptr;
-
-    twin::TwinMonitor mon(tc);
-    mon.reset(t[0], screw[0], pos[0]);
+    const bool has_load = rec.has("load_force_n");
+    const auto optional = [&](const char* name) {
+      return rec.has(name) ? std::span<const double>(rec.column(name)) : std::span<const double>();
+    };
     double t_drift = nan, t_warn = nan, t_step = nan, max_res = 0, err_dyn = 0, err_static = 0;
     std::size_t healthy = 0, counted = 0;
     double drift_stat = 0.0;
@@ -55,9 +50,10 @@ void add_twin_check(CLI::App& app) {
       std::fprintf(trace, "t_s,gain,gain_stderr,reference_gain,reference_stderr,drift_statistic,"
                           "drift_warning,drift_reason,healthy,health_reason,residual_pos_m,"
                           "step_out_warning,step_out_reason\n");
+    const auto load = optional("load_force_n");
     const auto t0 = std::chrono::steady_clock::now();
-    for (std::size_t i = 0; i < n; ++i) {
-      const auto out = mon.step({t[i], screw[i], pos[i], fset ? (*fset)[i] : nan, load ? (*load)[i] : nan});
+    twin::replay_monitor(tc, {t, screw, rec.column("nut_pos_m"), optional("force_set_n"), load},
+                         [&](std::size_t i, const twin::TwinOutputs& out) {
       if (out.drift_warning && std::isnan(t_drift)) t_drift = t[i], at_drift = out;
       if (out.step_out_warning && std::isnan(t_warn)) t_warn = t[i];
       if (out.step_out && std::isnan(t_step)) t_step = t[i];
@@ -72,12 +68,12 @@ void add_twin_check(CLI::App& app) {
                      static_cast<int>(out.health_reason), out.residual_pos_m, out.step_out_warning,
                      static_cast<int>(out.step_out_reason));
       drift_stat = std::max(drift_stat, out.drift_statistic);
-      if (load && std::isfinite((*load)[i])) {
-        err_dyn += std::abs(out.dynamic_output_force_est_n + (*load)[i]);
-        err_static += std::abs(out.static_output_force_est_n + (*load)[i]);
+      if (has_load && std::isfinite(load[i])) {
+        err_dyn += std::abs(out.dynamic_output_force_est_n + load[i]);
+        err_static += std::abs(out.static_output_force_est_n + load[i]);
         ++counted;
       }
-    }
+    });
     if (trace) std::fclose(trace);
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf("twin check of %s: %.1f s, %zu ticks (%.0f x real time)\n", o->recording.c_str(),
@@ -87,7 +83,7 @@ void add_twin_check(CLI::App& app) {
                   err_dyn / static_cast<double>(counted), err_static / static_cast<double>(counted));
     std::printf("  position residual: max %.1f um; healthy %.1f %% of ticks\n", max_res * 1e6,
                 100.0 * static_cast<double>(healthy) / static_cast<double>(n));
-    if (!load)
+    if (!has_load)
       std::printf("  drift: not estimated (the recording has no load_force_n column)\n");
     else if (std::isnan(t_drift))
       std::printf("  drift warning: none (coupling gain %.3f +/- %.3f at the end, reference %.3f +/- "
