@@ -15,13 +15,19 @@ namespace {
 // default floats it over the data), titles are HTML above the plot so axis labels never cover
 // them, drift windows are shaded and step-outs drawn as red lines under the data.
 constexpr const char* kChartScript = R"js(
-window.maglead = {graphs: [], chart: function (id, opts, data) {
+window.maglead = {graphs: [],
+// Tick values are round already: at most six digits, and thousands as k beyond 10 000 so a label
+// fits its 56 px (dygraphs' own k/M labels would write 0.5 as "500m").
+tick: function (v) {
+  return Math.abs(v) >= 1e4 ? +(v / 1e3).toPrecision(4) + 'k' : String(+v.toPrecision(6));
+},
+chart: function (id, opts, data) {
   var bands = opts.bands || [], markers = opts.markers || [];
   var g = new Dygraph(document.getElementById('plot-' + id), data, {
     labels: opts.labels, xlabel: 'time [s]', ylabel: opts.ylabel,
     labelsDiv: document.getElementById('legend-' + id), legend: 'always',
     labelsSeparateLines: false, connectSeparatedPoints: false, strokeWidth: 1.2,
-    axes: {y: {axisLabelWidth: 56, labelsKMB: true}, x: {pixelsPerLabel: 50}},
+    axes: {y: {axisLabelWidth: 56, axisLabelFormatter: maglead.tick}, x: {pixelsPerLabel: 60, axisLabelFormatter: maglead.tick}},
     xLabelHeight: 16, yLabelWidth: 16, rightGap: 12,
     colors: ['#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd'],
     underlayCallback: function (ctx, area, gr) {

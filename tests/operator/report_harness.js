@@ -68,6 +68,9 @@
     var close = function (a, b) { return Math.abs(a[0] - b[0]) < 1e-6 * span && Math.abs(a[1] - b[1]) < 1e-6 * span; };
     if (!close(got, want)) problems.push('zoom: window ' + got + ' instead of ' + want);
     if (!close(other, want)) problems.push('zoom: the last chart did not follow (' + other + ')');
+    all(document, 'figure.chart .plot').forEach(function (plot) {
+      pairwise(all(plot, '.dygraph-axis-label-x'), plot.id + ' zoomed: x tick labels', problems, text_box);
+    });
     g.resetZoom();
     var back = g.xAxisRange();
     if (!close(back, full)) problems.push('zoom: reset gives ' + back);
