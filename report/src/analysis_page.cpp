@@ -21,7 +21,8 @@ plot::Panel panel_of(const analysis::Chart& c) {
 }
 
 plot::HeatMap heatmap_of(const analysis::Grid& g) {
-  return {g.title, g.x_label, g.y_label, g.value_label, g.x_min, g.x_max, g.y_min, g.y_max, g.nx, g.ny, g.values};
+  return {g.title, g.x_label, g.y_label, g.value_label, g.x_min, g.x_max,
+          g.y_min, g.y_max,   g.nx,      g.ny,          g.values};
 }
 
 std::string num(double v, int prec = 4) {
@@ -35,7 +36,8 @@ std::string params_text(const nlohmann::json& p) {
   std::string s;
   for (auto it = p.begin(); it != p.end(); ++it) {
     if (!s.empty()) s += ", ";
-    s += it.key() + " = " + (it.value().is_number() ? num(it.value().get<double>()) : it.value().dump());
+    s += it.key() + " = " +
+         (it.value().is_number() ? num(it.value().get<double>()) : it.value().dump());
   }
   return s;
 }
@@ -51,10 +53,12 @@ std::string event_text(const nlohmann::json& e) {
 }
 
 std::string twin_simulation_text(const nlohmann::json& t) {
-  if (!t.value("available", false)) return "not run (" + t.value("reason", std::string("no reason given")) + ")";
-  return "position error RMS " + number(t.value("baseline_rms_position_error_m", NAN) * 1e6) + " µm with the baseline, " +
-         number(t.value("corrected_rms_position_error_m", NAN) * 1e6) + " µm corrected, over " +
-         std::to_string(t.value("windows", 0)) + " windows of " + number(t.value("horizon_s", NAN)) + " s";
+  if (!t.value("available", false))
+    return "not run (" + t.value("reason", std::string("no reason given")) + ")";
+  return "position error RMS " + number(t.value("baseline_rms_position_error_m", NAN) * 1e6) +
+         " µm with the baseline, " + number(t.value("corrected_rms_position_error_m", NAN) * 1e6) +
+         " µm corrected, over " + std::to_string(t.value("windows", 0)) + " windows of " +
+         number(t.value("horizon_s", NAN)) + " s";
 }
 
 }  // namespace
@@ -68,8 +72,9 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
     j << r.json.dump(2) << "\n";
     if (!j) throw std::runtime_error("cannot write " + path("analysis.json"));
   }
-  analysis::save_model(path("model_corrected.toml"), r.corrected,
-             "model corrected by maglead analyze from " + r.json.value("recording", std::string()));
+  analysis::save_model(
+      path("model_corrected.toml"), r.corrected,
+      "model corrected by maglead analyze from " + r.json.value("recording", std::string()));
   for (const auto& f : r.figures) {
     if (f.is_grid) {
       plot::save_heatmap_png(path(f.file), heatmap_of(f.grid));
@@ -85,14 +90,15 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
        "body{font-family:sans-serif;max-width:1150px;margin:auto}table{border-collapse:collapse}"
        "td,th{border:1px solid #aaa;padding:3px 8px}img{max-width:100%}.alt{color:#a40}</style>"
        "</head><body>\n";
-  h << "<h1>Twin versus recording</h1><p>Recording <code>" << escape_html(J["recording"].get<std::string>()) << "</code> ("
-    << J["samples"] << " samples, " << J["samples_used"] << " used), system <b>" << escape_html(J["system"].get<std::string>())
+  h << "<h1>Twin versus recording</h1><p>Recording <code>"
+    << escape_html(J["recording"].get<std::string>()) << "</code> (" << J["samples"] << " samples, "
+    << J["samples_used"] << " used), system <b>" << escape_html(J["system"].get<std::string>())
     << "</b>.</p>\n";
   h << "<p>Method: " << escape_html(J["method"]["domain"].get<std::string>()) << "; "
-    << escape_html(J["method"]["filter"].get<std::string>()) << "; decimation " << J["method"]["decimation"]
-    << "; " << escape_html(J["method"]["selection"].get<std::string>()) << "; "
-    << escape_html(J["method"]["moving_only"].get<std::string>()) << ". Noise floor of the force: "
-    << num(J["noise_floor_n"].get<double>()) << " N.</p>\n";
+    << escape_html(J["method"]["filter"].get<std::string>()) << "; decimation "
+    << J["method"]["decimation"] << "; " << escape_html(J["method"]["selection"].get<std::string>())
+    << "; " << escape_html(J["method"]["moving_only"].get<std::string>())
+    << ". Noise floor of the force: " << num(J["noise_floor_n"].get<double>()) << " N.</p>\n";
   h << "<h2>1. Compare</h2><table><tr><th></th><th>RMS [N]</th><th>relative error [%]</th>"
        "<th>full rate RMS [N]</th><th>full rate relative error [%]</th></tr>";
   for (const char* k : {"baseline", "final"}) {
@@ -109,7 +115,8 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
   h << "</ul><p>Events:</p><ul>";
   for (const auto& e : J["events"]) h << "<li>" << escape_html(event_text(e)) << "</li>";
   if (J["events"].empty()) h << "<li>none</li>";
-  h << "</ul>\n<h2>3. Explain</h2><p><b>" << escape_html(J["conclusion"].get<std::string>()) << "</b></p>";
+  h << "</ul>\n<h2>3. Explain</h2><p><b>" << escape_html(J["conclusion"].get<std::string>())
+    << "</b></p>";
   h << "<table><tr><th>#</th><th>effect</th><th>parameters</th><th>where</th><th>held-out gain</th>"
        "<th>t</th><th>segments</th><th>improvement</th></tr>";
   int k = 1;
@@ -120,33 +127,38 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
       h << "<div class=alt>" << escape_html(e["finding"].get<std::string>()) << "</div>";
     if (e.contains("alternatives"))
       for (const auto& a : e["alternatives"])
-        h << "<div class=alt>alternative: " << escape_html(a["id"].get<std::string>()) << " (" << escape_html(params_text(a["parameters"]))
-          << "; reproduces " << num(a["explains_pct"].get<double>(), 3) << " %)</div>";
+        h << "<div class=alt>alternative: " << escape_html(a["id"].get<std::string>()) << " ("
+          << escape_html(params_text(a["parameters"])) << "; reproduces "
+          << num(a["explains_pct"].get<double>(), 3) << " %)</div>";
     if (e.contains("note")) h << "<div>" << escape_html(e["note"].get<std::string>()) << "</div>";
-    h << "</td><td>" << escape_html(params_text(e["parameters"])) << "</td><td>" << escape_html(e["where"].get<std::string>())
+    h << "</td><td>" << escape_html(params_text(e["parameters"])) << "</td><td>"
+      << escape_html(e["where"].get<std::string>()) << "</td><td>"
+      << (ev["heldout_gain_pct"].is_number() ? num(ev["heldout_gain_pct"].get<double>(), 3) + " %"
+                                             : "–")
+      << "</td><td>" << (ev.contains("t_stat") ? num(ev["t_stat"].get<double>(), 3) : "–")
       << "</td><td>"
-      << (ev["heldout_gain_pct"].is_number() ? num(ev["heldout_gain_pct"].get<double>(), 3) + " %" : "–")
-      << "</td><td>" << (ev.contains("t_stat") ? num(ev["t_stat"].get<double>(), 3) : "–") << "</td><td>"
       << (ev.contains("segments_improved") ? ev["segments_improved"].get<std::string>() : "–")
       << "</td><td>" << num(e["improvement_pct"].get<double>(), 3) << " %</td></tr>";
   }
   h << "</table>";
   for (const auto& rj : J["not_selected"])
-    h << "<p>Next best candidate, not significant: " << escape_html(rj["id"].get<std::string>()) << " (held-out gain "
-      << num(rj["heldout_gain_pct"].get<double>(), 3) << " %, t = " << num(rj["t_stat"].get<double>(), 3)
-      << ")</p>";
-  h << "<h2>4. Model it</h2><table><tr><th>model</th><th>held-out RMS [N]</th><th>held-out relative error [%]</th></tr>";
+    h << "<p>Next best candidate, not significant: " << escape_html(rj["id"].get<std::string>())
+      << " (held-out gain " << num(rj["heldout_gain_pct"].get<double>(), 3)
+      << " %, t = " << num(rj["t_stat"].get<double>(), 3) << ")</p>";
+  h << "<h2>4. Model it</h2><table><tr><th>model</th><th>held-out RMS [N]</th><th>held-out "
+       "relative error [%]</th></tr>";
   for (const auto& v : J["validation"])
-    h << "<tr><td>" << escape_html(v["model"].get<std::string>()) << "</td><td>" << num(v["heldout_rms"].get<double>()) << "</td><td>"
+    h << "<tr><td>" << escape_html(v["model"].get<std::string>()) << "</td><td>"
+      << num(v["heldout_rms"].get<double>()) << "</td><td>"
       << num(v["heldout_relative_error_pct"].get<double>()) << "</td></tr>";
   h << "</table><p>Corrected model written to <code>model_corrected.toml</code>.</p>";
   if (J.contains("twin_simulation"))
-    h << "<p>Twin re-simulation from measured states: " << escape_html(twin_simulation_text(J["twin_simulation"]))
-      << "</p>";
+    h << "<p>Twin re-simulation from measured states: "
+      << escape_html(twin_simulation_text(J["twin_simulation"])) << "</p>";
   h << "<h2>Figures</h2>";
   for (const auto& f : r.figures)
-    h << "<figure><img src=\"" << png_data_url(path(f.file)) << "\" alt=\""
-      << escape_html(f.file) << "\"><figcaption>" << escape_html(f.caption) << "</figcaption></figure>\n";
+    h << "<figure><img src=\"" << png_data_url(path(f.file)) << "\" alt=\"" << escape_html(f.file)
+      << "\"><figcaption>" << escape_html(f.caption) << "</figcaption></figure>\n";
   h << "</body></html>\n";
   std::ofstream out(path("report.html"));
   out << h.str();

@@ -1,7 +1,6 @@
 #include "effect_text.hpp"
 
 #include <array>
-#include <utility>
 
 #include "maglead/effects/effect.hpp"
 #include "maglead/report/html.hpp"
@@ -10,20 +9,25 @@ namespace maglead::report {
 namespace {
 
 // The unit is the end of a parameter's name (docs/effects.md); longest suffixes first.
-constexpr std::array<std::pair<const char*, const char*>, 9> kUnitSuffixes{{{"_n_s_per_m", "N·s/m"},
-                                                                           {"_n_per_m", "N/m"},
-                                                                           {"_per_min", "1/min"},
-                                                                           {"_m_s", "m/s"},
-                                                                           {"_rad", "rad"},
-                                                                           {"_kg", "kg"},
-                                                                           {"_n", "N"},
-                                                                           {"_m", "m"},
-                                                                           {"_s", "s"}}};
+struct UnitSuffix {
+  const char* suffix;
+  const char* unit;
+};
+constexpr std::array<UnitSuffix, 9> kUnitSuffixes{{{"_n_s_per_m", "N·s/m"},
+                                                   {"_n_per_m", "N/m"},
+                                                   {"_per_min", "1/min"},
+                                                   {"_m_s", "m/s"},
+                                                   {"_rad", "rad"},
+                                                   {"_kg", "kg"},
+                                                   {"_n", "N"},
+                                                   {"_m", "m"},
+                                                   {"_s", "s"}}};
 
 std::string unit_of(const std::string& name) {
   for (const auto& [suffix, unit] : kUnitSuffixes) {
     const std::string s = suffix;
-    if (name.size() > s.size() && name.compare(name.size() - s.size(), s.size(), s) == 0) return unit;
+    if (name.size() > s.size() && name.compare(name.size() - s.size(), s.size(), s) == 0)
+      return unit;
   }
   return "";
 }

@@ -12,7 +12,7 @@
 namespace maglead::plot {
 namespace {
 
-const cv::Scalar kPalette[] = {{180, 119, 31}, {14, 127, 255}, {44, 160, 44},
+const cv::Scalar kPalette[] = {{180, 119, 31}, {14, 127, 255},  {44, 160, 44},
                                {40, 39, 214},  {189, 103, 148}, {75, 86, 140}};
 const cv::Scalar kInk{40, 40, 40}, kGrid{225, 225, 225};
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
@@ -109,8 +109,8 @@ void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
 }
 
 cv::Vec3b colormap(double f) {  // perceptual-ish blue → yellow ramp (viridis-like)
-  static const double stops[][3] = {{68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98},
-                                    {253, 231, 37}};
+  static const double stops[][3] = {
+      {68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98}, {253, 231, 37}};
   f = std::clamp(f, 0.0, 1.0) * 4.0;
   const int i = std::min(3, static_cast<int>(f));
   const double u = f - i;
@@ -125,7 +125,8 @@ cv::Scalar diverging(double f) {  // blue → light grey → red (coolwarm): the
   f = std::clamp(f, 0.0, 1.0) * 2.0;
   const int i = std::min(1, static_cast<int>(f));
   const double u = f - i;
-  return cv::Scalar(stops[i][2] + u * (stops[i + 1][2] - stops[i][2]), stops[i][1] + u * (stops[i + 1][1] - stops[i][1]),
+  return cv::Scalar(stops[i][2] + u * (stops[i + 1][2] - stops[i][2]),
+                    stops[i][1] + u * (stops[i + 1][1] - stops[i][1]),
                     stops[i][0] + u * (stops[i + 1][0] - stops[i][0]));
 }
 
@@ -140,7 +141,8 @@ struct ColourScale {
 };
 
 ColourScale colour_scale(const std::vector<double>& values) {
-  ColourScale s{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), false};
+  ColourScale s{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                false};
   for (double v : values)
     if (std::isfinite(v)) s.lo = std::min(s.lo, v), s.hi = std::max(s.hi, v);
   if (!std::isfinite(s.lo)) return {0.0, 1.0, false};
@@ -169,7 +171,8 @@ void save_panels_png(const std::string& path, const std::vector<Panel>& panels, 
   const int n = static_cast<int>(std::max<std::size_t>(1, panels.size()));
   cv::Mat img(n * panel_height_px, width_px, CV_8UC3, cv::Scalar(255, 255, 255));
   for (int i = 0; i < static_cast<int>(panels.size()); ++i)
-    draw_panel(img, panels[static_cast<std::size_t>(i)], {0, i * panel_height_px, width_px, panel_height_px});
+    draw_panel(img, panels[static_cast<std::size_t>(i)],
+               {0, i * panel_height_px, width_px, panel_height_px});
   write_png(path, img);
 }
 
@@ -186,7 +189,8 @@ void save_heatmap_png(const std::string& path, const HeatMap& m, int width_px, i
       const int xa = plot.x + c * plot.width / m.nx, xb = plot.x + (c + 1) * plot.width / m.nx;
       const int ya = plot.y + plot.height - (r + 1) * plot.height / m.ny;
       const int yb = plot.y + plot.height - r * plot.height / m.ny;
-      if (std::isfinite(v)) cv::rectangle(img, cv::Point(xa, ya), cv::Point(xb, yb), scale.colour(v), cv::FILLED);
+      if (std::isfinite(v))
+        cv::rectangle(img, cv::Point(xa, ya), cv::Point(xb, yb), scale.colour(v), cv::FILLED);
     }
   cv::rectangle(img, plot, kInk);
   if (!m.title.empty()) text(img, m.title, {plot.x, 24}, 0.55);
@@ -199,7 +203,8 @@ void save_heatmap_png(const std::string& path, const HeatMap& m, int width_px, i
     text(img, fmt(std::abs(x) < 1e-9 * sx ? 0.0 : x), {px - 14, plot.y + plot.height + 20}, 0.4);
   }
   for (double y = std::ceil(m.y_min / sy) * sy; y <= m.y_max + 1e-9 * sy; y += sy) {
-    const int py = plot.y + plot.height - static_cast<int>((y - m.y_min) / (m.y_max - m.y_min) * plot.height);
+    const int py =
+        plot.y + plot.height - static_cast<int>((y - m.y_min) / (m.y_max - m.y_min) * plot.height);
     cv::line(img, {plot.x - 5, py}, {plot.x, py}, kInk);
     text(img, fmt(std::abs(y) < 1e-9 * sy ? 0.0 : y), {plot.x - 52, py + 4}, 0.4);
   }

@@ -27,7 +27,8 @@ chart: function (id, opts, data) {
     labels: opts.labels, xlabel: 'time [s]', ylabel: opts.ylabel,
     labelsDiv: document.getElementById('legend-' + id), legend: 'always',
     labelsSeparateLines: false, connectSeparatedPoints: false, strokeWidth: 1.2,
-    axes: {y: {axisLabelWidth: 56, axisLabelFormatter: maglead.tick}, x: {pixelsPerLabel: 60, axisLabelFormatter: maglead.tick}},
+    axes: {y: {axisLabelWidth: 56, axisLabelFormatter: maglead.tick},
+           x: {pixelsPerLabel: 60, axisLabelFormatter: maglead.tick}},
     xLabelHeight: 16, yLabelWidth: 16, rightGap: 12,
     colors: ['#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd'],
     underlayCallback: function (ctx, area, gr) {
@@ -74,7 +75,8 @@ std::string js_string(const std::string& s) {
 
 // Minimum then maximum of one series in [i0, i1), in the order they occurred; the bucket's
 // first sample when the series has no finite value there.
-std::pair<std::size_t, std::size_t> extremes(const std::vector<double>& y, std::size_t i0, std::size_t i1) {
+std::pair<std::size_t, std::size_t> extremes(const std::vector<double>& y, std::size_t i0,
+                                             std::size_t i1) {
   std::size_t lo = i0, hi = i0;
   bool any = false;
   for (std::size_t i = i0; i < i1; ++i) {
@@ -100,9 +102,11 @@ std::vector<std::size_t> envelope_rows(const std::vector<double>& t, std::size_t
   }
   // Each bucket gives at most two rows per series: its extremes. With several series the rows
   // of one bucket are the union of their extremes.
-  const std::size_t buckets = std::max<std::size_t>(1, max_points / (2 * std::max<std::size_t>(1, series.size())));
+  const std::size_t buckets =
+      std::max<std::size_t>(1, max_points / (2 * std::max<std::size_t>(1, series.size())));
   for (std::size_t b = 0; b < buckets; ++b) {
-    const std::size_t i0 = first + (n - first) * b / buckets, i1 = first + (n - first) * (b + 1) / buckets;
+    const std::size_t i0 = first + (n - first) * b / buckets,
+                      i1 = first + (n - first) * (b + 1) / buckets;
     if (i0 >= i1) continue;
     const std::size_t before = rows.size();
     for (const auto& y : series) {
@@ -111,7 +115,8 @@ std::vector<std::size_t> envelope_rows(const std::vector<double>& t, std::size_t
       rows.push_back(c);
     }
     std::sort(rows.begin() + static_cast<std::ptrdiff_t>(before), rows.end());
-    rows.erase(std::unique(rows.begin() + static_cast<std::ptrdiff_t>(before), rows.end()), rows.end());
+    rows.erase(std::unique(rows.begin() + static_cast<std::ptrdiff_t>(before), rows.end()),
+               rows.end());
   }
   return rows;
 }
@@ -133,13 +138,15 @@ std::string time_chart_html(const TimeChart& c, std::size_t max_points) {
   if (!c.t_s) throw std::invalid_argument("time chart " + c.id + " without a time axis");
   std::vector<std::vector<double>> ys;
   for (const auto& s : c.series) {
-    if (s.y.size() != c.t_s->size()) throw std::invalid_argument("time chart " + c.id + ": series length");
+    if (s.y.size() != c.t_s->size())
+      throw std::invalid_argument("time chart " + c.id + ": series length");
     ys.push_back(s.y);
   }
-  std::string h = "<figure class=\"chart\" id=\"fig-" + c.id + "\">\n<figcaption><b>" + escape_html(c.title) +
-                  ".</b> " + escape_html(c.caption) + "</figcaption>\n<div class=\"legend\" id=\"legend-" + c.id +
-                  "\"></div>\n<div class=\"plot\" id=\"plot-" + c.id + "\"></div>\n</figure>\n<script>maglead.chart(\"" +
-                  c.id + "\", {labels: [\"t\"";
+  std::string h = "<figure class=\"chart\" id=\"fig-" + c.id + "\">\n<figcaption><b>" +
+                  escape_html(c.title) + ".</b> " + escape_html(c.caption) +
+                  "</figcaption>\n<div class=\"legend\" id=\"legend-" + c.id +
+                  "\"></div>\n<div class=\"plot\" id=\"plot-" + c.id +
+                  "\"></div>\n</figure>\n<script>maglead.chart(\"" + c.id + "\", {labels: [\"t\"";
   for (const auto& s : c.series) h += ", " + js_string(s.label);
   h += "], ylabel: " + js_string(c.y_label) + ", bands: [";
   for (std::size_t k = 0; k < c.bands.size(); ++k) {

@@ -19,8 +19,8 @@ struct ReportOpts {
   bool no_analysis = false;
 };
 
-report::AnalysisOutcome run_analysis(const ReportOpts& o, const Recording& rec, const ActuatorParams& act,
-                                     const ForceCalibration& cal) {
+report::AnalysisOutcome run_analysis(const ReportOpts& o, const Recording& rec,
+                                     const ActuatorParams& act, const ForceCalibration& cal) {
   report::AnalysisOutcome outcome;
   if (o.no_analysis) {
     outcome.reason = "--no-analysis";
@@ -30,8 +30,8 @@ report::AnalysisOutcome run_analysis(const ReportOpts& o, const Recording& rec, 
     std::string model_path = o.model;
     if (model_path.empty() && std::filesystem::exists(config_file(o.config, "model.toml")))
       model_path = config_file(o.config, "model.toml");
-    const auto model =
-        model_path.empty() ? analysis::actuator_model_from_config(act) : analysis::load_model(model_path);
+    const auto model = model_path.empty() ? analysis::actuator_model_from_config(act)
+                                          : analysis::load_model(model_path);
     analysis::AnalysisOptions ao;
     std::unique_ptr<Progress> bar;
     std::string stage;
@@ -56,21 +56,26 @@ report::AnalysisOutcome run_analysis(const ReportOpts& o, const Recording& rec, 
 
 void add_report(CLI::App& app) {
   auto* cmd = app.add_subcommand(
-      "report", "Twin-versus-actual anomaly report of a recording: where twin and machine part, the missing "
-                "physics, the fit, step-outs and drift; one self-contained HTML page with interactive plots");
+      "report",
+      "Twin-versus-actual anomaly report of a recording: where twin and machine part, the missing "
+      "physics, the fit, step-outs and drift; one self-contained HTML page with interactive plots");
   auto o = std::make_shared<ReportOpts>();
-  cmd->add_option("--recording", o->recording, "mls-recording/1 (t_s, screw or motor angle, nut_pos_m; "
-                                                 "load_force_n, out_force_est_n, force_set_n if logged)")
+  cmd->add_option("--recording", o->recording,
+                  "mls-recording/1 (t_s, screw or motor angle, nut_pos_m; "
+                  "load_force_n, out_force_est_n, force_set_n if logged)")
       ->required();
-  cmd->add_option("--out", o->out, "Output directory (index.html, report.json, the map's PNG)")->required();
+  cmd->add_option("--out", o->out, "Output directory (index.html, report.json, the map's PNG)")
+      ->required();
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
-  cmd->add_option("--calibration", o->calibration, "Force calibration (default: CONFIG/calibration.toml)");
-  cmd->add_option("--model", o->model, "Baseline model for the analysis (default: CONFIG/model.toml)");
+  cmd->add_option("--calibration", o->calibration,
+                  "Force calibration (default: CONFIG/calibration.toml)");
+  cmd->add_option("--model", o->model,
+                  "Baseline model for the analysis (default: CONFIG/model.toml)");
   cmd->add_flag("--no-analysis", o->no_analysis, "Skip the analysis (quicker)");
   cmd->callback([o] {
     const ActuatorParams act = load_actuator_or_default(o->config);
-    const ForceCalibration cal =
-        load_calibration(o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration);
+    const ForceCalibration cal = load_calibration(
+        o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration);
     const Recording rec = read_recording(o->recording, {"t_s", "nut_pos_m"});
     twin::TwinMonitorConfig monitor = twin::load_monitor_config(o->config);
     monitor.actuator = act;
@@ -80,14 +85,16 @@ void add_report(CLI::App& app) {
     const auto outcome = run_analysis(*o, rec, act, cal);
     report::write_anomaly_report(o->out, o->recording, anomaly, outcome);
     std::printf("%s\n", report::anomaly_headline(anomaly, outcome).c_str());
-    std::printf("step-outs: %zu, drift windows: %zu, twin position residual RMS %.1f um\n", anomaly.step_outs.size(),
-                anomaly.drift_windows.size(), anomaly.residual_pos_rms_m * 1e6);
+    std::printf("step-outs: %zu, drift windows: %zu, twin position residual RMS %.1f um\n",
+                anomaly.step_outs.size(), anomaly.drift_windows.size(),
+                anomaly.residual_pos_rms_m * 1e6);
     if (anomaly.static_error && anomaly.twin_error)
       std::printf("force error against load cell: static %.2f N, twin %.2f N (mean absolute)\n",
                   anomaly.static_error->mean_abs_n, anomaly.twin_error->mean_abs_n);
     std::printf("analysis: %s\n", outcome.status == report::AnalysisOutcome::Status::done ? "done"
-                                  : outcome.status == report::AnalysisOutcome::Status::skipped ? "skipped"
-                                                                                               : "not possible");
+                                  : outcome.status == report::AnalysisOutcome::Status::skipped
+                                      ? "skipped"
+                                      : "not possible");
     std::printf("wrote %s\n", (std::filesystem::path(o->out) / "index.html").string().c_str());
   });
 }

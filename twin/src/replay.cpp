@@ -76,7 +76,8 @@ WindowReplay replay_windows(const NutModel& model, const ReplaySignals& s,
     }
   }
   out.stats = twin.stats();
-  out.rms_position_error_m = simulated ? std::sqrt(sum_sq_m2 / static_cast<double>(simulated)) : kNaN;
+  out.rms_position_error_m =
+      simulated ? std::sqrt(sum_sq_m2 / static_cast<double>(simulated)) : kNaN;
   return out;
 }
 

@@ -31,8 +31,10 @@ std::vector<TimeWindow> windows_where(const std::vector<double>& t, const std::v
   std::vector<TimeWindow> w;
   for (std::size_t i = 0; i < t.size(); ++i) {
     if (!flag[i]) continue;
-    if (i > 0 && flag[i - 1]) w.back().end_s = t[i];
-    else w.push_back({t[i], t[i]});
+    if (i > 0 && flag[i - 1])
+      w.back().end_s = t[i];
+    else
+      w.push_back({t[i], t[i]});
   }
   return w;
 }
@@ -65,20 +67,21 @@ void replay(const Recording& rec, const twin::TwinMonitorConfig& monitor,
   tr.drift_statistic.resize(n);
   std::vector<bool> drift(n), warn(n);
   int slips = 0;
-  twin::replay_monitor(monitor,
-                       {tr.t_s, screw, tr.nut_pos_m, optional_column(rec, "force_set_n"),
-                        optional_column(rec, "load_force_n")},
-                       [&](std::size_t i, const twin::TwinOutputs& out) {
-                         tr.residual_pos_m[i] = out.residual_pos_m;
-                         tr.twin_estimate_n[i] = out.dynamic_output_force_est_n;
-                         tr.phase_rad[i] = out.phase_rad;
-                         tr.drift_statistic[i] = out.drift_statistic;
-                         drift[i] = out.drift_warning;
-                         warn[i] = out.step_out_warning;
-                         if (out.slips != slips)
-                           a.step_outs.push_back({tr.t_s[i], out.slips - slips, tr.nut_pos_m[i], "twin replay"});
-                         slips = out.slips;
-                       });
+  twin::replay_monitor(
+      monitor,
+      {tr.t_s, screw, tr.nut_pos_m, optional_column(rec, "force_set_n"),
+       optional_column(rec, "load_force_n")},
+      [&](std::size_t i, const twin::TwinOutputs& out) {
+        tr.residual_pos_m[i] = out.residual_pos_m;
+        tr.twin_estimate_n[i] = out.dynamic_output_force_est_n;
+        tr.phase_rad[i] = out.phase_rad;
+        tr.drift_statistic[i] = out.drift_statistic;
+        drift[i] = out.drift_warning;
+        warn[i] = out.step_out_warning;
+        if (out.slips != slips)
+          a.step_outs.push_back({tr.t_s[i], out.slips - slips, tr.nut_pos_m[i], "twin replay"});
+        slips = out.slips;
+      });
   a.drift_windows = windows_where(tr.t_s, drift);
   a.step_out_warnings = windows_where(tr.t_s, warn);
   a.max_drift_statistic = *std::max_element(tr.drift_statistic.begin(), tr.drift_statistic.end());
@@ -90,7 +93,8 @@ void logged_step_outs(const Recording& rec, Anomaly& a) {
   const auto& c = rec.column("step_out_count");
   for (std::size_t i = 1; i < c.size(); ++i)
     if (std::isfinite(c[i]) && std::isfinite(c[i - 1]) && c[i] > c[i - 1])
-      a.step_outs.push_back({a.trace.t_s[i], static_cast<int>(c[i] - c[i - 1]), a.trace.nut_pos_m[i], "controller"});
+      a.step_outs.push_back(
+          {a.trace.t_s[i], static_cast<int>(c[i] - c[i - 1]), a.trace.nut_pos_m[i], "controller"});
 }
 
 // Paper eq. 6 as the controller logged it, else recomputed causally as the controller does.
@@ -114,7 +118,8 @@ void static_estimate(const Recording& rec, const twin::TwinMonitorConfig& m,
     }
   }
   for (std::size_t i = 0; i < n; ++i)
-    if (tr.phase_rad[i] < m.calibration.stable_min_rad || tr.phase_rad[i] > m.calibration.stable_max_rad) {
+    if (tr.phase_rad[i] < m.calibration.stable_min_rad ||
+        tr.phase_rad[i] > m.calibration.stable_max_rad) {
       tr.static_estimate_n[i] = kNaN;
       ++a.off_branch_samples;
     }
@@ -124,7 +129,9 @@ std::pair<double, double> central_range(std::vector<double> x, double tail) {
   std::erase_if(x, [](double v) { return !std::isfinite(v); });
   if (x.empty()) return {0.0, 1.0};
   std::sort(x.begin(), x.end());
-  const auto at = [&](double q) { return x[static_cast<std::size_t>(q * static_cast<double>(x.size() - 1))]; };
+  const auto at = [&](double q) {
+    return x[static_cast<std::size_t>(q * static_cast<double>(x.size() - 1))];
+  };
   return {at(tail), at(1.0 - tail)};
 }
 
@@ -133,14 +140,18 @@ std::pair<double, double> central_range(std::vector<double> x, double tail) {
 Grid space_map(const Anomaly& a) {
   const auto& tr = a.trace;
   const std::size_t n = tr.t_s.size();
-  const auto half = std::max<std::size_t>(1, static_cast<std::size_t>(kVelocityHalfWindowS * a.sample_rate_hz));
+  const auto half =
+      std::max<std::size_t>(1, static_cast<std::size_t>(kVelocityHalfWindowS * a.sample_rate_hz));
   std::vector<double> v_mm_s(n, kNaN), value(n, kNaN);
   for (std::size_t i = std::max(a.first_settled, half); i + half < n; ++i) {
-    v_mm_s[i] = (tr.nut_pos_m[i + half] - tr.nut_pos_m[i - half]) / (tr.t_s[i + half] - tr.t_s[i - half]) * 1e3;
-    value[i] = a.has_load_cell ? tr.twin_estimate_n[i] - tr.output_force_n[i] : tr.residual_pos_m[i] * 1e6;
+    v_mm_s[i] = (tr.nut_pos_m[i + half] - tr.nut_pos_m[i - half]) /
+                (tr.t_s[i + half] - tr.t_s[i - half]) * 1e3;
+    value[i] =
+        a.has_load_cell ? tr.twin_estimate_n[i] - tr.output_force_n[i] : tr.residual_pos_m[i] * 1e6;
   }
   Grid g;
-  g.title = "Where in space: twin " + std::string(a.has_load_cell ? "force error" : "position residual") +
+  g.title = "Where in space: twin " +
+            std::string(a.has_load_cell ? "force error" : "position residual") +
             " over velocity and position";
   g.x_label = "velocity [mm/s]";
   g.y_label = "position [mm]";
@@ -148,7 +159,8 @@ Grid space_map(const Anomaly& a) {
   g.nx = 40;
   g.ny = 30;
   std::tie(g.x_min, g.x_max) = central_range(v_mm_s, 0.005);
-  std::vector<double> pos_mm(tr.nut_pos_m.begin() + static_cast<std::ptrdiff_t>(a.first_settled), tr.nut_pos_m.end());
+  std::vector<double> pos_mm(tr.nut_pos_m.begin() + static_cast<std::ptrdiff_t>(a.first_settled),
+                             tr.nut_pos_m.end());
   for (double& p : pos_mm) p *= 1e3;
   std::tie(g.y_min, g.y_max) = central_range(pos_mm, 0.0);
   if (!(g.x_max > g.x_min)) g.x_max = g.x_min + 1.0;
@@ -164,7 +176,8 @@ Grid space_map(const Anomaly& a) {
   }
   g.values.resize(sum.size());
   // A cell of fewer than 3 samples is one noisy reading, not a place.
-  for (std::size_t k = 0; k < sum.size(); ++k) g.values[k] = count[k] >= 3 ? sum[k] / count[k] : kNaN;
+  for (std::size_t k = 0; k < sum.size(); ++k)
+    g.values[k] = count[k] >= 3 ? sum[k] / count[k] : kNaN;
   return g;
 }
 
@@ -187,7 +200,8 @@ Anomaly inspect_recording(const Recording& rec, const twin::TwinMonitorConfig& m
   const auto column_or_nan = [&](const char* name, double scale) {
     std::vector<double> c(n, kNaN);
     if (rec.has(name))
-      std::transform(rec.column(name).begin(), rec.column(name).end(), c.begin(), [&](double v) { return scale * v; });
+      std::transform(rec.column(name).begin(), rec.column(name).end(), c.begin(),
+                     [&](double v) { return scale * v; });
     return c;
   };
   tr.pos_set_m = column_or_nan("pos_set_m", 1.0);
@@ -200,13 +214,15 @@ Anomaly inspect_recording(const Recording& rec, const twin::TwinMonitorConfig& m
   static_estimate(rec, monitor, screw, a);
 
   a.settle_s = std::min(kSettleS, 0.1 * a.duration_s);
-  while (a.first_settled + 1 < n && tr.t_s[a.first_settled] - tr.t_s[0] < a.settle_s) ++a.first_settled;
+  while (a.first_settled + 1 < n && tr.t_s[a.first_settled] - tr.t_s[0] < a.settle_s)
+    ++a.first_settled;
   if (a.has_load_cell) {
     a.static_error = error_stats(tr.static_estimate_n, tr.output_force_n, a.first_settled);
     a.twin_error = error_stats(tr.twin_estimate_n, tr.output_force_n, a.first_settled);
   }
   double sum_sq = 0;
-  for (std::size_t i = a.first_settled; i < n; ++i) sum_sq += tr.residual_pos_m[i] * tr.residual_pos_m[i];
+  for (std::size_t i = a.first_settled; i < n; ++i)
+    sum_sq += tr.residual_pos_m[i] * tr.residual_pos_m[i];
   a.residual_pos_rms_m = std::sqrt(sum_sq / static_cast<double>(n - a.first_settled));
   a.map_position_velocity = space_map(a);
   return a;

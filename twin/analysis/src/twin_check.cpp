@@ -16,12 +16,14 @@ namespace maglead::analysis {
 nlohmann::json simulate_twins(const TwinCheckInput& in, const ModelFile& baseline,
                               const ModelFile& corrected) {
   const std::size_t n = in.t.size();
-  const std::size_t horizon = std::max<std::size_t>(2, static_cast<std::size_t>(in.horizon_s * in.fs_hz));
+  const std::size_t horizon =
+      std::max<std::size_t>(2, static_cast<std::size_t>(in.horizon_s * in.fs_hz));
   if (n < horizon * 4) return {{"available", false}, {"reason", "recording too short"}};
   const int windows = static_cast<int>(std::min<std::size_t>(40, n / horizon / 2));
   const twin::ReplaySignals signals{in.t, in.theta, in.p, {}, in.load};
   const auto run = [&](const ModelFile& m) {
-    return twin::replay_windows(twin::NutModel(in.act, in.coupling, m), signals, in.v, windows, horizon);
+    return twin::replay_windows(twin::NutModel(in.act, in.coupling, m), signals, in.v, windows,
+                                horizon);
   };
   const auto b = run(baseline);
   const auto c = run(corrected);

@@ -9,8 +9,8 @@
 namespace maglead::report {
 
 struct TimeSeries {
-  std::string label;       // with its unit in the chart's y label
-  std::vector<double> y;   // one value per sample of the chart's time axis; NaN = gap
+  std::string label;      // with its unit in the chart's y label
+  std::vector<double> y;  // one value per sample of the chart's time axis; NaN = gap
 };
 
 struct TimeBand {
@@ -18,7 +18,7 @@ struct TimeBand {
 };
 
 struct TimeChart {
-  std::string id;       // unique on the page: [a-z0-9_]
+  std::string id;  // unique on the page: [a-z0-9_]
   std::string title, caption, y_label;
   const std::vector<double>* t_s = nullptr;
   std::size_t first = 0;  // first sample drawn

@@ -17,12 +17,13 @@ namespace maglead::analysis {
 /// The signals over time, one value per recorded sample; NaN where not logged or not defined.
 struct AnomalyTrace {
   std::vector<double> t_s, nut_pos_m, pos_set_m, phase_rad;
-  std::vector<double> output_force_n;      // the load cell as output force (−load_force_n)
-  std::vector<double> force_set_n;         // the controller's output-force setpoint
-  std::vector<double> static_estimate_n;   // paper eq. 6 (logged, else recomputed); NaN off the branch
-  std::vector<double> twin_estimate_n;     // the twin's dynamic observer
-  std::vector<double> residual_pos_m;      // measured − twin-predicted nut position
-  std::vector<double> drift_statistic;     // |g − g_ref| / margin: 1 sustained raises the warning
+  std::vector<double> output_force_n;  // the load cell as output force (−load_force_n)
+  std::vector<double> force_set_n;     // the controller's output-force setpoint
+  std::vector<double>
+      static_estimate_n;                // paper eq. 6 (logged, else recomputed); NaN off the branch
+  std::vector<double> twin_estimate_n;  // the twin's dynamic observer
+  std::vector<double> residual_pos_m;   // measured − twin-predicted nut position
+  std::vector<double> drift_statistic;  // |g − g_ref| / margin: 1 sustained raises the warning
 };
 
 struct StepOut {
