@@ -1341,7 +1341,9 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     }
     Figure fig;
     fig.file = "map_" + name + ".png";
-    fig.caption = "Mean residual (measured - model) over " + label + (text.empty() ? "" : ": " + text);
+    // The finding already names where ("over velocity: …"): the caption does not repeat it.
+    fig.caption = text.empty() ? "Mean residual (measured - model) over " + label
+                               : "Mean residual (measured - model) " + text;
     fig.charts.push_back({"Mean residual over " + label, label + " [" + unit + "]", "residual [N]",
                           {to_series("baseline", b0, scale), to_series("corrected", b1, scale)}});
     R.figures.push_back(fig);
