@@ -75,7 +75,12 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
   analysis::save_model(
       path("model_corrected.toml"), r.corrected,
       "model corrected by maglead analyze from " + r.json.value("recording", std::string()));
-  for (const auto& f : r.figures) {
+  // The fit over time is a chart of its own in the result; here it is one more figure.
+  std::vector<analysis::Figure> figures = r.figures;
+  if (!r.fit_over_time.curves.empty())
+    figures.push_back({"fit_time.png", "The force the model leaves out at sliding samples",
+                       {r.fit_over_time}, false, {}});
+  for (const auto& f : figures) {
     if (f.is_grid) {
       plot::save_heatmap_png(path(f.file), heatmap_of(f.grid));
     } else {
@@ -156,7 +161,7 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
     h << "<p>Twin re-simulation from measured states: "
       << escape_html(twin_simulation_text(J["twin_simulation"])) << "</p>";
   h << "<h2>Figures</h2>";
-  for (const auto& f : r.figures)
+  for (const auto& f : figures)
     h << "<figure><img src=\"" << png_data_url(path(f.file)) << "\" alt=\"" << escape_html(f.file)
       << "\"><figcaption>" << escape_html(f.caption) << "</figcaption></figure>\n";
   h << "</body></html>\n";

@@ -197,6 +197,22 @@ std::string physics_section(const AnalysisOutcome& o) {
 }
 
 // ---------------------------------------------------------------- section 3: the fit
+// The analysis's missing force at sliding samples, on the same time axis as the other plots.
+std::string fit_chart(const AnalysisOutcome& o) {
+  if (o.status != AnalysisOutcome::Status::done) return "";
+  const auto& fit = o.result->fit_over_time;
+  if (fit.curves.empty() || fit.curves.front().x.size() < 2) return "";
+  TimeChart c;
+  c.id = "fit";
+  c.title = fit.title;
+  c.caption = "The force the model leaves out of the nut's balance at the samples where the nut "
+              "slides (what the analysis fits), before and after the effects it found.";
+  c.y_label = fit.y_label;
+  c.t_s = &fit.curves.front().x;
+  for (const auto& curve : fit.curves) c.series.push_back({curve.label, curve.y});
+  return time_chart_html(c);
+}
+
 std::string fit_section(const Anomaly& a, const AnalysisOutcome& o) {
   std::ostringstream h;
   h << "<h2 id=\"fit\">3. The fit before and after</h2>\n";
@@ -219,6 +235,7 @@ std::string fit_section(const Anomaly& a, const AnalysisOutcome& o) {
         << "</td></tr></table>\n";
     }
   }
+  h << fit_chart(o);
   auto force = chart_of(
       a, "force", "Output force: setpoint, load cell and estimates",
       "The load cell as output force (−load force), the controller's setpoint where it logged "

@@ -32,6 +32,9 @@ struct AnalysisResult {
   ModelFile corrected;
   std::vector<Figure> figures;
   std::vector<std::string> where;  // localisation findings in words
+  // The fit before and after over time: the force the model leaves out, baseline and corrected
+  // (actuator recordings; no curves otherwise). NaN separates stretches of sliding samples.
+  Chart fit_over_time;
 };
 
 /// Actuator baseline from config/actuator.toml: mass, viscous and Coulomb friction.
