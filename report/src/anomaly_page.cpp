@@ -379,7 +379,8 @@ std::string anomaly_headline(const Anomaly& a, const AnalysisOutcome& o) {
   if (!a.drift_windows.empty())
     findings.push_back(
         "calibration drift detected from t = " + number(a.drift_windows.front().start_s) + " s");
-  // 3 N: twice the estimator's expected error against a load cell (README), a real misfit.
+  // 3 N: beyond the static estimator's expected mean error against a load cell (2.25 N on
+  // hand-push, README "Estimate the force"): more than its friction band explains.
   if (a.static_error && a.static_error->mean_abs_n > 3.0)
     findings.push_back("static force estimate off by " + number(a.static_error->mean_abs_n) +
                        " N on average");

@@ -36,7 +36,12 @@ void text(cv::Mat& img, const std::string& s, cv::Point at, double scale = 0.45,
 }
 
 void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
-  const int left = 80, right = 170, top = 30, bottom = 45;
+  // The legend's column is as wide as its longest label (up to a third of the panel) so no
+  // label is cut; the title and the y label each have a line of their own above the plot.
+  int widest = 0, base = 0;
+  for (const auto& s : p.series)
+    widest = std::max(widest, cv::getTextSize(s.label, kFont, 0.4, 1, &base).width);
+  const int left = 80, right = std::clamp(widest + 50, 60, area.width / 3), top = 48, bottom = 45;
   const cv::Rect plot(area.x + left, area.y + top, area.width - left - right,
                       area.height - top - bottom);
   double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
@@ -58,12 +63,12 @@ void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
   for (double x = std::ceil(x0 / xs) * xs; x <= x1; x += xs) {
     const int X = static_cast<int>(px(x));
     cv::line(img, {X, plot.y}, {X, plot.y + plot.height}, kGrid);
-    text(img, fmt(x), {X - 12, plot.y + plot.height + 18}, 0.4);
+    text(img, fmt(std::abs(x) < 1e-9 * xs ? 0.0 : x), {X - 12, plot.y + plot.height + 18}, 0.4);
   }
   for (double y = std::ceil(y0 / ys) * ys; y <= y1; y += ys) {
     const int Y = static_cast<int>(py(y));
     cv::line(img, {plot.x, Y}, {plot.x + plot.width, Y}, kGrid);
-    text(img, fmt(y), {area.x + 10, Y + 4}, 0.4);
+    text(img, fmt(std::abs(y) < 1e-9 * ys ? 0.0 : y), {area.x + 10, Y + 4}, 0.4);
   }
   if (y0 < 0 && y1 > 0) {
     const int Y = static_cast<int>(py(0));
@@ -72,7 +77,7 @@ void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
   cv::rectangle(img, plot, kInk);
   text(img, p.title, {plot.x, area.y + 20}, 0.55, 1);
   text(img, p.x_label, {plot.x + plot.width / 2 - 30, plot.y + plot.height + 38}, 0.45);
-  text(img, p.y_label, {area.x + 4, area.y + 20}, 0.4);
+  text(img, p.y_label, {area.x + 4, plot.y - 8}, 0.4);
 
   std::size_t ci = 0;
   for (const auto& s : p.series) {
