@@ -60,7 +60,11 @@ std::string png_data_url(const std::string& path) {
 std::string number(double value, int significant) {
   if (!std::isfinite(value)) return "–";
   char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*g", significant, value);
+  // %g would write 2000 N/m as "2e+03": whole numbers of that size print in full.
+  if (std::abs(value) >= 1e3 && std::abs(value) < 1e9)
+    std::snprintf(buf, sizeof buf, "%.0f", value);
+  else
+    std::snprintf(buf, sizeof buf, "%.*g", significant, value);
   std::string s = buf;
   if (s.front() == '-') s.replace(0, 1, "−");
   return s;

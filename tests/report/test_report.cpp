@@ -5,9 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "effect_text.hpp"
+#include "maglead/effects/effect.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/time_chart.hpp"
 
@@ -75,6 +78,38 @@ TEST(Html, EscapesAndEncodes) {
   EXPECT_EQ(base64(std::string("\xff\x00\x10", 3)), "/wAQ");
   EXPECT_EQ(number(-0.2014), "−0.201");
   EXPECT_EQ(number(std::nan("")), "–");
+  EXPECT_EQ(number(2000.0), "2000");
+  EXPECT_EQ(number(0.000123), "0.000123");
+}
+
+}  // namespace
+}  // namespace maglead::report
+
+namespace maglead::report {
+namespace {
+
+// Every parameter of the effect library is shown with a unit read off its name
+// (docs/effects.md: "the unit is part of the name"), except the few that are ratios or counts.
+TEST(EffectText, EveryLibraryParameterHasItsUnit) {
+  const std::set<std::string> dimensionless{"gain", "relative_amplitude", "max_reduction", "count"};
+  for (const auto* e : effects::library())
+    for (const auto& p : e->params()) {
+      const std::string h = parameter_html(std::string(e->id()), p.name, 1.5);
+      const bool has_unit =
+          h.find("= 1.5 <") == std::string::npos && h.find("= 1.5 ") != std::string::npos;
+      EXPECT_TRUE(has_unit || dimensionless.count(p.name)) << e->id() << "." << p.name << ": " << h;
+    }
+  EXPECT_NE(parameter_html("gain_drift", "gain_change_per_min", -0.2).find("−0.2 1/min"),
+            std::string::npos);
+  EXPECT_NE(parameter_html("viscous_friction", "viscous_n_s_per_m", 3).find("3 N·s/m"),
+            std::string::npos);
+  EXPECT_NE(parameter_html("spring", "stiffness_n_per_m", 2000).find("2000 N/m"),
+            std::string::npos);
+  EXPECT_NE(parameter_html("gain_drift", "gain_change_per_min", 1)
+                .find("rate r of the relative coupling gain)"),
+            std::string::npos)
+      << "the library's meaning, without its own [unit]";
+  EXPECT_EQ(effect_title("stribeck_friction"), "stribeck friction");
 }
 
 }  // namespace
