@@ -15,6 +15,7 @@ packages=(
   googletest libgtest-dev                   # tests
   python3-pymodbus mbpoll socat             # independent Modbus clients for integration tests
   python3-serial python3-serial-asyncio     # pymodbus.client imports these even for TCP
+  libjs-dygraphs                            # interactive time plots, inlined into the HTML report
   chromium                                  # headless browser: the anomaly report renders (tests)
   tmux                                      # a real terminal for the `maglead watch` test
   dpkg-dev file                             # cpack's .deb: dpkg-shlibdeps for the dependencies (test)

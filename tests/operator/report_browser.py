@@ -1,36 +1,35 @@
-"""`maglead report` on simulated recordings, opened in headless chromium: the page renders, every
-plot decodes (a script in the page marks <body data-images="ok"> only then), and the report finds
-the step-outs of a recording with overload pulses but none in a clean one.
-Usage: report_browser.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
+"""`maglead report` on simulated recordings, opened in headless chromium at 1280x800 and 390x844.
+
+report_harness.js is evaluated in the loaded page through the DevTools protocol (cdp.py; the
+shipped page has no test code) and measures the laid-out page: every
+time plot has data in every series, tick labels and axis labels, its legend inside its figure
+and off the plot, nothing overlaps, nothing is wider than the window, the map decodes, zooming
+one chart zooms the others, hovering puts values into the legend. The reports themselves: the
+overload pulses' step-outs are found, the clean run has none and its analysis adds nothing (the
+page says so and shows one fit), the coupling drift is found and named.
+
+Usage: report_browser.py MAGLEAD_BIN CONFIG_DIR WORK_DIR [--screenshots DOCS_DIR]"""
 import json
 import os
 import re
 import shutil
-import subprocess
 import sys
-import tempfile
 
+import cdp
 from op_common import check, finish, run, watchdog
 
 MAGLEAD, CONFIG, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
+SCREENSHOTS = sys.argv[5] if len(sys.argv) > 5 and sys.argv[4] == "--screenshots" else None
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--disable-dev-shm-usage"]
+HARNESS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "report_harness.js")
+SIZES = [(1280, 800), (390, 844)]
+# Words of the old page that must never reach a reader: test markers and raw JSON.
+FORBIDDEN = ["plots loaded", "images not checked", "{\"", "after adding the effects", "over velocity: over velocity"]
 
 
-def chromium(*args):
-    profile = tempfile.mkdtemp(prefix="maglead-chromium-")
-    try:
-        return subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={profile}", *args],
-                              capture_output=True, text=True, timeout=60)
-    finally:
-        shutil.rmtree(profile, ignore_errors=True)
-
-
-def report(name, *sim_args, analysis=True, screenshot=False):
+def make_report(name, *sim_args, analysis=True):
     rec = os.path.join(WORK, name + ".csv")
-    rc, out, err = run(MAGLEAD, "simulate", "--config", CONFIG, "--out", rec, *sim_args)
+    rc, _, err = run(MAGLEAD, "simulate", "--config", CONFIG, "--out", rec, *sim_args)
     check(rc == 0, f"simulate {name}: {err.strip()[-200:]}")
     out_dir = os.path.join(WORK, name)
     extra = [] if analysis else ["--no-analysis"]
@@ -38,43 +37,86 @@ def report(name, *sim_args, analysis=True, screenshot=False):
                        timeout=120)
     check(rc == 0, f"report {name}: {out.strip()} {err.strip()[-300:]}")
     with open(os.path.join(out_dir, "report.json")) as f:
-        j = json.load(f)
-    page = os.path.join(out_dir, "index.html")
-    dom = chromium("--virtual-time-budget=5000", "--dump-dom", "file://" + page)
-    check(dom.returncode == 0 and "<h1>Twin versus actual" in dom.stdout, f"chromium renders {name} ({dom.returncode})")
-    n_img = len(re.findall(r"<img ", dom.stdout))
-    check(n_img >= 3 and 'data-images="ok"' in dom.stdout and f"all {n_img} plots loaded" in dom.stdout,
-          f"all {n_img} plots of {name} load in the browser")
-    if not screenshot:
-        return j
-    shot = os.path.join(WORK, name + "_screenshot.png")
-    s = chromium(f"--screenshot={shot}", "--window-size=1200,2400", "--hide-scrollbars", "file://" + page)
-    check(s.returncode == 0 and os.path.exists(shot) and os.path.getsize(shot) > 20000,
-          f"screenshot of {name} written ({shot})")
-    return j
+        summary = json.load(f)
+    with open(os.path.join(out_dir, "index.html"), encoding="utf-8") as f:
+        page = f.read()
+    return summary, page, out_dir
+
+
+def visible_text(page):
+    """The page's text outside <script> and <style>: what a reader sees."""
+    text = re.sub(r"<(script|style)\b.*?</\1>", "", page, flags=re.S)
+    return re.sub(r"<[^>]+>", " ", text)
+
+
+def in_browser(name, page, out_dir, docs=None):
+    """Runs the harness at both sizes (and writes the screenshots into docs)."""
+    check("report_harness" not in page and "maglead.graphs.push" in page, f"{name}: the shipped page has no test code")
+    with open(HARNESS, encoding="utf-8") as f:
+        harness = f.read()
+    url = "file://" + os.path.join(out_dir, "index.html")
+    browser = cdp.Browser(CHROMIUM)
+    try:
+        for w, h in SIZES:
+            browser.open(url, w, h, "window.maglead && maglead.graphs.length > 0")
+            if docs:
+                screenshot(browser, w, h, docs)
+            r = browser.evaluate(harness)
+            check(r["viewport"] == [w, h], f"{name}: laid out at {r['viewport']} for {w}x{h}")
+            check(r["problems"] == [], f"{name} {w}x{h}: {len(r['charts'])} charts laid out cleanly {r['problems'][:6]}")
+            check(len(r["charts"]) >= 4 and all(c and c["rows"] >= 10 for c in r["charts"]),
+                  f"{name} {w}x{h}: charts with data {[(c['id'], c['rows']) for c in r['charts'] if c]}")
+            z = r["zoom"]
+            check(z is not None and z["zoomed"][1] - z["zoomed"][0] < 0.1 * (z["full"][1] - z["full"][0]),
+                  f"{name} {w}x{h}: zooming one chart narrows all {z}")
+    finally:
+        browser.close()
+
+
+def screenshot(browser, w, h, docs):
+    """The top of the page on a desktop; on a phone the first plot (the top is only text there)."""
+    if w < 600:
+        browser.evaluate("document.getElementById('where').scrollIntoView()")
+    shot = os.path.join(docs, f"report_{w}x{h}.png")
+    browser.screenshot(shot)
+    browser.evaluate("window.scrollTo(0, 0)")
+    check(os.path.getsize(shot) < 300 * 1024, f"screenshot {shot}: {os.path.getsize(shot) // 1024} kB")
 
 
 def main():
-    watchdog(85)
+    watchdog(170)
     os.makedirs(WORK, exist_ok=True)
     check(os.path.exists(CHROMIUM), f"chromium found at {CHROMIUM}")
-    clean = report("clean", "--scenario", "hand-push", "--duration", "8s", "--seed", "4", analysis=False)
-    check(clean["step_outs"] == [], f"clean recording: no step-out ({clean['step_outs']})")
-    check(clean["force_error"] is not None and clean["force_error"]["static"]["mean_abs_n"] < 4.0,
-          f"clean: static estimate error against the load cell {clean['force_error']}")
-    bad = report("overload", "--scenario", "hand-push", "--duration", "8s", "--seed", "4",
-                 "--effect", "offset=30", analysis=False)
+    clean, page, out_dir = make_report("clean", "--scenario", "hand-push", "--duration", "8s", "--seed", "4")
+    check(clean["step_outs"] == [] and clean["headline"] == "no anomaly found", f"clean: {clean['headline']}")
+    check(clean["force_error"]["static"]["mean_abs_n"] < 4.0, f"clean: static estimate error {clean['force_error']}")
+    check(clean["analysis"]["status"] == "done" and clean["analysis"]["effects"] == [],
+          f"clean: the analysis adds nothing {clean['analysis']}")
+    text = visible_text(page)
+    check("the analysis adds no effect" in text and "One fit" in text and "before (the model" not in text,
+          "clean: the page says nothing was added and shows one fit")
+    check(not [w for w in FORBIDDEN if w in text], f"clean: no test strings or raw JSON in the text "
+                                                  f"{[w for w in FORBIDDEN if w in text]}")
+    in_browser("clean", page, out_dir)
+
+    bad, page, out_dir = make_report("overload", "--scenario", "hand-push", "--duration", "8s", "--seed", "4",
+                                     "--effect", "offset=30", analysis=False)
     check(len(bad["step_outs"]) >= 1 and bad["headline"].startswith("attention"),
-          f"constant 30 N on a nut pushed by hand: step-outs found {len(bad['step_outs'])}, "
-          f"headline '{bad['headline']}'")
+          f"constant 30 N on a nut pushed by hand: {len(bad['step_outs'])} step-outs, '{bad['headline']}'")
     check(bad["static_estimate_off_branch_samples"] > 0, "off-branch samples left out of the static estimate")
-    drift = report("drift", "--scenario", "force-steps", "--duration", "30s", "--seed", "4",
-                   "--effect", "gain_drift=-0.2", screenshot=True)
-    check(len(drift["drift_windows"]) >= 1 and drift["step_outs"] == [],
-          f"coupling losing 20 %/min: drift window {drift['drift_windows']}")
+    check(f"{bad['step_outs'][0]['t_s']:.6g}" in visible_text(page), "overload: the step-out's time is in the page")
+    in_browser("overload", page, out_dir)
+
+    drift, page, out_dir = make_report("drift", "--scenario", "force-steps", "--duration", "30s", "--seed", "4",
+                                       "--effect", "gain_drift=-0.2")
+    check(len(drift["drift_windows"]) >= 1 and drift["step_outs"] == [], f"drift windows {drift['drift_windows']}")
     effects = [e["id"] for e in drift["analysis"].get("effects", [])]
-    check(drift["analysis"]["status"] == "done" and "gain_drift" in effects,
-          f"analysis verdict names the drift: {drift['analysis'].get('conclusion')} {effects}")
+    check(drift["analysis"]["status"] == "done" and "gain_drift" in effects, f"the analysis names the drift {effects}")
+    text = visible_text(page)
+    check("gain_change_per_min" in text and "1/min" in text and "before (the model" in text,
+          "drift: the parameter with its unit, the fit before and after")
+    check(not [w for w in FORBIDDEN if w in text], "drift: no test strings or raw JSON in the text")
+    in_browser("drift", page, out_dir, SCREENSHOTS)
     finish()
 
 

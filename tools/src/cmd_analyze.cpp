@@ -6,6 +6,7 @@
 #include "cli_common.hpp"
 #include "maglead/twin/model.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/report/analysis_page.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -69,7 +70,7 @@ void add_analyze(CLI::App& app) {
     };
     const auto result = analysis::analyze_recording(rec, model, cal, act, o->a);
     if (bar) bar->done();
-    analysis::write_outputs(result, o->out);
+    report::write_analysis_outputs(result, o->out);
     const auto& J = result.json;
     std::printf("recording %s (%s), baseline %s\n", o->recording.c_str(),
                 J["system"].get<std::string>().c_str(),

@@ -16,6 +16,7 @@
 #include "cli_common.hpp"
 #include "maglead/twin/model.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/report/analysis_page.hpp"
 #include "maglead/plant/scenario.hpp"
 
 namespace maglead::cli {
@@ -163,7 +164,7 @@ void add_bench_analyze(CLI::App& app) {
     const auto result = analysis::analyze_recording(rec, model, cal, act, aopt);
     const double t_an = secs(t0);
     t0 = Clock::now();
-    analysis::write_outputs(result, out);
+    report::write_analysis_outputs(result, out);
     const double t_out = secs(t0);
     const double total = secs(t_all);
     const auto& J = result.json;

@@ -4,7 +4,7 @@
 #include "cli_common.hpp"
 #include "maglead/physics/calibration.hpp"
 #include "maglead/physics/estimator.hpp"
-#include "maglead/tools/plot.hpp"
+#include "maglead/report/plot.hpp"
 
 namespace maglead::cli {
 namespace {

@@ -6,7 +6,7 @@
 
 #include "cli_common.hpp"
 #include "maglead/physics/estimator.hpp"
-#include "maglead/tools/plot.hpp"
+#include "maglead/report/plot.hpp"
 #include "maglead/twin/monitor.hpp"
 
 namespace maglead::cli {

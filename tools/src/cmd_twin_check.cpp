@@ -4,47 +4,45 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <span>
 
 #include "cli_common.hpp"
-#include "maglead/twin/monitor.hpp"
+#include "maglead/twin/replay.hpp"
 
 namespace maglead::cli {
 namespace {
 
 void add_twin_check(CLI::App& app) {
   auto* cmd = app.add_subcommand(
-      "twin-check", "Run the digital twin monitor over a recording, tick by tick as the controller "
-                    "does: drift warning (coupling gain against its early value; needs a logged "
-                    "load cell), health, step-out warning and flag, force error against the load cell");
+      "twin-check",
+      "Run the digital twin monitor over a recording, tick by tick as the controller "
+      "does: drift warning (coupling gain against its early value; needs a logged "
+      "load cell), health, step-out warning and flag, force error against the load cell");
   struct Opts {
     std::string recording, config = default_config_dir(), model, trace;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--recording", o->recording, "mls-recording/1 with t_s, screw or motor angle, nut_pos_m")
+  cmd->add_option("--recording", o->recording,
+                  "mls-recording/1 with t_s, screw or motor angle, nut_pos_m")
       ->required();
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
   cmd->add_option("--model", o->model, "Twin model file (default: CONFIG/model.toml)");
-  cmd->add_option("--trace", o->trace,
-                  "Write the monitor's outputs every 10 ms to this CSV (gain, its error, reference, "
-                  "statistic, flags and reason codes)");
+  cmd->add_option(
+      "--trace", o->trace,
+      "Write the monitor's outputs every 10 ms to this CSV (gain, its error, reference, "
+      "statistic, flags and reason codes)");
   cmd->callback([o] {
     twin::TwinMonitorConfig tc = twin::load_monitor_config(o->config);
     if (!o->model.empty()) tc.model = twin::load_twin_model(o->model);
     const Recording rec = read_recording(o->recording, {"t_s", "nut_pos_m"});
     const auto screw = screw_angle_of(rec, tc.actuator);
     const auto& t = rec.column("t_s");
-    const auto& pos = rec.column("nut_pos_m");
     const std::size_t n = t.size();
-    if (n < 2) throw RecordingError(o->recording + ": needs at least two samples");
-    const double period = (t.back() - t.front()) / static_cast<double>(n - 1);
-    if (period > 0) tc.actuator.sample_rate_hz = 1.0 / period;
-    tc.integrator.max_step_s = 1.0 / tc.actuator.sample_rate_hz;
     const double nan = std::numeric_limits<double>::quiet_NaN();
-    const std::vector<double>* fset = rec.has("force_set_n") ? &rec.column("force_set_n") : nullptr;
-    const std::vector<double>* load = rec.has("load_force_n") ? &rec.column("load_force_n") : nullptr;
-
-    twin::TwinMonitor mon(tc);
-    mon.reset(t[0], screw[0], pos[0]);
+    const bool has_load = rec.has("load_force_n");
+    const auto optional = [&](const char* name) {
+      return rec.has(name) ? std::span<const double>(rec.column(name)) : std::span<const double>();
+    };
     double t_drift = nan, t_warn = nan, t_step = nan, max_res = 0, err_dyn = 0, err_static = 0;
     std::size_t healthy = 0, counted = 0;
     double drift_stat = 0.0;
@@ -52,48 +50,54 @@ void add_twin_check(CLI::App& app) {
     std::FILE* trace = o->trace.empty() ? nullptr : std::fopen(o->trace.c_str(), "w");
     if (!o->trace.empty() && !trace) throw std::runtime_error("cannot write " + o->trace);
     if (trace)
-      std::fprintf(trace, "t_s,gain,gain_stderr,reference_gain,reference_stderr,drift_statistic,"
-                          "drift_warning,drift_reason,healthy,health_reason,residual_pos_m,"
-                          "step_out_warning,step_out_reason\n");
+      std::fprintf(trace,
+                   "t_s,gain,gain_stderr,reference_gain,reference_stderr,drift_statistic,"
+                   "drift_warning,drift_reason,healthy,health_reason,residual_pos_m,"
+                   "step_out_warning,step_out_reason\n");
+    const auto load = optional("load_force_n");
     const auto t0 = std::chrono::steady_clock::now();
-    for (std::size_t i = 0; i < n; ++i) {
-      const auto out = mon.step({t[i], screw[i], pos[i], fset ? (*fset)[i] : nan, load ? (*load)[i] : nan});
-      if (out.drift_warning && std::isnan(t_drift)) t_drift = t[i], at_drift = out;
-      if (out.step_out_warning && std::isnan(t_warn)) t_warn = t[i];
-      if (out.step_out && std::isnan(t_step)) t_step = t[i];
-      max_res = std::max(max_res, std::abs(out.residual_pos_m));
-      healthy += out.healthy;
-      last = out;
-      if (trace && i % 10 == 0)
-        std::fprintf(trace, "%.3f,%.5f,%.5f,%.5f,%.5f,%.3f,%d,%d,%d,%d,%.3e,%d,%d\n", t[i],
-                     out.drift_gain_estimate, out.drift_gain_stderr, out.drift_reference_gain,
-                     out.drift_reference_stderr, out.drift_statistic, out.drift_warning,
-                     static_cast<int>(out.drift_reason), out.healthy,
-                     static_cast<int>(out.health_reason), out.residual_pos_m, out.step_out_warning,
-                     static_cast<int>(out.step_out_reason));
-      drift_stat = std::max(drift_stat, out.drift_statistic);
-      if (load && std::isfinite((*load)[i])) {
-        err_dyn += std::abs(out.dynamic_output_force_est_n + (*load)[i]);
-        err_static += std::abs(out.static_output_force_est_n + (*load)[i]);
-        ++counted;
-      }
-    }
+    twin::replay_monitor(
+        tc, {t, screw, rec.column("nut_pos_m"), optional("force_set_n"), load},
+        [&](std::size_t i, const twin::TwinOutputs& out) {
+          if (out.drift_warning && std::isnan(t_drift)) t_drift = t[i], at_drift = out;
+          if (out.step_out_warning && std::isnan(t_warn)) t_warn = t[i];
+          if (out.step_out && std::isnan(t_step)) t_step = t[i];
+          max_res = std::max(max_res, std::abs(out.residual_pos_m));
+          healthy += out.healthy;
+          last = out;
+          if (trace && i % 10 == 0)
+            std::fprintf(trace, "%.3f,%.5f,%.5f,%.5f,%.5f,%.3f,%d,%d,%d,%d,%.3e,%d,%d\n", t[i],
+                         out.drift_gain_estimate, out.drift_gain_stderr, out.drift_reference_gain,
+                         out.drift_reference_stderr, out.drift_statistic, out.drift_warning,
+                         static_cast<int>(out.drift_reason), out.healthy,
+                         static_cast<int>(out.health_reason), out.residual_pos_m,
+                         out.step_out_warning, static_cast<int>(out.step_out_reason));
+          drift_stat = std::max(drift_stat, out.drift_statistic);
+          if (has_load && std::isfinite(load[i])) {
+            err_dyn += std::abs(out.dynamic_output_force_est_n + load[i]);
+            err_static += std::abs(out.static_output_force_est_n + load[i]);
+            ++counted;
+          }
+        });
     if (trace) std::fclose(trace);
-    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double wall_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf("twin check of %s: %.1f s, %zu ticks (%.0f x real time)\n", o->recording.c_str(),
                 t.back() - t.front(), n, (t.back() - t.front()) / wall_s);
     if (counted)
       std::printf("  force MAE against load cell: twin %.2f N, static %.2f N\n",
-                  err_dyn / static_cast<double>(counted), err_static / static_cast<double>(counted));
+                  err_dyn / static_cast<double>(counted),
+                  err_static / static_cast<double>(counted));
     std::printf("  position residual: max %.1f um; healthy %.1f %% of ticks\n", max_res * 1e6,
                 100.0 * static_cast<double>(healthy) / static_cast<double>(n));
-    if (!load)
+    if (!has_load)
       std::printf("  drift: not estimated (the recording has no load_force_n column)\n");
     else if (std::isnan(t_drift))
-      std::printf("  drift warning: none (coupling gain %.3f +/- %.3f at the end, reference %.3f +/- "
-                  "%.3f, max statistic %.2f of the margin)\n",
-                  last.drift_gain_estimate, last.drift_gain_stderr, last.drift_reference_gain,
-                  last.drift_reference_stderr, drift_stat);
+      std::printf(
+          "  drift warning: none (coupling gain %.3f +/- %.3f at the end, reference %.3f +/- "
+          "%.3f, max statistic %.2f of the margin)\n",
+          last.drift_gain_estimate, last.drift_gain_stderr, last.drift_reference_gain,
+          last.drift_reference_stderr, drift_stat);
     else
       std::printf("  drift warning: at t = %.2f s: %s [reason %d, gain %.3f +/- %.3f]\n", t_drift,
                   twin::drift_message(at_drift).c_str(), static_cast<int>(at_drift.drift_reason),
@@ -105,8 +109,10 @@ void add_twin_check(CLI::App& app) {
       if (!std::isnan(t_step))
         std::printf("  step-out: flagged at t = %.3f s%s\n", t_step,
                     !std::isnan(t_warn) && t_warn < t_step
-                        ? (", warned " + std::to_string(static_cast<int>(std::lround((t_step - t_warn) * 1e3))) +
-                           " ms before").c_str()
+                        ? (", warned " +
+                           std::to_string(static_cast<int>(std::lround((t_step - t_warn) * 1e3))) +
+                           " ms before")
+                              .c_str()
                         : ", not warned before");
     }
   });

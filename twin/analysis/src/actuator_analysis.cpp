@@ -65,18 +65,6 @@ struct Coupling {
   }
 };
 
-std::vector<double> angle_column(const Recording& rec, const ActuatorParams& act) {
-  if (rec.has("screw_angle_rad")) return rec.column("screw_angle_rad");
-  if (rec.has("motor_angle_rad")) {
-    double gear = act.gear_ratio;
-    if (auto g = rec.meta("gear_ratio")) gear = std::stod(*g);
-    auto th = rec.column("motor_angle_rad");
-    for (double& x : th) x /= gear;
-    return th;
-  }
-  throw RecordingError(rec.path + ": needs column 'screw_angle_rad' or 'motor_angle_rad'");
-}
-
 void require_finite(const Recording& rec, const std::vector<double>& x, const std::string& name) {
   for (std::size_t i = 0; i < x.size(); ++i)
     if (!std::isfinite(x[i]))
@@ -104,6 +92,18 @@ std::vector<SlipEvent> find_slips(const std::vector<double>& t, const std::vecto
 }
 
 }  // namespace
+
+std::vector<double> angle_column(const Recording& rec, const ActuatorParams& act) {
+  if (rec.has("screw_angle_rad")) return rec.column("screw_angle_rad");
+  if (rec.has("motor_angle_rad")) {
+    double gear = act.gear_ratio;
+    if (auto g = rec.meta("gear_ratio")) gear = std::stod(*g);
+    auto th = rec.column("motor_angle_rad");
+    for (double& x : th) x /= gear;
+    return th;
+  }
+  throw RecordingError(rec.path + ": needs column 'screw_angle_rad' or 'motor_angle_rad'");
+}
 
 // ------------------------------------------------------------------------------- prepare
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,

@@ -13,6 +13,9 @@
 
 namespace maglead::analysis::actuator {
 
+/// The screw angle: logged, or the motor angle through the gear (the header's gear_ratio wins).
+std::vector<double> angle_column(const Recording& rec, const ActuatorParams& act);
+
 struct BaselineTerm {
   const effects::Effect* effect;
   effects::Params params;

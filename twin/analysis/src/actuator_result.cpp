@@ -55,6 +55,26 @@ ModelFile corrected_model(const ModelFile& base, const actuator::Selection& sel,
   return m;
 }
 
+// The missing force at the sliding samples over recording time, before and after the findings.
+// Samples further apart than two decimated periods belong to different sliding stretches: a NaN
+// between them keeps a plot from drawing a line across the stuck time in between.
+Chart fit_over_time(const actuator::Prepared& P, const actuator::Selection& sel) {
+  const bool added = !sel.chosen.empty();
+  Chart c{"The fit before and after", "time [s]", "missing force [N]",
+          {{added ? "before (the model as configured)" : "the model (nothing added)", {}, {}}}};
+  if (added) c.curves.push_back({"after (with the effects found)", {}, {}});
+  const double gap_s = 2.0 * P.decimation / P.fs_hz;
+  for (std::size_t i = 0; i < P.states.size(); ++i) {
+    const double t = P.states[i].t_s + P.t0_s;
+    if (i > 0 && P.states[i].t_s - P.states[i - 1].t_s > gap_s)
+      for (auto& curve : c.curves) curve.x.push_back(t - 0.5 * gap_s), curve.y.push_back(NAN);
+    c.curves[0].x.push_back(t);
+    c.curves[0].y.push_back(P.residual[i]);
+    if (added) c.curves[1].x.push_back(t), c.curves[1].y.push_back(sel.final_residual[i]);
+  }
+  return c;
+}
+
 }  // namespace
 
 AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
@@ -214,6 +234,7 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   AnalysisResult r;
   r.json = J;
   r.corrected = corrected_model(model, sel, rec.path);
+  r.fit_over_time = fit_over_time(P, sel);
   return r;
 }
 

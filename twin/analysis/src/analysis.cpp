@@ -337,8 +337,8 @@ std::pair<double, double> percentile_range(const std::vector<double>& x,
   return {at(q), at(1 - q)};
 }
 
-plot::Series to_series(const std::string& label, const Binned& b, double x_scale = 1.0) {
-  plot::Series s{label, {}, {}};
+Curve to_series(const std::string& label, const Binned& b, double x_scale = 1.0) {
+  Curve s{label, {}, {}};
   for (std::size_t k = 0; k < b.centre.size(); ++k)
     if (b.count[k] >= 5) {
       s.x.push_back(b.centre[k] * x_scale);
@@ -1341,8 +1341,10 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     }
     Figure fig;
     fig.file = "map_" + name + ".png";
-    fig.caption = "Mean residual (measured - model) over " + label + (text.empty() ? "" : ": " + text);
-    fig.panels.push_back({"Mean residual over " + label, label + " [" + unit + "]", "residual [N]",
+    // The finding already names where ("over velocity: …"): the caption does not repeat it.
+    fig.caption = text.empty() ? "Mean residual (measured - model) over " + label
+                               : "Mean residual (measured - model) " + text;
+    fig.charts.push_back({"Mean residual over " + label, label + " [" + unit + "]", "residual [N]",
                           {to_series("baseline", b0, scale), to_series("corrected", b1, scale)}});
     R.figures.push_back(fig);
   };
@@ -1375,7 +1377,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       // Heat maps: residual over (angle mod turn, position) and (velocity, position).
       auto heat = [&](const std::string& file, const std::string& title, const std::vector<double>& x,
                       double xlo, double xhi, const std::string& xl, double xs) {
-        plot::HeatMap h;
+        Grid h;
         h.title = title;
         h.x_label = xl;
         h.y_label = "position [mm]";
@@ -1400,8 +1402,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
         Figure f;
         f.file = file;
         f.caption = title + " (baseline residual)";
-        f.heat = true;
-        f.heatmap = h;
+        f.is_grid = true;
+        f.grid = h;
         R.figures.push_back(f);
       };
       heat("heat_angle_position.png", "Residual over screw angle mod one turn and position", ang, 0,
@@ -1409,12 +1411,12 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       heat("heat_velocity_position.png", "Residual over velocity and position", S.v, vlo, vhi,
            "velocity [mm/s]", 1e3);
     } else {
-      plot::HeatMap h;
+      Grid h;
       (void)h;
     }
     // Time: 1 s windows of residual RMS; growth over time; windows far above the median.
     const double win = std::max(1.0, (S.t.back() - S.t.front()) / 400.0);
-    plot::Series rms_t0{"baseline", {}, {}}, rms_t1{"corrected", {}, {}};
+    Curve rms_t0{"baseline", {}, {}}, rms_t1{"corrected", {}, {}};
     std::vector<double> wr;
     for (std::size_t i = 0; i < S.size();) {
       const double t0 = S.t[i];
@@ -1468,7 +1470,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     Figure ft;
     ft.file = "residual_time.png";
     ft.caption = "Residual RMS in time windows";
-    ft.panels.push_back({"Residual RMS over time", "time [s]", "RMS [N]", {rms_t0, rms_t1}});
+    ft.charts.push_back({"Residual RMS over time", "time [s]", "RMS [N]", {rms_t0, rms_t1}});
     R.figures.push_back(ft);
     // Event-locked averages: the residual around velocity reversals and input edges.
     const double fs_id = P.fs_hz / P.decimation;
@@ -1490,7 +1492,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       fr.file = file;
       fr.caption = "Residual averaged around " + std::to_string(at.size()) + " " + what +
                    " (signed by the new direction)";
-      plot::Series s0{"baseline", {}, {}}, s1{"corrected", {}, {}};
+      Curve s0{"baseline", {}, {}}, s1{"corrected", {}, {}};
       for (std::size_t k = 0; k < cnt.size(); ++k)
         if (cnt[k] > 0) {
           const double tt = (static_cast<double>(k) - half) / fs_id;
@@ -1499,7 +1501,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
           s1.x.push_back(tt * 1e3);
           s1.y.push_back(acc1[k] / cnt[k]);
         }
-      fr.panels.push_back({"Residual locked to " + what, "time from event [ms]", "residual x direction [N]", {s0, s1}});
+      fr.charts.push_back({"Residual locked to " + what, "time from event [ms]", "residual x direction [N]", {s0, s1}});
       R.figures.push_back(fr);
     };
     std::vector<std::pair<std::size_t, double>> rev;
@@ -1537,7 +1539,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   // Time series: measured, baseline, corrected (thinned for drawing).
   {
     const std::size_t step = std::max<std::size_t>(1, S.size() / 6000);
-    plot::Series m{"measured", {}, {}}, b{"baseline", {}, {}}, c{"corrected", {}, {}},
+    Curve m{"measured", {}, {}}, b{"baseline", {}, {}}, c{"corrected", {}, {}},
         rb{"baseline", {}, {}}, rc{"corrected", {}, {}};
     for (std::size_t i = 0; i < S.size(); i += step) {
       m.x.push_back(S.t[i]); m.y.push_back(S.y[i]);
@@ -1551,18 +1553,18 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     Figure f;
     f.file = "force_time.png";
     f.caption = "Measured force and the models' predictions from measured motion; residuals below";
-    f.panels.push_back({"Force", "time [s]", "force [N]", {m, b, c}});
-    f.panels.push_back({"Residual (measured - model)", "time [s]", "residual [N]", {rb, rc}});
+    f.charts.push_back({"Force", "time [s]", "force [N]", {m, b, c}});
+    f.charts.push_back({"Residual (measured - model)", "time [s]", "residual [N]", {rb, rc}});
     R.figures.insert(R.figures.begin(), f);
     Figure v;
     v.file = "heldout.png";
     v.caption = "Held-out RMS error after each added term";
-    plot::Series hs{"held-out RMS", {}, {}};
+    Curve hs{"held-out RMS", {}, {}};
     for (std::size_t k = 0; k < validation.size(); ++k) {
       hs.x.push_back(static_cast<double>(k));
       hs.y.push_back(validation[k]["heldout_rms"].get<double>());
     }
-    v.panels.push_back({"Held-out error per step (0 = baseline)", "terms added", "RMS [N]", {hs}});
+    v.charts.push_back({"Held-out error per step (0 = baseline)", "terms added", "RMS [N]", {hs}});
     R.figures.insert(R.figures.begin() + 1, v);
   }
 

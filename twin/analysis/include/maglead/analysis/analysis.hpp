@@ -1,17 +1,18 @@
 #pragma once
 // Twin versus recording (issue 5): compare a baseline model with a recording in the force
 // domain, locate the misfit, explain it by forward selection of named physical effects on
-// held-out time segments, refit, and write a report and a corrected model file.
+// held-out time segments, refit; the result (figures as data, the corrected model) is rendered
+// by the report library (report/).
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "maglead/analysis/figures.hpp"
 #include "maglead/analysis/model_file.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/recording/recording.hpp"
-#include "maglead/tools/plot.hpp"
 
 namespace maglead::analysis {
 
@@ -26,18 +27,14 @@ struct AnalysisOptions {
   std::function<void(const std::string& stage, double fraction)> progress;
 };
 
-struct Figure {
-  std::string file, caption;
-  std::vector<plot::Panel> panels;
-  bool heat = false;
-  plot::HeatMap heatmap;
-};
-
 struct AnalysisResult {
   nlohmann::json json;  // the content of analysis.json
   ModelFile corrected;
   std::vector<Figure> figures;
   std::vector<std::string> where;  // localisation findings in words
+  // The fit before and after over time: the force the model leaves out, baseline and corrected
+  // (actuator recordings; no curves otherwise). NaN separates stretches of sliding samples.
+  Chart fit_over_time;
 };
 
 /// Actuator baseline from config/actuator.toml: mass, viscous and Coulomb friction.
@@ -53,8 +50,5 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& baseline
 AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& baseline,
                                 const ForceCalibration& cal, const ActuatorParams& act,
                                 const AnalysisOptions& options);
-
-/// Writes analysis.json, report.html, the figures and model_corrected.toml into out_dir.
-void write_outputs(const AnalysisResult& result, const std::string& out_dir);
 
 }  // namespace maglead::analysis

@@ -1,4 +1,4 @@
-#include "maglead/tools/plot.hpp"
+#include "maglead/report/plot.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,7 +12,7 @@
 namespace maglead::plot {
 namespace {
 
-const cv::Scalar kPalette[] = {{180, 119, 31}, {14, 127, 255}, {44, 160, 44},
+const cv::Scalar kPalette[] = {{180, 119, 31}, {14, 127, 255},  {44, 160, 44},
                                {40, 39, 214},  {189, 103, 148}, {75, 86, 140}};
 const cv::Scalar kInk{40, 40, 40}, kGrid{225, 225, 225};
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
@@ -36,7 +36,12 @@ void text(cv::Mat& img, const std::string& s, cv::Point at, double scale = 0.45,
 }
 
 void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
-  const int left = 80, right = 170, top = 30, bottom = 45;
+  // The legend's column is as wide as its longest label (up to a third of the panel) so no
+  // label is cut; the title and the y label each have a line of their own above the plot.
+  int widest = 0, base = 0;
+  for (const auto& s : p.series)
+    widest = std::max(widest, cv::getTextSize(s.label, kFont, 0.4, 1, &base).width);
+  const int left = 80, right = std::clamp(widest + 50, 60, area.width / 3), top = 48, bottom = 45;
   const cv::Rect plot(area.x + left, area.y + top, area.width - left - right,
                       area.height - top - bottom);
   double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
@@ -58,12 +63,12 @@ void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
   for (double x = std::ceil(x0 / xs) * xs; x <= x1; x += xs) {
     const int X = static_cast<int>(px(x));
     cv::line(img, {X, plot.y}, {X, plot.y + plot.height}, kGrid);
-    text(img, fmt(x), {X - 12, plot.y + plot.height + 18}, 0.4);
+    text(img, fmt(std::abs(x) < 1e-9 * xs ? 0.0 : x), {X - 12, plot.y + plot.height + 18}, 0.4);
   }
   for (double y = std::ceil(y0 / ys) * ys; y <= y1; y += ys) {
     const int Y = static_cast<int>(py(y));
     cv::line(img, {plot.x, Y}, {plot.x + plot.width, Y}, kGrid);
-    text(img, fmt(y), {area.x + 10, Y + 4}, 0.4);
+    text(img, fmt(std::abs(y) < 1e-9 * ys ? 0.0 : y), {area.x + 10, Y + 4}, 0.4);
   }
   if (y0 < 0 && y1 > 0) {
     const int Y = static_cast<int>(py(0));
@@ -72,7 +77,7 @@ void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
   cv::rectangle(img, plot, kInk);
   text(img, p.title, {plot.x, area.y + 20}, 0.55, 1);
   text(img, p.x_label, {plot.x + plot.width / 2 - 30, plot.y + plot.height + 38}, 0.45);
-  text(img, p.y_label, {area.x + 4, area.y + 20}, 0.4);
+  text(img, p.y_label, {area.x + 4, plot.y - 8}, 0.4);
 
   std::size_t ci = 0;
   for (const auto& s : p.series) {
@@ -109,8 +114,8 @@ void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
 }
 
 cv::Vec3b colormap(double f) {  // perceptual-ish blue → yellow ramp (viridis-like)
-  static const double stops[][3] = {{68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98},
-                                    {253, 231, 37}};
+  static const double stops[][3] = {
+      {68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98}, {253, 231, 37}};
   f = std::clamp(f, 0.0, 1.0) * 4.0;
   const int i = std::min(3, static_cast<int>(f));
   const double u = f - i;
@@ -118,6 +123,40 @@ cv::Vec3b colormap(double f) {  // perceptual-ish blue → yellow ramp (viridis-
   for (int k = 0; k < 3; ++k)
     c[2 - k] = static_cast<uchar>(stops[i][k] + u * (stops[i + 1][k] - stops[i][k]));
   return c;
+}
+
+cv::Scalar diverging(double f) {  // blue → light grey → red (coolwarm): the sign stays readable
+  static const double stops[][3] = {{59, 76, 192}, {221, 221, 221}, {180, 4, 38}};
+  f = std::clamp(f, 0.0, 1.0) * 2.0;
+  const int i = std::min(1, static_cast<int>(f));
+  const double u = f - i;
+  return cv::Scalar(stops[i][2] + u * (stops[i + 1][2] - stops[i][2]),
+                    stops[i][1] + u * (stops[i + 1][1] - stops[i][1]),
+                    stops[i][0] + u * (stops[i + 1][0] - stops[i][0]));
+}
+
+// Values of both signs get a diverging scale symmetric about zero; one-signed values the ramp.
+struct ColourScale {
+  double lo = 0, hi = 1;
+  bool diverging = false;
+  cv::Scalar colour(double v) const {
+    const double f = (v - lo) / (hi - lo);
+    return diverging ? ::maglead::plot::diverging(f) : cv::Scalar(colormap(f));
+  }
+};
+
+ColourScale colour_scale(const std::vector<double>& values) {
+  ColourScale s{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                false};
+  for (double v : values)
+    if (std::isfinite(v)) s.lo = std::min(s.lo, v), s.hi = std::max(s.hi, v);
+  if (!std::isfinite(s.lo)) return {0.0, 1.0, false};
+  if (s.lo < 0 && s.hi > 0) {
+    const double m = std::max(-s.lo, s.hi);
+    return {-m, m, true};
+  }
+  if (s.hi <= s.lo) s.hi = s.lo + 1;
+  return s;
 }
 
 void write_png(const std::string& path, const cv::Mat& img) {
@@ -137,47 +176,54 @@ void save_panels_png(const std::string& path, const std::vector<Panel>& panels, 
   const int n = static_cast<int>(std::max<std::size_t>(1, panels.size()));
   cv::Mat img(n * panel_height_px, width_px, CV_8UC3, cv::Scalar(255, 255, 255));
   for (int i = 0; i < static_cast<int>(panels.size()); ++i)
-    draw_panel(img, panels[static_cast<std::size_t>(i)], {0, i * panel_height_px, width_px, panel_height_px});
+    draw_panel(img, panels[static_cast<std::size_t>(i)],
+               {0, i * panel_height_px, width_px, panel_height_px});
   write_png(path, img);
 }
 
 void save_heatmap_png(const std::string& path, const HeatMap& m, int width_px, int height_px) {
   cv::Mat img(height_px, width_px, CV_8UC3, cv::Scalar(255, 255, 255));
-  const cv::Rect plot(90, 40, width_px - 220, height_px - 100);
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (double v : m.values)
-    if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
-  if (!std::isfinite(lo)) lo = 0, hi = 1;
-  if (hi <= lo) hi = lo + 1;
+  // Room above the plot for the title (if any) and, on its own line, the y label: never one
+  // over the other. The colour bar's label is right-aligned so it stays inside the image.
+  const int top = m.title.empty() ? 34 : 60;
+  const cv::Rect plot(80, top, width_px - 200, height_px - top - 56);
+  const ColourScale scale = colour_scale(m.values);
   for (int r = 0; r < m.ny; ++r)
     for (int c = 0; c < m.nx; ++c) {
       const double v = m.values[static_cast<std::size_t>(r * m.nx + c)];
       const int xa = plot.x + c * plot.width / m.nx, xb = plot.x + (c + 1) * plot.width / m.nx;
       const int ya = plot.y + plot.height - (r + 1) * plot.height / m.ny;
       const int yb = plot.y + plot.height - r * plot.height / m.ny;
-      const cv::Scalar col = std::isfinite(v) ? cv::Scalar(colormap((v - lo) / (hi - lo)))
-                                              : cv::Scalar(235, 235, 235);
-      cv::rectangle(img, cv::Point(xa, ya), cv::Point(xb, yb), col, cv::FILLED);
+      if (std::isfinite(v))
+        cv::rectangle(img, cv::Point(xa, ya), cv::Point(xb, yb), scale.colour(v), cv::FILLED);
     }
   cv::rectangle(img, plot, kInk);
-  text(img, m.title, {plot.x, 25}, 0.55);
-  text(img, m.x_label, {plot.x + plot.width / 2 - 40, plot.y + plot.height + 40}, 0.45);
-  text(img, m.y_label, {5, plot.y - 8}, 0.4);
-  for (int i = 0; i <= 4; ++i) {
-    const double fx = i / 4.0;
-    text(img, fmt(m.x_min + fx * (m.x_max - m.x_min)),
-         {plot.x + static_cast<int>(fx * plot.width) - 15, plot.y + plot.height + 18}, 0.4);
-    text(img, fmt(m.y_min + fx * (m.y_max - m.y_min)),
-         {10, plot.y + plot.height - static_cast<int>(fx * plot.height) + 4}, 0.4);
+  if (!m.title.empty()) text(img, m.title, {plot.x, 24}, 0.55);
+  text(img, m.y_label, {8, plot.y - 10}, 0.45);
+  text(img, m.x_label, {plot.x + plot.width / 2 - 50, plot.y + plot.height + 44}, 0.45);
+  const double sx = tick_step(m.x_max - m.x_min, 6), sy = tick_step(m.y_max - m.y_min, 6);
+  for (double x = std::ceil(m.x_min / sx) * sx; x <= m.x_max + 1e-9 * sx; x += sx) {
+    const int px = plot.x + static_cast<int>((x - m.x_min) / (m.x_max - m.x_min) * plot.width);
+    cv::line(img, {px, plot.y + plot.height}, {px, plot.y + plot.height + 5}, kInk);
+    text(img, fmt(std::abs(x) < 1e-9 * sx ? 0.0 : x), {px - 14, plot.y + plot.height + 20}, 0.4);
   }
-  const cv::Rect bar(plot.x + plot.width + 20, plot.y, 20, plot.height);
+  for (double y = std::ceil(m.y_min / sy) * sy; y <= m.y_max + 1e-9 * sy; y += sy) {
+    const int py =
+        plot.y + plot.height - static_cast<int>((y - m.y_min) / (m.y_max - m.y_min) * plot.height);
+    cv::line(img, {plot.x - 5, py}, {plot.x, py}, kInk);
+    text(img, fmt(std::abs(y) < 1e-9 * sy ? 0.0 : y), {plot.x - 52, py + 4}, 0.4);
+  }
+  const cv::Rect bar(plot.x + plot.width + 24, plot.y, 18, plot.height);
   for (int y = 0; y < bar.height; ++y)
     cv::line(img, {bar.x, bar.y + y}, {bar.x + bar.width, bar.y + y},
-             cv::Scalar(colormap(1.0 - static_cast<double>(y) / bar.height)));
+             scale.colour(scale.hi - (scale.hi - scale.lo) * y / bar.height));
   cv::rectangle(img, bar, kInk);
-  text(img, fmt(hi), {bar.x + bar.width + 5, bar.y + 10}, 0.4);
-  text(img, fmt(lo), {bar.x + bar.width + 5, bar.y + bar.height}, 0.4);
-  text(img, m.value_label, {bar.x - 10, bar.y - 10}, 0.4);
+  text(img, fmt(scale.hi), {bar.x + bar.width + 5, bar.y + 10}, 0.4);
+  text(img, fmt(scale.lo), {bar.x + bar.width + 5, bar.y + bar.height}, 0.4);
+  if (scale.diverging) text(img, "0", {bar.x + bar.width + 5, bar.y + bar.height / 2 + 4}, 0.4);
+  int base = 0;
+  const int label_w = cv::getTextSize(m.value_label, kFont, 0.45, 1, &base).width;
+  text(img, m.value_label, {std::min(bar.x, width_px - label_w - 6), plot.y - 10}, 0.45);
   write_png(path, img);
 }
 

@@ -19,8 +19,8 @@ struct Panel {
 };
 
 /// Panels stacked vertically into one PNG. Throws std::runtime_error if it cannot be written.
-void save_panels_png(const std::string& path, const std::vector<Panel>& panels,
-                     int width_px = 1200, int panel_height_px = 320);
+void save_panels_png(const std::string& path, const std::vector<Panel>& panels, int width_px = 1200,
+                     int panel_height_px = 320);
 
 struct HeatMap {
   std::string title, x_label, y_label, value_label;

@@ -1,0 +1,20 @@
+#pragma once
+// Text for HTML pages: escaping, base64 for embedded images, numbers for people.
+#include <string>
+#include <string_view>
+
+namespace maglead::report {
+
+/// Escapes &, <, > and " so text is safe in element content and quoted attributes.
+std::string escape_html(std::string_view text);
+
+/// RFC 4648 base64 (with padding), for data: URLs.
+std::string base64(std::string_view bytes);
+
+/// A file's bytes as a data:image/png URL. Throws std::runtime_error if it cannot be read.
+std::string png_data_url(const std::string& path);
+
+/// `significant` digits, "–" for NaN or infinity, a real minus sign.
+std::string number(double value, int significant = 3);
+
+}  // namespace maglead::report

@@ -1,0 +1,423 @@
+// The anomaly report page (see anomaly_page.hpp). Sections in the order a reader asks: where the
+// twin and the machine part, what physics is missing, the fit before and after, the events.
+#include "maglead/report/anomaly_page.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+#include "effect_text.hpp"
+#include "maglead/report/html.hpp"
+#include "maglead/report/plot.hpp"
+#include "maglead/report/time_chart.hpp"
+
+namespace maglead::report {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
+using analysis::Anomaly;
+
+constexpr const char* kStyle = R"css(
+body{font-family:system-ui,sans-serif;max-width:1150px;margin:0 auto;padding:0 12px 2em;
+  color:#222;line-height:1.4}
+h1{font-size:1.45em;margin:.6em 0 .3em}
+h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}
+table{border-collapse:collapse;margin:.5em 0;display:block;overflow-x:auto;max-width:100%}
+td,th{border:1px solid #ccc;padding:3px 8px;text-align:left;vertical-align:top}
+.ok{background:#e6f4e6;padding:.6em}.bad{background:#fbe9e7;padding:.6em}
+figure{margin:1em 0;border:1px solid #ddd;padding:8px;box-sizing:border-box;max-width:100%}
+figcaption{color:#444;font-size:.92em;margin-bottom:4px}
+.legend{font-size:.85em;min-height:1.3em;margin:2px 0 4px}
+.plot{width:100%;height:260px}.map{max-width:100%;height:auto;display:block}
+.hint,.meaning{color:#666;font-size:.9em}code{font-size:.95em}
+)css";
+
+std::string seconds(double t_s) { return number(t_s, 6); }
+
+bool any_finite(const std::vector<double>& v) {
+  return std::any_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+}
+
+// ---------------------------------------------------------------- section 1: where they part
+std::vector<double> scaled(const std::vector<double>& v, double factor) {
+  std::vector<double> out(v.size());
+  for (std::size_t i = 0; i < v.size(); ++i) out[i] = v[i] * factor;
+  return out;
+}
+
+std::vector<double> difference(const std::vector<double>& a, const std::vector<double>& b) {
+  std::vector<double> out(a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) out[i] = a[i] - b[i];
+  return out;
+}
+
+TimeChart chart_of(const Anomaly& a, std::string id, std::string title, std::string caption,
+                   std::string y_label) {
+  TimeChart c;
+  c.id = std::move(id);
+  c.title = std::move(title);
+  c.caption = std::move(caption);
+  c.y_label = std::move(y_label);
+  c.t_s = &a.trace.t_s;
+  c.first = a.first_settled;
+  for (const auto& w : a.drift_windows) c.bands.push_back({w.start_s, w.end_s});
+  for (const auto& s : a.step_outs) c.markers_s.push_back(s.t_s);
+  return c;
+}
+
+std::string error_table(const Anomaly& a) {
+  if (!a.has_load_cell)
+    return "<p>No load cell was logged (no <code>load_force_n</code> column): the force estimates "
+           "cannot be "
+           "compared with a measurement.</p>\n";
+  std::ostringstream h;
+  const auto row = [&](const char* name, const std::optional<analysis::ErrorStats>& e) {
+    h << "<tr><td>" << name << "</td><td>" << (e ? number(e->mean_abs_n) : "–") << "</td><td>"
+      << (e ? number(e->rms_n) : "–") << "</td><td>" << (e ? number(e->max_abs_n) : "–")
+      << "</td></tr>\n";
+  };
+  h << "<table><tr><th>force estimate against the load cell</th><th>mean |error| [N]</th><th>RMS "
+       "[N]</th>"
+       "<th>max |error| [N]</th></tr>\n";
+  row(a.static_estimate_logged ? "static (paper eq. 6, as the controller logged it)"
+                               : "static (paper eq. 6, recomputed)",
+      a.static_error);
+  row("twin (dynamic observer)", a.twin_error);
+  h << "</table>\n";
+  if (a.off_branch_samples)
+    h << "<p>" << a.off_branch_samples
+      << " samples with the phase off the stable branch (after a step-out) are "
+      << "left out of the static estimate: eq. 6 is only defined on the branch.</p>\n";
+  return h.str();
+}
+
+std::string map_figure(const Anomaly& a, const std::string& out_dir) {
+  const auto& g = a.map_position_velocity;
+  // The figure caption holds the title: none drawn into the image.
+  plot::HeatMap m{"",      g.x_label, g.y_label, g.value_label, g.x_min, g.x_max,
+                  g.y_min, g.y_max,   g.nx,      g.ny,          g.values};
+  const auto file = (fs::path(out_dir) / "map_velocity_position.png").string();
+  plot::save_heatmap_png(file, m, 900, 560);
+  return "<figure id=\"fig-map\"><figcaption><b>" + escape_html(g.title) +
+         ".</b> Mean over the samples in each cell; blank cells were not "
+         "visited.</figcaption>\n<img class=\"map\" "
+         "alt=\"" +
+         escape_html(g.title) + "\" src=\"" + png_data_url(file) + "\"></figure>\n";
+}
+
+std::string where_section(const Anomaly& a, const std::string& out_dir) {
+  std::ostringstream h;
+  h << "<h2 id=\"where\">1. Where the twin and the machine part</h2>\n<p>Position residual "
+       "(measured − twin) RMS "
+    << number(a.residual_pos_rms_m * 1e6) << " µm; one encoder count is "
+    << number(a.linear_count_m * 1e6) << " µm.</p>\n"
+    << error_table(a);
+  auto residual =
+      chart_of(a, "residual", "Twin residual over time",
+               "Measured minus twin-predicted nut position. Red: step-outs; shaded: drift warning.",
+               "residual [µm]");
+  residual.series.push_back({"position residual", scaled(a.trace.residual_pos_m, 1e6)});
+  h << time_chart_html(residual);
+  if (a.has_load_cell) {
+    auto err =
+        chart_of(a, "force_error", "Force estimates minus the load cell",
+                 "Error of the controller's static estimate and of the twin's observer against the "
+                 "load cell (as output force).",
+                 "error [N]");
+    err.series.push_back(
+        {"static estimate error", difference(a.trace.static_estimate_n, a.trace.output_force_n)});
+    err.series.push_back(
+        {"twin estimate error", difference(a.trace.twin_estimate_n, a.trace.output_force_n)});
+    h << time_chart_html(err);
+    auto drift =
+        chart_of(a, "drift", "Drift statistic",
+                 "|g − g_ref| over its margin, g the coupling gain: at 1 or more for 2 s the drift "
+                 "warning is raised.",
+                 "statistic [-]");
+    drift.series.push_back({"drift statistic", a.trace.drift_statistic});
+    drift.series.push_back({"warning level", std::vector<double>(a.trace.t_s.size(), 1.0)});
+    h << time_chart_html(drift);
+  }
+  h << map_figure(a, out_dir);
+  return h.str();
+}
+
+// ---------------------------------------------------------------- section 2: missing physics
+std::string parameters_html(const std::string& id, const nlohmann::json& params) {
+  std::string h;
+  for (auto it = params.begin(); it != params.end(); ++it)
+    if (it.value().is_number())
+      h += (h.empty() ? "" : "<br>") + parameter_html(id, it.key(), it.value().get<double>());
+  return h;
+}
+
+std::string effect_row(const nlohmann::json& e) {
+  const std::string id = e.value("id", "");
+  std::string h = "<tr><td><b>" + escape_html(effect_title(id)) + "</b><br><code>" +
+                  escape_html(id) + "</code></td><td>" + escape_html(effect_law(id)) + "</td><td>" +
+                  parameters_html(id, e.value("parameters", nlohmann::json::object())) +
+                  "</td><td>" + escape_html(e.value("where", ""));
+  if (e.contains("finding")) h += "<br>" + escape_html(e["finding"].get<std::string>());
+  if (e.contains("alternatives"))
+    for (const auto& alt : e["alternatives"]) {
+      const std::string aid = alt.value("id", "");
+      h += "<br>alternative: <b>" + escape_html(effect_title(aid)) + "</b> " +
+           parameters_html(aid, alt.value("parameters", nlohmann::json::object())) +
+           " (reproduces " + number(alt.value("explains_pct", NAN)) + " %)";
+    }
+  return h + "</td></tr>\n";
+}
+
+std::string physics_section(const AnalysisOutcome& o) {
+  std::string h = "<h2 id=\"physics\">2. What physics is missing</h2>\n";
+  if (o.status == AnalysisOutcome::Status::skipped)
+    return h + "<p>The analysis was not run (" + escape_html(o.reason) + ").</p>\n";
+  if (o.status == AnalysisOutcome::Status::failed)
+    return h + "<p>The analysis could not run on this recording: " + escape_html(o.reason) +
+           "</p>\n";
+  const auto& J = o.result->json;
+  if (J["effects"].empty())
+    return h +
+           "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
+           "significant "
+           "part of the held-out force error, so the model stays as it is.</p>\n";
+  h += "<p>The analysis compared the model with the recording in the force domain and names what "
+       "it lacks "
+       "(effects, laws and parameter names of "
+       "docs/effects.md):</p>\n<table><tr><th>effect</th><th>law</th>"
+       "<th>parameters</th><th>where, evidence</th></tr>\n";
+  for (const auto& e : J["effects"]) h += effect_row(e);
+  return h + "</table>\n";
+}
+
+// ---------------------------------------------------------------- section 3: the fit
+// The analysis's missing force at sliding samples, on the same time axis as the other plots.
+std::string fit_chart(const AnalysisOutcome& o) {
+  if (o.status != AnalysisOutcome::Status::done) return "";
+  const auto& fit = o.result->fit_over_time;
+  if (fit.curves.empty() || fit.curves.front().x.size() < 2) return "";
+  TimeChart c;
+  c.id = "fit";
+  c.title = fit.title;
+  c.caption = "The force the model leaves out of the nut's balance at the samples where the nut "
+              "slides (what the analysis fits), before and after the effects it found.";
+  c.y_label = fit.y_label;
+  c.t_s = &fit.curves.front().x;
+  for (const auto& curve : fit.curves) c.series.push_back({curve.label, curve.y});
+  return time_chart_html(c);
+}
+
+std::string fit_section(const Anomaly& a, const AnalysisOutcome& o) {
+  std::ostringstream h;
+  h << "<h2 id=\"fit\">3. The fit before and after</h2>\n";
+  if (o.status == AnalysisOutcome::Status::done) {
+    const auto& J = o.result->json;
+    const auto rel = [](const nlohmann::json& e) {
+      return number(e.value("relative_error_pct", NAN));
+    };
+    const auto rms = [](const nlohmann::json& e) { return number(e.value("rms", NAN)); };
+    if (J["effects"].empty()) {
+      h << "<p>One fit, since nothing was added: the model's force error is " << rms(J["baseline"])
+        << " N RMS (" << rel(J["baseline"]) << " % of the force).</p>\n";
+    } else {
+      h << "<table><tr><th>model</th><th>force error RMS [N]</th><th>relative error "
+           "[%]</th></tr>\n<tr><td>before "
+           "(the model as configured)</td><td>"
+        << rms(J["baseline"]) << "</td><td>" << rel(J["baseline"])
+        << "</td></tr>\n<tr><td>after (with the effects "
+        << "above)</td><td>" << rms(J["final"]) << "</td><td>" << rel(J["final"])
+        << "</td></tr></table>\n";
+    }
+  }
+  h << fit_chart(o);
+  auto force = chart_of(
+      a, "force", "Output force: setpoint, load cell and estimates",
+      "The load cell as output force (−load force), the controller's setpoint where it logged "
+      "one, and the two estimates the controller has.",
+      "force [N]");
+  if (a.has_load_cell) force.series.push_back({"load cell", a.trace.output_force_n});
+  if (any_finite(a.trace.force_set_n)) force.series.push_back({"setpoint", a.trace.force_set_n});
+  force.series.push_back({"static estimate", a.trace.static_estimate_n});
+  force.series.push_back({"twin estimate", a.trace.twin_estimate_n});
+  h << time_chart_html(force);
+  return h.str();
+}
+
+// ---------------------------------------------------------------- section 4: events
+std::string step_out_table(const Anomaly& a) {
+  if (a.step_outs.empty())
+    return "<p>Step-outs: none, the phase stayed on the stable branch.</p>\n";
+  std::ostringstream h;
+  h << "<table><tr><th>step-out at [s]</th><th>leads slipped</th><th>nut position "
+       "[mm]</th><th>seen by</th></tr>\n";
+  for (const auto& s : a.step_outs)
+    h << "<tr><td>" << seconds(s.t_s) << "</td><td>" << s.leads << "</td><td>"
+      << number(s.nut_pos_m * 1e3, 5) << "</td><td>" << escape_html(s.seen_by) << "</td></tr>\n";
+  return h.str() + "</table>\n";
+}
+
+std::string window_table(const std::vector<analysis::TimeWindow>& w, const std::string& what) {
+  std::string h = "<table><tr><th>" + what + " from [s]</th><th>to [s]</th></tr>\n";
+  for (const auto& x : w)
+    h += "<tr><td>" + seconds(x.start_s) + "</td><td>" + seconds(x.end_s) + "</td></tr>\n";
+  return h + "</table>\n";
+}
+
+std::string analysis_events(const AnalysisOutcome& o) {
+  if (o.status != AnalysisOutcome::Status::done) return "";
+  std::string h;
+  for (const auto& e : o.result->json["events"]) {
+    if (e.value("type", "") != "external_disturbance") continue;
+    h += "<tr><td>" + seconds(e.value("t_s", NAN)) + "</td><td>" +
+         number(e.value("duration_s", NAN)) + "</td><td>" + number(e.value("force_n", NAN)) +
+         "</td></tr>\n";
+  }
+  if (h.empty()) return "";
+  return "<table><tr><th>force pulse at [s]</th><th>lasting [s]</th><th>force [N]</th></tr>\n" + h +
+         "</table>\n";
+}
+
+std::string events_section(const Anomaly& a, const AnalysisOutcome& o) {
+  std::ostringstream h;
+  h << "<h2 id=\"events\">4. Events</h2>\n" << step_out_table(a);
+  if (!a.step_out_warnings.empty())
+    h << "<p>The twin predicted a step-out (its look-ahead crossed ±π/2) in "
+      << a.step_out_warnings.size()
+      << " window(s), the first from t = " << seconds(a.step_out_warnings.front().start_s)
+      << " s.</p>\n";
+  if (!a.has_load_cell)
+    h << "<p>Drift: not estimated (no load cell logged).</p>\n";
+  else if (a.drift_windows.empty())
+    h << "<p>Drift warnings: none (the statistic reached " << number(a.max_drift_statistic)
+      << " of 1).</p>\n";
+  else
+    h << window_table(a.drift_windows, "drift warning")
+      << "<p>The warning is latched: the calibration no longer "
+      << "matches the actuator.</p>\n";
+  h << analysis_events(o);
+  auto motion =
+      chart_of(a, "motion", "Nut position",
+               "With the position setpoint where the controller logged one.", "position [mm]");
+  motion.series.push_back({"nut position", scaled(a.trace.nut_pos_m, 1e3)});
+  if (any_finite(a.trace.pos_set_m))
+    motion.series.push_back({"setpoint", scaled(a.trace.pos_set_m, 1e3)});
+  h << time_chart_html(motion);
+  auto phase = chart_of(
+      a, "phase", "Phase difference",
+      "φ = θ − 2πp/L and the edges of the stable branch (±π/2): beyond them the nut can step out.",
+      "phase [rad]");
+  phase.series.push_back({"phase", a.trace.phase_rad});
+  phase.series.push_back({"+π/2", std::vector<double>(a.trace.t_s.size(), std::numbers::pi / 2)});
+  phase.series.push_back({"−π/2", std::vector<double>(a.trace.t_s.size(), -std::numbers::pi / 2)});
+  h << time_chart_html(phase);
+  return h.str();
+}
+
+// ---------------------------------------------------------------- JSON
+Json json_of(const std::string& recording, const Anomaly& a, const AnalysisOutcome& o,
+             const std::string& headline) {
+  Json J;
+  J["recording"] = recording;
+  J["samples"] = a.trace.t_s.size();
+  J["duration_s"] = a.duration_s;
+  J["sample_rate_hz"] = a.sample_rate_hz;
+  J["settle_s"] = a.settle_s;
+  J["headline"] = headline;
+  J["step_outs"] = Json::array();
+  for (const auto& s : a.step_outs)
+    J["step_outs"].push_back(
+        {{"t_s", s.t_s}, {"leads", s.leads}, {"source", s.seen_by}, {"nut_pos_m", s.nut_pos_m}});
+  J["drift_windows"] = Json::array();
+  for (const auto& w : a.drift_windows)
+    J["drift_windows"].push_back({{"start_s", w.start_s}, {"end_s", w.end_s}});
+  J["step_out_warning_windows"] = a.step_out_warnings.size();
+  J["twin_residual_pos_rms_m"] = a.residual_pos_rms_m;
+  J["static_estimate_off_branch_samples"] = a.off_branch_samples;
+  const auto stats = [](const std::optional<analysis::ErrorStats>& e) {
+    return e ? Json{{"mean_abs_n", e->mean_abs_n}, {"rms_n", e->rms_n}, {"max_abs_n", e->max_abs_n}}
+             : Json();
+  };
+  J["force_error"] = a.has_load_cell
+                         ? Json{{"static", stats(a.static_error)}, {"twin", stats(a.twin_error)}}
+                         : Json();
+  Json v;
+  if (o.status == AnalysisOutcome::Status::done) {
+    const auto& R = o.result->json;
+    v = {{"status", "done"},
+         {"conclusion", R.value("conclusion", "")},
+         {"effects", Json::array()},
+         {"baseline_relative_error_pct", R["baseline"].value("relative_error_pct", NAN)},
+         {"final_relative_error_pct", R["final"].value("relative_error_pct", NAN)}};
+    for (const auto& e : R["effects"])
+      v["effects"].push_back({{"id", e["id"]}, {"parameters", e["parameters"]}});
+  } else {
+    v = {{"status", o.status == AnalysisOutcome::Status::skipped ? "skipped" : "not possible"},
+         {"reason", o.reason}};
+  }
+  J["analysis"] = v;
+  return J;
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  if (!f) throw std::runtime_error("cannot write " + path.string());
+}
+
+}  // namespace
+
+std::string anomaly_headline(const Anomaly& a, const AnalysisOutcome& o) {
+  std::vector<std::string> findings;
+  if (!a.step_outs.empty())
+    findings.push_back(std::to_string(a.step_outs.size()) + " step-out event(s)");
+  if (!a.drift_windows.empty())
+    findings.push_back(
+        "calibration drift detected from t = " + number(a.drift_windows.front().start_s) + " s");
+  // 3 N: beyond the static estimator's expected mean error against a load cell (2.25 N on
+  // hand-push, README "Estimate the force"): more than its friction band explains.
+  if (a.static_error && a.static_error->mean_abs_n > 3.0)
+    findings.push_back("static force estimate off by " + number(a.static_error->mean_abs_n) +
+                       " N on average");
+  if (o.status == AnalysisOutcome::Status::done && !o.result->json["effects"].empty())
+    findings.push_back("analysis: " + o.result->json.value("conclusion", ""));
+  if (findings.empty()) return "no anomaly found";
+  std::string s = "attention: ";
+  for (std::size_t k = 0; k < findings.size(); ++k) s += (k ? "; " : "") + findings[k];
+  return s;
+}
+
+void write_anomaly_report(const std::string& out_dir, const std::string& recording,
+                          const Anomaly& a, const AnalysisOutcome& o) {
+  fs::create_directories(out_dir);
+  const std::string headline = anomaly_headline(a, o);
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
+       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>maglead "
+       "anomaly report: "
+    << escape_html(fs::path(recording).filename().string()) << "</title>\n<style>" << kStyle
+    << "</style>\n"
+    << time_chart_head()
+    << "</head>\n<body>\n<h1>Twin versus actual: anomaly report</h1>\n<p>Recording <code title=\""
+    << escape_html(recording) << "\">" << escape_html(fs::path(recording).filename().string())
+    << "</code>: " << a.trace.t_s.size() << " samples, " << number(a.duration_s, 4) << " s at "
+    << number(a.sample_rate_hz, 4) << " Hz. The first " << number(a.settle_s)
+    << " s are the start-up "
+    << "(the servo aligning the screw, the estimators settling) and are neither plotted nor "
+       "scored.</p>\n"
+    << "<p class=\"" << (headline == "no anomaly found" ? "ok" : "bad") << "\" id=\"headline\"><b>"
+    << escape_html(headline)
+    << "</b></p>\n<p class=\"hint\">Plots: drag to zoom, shift-drag to pan, double-click "
+    << "to reset; every time plot follows the others. Values show on hover.</p>\n"
+    << where_section(a, out_dir) << physics_section(o) << fit_section(a, o) << events_section(a, o)
+    << time_chart_tail() << "</body></html>\n";
+  write_text(fs::path(out_dir) / "index.html", h.str());
+  write_text(fs::path(out_dir) / "report.json", json_of(recording, a, o, headline).dump(2) + "\n");
+}
+
+}  // namespace maglead::report

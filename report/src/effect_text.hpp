@@ -1,0 +1,15 @@
+#pragma once
+// Effects and their parameters in words for people: the names, laws and units of
+// docs/effects.md, as the effect library states them.
+#include <string>
+
+namespace maglead::report {
+
+/// "gain drift" for gain_drift.
+std::string effect_title(const std::string& id);
+/// The effect's law (one line), empty for an id the library does not know.
+std::string effect_law(const std::string& id);
+/// "gain_change_per_min = −0.201 1/min (rate r of the relative coupling gain)", HTML-escaped.
+std::string parameter_html(const std::string& effect_id, const std::string& name, double value);
+
+}  // namespace maglead::report

@@ -1,0 +1,116 @@
+// The report library's helpers: downsampling that keeps what a reader must see, escaping and
+// base64 that round-trip, and the anomaly page's plain-language rules.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "effect_text.hpp"
+#include "maglead/effects/effect.hpp"
+#include "maglead/report/html.hpp"
+#include "maglead/report/time_chart.hpp"
+
+namespace maglead::report {
+namespace {
+
+std::vector<double> ramp(std::size_t n) {
+  std::vector<double> t(n);
+  for (std::size_t i = 0; i < n; ++i) t[i] = 0.001 * static_cast<double>(i);
+  return t;
+}
+
+// A one-sample spike in an hour at 1 kHz survives the reduction to a few thousand rows, and the
+// rows stay in time order within the budget.
+TEST(Envelope, KeepsASingleSampleSpikeAndStaysWithinBudget) {
+  const std::size_t n = 3'600'000, spike = 2'345'678, dip = 77;
+  const auto t = ramp(n);
+  std::vector<double> y(n, 0.0), flat(n, 1.0);
+  y[spike] = 50.0;
+  y[dip] = -3.0;
+  const auto rows = envelope_rows(t, 0, {y, flat}, 6000);
+  EXPECT_LE(rows.size(), 6000u);
+  EXPECT_GT(rows.size(), 1000u);
+  for (std::size_t k = 1; k < rows.size(); ++k) ASSERT_LT(rows[k - 1], rows[k]);
+  EXPECT_NE(std::find(rows.begin(), rows.end(), spike), rows.end());
+  EXPECT_NE(std::find(rows.begin(), rows.end(), dip), rows.end());
+}
+
+TEST(Envelope, ShortRecordingsAreDrawnWhole) {
+  const auto t = ramp(500);
+  const std::vector<double> y(500, 2.0);
+  const auto rows = envelope_rows(t, 20, {y}, 1000);
+  ASSERT_EQ(rows.size(), 480u);
+  EXPECT_EQ(rows.front(), 20u);  // the start-up samples before `first` are not drawn
+  EXPECT_EQ(rows.back(), 499u);
+}
+
+TEST(Envelope, GapsDoNotHideTheRest) {
+  const std::size_t n = 100'000;
+  const auto t = ramp(n);
+  std::vector<double> y(n, std::numeric_limits<double>::quiet_NaN());
+  y[n / 2] = 7.0;  // the only finite value
+  const auto rows = envelope_rows(t, 0, {y}, 1000);
+  EXPECT_NE(std::find(rows.begin(), rows.end(), n / 2), rows.end());
+}
+
+TEST(TimeChart, LabelsCannotCloseTheScript) {
+  const auto t = ramp(3);
+  TimeChart c;
+  c.id = "x";
+  c.t_s = &t;
+  c.series.push_back({"</script><b>", {1.0, std::nan(""), 3.0}});
+  const std::string h = time_chart_html(c);
+  EXPECT_EQ(h.find("</script><b>"), std::string::npos);
+  EXPECT_NE(h.find("[0.001,null]"), std::string::npos) << "NaN is a gap, not a number";
+}
+
+TEST(Html, EscapesAndEncodes) {
+  EXPECT_EQ(escape_html("a<b & \"c\">"), "a&lt;b &amp; &quot;c&quot;&gt;");
+  EXPECT_EQ(base64(""), "");
+  EXPECT_EQ(base64("f"), "Zg==");
+  EXPECT_EQ(base64("fo"), "Zm8=");
+  EXPECT_EQ(base64("foo"), "Zm9v");
+  EXPECT_EQ(base64("foobar"), "Zm9vYmFy");
+  EXPECT_EQ(base64(std::string("\xff\x00\x10", 3)), "/wAQ");
+  EXPECT_EQ(number(-0.2014), "−0.201");
+  EXPECT_EQ(number(std::nan("")), "–");
+  EXPECT_EQ(number(2000.0), "2000");
+  EXPECT_EQ(number(0.000123), "0.000123");
+}
+
+}  // namespace
+}  // namespace maglead::report
+
+namespace maglead::report {
+namespace {
+
+// Every parameter of the effect library is shown with a unit read off its name
+// (docs/effects.md: "the unit is part of the name"), except the few that are ratios or counts.
+TEST(EffectText, EveryLibraryParameterHasItsUnit) {
+  const std::set<std::string> dimensionless{"gain", "relative_amplitude", "max_reduction", "count"};
+  for (const auto* e : effects::library())
+    for (const auto& p : e->params()) {
+      const std::string h = parameter_html(std::string(e->id()), p.name, 1.5);
+      const bool has_unit =
+          h.find("= 1.5 <") == std::string::npos && h.find("= 1.5 ") != std::string::npos;
+      EXPECT_TRUE(has_unit || dimensionless.count(p.name)) << e->id() << "." << p.name << ": " << h;
+    }
+  EXPECT_NE(parameter_html("gain_drift", "gain_change_per_min", -0.2).find("−0.2 1/min"),
+            std::string::npos);
+  EXPECT_NE(parameter_html("viscous_friction", "viscous_n_s_per_m", 3).find("3 N·s/m"),
+            std::string::npos);
+  EXPECT_NE(parameter_html("spring", "stiffness_n_per_m", 2000).find("2000 N/m"),
+            std::string::npos);
+  EXPECT_NE(parameter_html("gain_drift", "gain_change_per_min", 1)
+                .find("rate r of the relative coupling gain)"),
+            std::string::npos)
+      << "the library's meaning, without its own [unit]";
+  EXPECT_EQ(effect_title("stribeck_friction"), "stribeck friction");
+}
+
+}  // namespace
+}  // namespace maglead::report
