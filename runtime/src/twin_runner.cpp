@@ -104,12 +104,14 @@ void TwinRunner::run() {
 }
 
 void TwinRunner::step(const TwinSample& in, TwinReport& out) noexcept {
-  const bool queued = queue_.push({Kind::sample, in});
+  if (has_pending_control_) has_pending_control_ = !queue_.push(pending_control_);
+  // Samples after a lost resync would be read against the old state: they wait with it.
+  const bool queued = !has_pending_control_ && queue_.push({Kind::sample, in});
   if (!queued) relaxed_increment(dropped_);
   out = results_.load();
   const std::uint64_t lag = in.cycle > out.cycle ? in.cycle - out.cycle : 0;
   relaxed_max(max_lag_, lag);
-  out.lagging = !queued || lag > options_.max_lag_cycles || control_lost_.load(std::memory_order_relaxed);
+  out.lagging = !queued || lag > options_.max_lag_cycles;
   if (out.lagging) relaxed_increment(lagging_cycles_);
 }
 
@@ -118,11 +120,20 @@ void TwinRunner::resync(double t_s, double screw_angle_rad, double nut_pos_m) no
   m.sample.t_s = t_s;
   m.sample.screw_angle_rad = screw_angle_rad;
   m.sample.nut_pos_m = nut_pos_m;
-  if (!queue_.push(m)) control_lost_.store(true, std::memory_order_relaxed);
+  push_control(m);
 }
 
-void TwinRunner::clear_warnings() noexcept {
-  if (!queue_.push({Kind::clear, {}})) control_lost_.store(true, std::memory_order_relaxed);
+void TwinRunner::clear_warnings() noexcept { push_control({Kind::clear, {}}); }
+
+void TwinRunner::push_control(const Message& m) noexcept {
+  if (has_pending_control_) {
+    if (pending_control_.kind == Kind::resync && m.kind == Kind::clear) return;  // the resync clears too
+    has_pending_control_ = !queue_.push(pending_control_);
+  }
+  if (has_pending_control_ || !queue_.push(m)) {
+    pending_control_ = m;  // keeps the latest; an older pending clear is superseded by a resync
+    has_pending_control_ = true;
+  }
 }
 
 std::size_t TwinRunner::drain() noexcept {

@@ -68,11 +68,15 @@ class RampedLoad final : public ActuatorHardware {
 struct Lead {
   double warn_t_s = kNaN, flag_t_s = kNaN;
   bool lagged_before_flag = false;
+  double first_lag_t_s = kNaN, last_lag_t_s = kNaN;  // twin_lagging seen (by the snapshots read)
   void see(const Snapshot& s) {
     const auto on = [&](int b) { return ((s.status_word >> b) & 1u) != 0; };
     if (on(reg::kStepOutWarning) && std::isnan(warn_t_s)) warn_t_s = s.t_s;
     if (on(reg::kStepOut) && std::isnan(flag_t_s)) flag_t_s = s.t_s;
-    if (std::isnan(flag_t_s) && on(reg::kTwinLagging)) lagged_before_flag = true;
+    if (!on(reg::kTwinLagging)) return;
+    if (std::isnan(flag_t_s)) lagged_before_flag = true;
+    if (std::isnan(first_lag_t_s)) first_lag_t_s = s.t_s;
+    last_lag_t_s = s.t_s;
   }
 };
 
@@ -102,7 +106,7 @@ TEST(TwinRunner, ResultsCarryTheirCycleAndLateOnesRaiseLagging) {
   EXPECT_EQ(twin.stats().max_lag_cycles, 6u);
 }
 
-TEST(TwinRunner, AFullQueueDropsTheSampleAndRaisesLagging) {
+TEST(TwinRunner, AFullQueueDropsTheSampleRaisesLaggingAndKeepsTheResync) {
   const ControllerConfig cfg;
   runtime::TwinRunner twin(monitor_config(cfg), {1'000'000});  // only the queue can raise it
   TwinReport out;
@@ -114,6 +118,20 @@ TEST(TwinRunner, AFullQueueDropsTheSampleAndRaisesLagging) {
   twin.step(sample(c), out);  // the 257th: no room
   EXPECT_TRUE(out.lagging);
   EXPECT_EQ(twin.stats().dropped, 1u);
+  // A re-sync that finds the queue full is not lost: it goes first once there is room, and the
+  // samples wait behind it (they are measured against the re-synchronised state).
+  const TwinSample r = sample(++c);
+  twin.resync(r.t_s, r.screw_angle_rad, r.nut_pos_m);
+  twin.step(sample(++c), out);
+  EXPECT_TRUE(out.lagging);
+  EXPECT_EQ(twin.drain(), 256u);
+  twin.step(sample(++c), out);
+  EXPECT_FALSE(out.lagging);
+  EXPECT_EQ(twin.drain(), 2u);  // the re-sync, then this cycle's sample
+  twin.step(sample(++c), out);
+  EXPECT_EQ(out.cycle, c - 1);
+  EXPECT_TRUE(out.healthy);
+  EXPECT_EQ(twin.stats().dropped, 2u);
 }
 
 // The worst the loop accepts without raising twin_lagging: the twin drained only every fifth
@@ -163,10 +181,11 @@ TEST(TwinRunner, StepOutWarningLeadsTheSlipOnTheTwinThread) {
   twin.stop();
   const auto stats = twin.stats();
   std::printf("twin thread: warning %.3f s, step-out bit %.3f s, lead %.0f ms; largest lag %llu cycles, "
-              "%llu lagging cycles\n",
+              "%llu lagging cycles (seen from %.3f to %.3f s); placement not granted: %s\n",
               lead.warn_t_s, lead.flag_t_s, (lead.flag_t_s - lead.warn_t_s) * 1e3,
               static_cast<unsigned long long>(stats.max_lag_cycles),
-              static_cast<unsigned long long>(stats.lagging_cycles));
+              static_cast<unsigned long long>(stats.lagging_cycles), lead.first_lag_t_s, lead.last_lag_t_s,
+              twin.refused().empty() ? "nothing" : twin.refused().c_str());
   ASSERT_TRUE(std::isfinite(lead.warn_t_s));
   if (!lead.lagged_before_flag) {
     EXPECT_GE(lead.flag_t_s - lead.warn_t_s, 0.040);

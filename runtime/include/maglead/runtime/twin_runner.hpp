@@ -74,13 +74,17 @@ class TwinRunner final : public controller::TwinHook {
   void run();
   void place(const TwinPlacement& placement);
   void process(const Message& m) noexcept;
+  void push_control(const Message& m) noexcept;
 
   std::unique_ptr<twin::TwinMonitor> monitor_;
   TwinRunnerOptions options_;
   // 256 cycles of slack: a twin thread held up for a quarter of a second loses nothing.
   controller::detail::SpscQueue<Message, 256> queue_;
   controller::detail::SeqLock<controller::TwinReport> results_;
-  std::atomic<bool> control_lost_{false};  // a resync / clear did not fit the queue
+  // Loop thread only: a resync / clear that did not fit the queue, pushed again before the next
+  // sample (a resync supersedes a clear: it clears the drift history too).
+  Message pending_control_{};
+  bool has_pending_control_ = false;
   // Twin thread only.
   bool reset_ok_ = true;  // false once a re-sync failed: the twin then reports itself unhealthy
   // Loop thread writes, others read.
