@@ -16,10 +16,6 @@
 namespace maglead::runtime {
 namespace {
 
-// The twin's SCHED_FIFO priority: below the loop's (50, LoopRunner), above every thread under
-// SCHED_OTHER (network, clients), so a busy network cannot starve the step-out warning.
-constexpr int kTwinFifoPriority = 20;
-
 std::unique_ptr<ActuatorHardware> make_simulated(const ActuatorParams& actuator, const BackendOptions& options) {
   const SimulatedOptions& o = options.simulated;
   if (!(o.start_pos_m >= actuator.stroke_min_m && o.start_pos_m <= actuator.stroke_max_m))
@@ -149,7 +145,7 @@ void Service::start() {
   loop_->set_realtime(policy, loop_cpu_);
   // The twin first, so the loop's first samples find it running.
   if (twin_)
-    twin_->start({loop_cpu_, policy == controller::RealtimePolicy::off ? 0 : kTwinFifoPriority});
+    twin_->start({loop_cpu_, policy == controller::RealtimePolicy::off ? 0 : cfg_.twin_fifo_priority});
   try {
     loop_->start();
   } catch (...) {

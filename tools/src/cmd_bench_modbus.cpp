@@ -262,6 +262,7 @@ void add_bench_modbus(CLI::App& app) {
                 "during each case");
   struct Opts {
     bool quick = false, no_twin = false;
+    int twin_priority = runtime::ServiceConfig{}.twin_fifo_priority;
     double seconds = 2.0;
     std::string config = default_config_dir();
   };
@@ -270,9 +271,13 @@ void add_bench_modbus(CLI::App& app) {
   cmd->add_option("--seconds", o->seconds, "Seconds per case")->check(CLI::Range(0.1, 600.0))->capture_default_str();
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
   cmd->add_flag("--no-twin", o->no_twin, "Run the loop without the digital twin");
+  cmd->add_option("--twin-priority", o->twin_priority, "The twin thread's SCHED_FIFO priority (0: SCHED_OTHER)")
+      ->check(CLI::Range(0, 49))->capture_default_str();
   cmd->callback([o] {
     const double seconds = o->quick ? 0.4 : o->seconds;
-    runtime::Service service(bench_service(o->config, !o->no_twin));
+    runtime::ServiceConfig sc = bench_service(o->config, !o->no_twin);
+    sc.twin_fifo_priority = o->twin_priority;
+    runtime::Service service(sc);
     service.start();
     ReferenceServer reference;
     const int port = service.tcp_port();

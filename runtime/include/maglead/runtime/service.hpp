@@ -45,6 +45,10 @@ struct ServiceConfig {
   bool twin = true;
   std::string twin_config_dir;  // model.toml for the twin (twin::load_monitor_config)
   TwinRunnerOptions twin_options;
+  // The twin thread's SCHED_FIFO priority when realtime is not "off": below the loop's (50),
+  // above every SCHED_OTHER thread (network, clients), so a busy network cannot starve the
+  // step-out warning. 0: SCHED_OTHER.
+  int twin_fifo_priority = 20;
   modbus::NetworkConfig network;  // transports, read-only, watchdog, [runtime] realtime
   bool serve_modbus = true;       // false: no transports (benchmarks add their own clients)
   std::string model_name;         // FC43 model name; "" = the backend's name
