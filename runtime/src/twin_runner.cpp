@@ -52,19 +52,19 @@ TwinRunner::~TwinRunner() { stop(); }
 
 void TwinRunner::start(const TwinPlacement& placement) {
   if (running_.exchange(true)) return;
-  std::atomic<bool> placed{false};
+  placed_.store(false);
   try {
-    thread_ = std::thread([this, placement, &placed] {
+    thread_ = std::thread([this, placement] {
       place(placement);
-      placed.store(true);
-      placed.notify_one();
+      placed_.store(true);
+      placed_.notify_one();  // a member: it outlives start(), which may return before this call
       run();
     });
   } catch (const std::system_error& e) {
     running_.store(false);
     throw std::runtime_error(std::string("digital twin: cannot start its thread: ") + e.what());
   }
-  placed.wait(false);  // refused_ is written by the thread before this returns
+  placed_.wait(false);  // refused_ is written by the thread before this returns
 }
 
 void TwinRunner::stop() {

@@ -90,8 +90,8 @@ class TwinRunner final : public controller::TwinHook {
   // Loop thread writes, others read.
   std::atomic<std::uint64_t> dropped_{0}, lagging_cycles_{0}, max_lag_{0};
   std::thread thread_;
-  std::atomic<bool> running_{false};
-  std::string refused_;
+  std::atomic<bool> running_{false}, placed_{false};
+  std::string refused_;  // written by the twin thread before placed_, read after it
 };
 
 }  // namespace maglead::runtime
