@@ -109,7 +109,8 @@ void TwinRunner::step(const TwinSample& in, TwinReport& out) noexcept {
   // Samples after a lost resync would be read against the old state: they wait with it.
   const bool queued = !has_pending_control_ && queue_.push({Kind::sample, in});
   if (!queued) relaxed_increment(dropped_);
-  out = results_.load();
+  results_.try_load(latest_);
+  out = latest_;
   const std::uint64_t lag = in.cycle > out.cycle ? in.cycle - out.cycle : 0;
   relaxed_max(max_lag_, lag);
   out.lagging = !queued || lag > options_.max_lag_cycles;

@@ -85,6 +85,9 @@ class TwinRunner final : public controller::TwinHook {
   // sample (a resync supersedes a clear: it clears the drift history too).
   Message pending_control_{};
   bool has_pending_control_ = false;
+  // Loop thread only: the latest results it read. The loop never waits for the twin's seqlock
+  // writer: caught mid-write, it keeps these (one cycle older) instead.
+  controller::TwinReport latest_{};
   // Twin thread only.
   bool reset_ok_ = true;  // false once a re-sync failed: the twin then reports itself unhealthy
   // Loop thread writes, others read.
