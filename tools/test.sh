@@ -14,7 +14,7 @@ if [ "${MAGLEAD_SKIP_SANITIZERS:-0}" != 1 ]; then
     ctest --output-on-failure -j 2 -LE no_sanitizer)
   # Only the threaded tests' executables are built: the rest has no threads to check.
   cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMAGLEAD_WERROR=ON -DMAGLEAD_TSAN=ON >/dev/null
-  cmake --build build-tsan -j "$(nproc)" --target test_loop_runner test_threads
+  cmake --build build-tsan -j "$(nproc)" --target test_loop_runner test_threads test_twin_runner
   (cd build-tsan && TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
     ctest --output-on-failure -j 2 -L threads)
   bash tools/fuzz.sh

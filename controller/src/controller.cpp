@@ -323,10 +323,10 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   Command c;
   for (int i = 0; i < 64 && commands_.pop(c); ++i) apply(c);
 
-  TwinOutputs tw{};
+  TwinReport tw{};
   if (twin_) {
-    const TwinInputs in{now_s, s_.screw_angle_rad, screw_cmd_rad_, s_.nut_pos_m, s_.nut_vel_m_s, s_.phase_rad,
-                        s_.force_est_n,
+    const TwinSample in{s_.cycle, now_s, s_.screw_angle_rad, screw_cmd_rad_, s_.nut_pos_m, s_.nut_vel_m_s,
+                        s_.phase_rad, s_.force_est_n,
                         mode_ == Mode::force ? force_set_n_ : std::numeric_limits<double>::quiet_NaN(),
                         load_force_n_};
     twin_->step(in, tw);
@@ -416,6 +416,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   set(registers::kStepOutWarning, tw.step_out_warning);
   set(registers::kStopped, stopping_);
   set(registers::kStrokeLimit, s_.nut_pos_m <= a.stroke_min_m || s_.nut_pos_m >= a.stroke_max_m);
+  set(registers::kTwinLagging, tw.lagging);
   s_.status_word = sw;
   s_.drive_state = static_cast<std::uint16_t>(state_);
   s_.active_mode = static_cast<std::uint16_t>(mode_);

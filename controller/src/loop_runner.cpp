@@ -47,7 +47,8 @@ LoopRunner::LoopRunner(Controller& controller, LoopClock& clock, std::size_t per
     : controller_(controller),
       clock_(clock),
       period_ns_(static_cast<std::int64_t>(std::llround(1e9 / controller.config().actuator.sample_rate_hz))),
-      log_(period_log_capacity) {}
+      log_(period_log_capacity),
+      late_log_(period_log_capacity) {}
 
 LoopRunner::~LoopRunner() { stop(); }
 
@@ -141,13 +142,13 @@ void LoopRunner::begin_period_log() {
   logging_.store(true);
 }
 
-std::vector<double> LoopRunner::end_period_log() {
+LoopRunner::CycleLog LoopRunner::end_cycle_log() {
   logging_.store(false);
   // Let a cycle that saw logging_ still true finish its write.
   timespec ts{0, 3'000'000};
   nanosleep(&ts, nullptr);
-  const std::size_t n = std::min(log_count_.load(std::memory_order_acquire), log_.size());
-  return std::vector<double>(log_.begin(), log_.begin() + static_cast<std::ptrdiff_t>(n));
+  const auto n = static_cast<std::ptrdiff_t>(std::min(log_count_.load(std::memory_order_acquire), log_.size()));
+  return {std::vector<double>(log_.begin(), log_.begin() + n), std::vector<double>(late_log_.begin(), late_log_.begin() + n)};
 }
 
 void LoopRunner::cycle() noexcept {
@@ -169,6 +170,7 @@ void LoopRunner::cycle() noexcept {
     const std::size_t i = log_count_.load(std::memory_order_relaxed);
     if (i < log_.size()) {
       log_[i] = static_cast<float>(static_cast<double>(start - last_start_) * 1e-9);
+      late_log_[i] = static_cast<float>(static_cast<double>(late) * 1e-9);
       log_count_.store(i + 1, std::memory_order_release);
     }
   }

@@ -156,6 +156,9 @@ constexpr std::array kTable = std::to_array<Register>({
     {"stopped", DI, kStopped, Type::bit, 1, "", RO, 0, 1, "Controlled stop active (stop bit or watchdog)"},
     {"owned", DI, kOwned, Type::bit, 1, "", RO, 0, 1, "A client owns control"},
     {"stroke_limit", DI, kStrokeLimit, Type::bit, 1, "", RO, 0, 1, "Nut at a stroke end"},
+    {"twin_lagging", DI, kTwinLagging, Type::bit, 1, "", RO, 0, 1,
+     "Twin behind the loop: its input queue overflowed, or its results are older than the bound "
+     "(5 cycles); the loop never waits for it"},
 });
 
 constexpr std::array kAlarms = std::to_array<Code>({
@@ -206,7 +209,7 @@ constexpr std::array kRanges = std::to_array<AddressRange>({
     {IR, 0, 128, "identity, status, measurements (scaled and float32), twin, loop"},
     {HR, 1000, 20, "commands and setpoints"},
     {CO, 0, 5, "control word bits"},
-    {DI, 0, 14, "status word bits"},
+    {DI, 0, 15, "status word bits"},
 });
 constexpr std::array kPollBlocks = std::to_array<AddressRange>({
     {IR, 0, 56, "FC4 (or FC3): identity, status, alarm, owner, scaled measurements, twin, loop, fault reaction"},

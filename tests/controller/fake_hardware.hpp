@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "maglead/plant/hardware.hpp"
+#include "maglead/controller/ports/hardware.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
 
 namespace maglead::testing {

@@ -329,10 +329,14 @@ TEST(Controller, DisableReturnsToReadyAndHolds) {
 namespace {
 struct FakeTwin final : TwinHook {
   int calls = 0, resyncs = 0;
+  std::uint64_t last_cycle = 0;
+  bool lagging = false;
   void resync(double, double, double) noexcept override { ++resyncs; }
   double last_pos = 0.0;
-  void step(const TwinInputs& in, TwinOutputs& out) noexcept override {
+  void step(const TwinSample& in, TwinReport& out) noexcept override {
     ++calls;
+    last_cycle = in.cycle;
+    out.lagging = lagging;
     last_pos = in.nut_pos_m;
     out.pred_nut_pos_m = in.nut_pos_m + 1e-6;
     out.dynamic_force_n = 3.5;
@@ -354,6 +358,22 @@ TEST(Controller, TwinHookRunsEveryCycleAndPublishes) {
   EXPECT_EQ(s.twin.dynamic_force_n, 3.5);
   EXPECT_TRUE(rig.status(reg::kTwinHealthy));
   EXPECT_TRUE(rig.status(reg::kDriftWarning));
+  EXPECT_EQ(twin.last_cycle, s.cycle);  // the sample is tagged with the cycle it was taken in
+  EXPECT_FALSE(rig.status(reg::kTwinLagging));
+}
+
+// A twin that reports itself behind raises twin_lagging in the same cycle; nothing else changes.
+TEST(Controller, TwinLaggingIsAStatusBit) {
+  FakeTwin twin;
+  Rig rig(2000.0, &twin);
+  rig.run(0.01);
+  twin.lagging = true;
+  rig.run(0.001);
+  EXPECT_TRUE(rig.status(reg::kTwinLagging));
+  EXPECT_TRUE(rig.status(reg::kTwinHealthy));
+  twin.lagging = false;
+  rig.run(0.001);
+  EXPECT_FALSE(rig.status(reg::kTwinLagging));
 }
 
 TEST(Controller, WithoutTwinTheTwinFieldsReadZero) {

@@ -85,6 +85,23 @@ TEST(LoopRunner, PeriodLogHoldsTheMeasuredPeriods) {
   for (std::size_t i = 0; i < 5; ++i) EXPECT_NEAR(log[i], expect[i], 1e-9) << i;
 }
 
+// The lateness beside each period (what `maglead bench modbus` reports per case).
+TEST(LoopRunner, CycleLogHoldsEachCyclesLateness) {
+  RunnerRig rig;
+  rig.loop.run_cycles(3);
+  rig.loop.begin_period_log();
+  rig.clock.wake_late(5, kPeriod / 4);
+  rig.clock.wake_late(6, kPeriod * 3 / 2);
+  rig.loop.run_cycles(5);
+  const auto log = rig.loop.end_cycle_log();
+  ASSERT_EQ(log.late_s.size(), 5u);
+  ASSERT_EQ(log.periods_s.size(), 5u);
+  // Cycles 7 and 8 woke a quarter and one and a half periods late; the others on time.
+  const double expect[] = {0.0, 0.0, 0.0, 0.25e-3, 1.5e-3};
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_NEAR(log.late_s[i], expect[i], 1e-9) << i;
+  EXPECT_EQ(rig.ctl.snapshot().overrun_count, 1u);
+}
+
 TEST(LoopRunner, RunCyclesIsRefusedWhileTheThreadRuns) {
   RunnerRig rig;
   rig.loop.start();

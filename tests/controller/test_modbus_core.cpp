@@ -6,12 +6,13 @@
 #include <cstring>
 #include <vector>
 
-#include "maglead/controller/modbus_core.hpp"
-#include "maglead/controller/modbus_rtu.hpp"
+#include "maglead/modbus/modbus_core.hpp"
+#include "maglead/modbus/modbus_rtu.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
 
 using namespace maglead;
 using namespace maglead::controller;
+using namespace maglead::modbus;
 namespace reg = maglead::registers;
 
 namespace {

@@ -5,9 +5,10 @@
 #include <cstdio>
 #include <fstream>
 
-#include "maglead/controller/network_config.hpp"
+#include "maglead/modbus/network_config.hpp"
 
 using namespace maglead::controller;
+using namespace maglead::modbus;
 
 namespace {
 

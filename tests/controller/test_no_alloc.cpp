@@ -1,7 +1,8 @@
 // The 1 kHz cycle allocates nothing: global operator new/delete are replaced in this test binary
 // and count while armed. Armed from the first cycle on, over thousands of cycles of the
-// controller, the simulated plant, the digital twin (TwinMonitorHook: CVODE and its look-ahead)
-// and the Modbus snapshot exchange (requests through ModbusCore, which posts commands to the
+// controller, the simulated plant, the digital twin (runtime::TwinRunner: the loop's push into
+// its queue and read of its results, and, drained on this thread between cycles, CVODE with its
+// look-ahead and the publication of results) and the Modbus snapshot exchange (requests through ModbusCore, which posts commands to the
 // loop's queue and reads its seqlock), through enable, position moves, force mode, a fault and
 // its reset. One allocation fails the test. Own executable: the replacement is process-wide.
 #include <gtest/gtest.h>
@@ -12,8 +13,8 @@
 #include <new>
 
 #include "maglead/controller/controller.hpp"
-#include "maglead/controller/modbus_core.hpp"
-#include "maglead/controller/twin_hook.hpp"
+#include "maglead/modbus/modbus_core.hpp"
+#include "maglead/runtime/twin_runner.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
 #include "maglead/twin/monitor.hpp"
 
@@ -78,6 +79,7 @@ void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); 
 
 using namespace maglead;
 using namespace maglead::controller;
+using namespace maglead::modbus;
 namespace reg = maglead::registers;
 
 namespace {
@@ -98,7 +100,7 @@ struct Rig {
   SimulatedActuator plant{paper_like_plant(), 11, 0.02};
   ControllerConfig cfg;
   std::unique_ptr<Controller> ctl;
-  std::unique_ptr<TwinMonitorHook> twin;
+  std::unique_ptr<runtime::TwinRunner> twin;
   std::unique_ptr<ModbusCore> core;
   double t_s = 0.0;
   // Request buffers: built before arming, the exchange itself must not allocate either.
@@ -126,12 +128,17 @@ struct Rig {
         tc.model.terms.push_back({"load_cell_delay", true, "", {{"delay_s", 0.002}}});
         tc.model.terms.push_back({"backlash", true, "", {{"backlash_rad", 0.01}}});
       }
-      twin = std::make_unique<TwinMonitorHook>(tc);
+      twin = std::make_unique<runtime::TwinRunner>(tc);
       ctl->attach_twin(twin.get());
     }
     core = std::make_unique<ModbusCore>(*ctl, ServerOptions{false, "test"});
   }
-  void cycle() { ctl->step(t_s += 1e-3); }
+  // The twin's work runs here, on this thread, so that the counter sees it deterministically; in
+  // service the twin thread does the same drain().
+  void cycle() {
+    ctl->step(t_s += 1e-3);
+    if (twin) twin->drain();
+  }
   std::size_t request(const std::uint8_t* pdu, std::size_t len) {
     return core->handle(ClientInfo{1, 0x7F000001, false}, pdu, len, out);
   }
@@ -175,7 +182,7 @@ TEST(NoAllocation, CounterSeesAnAllocation) {
 // A twin hook that allocates inside step(): the cycle test's harness must catch it.
 TEST(NoAllocation, AnAllocationInsideTheCycleIsCaught) {
   struct AllocatingTwin final : TwinHook {
-    void step(const TwinInputs&, TwinOutputs& out) noexcept override {
+    void step(const TwinSample&, TwinReport& out) noexcept override {
       auto* p = new (std::nothrow) double(1.0);
       out.pred_force_n = *p;
       delete p;
@@ -202,6 +209,7 @@ TEST(NoAllocation, ThousandsOfCyclesWithTwinAndModbusAllocateNothing) {
   std::uint64_t first_cycle = 0;  // the first cycle that allocated (0: none)
   std::uint16_t seen_states = 0;  // drive states visited (bit per state)
   std::uint16_t max_twin_healthy = 0;
+  bool lagged = false;  // drained every cycle, the twin is never behind
   Armed armed;
   constexpr int kCycles = 8000;
   for (int i = 1; i <= kCycles; ++i) {
@@ -233,6 +241,7 @@ TEST(NoAllocation, ThousandsOfCyclesWithTwinAndModbusAllocateNothing) {
     const Snapshot s = rig.ctl->snapshot();
     seen_states = static_cast<std::uint16_t>(seen_states | (1u << s.drive_state));
     max_twin_healthy = std::max<std::uint16_t>(max_twin_healthy, (s.status_word >> reg::kTwinHealthy) & 1u);
+    lagged = lagged || ((s.status_word >> reg::kTwinLagging) & 1u);
     if (first_cycle == 0 && armed.count() != before) first_cycle = static_cast<std::uint64_t>(i);
   }
   const std::uint64_t allocations = armed.count();
@@ -243,6 +252,8 @@ TEST(NoAllocation, ThousandsOfCyclesWithTwinAndModbusAllocateNothing) {
   EXPECT_EQ(s.cycle, static_cast<std::uint64_t>(kCycles));
   EXPECT_EQ(seen_states, (1u << 1) | (1u << 2) | (1u << 3)) << "ready, enabled and fault";
   EXPECT_EQ(max_twin_healthy, 1u) << "the twin ran";
+  EXPECT_FALSE(lagged);
+  EXPECT_EQ(s.twin.cycle + 1, s.cycle) << "results of the previous cycle, drained after it";
   EXPECT_EQ(s.drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
   EXPECT_EQ(s.active_mode, static_cast<std::uint16_t>(reg::Mode::position));
   EXPECT_NEAR(s.nut_pos_m, 0.022, 0.5e-3);

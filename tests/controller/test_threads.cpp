@@ -1,6 +1,6 @@
 // The threads of `maglead serve` together: the loop on LoopRunner's thread (real clock) with
-// the twin hook, the Modbus TCP server's network thread, and client threads (libmodbus) that
-// poll while one of them owns the drive and commands a move. Asserts what the clients see,
+// the twin on its own thread (runtime::TwinRunner), the Modbus TCP server's network thread, and
+// client threads (libmodbus) that poll while one of them owns the drive and commands a move. Asserts what the clients see,
 // nothing about time; its point is to run under ThreadSanitizer (label `threads`).
 #include <gtest/gtest.h>
 #include <modbus.h>
@@ -10,14 +10,15 @@
 #include <vector>
 
 #include "maglead/controller/loop_runner.hpp"
-#include "maglead/controller/modbus_core.hpp"
-#include "maglead/controller/modbus_tcp.hpp"
-#include "maglead/controller/twin_hook.hpp"
+#include "maglead/modbus/modbus_core.hpp"
+#include "maglead/modbus/modbus_tcp.hpp"
+#include "maglead/runtime/twin_runner.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
 #include "maglead/twin/monitor.hpp"
 
 using namespace maglead;
 using namespace maglead::controller;
+using namespace maglead::modbus;
 namespace reg = maglead::registers;
 
 namespace {
@@ -44,8 +45,9 @@ TEST(ServeThreads, LoopTwinNetworkAndClientsTogether) {
   tc.actuator = cfg.actuator;
   tc.calibration = cfg.calibration;
   tc.integrator.max_step_s = 1.0 / cfg.actuator.sample_rate_hz;
-  TwinMonitorHook twin(tc);
+  runtime::TwinRunner twin(tc);
   ctl.attach_twin(&twin);
+  twin.start();
   ModbusCore core(ctl, {false, "test"});
   TcpOptions opt;
   opt.port = 0;
@@ -103,4 +105,6 @@ TEST(ServeThreads, LoopTwinNetworkAndClientsTogether) {
   modbus_free(owner);
   server.stop();
   loop.stop();
+  twin.stop();
+  EXPECT_TRUE(ctl.snapshot().twin.cycle > 0) << "the twin thread published results";
 }

@@ -20,11 +20,12 @@
 #include <cstring>
 #include <memory>
 
-#include "maglead/controller/modbus_core.hpp"
+#include "maglead/modbus/modbus_core.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
 
 using namespace maglead;
 using namespace maglead::controller;
+using namespace maglead::modbus;
 namespace reg = maglead::registers;
 
 namespace {

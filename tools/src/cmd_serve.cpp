@@ -7,16 +7,8 @@
 #include <thread>
 
 #include "cli_common.hpp"
-#include "maglead/controller/controller.hpp"
-#include "maglead/controller/loop_runner.hpp"
-#include "maglead/controller/modbus_core.hpp"
-#include "maglead/controller/modbus_rtu.hpp"
-#include "maglead/controller/modbus_tcp.hpp"
-#include "maglead/controller/network_config.hpp"
-#include "maglead/controller/twin_hook.hpp"
-#include "maglead/physics/force_model.hpp"
-#include "maglead/plant/simulated_actuator.hpp"
-#include "maglead/twin/monitor.hpp"
+#include "maglead/modbus/network_config.hpp"
+#include "maglead/runtime/service.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -74,8 +66,8 @@ void add_serve(CLI::App& app) {
 
   cmd->callback([o] {
     const std::string net_path = o->network.empty() ? config_file(o->config, "network.toml") : o->network;
-    controller::NetworkConfig net;
-    if (!o->network.empty() || std::filesystem::exists(net_path)) net = controller::load_network_config(net_path);
+    modbus::NetworkConfig net;
+    if (!o->network.empty() || std::filesystem::exists(net_path)) net = modbus::load_network_config(net_path);
     if (!o->bind.empty()) net.tcp.bind_address = o->bind;
     if (o->port >= 0) net.tcp.port = o->port;
     if (o->unit >= 0) net.tcp.unit_id = static_cast<std::uint8_t>(o->unit);
@@ -97,7 +89,8 @@ void add_serve(CLI::App& app) {
       throw CLI::ValidationError("serve", "nothing to serve: TCP is off and no RTU device is given");
     const double duration_s = o->duration.empty() ? 0.0 : parse_duration_s(o->duration);
 
-    controller::ControllerConfig cfg;
+    runtime::ServiceConfig sc;
+    auto& cfg = sc.controller;
     cfg.actuator = load_actuator_or_default(o->config);
     cfg.calibration = load_calibration(o->calibration.empty() ? config_file(o->config, "calibration.toml")
                                                               : o->calibration);
@@ -110,55 +103,29 @@ void add_serve(CLI::App& app) {
     cfg.settle_s = reached.dwell_s;
     if (!(o->start_pos_m >= cfg.actuator.stroke_min_m && o->start_pos_m <= cfg.actuator.stroke_max_m))
       throw CLI::ValidationError("--sim-start", "must lie within the stroke");
-
-    PlantParams plant = paper_like_plant();
-    plant.actuator = cfg.actuator;
-    SimulatedActuator actuator(plant, o->seed, o->start_pos_m);
-    if (o->spring_n_per_m > 0) {
-      LoadSetting load;
-      load.kind = LoadSetting::Kind::spring_to_wall;
-      load.stiffness_n_per_m = o->spring_n_per_m;
-      load.damping_n_s_per_m = 5.0;
-      load.anchor_pos_m = o->spring_anchor_m;
-      actuator.set_load(load);
-    }
-    controller::Controller ctl(cfg, actuator);
-    std::unique_ptr<controller::TwinMonitorHook> twin_hook;
-    if (!o->no_twin) {
-      twin::TwinMonitorConfig twin_cfg = twin::load_monitor_config(o->config);
-      twin_cfg.actuator = cfg.actuator;  // the twin sees the same actuator and calibration
-      twin_cfg.calibration = cfg.calibration;
-      twin_cfg.integrator.max_step_s = 1.0 / cfg.actuator.sample_rate_hz;
-      twin_hook = std::make_unique<controller::TwinMonitorHook>(twin_cfg);
-      ctl.attach_twin(twin_hook.get());
-    }
-    controller::ModbusCore core(ctl, {net.read_only, "simulated actuator"});
-    std::unique_ptr<controller::TcpServer> tcp;
-    std::unique_ptr<controller::RtuServer> rtu;
-    if (net.tcp_enabled) tcp = std::make_unique<controller::TcpServer>(core, net.tcp);
-    if (!net.rtu.device.empty()) rtu = std::make_unique<controller::RtuServer>(core, net.rtu);
-    controller::LoopRunner loop(ctl);
-    loop.set_realtime(net.realtime);  // [runtime] realtime; "require" makes start() throw
+    sc.backend.simulated = {o->seed, o->spring_n_per_m, o->spring_anchor_m, o->start_pos_m};
+    sc.twin = !o->no_twin;
+    sc.twin_config_dir = o->config;
+    sc.network = net;
+    runtime::Service service(sc);  // "require" makes start() throw
 
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
-    loop.start();
-    if (!loop.realtime_grant().refused.empty())
-      std::printf("maglead serve: realtime \"try\": not granted: %s\n", loop.realtime_grant().refused.c_str());
-    if (tcp) tcp->start();
-    if (rtu) rtu->start();
+    service.start();
+    if (!service.refused().empty())
+      std::printf("maglead serve: realtime \"try\": not granted: %s\n", service.refused().c_str());
     std::printf("maglead serve: control loop %.0f Hz on the simulated actuator (%s), %s, %s\n",
                 cfg.actuator.sample_rate_hz,
                 o->spring_n_per_m > 0 ? ("spring " + std::to_string(static_cast<int>(o->spring_n_per_m)) + " N/m").c_str()
                                       : "free nut",
-                loop.realtime() ? "SCHED_FIFO" : "normal scheduling",
-                twin_hook ? "digital twin running" : "no twin");
+                service.loop().realtime() ? "SCHED_FIFO" : "normal scheduling",
+                service.twin() ? "digital twin running on its own thread" : "no twin");
     std::printf("maglead serve: configuration from %s\n",
                 std::filesystem::absolute(o->config).lexically_normal().string().c_str());
-    if (tcp)
-      std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(), tcp->port(),
+    if (service.tcp_port() >= 0)
+      std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(), service.tcp_port(),
                   net.tcp.unit_id, net.read_only ? ", read-only" : "");
-    if (rtu)
+    if (!net.rtu.device.empty())
       std::printf("maglead serve: Modbus RTU on %s, %d %d%c%d, unit %d%s\n", net.rtu.device.c_str(), net.rtu.baud,
                   net.rtu.data_bits, net.rtu.parity, net.rtu.stop_bits, net.rtu.unit_id,
                   net.read_only ? ", read-only" : "");
@@ -169,10 +136,8 @@ void add_serve(CLI::App& app) {
       if (duration_s > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= duration_s)
         break;
     }
-    if (tcp) tcp->stop();
-    if (rtu) rtu->stop();
-    loop.stop();
-    const auto snap = ctl.snapshot();
+    service.stop();
+    const auto snap = service.controller().snapshot();
     std::printf("maglead serve: stopped after %llu cycles, %llu overruns, latest start %.0f us late\n",
                 static_cast<unsigned long long>(snap.cycle), static_cast<unsigned long long>(snap.overrun_count),
                 snap.late_max_s * 1e6);

@@ -7,10 +7,11 @@
 #include <limits>
 
 #include "maglead/controller/detail/seqlock.hpp"
+#include "maglead/controller/ports/hardware.hpp"
+#include "maglead/controller/ports/twin_hook.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/estimator.hpp"
 #include "maglead/physics/force_model.hpp"
-#include "maglead/plant/hardware.hpp"
 #include "maglead/registers/registers.hpp"
 
 namespace maglead::controller {
@@ -48,50 +49,6 @@ struct ControllerConfig {
   FaultReactions reactions;
 };
 
-/// What the twin publishes each cycle; zero / false until a twin is attached.
-struct TwinOutputs {
-  double pred_nut_pos_m = 0.0;
-  double pred_force_n = 0.0;
-  double residual_pos_m = 0.0;
-  double residual_force_n = 0.0;
-  double dynamic_force_n = 0.0;
-  bool healthy = false;
-  bool drift_warning = false;
-  bool step_out_warning = false;
-  // Reason codes (twin::DriftReason, HealthReason, StepOutReason) and the coupling gain the drift
-  // warning is about (0 until estimated).
-  std::uint16_t drift_reason = 0, health_reason = 0, step_out_reason = 0;
-  double gain = 0.0, gain_stderr = 0.0, gain_reference = 0.0;
-};
-struct TwinInputs {
-  double t_s, screw_angle_rad, screw_cmd_rad, nut_pos_m, nut_vel_m_s, phase_rad, static_force_n;
-  double force_setpoint_n;  // NaN unless in force mode
-  double load_force_n;      // load cell, force on the nut from the load (NaN without one)
-};
-/// The twin's wiring point: step() is called once per control cycle on the loop thread, after
-/// the measurement and before supervision and control, and must not block or allocate;
-/// resync() at start-up and when a client re-synchronises after a step-out. Wiring
-/// twin::TwinMonitor is an adapter of a few lines, e.g.
-///   struct MonitorHook final : TwinHook {
-///     twin::TwinMonitor& m;
-///     void step(const TwinInputs& in, TwinOutputs& out) noexcept override {
-///       const auto o = m.step({in.t_s, in.screw_angle_rad, in.nut_pos_m, in.force_setpoint_n});
-///       out = {o.predicted_nut_pos_m, o.predicted_output_force_n, o.residual_pos_m,
-///              o.residual_force_n, o.dynamic_output_force_est_n, o.healthy, o.drift_warning,
-///              o.step_out_warning};
-///     }
-///     void resync(double t, double th, double p) noexcept override { m.reset(t, th, p); }
-///   };
-/// then controller.attach_twin(&hook) before the loop starts (cmd_serve.cpp).
-class TwinHook {
- public:
-  virtual ~TwinHook() = default;
-  virtual void step(const TwinInputs& in, TwinOutputs& out) noexcept = 0;
-  virtual void resync(double /*t_s*/, double /*screw_angle_rad*/, double /*nut_pos_m*/) noexcept {}
-  /// A fault_reset edge: clear the latched drift warning (the twin takes a new reference).
-  virtual void clear_warnings() noexcept {}
-};
-
 /// Everything a client can read, from one cycle.
 struct Snapshot {
   std::uint64_t cycle = 0;
@@ -101,7 +58,7 @@ struct Snapshot {
   double profile_pos_m = 0.0, active_force_setpoint_n = 0.0, active_target_pos_m = 0.0;
   double period_s = 0.0, late_max_s = 0.0;
   std::uint64_t overrun_count = 0;
-  TwinOutputs twin;
+  TwinReport twin;
   std::uint16_t status_word = 0, alarm_code = 0, step_out_count = 0, drive_state = 0;
   std::uint16_t active_mode = 0, command_status = 0, reject_reason = 0;
   std::uint16_t fault_reaction = 0;  // registers::Reaction

@@ -80,9 +80,15 @@ class LoopRunner {
   /// cycle and keeps running, so the network still reads the fault and a client can reset it.
   LoopStats stats() const noexcept;
 
-  /// Start logging cycle periods from the next cycle; end_period_log() returns them [s].
+  /// Start logging cycle periods and lateness from the next cycle; end_period_log() returns the
+  /// periods [s], end_cycle_log() both.
+  struct CycleLog {
+    std::vector<double> periods_s;  // start to start
+    std::vector<double> late_s;     // start after its deadline
+  };
   void begin_period_log();
-  std::vector<double> end_period_log();
+  std::vector<double> end_period_log() { return end_cycle_log().periods_s; }
+  CycleLog end_cycle_log();
 
  private:
   void run();
@@ -102,8 +108,8 @@ class LoopRunner {
   std::int64_t t0_ = 0, next_ = 0, last_start_ = 0;
   // Stats, written by the loop only.
   std::atomic<std::uint64_t> cycles_{0}, hw_errors_{0}, first_hw_error_{0}, skips_{0};
-  // Period log: the loop appends while logging_; log_count_ publishes the entries.
-  std::vector<float> log_;
+  // Period and lateness log: the loop appends while logging_; log_count_ publishes the entries.
+  std::vector<float> log_, late_log_;
   std::atomic<bool> logging_{false};
   std::atomic<std::size_t> log_count_{0};
 };

@@ -9,7 +9,7 @@
 
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
-#include "maglead/plant/hardware.hpp"
+#include "maglead/controller/ports/hardware.hpp"
 
 namespace maglead {
 

@@ -30,7 +30,7 @@ struct Register {
 /// Status word bits; also the discrete-input addresses.
 enum StatusBit : std::uint16_t {
   kReady = 0, kEnabled, kFault, kMoving, kInPosition, kForceReached, kStepOut, kDriftWarning,
-  kWatchdogExpired, kTwinHealthy, kStepOutWarning, kStopped, kOwned, kStrokeLimit,
+  kWatchdogExpired, kTwinHealthy, kStepOutWarning, kStopped, kOwned, kStrokeLimit, kTwinLagging,
 };
 /// Control word bits; also the coil addresses. enable/stop are levels, the rest act on edges.
 enum ControlBit : std::uint16_t { kEnable = 0, kStop, kFaultReset, kResync, kExecute };

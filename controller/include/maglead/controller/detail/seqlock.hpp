@@ -26,6 +26,20 @@ class SeqLock {
     seq_.store(s + 2, std::memory_order_release);
   }
 
+  /// One attempt, never waits: false (out untouched) while the writer is storing or if it
+  /// stored meanwhile. For a reader that must not wait on its writer (the loop reading the
+  /// twin's results).
+  bool try_load(T& out) const noexcept {
+    std::uint64_t buf[kWords];
+    const auto s0 = seq_.load(std::memory_order_acquire);
+    if (s0 & 1) return false;
+    for (std::size_t i = 0; i < kWords; ++i) buf[i] = words_[i].load(std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if (seq_.load(std::memory_order_relaxed) != s0) return false;
+    std::memcpy(&out, buf, sizeof(T));
+    return true;
+  }
+
   T load() const noexcept {
     std::uint64_t buf[kWords];
     for (;;) {

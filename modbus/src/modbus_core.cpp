@@ -1,4 +1,4 @@
-#include "maglead/controller/modbus_core.hpp"
+#include "maglead/modbus/modbus_core.hpp"
 
 #include <algorithm>
 #include <array>
@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string_view>
 
-namespace maglead::controller {
+namespace maglead::modbus {
 
 namespace reg = maglead::registers;
 
@@ -122,6 +122,7 @@ const ModbusCore::Binding kBindings[] = {
     {"stopped", nullptr, nullptr, nullptr},
     {"owned", nullptr, nullptr, nullptr},
     {"stroke_limit", nullptr, nullptr, nullptr},
+    {"twin_lagging", nullptr, nullptr, nullptr},
 };
 #undef SNAP
 #undef TWIN
@@ -526,4 +527,4 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
   }
 }
 
-}  // namespace maglead::controller
+}  // namespace maglead::modbus

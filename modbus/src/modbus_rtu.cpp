@@ -1,4 +1,4 @@
-#include "maglead/controller/modbus_rtu.hpp"
+#include "maglead/modbus/modbus_rtu.hpp"
 
 #include <modbus/modbus.h>
 #include <poll.h>
@@ -11,7 +11,7 @@
 #include <cstring>
 #include <stdexcept>
 
-namespace maglead::controller {
+namespace maglead::modbus {
 namespace {
 
 constexpr std::size_t kMaxRtuAdu = 256;
@@ -172,4 +172,4 @@ void RtuServer::run() {
   }
 }
 
-}  // namespace maglead::controller
+}  // namespace maglead::modbus

@@ -1,4 +1,4 @@
-#include "maglead/controller/modbus_tcp.hpp"
+#include "maglead/modbus/modbus_tcp.hpp"
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -16,7 +16,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
-namespace maglead::controller {
+namespace maglead::modbus {
 namespace {
 
 constexpr std::size_t kMbap = 7;
@@ -307,4 +307,4 @@ void TcpServer::run() {
   connections_.store(0);
 }
 
-}  // namespace maglead::controller
+}  // namespace maglead::modbus

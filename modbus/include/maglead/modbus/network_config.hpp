@@ -6,10 +6,10 @@
 
 #include "maglead/controller/controller.hpp"
 #include "maglead/controller/loop_runner.hpp"
-#include "maglead/controller/modbus_rtu.hpp"
-#include "maglead/controller/modbus_tcp.hpp"
+#include "maglead/modbus/modbus_rtu.hpp"
+#include "maglead/modbus/modbus_tcp.hpp"
 
-namespace maglead::controller {
+namespace maglead::modbus {
 
 struct NetworkConfig {
   bool tcp_enabled = true;
@@ -17,14 +17,14 @@ struct NetworkConfig {
   RtuOptions rtu;  // rtu.device empty: no RTU
   bool read_only = false;
   double watchdog_s = 0.0;
-  FaultReactions reactions;  // [fault_reaction]
-  RealtimePolicy realtime = RealtimePolicy::attempt;  // [runtime] realtime: "off" | "try" | "require"
+  controller::FaultReactions reactions;  // [fault_reaction]
+  controller::RealtimePolicy realtime = controller::RealtimePolicy::attempt;  // [runtime] realtime: "off" | "try" | "require"
 };
 
 /// Reads [tcp], [rtu], [server], [fault_reaction] and [runtime]; absent keys keep their defaults. Throws std::runtime_error
 /// naming the file and key on a malformed value or an unknown key.
 NetworkConfig load_network_config(const std::string& path);
 /// "mode_default", "release", "hold" or "disable"; nothing otherwise.
-std::optional<FaultReaction> parse_fault_reaction(std::string_view text);
+std::optional<controller::FaultReaction> parse_fault_reaction(std::string_view text);
 
-}  // namespace maglead::controller
+}  // namespace maglead::modbus

@@ -1,6 +1,7 @@
 #pragma once
-// The seam between the control loop and an actuator: the loop owns time and calls these two
-// narrow methods each cycle. The simulated plant and real drivers implement the same interface.
+// The hardware port: the seam between the control loop and an actuator. The loop owns time and
+// calls these two narrow methods each cycle. The controller owns this interface; the simulated
+// plant (plant/) and real drivers implement it, and runtime/ chooses one.
 #include <cstdint>
 
 namespace maglead {

@@ -10,7 +10,14 @@
 
 #include "maglead/controller/controller.hpp"
 
-namespace maglead::controller {
+namespace maglead::modbus {
+
+// The controller's snapshot exchange (one cycle's image out, commands in): all that Modbus
+// knows of the controller.
+using controller::Command;
+using controller::CommandImage;
+using controller::Controller;
+using controller::Snapshot;
 
 struct ServerOptions {
   bool read_only = false;       // every write is refused with exception 01
@@ -80,4 +87,4 @@ class ModbusCore {
                 no_response_ = 0, busy_ = 0;
 };
 
-}  // namespace maglead::controller
+}  // namespace maglead::modbus

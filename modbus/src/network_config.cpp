@@ -1,4 +1,4 @@
-#include "maglead/controller/network_config.hpp"
+#include "maglead/modbus/network_config.hpp"
 
 #include <optional>
 #include <set>
@@ -6,7 +6,10 @@
 
 #include "maglead/physics/toml_config.hpp"
 
-namespace maglead::controller {
+namespace maglead::modbus {
+
+using controller::FaultReaction;
+using controller::parse_realtime_policy;
 namespace {
 
 struct Reader {
@@ -137,4 +140,4 @@ NetworkConfig load_network_config(const std::string& path) {
   return c;
 }
 
-}  // namespace maglead::controller
+}  // namespace maglead::modbus

@@ -7,9 +7,9 @@
 #include <string>
 #include <thread>
 
-#include "maglead/controller/modbus_core.hpp"
+#include "maglead/modbus/modbus_core.hpp"
 
-namespace maglead::controller {
+namespace maglead::modbus {
 
 struct RtuOptions {
   std::string device;       // e.g. /dev/ttyUSB0, or a pty from socat
@@ -51,4 +51,4 @@ RtuTiming rtu_timing(int baud, int bits_per_char);
 /// Modbus CRC-16 (poly 0xA001, init 0xFFFF) as sent on the line (low byte first).
 std::uint16_t modbus_crc16(const std::uint8_t* data, std::size_t len);
 
-}  // namespace maglead::controller
+}  // namespace maglead::modbus

@@ -10,9 +10,9 @@
 #include <thread>
 #include <vector>
 
-#include "maglead/controller/modbus_core.hpp"
+#include "maglead/modbus/modbus_core.hpp"
 
-namespace maglead::controller {
+namespace maglead::modbus {
 
 struct TcpOptions {
   std::string bind_address = "127.0.0.1";
@@ -56,4 +56,4 @@ class TcpServer {
 /// Parses an allow-list entry; throws std::invalid_argument naming it.
 std::pair<std::uint32_t, std::uint32_t> parse_ipv4_cidr(const std::string& text);
 
-}  // namespace maglead::controller
+}  // namespace maglead::modbus
