@@ -117,19 +117,6 @@ std::string join(const std::vector<double>& v) {
   return s.str();
 }
 
-std::vector<double> read_array(const toml::table& t, const std::string& path, const char* key) {
-  const toml::array* arr = t[key].as_array();
-  if (!arr)
-    config::fail(path, t.get(key) ? t.get(key) : static_cast<const toml::node*>(&t),
-                 std::string("[calibration] ") + key + " missing or not an array");
-  std::vector<double> out;
-  for (const auto& el : *arr) {
-    auto v = el.value<double>();
-    if (!v || !std::isfinite(*v)) config::fail(path, &el, std::string("[calibration] ") + key + " holds a non-numeric value");
-    out.push_back(*v);
-  }
-  return out;
-}
 
 }  // namespace
 
@@ -152,20 +139,16 @@ void save_calibration(const std::string& path, const ForceCalibration& cal,
 
 ForceCalibration load_calibration(const std::string& path) {
   const toml::table root = config::parse_file(path);
-  const toml::table* t = root["calibration"].as_table();
-  if (!t) config::fail(path, root.get("calibration"), "missing [calibration] table");
+  const toml::table* t = config::section(path, root, "calibration", true);
   ForceCalibration cal;
   cal.source = (*t)["source"].value_or(std::string(path));
-  cal.polynomial.coeffs_ascending = read_array(*t, path, "polynomial_coeffs_ascending");
+  cal.polynomial.coeffs_ascending = config::read_numbers(path, *t, "[calibration]", "polynomial_coeffs_ascending");
   if (cal.polynomial.coeffs_ascending.size() < 2)
     config::fail(path, t->get("polynomial_coeffs_ascending"), "[calibration] polynomial needs order 1 or more");
-  auto mean = (*t)["periodic_mean_n"].value<double>();
-  if (!mean)
-    config::fail(path, t->get("periodic_mean_n") ? t->get("periodic_mean_n") : static_cast<const toml::node*>(t),
-                 "[calibration] periodic_mean_n missing or not a number");
-  cal.periodic.mean_n = *mean;
-  cal.periodic.cos_n = read_array(*t, path, "periodic_cos_n");
-  cal.periodic.sin_n = read_array(*t, path, "periodic_sin_n");
+  if (!config::read_number(path, *t, "[calibration]", "periodic_mean_n", cal.periodic.mean_n))
+    config::fail(path, t, "[calibration] periodic_mean_n missing");
+  cal.periodic.cos_n = config::read_numbers(path, *t, "[calibration]", "periodic_cos_n");
+  cal.periodic.sin_n = config::read_numbers(path, *t, "[calibration]", "periodic_sin_n");
   if (cal.periodic.cos_n.size() != cal.periodic.sin_n.size())
     config::fail(path, t->get("periodic_sin_n"), "[calibration] periodic_cos_n and periodic_sin_n differ in length");
   cal.derive_limits();

@@ -68,7 +68,7 @@ TEST(ModelFile, TyposAreErrorsNamingTheKeyAndWhereItIs) {
   EXPECT_NE(key.find("'mass_kg'"), std::string::npos) << key;
   EXPECT_NE(key.find("bad_key.toml:3:11:"), std::string::npos) << key;  // the value of mass_kg
   const std::string num = load_error(tmp("bad_num.toml"));
-  EXPECT_NE(num.find("bad_num.toml:4:15: [model] coulomb_n is not a number"), std::string::npos) << num;
+  EXPECT_NE(num.find("bad_num.toml:4:15: [model] coulomb_n must be a number"), std::string::npos) << num;
 }
 
 TEST(ModelFile, SyntaxErrorNamesLineAndColumn) {
