@@ -19,7 +19,7 @@ using namespace maglead;
 
 namespace {
 std::string write_file(const std::string& name, const std::string& text) {
-  const std::string path = test_tmp_dir() + "/" + name;
+  std::string path = test_tmp_dir() + "/" + name;
   std::ofstream(path) << text;
   return path;
 }

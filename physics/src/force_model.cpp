@@ -13,8 +13,7 @@ namespace maglead {
 
 double PolynomialForceModel::load_force_n(double phase_rad) const {
   double y = 0.0;
-  for (auto it = coeffs_ascending.rbegin(); it != coeffs_ascending.rend(); ++it)
-    y = y * phase_rad + *it;
+  for (std::size_t k = coeffs_ascending.size(); k-- > 0;) y = y * phase_rad + coeffs_ascending[k];
   return y;
 }
 
@@ -49,29 +48,29 @@ PeriodicForceModel PeriodicForceModel::fit(const std::vector<double>& phase_rad,
   if (phase_rad.size() != load_force_n.size() || phase_rad.size() < 2u * harmonics + 1)
     throw std::invalid_argument("periodic fit: too few samples");
   const Eigen::Index n = static_cast<Eigen::Index>(phase_rad.size());
-  const Eigen::Index cols = 1 + 2 * harmonics;
+  const Eigen::Index cols = 1 + 2 * static_cast<Eigen::Index>(harmonics);
   Eigen::MatrixXd a(n, cols);
   Eigen::VectorXd y(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     const double p = phase_rad[static_cast<std::size_t>(i)];
     a(i, 0) = 1.0;
-    for (int k = 1; k <= harmonics; ++k) {
-      a(i, 2 * k - 1) = std::cos(k * p);
-      a(i, 2 * k) = std::sin(k * p);
+    for (Eigen::Index k = 1; k <= harmonics; ++k) {
+      a(i, 2 * k - 1) = std::cos(static_cast<double>(k) * p);
+      a(i, 2 * k) = std::sin(static_cast<double>(k) * p);
     }
     y(i) = load_force_n[static_cast<std::size_t>(i)];
   }
   // Ridge grows with harmonic number: higher harmonics are what half a period cannot pin down.
   Eigen::MatrixXd ata = a.transpose() * a;
   const double scale = ata.trace() / static_cast<double>(cols);
-  for (int k = 1; k <= harmonics; ++k) {
-    ata(2 * k - 1, 2 * k - 1) += ridge * scale * k * k;
-    ata(2 * k, 2 * k) += ridge * scale * k * k;
+  for (Eigen::Index k = 1; k <= harmonics; ++k) {
+    ata(2 * k - 1, 2 * k - 1) += ridge * scale * static_cast<double>(k * k);
+    ata(2 * k, 2 * k) += ridge * scale * static_cast<double>(k * k);
   }
   const Eigen::VectorXd x = ata.ldlt().solve(a.transpose() * y);
   PeriodicForceModel m;
   m.mean_n = x(0);
-  for (int k = 1; k <= harmonics; ++k) {
+  for (Eigen::Index k = 1; k <= harmonics; ++k) {
     m.cos_n.push_back(x(2 * k - 1));
     m.sin_n.push_back(x(2 * k));
   }

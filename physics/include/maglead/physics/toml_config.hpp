@@ -4,13 +4,13 @@
 // files, calibrations): parse, find a section, refuse unknown keys, read numbers. Included by the
 // .cpp files that read them (they link toml++ themselves); each error names the key and what was
 // expected.
+#include <toml++/toml.h>
 #include <cmath>
 #include <filesystem>
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
 #include <string_view>
-#include <toml++/toml.h>
 #include <vector>
 
 namespace maglead::config {
@@ -23,14 +23,16 @@ inline std::string where(const std::string& path, const toml::source_region& r) 
 }
 
 /// Throws std::runtime_error "FILE:LINE:COLUMN: what" at the node (FILE:1:1 without one).
-[[noreturn]] inline void fail(const std::string& path, const toml::node* node, const std::string& what) {
+[[noreturn]] inline void fail(const std::string& path, const toml::node* node,
+                              const std::string& what) {
   throw std::runtime_error((node ? where(path, node->source()) : path + ":1:1") + ": " + what);
 }
 
 /// Parses a file; a syntax error names FILE:LINE:COLUMN and what toml++ found wrong.
 inline toml::table parse_file(const std::string& path) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throw std::runtime_error(path + ": no such file");
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw std::runtime_error(path + ": no such file");
   try {
     return toml::parse_file(path);
   } catch (const toml::parse_error& e) {
@@ -81,7 +83,8 @@ bool read_number(const std::string& path, const toml::table& t, const std::strin
 /// Any finite number.
 inline bool read_number(const std::string& path, const toml::table& t, const std::string& label,
                         const char* key, double& out) {
-  return read_number(path, t, label, key, out, [](double v) { return std::isfinite(v); }, "a number");
+  return read_number(
+      path, t, label, key, out, [](double v) { return std::isfinite(v); }, "a number");
 }
 
 /// The array t[key] of finite numbers (required): "LABEL key missing or not an array", "LABEL key
