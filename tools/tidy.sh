@@ -3,12 +3,27 @@
 # build/ (the release preset; configured here if missing). Every finding is an error. The fuzz
 # targets are not in build/ (they need clang's -fsanitize=fuzzer) and are not checked.
 #   tools/tidy.sh              every source of the project (2 jobs, or MAGLEAD_TIDY_JOBS)
+#   tools/tidy.sh --since REV  the sources changed since REV; a changed header brings in every
+#                              source of its top-level module (a quick check before a push)
 #   tools/tidy.sh REGEX...     only the files whose path matches one of the regexes
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 [ -f build/compile_commands.json ] || cmake --preset release >/dev/null
-if (($#)); then
+if [ "${1:-}" = --since ]; then
+  filters=()
+  while read -r f; do
+    case $f in
+      tests/fuzz/*) ;;
+      *.cpp) filters+=("^$root/$f\$") ;;
+      *.hpp) filters+=("^$root/${f%%/*}/") ;;
+    esac
+  done < <(git diff --name-only "${2:?--since needs a revision}" -- '*.cpp' '*.hpp')
+  if ((${#filters[@]} == 0)); then
+    echo "tidy: no C++ source changed since $2"
+    exit 0
+  fi
+elif (($#)); then
   filters=("$@")
 else
   # The project's own directories; not build trees, not tests/fuzz.
