@@ -146,7 +146,7 @@ std::vector<PlantTruth> run(SimulatedActuator& plant, double duration_s,
 }
 
 // Piecewise-linear nut target through waypoints at `speed`, pausing `pause_s` at each.
-std::function<double(double)> path(std::vector<double> points, double speed, double pause_s,
+std::function<double(double)> path(const std::vector<double>& points, double speed, double pause_s,
                                    double t0 = 0.0) {
   return [=](double t) {
     double tt = t - t0, at = points.front();

@@ -8,15 +8,18 @@
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
+#include <limits>
+#include <vector>
 #include <random>
 
+#include "maglead/recording/error_stats.hpp"
 #include "maglead/recording/recording.hpp"
 
 using namespace maglead;
 
 namespace {
 std::string write_file(const std::string& name, const std::string& text) {
-  const std::string path = test_tmp_dir() + "/" + name;
+  std::string path = test_tmp_dir() + "/" + name;
   std::ofstream(path) << text;
   return path;
 }
@@ -316,4 +319,21 @@ TEST(Recording, LinesLongerThanTheReadBlock) {
   EXPECT_EQ(r.meta("note"), note);
   ASSERT_EQ(r.rows(), 2u);
   EXPECT_EQ(r.column("t_s")[1], 1.0);
+}
+
+// The one error-statistics helper: exact values on a small hand-checked signal.
+TEST(ErrorStats, MeanAbsRmsMaxAndPercentileSkipGaps) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<double> e{3.0, -4.0, nan, 0.0};
+  const maglead::ErrorStats s = maglead::error_stats(e);
+  EXPECT_EQ(s.samples, 3u);
+  EXPECT_DOUBLE_EQ(s.mean_abs, 7.0 / 3.0);
+  EXPECT_DOUBLE_EQ(s.rms, std::sqrt(25.0 / 3.0));
+  EXPECT_DOUBLE_EQ(s.max_abs, 4.0);
+  const std::vector<double> est{1.0, 2.0}, ref{1.5, 2.0, 9.0};
+  EXPECT_DOUBLE_EQ(maglead::error_stats(est, ref).max_abs, 0.5);
+  EXPECT_TRUE(std::isnan(maglead::error_stats(std::vector<double>{nan}).rms));
+  EXPECT_DOUBLE_EQ(maglead::percentile({5, 1, nan, 4, 2, 3}, 0.5), 3.0);
+  EXPECT_DOUBLE_EQ(maglead::percentile({5, 1, 4, 2, 3}, 1.0), 5.0);
+  EXPECT_TRUE(std::isnan(maglead::percentile({}, 0.5)));
 }

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Configures and builds maglead into build/ (or $1 with extra CMake arguments after it).
+# Configures and builds maglead with a preset of CMakePresets.json (default: release, in build/):
+# `tools/build.sh asan-ubsan`. A build preset that names targets builds only those.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-dir=${1:-build}
-shift || true
-cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMAGLEAD_WERROR=ON "$@" >/dev/null
-cmake --build "$dir" -j "$(nproc)"
+preset=${1:-release}
+cmake --preset "$preset" >/dev/null
+cmake --build --preset "$preset" -j "$(nproc)"

@@ -1,15 +1,15 @@
 #!/usr/bin/env bash
-# Fuzzing: builds the libFuzzer targets of tests/fuzz (clang++, ASan/UBSan, MAGLEAD_FUZZ=ON) in
-# build-fuzz and runs each from its seed corpus for a bounded time (MAGLEAD_FUZZ_SECONDS in all,
-# default 60). Exits non-zero on a crash, a sanitizer report or a failed oracle; the input that
+# Fuzzing: builds the libFuzzer targets of tests/fuzz with the preset fuzz (clang++, ASan/UBSan,
+# MAGLEAD_FUZZ=ON, in build-fuzz) and runs each from its seed corpus for a bounded time
+# (MAGLEAD_FUZZ_SECONDS in all, default 60). Exits non-zero on a crash, a sanitizer report or a failed oracle; the input that
 # did it is in build-fuzz/crashes/ (replay: build-fuzz/bin/TARGET FILE).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 total_s=${MAGLEAD_FUZZ_SECONDS:-60}
-# target:corpus (tests/fuzz/corpus/CORPUS holds the seeds)
+# target:corpus (tests/fuzz/corpus/CORPUS holds the seeds): the one list of fuzz targets
 targets=(fuzz_modbus_core:core)
-CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMAGLEAD_FUZZ=ON >/dev/null
-cmake --build build-fuzz -j "${MAGLEAD_FUZZ_JOBS:-$(nproc)}" --target "${targets[@]%%:*}"
+cmake --preset fuzz >/dev/null  # clang++, MAGLEAD_FUZZ=ON, in build-fuzz/
+cmake --build --preset fuzz -j "${MAGLEAD_FUZZ_JOBS:-$(nproc)}" --target "${targets[@]%%:*}"
 per_s=$((total_s / ${#targets[@]}))
 ((per_s > 0)) || per_s=1
 for t in "${targets[@]}"; do

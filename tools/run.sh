@@ -3,5 +3,5 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/setup.sh
-bash tools/build.sh build
+bash tools/build.sh release
 exec build/bin/maglead serve "$@"

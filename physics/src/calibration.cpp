@@ -24,7 +24,7 @@ CalibrationResult calibrate_static_force(const std::vector<double>& phase_rad,
     hi = std::max(hi, phase_rad[i]);
   }
   const int max_order = *std::max_element(options.orders.begin(), options.orders.end());
-  if (used.size() < static_cast<std::size_t>(10 * (max_order + 2)))
+  if (used.size() < 10 * static_cast<std::size_t>(max_order + 2))
     throw std::invalid_argument("calibration: only " + std::to_string(used.size()) +
                                 " moving samples; move the nut through the stable range");
   if (hi - lo < 1.0)

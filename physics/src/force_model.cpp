@@ -13,8 +13,7 @@ namespace maglead {
 
 double PolynomialForceModel::load_force_n(double phase_rad) const {
   double y = 0.0;
-  for (auto it = coeffs_ascending.rbegin(); it != coeffs_ascending.rend(); ++it)
-    y = y * phase_rad + *it;
+  for (std::size_t k = coeffs_ascending.size(); k-- > 0;) y = y * phase_rad + coeffs_ascending[k];
   return y;
 }
 
@@ -49,29 +48,29 @@ PeriodicForceModel PeriodicForceModel::fit(const std::vector<double>& phase_rad,
   if (phase_rad.size() != load_force_n.size() || phase_rad.size() < 2u * harmonics + 1)
     throw std::invalid_argument("periodic fit: too few samples");
   const Eigen::Index n = static_cast<Eigen::Index>(phase_rad.size());
-  const Eigen::Index cols = 1 + 2 * harmonics;
+  const Eigen::Index cols = 1 + 2 * static_cast<Eigen::Index>(harmonics);
   Eigen::MatrixXd a(n, cols);
   Eigen::VectorXd y(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     const double p = phase_rad[static_cast<std::size_t>(i)];
     a(i, 0) = 1.0;
-    for (int k = 1; k <= harmonics; ++k) {
-      a(i, 2 * k - 1) = std::cos(k * p);
-      a(i, 2 * k) = std::sin(k * p);
+    for (Eigen::Index k = 1; k <= harmonics; ++k) {
+      a(i, 2 * k - 1) = std::cos(static_cast<double>(k) * p);
+      a(i, 2 * k) = std::sin(static_cast<double>(k) * p);
     }
     y(i) = load_force_n[static_cast<std::size_t>(i)];
   }
   // Ridge grows with harmonic number: higher harmonics are what half a period cannot pin down.
   Eigen::MatrixXd ata = a.transpose() * a;
   const double scale = ata.trace() / static_cast<double>(cols);
-  for (int k = 1; k <= harmonics; ++k) {
-    ata(2 * k - 1, 2 * k - 1) += ridge * scale * k * k;
-    ata(2 * k, 2 * k) += ridge * scale * k * k;
+  for (Eigen::Index k = 1; k <= harmonics; ++k) {
+    ata(2 * k - 1, 2 * k - 1) += ridge * scale * static_cast<double>(k * k);
+    ata(2 * k, 2 * k) += ridge * scale * static_cast<double>(k * k);
   }
   const Eigen::VectorXd x = ata.ldlt().solve(a.transpose() * y);
   PeriodicForceModel m;
   m.mean_n = x(0);
-  for (int k = 1; k <= harmonics; ++k) {
+  for (Eigen::Index k = 1; k <= harmonics; ++k) {
     m.cos_n.push_back(x(2 * k - 1));
     m.sin_n.push_back(x(2 * k));
   }
@@ -117,19 +116,6 @@ std::string join(const std::vector<double>& v) {
   return s.str();
 }
 
-std::vector<double> read_array(const toml::table& t, const std::string& path, const char* key) {
-  const toml::array* arr = t[key].as_array();
-  if (!arr)
-    config::fail(path, t.get(key) ? t.get(key) : static_cast<const toml::node*>(&t),
-                 std::string("[calibration] ") + key + " missing or not an array");
-  std::vector<double> out;
-  for (const auto& el : *arr) {
-    auto v = el.value<double>();
-    if (!v || !std::isfinite(*v)) config::fail(path, &el, std::string("[calibration] ") + key + " holds a non-numeric value");
-    out.push_back(*v);
-  }
-  return out;
-}
 
 }  // namespace
 
@@ -152,20 +138,16 @@ void save_calibration(const std::string& path, const ForceCalibration& cal,
 
 ForceCalibration load_calibration(const std::string& path) {
   const toml::table root = config::parse_file(path);
-  const toml::table* t = root["calibration"].as_table();
-  if (!t) config::fail(path, root.get("calibration"), "missing [calibration] table");
+  const toml::table* t = config::section(path, root, "calibration", true);
   ForceCalibration cal;
   cal.source = (*t)["source"].value_or(std::string(path));
-  cal.polynomial.coeffs_ascending = read_array(*t, path, "polynomial_coeffs_ascending");
+  cal.polynomial.coeffs_ascending = config::read_numbers(path, *t, "[calibration]", "polynomial_coeffs_ascending");
   if (cal.polynomial.coeffs_ascending.size() < 2)
     config::fail(path, t->get("polynomial_coeffs_ascending"), "[calibration] polynomial needs order 1 or more");
-  auto mean = (*t)["periodic_mean_n"].value<double>();
-  if (!mean)
-    config::fail(path, t->get("periodic_mean_n") ? t->get("periodic_mean_n") : static_cast<const toml::node*>(t),
-                 "[calibration] periodic_mean_n missing or not a number");
-  cal.periodic.mean_n = *mean;
-  cal.periodic.cos_n = read_array(*t, path, "periodic_cos_n");
-  cal.periodic.sin_n = read_array(*t, path, "periodic_sin_n");
+  if (!config::read_number(path, *t, "[calibration]", "periodic_mean_n", cal.periodic.mean_n))
+    config::fail(path, t, "[calibration] periodic_mean_n missing");
+  cal.periodic.cos_n = config::read_numbers(path, *t, "[calibration]", "periodic_cos_n");
+  cal.periodic.sin_n = config::read_numbers(path, *t, "[calibration]", "periodic_sin_n");
   if (cal.periodic.cos_n.size() != cal.periodic.sin_n.size())
     config::fail(path, t->get("periodic_sin_n"), "[calibration] periodic_cos_n and periodic_sin_n differ in length");
   cal.derive_limits();

@@ -1,6 +1,6 @@
 #include "maglead/recording/recording.hpp"
 
-#include <string.h>  // memrchr
+#include <string.h>  // NOLINT(modernize-deprecated-headers): memrchr is GNU, not in <cstring>
 
 #include <algorithm>
 #include <charconv>

@@ -383,7 +383,24 @@ TEST(GeneratedSuite, ExternalDisturbancePulsesAreEvents) {
   const auto g = run("position-moves", 60.0, {{"external_disturbance", 8.0}});
   ASSERT_GE(g.truth.disturbance_times_s.size(), 2u) << "the seed must give pulses in the run";
   expect_found(g.result, "external_disturbance", "position-moves", {}, false);
-  // Every event reported is a true pulse, at its time, with its force (the filtered peak: 25 %).
+  // The force reported is the peak of the residual, which the analysis low-passes (4th-order
+  // Butterworth at 20 Hz, zero phase) and keeps every `decimation`-th sample of. The plant's
+  // pulse is 8 N for 50 ms; the same filter makes it a peak of `hi` (its overshoot included),
+  // and a sample grid can miss the top by up to half a step: `lo`. Around that, what the
+  // corrected model leaves unexplained: three times its held-out RMS (the measure the suite's
+  // coefficient tolerances use; a pulse near a stick or reversal rides on friction misfit).
+  const double fs_hz = 1000.0, pulse_n = 8.0, pulse_s = 0.050;
+  const int decim = g.result.json["method"]["decimation"].get<int>();
+  std::vector<double> pulse(1000, 0.0);
+  for (std::size_t k = 400; k < 400 + static_cast<std::size_t>(pulse_s * fs_hz); ++k) pulse[k] = pulse_n;
+  const auto filtered = maglead::analysis::filtfilt_butter4(pulse, 20.0, fs_hz);
+  const auto top = std::max_element(filtered.begin(), filtered.end());
+  const double hi = *top;
+  const double lo = std::min(*(top - decim / 2), *(top + decim / 2));
+  const double noise = 3.0 * heldout_after(g.result);
+  std::printf("pulse of %.1f N seen as %.2f .. %.2f N, +/- %.2f N unexplained\n", pulse_n, lo, hi,
+              noise);
+  // Every event reported is a true pulse, at its time, with its force.
   // A pulse that comes while the nut sticks is taken up by static friction and leaves no trace
   // in the force balance, so not every pulse need be seen; most must.
   std::size_t seen = 0;
@@ -394,7 +411,10 @@ TEST(GeneratedSuite, ExternalDisturbancePulsesAreEvents) {
     EXPECT_TRUE(std::any_of(g.truth.disturbance_times_s.begin(), g.truth.disturbance_times_s.end(),
                             [&](double p) { return std::abs(p - t) < 0.05; }))
         << "event at " << t << " s is no pulse";
-    EXPECT_NEAR(e.value("force_n", 0.0), 8.0, 2.0) << "at " << t;
+    const double f = e.value("force_n", 0.0);
+    std::printf("  event at %.3f s: %.2f N\n", t, f);
+    EXPECT_GE(f, lo - noise) << "at " << t;
+    EXPECT_LE(f, hi + noise) << "at " << t;
   }
   EXPECT_GE(2 * seen, g.truth.disturbance_times_s.size() + 1) << "most pulses reported";
 }

@@ -250,13 +250,15 @@ TEST(Controller, StepOutLatchesAFaultStopsForceAndNeedsResyncThenReset) {
   EXPECT_EQ(s.step_out_count, 1);  // counted once
   // Force is no longer commanded: the screw was parked at a rest angle of the nut's lead.
   EXPECT_LT(std::abs(std::remainder(s.phase_rad, 2.0 * std::numbers::pi)), 0.5);
+  // The nut slipped at least one lead: parked at a rest angle, φ is a whole number of turns off
+  // the stable branch (within the 0.5 rad checked above), so |φ| >= 2π − 0.5.
+  ASSERT_GE(std::abs(s.phase_rad), 2.0 * std::numbers::pi - 0.5) << "the nut did not slip a lead";
   // Reset alone is refused while φ is off the stable branch; resync then reset clears it.
-  if (std::abs(s.phase_rad) > 2.0) {
-    rig.control(bit(reg::kFaultReset));
-    EXPECT_TRUE(rig.cmd(reg::kRejected));
-    EXPECT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::still_faulty));
-    rig.control(0);
-  }
+  rig.control(bit(reg::kFaultReset));
+  EXPECT_TRUE(rig.cmd(reg::kRejected));
+  EXPECT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::still_faulty));
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::fault));
+  rig.control(0);
   rig.control(bit(reg::kResync));
   EXPECT_TRUE(rig.cmd(reg::kResyncDone));
   EXPECT_LT(std::abs(rig.snap().phase_rad), 1.0);

@@ -18,6 +18,7 @@ TEST(OperatorClient, ParsesQuantitiesWithUnits) {
   EXPECT_THROW(op::parse_quantity("nan", "N"), op::ClientError);
   try {
     op::parse_quantity("3 furlongs", "m");
+    ADD_FAILURE() << "3 furlongs accepted as a length";
   } catch (const op::ClientError& e) {
     EXPECT_EQ(e.kind(), op::ClientError::Kind::refused_locally);
     EXPECT_EQ(e.exit_code(), 2);

@@ -1,6 +1,9 @@
 // The model file: the format the analysis tool writes back must load into the twin.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <cstdlib>
 #include <fstream>
 #include <stdexcept>
 
@@ -65,7 +68,7 @@ TEST(ModelFile, TyposAreErrorsNamingTheKeyAndWhereItIs) {
   EXPECT_NE(key.find("'mass_kg'"), std::string::npos) << key;
   EXPECT_NE(key.find("bad_key.toml:3:11:"), std::string::npos) << key;  // the value of mass_kg
   const std::string num = load_error(tmp("bad_num.toml"));
-  EXPECT_NE(num.find("bad_num.toml:4:15: [model] coulomb_n is not a number"), std::string::npos) << num;
+  EXPECT_NE(num.find("bad_num.toml:4:15: [model] coulomb_n must be a number"), std::string::npos) << num;
 }
 
 TEST(ModelFile, SyntaxErrorNamesLineAndColumn) {
@@ -86,6 +89,36 @@ TEST(ModelFile, FormatLineIsRequired) {
   // What save_twin_model writes carries it.
   save_twin_model(tmp("saved.toml"), TwinModel{});
   EXPECT_NO_THROW(check_model_format(tmp("saved.toml")));
+}
+
+// What `maglead analyze` writes (simulate, analyze, load: the commands a user runs) is what the
+// twin reads: the fitted term comes back with its value and changes the twin's dynamics.
+TEST(ModelFile, TheAnalysisWritesWhatTheTwinReads) {
+  const std::string dir = tmp("analyzed_" + std::to_string(::getpid()));
+  const std::string bin = MAGLEAD_BIN, cfg = MAGLEAD_CONFIG_DIR;
+  const double offset_n = 3.0;
+  const std::string sim = bin + " simulate --scenario hand-push --duration 20s --seed 3" +
+                          " --effect offset=" + std::to_string(offset_n) + " --config " + cfg +
+                          " --out " + dir + ".csv > /dev/null";
+  ASSERT_EQ(std::system(sim.c_str()), 0) << sim;
+  const std::string an = bin + " analyze --recording " + dir + ".csv --out " + dir +
+                         " --config " + cfg + " > /dev/null";
+  ASSERT_EQ(std::system(an.c_str()), 0) << an;
+  const TwinModel m = load_twin_model(dir + "/model_corrected.toml");
+  const ModelTerm* found = nullptr;
+  for (const auto& t : m.terms)
+    if (t.id == "offset" && t.enabled) found = &t;
+  ASSERT_NE(found, nullptr) << "the analysis wrote no enabled offset term";
+  // The offset is a mean over thousands of sliding samples; the load cell's noise (0.1 N, one
+  // sample's standard deviation) bounds its error with a wide margin.
+  EXPECT_NEAR(found->get("offset_n", 0.0), offset_n, 0.1);
+  EXPECT_NE(m.source.find(".csv"), std::string::npos) << m.source;  // it says what it came from
+  const ActuatorParams act;
+  const NutModel base(act, paper_calibration().periodic, TwinModel{});
+  const NutModel read(act, paper_calibration().periodic, m);
+  const double screw = rest_angle_rad(0.02, act.lead_m);
+  EXPECT_NEAR(read.drive_force_n(0, screw, 0.02, 0, 0) - base.drive_force_n(0, screw, 0.02, 0, 0),
+              found->get("offset_n", 0.0), 1e-9);
 }
 
 TEST(ModelFile, TermsChangeTheDynamics) {

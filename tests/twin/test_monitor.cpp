@@ -116,6 +116,19 @@ TEST(TwinMonitor, MagnetGainDriftIsDetected) {
   EXPECT_NE(drift_message(o).find("coupling gain fell from"), std::string::npos);
   // A warning is not raised before the gain changed by the physical minimum.
   EXPECT_LT(g_true, 1.0 - test_config().drift_min_change);
+  // Nor long after. The plant's gain leaves the detector's resolution (drift_min_change of the
+  // reference gain) at t_cross; the warning then needs drift_sustain_s, and the forgetting
+  // least-squares estimate of a ramp lags by its time constant drift_memory_s, counted in
+  // excitation-rich time: one τ for the lag, one more for force-steps' quiet stretches
+  // (measured: 8.8 s after t_cross, against 10 s allowed).
+  const auto cfg = test_config();
+  const double rate_per_s = 0.05 / 60.0;
+  const double g_ref_true = 1.0 - rate_per_s * o.drift_reference_t_s;
+  const double t_cross = o.drift_reference_t_s + cfg.drift_min_change * g_ref_true / rate_per_s;
+  const double t_limit = t_cross + cfg.drift_sustain_s + 2.0 * cfg.drift_memory_s;
+  std::printf("  reference at %.1f s, plant gain 3 %% below it at %.1f s; warning due by %.1f s\n",
+              o.drift_reference_t_s, t_cross, t_limit);
+  EXPECT_LE(r.first_drift_s, t_limit) << "the drift was seen too late";
 }
 
 // Constant effects the baseline model lacks (of the size found on the bench) must be taken up by

@@ -1,7 +1,7 @@
 #pragma once
 // The `bench` parent subcommand, shared by every `maglead bench NAME`: whichever registers first
 // creates it, the others find it. And what every benchmark times with.
-#include <time.h>
+#include <time.h>  // NOLINT(modernize-deprecated-headers): POSIX clock_gettime
 
 #include <CLI/CLI.hpp>
 

@@ -162,10 +162,10 @@ void load_reached_settings(const std::string& config_dir, ReachedSettings& r) {
   const std::string path = config_file(config_dir, "actuator.toml");
   if (!std::filesystem::exists(path)) return;
   const toml::table root = config::parse_file(path);
-  const toml::node* node = root.get("control");
-  if (!node) return;
-  const toml::table* t = node->as_table();
-  if (!t) config::fail(path, node, "[control] must be a table");
+  const toml::table* t = config::section(path, root, "control");
+  if (!t) return;
+  config::check_keys(path, *t, "[control]",
+                     {"force_reached_tolerance_n", "in_position_tolerance_m", "reached_dwell_s"});
   const struct {
     const char* key;
     double* out;
@@ -173,23 +173,11 @@ void load_reached_settings(const std::string& config_dir, ReachedSettings& r) {
   } keys[] = {{"force_reached_tolerance_n", &r.force_tolerance_n, 0.0, 100.0},
               {"in_position_tolerance_m", &r.position_tolerance_m, 0.0, 0.01},
               {"reached_dwell_s", &r.dwell_s, 0.0, 60.0}};
-  for (const auto& [k, v] : *t) {
-    bool known = false;
-    for (const auto& key : keys) known = known || k.str() == key.key;
-    if (!known)
-      config::fail(path, &v, "[control] unknown key '" + std::string(k.str()) +
-                                 "' (force_reached_tolerance_n, in_position_tolerance_m, reached_dwell_s)");
-  }
   for (const auto& key : keys) {
-    const toml::node* n = t->get(key.key);
-    if (!n) continue;
-    const auto v = n->value<double>();
-    if (!v || !(*v >= key.lo && *v <= key.hi)) {
-      char b[160];
-      std::snprintf(b, sizeof b, "[control] %s must be a number in %g .. %g", key.key, key.lo, key.hi);
-      config::fail(path, n, b);
-    }
-    *key.out = *v;
+    char range[64];
+    std::snprintf(range, sizeof range, "a number in %g .. %g", key.lo, key.hi);
+    config::read_number(path, *t, "[control]", key.key, *key.out,
+                        [&](double v) { return v >= key.lo && v <= key.hi; }, range);
   }
 }
 

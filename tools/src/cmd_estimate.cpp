@@ -6,32 +6,12 @@
 
 #include "cli_common.hpp"
 #include "maglead/physics/estimator.hpp"
+#include "maglead/recording/error_stats.hpp"
 #include "maglead/report/plot.hpp"
 #include "maglead/twin/monitor.hpp"
 
 namespace maglead::cli {
 namespace {
-
-struct ErrorStats {
-  double mean_abs_n = 0, rms_n = 0, max_abs_n = 0;
-  std::size_t samples = 0;
-};
-
-ErrorStats error_stats(const std::vector<double>& err) {
-  ErrorStats s;
-  for (double e : err) {
-    if (!std::isfinite(e)) continue;
-    s.mean_abs_n += std::abs(e);
-    s.rms_n += e * e;
-    s.max_abs_n = std::max(s.max_abs_n, std::abs(e));
-    ++s.samples;
-  }
-  if (s.samples) {
-    s.mean_abs_n /= static_cast<double>(s.samples);
-    s.rms_n = std::sqrt(s.rms_n / static_cast<double>(s.samples));
-  }
-  return s;
-}
 
 void add_estimate(CLI::App& app) {
   auto* cmd = app.add_subcommand(
@@ -103,9 +83,9 @@ void add_estimate(CLI::App& app) {
     const ErrorStats s = error_stats(error);
     std::printf("force estimate (%s) against load cell, %s, %zu samples\n", o->estimator.c_str(),
                 o->recording.c_str(), s.samples);
-    std::printf("  mean absolute error  %6.2f N   (paper, static estimate: 2.3 N)\n", s.mean_abs_n);
-    std::printf("  RMS error            %6.2f N\n", s.rms_n);
-    std::printf("  max absolute error   %6.2f N\n", s.max_abs_n);
+    std::printf("  mean absolute error  %6.2f N   (paper, static estimate: 2.3 N)\n", s.mean_abs);
+    std::printf("  RMS error            %6.2f N\n", s.rms);
+    std::printf("  max absolute error   %6.2f N\n", s.max_abs);
 
     std::string png = o->plot;
     if (png.empty()) {
@@ -121,7 +101,7 @@ void add_estimate(CLI::App& app) {
         png, {{"(a) Output force: estimate against load cell", "time [s]", "force [N]",
                {{"load cell", t, measured}, {o->estimator + " estimate", t, estimate}}},
               {"(b) Estimation error (estimate - load cell), mean |e| " +
-                   std::to_string(s.mean_abs_n).substr(0, 4) + " N",
+                   std::to_string(s.mean_abs).substr(0, 4) + " N",
                "time [s]", "error [N]", {{"error", t, error}}},
               {"(c) Nut position and screw angle (as lead travel)", "time [s]", "[mm]",
                {{"nut position", t, pos_mm}, {"screw angle x L/2pi", t, screw_mm}}}});

@@ -90,16 +90,8 @@ void check_model_format(const std::string& path) {
 TwinModel load_twin_model(const std::string& path) {
   check_model_format(path);
   const toml::table root = config::parse_file(path);
-  const toml::table* mt = root["model"].as_table();
-  if (!mt) config::fail(path, root.get("model"), "missing [model] table");
+  const toml::table* mt = config::section(path, root, "model", true);
   TwinModel m;
-  const auto num = [&](const toml::table& t, const char* key, double& out, const std::string& where) {
-    const toml::node* n = t.get(key);
-    if (!n) return;
-    const auto v = n->value<double>();
-    if (!v) config::fail(path, n, where + " " + key + " is not a number");
-    out = *v;
-  };
   m.source = (*mt)["source"].value_or(std::string(path));
   m.system = (*mt)["system"].value_or(std::string("actuator"));
   if (const toml::node* f = mt->get("fit")) {
@@ -107,15 +99,11 @@ TwinModel load_twin_model(const std::string& path) {
     if (!arr) config::fail(path, f, "[model] fit must be a list of key names");
     for (const auto& e : *arr) m.fit.insert(e.value_or(std::string("?")));
   }
-  num(*mt, "nut_mass_kg", m.nut_mass_kg, "[model]");
-  num(*mt, "viscous_n_s_per_m", m.viscous_n_s_per_m, "[model]");
-  num(*mt, "coulomb_n", m.coulomb_n, "[model]");
-  for (const auto& [k, v] : *mt) {
-    const std::string key(k.str());
-    if (key != "source" && key != "system" && key != "fit" && key != "nut_mass_kg" &&
-        key != "viscous_n_s_per_m" && key != "coulomb_n")
-      config::fail(path, &v, "[model] unknown key '" + key + "'");
-  }
+  config::read_number(path, *mt, "[model]", "nut_mass_kg", m.nut_mass_kg);
+  config::read_number(path, *mt, "[model]", "viscous_n_s_per_m", m.viscous_n_s_per_m);
+  config::read_number(path, *mt, "[model]", "coulomb_n", m.coulomb_n);
+  config::check_keys(path, *mt, "[model]",
+                     {"source", "system", "fit", "nut_mass_kg", "viscous_n_s_per_m", "coulomb_n"});
   std::vector<const toml::node*> term_nodes;  // for errors found by validation
   if (const toml::node* terms = root.get("term")) {
     const toml::array* arr = terms->as_array();

@@ -176,7 +176,7 @@ class Rls {
   long count() const noexcept { return n_; }
   /// Standard error of θ_i (NaN until there are more samples than parameters).
   double stderr_of(int i) const noexcept {
-    if (n_ <= 2 * N || !(w_ > N)) return std::numeric_limits<double>::quiet_NaN();
+    if (n_ <= 2L * N || !(w_ > N)) return std::numeric_limits<double>::quiet_NaN();
     const double var = s2_ / (w_ - N);
     const double rho = std::clamp(s2_ > 0 ? c1_ / s2_ : 0.0, 0.0, 0.95);
     // P holds (Σλ^k x xᵀ)⁻¹; with forgetting the estimate's variance is about var·P.

@@ -364,9 +364,9 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   all.insert(all.end(), b.begin(), b.end());
   const auto m = static_cast<Eigen::Index>(all.size());
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(m, m);
-  for (std::size_t f = 0; f < g.xx.size(); ++f)
+  for (const auto& xx : g.xx)
     for (Eigen::Index r = 0; r < m; ++r)
-      for (Eigen::Index c = 0; c < m; ++c) S(r, c) += g.xx[f](all[r], all[c]);
+      for (Eigen::Index c = 0; c < m; ++c) S(r, c) += xx(all[r], all[c]);
   const auto nb = static_cast<Eigen::Index>(base.size()), na = static_cast<Eigen::Index>(a.size()),
              nn = static_cast<Eigen::Index>(b.size());
   // Residualise on `base`, then ask how much of z = X_a wa the span of X_b explains.
@@ -552,6 +552,7 @@ Selection select(const Prepared& P, const Options& opt,
   out.final_residual = P.residual;
   {
     std::vector<Column> used_cols;
+    used_cols.reserve(current.size());
     for (int k : current) used_cols.push_back(cols[static_cast<std::size_t>(k)]);
     double buf[8];
     for (std::size_t i = 0; i < P.states.size(); ++i) {
@@ -581,6 +582,7 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
   BreakawayTest out;
   // The model's break-away level per direction, with the terms found so far.
   std::vector<std::pair<const effects::Effect*, effects::Params>> terms;
+  terms.reserve(chosen.size());
   for (const auto& c : chosen) terms.emplace_back(effects::find(c.id), c.params);
   for (int side = 0; side < 2; ++side) {
     const double dir = side == 0 ? 1.0 : -1.0;

@@ -268,9 +268,9 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   all.insert(all.end(), alt.begin(), alt.end());
   const auto m = static_cast<Eigen::Index>(all.size());
   Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m, m);
-  for (std::size_t f = 0; f < g.xx.size(); ++f)
+  for (const auto& xx : g.xx)
     for (Eigen::Index i = 0; i < m; ++i)
-      for (Eigen::Index j = 0; j < m; ++j) a(i, j) += g.xx[f](all[i], all[j]);
+      for (Eigen::Index j = 0; j < m; ++j) a(i, j) += xx(all[i], all[j]);
   Eigen::VectorXd d = a.diagonal().cwiseMax(1e-300).cwiseSqrt();
   a = d.asDiagonal().inverse() * a * d.asDiagonal().inverse();
   const auto nb = static_cast<Eigen::Index>(base.size());
@@ -1246,8 +1246,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   J["noise_floor_n"] = P.noise_floor_n;
   auto fitted_base = [&](const Fit& fit) {
     Json b = Json::object();
-    for (std::size_t j = 0; j < base_cols.size(); ++j) {
-      const int c = base_cols[j];
+    for (const int c : base_cols) {
       double v = 0;
       for (std::size_t k = 0; k < fit.idx.size(); ++k)
         if (fit.idx[k] == g.index(c)) v = fit.theta[static_cast<Eigen::Index>(k)];

@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# clang-tidy-14 with the root .clang-tidy over the project's sources, from the compile commands of
+# build/ (the release preset; configured here if missing). Every finding is an error. The fuzz
+# targets are not in build/ (they need clang's -fsanitize=fuzzer) and are not checked.
+#   tools/tidy.sh              every source of the project (2 jobs, or MAGLEAD_TIDY_JOBS)
+#   tools/tidy.sh --since REV  the sources changed since REV; a changed header brings in every
+#                              source of its top-level module (a quick check before a push)
+#   tools/tidy.sh REGEX...     only the files whose path matches one of the regexes
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+[ -f build/compile_commands.json ] || cmake --preset release >/dev/null
+if [ "${1:-}" = --since ]; then
+  filters=()
+  while read -r f; do
+    case $f in
+      tests/fuzz/*) ;;
+      *.cpp) filters+=("^$root/$f\$") ;;
+      *.hpp) filters+=("^$root/${f%%/*}/") ;;
+    esac
+  done < <(git diff --name-only "${2:?--since needs a revision}" -- '*.cpp' '*.hpp')
+  if ((${#filters[@]} == 0)); then
+    echo "tidy: no C++ source changed since $2"
+    exit 0
+  fi
+elif (($#)); then
+  filters=("$@")
+else
+  # The project's own directories; not build trees, not tests/fuzz.
+  filters=("^$root/(physics|recording|registers|effects|plant|twin|controller|runtime|modbus|report|tools|tests/(?!fuzz/))")
+fi
+start=$(date +%s)
+# -w: the compiler's own warnings are the build's business (gcc's flags, -Werror); tidy checks only.
+if ! run-clang-tidy -clang-tidy-binary "$(command -v clang-tidy-14)" -p build \
+    -j "${MAGLEAD_TIDY_JOBS:-2}" -quiet -extra-arg=-w "${filters[@]}" >build/tidy.log 2>&1; then
+  sed 's/\x1b\[[0-9;]*m//g' build/tidy.log | grep -E '(warning|error):' | sed "s|^$root/||" |
+    sort -u >&2 || cat build/tidy.log >&2
+  echo "tidy: FAILED after $(($(date +%s) - start)) s (full log: build/tidy.log)" >&2
+  exit 1
+fi
+echo "tidy: clean ($(($(date +%s) - start)) s)"
