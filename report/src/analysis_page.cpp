@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "maglead/report/analysis_json.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/plot.hpp"
 
@@ -67,14 +68,15 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
   namespace fs = std::filesystem;
   fs::create_directories(out_dir);
   const auto path = [&](const std::string& f) { return (fs::path(out_dir) / f).string(); };
+  const nlohmann::json J = analysis_json(r);
   {
     std::ofstream j(path("analysis.json"));
-    j << r.json.dump(2) << "\n";
+    j << J.dump(2) << "\n";
     if (!j) throw std::runtime_error("cannot write " + path("analysis.json"));
   }
   analysis::save_model(
       path("model_corrected.toml"), r.corrected,
-      "model corrected by maglead analyze from " + r.json.value("recording", std::string()));
+      "model corrected by maglead analyze from " + r.findings.recording);
   // The fit over time is a chart of its own in the result; here it is one more figure.
   std::vector<analysis::Figure> figures = r.figures;
   if (!r.fit_over_time.curves.empty())
@@ -89,7 +91,6 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
       plot::save_panels_png(path(f.file), panels, 1100, 300);
     }
   }
-  const auto& J = r.json;
   std::ostringstream h;
   h << "<!doctype html><html><head><meta charset=\"utf-8\"><title>maglead analyze</title><style>"
        "body{font-family:sans-serif;max-width:1150px;margin:auto}table{border-collapse:collapse}"

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "effect_text.hpp"
+#include "maglead/report/analysis_json.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/plot.hpp"
 #include "maglead/report/time_chart.hpp"
@@ -181,7 +182,7 @@ std::string physics_section(const AnalysisOutcome& o) {
   if (o.status == AnalysisOutcome::Status::failed)
     return h + "<p>The analysis could not run on this recording: " + escape_html(o.reason) +
            "</p>\n";
-  const auto& J = o.result->json;
+  const nlohmann::json J = analysis_json(*o.result);
   if (J["effects"].empty())
     return h +
            "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
@@ -217,7 +218,7 @@ std::string fit_section(const Anomaly& a, const AnalysisOutcome& o) {
   std::ostringstream h;
   h << "<h2 id=\"fit\">3. The fit before and after</h2>\n";
   if (o.status == AnalysisOutcome::Status::done) {
-    const auto& J = o.result->json;
+    const nlohmann::json J = analysis_json(*o.result);
     const auto rel = [](const nlohmann::json& e) {
       return number(e.value("relative_error_pct", NAN));
     };
@@ -272,11 +273,10 @@ std::string window_table(const std::vector<analysis::TimeWindow>& w, const std::
 std::string analysis_events(const AnalysisOutcome& o) {
   if (o.status != AnalysisOutcome::Status::done) return "";
   std::string h;
-  for (const auto& e : o.result->json["events"]) {
-    if (e.value("type", "") != "external_disturbance") continue;
-    h += "<tr><td>" + seconds(e.value("t_s", NAN)) + "</td><td>" +
-         number(e.value("duration_s", NAN)) + "</td><td>" + number(e.value("force_n", NAN)) +
-         "</td></tr>\n";
+  for (const auto& e : o.result->findings.events) {
+    if (e.type != "external_disturbance") continue;
+    h += "<tr><td>" + seconds(e.t_s) + "</td><td>" + number(e.duration_s.value_or(NAN)) +
+         "</td><td>" + number(e.force_n.value_or(NAN)) + "</td></tr>\n";
   }
   if (h.empty()) return "";
   return "<table><tr><th>force pulse at [s]</th><th>lasting [s]</th><th>force [N]</th></tr>\n" + h +
@@ -348,7 +348,7 @@ Json json_of(const std::string& recording, const Anomaly& a, const AnalysisOutco
                          : Json();
   Json v;
   if (o.status == AnalysisOutcome::Status::done) {
-    const auto& R = o.result->json;
+    const nlohmann::json R = analysis_json(*o.result);
     v = {{"status", "done"},
          {"conclusion", R.value("conclusion", "")},
          {"effects", Json::array()},
@@ -384,8 +384,8 @@ std::string anomaly_headline(const Anomaly& a, const AnalysisOutcome& o) {
   if (a.static_error && a.static_error->mean_abs_n > 3.0)
     findings.push_back("static force estimate off by " + number(a.static_error->mean_abs_n) +
                        " N on average");
-  if (o.status == AnalysisOutcome::Status::done && !o.result->json["effects"].empty())
-    findings.push_back("analysis: " + o.result->json.value("conclusion", ""));
+  if (o.status == AnalysisOutcome::Status::done && !o.result->findings.effects.empty())
+    findings.push_back("analysis: " + o.result->findings.conclusion);
   if (findings.empty()) return "no anomaly found";
   std::string s = "attention: ";
   for (std::size_t k = 0; k < findings.size(); ++k) s += (k ? "; " : "") + findings[k];
