@@ -10,6 +10,7 @@
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 #include "effect_text.hpp"
 #include "maglead/report/analysis_json.hpp"
@@ -150,28 +151,26 @@ std::string where_section(const Anomaly& a, const std::string& out_dir) {
 }
 
 // ---------------------------------------------------------------- section 2: missing physics
-std::string parameters_html(const std::string& id, const nlohmann::json& params) {
+// One line per parameter, by name (as analysis.json has them).
+std::string parameters_html(const std::string& id, const analysis::Parameters& params) {
+  std::vector<const analysis::Parameter*> sorted;
+  for (const auto& p : params) sorted.push_back(&p);
+  std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->name < b->name; });
   std::string h;
-  for (auto it = params.begin(); it != params.end(); ++it)
-    if (it.value().is_number())
-      h += (h.empty() ? "" : "<br>") + parameter_html(id, it.key(), it.value().get<double>());
+  for (const auto* p : sorted) h += (h.empty() ? "" : "<br>") + parameter_html(id, p->name, p->value);
   return h;
 }
 
-std::string effect_row(const nlohmann::json& e) {
-  const std::string id = e.value("id", "");
-  std::string h = "<tr><td><b>" + escape_html(effect_title(id)) + "</b><br><code>" +
-                  escape_html(id) + "</code></td><td>" + escape_html(effect_law(id)) + "</td><td>" +
-                  parameters_html(id, e.value("parameters", nlohmann::json::object())) +
-                  "</td><td>" + escape_html(e.value("where", ""));
-  if (e.contains("finding")) h += "<br>" + escape_html(e["finding"].get<std::string>());
-  if (e.contains("alternatives"))
-    for (const auto& alt : e["alternatives"]) {
-      const std::string aid = alt.value("id", "");
-      h += "<br>alternative: <b>" + escape_html(effect_title(aid)) + "</b> " +
-           parameters_html(aid, alt.value("parameters", nlohmann::json::object())) +
-           " (reproduces " + number(alt.value("explains_pct", NAN)) + " %)";
-    }
+std::string effect_row(const analysis::EffectFinding& e) {
+  std::string h = "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" +
+                  escape_html(e.id) + "</code></td><td>" + escape_html(effect_law(e.id)) +
+                  "</td><td>" + parameters_html(e.id, e.parameters) + "</td><td>" +
+                  escape_html(e.where);
+  if (!e.finding.empty()) h += "<br>" + escape_html(e.finding);
+  for (const auto& alt : e.alternatives)
+    h += "<br>alternative: <b>" + escape_html(effect_title(alt.id)) + "</b> " +
+         parameters_html(alt.id, alt.parameters) + " (reproduces " + number(alt.explains_pct) +
+         " %)";
   return h + "</td></tr>\n";
 }
 
@@ -182,8 +181,8 @@ std::string physics_section(const AnalysisOutcome& o) {
   if (o.status == AnalysisOutcome::Status::failed)
     return h + "<p>The analysis could not run on this recording: " + escape_html(o.reason) +
            "</p>\n";
-  const nlohmann::json J = analysis_json(*o.result);
-  if (J["effects"].empty())
+  const auto& effects = o.result->findings.effects;
+  if (effects.empty())
     return h +
            "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
            "significant "
@@ -193,7 +192,7 @@ std::string physics_section(const AnalysisOutcome& o) {
        "(effects, laws and parameter names of "
        "docs/effects.md):</p>\n<table><tr><th>effect</th><th>law</th>"
        "<th>parameters</th><th>where, evidence</th></tr>\n";
-  for (const auto& e : J["effects"]) h += effect_row(e);
+  for (const auto& e : effects) h += effect_row(e);
   return h + "</table>\n";
 }
 
@@ -218,21 +217,19 @@ std::string fit_section(const Anomaly& a, const AnalysisOutcome& o) {
   std::ostringstream h;
   h << "<h2 id=\"fit\">3. The fit before and after</h2>\n";
   if (o.status == AnalysisOutcome::Status::done) {
-    const nlohmann::json J = analysis_json(*o.result);
-    const auto rel = [](const nlohmann::json& e) {
-      return number(e.value("relative_error_pct", NAN));
-    };
-    const auto rms = [](const nlohmann::json& e) { return number(e.value("rms", NAN)); };
-    if (J["effects"].empty()) {
-      h << "<p>One fit, since nothing was added: the model's force error is " << rms(J["baseline"])
-        << " N RMS (" << rel(J["baseline"]) << " % of the force).</p>\n";
+    const auto& F = o.result->findings;
+    const auto rel = [](const analysis::FitErrors& e) { return number(e.relative_error_pct); };
+    const auto rms = [](const analysis::FitErrors& e) { return number(e.rms_n); };
+    if (F.effects.empty()) {
+      h << "<p>One fit, since nothing was added: the model's force error is " << rms(F.baseline)
+        << " N RMS (" << rel(F.baseline) << " % of the force).</p>\n";
     } else {
       h << "<table><tr><th>model</th><th>force error RMS [N]</th><th>relative error "
            "[%]</th></tr>\n<tr><td>before "
            "(the model as configured)</td><td>"
-        << rms(J["baseline"]) << "</td><td>" << rel(J["baseline"])
+        << rms(F.baseline) << "</td><td>" << rel(F.baseline)
         << "</td></tr>\n<tr><td>after (with the effects "
-        << "above)</td><td>" << rms(J["final"]) << "</td><td>" << rel(J["final"])
+        << "above)</td><td>" << rms(F.final_fit) << "</td><td>" << rel(F.final_fit)
         << "</td></tr></table>\n";
     }
   }
@@ -348,14 +345,14 @@ Json json_of(const std::string& recording, const Anomaly& a, const AnalysisOutco
                          : Json();
   Json v;
   if (o.status == AnalysisOutcome::Status::done) {
-    const nlohmann::json R = analysis_json(*o.result);
+    const auto& R = o.result->findings;
     v = {{"status", "done"},
-         {"conclusion", R.value("conclusion", "")},
+         {"conclusion", R.conclusion},
          {"effects", Json::array()},
-         {"baseline_relative_error_pct", R["baseline"].value("relative_error_pct", NAN)},
-         {"final_relative_error_pct", R["final"].value("relative_error_pct", NAN)}};
-    for (const auto& e : R["effects"])
-      v["effects"].push_back({{"id", e["id"]}, {"parameters", e["parameters"]}});
+         {"baseline_relative_error_pct", R.baseline.relative_error_pct},
+         {"final_relative_error_pct", R.final_fit.relative_error_pct}};
+    for (const auto& e : R.effects)
+      v["effects"].push_back({{"id", e.id}, {"parameters", parameters_json(e.parameters)}});
   } else {
     v = {{"status", o.status == AnalysisOutcome::Status::skipped ? "skipped" : "not possible"},
          {"reason", o.reason}};
