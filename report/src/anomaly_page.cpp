@@ -10,8 +10,10 @@
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 #include "effect_text.hpp"
+#include "maglead/report/analysis_json.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/plot.hpp"
 #include "maglead/report/time_chart.hpp"
@@ -149,28 +151,26 @@ std::string where_section(const Anomaly& a, const std::string& out_dir) {
 }
 
 // ---------------------------------------------------------------- section 2: missing physics
-std::string parameters_html(const std::string& id, const nlohmann::json& params) {
+// One line per parameter, by name (as analysis.json has them).
+std::string parameters_html(const std::string& id, const analysis::Parameters& params) {
+  std::vector<const analysis::Parameter*> sorted;
+  for (const auto& p : params) sorted.push_back(&p);
+  std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->name < b->name; });
   std::string h;
-  for (auto it = params.begin(); it != params.end(); ++it)
-    if (it.value().is_number())
-      h += (h.empty() ? "" : "<br>") + parameter_html(id, it.key(), it.value().get<double>());
+  for (const auto* p : sorted) h += (h.empty() ? "" : "<br>") + parameter_html(id, p->name, p->value);
   return h;
 }
 
-std::string effect_row(const nlohmann::json& e) {
-  const std::string id = e.value("id", "");
-  std::string h = "<tr><td><b>" + escape_html(effect_title(id)) + "</b><br><code>" +
-                  escape_html(id) + "</code></td><td>" + escape_html(effect_law(id)) + "</td><td>" +
-                  parameters_html(id, e.value("parameters", nlohmann::json::object())) +
-                  "</td><td>" + escape_html(e.value("where", ""));
-  if (e.contains("finding")) h += "<br>" + escape_html(e["finding"].get<std::string>());
-  if (e.contains("alternatives"))
-    for (const auto& alt : e["alternatives"]) {
-      const std::string aid = alt.value("id", "");
-      h += "<br>alternative: <b>" + escape_html(effect_title(aid)) + "</b> " +
-           parameters_html(aid, alt.value("parameters", nlohmann::json::object())) +
-           " (reproduces " + number(alt.value("explains_pct", NAN)) + " %)";
-    }
+std::string effect_row(const analysis::EffectFinding& e) {
+  std::string h = "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" +
+                  escape_html(e.id) + "</code></td><td>" + escape_html(effect_law(e.id)) +
+                  "</td><td>" + parameters_html(e.id, e.parameters) + "</td><td>" +
+                  escape_html(e.where);
+  if (!e.finding.empty()) h += "<br>" + escape_html(e.finding);
+  for (const auto& alt : e.alternatives)
+    h += "<br>alternative: <b>" + escape_html(effect_title(alt.id)) + "</b> " +
+         parameters_html(alt.id, alt.parameters) + " (reproduces " + number(alt.explains_pct) +
+         " %)";
   return h + "</td></tr>\n";
 }
 
@@ -181,8 +181,8 @@ std::string physics_section(const AnalysisOutcome& o) {
   if (o.status == AnalysisOutcome::Status::failed)
     return h + "<p>The analysis could not run on this recording: " + escape_html(o.reason) +
            "</p>\n";
-  const auto& J = o.result->json;
-  if (J["effects"].empty())
+  const auto& effects = o.result->findings.effects;
+  if (effects.empty())
     return h +
            "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
            "significant "
@@ -192,7 +192,7 @@ std::string physics_section(const AnalysisOutcome& o) {
        "(effects, laws and parameter names of "
        "docs/effects.md):</p>\n<table><tr><th>effect</th><th>law</th>"
        "<th>parameters</th><th>where, evidence</th></tr>\n";
-  for (const auto& e : J["effects"]) h += effect_row(e);
+  for (const auto& e : effects) h += effect_row(e);
   return h + "</table>\n";
 }
 
@@ -217,21 +217,19 @@ std::string fit_section(const Anomaly& a, const AnalysisOutcome& o) {
   std::ostringstream h;
   h << "<h2 id=\"fit\">3. The fit before and after</h2>\n";
   if (o.status == AnalysisOutcome::Status::done) {
-    const auto& J = o.result->json;
-    const auto rel = [](const nlohmann::json& e) {
-      return number(e.value("relative_error_pct", NAN));
-    };
-    const auto rms = [](const nlohmann::json& e) { return number(e.value("rms", NAN)); };
-    if (J["effects"].empty()) {
-      h << "<p>One fit, since nothing was added: the model's force error is " << rms(J["baseline"])
-        << " N RMS (" << rel(J["baseline"]) << " % of the force).</p>\n";
+    const auto& F = o.result->findings;
+    const auto rel = [](const analysis::FitErrors& e) { return number(e.relative_error_pct); };
+    const auto rms = [](const analysis::FitErrors& e) { return number(e.rms_n); };
+    if (F.effects.empty()) {
+      h << "<p>One fit, since nothing was added: the model's force error is " << rms(F.baseline)
+        << " N RMS (" << rel(F.baseline) << " % of the force).</p>\n";
     } else {
       h << "<table><tr><th>model</th><th>force error RMS [N]</th><th>relative error "
            "[%]</th></tr>\n<tr><td>before "
            "(the model as configured)</td><td>"
-        << rms(J["baseline"]) << "</td><td>" << rel(J["baseline"])
+        << rms(F.baseline) << "</td><td>" << rel(F.baseline)
         << "</td></tr>\n<tr><td>after (with the effects "
-        << "above)</td><td>" << rms(J["final"]) << "</td><td>" << rel(J["final"])
+        << "above)</td><td>" << rms(F.final_fit) << "</td><td>" << rel(F.final_fit)
         << "</td></tr></table>\n";
     }
   }
@@ -272,11 +270,10 @@ std::string window_table(const std::vector<analysis::TimeWindow>& w, const std::
 std::string analysis_events(const AnalysisOutcome& o) {
   if (o.status != AnalysisOutcome::Status::done) return "";
   std::string h;
-  for (const auto& e : o.result->json["events"]) {
-    if (e.value("type", "") != "external_disturbance") continue;
-    h += "<tr><td>" + seconds(e.value("t_s", NAN)) + "</td><td>" +
-         number(e.value("duration_s", NAN)) + "</td><td>" + number(e.value("force_n", NAN)) +
-         "</td></tr>\n";
+  for (const auto& e : o.result->findings.events) {
+    if (e.type != "external_disturbance") continue;
+    h += "<tr><td>" + seconds(e.t_s) + "</td><td>" + number(e.duration_s.value_or(NAN)) +
+         "</td><td>" + number(e.force_n.value_or(NAN)) + "</td></tr>\n";
   }
   if (h.empty()) return "";
   return "<table><tr><th>force pulse at [s]</th><th>lasting [s]</th><th>force [N]</th></tr>\n" + h +
@@ -348,14 +345,14 @@ Json json_of(const std::string& recording, const Anomaly& a, const AnalysisOutco
                          : Json();
   Json v;
   if (o.status == AnalysisOutcome::Status::done) {
-    const auto& R = o.result->json;
+    const auto& R = o.result->findings;
     v = {{"status", "done"},
-         {"conclusion", R.value("conclusion", "")},
+         {"conclusion", R.conclusion},
          {"effects", Json::array()},
-         {"baseline_relative_error_pct", R["baseline"].value("relative_error_pct", NAN)},
-         {"final_relative_error_pct", R["final"].value("relative_error_pct", NAN)}};
-    for (const auto& e : R["effects"])
-      v["effects"].push_back({{"id", e["id"]}, {"parameters", e["parameters"]}});
+         {"baseline_relative_error_pct", R.baseline.relative_error_pct},
+         {"final_relative_error_pct", R.final_fit.relative_error_pct}};
+    for (const auto& e : R.effects)
+      v["effects"].push_back({{"id", e.id}, {"parameters", parameters_json(e.parameters)}});
   } else {
     v = {{"status", o.status == AnalysisOutcome::Status::skipped ? "skipped" : "not possible"},
          {"reason", o.reason}};
@@ -384,8 +381,8 @@ std::string anomaly_headline(const Anomaly& a, const AnalysisOutcome& o) {
   if (a.static_error && a.static_error->mean_abs_n > 3.0)
     findings.push_back("static force estimate off by " + number(a.static_error->mean_abs_n) +
                        " N on average");
-  if (o.status == AnalysisOutcome::Status::done && !o.result->json["effects"].empty())
-    findings.push_back("analysis: " + o.result->json.value("conclusion", ""));
+  if (o.status == AnalysisOutcome::Status::done && !o.result->findings.effects.empty())
+    findings.push_back("analysis: " + o.result->findings.conclusion);
   if (findings.empty()) return "no anomaly found";
   std::string s = "attention: ";
   for (std::size_t k = 0; k < findings.size(); ++k) s += (k ? "; " : "") + findings[k];

@@ -1,11 +1,13 @@
 // maglead analyze: twin versus recording (issue 5). Compares a baseline model with a recording
 // in the force domain, locates the misfit, names the missing physics, refits, reports.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
 #include "cli_common.hpp"
 #include "maglead/twin/model.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/report/analysis_json.hpp"
 #include "maglead/report/analysis_page.hpp"
 
 namespace maglead::cli {
@@ -71,31 +73,26 @@ void add_analyze(CLI::App& app) {
     const auto result = analysis::analyze_recording(rec, model, cal, act, o->a);
     if (bar) bar->done();
     report::write_analysis_outputs(result, o->out);
-    const auto& J = result.json;
-    std::printf("recording %s (%s), baseline %s\n", o->recording.c_str(),
-                J["system"].get<std::string>().c_str(),
+    const auto& J = result.findings;
+    std::printf("recording %s (%s), baseline %s\n", o->recording.c_str(), J.system.c_str(),
                 model_path.empty() ? "config/actuator.toml" : model_path.c_str());
     std::printf("baseline   RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
-                J["baseline"]["rms"].get<double>(), J["baseline"]["relative_error_pct"].get<double>(),
-                J["baseline"]["full_rate"]["relative_error_pct"].get<double>());
-    for (const auto& w : J["where"]) std::printf("  where: %s\n", w.get<std::string>().c_str());
+                J.baseline.rms_n, J.baseline.relative_error_pct, J.baseline.full_rate_relative_error_pct);
+    for (const auto& w : result.where) std::printf("  where: %s\n", w.c_str());
     int k = 1;
-    for (const auto& e : J["effects"]) {
-      std::printf("%d. %-22s %s\n", k++, e["id"].get<std::string>().c_str(), e["parameters"].dump().c_str());
-      if (e["evidence"]["heldout_gain_pct"].is_number())
+    for (const auto& e : J.effects) {
+      std::printf("%d. %-22s %s\n", k++, e.id.c_str(), report::parameters_json(e.parameters).dump().c_str());
+      if (e.evidence.heldout_gain_pct)
         std::printf("     held-out gain %.2f %% (t = %.1f, %s segments), improvement %.2f %%\n",
-                    e["evidence"]["heldout_gain_pct"].get<double>(), e["evidence"]["t_stat"].get<double>(),
-                    e["evidence"]["segments_improved"].get<std::string>().c_str(),
-                    e["improvement_pct"].get<double>());
-      if (e.contains("finding")) std::printf("     %s\n", e["finding"].get<std::string>().c_str());
+                    *e.evidence.heldout_gain_pct, e.evidence.t_stat.value_or(NAN),
+                    e.evidence.segments_improved.value_or("?").c_str(), e.improvement_pct);
+      if (!e.finding.empty()) std::printf("     %s\n", e.finding.c_str());
     }
-    if (J["effects"].empty()) std::printf("%s\n", J["conclusion"].get<std::string>().c_str());
+    if (J.effects.empty()) std::printf("%s\n", J.conclusion.c_str());
     std::printf("final      RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
-                J["final"]["rms"].get<double>(), J["final"]["relative_error_pct"].get<double>(),
-                J["final"]["full_rate"]["relative_error_pct"].get<double>());
+                J.final_fit.rms_n, J.final_fit.relative_error_pct, J.final_fit.full_rate_relative_error_pct);
     std::printf("held-out:");
-    for (const auto& v : J["validation"])
-      std::printf("  %s %.4g N", v["model"].get<std::string>().c_str(), v["heldout_rms"].get<double>());
+    for (const auto& v : J.validation) std::printf("  %s %.4g N", v.model.c_str(), v.heldout_rms_n);
     std::printf("\nwrote %s/report.html, analysis.json, model_corrected.toml\n", o->out.c_str());
   });
 }

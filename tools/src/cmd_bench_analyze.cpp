@@ -167,7 +167,7 @@ void add_bench_analyze(CLI::App& app) {
     report::write_analysis_outputs(result, out);
     const double t_out = secs(t0);
     const double total = secs(t_all);
-    const auto& J = result.json;
+    const auto& J = result.findings;
     std::printf("maglead bench analyze: %zu samples (%.0f s at 1 kHz)\n", rec.rows(),
                 static_cast<double>(rec.rows()) / 1000.0);
     std::printf("  read recording   %7.2f s\n  analysis         %7.2f s\n  report + plots   %7.2f s\n",
@@ -175,11 +175,10 @@ void add_bench_analyze(CLI::App& app) {
     std::printf("  total            %7.2f s   (target <= 5 s for one hour)\n", total);
     std::printf("  peak memory      %7.0f MB (max resident set size)\n", peak_rss_mb());
     std::printf("  found:");
-    for (const auto& e : J["effects"]) std::printf(" %s", e["id"].get<std::string>().c_str());
+    for (const auto& e : J.effects) std::printf(" %s", e.id.c_str());
     std::printf("%s\n  held-out RMS %.4f N -> %.4f N; report in %s\n",
-                J["effects"].empty() ? " nothing" : "",
-                J["validation"].front()["heldout_rms"].get<double>(),
-                J["validation"].back()["heldout_rms"].get<double>(), out.c_str());
+                J.effects.empty() ? " nothing" : "", J.validation.front().heldout_rms_n,
+                J.validation.back().heldout_rms_n, out.c_str());
 
     // After the analysis, so that neither disturbs the other's figures.
     std::printf("\n  reading the CSV, same file, same run (page cache warm for both):\n");

@@ -1,8 +1,9 @@
 // The actuator analysis end to end: runs the stages of actuator_analysis.cpp and turns their
-// typed results into the analysis result (analysis.json content, corrected model, figures).
+// typed results into the analysis result (findings, corrected model, figures).
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "actuator_analysis.hpp"
 #include "maglead/analysis/analysis.hpp"
@@ -10,12 +11,10 @@
 namespace maglead::analysis {
 namespace {
 
-using Json = nlohmann::json;
-
-Json params_json(const effects::Params& p) {
-  Json j = Json::object();
-  for (const auto& [k, v] : p) j[k] = v;
-  return j;
+Parameters params_of(const effects::Params& p) {
+  Parameters out;
+  for (const auto& [k, v] : p) out.push_back({k, v, false});
+  return out;
 }
 
 std::string fmt(double v, int prec = 3) {
@@ -112,127 +111,130 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
     }
   }
 
-  Json J;
-  J["system"] = "actuator";
-  J["recording"] = rec.path;
-  J["samples"] = P.samples;
-  J["samples_used"] = sel.samples_used;
-  J["method"] = {
-      {"domain", "force (inverse model: the force the baseline leaves out of the nut's balance, "
-                 "from measured motion and load)"},
-      {"filter", "4th-order Butterworth at " + fmt(P.filter_hz) + " Hz, zero phase, on every signal"},
-      {"decimation", P.decimation},
-      {"folds", o.folds},
-      {"selection", "forward, by held-out error on contiguous time segments; a term must cut the "
-                    "held-out mean square error by " + fmt(o.min_gain_pct) + " % with t >= " +
-                        fmt(o.min_t) + " over the segments"},
-      {"moving_only", "sliding samples only (faster than " + fmt(P.v_min_m_s * 1e3) +
-                          " mm/s, one direction over the filter's support); stuck episodes feed "
-                          "the break-away test"}};
-  J["noise_floor_n"] = P.load_noise_n;
+  Findings J;
+  J.system = "actuator";
+  J.recording = rec.path;
+  J.samples = P.samples;
+  J.samples_used = sel.samples_used;
+  J.method.domain = "force (inverse model: the force the baseline leaves out of the nut's balance, "
+                    "from measured motion and load)";
+  J.method.filter = "4th-order Butterworth at " + fmt(P.filter_hz) + " Hz, zero phase, on every signal";
+  J.method.decimation = P.decimation;
+  J.method.folds = o.folds;
+  J.method.selection = "forward, by held-out error on contiguous time segments; a term must cut the "
+                       "held-out mean square error by " + fmt(o.min_gain_pct) + " % with t >= " +
+                       fmt(o.min_t) + " over the segments";
+  J.method.moving_only = "sliding samples only (faster than " + fmt(P.v_min_m_s * 1e3) +
+                         " mm/s, one direction over the filter's support); stuck episodes feed "
+                         "the break-away test";
+  J.noise_floor_n = P.load_noise_n;
   const double n_used = std::max<double>(1.0, static_cast<double>(sel.samples_used));
   auto rms = [&](double s) { return std::sqrt(s / n_used); };
   auto rel = [&](double s) { return sel.measured_ss > 0 ? 100.0 * std::sqrt(s / sel.measured_ss) : 0.0; };
-  J["baseline"] = {{"rms", rms(sel.baseline_sse)},
-                   {"relative_error_pct", rel(sel.baseline_sse)},
-                   {"full_rate", {{"rms", rms(sel.baseline_sse)}, {"relative_error_pct", rel(sel.baseline_sse)}}},
-                   {"heldout_rms", rms(sel.baseline_heldout_sse)}};
-  Json effects_json = Json::array();
-  Json validation = Json::array();
-  validation.push_back({{"model", "baseline"}, {"heldout_rms", rms(sel.baseline_heldout_sse)},
-                        {"heldout_relative_error_pct", rel(sel.baseline_heldout_sse)}});
+  J.baseline = {rms(sel.baseline_sse), rel(sel.baseline_sse), rms(sel.baseline_sse),
+                rel(sel.baseline_sse), rms(sel.baseline_heldout_sse), std::nullopt};
+  auto& effects_found = J.effects;
+  auto& validation = J.validation;
+  validation.push_back({"baseline", rms(sel.baseline_heldout_sse), rel(sel.baseline_heldout_sse),
+                        std::nullopt, std::nullopt});
   double prev = sel.baseline_heldout_sse;
   for (std::size_t k = 0; k < sel.chosen.size(); ++k) {
     const auto& c = sel.chosen[k];
-    Json e;
-    e["id"] = c.id;
-    e["parameters"] = params_json(c.params);
-    e["evidence"] = {{"heldout_gain_pct", c.gain_pct},
-                     {"t_stat", c.t_stat},
-                     {"segments_improved", std::to_string(c.segments_improved) + "/" + std::to_string(c.segments)},
-                     {"explained_rms_n", std::sqrt(std::max(0.0, prev - sel.heldout_sse_after[k]) / n_used)},
-                     {"noise_floor_n", P.load_noise_n}};
-    e["improvement_pct"] = 100.0 * (prev - sel.heldout_sse_after[k]) / sel.baseline_heldout_sse;
-    e["where"] = "sliding samples";
+    EffectFinding e;
+    e.id = c.id;
+    e.parameters = params_of(c.params);
+    e.evidence.heldout_gain_pct = c.gain_pct;
+    e.evidence.t_stat = c.t_stat;
+    e.evidence.segments_improved = std::to_string(c.segments_improved) + "/" + std::to_string(c.segments);
+    e.evidence.explained_rms_n = std::sqrt(std::max(0.0, prev - sel.heldout_sse_after[k]) / n_used);
+    e.evidence.noise_floor_n = P.load_noise_n;
+    e.improvement_pct = 100.0 * (prev - sel.heldout_sse_after[k]) / sel.baseline_heldout_sse;
+    e.where = "sliding samples";
     if (!c.alternatives.empty()) {
-      Json alts = Json::array();
       for (const auto& a : c.alternatives)
-        alts.push_back({{"id", a.id}, {"parameters", params_json(a.params)}, {"explains_pct", a.explains_pct}});
-      e["alternatives"] = alts;
-      e["finding"] = "the data cannot tell these apart here; " + c.id + " is preferred";
+        e.alternatives.push_back({a.id, params_of(a.params), a.explains_pct, std::nullopt});
+      e.finding = "the data cannot tell these apart here; " + c.id + " is preferred";
     }
     prev = sel.heldout_sse_after[k];
-    validation.push_back({{"model", "+ " + c.id}, {"heldout_rms", rms(prev)}, {"heldout_relative_error_pct", rel(prev)}});
-    effects_json.push_back(e);
+    validation.push_back({"+ " + c.id, rms(prev), rel(prev), std::nullopt, std::nullopt});
+    effects_found.push_back(e);
   }
   if (stribeck) {
     // Stribeck's law holds the kinetic level: a coulomb_friction finding becomes part of it.
     std::erase_if(sel.chosen, [](const actuator::Candidate& c) { return c.id == "coulomb_friction"; });
-    for (auto it = effects_json.begin(); it != effects_json.end(); ++it)
-      if ((*it)["id"] == "coulomb_friction") {
-        effects_json.erase(it);
+    for (auto it = effects_found.begin(); it != effects_found.end(); ++it)
+      if (it->id == "coulomb_friction") {
+        effects_found.erase(it);
         break;
       }
-    effects_json.push_back(
-        {{"id", stribeck->id},
-         {"parameters", params_json(stribeck->params)},
-         {"where", "stuck episodes: the nut breaks away above its sliding friction in both directions"},
-         {"evidence", {{"heldout_gain_pct", nullptr},
-                       {"t_stat", stribeck->t_stat},
-                       {"segments_improved", std::to_string(stribeck->segments) + " releases"},
-                       {"breakaway_excess_pos_n", bt.pos.median_excess_n},
-                       {"breakaway_excess_neg_n", bt.neg.median_excess_n},
-                       {"encoder_count_force_n", bt.pos.count_force_n}}},
-         {"improvement_pct", 0.0},
-         {"note", stribeck->velocity_determined
-                      ? "break-away from the net force at release; the Stribeck velocity is the one "
-                        "the sliding samples prefer"
-                      : "break-away from the net force at release; the Stribeck velocity is not "
-                        "determined (no slow sliding in the recording): the middle of the range "
-                        "scanned"}});
+    EffectFinding e;
+    e.id = stribeck->id;
+    e.parameters = params_of(stribeck->params);
+    e.where = "stuck episodes: the nut breaks away above its sliding friction in both directions";
+    e.evidence.t_stat = stribeck->t_stat;
+    e.evidence.segments_improved = std::to_string(stribeck->segments) + " releases";
+    e.evidence.breakaway_excess_pos_n = bt.pos.median_excess_n;
+    e.evidence.breakaway_excess_neg_n = bt.neg.median_excess_n;
+    e.evidence.encoder_count_force_n = bt.pos.count_force_n;
+    e.improvement_pct = 0.0;
+    e.note = stribeck->velocity_determined
+                 ? "break-away from the net force at release; the Stribeck velocity is the one "
+                   "the sliding samples prefer"
+                 : "break-away from the net force at release; the Stribeck velocity is not "
+                   "determined (no slow sliding in the recording): the middle of the range "
+                   "scanned";
+    effects_found.push_back(e);
     sel.chosen.push_back(*stribeck);
   }
-  Json events = Json::array();
-  for (const auto& s : P.slips)
-    events.push_back({{"type", "step_out"}, {"t_s", s.t_s - P.t0_s}, {"start_s", s.start_s - P.t0_s}, {"leads", s.leads}});
+  auto& events = J.events;
+  for (const auto& s : P.slips) {
+    Event ev;
+    ev.type = "step_out";
+    ev.t_s = s.t_s - P.t0_s;
+    ev.start_s = s.start_s - P.t0_s;
+    ev.leads = s.leads;
+    events.push_back(ev);
+  }
   const auto pulses = actuator::find_pulses(P, sel, o);
   if (!pulses.empty()) {
     double largest = 0;
     for (const auto& q : pulses) {
-      events.push_back({{"type", "external_disturbance"}, {"t_s", q.t_s}, {"duration_s", q.duration_s},
-                        {"force_n", q.force_n}});
+      Event ev;
+      ev.type = "external_disturbance";
+      ev.t_s = q.t_s;
+      ev.duration_s = q.duration_s;
+      ev.force_n = q.force_n;
+      events.push_back(ev);
       if (std::abs(q.force_n) > std::abs(largest)) largest = q.force_n;
     }
-    effects_json.push_back({{"id", "external_disturbance"},
-                            {"parameters", {{"count", pulses.size()}, {"force_n", largest}}},
-                            {"where", "isolated force pulses no input explains (see events)"},
-                            {"evidence", {{"events", pulses.size()}, {"heldout_gain_pct", nullptr}}},
-                            {"improvement_pct", 0.0}});
+    EffectFinding e;
+    e.id = "external_disturbance";
+    set_parameter(e.parameters, "count", static_cast<double>(pulses.size()), true);
+    set_parameter(e.parameters, "force_n", largest);
+    e.where = "isolated force pulses no input explains (see events)";
+    e.evidence.events = pulses.size();
+    effects_found.push_back(e);
   }
-  if (!P.slips.empty())
-    effects_json.push_back({{"id", "step_out"},
-                            {"parameters", {{"count", P.slips.size()}}},
-                            {"where", "the phase left the stable branch and the nut slipped by whole leads"},
-                            {"evidence", {{"events", P.slips.size()}, {"heldout_gain_pct", nullptr}}},
-                            {"improvement_pct", 0.0}});
-  J["effects"] = effects_json;
-  J["events"] = events;
-  J["breakaway_test"] = {{"pos", {{"episodes", bt.pos.episodes}, {"median_excess_n", bt.pos.median_excess_n}, {"se_n", bt.pos.se_n}}},
-                         {"neg", {{"episodes", bt.neg.episodes}, {"median_excess_n", bt.neg.median_excess_n}, {"se_n", bt.neg.se_n}}}};
-  J["validation"] = validation;
-  J["final"] = {{"rms", rms(sel.final_sse)},
-                {"relative_error_pct", rel(sel.final_sse)},
-                {"full_rate", {{"rms", rms(sel.final_sse)}, {"relative_error_pct", rel(sel.final_sse)}}}};
-  J["not_selected"] = Json::array();
+  if (!P.slips.empty()) {
+    EffectFinding e;
+    e.id = "step_out";
+    set_parameter(e.parameters, "count", static_cast<double>(P.slips.size()), true);
+    e.where = "the phase left the stable branch and the nut slipped by whole leads";
+    e.evidence.events = P.slips.size();
+    effects_found.push_back(e);
+  }
+  J.breakaway_test = BreakawayTest{{bt.pos.episodes, bt.pos.median_excess_n, bt.pos.se_n},
+                                   {bt.neg.episodes, bt.neg.median_excess_n, bt.neg.se_n}};
+  J.final_fit = {rms(sel.final_sse), rel(sel.final_sse), rms(sel.final_sse), rel(sel.final_sse),
+                 std::nullopt, std::nullopt};
   if (!sel.next_best.id.empty())
-    J["not_selected"].push_back({{"id", sel.next_best.id}, {"heldout_gain_pct", sel.next_best.gain_pct},
-                                 {"t_stat", sel.next_best.t_stat}, {"parameters", params_json(sel.next_best.params)}});
-  J["where"] = Json::array();
-  J["conclusion"] = sel.chosen.empty() ? "nothing is missing: no effect explains a significant part of "
-                                          "the held-out error"
-                                        : std::to_string(sel.chosen.size()) + " effect(s) found";
+    J.not_selected.push_back({sel.next_best.id, sel.next_best.gain_pct, sel.next_best.t_stat,
+                              std::nullopt, std::nullopt, std::nullopt, params_of(sel.next_best.params)});
+  J.conclusion = sel.chosen.empty() ? "nothing is missing: no effect explains a significant part of "
+                                      "the held-out error"
+                                    : std::to_string(sel.chosen.size()) + " effect(s) found";
   AnalysisResult r;
-  r.json = J;
+  r.findings = std::move(J);
   r.corrected = corrected_model(model, sel, rec.path);
   r.fit_over_time = fit_over_time(P, sel);
   return r;

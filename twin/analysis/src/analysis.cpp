@@ -20,7 +20,6 @@
 namespace maglead::analysis {
 namespace {
 
-using Json = nlohmann::json;
 constexpr double kPi = std::numbers::pi;
 
 // ---------------------------------------------------------------- columns and candidates
@@ -729,7 +728,7 @@ Errors errors(const std::vector<double>& y, const std::vector<double>& yhat,
 
 // ---------------------------------------------------------------- physical parameters
 struct Params {
-  Json values = Json::object();
+  Parameters values;
   bool plausible = true;
   std::string why;
 };
@@ -755,12 +754,12 @@ Params physical(const std::string& id, const std::vector<int>& cols, const Eigen
   };
   if (id == "coulomb_friction") {
     const double d = coef(kSign);
-    p.values["coulomb_n"] = base("coulomb_n", kSign) + d;
-    p.plausible = p.values["coulomb_n"].get<double>() >= 0;
+    set_parameter(p.values, "coulomb_n", base("coulomb_n", kSign) + d);
+    p.plausible = parameter_value(p.values, "coulomb_n") >= 0;
   } else if (id == "viscous_friction") {
     const double d = coef(kVel);
     const double b = base("viscous_n_s_per_m", kVel);
-    p.values["viscous_n_s_per_m"] = b + d;
+    set_parameter(p.values, "viscous_n_s_per_m", b + d);
     p.plausible = b + d >= 0;
   } else if (id == "asymmetric_friction") {
     const double dv = coef(kAbsV), dc = coef(kMoving);
@@ -773,66 +772,66 @@ Params physical(const std::string& id, const std::vector<int>& cols, const Eigen
     const double fc = base("coulomb_n", kSign) + (model.fit.count("coulomb_n") ? 0.0 : in_full(kSign));
     const double fv = base("viscous_n_s_per_m", kVel) + (model.fit.count("viscous_n_s_per_m") ? 0.0 : in_full(kVel));
     const double off = in_full(kOne) + dc;  // constant force in the measured-force domain
-    p.values["coulomb_pos_n"] = fc + off;
-    p.values["coulomb_neg_n"] = fc - off;
-    p.values["viscous_pos_n_s_per_m"] = fv + dv;
-    p.values["viscous_neg_n_s_per_m"] = fv - dv;
+    set_parameter(p.values, "coulomb_pos_n", fc + off);
+    set_parameter(p.values, "coulomb_neg_n", fc - off);
+    set_parameter(p.values, "viscous_pos_n_s_per_m", fv + dv);
+    set_parameter(p.values, "viscous_neg_n_s_per_m", fv - dv);
   } else if (id == "stribeck_friction") {
     for (int k = 0; k < 6; ++k)
       if (!cols.empty() && cols[0] == kStrib0 + k) {
-        p.values["stribeck_n"] = coef(kStrib0 + k);
-        p.values["stribeck_velocity_m_s"] = kStribeckVel_m_s[k];
+        set_parameter(p.values, "stribeck_n", coef(kStrib0 + k));
+        set_parameter(p.values, "stribeck_velocity_m_s", kStribeckVel_m_s[k]);
       }
-    p.plausible = p.values["stribeck_n"].get<double>() > 0;
+    p.plausible = parameter_value(p.values, "stribeck_n") > 0;
   } else if (id == "offset") {
     // A force on the moving part along +p: the load cell does not see it (actuator) and the drive
     // need not supply it (axis), so both measured forces fall by it.
-    p.values["offset_n"] = -coef(kOne);
+    set_parameter(p.values, "offset_n", -coef(kOne));
     (void)act;
   } else if (id == "spring") {
-    p.values["spring_n_per_m"] = coef(kSpring);
-    p.values["free_position_m"] = s.mid_m;
+    set_parameter(p.values, "spring_n_per_m", coef(kSpring));
+    set_parameter(p.values, "free_position_m", s.mid_m);
   } else if (id == "mass_error") {
     const double b = base("nut_mass_kg", kAcc);
-    p.values["nut_mass_kg"] = b + coef(kAcc);
+    set_parameter(p.values, "nut_mass_kg", b + coef(kAcc));
     // A known mass wrong by more than five times itself is not a mass error but something else.
     p.plausible = b + coef(kAcc) > 0 && (model.fit.count("nut_mass_kg") || std::abs(coef(kAcc)) <= 5 * b);
   } else if (id == "gain_drift") {
-    p.values["gain_drift_per_min"] = coef(kDrift);
+    set_parameter(p.values, "gain_drift_per_min", coef(kDrift));
     p.plausible = std::abs(coef(kDrift)) < 1.0;
   } else if (id == "angle_ripple" || id == "position_ripple") {
     const bool ang = id == "angle_ripple";
     const double a = -coef(ang ? kSinTh : kSinP), b = -coef(ang ? kCosTh : kCosP);
-    p.values["amplitude_n"] = std::hypot(a, b);
-    p.values["phase_rad"] = std::atan2(b, a);
-    if (!ang) p.values["period_m"] = s.pos_period_m;
+    set_parameter(p.values, "amplitude_n", std::hypot(a, b));
+    set_parameter(p.values, "phase_rad", std::atan2(b, a));
+    if (!ang) set_parameter(p.values, "period_m", s.pos_period_m);
   } else if (id == "end_effect") {
     for (int k = 0; k < 6; ++k)
       if (!cols.empty() && cols[0] == kEnd0 + k) {
-        p.values["depth"] = -coef(kEnd0 + k);
-        p.values["distance_m"] = kEndDist_m[k];
+        set_parameter(p.values, "depth", -coef(kEnd0 + k));
+        set_parameter(p.values, "distance_m", kEndDist_m[k]);
       }
-    const double d = p.values["depth"].get<double>();
+    const double d = parameter_value(p.values, "depth");
     p.plausible = d > 0 && d <= 1.0;
   } else if (id == "backlash") {
-    p.values["backlash_rad"] = coef(kBacklash);
+    set_parameter(p.values, "backlash_rad", coef(kBacklash));
     p.plausible = coef(kBacklash) > 0 && coef(kBacklash) < 0.5;
   } else if (id == "sensor_delay") {
-    p.values["delay_s"] = coef(kDelay);
+    set_parameter(p.values, "delay_s", coef(kDelay));
     p.plausible = coef(kDelay) > 0 && coef(kDelay) < 0.05;
   } else if (id == "external_disturbance") {
-    p.values["amplitude_n"] = coef(kBurst);
+    set_parameter(p.values, "amplitude_n", coef(kBurst));
     p.plausible = coef(kBurst) > 0;
   } else if (id == "coupling_gain_error") {
-    p.values["gain_change"] = coef(kGain);
+    set_parameter(p.values, "gain_change", coef(kGain));
   } else if (id == "lead_error") {
-    p.values["lead_change_m"] = coef(kLead);
+    set_parameter(p.values, "lead_change_m", coef(kLead));
   }
   if (!p.plausible) p.why = "implausible sign or size";
   return p;
 }
 
-std::string where_text(const std::string& id, const Json& v, const Signals& s,
+std::string where_text(const std::string& id, const Parameters& v, const Signals& s,
                        const std::vector<std::pair<double, double>>& bursts) {
   std::ostringstream o;
   o.precision(3);
@@ -840,7 +839,7 @@ std::string where_text(const std::string& id, const Json& v, const Signals& s,
   else if (id == "viscous_friction") o << "grows in proportion to speed";
   else if (id == "asymmetric_friction") o << "differs between the two directions of motion";
   else if (id == "stribeck_friction")
-    o << "at low speed, below about " << v.value("stribeck_velocity_m_s", 0.0) * 1e3 << " mm/s, after break-away";
+    o << "at low speed, below about " << parameter_value(v, "stribeck_velocity_m_s") * 1e3 << " mm/s, after break-away";
   else if (id == "offset") o << "everywhere, the same in both directions";
   else if (id == "spring") o << "grows with distance from mid-stroke (" << s.mid_m * 1e3 << " mm)";
   else if (id == "mass_error") o << "during accelerations";
@@ -848,7 +847,7 @@ std::string where_text(const std::string& id, const Json& v, const Signals& s,
   else if (id == "angle_ripple") o << "once per screw turn (screw angle mod 2π)";
   else if (id == "position_ripple") o << "every " << s.pos_period_m * 1e3 << " mm of nut travel";
   else if (id == "end_effect")
-    o << "within " << v.value("distance_m", 0.0) * 1e3 << " mm of the stroke ends";
+    o << "within " << parameter_value(v, "distance_m") * 1e3 << " mm of the stroke ends";
   else if (id == "backlash") o << "after each reversal of the screw, in proportion to the coupling stiffness";
   else if (id == "sensor_delay") o << "in proportion to nut speed times coupling stiffness";
   else if (id == "external_disturbance") {
@@ -1030,30 +1029,27 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   for (int c : base_cols) current.push_back(g.index(c));
   Score cur = heldout(g, current);
   const double base_heldout = cur.total;
-  Json validation = Json::array();
-  auto heldout_json = [&](const std::string& name, const Score& sc, const std::vector<int>& idx) {
+  std::vector<ValidationStep> validation;
+  auto validation_step = [&](const std::string& name, const Score& sc, const std::vector<int>& idx) {
     const Fit f = fit_all(g, idx);
     double in = 0;
     for (std::size_t k = 0; k < g.xx.size(); ++k) in += sse(g, f, k);
-    return Json{{"model", name},
-                {"heldout_rms", std::sqrt(sc.total / n_total)},
-                {"heldout_relative_error_pct", 100.0 * std::sqrt(sc.total / yy_total)},
-                {"fitted_rms", std::sqrt(in / n_total)},
-                {"fitted_relative_error_pct", 100.0 * std::sqrt(in / yy_total)}};
+    return ValidationStep{name, std::sqrt(sc.total / n_total), 100.0 * std::sqrt(sc.total / yy_total),
+                          std::sqrt(in / n_total), 100.0 * std::sqrt(in / yy_total)};
   };
-  validation.push_back(heldout_json("baseline", cur, current));
+  validation.push_back(validation_step("baseline", cur, current));
   struct Chosen {
     std::string id;
     std::vector<int> cols;  // kinds
     double gain_pct, t_stat, improvement_pct;
     int folds_improved;
-    Json alternatives = Json::array();
+    std::vector<Alternative> alternatives;
     std::string note;
     double explained_n = 0, worst = 0;
   };
   std::vector<Chosen> chosen;
   std::set<std::string> used(in_baseline.begin(), in_baseline.end());
-  Json rejected = Json::array();
+  std::vector<Rejected> rejected;
   for (int step = 0; step < opt.max_terms; ++step) {
     progress("selection", static_cast<double>(step) / opt.max_terms);
     struct Trial {
@@ -1130,10 +1126,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     std::sort(trials.begin(), trials.end(), [](auto& a, auto& b) { return a.sc.total < b.sc.total; });
     if (!significant(trials.front())) {
       const auto& tb = trials.front();
-      rejected.push_back({{"id", tb.id}, {"heldout_gain_pct", tb.gain}, {"t_stat", tb.t},
-                          {"worst_segment_pct", tb.worst},
-                          {"explained_rms_n", explained_n(tb)},
-                          {"reason", "best remaining candidate, below the significance threshold"}});
+      rejected.push_back({tb.id, tb.gain, tb.t, tb.worst, explained_n(tb),
+                          "best remaining candidate, below the significance threshold", std::nullopt});
       break;
     }
     // Parsimony among nested alternatives: a simpler candidate that lies (almost) inside the
@@ -1163,7 +1157,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     const Eigen::VectorXd w = f.theta.tail(static_cast<Eigen::Index>(tr.cols.size()));
     std::vector<int> tidx;
     for (int c : tr.cols) tidx.push_back(g.index(c));
-    Chosen ch{tr.id, tr.cols, tr.gain, tr.t, 0, tr.improved, Json::array(), "", explained_n(tr), tr.worst};
+    Chosen ch{tr.id, tr.cols, tr.gain, tr.t, 0, tr.improved, {}, "", explained_n(tr), tr.worst};
     for (const auto& cand : library) {
       if (cand.id == tr.id || (cand.actuator_only && !actuator) || used.count(cand.id)) continue;
       double best_r2 = 0;
@@ -1184,8 +1178,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
         const Params pa = physical(cand.id, best_var,
                                    fa.theta.tail(static_cast<Eigen::Index>(best_var.size())), S,
                                    model, fa, g);
-        ch.alternatives.push_back({{"id", cand.id}, {"parameters", pa.values},
-                                   {"explains_pct", 100.0 * best_r2}, {"plausible", pa.plausible}});
+        ch.alternatives.push_back({cand.id, pa.values, 100.0 * best_r2, pa.plausible});
       }
     }
     Score next = heldout(g, idx);
@@ -1196,7 +1189,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     used.insert(tr.id);
     current = idx;
     cur = next;
-    validation.push_back(heldout_json("+ " + tr.id, cur, current));
+    validation.push_back(validation_step("+ " + tr.id, cur, current));
   }
   progress("selection", 1.0);
 
@@ -1216,109 +1209,110 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
                ef_full = errors(P.y_raw, P.decimated ? yf_full : yf, F.valid);
 
   AnalysisResult R;
-  Json& J = R.json;
-  J["recording"] = rec.path;
-  J["system"] = model.system;
-  J["samples"] = rec.rows();
-  J["samples_used"] = static_cast<std::size_t>(n_total);
+  Findings& J = R.findings;
+  J.recording = rec.path;
+  J.system = model.system;
+  J.samples = rec.rows();
+  J.samples_used = static_cast<std::size_t>(n_total);
   auto fmt = [](double v) {
     std::ostringstream o;
     o << v;
     return o.str();
   };
-  J["method"] = {
-      {"domain", "force (inverse model: measured force predicted from measured motion)"},
-      {"filter", "4th-order Butterworth, zero phase (forward-backward), position at " +
-                     fmt(P.filter_hz) + " Hz; central differences" +
-                     (actuator ? "; load force filtered alike" : "")},
-      {"decimation", P.decimation},
-      {"identification_bandwidth_hz", P.bandwidth_hz},
-      {"folds", folds},
-      {"selection", "forward, by held-out error on contiguous time segments; a term must cut the "
-                    "held-out mean square error by >= " + fmt(opt.min_gain_pct) +
-                    " % with t >= " + fmt(opt.min_t) +
-                    " over the segments (or >= 10x that gain with no segment worse), and explain "
-                    "more RMS than the force noise floor"},
-      {"moving_only", actuator ? "samples slower than " + fmt(opt.min_speed_m_s) +
-                                     " m/s, and within half a filter period of a start, stop or "
-                                     "reversal, are left out: a sticking nut's friction is unknown"
-                               : "all samples"}};
-  J["noise_floor_n"] = P.noise_floor_n;
+  J.method.domain = "force (inverse model: measured force predicted from measured motion)";
+  J.method.filter = "4th-order Butterworth, zero phase (forward-backward), position at " +
+                    fmt(P.filter_hz) + " Hz; central differences" +
+                    (actuator ? "; load force filtered alike" : "");
+  J.method.decimation = P.decimation;
+  J.method.identification_bandwidth_hz = P.bandwidth_hz;
+  J.method.folds = folds;
+  J.method.selection = "forward, by held-out error on contiguous time segments; a term must cut the "
+                       "held-out mean square error by >= " + fmt(opt.min_gain_pct) +
+                       " % with t >= " + fmt(opt.min_t) +
+                       " over the segments (or >= 10x that gain with no segment worse), and explain "
+                       "more RMS than the force noise floor";
+  J.method.moving_only = actuator ? "samples slower than " + fmt(opt.min_speed_m_s) +
+                                        " m/s, and within half a filter period of a start, stop or "
+                                        "reversal, are left out: a sticking nut's friction is unknown"
+                                  : "all samples";
+  J.noise_floor_n = P.noise_floor_n;
   auto fitted_base = [&](const Fit& fit) {
-    Json b = Json::object();
+    Parameters b;
     for (const int c : base_cols) {
       double v = 0;
       for (std::size_t k = 0; k < fit.idx.size(); ++k)
         if (fit.idx[k] == g.index(c)) v = fit.theta[static_cast<Eigen::Index>(k)];
-      b[c == kAcc ? "nut_mass_kg" : c == kVel ? "viscous_n_s_per_m" : c == kSign ? "coulomb_n" : "offset_n"] = v;
+      set_parameter(b, c == kAcc ? "nut_mass_kg" : c == kVel ? "viscous_n_s_per_m" : c == kSign ? "coulomb_n" : "offset_n", v);
     }
     return b;
   };
-  J["baseline"] = {{"rms", eb.rms},
-                   {"relative_error_pct", eb.rel_pct},
-                   {"full_rate", {{"rms", eb_full.rms}, {"relative_error_pct", eb_full.rel_pct}}},
-                   {"heldout_rms", std::sqrt(base_heldout / n_total)},
-                   {"fitted_parameters", fitted_base(base_fit)}};
-  Json effects = Json::array();
+  J.baseline = {eb.rms, eb.rel_pct, eb_full.rms, eb_full.rel_pct, std::sqrt(base_heldout / n_total),
+                fitted_base(base_fit)};
+  auto& effects = J.effects;
   std::size_t off = base_cols.size();
   for (const auto& ch : chosen) {
     const Eigen::VectorXd c = final_fit.theta.segment(static_cast<Eigen::Index>(off),
                                                       static_cast<Eigen::Index>(ch.cols.size()));
     off += ch.cols.size();
     const Params pp = physical(ch.id, ch.cols, c, S, model, final_fit, g);
-    Json e;
-    e["id"] = ch.id;
-    e["parameters"] = pp.values;
-    e["where"] = where_text(ch.id, pp.values, S, bursts);
-    std::ostringstream sig;
-    sig.precision(3);
-    e["evidence"] = {{"heldout_gain_pct", ch.gain_pct},
-                     {"t_stat", ch.t_stat},
-                     {"segments_improved", std::to_string(ch.folds_improved) + "/" + std::to_string(folds)},
-                     {"explained_rms_n", ch.explained_n},
-                     {"worst_segment_pct", ch.worst},
-                     {"noise_floor_n", P.noise_floor_n},
-                     {"plausible", pp.plausible}};
-    e["improvement_pct"] = ch.improvement_pct;
+    EffectFinding e;
+    e.id = ch.id;
+    e.parameters = pp.values;
+    e.where = where_text(ch.id, pp.values, S, bursts);
+    e.evidence.heldout_gain_pct = ch.gain_pct;
+    e.evidence.t_stat = ch.t_stat;
+    e.evidence.segments_improved = std::to_string(ch.folds_improved) + "/" + std::to_string(folds);
+    e.evidence.explained_rms_n = ch.explained_n;
+    e.evidence.worst_segment_pct = ch.worst;
+    e.evidence.noise_floor_n = P.noise_floor_n;
+    e.evidence.plausible = pp.plausible;
+    e.improvement_pct = ch.improvement_pct;
     if (!ch.alternatives.empty()) {
-      e["identifiable"] = false;
-      e["alternatives"] = ch.alternatives;
+      e.identifiable = false;
+      e.alternatives = ch.alternatives;
       std::string names = ch.id;
-      for (const auto& a : ch.alternatives) names += " or " + a["id"].get<std::string>();
-      e["finding"] = "one combined finding: the data cannot tell " + names + " apart";
+      for (const auto& a : ch.alternatives) names += " or " + a.id;
+      e.finding = "one combined finding: the data cannot tell " + names + " apart";
     } else {
-      e["identifiable"] = true;
+      e.identifiable = true;
     }
-    if (!ch.note.empty()) e["note"] = ch.note;
+    e.note = ch.note;
     effects.push_back(e);
   }
-  J["effects"] = effects;
-  J["nothing_missing"] = chosen.empty();
-  J["conclusion"] = chosen.empty()
-                        ? "nothing is missing: no candidate effect lowers the held-out error significantly"
-                        : std::to_string(chosen.size()) + " effect(s) found";
-  J["not_selected"] = rejected;
-  J["final"] = {{"rms", ef.rms},
-                {"relative_error_pct", ef.rel_pct},
-                {"full_rate", {{"rms", ef_full.rms}, {"relative_error_pct", ef_full.rel_pct}}},
-                {"fitted_parameters", fitted_base(final_fit)}};
-  J["validation"] = validation;
+  J.nothing_missing = chosen.empty();
+  J.conclusion = chosen.empty()
+                     ? "nothing is missing: no candidate effect lowers the held-out error significantly"
+                     : std::to_string(chosen.size()) + " effect(s) found";
+  J.not_selected = rejected;
+  J.final_fit = {ef.rms, ef.rel_pct, ef_full.rms, ef_full.rel_pct, std::nullopt, fitted_base(final_fit)};
+  J.validation = validation;
 
   // Events: step-outs and isolated pulses, windows where the final residual stays large.
-  Json events = Json::array();
-  for (const auto& [ts, k] : P.slips)
-    events.push_back({{"type", "step_out"}, {"t_s", ts}, {"leads", k}});
-  for (const auto& [ts, amp] : bursts)
-    events.push_back({{"type", "isolated_disturbance"}, {"t_s", ts}, {"residual_n", amp}});
+  auto& events = J.events;
+  for (const auto& [ts, k] : P.slips) {
+    Event ev;
+    ev.type = "step_out";
+    ev.t_s = ts;
+    ev.leads = k;
+    events.push_back(ev);
+  }
+  for (const auto& [ts, amp] : bursts) {
+    Event ev;
+    ev.type = "isolated_disturbance";
+    ev.t_s = ts;
+    ev.residual_n = amp;
+    events.push_back(ev);
+  }
   if (!P.slips.empty()) {
-    Json e{{"id", "step_out"},
-           {"parameters", {{"count", P.slips.size()}}},
-           {"where", "phase left the stable branch and the nut slipped by a lead"},
-           {"evidence", {{"events", P.slips.size()}, {"heldout_gain_pct", nullptr}}},
-           {"improvement_pct", 0.0},
-           {"identifiable", true},
-           {"note", "an event, not a force term: the slips' windows (±0.2 s) are left out of the fits"}};
-    J["effects"].push_back(e);
+    EffectFinding e;
+    e.id = "step_out";
+    set_parameter(e.parameters, "count", static_cast<double>(P.slips.size()), true);
+    e.where = "phase left the stable branch and the nut slipped by a lead";
+    e.evidence.events = P.slips.size();
+    e.improvement_pct = 0.0;
+    e.identifiable = true;
+    e.note = "an event, not a force term: the slips' windows (±0.2 s) are left out of the fits";
+    J.effects.push_back(e);
   }
 
   // ------------------------------------------------------------ localisation
@@ -1328,14 +1322,12 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     res1[i] = S.y[i] - yf[i];
   }
   const double rms0 = eb.rms;
-  Json where = Json::array();
   auto add_map = [&](const std::string& name, const std::vector<double>& x, const std::string& label,
                      const std::string& unit, double scale, double lo, double hi, int nb) {
     const auto b0 = bin(x, res0, S.valid, lo, hi, nb);
     const auto b1 = bin(x, res1, S.valid, lo, hi, nb);
     const std::string text = describe_regions(b0, label, unit, scale, rms0);
     if (!text.empty()) {
-      where.push_back(text);
       R.where.push_back(text);
     }
     Figure fig;
@@ -1363,7 +1355,6 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       o << "by direction: mean residual " << std::showpos << sp / np << " N moving +, " << sn / nn
         << " N moving −" << std::noshowpos;
       if (std::abs(sp / np - sn / nn) > 0.3 * rms0) o << " (jumps at velocity reversals)";
-      where.push_back(o.str());
       R.where.push_back(o.str());
     }
     auto [plo, phi_] = percentile_range(S.p, S.valid, 0.0);
@@ -1445,7 +1436,6 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       if (last > 1.5 * first && last > 0.3 * rms0) {
         o << "over time: the residual grows (RMS " << first << " N in the first third, " << last
           << " N in the last)";
-        where.push_back(o.str());
         R.where.push_back(o.str());
       }
       std::vector<double> sorted = wr;
@@ -1457,13 +1447,16 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       for (std::size_t k = 0; k < wr.size() && shown < 6; ++k)
         if (wr[k] > 3 * med && wr[k] > P.noise_floor_n * 3) {
           w2 << (shown ? ", " : "") << rms_t0.x[k] - win / 2 << "–" << rms_t0.x[k] + win / 2 << " s";
-          events.push_back({{"type", "misfit_window"}, {"t_s", rms_t0.x[k] - win / 2},
-                            {"duration_s", win}, {"rms_n", wr[k]}});
+          Event ev;
+          ev.type = "misfit_window";
+          ev.t_s = rms_t0.x[k] - win / 2;
+          ev.duration_s = win;
+          ev.rms_n = wr[k];
+          events.push_back(ev);
           ++shown;
         }
       if (shown) {
-        where.push_back("in time: windows with residual RMS over 3× the median: " + w2.str());
-        R.where.push_back(where.back());
+        R.where.push_back("in time: windows with residual RMS over 3× the median: " + w2.str());
       }
     }
     Figure ft;
@@ -1511,7 +1504,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       if (d != 0) last_dir = d;
     }
     locked(rev, "reversal_locked.png", "velocity reversals");
-    J["reversals"] = rev.size();
+    J.reversals = rev.size();
     // Input edges: steps in a setpoint column, if the recording has one.
     for (const char* col : {"force_set_n", "pos_set_m", "ref_pos_m"}) {
       if (!rec.has(col)) continue;
@@ -1527,13 +1520,11 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       }
       if (!edges.empty()) {
         locked(edges, std::string("edge_locked_") + col + ".png", std::string("steps of ") + col);
-        J["input_edges"] = edges.size();
+        J.input_edges = edges.size();
       }
       break;
     }
   }
-  J["events"] = events;
-  J["where"] = where;
 
   // Time series: measured, baseline, corrected (thinned for drawing).
   {
@@ -1561,7 +1552,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     Curve hs{"held-out RMS", {}, {}};
     for (std::size_t k = 0; k < validation.size(); ++k) {
       hs.x.push_back(static_cast<double>(k));
-      hs.y.push_back(validation[k]["heldout_rms"].get<double>());
+      hs.y.push_back(validation[k].heldout_rms_n);
     }
     v.charts.push_back({"Held-out error per step (0 = baseline)", "terms added", "RMS [N]", {hs}});
     R.figures.insert(R.figures.begin() + 1, v);
@@ -1570,21 +1561,20 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   // ------------------------------------------------------------ corrected model file
   ModelFile M = model;
   M.fit.clear();  // the corrected model is a model: every value fixed, as fitted here
-  const Json fb = fitted_base(final_fit);
-  if (fb.contains("nut_mass_kg")) M.nut_mass_kg = fb["nut_mass_kg"].get<double>();
-  if (fb.contains("viscous_n_s_per_m")) M.viscous_n_s_per_m = fb["viscous_n_s_per_m"].get<double>();
-  if (fb.contains("coulomb_n")) M.coulomb_n = fb["coulomb_n"].get<double>();
+  for (const auto& [name, value, is_count] : fitted_base(final_fit)) {
+    if (name == "nut_mass_kg") M.nut_mass_kg = value;
+    if (name == "viscous_n_s_per_m") M.viscous_n_s_per_m = value;
+    if (name == "coulomb_n") M.coulomb_n = value;
+  }
   bool has_asym = false;
-  for (const auto& e : J["effects"]) {
-    const std::string id = e["id"];
-    const Json& p = e["parameters"];
-    auto val = [&](const char* k) { return p.value(k, 0.0); };
+  for (const auto& e : J.effects) {
+    const std::string& id = e.id;
+    auto val = [&](const char* k) { return parameter_value(e.parameters, k); };
     std::ostringstream note;
     note.precision(3);
-    note << "maglead analyze: " << e["where"].get<std::string>();
-    if (e["evidence"]["heldout_gain_pct"].is_number())
-      note << "; held-out gain " << e["evidence"]["heldout_gain_pct"].get<double>() << " %";
-    if (e.contains("finding")) note << "; " << e["finding"].get<std::string>();
+    note << "maglead analyze: " << e.where;
+    if (e.evidence.heldout_gain_pct) note << "; held-out gain " << *e.evidence.heldout_gain_pct << " %";
+    if (!e.finding.empty()) note << "; " << e.finding;
     auto add = [&](const std::vector<std::pair<std::string, double>>& kv) {
       auto& t = M.term(id);
       t.enabled = true;
@@ -1619,13 +1609,14 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   if (actuator) {
     progress("twin", 0.0);
     try {
-      J["twin_simulation"] = simulate_twins({S.t, S.p, S.v, S.theta, S.y, act, cal.periodic, P.fs_hz, 0.1}, model, M);
+      J.twin_simulation = simulate_twins({S.t, S.p, S.v, S.theta, S.y, act, cal.periodic, P.fs_hz, 0.1}, model, M);
     } catch (const std::exception& e) {
-      J["twin_simulation"] = {{"available", false}, {"reason", e.what()}};
+      J.twin_simulation = TwinSimulation{};
+      J.twin_simulation->reason = e.what();
     }
   } else {
-    J["twin_simulation"] = {{"available", false},
-                            {"reason", "the twin models the magnetic actuator; this is a force-driven axis"}};
+    J.twin_simulation = TwinSimulation{};
+    J.twin_simulation->reason = "the twin models the magnetic actuator; this is a force-driven axis";
   }
   progress("done", 1.0);
   return R;

@@ -13,12 +13,16 @@ namespace maglead::analysis {
 
 #ifdef MAGLEAD_HAVE_TWIN
 
-nlohmann::json simulate_twins(const TwinCheckInput& in, const ModelFile& baseline,
+TwinSimulation simulate_twins(const TwinCheckInput& in, const ModelFile& baseline,
                               const ModelFile& corrected) {
+  TwinSimulation out;
   const std::size_t n = in.t.size();
   const std::size_t horizon =
       std::max<std::size_t>(2, static_cast<std::size_t>(in.horizon_s * in.fs_hz));
-  if (n < horizon * 4) return {{"available", false}, {"reason", "recording too short"}};
+  if (n < horizon * 4) {
+    out.reason = "recording too short";
+    return out;
+  }
   const int windows = static_cast<int>(std::min<std::size_t>(40, n / horizon / 2));
   const twin::ReplaySignals signals{in.t, in.theta, in.p, {}, in.load};
   const auto run = [&](const ModelFile& m) {
@@ -27,22 +31,23 @@ nlohmann::json simulate_twins(const TwinCheckInput& in, const ModelFile& baselin
   };
   const auto b = run(baseline);
   const auto c = run(corrected);
-  nlohmann::json out;
-  out["available"] = true;
-  out["integrator"] = "SUNDIALS CVODE (maglead_twin HybridTwin), step capped at the sample period";
-  out["horizon_s"] = in.horizon_s;
-  out["windows"] = windows;
-  out["baseline_rms_position_error_m"] = b.rms_position_error_m;
-  out["corrected_rms_position_error_m"] = c.rms_position_error_m;
-  out["baseline_failures"] = b.failures;
-  out["corrected_failures"] = c.failures;
-  out["steps"] = c.stats.steps;
-  out["root_events"] = c.stats.root_events;
+  out.available = true;
+  out.integrator = "SUNDIALS CVODE (maglead_twin HybridTwin), step capped at the sample period";
+  out.horizon_s = in.horizon_s;
+  out.windows = windows;
+  out.baseline_rms_position_error_m = b.rms_position_error_m;
+  out.corrected_rms_position_error_m = c.rms_position_error_m;
+  out.baseline_failures = b.failures;
+  out.corrected_failures = c.failures;
+  out.steps = c.stats.steps;
+  out.root_events = c.stats.root_events;
   return out;
 }
 #else
-nlohmann::json simulate_twins(const TwinCheckInput&, const ModelFile&, const ModelFile&) {
-  return {{"available", false}, {"reason", "maglead_twin (SUNDIALS) not built"}};
+TwinSimulation simulate_twins(const TwinCheckInput&, const ModelFile&, const ModelFile&) {
+  TwinSimulation out;
+  out.reason = "maglead_twin (SUNDIALS) not built";
+  return out;
 }
 #endif
 

@@ -1,10 +1,10 @@
 #pragma once
 // Internal: re-simulation of baseline and corrected twins over short horizons from measured
 // states (the secondary check; the force-domain fit is the primary one).
-#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "maglead/analysis/model_file.hpp"
+#include "maglead/analysis/results.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
 
@@ -22,7 +22,7 @@ struct TwinCheckInput {
   double horizon_s = 0.1;
 };
 
-nlohmann::json simulate_twins(const TwinCheckInput& in, const ModelFile& baseline,
+TwinSimulation simulate_twins(const TwinCheckInput& in, const ModelFile& baseline,
                               const ModelFile& corrected);
 
 }  // namespace maglead::analysis

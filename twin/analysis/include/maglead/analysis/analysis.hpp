@@ -4,12 +4,12 @@
 // held-out time segments, refit; the result (figures as data, the corrected model) is rendered
 // by the report library (report/).
 #include <functional>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "maglead/analysis/figures.hpp"
 #include "maglead/analysis/model_file.hpp"
+#include "maglead/analysis/results.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/recording/recording.hpp"
@@ -28,10 +28,10 @@ struct AnalysisOptions {
 };
 
 struct AnalysisResult {
-  nlohmann::json json;  // the content of analysis.json
+  Findings findings;  // what analysis.json reports (report::analysis_json writes it)
   ModelFile corrected;
   std::vector<Figure> figures;
-  std::vector<std::string> where;  // localisation findings in words
+  std::vector<std::string> where;  // localisation findings in words (analysis.json's "where")
   // The fit before and after over time: the force the model leaves out, baseline and corrected
   // (actuator recordings; no curves otherwise). NaN separates stretches of sliding samples.
   Chart fit_over_time;

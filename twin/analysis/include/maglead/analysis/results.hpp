@@ -1,0 +1,161 @@
+#pragma once
+// The analysis's typed results: what analysis.json holds, as data. Units are in the names
+// (`_n` newton, `_m` metre, `_s` second, `_pct` percent, …), as in the JSON the report library
+// writes from them (report/analysis_json.hpp). An absent std::optional is a key the JSON leaves
+// out; the one exception is Evidence::heldout_gain_pct, which is always written (null: none).
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace maglead::analysis {
+
+/// One named parameter value; the unit is the name's suffix. A count is a whole number.
+struct Parameter {
+  std::string name;
+  double value = 0.0;
+  bool is_count = false;
+};
+using Parameters = std::vector<Parameter>;
+
+/// The value of `name`, or `fallback` when the parameters do not hold it.
+double parameter_value(const Parameters& p, const std::string& name, double fallback = 0.0);
+/// Sets `name` to `value` (replacing a value already there).
+void set_parameter(Parameters& p, const std::string& name, double value, bool is_count = false);
+
+/// Why an effect was named: its held-out statistics (sliding fits) or its events.
+struct Evidence {
+  std::optional<double> heldout_gain_pct;  // reduction of the held-out mean square error [%]
+  std::optional<double> t_stat;            // consistency of that gain over the segments
+  std::optional<std::string> segments_improved;  // "7/10", or "12 releases"
+  std::optional<double> explained_rms_n;
+  std::optional<double> worst_segment_pct;
+  std::optional<double> noise_floor_n;
+  std::optional<bool> plausible;
+  std::optional<double> breakaway_excess_pos_n, breakaway_excess_neg_n, encoder_count_force_n;
+  std::optional<std::size_t> events;  // event effects: how many
+};
+
+/// Another effect that reproduces a named effect's contribution (the data cannot tell them apart).
+struct Alternative {
+  std::string id;
+  Parameters parameters;
+  double explains_pct = 0.0;
+  std::optional<bool> plausible;
+};
+
+/// A named effect of the library the baseline leaves out (or an event kind: step_out, …).
+struct EffectFinding {
+  std::string id;
+  Parameters parameters;
+  std::string where;  // in words
+  Evidence evidence;
+  double improvement_pct = 0.0;
+  std::optional<bool> identifiable;
+  std::vector<Alternative> alternatives;  // none: written not at all
+  std::string finding;                    // empty: not written
+  std::string note;                       // empty: not written
+};
+
+/// The best candidate the selection did not take.
+struct Rejected {
+  std::string id;
+  double heldout_gain_pct = 0.0;
+  double t_stat = 0.0;
+  std::optional<double> worst_segment_pct;
+  std::optional<double> explained_rms_n;
+  std::optional<std::string> reason;
+  std::optional<Parameters> parameters;
+};
+
+/// Held-out (and fitted) error after each step of the selection; the first is the baseline.
+struct ValidationStep {
+  std::string model;  // "baseline", "+ coulomb_friction", …
+  double heldout_rms_n = 0.0;
+  double heldout_relative_error_pct = 0.0;
+  std::optional<double> fitted_rms_n;
+  std::optional<double> fitted_relative_error_pct;
+};
+
+/// Something that happened at a time: step_out, external_disturbance, isolated_disturbance,
+/// misfit_window.
+struct Event {
+  std::string type;
+  double t_s = 0.0;
+  std::optional<double> start_s;
+  std::optional<int> leads;
+  std::optional<double> duration_s;
+  std::optional<double> force_n;
+  std::optional<double> residual_n;
+  std::optional<double> rms_n;
+};
+
+/// Error of a model's force prediction over the used samples.
+struct FitErrors {
+  double rms_n = 0.0;
+  double relative_error_pct = 0.0;
+  double full_rate_rms_n = 0.0;
+  double full_rate_relative_error_pct = 0.0;
+  std::optional<double> heldout_rms_n;
+  std::optional<Parameters> fitted_parameters;  // the baseline's terms as fitted (axis)
+};
+
+/// How the analysis ran, in words and numbers.
+struct Method {
+  std::string domain;
+  std::string filter;
+  int decimation = 1;
+  std::optional<double> identification_bandwidth_hz;
+  int folds = 0;
+  std::string selection;
+  std::string moving_only;
+};
+
+/// Break-away test over the stuck episodes, one direction.
+struct BreakawaySide {
+  std::size_t episodes = 0;
+  double median_excess_n = 0.0;
+  double se_n = 0.0;
+};
+struct BreakawayTest {
+  BreakawaySide pos, neg;
+};
+
+/// Short-horizon re-simulation of the baseline and corrected twins from measured states.
+struct TwinSimulation {
+  bool available = false;
+  std::string reason;  // when not available
+  std::string integrator;
+  double horizon_s = 0.0;
+  int windows = 0;
+  double baseline_rms_position_error_m = 0.0;
+  double corrected_rms_position_error_m = 0.0;
+  int baseline_failures = 0;
+  int corrected_failures = 0;
+  long steps = 0;
+  long root_events = 0;
+};
+
+/// Everything analysis.json reports.
+struct Findings {
+  std::string system;
+  std::string recording;
+  std::size_t samples = 0;
+  std::size_t samples_used = 0;
+  Method method;
+  double noise_floor_n = 0.0;
+  FitErrors baseline;
+  FitErrors final_fit;
+  std::vector<EffectFinding> effects;
+  std::optional<bool> nothing_missing;
+  std::string conclusion;
+  std::vector<Rejected> not_selected;
+  std::vector<ValidationStep> validation;
+  std::vector<Event> events;
+  std::optional<BreakawayTest> breakaway_test;
+  std::optional<std::size_t> reversals;
+  std::optional<std::size_t> input_edges;
+  std::optional<TwinSimulation> twin_simulation;
+};
+
+}  // namespace maglead::analysis
