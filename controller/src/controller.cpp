@@ -359,7 +359,6 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   bool in_position = false, force_reached = false;
   switch (state_) {
     case DriveState::disabled:
-      break;
     case DriveState::ready:
       break;  // hold the last command
     case DriveState::enabled:

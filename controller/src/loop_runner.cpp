@@ -3,11 +3,11 @@
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
-#include <time.h>
 
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <cstring>
 #include <stdexcept>
 

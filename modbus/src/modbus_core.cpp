@@ -274,8 +274,8 @@ bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count, cons
     const int w = reg::word_count(r.type);
     if (addr + static_cast<std::uint32_t>(w) > end) return ex = Exception::illegal_data_address, false;
     std::uint16_t words[2] = {0, 0};
-    const std::uint8_t* d = data + 2 * (addr - start);
-    for (int k = 0; k < w; ++k) words[k] = be16(d + 2 * k);
+    const std::uint8_t* d = data + std::size_t{2} * (addr - start);
+    for (std::size_t k = 0; k < static_cast<std::size_t>(w); ++k) words[k] = be16(d + 2 * k);
     const double v = reg::decode(r, words);
     if (!reg::in_range(r, v)) return ex = Exception::illegal_data_value, false;
     bindings_[static_cast<std::size_t>(s.reg)]->image_set(image, v);
@@ -305,7 +305,7 @@ bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool h
   if (client.broadcast && (next.control_word != image_.control_word || next.mode_command != image_.mode_command))
     return refuse(registers::Refusal::broadcast_state_change, ex);
 
-  const bool changed = std::memcmp(&next, &image_, sizeof next) != 0;
+  const bool changed = next != image_;
   if (changed || heartbeat) {
     if (!controller_.post(Command{next, heartbeat})) return ex = Exception::server_busy, false;
   }

@@ -137,7 +137,8 @@ void RtuServer::run() {
     while (n > 0) {
       const long want = expected_length(buf, n);
       std::size_t frame = 0;
-      if (want > static_cast<long>(kMaxRtuAdu) || n >= kMaxRtuAdu + 1) {
+      // Two discards on purpose: an over-long frame and a cut-short one are told apart by order.
+      if (want > static_cast<long>(kMaxRtuAdu) || n >= kMaxRtuAdu + 1) {  // NOLINT(bugprone-branch-clone)
         discard();
         break;
       } else if (want > 0 && n >= static_cast<std::size_t>(want)) {

@@ -24,7 +24,7 @@ constexpr std::size_t kMaxAdu = 260;
 // A client that does not read its replies is dropped once this much waits for it beyond the
 // kernel's send buffer (kSendBuffer, which the kernel doubles): a few hundred replies, not the
 // megabytes an autotuned loopback buffer would take while the others wait.
-constexpr std::size_t kMaxPendingOut = 16 * 1024;
+constexpr std::size_t kMaxPendingOut = std::size_t{16} * 1024;
 constexpr int kSendBuffer = 32 * 1024;
 // Reads per connection per wake-up: one client's stream of requests cannot starve the others.
 constexpr int kReadsPerWake = 4;
@@ -293,9 +293,10 @@ void TcpServer::run() {
     // Deadlines: a frame left incomplete, or a connection idle too long, is closed.
     std::vector<Conn*> expired;
     for (auto& [fd, c] : conns) {
-      if (c->in_len > 0 && now - c->frame_started_s > options_.frame_timeout_s) expired.push_back(c.get());
-      else if (options_.idle_timeout_s > 0 && now - c->last_activity_s > options_.idle_timeout_s) expired.push_back(c.get());
-      else if (c->read_closed && now - c->last_activity_s > options_.frame_timeout_s) expired.push_back(c.get());
+      const bool frame_stalled = c->in_len > 0 && now - c->frame_started_s > options_.frame_timeout_s;
+      const bool idle = options_.idle_timeout_s > 0 && now - c->last_activity_s > options_.idle_timeout_s;
+      const bool half_closed = c->read_closed && now - c->last_activity_s > options_.frame_timeout_s;
+      if (frame_stalled || idle || half_closed) expired.push_back(c.get());
     }
     for (Conn* c : expired) drop(*c);
   }

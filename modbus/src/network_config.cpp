@@ -1,7 +1,8 @@
 #include "maglead/modbus/network_config.hpp"
 
 #include <optional>
-#include <set>
+#include <initializer_list>
+#include <string_view>
 #include <stdexcept>
 
 #include "maglead/physics/toml_config.hpp"
@@ -20,13 +21,9 @@ struct Reader {
   [[noreturn]] void fail(const toml::node* at, const std::string& key, const std::string& why) const {
     config::fail(path, at, key + ": " + why);
   }
-  const toml::table* section(const char* name, const std::set<std::string>& known) const {
-    const auto* node = root.get(name);
-    if (!node) return nullptr;
-    const auto* t = node->as_table();
-    if (!t) fail(node, name, "must be a table");
-    for (const auto& [k, v] : *t)
-      if (!known.count(std::string(k.str()))) fail(&v, std::string(name) + "." + std::string(k.str()), "unknown key");
+  const toml::table* section(const char* name, std::initializer_list<std::string_view> known) const {
+    const toml::table* t = config::section(path, root, name);
+    if (t) config::check_keys(path, *t, std::string("[") + name + "]", known);
     return t;
   }
   template <class T>

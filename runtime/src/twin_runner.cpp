@@ -2,7 +2,7 @@
 
 #include <pthread.h>
 #include <sched.h>
-#include <time.h>
+#include <ctime>
 
 #include <cmath>
 #include <cstring>

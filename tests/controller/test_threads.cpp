@@ -63,6 +63,7 @@ TEST(ServeThreads, LoopTwinNetworkAndClientsTogether) {
   constexpr int kPollers = 3, kReads = 200;
   std::atomic<int> failed_reads{0}, connected{0};
   std::vector<std::thread> pollers;
+  pollers.reserve(kPollers);
   for (int c = 0; c < kPollers; ++c) {
     pollers.emplace_back([&] {
       modbus_t* ctx = connect(server.port());

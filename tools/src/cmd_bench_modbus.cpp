@@ -20,6 +20,7 @@
 
 #include "bench_common.hpp"
 #include "cli_common.hpp"
+#include "maglead/recording/error_stats.hpp"
 #include "maglead/registers/registers.hpp"
 #include "maglead/runtime/service.hpp"
 
@@ -114,14 +115,6 @@ struct Result {
   std::size_t errors = 0;
 };
 
-double percentile(std::vector<double>& v, double q) {
-  if (v.empty()) return 0.0;
-  const auto k = static_cast<std::size_t>(std::clamp(q * static_cast<double>(v.size() - 1), 0.0,
-                                                     static_cast<double>(v.size() - 1)));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
-
 /// The 16 setpoint registers 1004..1019 (i32 then f32 forms), all valid, force alternating.
 std::vector<std::uint16_t> setpoint_words(double force_n) {
   std::vector<std::uint16_t> w;
@@ -150,6 +143,7 @@ Result measure(int port, Work work, int clients, double seconds) {
   std::atomic<bool> go{false};
   const auto words_a = setpoint_words(1.0), words_b = setpoint_words(2.0);
   std::vector<std::thread> threads;
+  threads.reserve(static_cast<std::size_t>(clients));
   for (int i = 0; i < clients; ++i) {
     threads.emplace_back([&, i] {
       auto& l = lat[static_cast<std::size_t>(i)];

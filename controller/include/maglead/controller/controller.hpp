@@ -75,6 +75,8 @@ struct CommandImage {
   double position_setpoint_m = 0.02;
   double velocity_limit_m_s = 0.01;
   double accel_limit_m_s2 = 0.1;
+  // Member-wise: the padding after the three words is not part of the value.
+  bool operator==(const CommandImage&) const = default;
 };
 struct Command {
   CommandImage image;
