@@ -1026,6 +1026,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   // ------------------------------------------------------------ forward selection
   const auto library = candidate_library();
   std::vector<int> current;
+  current.reserve(base_cols.size());
   for (int c : base_cols) current.push_back(g.index(c));
   Score cur = heldout(g, current);
   const double base_heldout = cur.total;
@@ -1164,6 +1165,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       std::vector<int> best_var;
       for (const auto& var : cand.variants) {
         std::vector<int> aidx;
+        aidx.reserve(var.size());
         for (int c : var) aidx.push_back(g.index(c));
         const double r2 = partial_r2(g, current, tidx, w, aidx);
         if (r2 > best_r2) {
@@ -1196,6 +1198,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   // ------------------------------------------------------------ final fit and outputs
   const Fit final_fit = fit_all(g, current);
   std::vector<int> base_idx;
+  base_idx.reserve(base_cols.size());
   for (int c : base_cols) base_idx.push_back(g.index(c));
   const Fit base_fit = fit_all(g, base_idx);
   auto yb = P.decimated ? predict_decimated(P, g, base_fit) : predict(S, g, base_fit);
@@ -1357,7 +1360,9 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       if (std::abs(sp / np - sn / nn) > 0.3 * rms0) o << " (jumps at velocity reversals)";
       R.where.push_back(o.str());
     }
-    auto [plo, phi_] = percentile_range(S.p, S.valid, 0.0);
+    // Plain variables, not a structured binding: clang 14 (clang-tidy) cannot capture bindings.
+    const auto p_range = percentile_range(S.p, S.valid, 0.0);
+    const double plo = p_range.first, phi_ = p_range.second;
     add_map("position", S.p, "position", "mm", 1e3, plo, phi_, 80);
     if (actuator) {
       add_map("phase", S.phi, "phase", "rad", 1.0, -kPi / 2, kPi / 2, 60);
@@ -1384,8 +1389,9 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
           const int ix = static_cast<int>((x[i] - xlo) / (xhi - xlo) * h.nx);
           const int iy = static_cast<int>((S.p[i] - plo) / (phi_ - plo + 1e-12) * h.ny);
           if (ix < 0 || ix >= h.nx || iy < 0 || iy >= h.ny) continue;
-          sum[static_cast<std::size_t>(iy * h.nx + ix)] += res0[i];
-          cnt[static_cast<std::size_t>(iy * h.nx + ix)] += 1;
+          const auto cell = static_cast<std::size_t>(iy) * static_cast<std::size_t>(h.nx) + static_cast<std::size_t>(ix);
+          sum[cell] += res0[i];
+          cnt[cell] += 1;
         }
         h.values.resize(sum.size());
         for (std::size_t k = 0; k < sum.size(); ++k) h.values[k] = cnt[k] >= 3 ? sum[k] / cnt[k] : NAN;
@@ -1475,7 +1481,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
         for (int k = -half; k <= half; ++k) {
           const auto ii = static_cast<std::ptrdiff_t>(i) + k;
           if (ii < 0 || ii >= static_cast<std::ptrdiff_t>(S.size()) || !S.valid[static_cast<std::size_t>(ii)]) continue;
-          const auto kk = static_cast<std::size_t>(k + half);
+          const int lag = k + half;
+          const auto kk = static_cast<std::size_t>(lag);
           acc0[kk] += d * res0[static_cast<std::size_t>(ii)];
           acc1[kk] += d * res1[static_cast<std::size_t>(ii)];
           cnt[kk] += 1;
