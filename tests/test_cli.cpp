@@ -5,8 +5,8 @@
 
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <string>
 
@@ -18,8 +18,8 @@ struct Run {
 };
 
 Run run(const std::string& args) {
-  const std::string cmd = std::string(MAGLEAD_BIN) + " " + args + " --config " +
-                          MAGLEAD_CONFIG_DIR + " 2>&1";
+  const std::string cmd =
+      std::string(MAGLEAD_BIN) + " " + args + " --config " + MAGLEAD_CONFIG_DIR + " 2>&1";
   Run r{0, ""};
   FILE* p = popen(cmd.c_str(), "r");
   std::array<char, 4096> buf{};
@@ -40,7 +40,8 @@ double number_after(const std::string& text, const std::string& label) {
 }  // namespace
 
 TEST(Cli, HandPushStaticEstimateIsInThePapersNeighbourhood) {
-  const auto sim = run("simulate --scenario hand-push --duration 30s --seed 1 --out " + tmp("hp.csv"));
+  const auto sim =
+      run("simulate --scenario hand-push --duration 30s --seed 1 --out " + tmp("hp.csv"));
   ASSERT_EQ(sim.exit_code, 0) << sim.out;
   const auto est = run("estimate --recording " + tmp("hp.csv") + " --plot " + tmp("hp.png"));
   ASSERT_EQ(est.exit_code, 0) << est.out;
@@ -55,8 +56,10 @@ TEST(Cli, HandPushStaticEstimateIsInThePapersNeighbourhood) {
 }
 
 TEST(Cli, CalibrationOnStaticRunPicksOrderFiveAndWritesALoadableFile) {
-  ASSERT_EQ(run("simulate --scenario static-calibration --duration 30s --seed 2 --out " +
-                tmp("cal.csv")).exit_code, 0);
+  ASSERT_EQ(
+      run("simulate --scenario static-calibration --duration 30s --seed 2 --out " + tmp("cal.csv"))
+          .exit_code,
+      0);
   const auto cal = run("calibrate --recording " + tmp("cal.csv") + " --out " + tmp("cal.toml"));
   ASSERT_EQ(cal.exit_code, 0) << cal.out;
   EXPECT_NE(cal.out.find("chosen order 5"), std::string::npos) << cal.out;
@@ -68,8 +71,8 @@ TEST(Cli, CalibrationOnStaticRunPicksOrderFiveAndWritesALoadableFile) {
 
 TEST(Cli, EveryScenarioRunsAndEffectsAreAccepted) {
   for (const char* s : {"force-steps", "position-moves"}) {
-    const auto r = run(std::string("simulate --scenario ") + s + " --duration 5s --out " + tmp("s.csv") +
-                       " --effect viscous_friction=3 --effect backlash=0.01");
+    const auto r = run(std::string("simulate --scenario ") + s + " --duration 5s --out " +
+                       tmp("s.csv") + " --effect viscous_friction=3 --effect backlash=0.01");
     EXPECT_EQ(r.exit_code, 0) << r.out;
   }
 }

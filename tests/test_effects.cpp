@@ -53,7 +53,8 @@ TEST(Effects, RegressorsAreTheLawLinearInTheFittedCoefficients) {
         e->regressors(shape, s, x.data());
         double lin = 0;
         for (std::size_t j = 0; j < c.size(); ++j) lin += c[j] * x[j];
-        EXPECT_NEAR(e->force_n(*p, s), lin, 1e-9 * (1 + std::abs(lin))) << e->id() << " shape " << shape;
+        EXPECT_NEAR(e->force_n(*p, s), lin, 1e-9 * (1 + std::abs(lin)))
+            << e->id() << " shape " << shape;
       }
     }
   }

@@ -115,7 +115,7 @@ TEST(Calibration, RecoversAKnownQuinticWithFrictionAndPicksOrderFive) {
   for (double p = -1.4; p <= 1.4; p += 0.1)
     EXPECT_NEAR(r.calibration.polynomial.load_force_n(p), truth.load_force_n(p), 0.1);
   ASSERT_EQ(r.table.size(), 5u);
-  EXPECT_GT(r.table[0].rmse_n, 3.0);   // a line cannot follow the curve
+  EXPECT_GT(r.table[0].rmse_n, 3.0);          // a line cannot follow the curve
   EXPECT_NEAR(r.table[2].rmse_n, 0.3, 0.02);  // order 5 is down to the noise
 }
 

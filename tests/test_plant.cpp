@@ -104,8 +104,8 @@ TEST(PlantCalibration, RecoversThePlantCurveWithinEncoderResolution) {
   const auto& screw = rec.column("screw_angle_rad");
   std::vector<double> phase(t.size());
   for (std::size_t i = 0; i < t.size(); ++i) phase[i] = phase_rad(screw[i], pos[i], 0.006);
-  const auto r = calibrate_static_force(phase, central_velocity(t, pos, 50),
-                                        rec.column("load_force_n"));
+  const auto r =
+      calibrate_static_force(phase, central_velocity(t, pos, 50), rec.column("load_force_n"));
   EXPECT_GE(r.chosen_order, 5);  // the paper picks 5; 7 would be "similar"
   EXPECT_LE(r.chosen_order, 7);
   EXPECT_NEAR(r.coulomb_n, 7.5, 0.5);

@@ -9,8 +9,8 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
-#include <vector>
 #include <random>
+#include <vector>
 
 #include "maglead/recording/error_stats.hpp"
 #include "maglead/recording/recording.hpp"
@@ -62,7 +62,8 @@ TEST(Recording, MissingColumnNamesFileLineAndColumn) {
 }
 
 TEST(Recording, NonNumericFieldNamesLineAndColumn) {
-  const auto p = write_file("nan.csv", "# format: mls-recording/1\nt_s,nut_pos_m\n0,0\n0.001,abc\n");
+  const auto p =
+      write_file("nan.csv", "# format: mls-recording/1\nt_s,nut_pos_m\n0,0\n0.001,abc\n");
   const std::string e = error_of(p);
   EXPECT_NE(e.find("nan.csv:4"), std::string::npos) << e;
   EXPECT_NE(e.find("column 2 (nut_pos_m)"), std::string::npos) << e;
@@ -77,8 +78,10 @@ TEST(Recording, DecreasingTimeIsAnError) {
 }
 
 TEST(Recording, RaggedRowsAndForeignFormatsAreErrors) {
-  EXPECT_NE(error_of(write_file("short.csv", "t_s,a_m\n0\n")).find("short.csv:2"), std::string::npos);
-  EXPECT_NE(error_of(write_file("long.csv", "t_s,a_m\n0,1,2\n")).find("more fields"), std::string::npos);
+  EXPECT_NE(error_of(write_file("short.csv", "t_s,a_m\n0\n")).find("short.csv:2"),
+            std::string::npos);
+  EXPECT_NE(error_of(write_file("long.csv", "t_s,a_m\n0,1,2\n")).find("more fields"),
+            std::string::npos);
   EXPECT_NE(error_of(write_file("fmt.csv", "# format: other/2\nt_s\n0\n")).find("other/2"),
             std::string::npos);
   EXPECT_NE(error_of(test_tmp_dir() + "/does-not-exist.csv").find("cannot open"),

@@ -10,7 +10,8 @@
 
 inline std::string test_tmp_dir() {
   const auto* info = testing::UnitTest::GetInstance()->current_test_info();
-  const std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "global";
+  const std::string name =
+      info ? std::string(info->test_suite_name()) + "." + info->name() : "global";
   const auto dir = std::filesystem::path(testing::TempDir()) /
                    ("maglead-" + std::to_string(getpid()) + "-" + name);
   std::filesystem::create_directories(dir);

@@ -26,15 +26,19 @@ Controller::Controller(const ControllerConfig& config, ActuatorHardware& hardwar
       estimator_(config.calibration, config.actuator.coulomb_n, 1e-4) {
   const auto& a = cfg_.actuator;
   const auto& cal = cfg_.calibration;
-  if (!(a.sample_rate_hz > 0) || !(a.lead_m > 0) || !(a.gear_ratio > 0) || !(a.stroke_max_m > a.stroke_min_m))
+  if (!(a.sample_rate_hz > 0) || !(a.lead_m > 0) || !(a.gear_ratio > 0) ||
+      !(a.stroke_max_m > a.stroke_min_m))
     throw std::invalid_argument("controller: actuator parameters are inconsistent");
-  if (!(cal.peak_push_n > 0) || !(cal.peak_pull_n < 0) || !(cal.stable_max_rad > cal.stable_min_rad))
-    throw std::invalid_argument("controller: calibration has no usable stable branch (derive_limits?)");
+  if (!(cal.peak_push_n > 0) || !(cal.peak_pull_n < 0) ||
+      !(cal.stable_max_rad > cal.stable_min_rad))
+    throw std::invalid_argument(
+        "controller: calibration has no usable stable branch (derive_limits?)");
   if (!(a.safe_force_fraction > 0 && a.safe_force_fraction <= 1))
     throw std::invalid_argument("controller: safe_force_fraction must be in (0, 1]");
   if (!(cfg_.velocity_limit_m_s > 0) || !(cfg_.accel_limit_m_s2 > 0) || cfg_.watchdog_s < 0)
     throw std::invalid_argument("controller: limits must be positive, watchdog non-negative");
-  if (!(cfg_.reactions.release_rate_n_per_s > 0) || !std::isfinite(cfg_.reactions.release_rate_n_per_s))
+  if (!(cfg_.reactions.release_rate_n_per_s > 0) ||
+      !std::isfinite(cfg_.reactions.release_rate_n_per_s))
     throw std::invalid_argument("controller: fault reaction release rate must be positive [N/s]");
   // Position control may use the phase range of the safe forces, never more.
   const double f = a.safe_force_fraction * 0.999;
@@ -51,8 +55,9 @@ CommandImage Controller::initial_image() const noexcept {
   im.watchdog_s = cfg_.watchdog_s;
   im.velocity_limit_m_s = cfg_.velocity_limit_m_s;
   im.accel_limit_m_s2 = cfg_.accel_limit_m_s2;
-  im.position_setpoint_m = std::clamp(0.5 * (cfg_.actuator.stroke_min_m + cfg_.actuator.stroke_max_m),
-                                      cfg_.actuator.stroke_min_m, cfg_.actuator.stroke_max_m);
+  im.position_setpoint_m =
+      std::clamp(0.5 * (cfg_.actuator.stroke_min_m + cfg_.actuator.stroke_max_m),
+                 cfg_.actuator.stroke_min_m, cfg_.actuator.stroke_max_m);
   return im;
 }
 
@@ -87,12 +92,17 @@ void Controller::controlled_stop() noexcept {
 FaultReaction Controller::configured_reaction(Alarm alarm) const noexcept {
   const auto& r = cfg_.reactions;
   switch (alarm) {
-    case Alarm::watchdog: return r.watchdog;
-    case Alarm::owner_lost: return r.owner_lost;
-    case Alarm::sensor_fault: return r.sensor_fault;
+    case Alarm::watchdog:
+      return r.watchdog;
+    case Alarm::owner_lost:
+      return r.owner_lost;
+    case Alarm::sensor_fault:
+      return r.sensor_fault;
     case Alarm::step_out:
-    case Alarm::phase_jump: return r.step_out;
-    default: return FaultReaction::hold;  // stroke limit, drive fault
+    case Alarm::phase_jump:
+      return r.step_out;
+    default:
+      return FaultReaction::hold;  // stroke limit, drive fault
   }
 }
 
@@ -101,10 +111,12 @@ void Controller::latch_fault(Alarm alarm) noexcept {
   if (first) s_.alarm_code = static_cast<std::uint16_t>(alarm);
   state_ = DriveState::fault;
   const bool slipped = alarm == Alarm::step_out || alarm == Alarm::phase_jump;
-  if (slipped) lead_rad_ = kTwoPi * std::round(s_.phase_rad / kTwoPi);  // the lead the nut is in now
-  if (!first && !slipped) return;  // the first fault's reaction goes on
+  if (slipped)
+    lead_rad_ = kTwoPi * std::round(s_.phase_rad / kTwoPi);  // the lead the nut is in now
+  if (!first && !slipped) return;                            // the first fault's reaction goes on
   FaultReaction how = configured_reaction(alarm);
-  if (how == FaultReaction::mode_default) how = mode_ == Mode::force ? FaultReaction::release : FaultReaction::hold;
+  if (how == FaultReaction::mode_default)
+    how = mode_ == Mode::force ? FaultReaction::release : FaultReaction::hold;
   fault_position_hold_ = false;
   switch (how) {
     case FaultReaction::release:
@@ -114,7 +126,8 @@ void Controller::latch_fault(Alarm alarm) noexcept {
       double f = mode_ == Mode::force ? force_set_n_ : s_.force_est_n;
       if (slipped || how == FaultReaction::disable || !std::isfinite(f)) f = 0.0;
       release_force_n_ = std::clamp(f, safe_force_limit_n(-1.0), safe_force_limit_n(1.0));
-      reaction_ = release_force_n_ == 0.0 ? registers::Reaction::released : registers::Reaction::releasing;
+      reaction_ =
+          release_force_n_ == 0.0 ? registers::Reaction::released : registers::Reaction::releasing;
       mode_ = Mode::idle;
       prof_pos_m_ = target_m_ = s_.nut_pos_m;
       prof_vel_m_s_ = 0.0;
@@ -124,7 +137,8 @@ void Controller::latch_fault(Alarm alarm) noexcept {
       reaction_ = registers::Reaction::holding;
       if (slipped) {
         // Stop commanding force: park the screw at the rest angle of the lead the nut is in now.
-        screw_cmd_rad_ = rest_angle_rad(s_.nut_pos_m, cfg_.actuator.lead_m) + phase_offset_rad_ + lead_rad_;
+        screw_cmd_rad_ =
+            rest_angle_rad(s_.nut_pos_m, cfg_.actuator.lead_m) + phase_offset_rad_ + lead_rad_;
         mode_ = Mode::idle;
         prof_pos_m_ = target_m_ = s_.nut_pos_m;
         prof_vel_m_s_ = 0.0;
@@ -147,8 +161,8 @@ void Controller::on_owner_lost() noexcept {
 }
 
 void Controller::on_execute() noexcept {
-  command_bits_ &= static_cast<std::uint16_t>(~(bit(registers::kExecuteAck) | bit(registers::kExecuteDone) |
-                                                bit(registers::kRejected)));
+  command_bits_ &= static_cast<std::uint16_t>(
+      ~(bit(registers::kExecuteAck) | bit(registers::kExecuteDone) | bit(registers::kRejected)));
   s_.reject_reason = 0;
   execute_pending_ = false;
   if (state_ == DriveState::fault) return reject(Reject::in_fault);
@@ -161,7 +175,8 @@ void Controller::on_execute() noexcept {
       break;
     case Mode::position: {
       const double target = image_.position_setpoint_m;
-      if (!(target >= a.stroke_min_m && target <= a.stroke_max_m)) return reject(Reject::target_outside_stroke);
+      if (!(target >= a.stroke_min_m && target <= a.stroke_max_m))
+        return reject(Reject::target_outside_stroke);
       if (mode_ == Mode::force) start_hold();
       vmax_ = image_.velocity_limit_m_s;
       amax_ = image_.accel_limit_m_s2;
@@ -170,7 +185,8 @@ void Controller::on_execute() noexcept {
       break;
     }
     case Mode::force: {
-      const auto inv = phase_for_output_force(cfg_.calibration, image_.force_setpoint_n, a.safe_force_fraction);
+      const auto inv =
+          phase_for_output_force(cfg_.calibration, image_.force_setpoint_n, a.safe_force_fraction);
       if (inv.status != InverseStatus::ok) return reject(Reject::force_beyond_safe_limit);
       force_set_n_ = image_.force_setpoint_n;
       force_phase_rad_ = inv.phase_rad;
@@ -204,12 +220,16 @@ void Controller::apply(const Command& c) noexcept {
     last_heartbeat_s_ = s_.t_s;
     start_hold();
   }
-  if (falling & bit(registers::kExecute)) command_bits_ &= static_cast<std::uint16_t>(~bit(registers::kExecuteAck));
-  if (falling & bit(registers::kFaultReset)) command_bits_ &= static_cast<std::uint16_t>(~bit(registers::kResetAck));
-  if (falling & bit(registers::kResync)) command_bits_ &= static_cast<std::uint16_t>(~bit(registers::kResyncAck));
+  if (falling & bit(registers::kExecute))
+    command_bits_ &= static_cast<std::uint16_t>(~bit(registers::kExecuteAck));
+  if (falling & bit(registers::kFaultReset))
+    command_bits_ &= static_cast<std::uint16_t>(~bit(registers::kResetAck));
+  if (falling & bit(registers::kResync))
+    command_bits_ &= static_cast<std::uint16_t>(~bit(registers::kResyncAck));
 
   if (rising & bit(registers::kResync)) {
-    command_bits_ &= static_cast<std::uint16_t>(~(bit(registers::kResyncDone) | bit(registers::kRejected)));
+    command_bits_ &=
+        static_cast<std::uint16_t>(~(bit(registers::kResyncDone) | bit(registers::kRejected)));
     s_.reject_reason = 0;  // a reason stays only while its command is the last one
     if (!stepped_out_) {
       reject(Reject::not_stepped_out);
@@ -220,11 +240,13 @@ void Controller::apply(const Command& c) noexcept {
       s_.phase_rad -= leads * kTwoPi;
       last_phase_rad_ = s_.phase_rad;
       if (twin_) twin_->resync(s_.t_s, s_.screw_angle_rad, s_.nut_pos_m);
-      command_bits_ |= static_cast<std::uint16_t>(bit(registers::kResyncAck) | bit(registers::kResyncDone));
+      command_bits_ |=
+          static_cast<std::uint16_t>(bit(registers::kResyncAck) | bit(registers::kResyncDone));
     }
   }
   if (rising & bit(registers::kFaultReset)) {
-    command_bits_ &= static_cast<std::uint16_t>(~(bit(registers::kResetDone) | bit(registers::kRejected)));
+    command_bits_ &=
+        static_cast<std::uint16_t>(~(bit(registers::kResetDone) | bit(registers::kRejected)));
     s_.reject_reason = 0;
     // The operator has seen the twin's latched drift warning: clear it (README "Digital twin").
     if (twin_) twin_->clear_warnings();
@@ -243,7 +265,8 @@ void Controller::apply(const Command& c) noexcept {
         lead_rad_ = 0.0;
         last_heartbeat_s_ = s_.t_s;
       }
-      command_bits_ |= static_cast<std::uint16_t>(bit(registers::kResetAck) | bit(registers::kResetDone));
+      command_bits_ |=
+          static_cast<std::uint16_t>(bit(registers::kResetAck) | bit(registers::kResetDone));
     }
   }
   if (rising & bit(registers::kExecute)) on_execute();
@@ -254,12 +277,14 @@ void Controller::run_profile(double dt) noexcept {
   if (dist == 0.0 && prof_vel_m_s_ == 0.0) return;
   // Online trapezoid: accelerate towards the speed from which braking at amax just reaches
   // the target, capped at vmax.
-  const double v_des = std::copysign(std::min(vmax_, std::sqrt(2.0 * amax_ * std::abs(dist))), dist);
+  const double v_des =
+      std::copysign(std::min(vmax_, std::sqrt(2.0 * amax_ * std::abs(dist))), dist);
   const double dv = std::clamp(v_des - prof_vel_m_s_, -amax_ * dt, amax_ * dt);
   prof_vel_m_s_ += dv;
   prof_pos_m_ += prof_vel_m_s_ * dt;
   const double left = target_m_ - prof_pos_m_;
-  if ((left * dist <= 0.0 || std::abs(left) < 1e-8) && std::abs(prof_vel_m_s_) <= 2.0 * amax_ * dt + 1e-6) {
+  if ((left * dist <= 0.0 || std::abs(left) < 1e-8) &&
+      std::abs(prof_vel_m_s_) <= 2.0 * amax_ * dt + 1e-6) {
     prof_pos_m_ = target_m_;
     prof_vel_m_s_ = 0.0;
   }
@@ -273,8 +298,9 @@ double Controller::position_command_rad(double dt) noexcept {
   if (std::abs(err) > 1.5 * a.linear_count_m)
     integral_rad_ = std::clamp(integral_rad_ + cfg_.position_integral_rad_per_m_s * err * dt,
                                phase_lo_rad_, phase_hi_rad_);
-  const double phase = std::clamp(kTwoPi / a.lead_m * err + cfg_.position_gain_rad_per_m * err + integral_rad_,
-                                  phase_lo_rad_, phase_hi_rad_);
+  const double phase =
+      std::clamp(kTwoPi / a.lead_m * err + cfg_.position_gain_rad_per_m * err + integral_rad_,
+                 phase_lo_rad_, phase_hi_rad_);
   return rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + phase;
 }
 
@@ -298,7 +324,8 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     latch_fault(hs == HwStatus::sensor_fault ? Alarm::sensor_fault : Alarm::drive_fault);
     status = CycleStatus::hardware_error;
   } else {
-    const double screw = screw_angle_rad_from_motor_rad(motor_angle_rad_from_counts(sample.motor_counts, a), a);
+    const double screw =
+        screw_angle_rad_from_motor_rad(motor_angle_rad_from_counts(sample.motor_counts, a), a);
     const double pos = nut_pos_m_from_counts(sample.linear_counts, a);
     if (!synced_) {
       // At power-up the coupling is taken to be at rest within its lead.
@@ -325,10 +352,17 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
 
   TwinReport tw{};
   if (twin_) {
-    const TwinSample in{s_.cycle, now_s, s_.screw_angle_rad, screw_cmd_rad_, s_.nut_pos_m, s_.nut_vel_m_s,
-                        s_.phase_rad, s_.force_est_n,
-                        mode_ == Mode::force ? force_set_n_ : std::numeric_limits<double>::quiet_NaN(),
-                        load_force_n_};
+    const TwinSample in{
+        s_.cycle,
+        now_s,
+        s_.screw_angle_rad,
+        screw_cmd_rad_,
+        s_.nut_pos_m,
+        s_.nut_vel_m_s,
+        s_.phase_rad,
+        s_.force_est_n,
+        mode_ == Mode::force ? force_set_n_ : std::numeric_limits<double>::quiet_NaN(),
+        load_force_n_};
     twin_->step(in, tw);
   }
   s_.twin = tw;
@@ -339,12 +373,15 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     if (outside && !stepped_out_) {
       stepped_out_ = true;
       s_.step_out_count++;
-      latch_fault(std::abs(s_.phase_rad - last_phase_rad_) > std::numbers::pi ? Alarm::phase_jump : Alarm::step_out);
+      latch_fault(std::abs(s_.phase_rad - last_phase_rad_) > std::numbers::pi ? Alarm::phase_jump
+                                                                              : Alarm::step_out);
     }
-    if (s_.nut_pos_m < a.stroke_min_m - kStrokeMargin_m || s_.nut_pos_m > a.stroke_max_m + kStrokeMargin_m) {
+    if (s_.nut_pos_m < a.stroke_min_m - kStrokeMargin_m ||
+        s_.nut_pos_m > a.stroke_max_m + kStrokeMargin_m) {
       if (state_ == DriveState::enabled) latch_fault(Alarm::stroke_limit);
     }
-    if (state_ == DriveState::enabled && image_.watchdog_s > 0.0 && now_s - last_heartbeat_s_ > image_.watchdog_s) {
+    if (state_ == DriveState::enabled && image_.watchdog_s > 0.0 &&
+        now_s - last_heartbeat_s_ > image_.watchdog_s) {
       watchdog_expired_ = true;
       latch_fault(Alarm::watchdog);
     }
@@ -363,7 +400,8 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
       break;  // hold the last command
     case DriveState::enabled:
       if (mode_ == Mode::force) {
-        screw_cmd_rad_ = rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + force_phase_rad_;
+        screw_cmd_rad_ =
+            rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + force_phase_rad_;
         force_reached = std::abs(s_.force_est_n - force_set_n_) <= cfg_.force_tol_n;
       } else {
         screw_cmd_rad_ = position_command_rad(dt);
@@ -372,14 +410,18 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
       }
       break;
     case DriveState::fault:
-      if (reaction_ == registers::Reaction::releasing || reaction_ == registers::Reaction::released) {
+      if (reaction_ == registers::Reaction::releasing ||
+          reaction_ == registers::Reaction::released) {
         // Ramp the output force to zero, then keep it there: the screw follows the nut.
         const double step = cfg_.reactions.release_rate_n_per_s * dt;
-        release_force_n_ = std::abs(release_force_n_) <= step ? 0.0 : release_force_n_ - std::copysign(step, release_force_n_);
+        release_force_n_ = std::abs(release_force_n_) <= step
+                               ? 0.0
+                               : release_force_n_ - std::copysign(step, release_force_n_);
         if (release_force_n_ == 0.0) reaction_ = registers::Reaction::released;
         const auto inv = phase_for_output_force(cal, release_force_n_, a.safe_force_fraction);
         const double phase = inv.status == InverseStatus::ok ? inv.phase_rad : 0.0;
-        screw_cmd_rad_ = rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + lead_rad_ + phase;
+        screw_cmd_rad_ =
+            rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + lead_rad_ + phase;
       } else if (fault_position_hold_) {
         screw_cmd_rad_ = position_command_rad(dt);  // controlled stop continues, then holds
       }
@@ -395,13 +437,16 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   if (state_ != DriveState::enabled) execute_pending_ = false;
 
   // Also after a sensor fault: the reaction then works from the last good measurement.
-  if (hs != HwStatus::drive_fault && hw_.write_motor_angle(screw_cmd_rad_ * a.gear_ratio) != HwStatus::ok) {
+  if (hs != HwStatus::drive_fault &&
+      hw_.write_motor_angle(screw_cmd_rad_ * a.gear_ratio) != HwStatus::ok) {
     latch_fault(Alarm::drive_fault);
     status = CycleStatus::hardware_error;
   }
 
   std::uint16_t sw = 0;
-  const auto set = [&](int b, bool on) { if (on) sw |= bit(b); };
+  const auto set = [&](int b, bool on) {
+    if (on) sw |= bit(b);
+  };
   set(registers::kReady, state_ == DriveState::ready);
   set(registers::kEnabled, state_ == DriveState::enabled);
   set(registers::kFault, state_ == DriveState::fault);
@@ -422,7 +467,8 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   s_.command_status = command_bits_;
   s_.profile_pos_m = prof_pos_m_;
   s_.active_force_setpoint_n = mode_ == Mode::force ? force_set_n_ : 0.0;
-  s_.fault_reaction = static_cast<std::uint16_t>(state_ == DriveState::fault ? reaction_ : registers::Reaction::none);
+  s_.fault_reaction = static_cast<std::uint16_t>(
+      state_ == DriveState::fault ? reaction_ : registers::Reaction::none);
   s_.active_target_pos_m = target_m_;
   published_.store(s_);
   return status;

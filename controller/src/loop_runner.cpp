@@ -7,8 +7,8 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <ctime>
 #include <cstring>
+#include <ctime>
 #include <stdexcept>
 
 namespace maglead::controller {
@@ -17,12 +17,14 @@ namespace {
 class SteadyLoopClock final : public LoopClock {
  public:
   std::int64_t now_ns() noexcept override {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+               std::chrono::steady_clock::now().time_since_epoch())
         .count();
   }
   void sleep_until(std::int64_t deadline_ns) noexcept override {
     // libstdc++'s steady_clock is CLOCK_MONOTONIC; an absolute sleep on it does not drift.
-    const timespec ts{static_cast<time_t>(deadline_ns / 1'000'000'000), static_cast<long>(deadline_ns % 1'000'000'000)};
+    const timespec ts{static_cast<time_t>(deadline_ns / 1'000'000'000),
+                      static_cast<long>(deadline_ns % 1'000'000'000)};
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
     }
   }
@@ -31,10 +33,14 @@ class SteadyLoopClock final : public LoopClock {
 }  // namespace
 
 bool parse_realtime_policy(const std::string& text, RealtimePolicy& out) {
-  if (text == "off") out = RealtimePolicy::off;
-  else if (text == "try") out = RealtimePolicy::attempt;
-  else if (text == "require") out = RealtimePolicy::require;
-  else return false;
+  if (text == "off")
+    out = RealtimePolicy::off;
+  else if (text == "try")
+    out = RealtimePolicy::attempt;
+  else if (text == "require")
+    out = RealtimePolicy::require;
+  else
+    return false;
   return true;
 }
 
@@ -46,7 +52,8 @@ LoopClock& steady_loop_clock() noexcept {
 LoopRunner::LoopRunner(Controller& controller, LoopClock& clock, std::size_t period_log_capacity)
     : controller_(controller),
       clock_(clock),
-      period_ns_(static_cast<std::int64_t>(std::llround(1e9 / controller.config().actuator.sample_rate_hz))),
+      period_ns_(static_cast<std::int64_t>(
+          std::llround(1e9 / controller.config().actuator.sample_rate_hz))),
       log_(period_log_capacity),
       late_log_(period_log_capacity) {}
 
@@ -71,7 +78,8 @@ void LoopRunner::start() {
   set_up_.wait(false);
   if (!running_.load()) {
     thread_.join();
-    throw std::runtime_error("control loop: realtime = \"require\" and not granted: " + grant_.refused);
+    throw std::runtime_error("control loop: realtime = \"require\" and not granted: " +
+                             grant_.refused);
   }
 }
 
@@ -147,8 +155,10 @@ LoopRunner::CycleLog LoopRunner::end_cycle_log() {
   // Let a cycle that saw logging_ still true finish its write.
   timespec ts{0, 3'000'000};
   nanosleep(&ts, nullptr);
-  const auto n = static_cast<std::ptrdiff_t>(std::min(log_count_.load(std::memory_order_acquire), log_.size()));
-  return {std::vector<double>(log_.begin(), log_.begin() + n), std::vector<double>(late_log_.begin(), late_log_.begin() + n)};
+  const auto n = static_cast<std::ptrdiff_t>(
+      std::min(log_count_.load(std::memory_order_acquire), log_.size()));
+  return {std::vector<double>(log_.begin(), log_.begin() + n),
+          std::vector<double>(late_log_.begin(), late_log_.begin() + n)};
 }
 
 void LoopRunner::cycle() noexcept {
@@ -163,7 +173,8 @@ void LoopRunner::cycle() noexcept {
   const std::uint64_t n = cycles_.load(std::memory_order_relaxed) + 1;
   if (status != CycleStatus::ok) {
     // The controller has latched sensor_fault or drive_fault and runs the reaction; count it.
-    if (first_hw_error_.load(std::memory_order_relaxed) == 0) first_hw_error_.store(n, std::memory_order_relaxed);
+    if (first_hw_error_.load(std::memory_order_relaxed) == 0)
+      first_hw_error_.store(n, std::memory_order_relaxed);
     hw_errors_.store(hw_errors_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   }
   if (logged_one_ && logging_.load(std::memory_order_relaxed)) {

@@ -14,8 +14,8 @@ struct AngleRipple final : Effect {
     return {{"relative_amplitude", "a", 0.0, 0.5}, {"phase_rad", "psi", -kPi, kPi}};
   }
   double force_n(const Params& p, const State& s) const override {
-    return param(p, "relative_amplitude", 0.0) * std::sin(s.theta_rad + param(p, "phase_rad", 0.0)) *
-           s.coupling_n;
+    return param(p, "relative_amplitude", 0.0) *
+           std::sin(s.theta_rad + param(p, "phase_rad", 0.0)) * s.coupling_n;
   }
   int columns() const override { return 2; }
   void regressors(double, const State& s, double* x) const override {
@@ -23,7 +23,8 @@ struct AngleRipple final : Effect {
     x[1] = s.coupling_n * std::cos(s.theta_rad);  // a sin(psi)
   }
   std::optional<Params> parameters(double, const double* c, const State&) const override {
-    return Params{{"relative_amplitude", std::hypot(c[0], c[1])}, {"phase_rad", std::atan2(c[1], c[0])}};
+    return Params{{"relative_amplitude", std::hypot(c[0], c[1])},
+                  {"phase_rad", std::atan2(c[1], c[0])}};
   }
 };
 }  // namespace

@@ -7,7 +7,9 @@ namespace maglead::effects {
 namespace {
 struct Asymmetric final : Effect {
   std::string_view id() const override { return "asymmetric_friction"; }
-  std::string_view law() const override { return "F_f = F_c+ (v > 0), -F_c- (v < 0); break-away likewise"; }
+  std::string_view law() const override {
+    return "F_f = F_c+ (v > 0), -F_c- (v < 0); break-away likewise";
+  }
   std::vector<ParamSpec> params() const override {
     return {{"coulomb_pos_n", "friction moving +p", 0.0, 60.0},
             {"coulomb_neg_n", "friction moving -p", 0.0, 60.0},

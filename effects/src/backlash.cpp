@@ -1,4 +1,5 @@
-// backlash: lost motion between the motor encoder and the screw; the screw lags the motor by b/2 on the side of the transmitted torque.
+// backlash: lost motion between the motor encoder and the screw; the screw lags the motor by b/2 on
+// the side of the transmitted torque.
 #include <cmath>
 
 #include "units.hpp"
@@ -7,7 +8,9 @@ namespace maglead::effects {
 namespace {
 struct Backlash final : Effect {
   std::string_view id() const override { return "backlash"; }
-  std::string_view law() const override { return "theta_screw = theta_motor/N - (b/2) sign(torque)"; }
+  std::string_view law() const override {
+    return "theta_screw = theta_motor/N - (b/2) sign(torque)";
+  }
   std::vector<ParamSpec> params() const override {
     return {{"backlash_rad", "total play b at the screw", 0.0, 0.5}};
   }

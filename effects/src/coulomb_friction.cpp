@@ -7,7 +7,9 @@ namespace maglead::effects {
 namespace {
 struct Coulomb final : Effect {
   std::string_view id() const override { return "coulomb_friction"; }
-  std::string_view law() const override { return "F_f = F_c sign(v); stuck while |F_m + F_ext| <= F_c"; }
+  std::string_view law() const override {
+    return "F_f = F_c sign(v); stuck while |F_m + F_ext| <= F_c";
+  }
   std::vector<ParamSpec> params() const override {
     return {{"coulomb_n", "kinetic and break-away friction F_c (the total)", 0.0, 60.0}};
   }

@@ -15,7 +15,9 @@ struct GainDrift final : Effect {
     return param(p, "gain_change_per_min", 0.0) * s.t_s / 60.0 * s.coupling_n;
   }
   int columns() const override { return 1; }
-  void regressors(double, const State& s, double* x) const override { x[0] = s.coupling_n * s.t_s / 60.0; }
+  void regressors(double, const State& s, double* x) const override {
+    x[0] = s.coupling_n * s.t_s / 60.0;
+  }
   std::optional<Params> parameters(double, const double* c, const State&) const override {
     return Params{{"gain_change_per_min", c[0]}};
   }

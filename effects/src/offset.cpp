@@ -7,7 +7,9 @@ namespace maglead::effects {
 namespace {
 struct Offset final : Effect {
   std::string_view id() const override { return "offset"; }
-  std::string_view law() const override { return "F = F_o (constant, along +p, unseen by the load cell)"; }
+  std::string_view law() const override {
+    return "F = F_o (constant, along +p, unseen by the load cell)";
+  }
   std::vector<ParamSpec> params() const override {
     return {{"offset_n", "constant force on the nut along +p", -60.0, 60.0}};
   }

@@ -11,7 +11,9 @@ struct PositionRipple final : Effect {
   std::string_view id() const override { return "position_ripple"; }
   std::string_view law() const override { return "F = A sin(2 pi p / lambda + psi)"; }
   std::vector<ParamSpec> params() const override {
-    return {{"amplitude_n", "A", 0.0, 30.0}, {"period_m", "lambda", 1e-4, 0.1}, {"phase_rad", "psi", -kPi, kPi}};
+    return {{"amplitude_n", "A", 0.0, 30.0},
+            {"period_m", "lambda", 1e-4, 0.1},
+            {"phase_rad", "psi", -kPi, kPi}};
   }
   double force_n(const Params& p, const State& s) const override {
     return param(p, "amplitude_n", 0.0) *
@@ -26,7 +28,8 @@ struct PositionRipple final : Effect {
     x[1] = std::cos(2 * kPi * s.p_m / lambda);
   }
   std::optional<Params> parameters(double lambda, const double* c, const State&) const override {
-    return Params{{"amplitude_n", std::hypot(c[0], c[1])}, {"period_m", lambda},
+    return Params{{"amplitude_n", std::hypot(c[0], c[1])},
+                  {"period_m", lambda},
                   {"phase_rad", std::atan2(c[1], c[0])}};
   }
 };

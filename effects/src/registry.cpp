@@ -11,12 +11,23 @@ namespace maglead::effects {
 double sgn(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : 0.0); }
 
 const std::vector<const Effect*>& library() {
-  static const std::vector<const Effect*> all = {
-      &coulomb_friction(), &viscous_friction(), &offset(),          &asymmetric_friction(),
-      &stribeck_friction(), &spring(),          &mass_error(),      &gain_drift(),
-      &angle_ripple(),     &position_ripple(),  &end_effect(),      &backlash(),
-      &load_cell_delay(),  &coupling_gain_error(), &sensor_delay(), &external_disturbance(),
-      &step_out()};
+  static const std::vector<const Effect*> all = {&coulomb_friction(),
+                                                 &viscous_friction(),
+                                                 &offset(),
+                                                 &asymmetric_friction(),
+                                                 &stribeck_friction(),
+                                                 &spring(),
+                                                 &mass_error(),
+                                                 &gain_drift(),
+                                                 &angle_ripple(),
+                                                 &position_ripple(),
+                                                 &end_effect(),
+                                                 &backlash(),
+                                                 &load_cell_delay(),
+                                                 &coupling_gain_error(),
+                                                 &sensor_delay(),
+                                                 &external_disturbance(),
+                                                 &step_out()};
   return all;
 }
 
@@ -31,8 +42,8 @@ void check(const Effect& e, const Params& p) {
     bool known = false;
     for (const auto& s : e.params()) known |= s.name == name;
     if (!known)
-      throw std::invalid_argument("effect '" + std::string(e.id()) + "' has no parameter '" +
-                                  name + "'");
+      throw std::invalid_argument("effect '" + std::string(e.id()) + "' has no parameter '" + name +
+                                  "'");
     if (!std::isfinite(value))
       throw std::invalid_argument("effect '" + std::string(e.id()) + "': parameter '" + name +
                                   "' is not a finite number");

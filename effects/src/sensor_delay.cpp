@@ -7,7 +7,9 @@ namespace maglead::effects {
 namespace {
 struct SensorDelay final : Effect {
   std::string_view id() const override { return "sensor_delay"; }
-  std::string_view law() const override { return "phi_read(t) = phi(t - tau), p_read(t) = p(t - tau)"; }
+  std::string_view law() const override {
+    return "phi_read(t) = phi(t - tau), p_read(t) = p(t - tau)";
+  }
   std::vector<ParamSpec> params() const override { return {{"delay_s", "tau", 0.0, 0.05}}; }
   double force_n(const Params& p, const State& s) const override {
     return param(p, "delay_s", 0.0) * s.coupling_slope_n_per_rad * s.phi_rate_rad_s;

@@ -9,7 +9,8 @@ struct Spring final : Effect {
   std::string_view id() const override { return "spring"; }
   std::string_view law() const override { return "F = -k (p - p0)"; }
   std::vector<ParamSpec> params() const override {
-    return {{"stiffness_n_per_m", "stiffness k", 0.0, 1e6}, {"rest_position_m", "rest position p0", -1.0, 1.0}};
+    return {{"stiffness_n_per_m", "stiffness k", 0.0, 1e6},
+            {"rest_position_m", "rest position p0", -1.0, 1.0}};
   }
   double force_n(const Params& p, const State& s) const override {
     return -param(p, "stiffness_n_per_m", 0.0) * (s.p_m - param(p, "rest_position_m", 0.0));

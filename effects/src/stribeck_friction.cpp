@@ -32,7 +32,8 @@ struct Stribeck final : Effect {
   }
   std::optional<Params> parameters(double vs, const double* c, const State& m) const override {
     if (c[0] <= 0) return std::nullopt;  // friction that falls towards rest is not Stribeck's
-    return Params{{"breakaway_n", m.coulomb_n + c[0]}, {"coulomb_n", m.coulomb_n},
+    return Params{{"breakaway_n", m.coulomb_n + c[0]},
+                  {"coulomb_n", m.coulomb_n},
                   {"stribeck_velocity_m_s", vs}};
   }
 };

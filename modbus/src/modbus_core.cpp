@@ -15,8 +15,8 @@ namespace reg = maglead::registers;
 /// client-writable image (read-write entries). Exactly one binding per table entry.
 struct ModbusCore::Binding {
   std::string_view name;
-  double (*get)(const Snapshot&);                // read-only entries
-  double (*image_get)(const CommandImage&);      // read-write entries
+  double (*get)(const Snapshot&);            // read-only entries
+  double (*image_get)(const CommandImage&);  // read-write entries
   void (*image_set)(CommandImage&, double);
 };
 
@@ -29,7 +29,7 @@ constexpr std::uint16_t kFirmwareVersion = MAGLEAD_VERSION_MAJOR * 256 + MAGLEAD
 #define SNAP(field) [](const Snapshot& s) { return static_cast<double>(s.field); }
 #define TWIN(field) [](const Snapshot& s) { return static_cast<double>(s.twin.field); }
 #define CONST(value) [](const Snapshot&) { return static_cast<double>(value); }
-#define IMG(field)                                                          \
+#define IMG(field)                                                             \
   nullptr, [](const CommandImage& i) { return static_cast<double>(i.field); }, \
       [](CommandImage& i, double v) { i.field = static_cast<decltype(i.field)>(v); }
 
@@ -72,8 +72,12 @@ const ModbusCore::Binding kBindings[] = {
     {"twin_residual_pos_um", TWIN(residual_pos_m), nullptr, nullptr},
     {"twin_residual_force_mn", TWIN(residual_force_n), nullptr, nullptr},
     {"twin_dynamic_force_mn", TWIN(dynamic_force_n), nullptr, nullptr},
-    {"loop_cycle_count", [](const Snapshot& s) { return static_cast<double>(s.cycle & 0xFFFFFFFFu); }, nullptr, nullptr},
-    {"loop_overrun_count", [](const Snapshot& s) { return static_cast<double>(s.overrun_count & 0xFFFFFFFFu); }, nullptr, nullptr},
+    {"loop_cycle_count",
+     [](const Snapshot& s) { return static_cast<double>(s.cycle & 0xFFFFFFFFu); }, nullptr,
+     nullptr},
+    {"loop_overrun_count",
+     [](const Snapshot& s) { return static_cast<double>(s.overrun_count & 0xFFFFFFFFu); }, nullptr,
+     nullptr},
     {"loop_period_us", SNAP(period_s), nullptr, nullptr},
     {"loop_late_max_us", SNAP(late_max_s), nullptr, nullptr},
     {"nut_pos_m_f32", SNAP(nut_pos_m), nullptr, nullptr},
@@ -155,32 +159,40 @@ ModbusCore::ModbusCore(Controller& controller, ServerOptions options)
     const auto& r = table[i];
     for (const auto& b : kBindings)
       if (b.name == r.name) bindings_[i] = &b;
-    if (!bindings_[i]) throw std::logic_error("register '" + std::string(r.name) + "' has no server binding");
+    if (!bindings_[i])
+      throw std::logic_error("register '" + std::string(r.name) + "' has no server binding");
     const bool rw = r.access == reg::Access::read_write;
     if (r.table == reg::Table::holding_register || r.table == reg::Table::input_register) {
       if (rw ? !(bindings_[i]->image_get && bindings_[i]->image_set) : !bindings_[i]->get)
-        throw std::logic_error("register '" + std::string(r.name) + "' is bound to the wrong source");
+        throw std::logic_error("register '" + std::string(r.name) +
+                               "' is bound to the wrong source");
     }
     auto& slots = r.table == reg::Table::coil             ? coil_slots_
                   : r.table == reg::Table::discrete_input ? di_slots_
                                                           : reg_slots_;
     for (int w = 0; w < reg::word_count(r.type); ++w) {
       auto& slot = slots.at(r.address + static_cast<std::size_t>(w));
-      if (slot.reg >= 0) throw std::logic_error("register '" + std::string(r.name) + "' overlaps another");
+      if (slot.reg >= 0)
+        throw std::logic_error("register '" + std::string(r.name) + "' overlaps another");
       slot = {static_cast<std::int16_t>(i), static_cast<std::int8_t>(w)};
     }
   }
-  if (std::size(kBindings) != table.size()) throw std::logic_error("server bindings name registers not in the table");
+  if (std::size(kBindings) != table.size())
+    throw std::logic_error("server bindings name registers not in the table");
   // Reserved addresses inside the documented blocks read as 0 (writes to them stay refused).
   for (const auto& range : reg::mapped_ranges()) {
-    if (range.table != reg::Table::input_register && range.table != reg::Table::holding_register) continue;
+    if (range.table != reg::Table::input_register && range.table != reg::Table::holding_register)
+      continue;
     for (std::uint32_t a = range.first; a < range.first + range.count; ++a) {
       auto& slot = reg_slots_.at(a);
-      if (slot.reg < 0) slot.reg = range.table == reg::Table::input_register ? kReservedInput : kReservedHolding;
+      if (slot.reg < 0)
+        slot.reg = range.table == reg::Table::input_register ? kReservedInput : kReservedHolding;
     }
   }
   for (const auto& r : table)
-    if (!reg::in_mapped_range(r.table, r.address)) throw std::logic_error("register '" + std::string(r.name) + "' lies outside the mapped ranges");
+    if (!reg::in_mapped_range(r.table, r.address))
+      throw std::logic_error("register '" + std::string(r.name) +
+                             "' lies outside the mapped ranges");
 }
 
 std::uint16_t ModbusCore::owner() const {
@@ -227,8 +239,8 @@ double ModbusCore::read_value(std::size_t i, const Snapshot& snap) const {
   return b.get(snap);
 }
 
-std::size_t ModbusCore::read_registers(bool input_only, std::uint16_t start, std::uint16_t count, std::uint8_t* out,
-                                       std::size_t& n, Exception& ex) {
+std::size_t ModbusCore::read_registers(bool input_only, std::uint16_t start, std::uint16_t count,
+                                       std::uint8_t* out, std::size_t& n, Exception& ex) {
   if (count < 1 || count > 125) return ex = Exception::illegal_data_value, 0;
   if (start + count > 65536) return ex = Exception::illegal_data_address, 0;
   const Snapshot snap = controller_.snapshot();  // one cycle for the whole reply: never torn
@@ -246,7 +258,8 @@ std::size_t ModbusCore::read_registers(bool input_only, std::uint16_t start, std
     }
     if (s.reg < 0 || s.word != 0) return ex = Exception::illegal_data_address, 0;
     const auto& r = table[static_cast<std::size_t>(s.reg)];
-    if (input_only && r.table != reg::Table::input_register) return ex = Exception::illegal_data_address, 0;
+    if (input_only && r.table != reg::Table::input_register)
+      return ex = Exception::illegal_data_address, 0;
     const int w = reg::word_count(r.type);
     if (addr + static_cast<std::uint32_t>(w) > end) return ex = Exception::illegal_data_address, 0;
     std::uint16_t words[2];
@@ -258,9 +271,9 @@ std::size_t ModbusCore::read_registers(bool input_only, std::uint16_t start, std
   return n;
 }
 
-bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count, const std::uint8_t* data,
-                                  CommandImage& image, bool& heartbeat, bool& touches_control,
-                                  Exception& ex) const {
+bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count,
+                                  const std::uint8_t* data, CommandImage& image, bool& heartbeat,
+                                  bool& touches_control, Exception& ex) const {
   const auto table = reg::table();
   std::uint32_t addr = start;
   const std::uint32_t end = static_cast<std::uint32_t>(start) + count;
@@ -272,7 +285,8 @@ bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count, cons
     if (r.table != reg::Table::holding_register || r.access != reg::Access::read_write)
       return ex = Exception::illegal_data_address, false;
     const int w = reg::word_count(r.type);
-    if (addr + static_cast<std::uint32_t>(w) > end) return ex = Exception::illegal_data_address, false;
+    if (addr + static_cast<std::uint32_t>(w) > end)
+      return ex = Exception::illegal_data_address, false;
     std::uint16_t words[2] = {0, 0};
     const std::uint8_t* d = data + std::size_t{2} * (addr - start);
     for (std::size_t k = 0; k < static_cast<std::size_t>(w); ++k) words[k] = be16(d + 2 * k);
@@ -286,23 +300,27 @@ bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count, cons
   return true;
 }
 
-bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool heartbeat, bool touches_control,
-                             Exception& ex) {
+bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool heartbeat,
+                             bool touches_control, Exception& ex) {
   using namespace registers;
   const auto cw = next.control_word;
   const auto has = [&](int b) { return (cw >> b) & 1u; };
   if (cw & ~kControlWordMask) return ex = Exception::illegal_data_value, false;
   // One edge command per write, and no command while the stop bit is held.
-  if (has(kExecute) && (has(kStop) || has(kFaultReset) || has(kResync))) return ex = Exception::illegal_data_value, false;
+  if (has(kExecute) && (has(kStop) || has(kFaultReset) || has(kResync)))
+    return ex = Exception::illegal_data_value, false;
   const auto& a = controller_.config().actuator;
   const double f = next.force_setpoint_n;
-  if (std::abs(f) > std::abs(controller_.safe_force_limit_n(f))) return ex = Exception::illegal_data_value, false;
-  if (next.position_setpoint_m < a.stroke_min_m - 1e-9 || next.position_setpoint_m > a.stroke_max_m + 1e-9)
+  if (std::abs(f) > std::abs(controller_.safe_force_limit_n(f)))
+    return ex = Exception::illegal_data_value, false;
+  if (next.position_setpoint_m < a.stroke_min_m - 1e-9 ||
+      next.position_setpoint_m > a.stroke_max_m + 1e-9)
     return ex = Exception::illegal_data_value, false;
 
   // Broadcast (RTU unit 0) may stage setpoints and feed the heartbeat, never change the drive's
   // state: one frame would enable, switch or reset every drive on the line at once.
-  if (client.broadcast && (next.control_word != image_.control_word || next.mode_command != image_.mode_command))
+  if (client.broadcast &&
+      (next.control_word != image_.control_word || next.mode_command != image_.mode_command))
     return refuse(registers::Refusal::broadcast_state_change, ex);
 
   const bool changed = next != image_;
@@ -311,7 +329,8 @@ bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool h
   }
   const bool old_enable = (image_.control_word >> kEnable) & 1u;
   const bool new_enable = has(kEnable);
-  // Control is claimed only by a rising edge of enable while nobody owns it: never by writing first.
+  // Control is claimed only by a rising edge of enable while nobody owns it: never by writing
+  // first.
   if (touches_control && !old_enable && new_enable && owner_ == 0 && client.id != 0)
     owner_ = client.id, owner_ipv4_ = client.ipv4;
   if (old_enable && !new_enable && owner_ == client.id) owner_ = 0, owner_ipv4_ = 0;
@@ -319,7 +338,8 @@ bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool h
   return true;
 }
 
-std::size_t ModbusCore::handle(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len, std::uint8_t* out) {
+std::size_t ModbusCore::handle(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len,
+                               std::uint8_t* out) {
   std::lock_guard lock(mutex_);
   ++bus_messages_;
   ++server_messages_;
@@ -372,7 +392,8 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
         const Slot s = slots[start + k];
         if (s.reg < 0) return fail(Exception::illegal_data_address);
         const auto bit = reg::table()[static_cast<std::size_t>(s.reg)].address;
-        if ((word >> bit) & 1u) out[2 + k / 8] = static_cast<std::uint8_t>(out[2 + k / 8] | (1u << (k % 8)));
+        if ((word >> bit) & 1u)
+          out[2 + k / 8] = static_cast<std::uint8_t>(out[2 + k / 8] | (1u << (k % 8)));
       }
       return 2 + bytes;
     }
@@ -392,7 +413,8 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
       if (value != 0xFF00 && value != 0x0000) return fail(Exception::illegal_data_value);
       CommandImage next = image_;
       const auto mask = static_cast<std::uint16_t>(1u << addr);
-      next.control_word = static_cast<std::uint16_t>(value ? (next.control_word | mask) : (next.control_word & ~mask));
+      next.control_word = static_cast<std::uint16_t>(value ? (next.control_word | mask)
+                                                           : (next.control_word & ~mask));
       if (!write_image(client, next, false, true, ex)) return fail(ex);
       std::memcpy(out, pdu, 5);
       return 5;
@@ -410,7 +432,8 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
         if (coil_slots_[addr].reg < 0) return fail(Exception::illegal_data_address);
         const bool on = (pdu[6 + k / 8] >> (k % 8)) & 1u;
         const auto mask = static_cast<std::uint16_t>(1u << addr);
-        next.control_word = static_cast<std::uint16_t>(on ? (next.control_word | mask) : (next.control_word & ~mask));
+        next.control_word = static_cast<std::uint16_t>(on ? (next.control_word | mask)
+                                                          : (next.control_word & ~mask));
       }
       if (!write_image(client, next, false, true, ex)) return fail(ex);
       std::memcpy(out, pdu, 5);
@@ -420,7 +443,8 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
       if (len != 5) return fail(Exception::illegal_data_value);
       CommandImage next = image_;
       bool heartbeat = false, touches = false;
-      if (!decode_registers(be16(pdu + 1), 1, pdu + 3, next, heartbeat, touches, ex)) return fail(ex);
+      if (!decode_registers(be16(pdu + 1), 1, pdu + 3, next, heartbeat, touches, ex))
+        return fail(ex);
       if (!write_image(client, next, heartbeat, touches, ex)) return fail(ex);
       std::memcpy(out, pdu, 5);
       return 5;
@@ -448,7 +472,8 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
       if (!read_registers(false, rstart, rcount, out + 2, n, ex)) return fail(ex);  // address check
       CommandImage next = image_;
       bool heartbeat = false, touches = false;
-      if (!decode_registers(wstart, wcount, pdu + 10, next, heartbeat, touches, ex)) return fail(ex);
+      if (!decode_registers(wstart, wcount, pdu + 10, next, heartbeat, touches, ex))
+        return fail(ex);
       if (!write_image(client, next, heartbeat, touches, ex)) return fail(ex);
       if (!read_registers(false, rstart, rcount, out + 2, n, ex)) return fail(ex);
       out[0] = fc;
@@ -470,31 +495,51 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
           bus_messages_ = comm_errors_ = exceptions_ = server_messages_ = no_response_ = busy_ = 0;
           value = be16(pdu + 3);
           break;
-        case 0x0B: value = bus_messages_; break;
-        case 0x0C: value = comm_errors_; break;
-        case 0x0D: value = exceptions_; break;
-        case 0x0E: value = server_messages_; break;
-        case 0x0F: value = no_response_; break;
-        case 0x10: value = 0; break;  // NAKs: never sent
-        case 0x11: value = busy_; break;
-        case 0x12: value = 0; break;  // character overruns: the OS would lose them, not us
-        default: return fail(Exception::illegal_function);
+        case 0x0B:
+          value = bus_messages_;
+          break;
+        case 0x0C:
+          value = comm_errors_;
+          break;
+        case 0x0D:
+          value = exceptions_;
+          break;
+        case 0x0E:
+          value = server_messages_;
+          break;
+        case 0x0F:
+          value = no_response_;
+          break;
+        case 0x10:
+          value = 0;
+          break;  // NAKs: never sent
+        case 0x11:
+          value = busy_;
+          break;
+        case 0x12:
+          value = 0;
+          break;  // character overruns: the OS would lose them, not us
+        default:
+          return fail(Exception::illegal_function);
       }
       std::memcpy(out, pdu, 3);
       put16(out + 3, value);
       return 5;
     }
     case 43: {  // encapsulated interface: read device identification (MEI 14)
-      if (len != 4) return fail(len >= 2 && pdu[1] != 0x0E ? Exception::illegal_function : Exception::illegal_data_value);
+      if (len != 4)
+        return fail(len >= 2 && pdu[1] != 0x0E ? Exception::illegal_function
+                                               : Exception::illegal_data_value);
       if (pdu[1] != 0x0E) return fail(Exception::illegal_function);
       const std::uint8_t code = pdu[2];
       std::uint8_t object = pdu[3];
-      const std::array<DeviceObject, 6> objects{{{0, "maglead project"},
-                                                 {1, "MAGLEAD-CTRL"},
-                                                 {2, MAGLEAD_VERSION},
-                                                 {3, MAGLEAD_VENDOR_URL},
-                                                 {4, "maglead magnetic lead-screw actuator controller"},
-                                                 {5, options_.model_name}}};
+      const std::array<DeviceObject, 6> objects{
+          {{0, "maglead project"},
+           {1, "MAGLEAD-CTRL"},
+           {2, MAGLEAD_VERSION},
+           {3, MAGLEAD_VENDOR_URL},
+           {4, "maglead magnetic lead-screw actuator controller"},
+           {5, options_.model_name}}};
       if (code < 1 || code > 4) return fail(Exception::illegal_data_value);
       std::size_t first = 0, last = 0;  // inclusive object range to send
       if (code == 4) {

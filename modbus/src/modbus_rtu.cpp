@@ -6,8 +6,8 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
@@ -21,9 +21,16 @@ constexpr std::size_t kMaxRtuAdu = 256;
 long expected_length(const std::uint8_t* buf, std::size_t n) {
   if (n < 2) return 0;
   switch (buf[1]) {
-    case 1: case 2: case 3: case 4: case 5: case 6: case 8:
+    case 1:
+    case 2:
+    case 3:
+    case 4:
+    case 5:
+    case 6:
+    case 8:
       return 8;
-    case 15: case 16:
+    case 15:
+    case 16:
       return n < 7 ? 0 : 9 + buf[6];
     case 23:
       return n < 11 ? 0 : 13 + buf[10];
@@ -44,18 +51,25 @@ std::uint16_t modbus_crc16(const std::uint8_t* data, std::size_t len) {
   std::uint16_t crc = 0xFFFF;
   for (std::size_t i = 0; i < len; ++i) {
     crc ^= data[i];
-    for (int b = 0; b < 8; ++b) crc = (crc & 1) ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001) : static_cast<std::uint16_t>(crc >> 1);
+    for (int b = 0; b < 8; ++b)
+      crc = (crc & 1) ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001)
+                      : static_cast<std::uint16_t>(crc >> 1);
   }
   return crc;
 }
 
-RtuServer::RtuServer(ModbusCore& core, RtuOptions options) : core_(core), options_(std::move(options)) {
+RtuServer::RtuServer(ModbusCore& core, RtuOptions options)
+    : core_(core), options_(std::move(options)) {
   const char p = options_.parity;
   if (p != 'N' && p != 'E' && p != 'O') throw std::invalid_argument("parity must be N, E or O");
-  if (options_.unit_id < 1 || options_.unit_id > 247) throw std::invalid_argument("RTU unit id must be 1..247");
-  if (options_.stop_bits != 1 && options_.stop_bits != 2) throw std::invalid_argument("stop bits must be 1 or 2");
-  if (options_.data_bits < 7 || options_.data_bits > 8) throw std::invalid_argument("data bits must be 7 or 8");
-  modbus_t* ctx = modbus_new_rtu(options_.device.c_str(), options_.baud, p, options_.data_bits, options_.stop_bits);
+  if (options_.unit_id < 1 || options_.unit_id > 247)
+    throw std::invalid_argument("RTU unit id must be 1..247");
+  if (options_.stop_bits != 1 && options_.stop_bits != 2)
+    throw std::invalid_argument("stop bits must be 1 or 2");
+  if (options_.data_bits < 7 || options_.data_bits > 8)
+    throw std::invalid_argument("data bits must be 7 or 8");
+  modbus_t* ctx = modbus_new_rtu(options_.device.c_str(), options_.baud, p, options_.data_bits,
+                                 options_.stop_bits);
   if (!ctx) throw std::runtime_error("RTU " + options_.device + ": " + modbus_strerror(errno));
   modbus_set_slave(ctx, options_.unit_id);
   if (modbus_connect(ctx) != 0) {
@@ -126,7 +140,8 @@ void RtuServer::run() {
         n += static_cast<std::size_t>(r);
         last_byte_s = now;
       } else if (r < 0 && errno != EAGAIN && errno != EINTR) {
-        std::fprintf(stderr, "maglead serve: RTU %s: %s; RTU stopped\n", options_.device.c_str(), std::strerror(errno));
+        std::fprintf(stderr, "maglead serve: RTU %s: %s; RTU stopped\n", options_.device.c_str(),
+                     std::strerror(errno));
         return;
       }
     } else if (pr > 0 && (pfd.revents & (POLLHUP | POLLERR))) {
@@ -138,7 +153,8 @@ void RtuServer::run() {
       const long want = expected_length(buf, n);
       std::size_t frame = 0;
       // Two discards on purpose: an over-long frame and a cut-short one are told apart by order.
-      if (want > static_cast<long>(kMaxRtuAdu) || n >= kMaxRtuAdu + 1) {  // NOLINT(bugprone-branch-clone)
+      if (want > static_cast<long>(kMaxRtuAdu) ||
+          n >= kMaxRtuAdu + 1) {  // NOLINT(bugprone-branch-clone)
         discard();
         break;
       } else if (want > 0 && n >= static_cast<std::size_t>(want)) {
@@ -151,7 +167,8 @@ void RtuServer::run() {
       } else {
         break;  // wait for more
       }
-      const bool crc_ok = frame >= 4 && modbus_crc16(buf, frame - 2) == (buf[frame - 2] | (buf[frame - 1] << 8));
+      const bool crc_ok =
+          frame >= 4 && modbus_crc16(buf, frame - 2) == (buf[frame - 2] | (buf[frame - 1] << 8));
       if (!crc_ok) {
         discard();  // framing is lost: resynchronise on the next silence
         break;
@@ -161,7 +178,8 @@ void RtuServer::run() {
       const bool broadcast = unit == 0;
       const bool broadcast_write = fc == 5 || fc == 6 || fc == 15 || fc == 16;
       if (unit == options_.unit_id || (broadcast && broadcast_write)) {
-        const std::size_t len = core_.handle(ClientInfo{ModbusCore::kRtuClient, 0, broadcast}, buf + 1, frame - 3, pdu_out + 1);
+        const std::size_t len = core_.handle(ClientInfo{ModbusCore::kRtuClient, 0, broadcast},
+                                             buf + 1, frame - 3, pdu_out + 1);
         if (len > 0) {
           pdu_out[0] = unit;
           modbus_send_raw_request(ctx, pdu_out, static_cast<int>(len + 1));

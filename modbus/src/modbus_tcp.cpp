@@ -42,7 +42,8 @@ std::pair<std::uint32_t, std::uint32_t> parse_ipv4_cidr(const std::string& text)
   const std::string addr = text.substr(0, slash);
   in_addr a{};
   if (inet_pton(AF_INET, addr.c_str(), &a) != 1)
-    throw std::invalid_argument("allow-list entry '" + text + "' is not an IPv4 address or a.b.c.d/len");
+    throw std::invalid_argument("allow-list entry '" + text +
+                                "' is not an IPv4 address or a.b.c.d/len");
   int len = 32;
   if (slash != std::string::npos) {
     try {
@@ -52,7 +53,8 @@ std::pair<std::uint32_t, std::uint32_t> parse_ipv4_cidr(const std::string& text)
     } catch (const std::exception&) {
       len = -1;
     }
-    if (len < 0 || len > 32) throw std::invalid_argument("allow-list entry '" + text + "': prefix length must be 0..32");
+    if (len < 0 || len > 32)
+      throw std::invalid_argument("allow-list entry '" + text + "': prefix length must be 0..32");
   }
   const std::uint32_t mask = len == 0 ? 0u : ~0u << (32 - len);
   return {ntohl(a.s_addr) & mask, mask};
@@ -73,22 +75,28 @@ struct TcpServer::Conn {
   bool read_closed = false;  // the peer shut down its sending side: answer what came, then close
 };
 
-TcpServer::TcpServer(ModbusCore& core, TcpOptions options) : core_(core), options_(std::move(options)) {
+TcpServer::TcpServer(ModbusCore& core, TcpOptions options)
+    : core_(core), options_(std::move(options)) {
   for (const auto& a : options_.allow) allow_.push_back(parse_ipv4_cidr(a));
-  if (options_.max_connections < 1) throw std::invalid_argument("max connections must be at least 1");
-  if (options_.port < 0 || options_.port > 65535) throw std::invalid_argument("port must be 0..65535");
-  if (!(options_.frame_timeout_s > 0)) throw std::invalid_argument("frame timeout must be positive");
+  if (options_.max_connections < 1)
+    throw std::invalid_argument("max connections must be at least 1");
+  if (options_.port < 0 || options_.port > 65535)
+    throw std::invalid_argument("port must be 0..65535");
+  if (!(options_.frame_timeout_s > 0))
+    throw std::invalid_argument("frame timeout must be positive");
   sockaddr_in sa{};
   sa.sin_family = AF_INET;
   sa.sin_port = htons(static_cast<std::uint16_t>(options_.port));
   if (inet_pton(AF_INET, options_.bind_address.c_str(), &sa.sin_addr) != 1)
-    throw std::invalid_argument("bind address '" + options_.bind_address + "' is not an IPv4 address");
+    throw std::invalid_argument("bind address '" + options_.bind_address +
+                                "' is not an IPv4 address");
   listen_fd_ = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (listen_fd_ < 0) throw std::runtime_error(sys_error("socket"));
   const int one = 1;
   setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
   if (bind(listen_fd_, reinterpret_cast<sockaddr*>(&sa), sizeof sa) != 0) {
-    const std::string msg = sys_error("bind " + options_.bind_address + ":" + std::to_string(options_.port));
+    const std::string msg =
+        sys_error("bind " + options_.bind_address + ":" + std::to_string(options_.port));
     close(listen_fd_);
     throw std::runtime_error(msg);
   }
@@ -191,7 +199,8 @@ void TcpServer::run() {
       std::memmove(c.in, c.in + off, c.in_len - off);
       c.in_len -= off;
     }
-    c.frame_started_s = c.in_len > 0 ? (off > 0 || c.frame_started_s == 0.0 ? now : c.frame_started_s) : 0.0;
+    c.frame_started_s =
+        c.in_len > 0 ? (off > 0 || c.frame_started_s == 0.0 ? now : c.frame_started_s) : 0.0;
     return true;
   };
 
@@ -206,7 +215,8 @@ void TcpServer::run() {
         for (;;) {
           sockaddr_in peer{};
           socklen_t pl = sizeof peer;
-          const int cfd = accept4(listen_fd_, reinterpret_cast<sockaddr*>(&peer), &pl, SOCK_NONBLOCK | SOCK_CLOEXEC);
+          const int cfd = accept4(listen_fd_, reinterpret_cast<sockaddr*>(&peer), &pl,
+                                  SOCK_NONBLOCK | SOCK_CLOEXEC);
           if (cfd < 0) break;
           const std::uint32_t ip = ntohl(peer.sin_addr.s_addr);
           bool allowed = allow_.empty();
@@ -221,7 +231,9 @@ void TcpServer::run() {
             Conn* oldest = nullptr;
             const std::uint16_t owner = core_.owner();
             for (auto& [f, other] : conns) {
-              if (other->id == owner || other->in_len > 0 || !other->out.empty() || other->read_closed) continue;
+              if (other->id == owner || other->in_len > 0 || !other->out.empty() ||
+                  other->read_closed)
+                continue;
               if (!oldest || other->activity_order < oldest->activity_order) oldest = other.get();
             }
             if (!oldest) {
@@ -293,9 +305,12 @@ void TcpServer::run() {
     // Deadlines: a frame left incomplete, or a connection idle too long, is closed.
     std::vector<Conn*> expired;
     for (auto& [fd, c] : conns) {
-      const bool frame_stalled = c->in_len > 0 && now - c->frame_started_s > options_.frame_timeout_s;
-      const bool idle = options_.idle_timeout_s > 0 && now - c->last_activity_s > options_.idle_timeout_s;
-      const bool half_closed = c->read_closed && now - c->last_activity_s > options_.frame_timeout_s;
+      const bool frame_stalled =
+          c->in_len > 0 && now - c->frame_started_s > options_.frame_timeout_s;
+      const bool idle =
+          options_.idle_timeout_s > 0 && now - c->last_activity_s > options_.idle_timeout_s;
+      const bool half_closed =
+          c->read_closed && now - c->last_activity_s > options_.frame_timeout_s;
       if (frame_stalled || idle || half_closed) expired.push_back(c.get());
     }
     for (Conn* c : expired) drop(*c);

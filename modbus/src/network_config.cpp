@@ -1,9 +1,9 @@
 #include "maglead/modbus/network_config.hpp"
 
-#include <optional>
 #include <initializer_list>
-#include <string_view>
+#include <optional>
 #include <stdexcept>
+#include <string_view>
 
 #include "maglead/physics/toml_config.hpp"
 
@@ -18,16 +18,19 @@ struct Reader {
   const toml::table& root;
 
   /// FILE:LINE:COLUMN: key: why, at the node (or the file's start).
-  [[noreturn]] void fail(const toml::node* at, const std::string& key, const std::string& why) const {
+  [[noreturn]] void fail(const toml::node* at, const std::string& key,
+                         const std::string& why) const {
     config::fail(path, at, key + ": " + why);
   }
-  const toml::table* section(const char* name, std::initializer_list<std::string_view> known) const {
+  const toml::table* section(const char* name,
+                             std::initializer_list<std::string_view> known) const {
     const toml::table* t = config::section(path, root, name);
     if (t) config::check_keys(path, *t, std::string("[") + name + "]", known);
     return t;
   }
   template <class T>
-  void get(const toml::table* t, const char* sec, const char* key, T& out, double lo, double hi) const {
+  void get(const toml::table* t, const char* sec, const char* key, T& out, double lo,
+           double hi) const {
     if (!t) return;
     const auto* node = t->get(key);
     if (!node) return;
@@ -43,9 +46,13 @@ struct Reader {
     } else {
       const auto v = node->value<double>();
       if (!v) fail(node, name, "must be a number");
-      if (!(*v >= lo && *v <= hi)) fail(node, name, std::to_string(*v) + " is outside " + std::to_string(lo) + " .. " + std::to_string(hi));
+      if (!(*v >= lo && *v <= hi))
+        fail(
+            node, name,
+            std::to_string(*v) + " is outside " + std::to_string(lo) + " .. " + std::to_string(hi));
       if constexpr (std::is_integral_v<T>) {
-        if (*v != static_cast<double>(static_cast<long long>(*v))) fail(node, name, "must be a whole number");
+        if (*v != static_cast<double>(static_cast<long long>(*v)))
+          fail(node, name, "must be a whole number");
       }
       out = static_cast<T>(*v);
     }
@@ -65,14 +72,16 @@ std::optional<FaultReaction> parse_fault_reaction(std::string_view text) {
 NetworkConfig load_network_config(const std::string& path) {
   const toml::table root = config::parse_file(path);
   for (const auto& [k, v] : root)
-    if (k.str() != "tcp" && k.str() != "rtu" && k.str() != "server" && k.str() != "fault_reaction" &&
-        k.str() != "runtime")
-      config::fail(path, &v,
-                   std::string(k.str()) + ": unknown section (tcp, rtu, server, fault_reaction, runtime)");
+    if (k.str() != "tcp" && k.str() != "rtu" && k.str() != "server" &&
+        k.str() != "fault_reaction" && k.str() != "runtime")
+      config::fail(
+          path, &v,
+          std::string(k.str()) + ": unknown section (tcp, rtu, server, fault_reaction, runtime)");
   Reader r{path, root};
   NetworkConfig c;
-  const auto* tcp = r.section("tcp", {"enabled", "bind_address", "port", "unit_id", "max_connections",
-                                      "frame_timeout_s", "idle_timeout_s", "allow"});
+  const auto* tcp =
+      r.section("tcp", {"enabled", "bind_address", "port", "unit_id", "max_connections",
+                        "frame_timeout_s", "idle_timeout_s", "allow"});
   r.get(tcp, "tcp", "enabled", c.tcp_enabled, 0, 1);
   r.get(tcp, "tcp", "bind_address", c.tcp.bind_address, 0, 0);
   r.get(tcp, "tcp", "port", c.tcp.port, 0, 65535);
@@ -96,7 +105,8 @@ NetworkConfig load_network_config(const std::string& path) {
       }
     }
   }
-  const auto* rtu = r.section("rtu", {"device", "baud", "parity", "data_bits", "stop_bits", "unit_id", "rs485"});
+  const auto* rtu =
+      r.section("rtu", {"device", "baud", "parity", "data_bits", "stop_bits", "unit_id", "rs485"});
   r.get(rtu, "rtu", "device", c.rtu.device, 0, 0);
   r.get(rtu, "rtu", "baud", c.rtu.baud, 50, 4000000);
   std::string parity(1, c.rtu.parity);
@@ -113,9 +123,10 @@ NetworkConfig load_network_config(const std::string& path) {
   double wd_ms = 0;
   r.get(server, "server", "watchdog_ms", wd_ms, 0, 60000);
   c.watchdog_s = wd_ms * 1e-3;
-  const auto* fr = r.section("fault_reaction", {"watchdog", "owner_lost", "sensor_fault", "step_out",
-                                                "release_rate_n_per_s"});
-  for (auto [key, field] : {std::pair{"watchdog", &c.reactions.watchdog}, std::pair{"owner_lost", &c.reactions.owner_lost},
+  const auto* fr = r.section("fault_reaction", {"watchdog", "owner_lost", "sensor_fault",
+                                                "step_out", "release_rate_n_per_s"});
+  for (auto [key, field] : {std::pair{"watchdog", &c.reactions.watchdog},
+                            std::pair{"owner_lost", &c.reactions.owner_lost},
                             std::pair{"sensor_fault", &c.reactions.sensor_fault},
                             std::pair{"step_out", &c.reactions.step_out}}) {
     std::string v;

@@ -1,8 +1,8 @@
 #include "maglead/physics/actuator.hpp"
 
 #include <cmath>
-#include <utility>
 #include <stdexcept>
+#include <utility>
 
 #include "maglead/physics/toml_config.hpp"
 
@@ -14,15 +14,19 @@ ActuatorParams load_actuator_params(const std::string& path) {
   const toml::table& t = *config::section(path, root, "actuator", true);
   const std::string label = "[actuator]";
   config::check_keys(path, t, label,
-                     {"lead_m", "gear_ratio", "motor_counts_per_rev", "linear_count_m", "nut_mass_kg",
-                      "viscous_n_s_per_m", "coulomb_n", "stroke_min_m", "stroke_max_m",
-                      "sample_rate_hz", "safe_force_fraction"});
+                     {"lead_m", "gear_ratio", "motor_counts_per_rev", "linear_count_m",
+                      "nut_mass_kg", "viscous_n_s_per_m", "coulomb_n", "stroke_min_m",
+                      "stroke_max_m", "sample_rate_hz", "safe_force_fraction"});
   const auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
-  for (auto [key, out] : {std::pair{"lead_m", &a.lead_m}, {"gear_ratio", &a.gear_ratio},
+  for (auto [key, out] : {std::pair{"lead_m", &a.lead_m},
+                          {"gear_ratio", &a.gear_ratio},
                           {"motor_counts_per_rev", &a.motor_counts_per_rev},
-                          {"linear_count_m", &a.linear_count_m}, {"nut_mass_kg", &a.nut_mass_kg},
-                          {"viscous_n_s_per_m", &a.viscous_n_s_per_m}, {"coulomb_n", &a.coulomb_n},
-                          {"stroke_max_m", &a.stroke_max_m}, {"sample_rate_hz", &a.sample_rate_hz},
+                          {"linear_count_m", &a.linear_count_m},
+                          {"nut_mass_kg", &a.nut_mass_kg},
+                          {"viscous_n_s_per_m", &a.viscous_n_s_per_m},
+                          {"coulomb_n", &a.coulomb_n},
+                          {"stroke_max_m", &a.stroke_max_m},
+                          {"sample_rate_hz", &a.sample_rate_hz},
                           {"safe_force_fraction", &a.safe_force_fraction}})
     config::read_number(path, t, label, key, *out, positive, "a positive number");
   config::read_number(path, t, label, "stroke_min_m", a.stroke_min_m);
@@ -30,7 +34,8 @@ ActuatorParams load_actuator_params(const std::string& path) {
     config::fail(path, t.get("stroke_min_m") ? t.get("stroke_min_m") : t.get("stroke_max_m"),
                  "[actuator] stroke_min_m must be below stroke_max_m");
   if (a.safe_force_fraction > 1.0)
-    config::fail(path, t.get("safe_force_fraction"), "[actuator] safe_force_fraction must be at most 1");
+    config::fail(path, t.get("safe_force_fraction"),
+                 "[actuator] safe_force_fraction must be at most 1");
   return a;
 }
 

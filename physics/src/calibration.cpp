@@ -59,7 +59,8 @@ CalibrationResult calibrate_static_force(const std::vector<double>& phase_rad,
     double best_higher = result.table[k].rmse_n;
     for (std::size_t j = k; j < result.table.size(); ++j)
       best_higher = std::min(best_higher, result.table[j].rmse_n);
-    if (result.table[k].rmse_n - best_higher <= options.order_gain_fraction * result.table[k].rmse_n) {
+    if (result.table[k].rmse_n - best_higher <=
+        options.order_gain_fraction * result.table[k].rmse_n) {
       chosen = k;
       break;
     }

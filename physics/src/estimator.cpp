@@ -49,8 +49,8 @@ double EncoderVelocityEstimator::update(double pos_m) {
 
 PhaseForForce phase_for_output_force(const ForceCalibration& cal, double output_force_n,
                                      double safe_fraction) {
-  const double limit = output_force_n >= 0.0 ? safe_fraction * cal.peak_push_n
-                                             : safe_fraction * cal.peak_pull_n;
+  const double limit =
+      output_force_n >= 0.0 ? safe_fraction * cal.peak_push_n : safe_fraction * cal.peak_pull_n;
   if (std::abs(output_force_n) > std::abs(limit) || !std::isfinite(output_force_n))
     return {InverseStatus::beyond_safe_limit, 0.0, limit};
   // −F̂_s rises monotonically over the stable branch: bisection cannot miss.

@@ -43,8 +43,8 @@ double PeriodicForceModel::slope_n_per_rad(double phase_rad) const {
 }
 
 PeriodicForceModel PeriodicForceModel::fit(const std::vector<double>& phase_rad,
-                                           const std::vector<double>& load_force_n,
-                                           int harmonics, double ridge) {
+                                           const std::vector<double>& load_force_n, int harmonics,
+                                           double ridge) {
   if (phase_rad.size() != load_force_n.size() || phase_rad.size() < 2u * harmonics + 1)
     throw std::invalid_argument("periodic fit: too few samples");
   const Eigen::Index n = static_cast<Eigen::Index>(phase_rad.size());
@@ -83,7 +83,8 @@ void ForceCalibration::derive_limits() {
   constexpr double kMax = 0.6 * std::numbers::pi;
   auto edge = [&](double dir) {
     double p = 0.0;
-    while (std::abs(p) < kMax && polynomial.slope_n_per_rad(p + dir * kStep) < 0.0) p += dir * kStep;
+    while (std::abs(p) < kMax && polynomial.slope_n_per_rad(p + dir * kStep) < 0.0)
+      p += dir * kStep;
     return std::abs(p) >= kMax ? dir * std::numbers::pi / 2 : p;
   };
   stable_max_rad = std::min(edge(+1.0), std::numbers::pi / 2);
@@ -116,7 +117,6 @@ std::string join(const std::vector<double>& v) {
   return s.str();
 }
 
-
 }  // namespace
 
 void save_calibration(const std::string& path, const ForceCalibration& cal,
@@ -141,19 +141,23 @@ ForceCalibration load_calibration(const std::string& path) {
   const toml::table* t = config::section(path, root, "calibration", true);
   ForceCalibration cal;
   cal.source = (*t)["source"].value_or(std::string(path));
-  cal.polynomial.coeffs_ascending = config::read_numbers(path, *t, "[calibration]", "polynomial_coeffs_ascending");
+  cal.polynomial.coeffs_ascending =
+      config::read_numbers(path, *t, "[calibration]", "polynomial_coeffs_ascending");
   if (cal.polynomial.coeffs_ascending.size() < 2)
-    config::fail(path, t->get("polynomial_coeffs_ascending"), "[calibration] polynomial needs order 1 or more");
+    config::fail(path, t->get("polynomial_coeffs_ascending"),
+                 "[calibration] polynomial needs order 1 or more");
   if (!config::read_number(path, *t, "[calibration]", "periodic_mean_n", cal.periodic.mean_n))
     config::fail(path, t, "[calibration] periodic_mean_n missing");
   cal.periodic.cos_n = config::read_numbers(path, *t, "[calibration]", "periodic_cos_n");
   cal.periodic.sin_n = config::read_numbers(path, *t, "[calibration]", "periodic_sin_n");
   if (cal.periodic.cos_n.size() != cal.periodic.sin_n.size())
-    config::fail(path, t->get("periodic_sin_n"), "[calibration] periodic_cos_n and periodic_sin_n differ in length");
+    config::fail(path, t->get("periodic_sin_n"),
+                 "[calibration] periodic_cos_n and periodic_sin_n differ in length");
   cal.derive_limits();
   if (!(cal.peak_push_n > 0.0) || !(cal.peak_pull_n < 0.0))
-    config::fail(path, t->get("polynomial_coeffs_ascending"),
-                 "[calibration] curve has no stable branch around phi = 0 (force must fall with phase)");
+    config::fail(
+        path, t->get("polynomial_coeffs_ascending"),
+        "[calibration] curve has no stable branch around phi = 0 (force must fall with phase)");
   return cal;
 }
 

@@ -172,8 +172,8 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
       {"lead_m", std::to_string(L)},
       {"gear_ratio", std::to_string(act.gear_ratio)},
   };
-  std::vector<std::string> names = {"t_s",          "motor_angle_rad", "screw_angle_rad",
-                                    "nut_pos_m",    "load_force_n",    "out_force_est_n"};
+  std::vector<std::string> names = {"t_s",       "motor_angle_rad", "screw_angle_rad",
+                                    "nut_pos_m", "load_force_n",    "out_force_est_n"};
   if (force_mode) names.push_back("force_set_n");
   if (move_mode) names.push_back("pos_set_m");
   RecordingWriter writer(out_path, meta, names);
@@ -194,7 +194,8 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
       load.damping_n_s_per_m = 300;
       load.anchor_pos_m = kMidStroke_m + sweep_amp_m * triangle(t / sweep_period_s);
       load.anchor_vel_m_s = (sweep_amp_m * triangle((t + 1e-4) / sweep_period_s) -
-                             sweep_amp_m * triangle(t / sweep_period_s)) / 1e-4;
+                             sweep_amp_m * triangle(t / sweep_period_s)) /
+                            1e-4;
     } else if (S == "hand-push") {
       constexpr double k_hand = 1500.0, c_hand = 10.0;
       auto anchor = [&](double tt) {

@@ -34,9 +34,7 @@ SimulatedActuator::SimulatedActuator(PlantParams params, std::uint64_t seed, dou
   screw_rad_ = screw_angle_at(motor_rad_, pos_m_);          // … or where the play puts it
   phase_start_ = phase_rad(screw_rad_, pos_m_, a.lead_m);
   const double dt = 1.0 / (a.sample_rate_hz * params_.substeps);
-  const auto delay_len = [&](double d) {
-    return static_cast<std::size_t>(std::ceil(d / dt)) + 2;
-  };
+  const auto delay_len = [&](double d) { return static_cast<std::size_t>(std::ceil(d / dt)) + 2; };
   // The delay lines share one length and head so one index serves them all.
   const std::size_t len = std::max(delay_len(params_.effects.load_cell_delay_s),
                                    delay_len(params_.effects.sensor_delay_s));
@@ -192,8 +190,8 @@ void SimulatedActuator::advance_to(double t_s) noexcept {
   truth_.nut_vel_m_s = vel_m_s_;
   truth_.load_force_n = load_n_;
   truth_.coupling_force_n = coupling_force_n(t_s_, pos_m_, screw_rad_);
-  truth_.slips = static_cast<int>(
-      std::lround((phase_rad(screw_rad_, pos_m_, a.lead_m) - phase_start_) / (2.0 * std::numbers::pi)));
+  truth_.slips = static_cast<int>(std::lround(
+      (phase_rad(screw_rad_, pos_m_, a.lead_m) - phase_start_) / (2.0 * std::numbers::pi)));
 }
 
 double SimulatedActuator::delayed(const std::vector<double>& line, double delay_s) const noexcept {

@@ -343,7 +343,8 @@ RecordingWriter::~RecordingWriter() {
 }
 
 void RecordingWriter::write_row(const double* values, std::size_t count) {
-  if (count != impl_->ncol) throw std::logic_error("RecordingWriter: row width differs from header");
+  if (count != impl_->ncol)
+    throw std::logic_error("RecordingWriter: row width differs from header");
   char buf[32];
   for (std::size_t i = 0; i < count; ++i) {
     if (i) std::fputc(',', impl_->f);

@@ -52,19 +52,26 @@ void encode(const Register& reg, double value_si, std::uint16_t* words) {
 double decode(const Register& reg, const std::uint16_t* words) {
   const auto u32 = [&] { return (static_cast<std::uint32_t>(words[0]) << 16) | words[1]; };
   switch (reg.type) {
-    case Type::bit: return words[0] ? 1.0 : 0.0;
-    case Type::u16: return words[0] * reg.scale;
-    case Type::i16: return static_cast<std::int16_t>(words[0]) * reg.scale;
-    case Type::u32: return static_cast<double>(u32()) * reg.scale;
-    case Type::i32: return static_cast<std::int32_t>(u32()) * reg.scale;
-    case Type::f32: return static_cast<double>(std::bit_cast<float>(u32())) * reg.scale;
+    case Type::bit:
+      return words[0] ? 1.0 : 0.0;
+    case Type::u16:
+      return words[0] * reg.scale;
+    case Type::i16:
+      return static_cast<std::int16_t>(words[0]) * reg.scale;
+    case Type::u32:
+      return static_cast<double>(u32()) * reg.scale;
+    case Type::i32:
+      return static_cast<std::int32_t>(u32()) * reg.scale;
+    case Type::f32:
+      return static_cast<double>(std::bit_cast<float>(u32())) * reg.scale;
   }
   return std::numeric_limits<double>::quiet_NaN();
 }
 
 bool in_range(const Register& reg, double value_si) {
   // Tolerate float32 rounding of the limits themselves (0.04 is not exact in float32).
-  const double slack = reg.type == Type::f32 ? 1e-6 * std::max(std::abs(reg.min), std::abs(reg.max)) : 0.0;
+  const double slack =
+      reg.type == Type::f32 ? 1e-6 * std::max(std::abs(reg.min), std::abs(reg.max)) : 0.0;
   return std::isfinite(value_si) && value_si >= reg.min - slack && value_si <= reg.max + slack;
 }
 

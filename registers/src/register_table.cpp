@@ -23,8 +23,10 @@ constexpr double kU32Max = 4294967295.0;
 constexpr std::array kTable = std::to_array<Register>({
     // Identity and word-order probes.
     {"device_type", IR, 0, Type::u16, 1, "", RO, 0, kU16Max, "Device type: 0x4D4C (\"ML\")"},
-    {"firmware_version", IR, 1, Type::u16, 1, "", RO, 0, kU16Max, "Firmware version, major*256 + minor"},
-    {"register_map_version", IR, 2, Type::u16, 1, "", RO, 0, kU16Max, "Version of this register map"},
+    {"firmware_version", IR, 1, Type::u16, 1, "", RO, 0, kU16Max,
+     "Firmware version, major*256 + minor"},
+    {"register_map_version", IR, 2, Type::u16, 1, "", RO, 0, kU16Max,
+     "Version of this register map"},
     {"loop_rate_hz", IR, 3, Type::u16, 1, "Hz", RO, 0, kU16Max, "Control loop rate"},
     {"word_order_probe_u32", IR, 4, Type::u32, 1, "", RO, 0, kU32Max,
      "Always 0x12345678: reads 0x1234, 0x5678 when the word order is right"},
@@ -32,7 +34,8 @@ constexpr std::array kTable = std::to_array<Register>({
      "Always 1234.5678 as float32 (0x449A522B)"},
     // Drive status.
     {"status_word", IR, 10, Type::u16, 1, "", RO, 0, kU16Max, "Status bits, see discrete inputs"},
-    {"alarm_code", IR, 11, Type::u16, 1, "", RO, 0, kU16Max, "Latched alarm, see alarm codes (0 none)"},
+    {"alarm_code", IR, 11, Type::u16, 1, "", RO, 0, kU16Max,
+     "Latched alarm, see alarm codes (0 none)"},
     {"step_out_count", IR, 12, Type::u16, 1, "", RO, 0, kU16Max, "Step-outs detected since start"},
     {"drive_state", IR, 13, Type::u16, 1, "", RO, 0, 3, "0 disabled, 1 ready, 2 enabled, 3 fault"},
     {"active_mode", IR, 14, Type::u16, 1, "", RO, 0, 2, "0 idle (hold), 1 position, 2 force"},
@@ -45,7 +48,8 @@ constexpr std::array kTable = std::to_array<Register>({
      "Client that owns control (0 none; TCP connection number, 65535 the RTU master)"},
     {"control_owner_ipv4", IR, 18, Type::u32, 1, "", RO, 0, kU32Max,
      "IPv4 address of the owning TCP client (0 none)"},
-    {"nut_pos_um", IR, 20, Type::i32, 1e-6, "m", RO, -kI32 * 1e-6, kI32 * 1e-6, "Measured nut position"},
+    {"nut_pos_um", IR, 20, Type::i32, 1e-6, "m", RO, -kI32 * 1e-6, kI32 * 1e-6,
+     "Measured nut position"},
     {"nut_vel_um_s", IR, 22, Type::i32, 1e-6, "m/s", RO, -kI32 * 1e-6, kI32 * 1e-6, "Nut velocity"},
     {"screw_angle_urad", IR, 24, Type::i32, 1e-6, "rad", RO, -kI32 * 1e-6, kI32 * 1e-6,
      "Screw angle (motor encoder / gear ratio)"},
@@ -104,33 +108,45 @@ constexpr std::array kTable = std::to_array<Register>({
     {"force_est_n_f32", IR, 108, Type::f32, 1, "N", RO, -1e9, 1e9, "Estimated output force"},
     {"load_cell_force_n_f32", IR, 110, Type::f32, 1, "N", RO, -1e9, 1e9, "Load-cell output force"},
     {"profile_pos_m_f32", IR, 112, Type::f32, 1, "m", RO, -1e9, 1e9, "Profile position reference"},
-    {"active_force_setpoint_n_f32", IR, 114, Type::f32, 1, "N", RO, -1e9, 1e9, "Force setpoint held"},
+    {"active_force_setpoint_n_f32", IR, 114, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Force setpoint held"},
     {"active_target_pos_m_f32", IR, 116, Type::f32, 1, "m", RO, -1e9, 1e9, "Target of the move"},
-    {"twin_pred_nut_pos_m_f32", IR, 118, Type::f32, 1, "m", RO, -1e9, 1e9, "Twin: predicted position"},
+    {"twin_pred_nut_pos_m_f32", IR, 118, Type::f32, 1, "m", RO, -1e9, 1e9,
+     "Twin: predicted position"},
     {"twin_pred_force_n_f32", IR, 120, Type::f32, 1, "N", RO, -1e9, 1e9, "Twin: predicted force"},
-    {"twin_residual_pos_m_f32", IR, 122, Type::f32, 1, "m", RO, -1e9, 1e9, "Twin: position residual"},
-    {"twin_residual_force_n_f32", IR, 124, Type::f32, 1, "N", RO, -1e9, 1e9, "Twin: force residual"},
-    {"twin_dynamic_force_n_f32", IR, 126, Type::f32, 1, "N", RO, -1e9, 1e9, "Twin: dynamic force estimate"},
+    {"twin_residual_pos_m_f32", IR, 122, Type::f32, 1, "m", RO, -1e9, 1e9,
+     "Twin: position residual"},
+    {"twin_residual_force_n_f32", IR, 124, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Twin: force residual"},
+    {"twin_dynamic_force_n_f32", IR, 126, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Twin: dynamic force estimate"},
     // Commands and setpoints. Setpoints are staged: an execute edge applies them.
     {"control_word", HR, 1000, Type::u16, 1, "", RW, 0, 31,
      "Control bits, see coils; enable and stop are levels, the others act on rising edges; "
      "refused by broadcast"},
     {"mode_command", HR, 1001, Type::u16, 1, "", RW, 0, 2,
-     "Mode the next execute edge applies: 0 idle (stop and hold), 1 position, 2 force; refused by broadcast"},
+     "Mode the next execute edge applies: 0 idle (stop and hold), 1 position, 2 force; refused by "
+     "broadcast"},
     {"heartbeat", HR, 1002, Type::u16, 1, "", RW, 0, kU16Max,
      "Write anything to feed the communication watchdog"},
     {"watchdog_ms", HR, 1003, Type::u16, 1e-3, "s", RW, 0, 60.0,
-     "Communication watchdog time, 0 = off: without a heartbeat write the drive faults (fault reaction)"},
+     "Communication watchdog time, 0 = off: without a heartbeat write the drive faults (fault "
+     "reaction)"},
     {"force_setpoint_mn", HR, 1004, Type::i32, 1e-3, "N", RW, -100.0, 100.0,
      "Output-force setpoint (also refused beyond the calibrated safe limit)"},
     {"position_setpoint_um", HR, 1006, Type::i32, 1e-6, "m", RW, 0.0, 0.040,
      "Target nut position (also refused outside the configured stroke)"},
     {"velocity_limit_um_s", HR, 1008, Type::i32, 1e-6, "m/s", RW, 1e-5, 0.1, "Profile speed limit"},
-    {"accel_limit_um_s2", HR, 1010, Type::i32, 1e-6, "m/s^2", RW, 1e-4, 5.0, "Profile acceleration limit"},
-    {"force_setpoint_n_f32", HR, 1012, Type::f32, 1, "N", RW, -100.0, 100.0, "Force setpoint, float32"},
-    {"position_setpoint_m_f32", HR, 1014, Type::f32, 1, "m", RW, 0.0, 0.040, "Target position, float32"},
-    {"velocity_limit_m_s_f32", HR, 1016, Type::f32, 1, "m/s", RW, 1e-5, 0.1, "Speed limit, float32"},
-    {"accel_limit_m_s2_f32", HR, 1018, Type::f32, 1, "m/s^2", RW, 1e-4, 5.0, "Acceleration limit, float32"},
+    {"accel_limit_um_s2", HR, 1010, Type::i32, 1e-6, "m/s^2", RW, 1e-4, 5.0,
+     "Profile acceleration limit"},
+    {"force_setpoint_n_f32", HR, 1012, Type::f32, 1, "N", RW, -100.0, 100.0,
+     "Force setpoint, float32"},
+    {"position_setpoint_m_f32", HR, 1014, Type::f32, 1, "m", RW, 0.0, 0.040,
+     "Target position, float32"},
+    {"velocity_limit_m_s_f32", HR, 1016, Type::f32, 1, "m/s", RW, 1e-5, 0.1,
+     "Speed limit, float32"},
+    {"accel_limit_m_s2_f32", HR, 1018, Type::f32, 1, "m/s^2", RW, 1e-4, 5.0,
+     "Acceleration limit, float32"},
     // Control word bits as coils.
     {"enable", CO, kEnable, Type::bit, 1, "", RW, 0, 1,
      "Level: a rising edge claims control when nobody owns it and enables a ready drive; "
@@ -146,14 +162,21 @@ constexpr std::array kTable = std::to_array<Register>({
     {"enabled", DI, kEnabled, Type::bit, 1, "", RO, 0, 1, "Drive enabled, modes act"},
     {"fault", DI, kFault, Type::bit, 1, "", RO, 0, 1, "A fault is latched (alarm_code says which)"},
     {"moving", DI, kMoving, Type::bit, 1, "", RO, 0, 1, "Nut moving or a profile running"},
-    {"in_position", DI, kInPosition, Type::bit, 1, "", RO, 0, 1, "Position mode: at target within tolerance"},
-    {"force_reached", DI, kForceReached, Type::bit, 1, "", RO, 0, 1, "Force mode: estimate at setpoint"},
-    {"step_out", DI, kStepOut, Type::bit, 1, "", RO, 0, 1, "The nut stepped out; resync then reset"},
-    {"drift_warning", DI, kDriftWarning, Type::bit, 1, "", RO, 0, 1, "Twin: calibration drift detected"},
-    {"watchdog_expired", DI, kWatchdogExpired, Type::bit, 1, "", RO, 0, 1, "No heartbeat within watchdog_ms"},
+    {"in_position", DI, kInPosition, Type::bit, 1, "", RO, 0, 1,
+     "Position mode: at target within tolerance"},
+    {"force_reached", DI, kForceReached, Type::bit, 1, "", RO, 0, 1,
+     "Force mode: estimate at setpoint"},
+    {"step_out", DI, kStepOut, Type::bit, 1, "", RO, 0, 1,
+     "The nut stepped out; resync then reset"},
+    {"drift_warning", DI, kDriftWarning, Type::bit, 1, "", RO, 0, 1,
+     "Twin: calibration drift detected"},
+    {"watchdog_expired", DI, kWatchdogExpired, Type::bit, 1, "", RO, 0, 1,
+     "No heartbeat within watchdog_ms"},
     {"twin_healthy", DI, kTwinHealthy, Type::bit, 1, "", RO, 0, 1, "Twin running and consistent"},
-    {"step_out_warning", DI, kStepOutWarning, Type::bit, 1, "", RO, 0, 1, "Twin: step-out predicted"},
-    {"stopped", DI, kStopped, Type::bit, 1, "", RO, 0, 1, "Controlled stop active (stop bit or watchdog)"},
+    {"step_out_warning", DI, kStepOutWarning, Type::bit, 1, "", RO, 0, 1,
+     "Twin: step-out predicted"},
+    {"stopped", DI, kStopped, Type::bit, 1, "", RO, 0, 1,
+     "Controlled stop active (stop bit or watchdog)"},
     {"owned", DI, kOwned, Type::bit, 1, "", RO, 0, 1, "A client owns control"},
     {"stroke_limit", DI, kStrokeLimit, Type::bit, 1, "", RO, 0, 1, "Nut at a stroke end"},
     {"twin_lagging", DI, kTwinLagging, Type::bit, 1, "", RO, 0, 1,
@@ -169,8 +192,9 @@ constexpr std::array kAlarms = std::to_array<Code>({
     {4, "stroke_limit", "nut beyond the configured stroke"},
     {5, "sensor_fault", "actuator reported a sensor fault"},
     {6, "drive_fault", "actuator reported a drive fault"},
-    {7, "owner_lost", "the connection that owned control closed: fault reaction; claim again with "
-                      "fault_reset, then an enable edge"},
+    {7, "owner_lost",
+     "the connection that owned control closed: fault reaction; claim again with "
+     "fault_reset, then an enable edge"},
 });
 constexpr std::array kReactions = std::to_array<Code>({
     {0, "none", "no fault reaction running"},
@@ -180,7 +204,8 @@ constexpr std::array kReactions = std::to_array<Code>({
 });
 constexpr std::array kRefusals = std::to_array<Code>({
     {0, "none", "no write refused with exception 04"},
-    {1, "not_owner", "another client owns control: it must release it (enable low) or lose its connection"},
+    {1, "not_owner",
+     "another client owns control: it must release it (enable low) or lose its connection"},
     {2, "broadcast_state_change", "control word and mode are not accepted by broadcast (unit 0)"},
 });
 constexpr std::array kRejects = std::to_array<Code>({
@@ -212,9 +237,12 @@ constexpr std::array kRanges = std::to_array<AddressRange>({
     {DI, 0, 15, "status word bits"},
 });
 constexpr std::array kPollBlocks = std::to_array<AddressRange>({
-    {IR, 0, 56, "FC4 (or FC3): identity, status, alarm, owner, scaled measurements, twin, loop, fault reaction"},
+    {IR, 0, 56,
+     "FC4 (or FC3): identity, status, alarm, owner, scaled measurements, twin, loop, fault "
+     "reaction"},
     {IR, 100, 28, "FC4 (or FC3): the same measurements as float32"},
-    {HR, 1000, 20, "FC3: commands and setpoints as written (or FC23: write 1000.. and read 10..55 in one)"},
+    {HR, 1000, 20,
+     "FC3: commands and setpoints as written (or FC23: write 1000.. and read 10..55 in one)"},
 });
 
 }  // namespace
@@ -253,25 +281,37 @@ const Register* at(Table t, std::uint16_t address, int* word_index) {
   return nullptr;
 }
 
-int word_count(Type type) { return type == Type::u32 || type == Type::i32 || type == Type::f32 ? 2 : 1; }
+int word_count(Type type) {
+  return type == Type::u32 || type == Type::i32 || type == Type::f32 ? 2 : 1;
+}
 
 std::string_view to_string(Table t) {
   switch (t) {
-    case Table::coil: return "coil";
-    case Table::discrete_input: return "discrete_input";
-    case Table::input_register: return "input_register";
-    case Table::holding_register: return "holding_register";
+    case Table::coil:
+      return "coil";
+    case Table::discrete_input:
+      return "discrete_input";
+    case Table::input_register:
+      return "input_register";
+    case Table::holding_register:
+      return "holding_register";
   }
   return "?";
 }
 std::string_view to_string(Type t) {
   switch (t) {
-    case Type::bit: return "bit";
-    case Type::u16: return "u16";
-    case Type::i16: return "i16";
-    case Type::u32: return "u32";
-    case Type::i32: return "i32";
-    case Type::f32: return "f32";
+    case Type::bit:
+      return "bit";
+    case Type::u16:
+      return "u16";
+    case Type::i16:
+      return "i16";
+    case Type::u32:
+      return "u32";
+    case Type::i32:
+      return "i32";
+    case Type::f32:
+      return "f32";
   }
   return "?";
 }

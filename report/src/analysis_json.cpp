@@ -42,7 +42,9 @@ Json effect_json(const EffectFinding& e) {
   if (!e.alternatives.empty()) {
     Json alts = Json::array();
     for (const auto& a : e.alternatives) {
-      Json aj{{"id", a.id}, {"parameters", parameters_json(a.parameters)}, {"explains_pct", a.explains_pct}};
+      Json aj{{"id", a.id},
+              {"parameters", parameters_json(a.parameters)},
+              {"explains_pct", a.explains_pct}};
       put(aj, "plausible", a.plausible);
       alts.push_back(aj);
     }
@@ -56,7 +58,8 @@ Json effect_json(const EffectFinding& e) {
 Json errors_json(const FitErrors& e) {
   Json j{{"rms", e.rms_n},
          {"relative_error_pct", e.relative_error_pct},
-         {"full_rate", {{"rms", e.full_rate_rms_n}, {"relative_error_pct", e.full_rate_relative_error_pct}}}};
+         {"full_rate",
+          {{"rms", e.full_rate_rms_n}, {"relative_error_pct", e.full_rate_relative_error_pct}}}};
   put(j, "heldout_rms", e.heldout_rms_n);
   if (e.fitted_parameters) j["fitted_parameters"] = parameters_json(*e.fitted_parameters);
   return j;
@@ -92,8 +95,10 @@ Json twin_json(const TwinSimulation& t) {
 Json parameters_json(const Parameters& parameters) {
   Json j = Json::object();
   for (const auto& p : parameters)
-    if (p.is_count) j[p.name] = static_cast<std::size_t>(p.value);
-    else j[p.name] = p.value;
+    if (p.is_count)
+      j[p.name] = static_cast<std::size_t>(p.value);
+    else
+      j[p.name] = p.value;
   return j;
 }
 
@@ -104,9 +109,9 @@ Json analysis_json(const AnalysisResult& r) {
   J["recording"] = f.recording;
   J["samples"] = f.samples;
   J["samples_used"] = f.samples_used;
-  Json method{{"domain", f.method.domain},   {"filter", f.method.filter},
+  Json method{{"domain", f.method.domain},         {"filter", f.method.filter},
               {"decimation", f.method.decimation}, {"folds", f.method.folds},
-              {"selection", f.method.selection}, {"moving_only", f.method.moving_only}};
+              {"selection", f.method.selection},   {"moving_only", f.method.moving_only}};
   put(method, "identification_bandwidth_hz", f.method.identification_bandwidth_hz);
   J["method"] = method;
   J["noise_floor_n"] = f.noise_floor_n;
@@ -138,9 +143,11 @@ Json analysis_json(const AnalysisResult& r) {
   for (const auto& e : f.events) J["events"].push_back(event_json(e));
   if (f.breakaway_test) {
     const auto side = [](const BreakawaySide& s) {
-      return Json{{"episodes", s.episodes}, {"median_excess_n", s.median_excess_n}, {"se_n", s.se_n}};
+      return Json{
+          {"episodes", s.episodes}, {"median_excess_n", s.median_excess_n}, {"se_n", s.se_n}};
     };
-    J["breakaway_test"] = {{"pos", side(f.breakaway_test->pos)}, {"neg", side(f.breakaway_test->neg)}};
+    J["breakaway_test"] = {{"pos", side(f.breakaway_test->pos)},
+                           {"neg", side(f.breakaway_test->neg)}};
   }
   J["where"] = r.where;
   put(J, "reversals", f.reversals);

@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -67,8 +67,8 @@ std::string twin_simulation_text(const analysis::TwinSimulation& t) {
   if (!t.available) return "not run (" + t.reason + ")";
   return "position error RMS " + number(t.baseline_rms_position_error_m * 1e6) +
          " µm with the baseline, " + number(t.corrected_rms_position_error_m * 1e6) +
-         " µm corrected, over " + std::to_string(t.windows) + " windows of " +
-         number(t.horizon_s) + " s";
+         " µm corrected, over " + std::to_string(t.windows) + " windows of " + number(t.horizon_s) +
+         " s";
 }
 
 }  // namespace
@@ -82,14 +82,16 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
     j << analysis_json(r).dump(2) << "\n";
     if (!j) throw std::runtime_error("cannot write " + path("analysis.json"));
   }
-  analysis::save_model(
-      path("model_corrected.toml"), r.corrected,
-      "model corrected by maglead analyze from " + r.findings.recording);
+  analysis::save_model(path("model_corrected.toml"), r.corrected,
+                       "model corrected by maglead analyze from " + r.findings.recording);
   // The fit over time is a chart of its own in the result; here it is one more figure.
   std::vector<analysis::Figure> figures = r.figures;
   if (!r.fit_over_time.curves.empty())
-    figures.push_back({"fit_time.png", "The force the model leaves out at sliding samples",
-                       {r.fit_over_time}, false, {}});
+    figures.push_back({"fit_time.png",
+                       "The force the model leaves out at sliding samples",
+                       {r.fit_over_time},
+                       false,
+                       {}});
   for (const auto& f : figures) {
     if (f.is_grid) {
       plot::save_heatmap_png(path(f.file), heatmap_of(f.grid));
@@ -105,9 +107,9 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
        "body{font-family:sans-serif;max-width:1150px;margin:auto}table{border-collapse:collapse}"
        "td,th{border:1px solid #aaa;padding:3px 8px}img{max-width:100%}.alt{color:#a40}</style>"
        "</head><body>\n";
-  h << "<h1>Twin versus recording</h1><p>Recording <code>" << escape_html(F.recording) << "</code> ("
-    << F.samples << " samples, " << F.samples_used << " used), system <b>" << escape_html(F.system)
-    << "</b>.</p>\n";
+  h << "<h1>Twin versus recording</h1><p>Recording <code>" << escape_html(F.recording)
+    << "</code> (" << F.samples << " samples, " << F.samples_used << " used), system <b>"
+    << escape_html(F.system) << "</b>.</p>\n";
   h << "<p>Method: " << escape_html(F.method.domain) << "; " << escape_html(F.method.filter)
     << "; decimation " << F.method.decimation << "; " << escape_html(F.method.selection) << "; "
     << escape_html(F.method.moving_only) << ". Noise floor of the force: " << num(F.noise_floor_n)
@@ -141,9 +143,8 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
     h << "</td><td>" << escape_html(params_text(e.parameters)) << "</td><td>"
       << escape_html(e.where) << "</td><td>"
       << (ev.heldout_gain_pct ? num(*ev.heldout_gain_pct, 3) + " %" : "–") << "</td><td>"
-      << (ev.t_stat ? num(*ev.t_stat, 3) : "–") << "</td><td>"
-      << ev.segments_improved.value_or("–") << "</td><td>" << num(e.improvement_pct, 3)
-      << " %</td></tr>";
+      << (ev.t_stat ? num(*ev.t_stat, 3) : "–") << "</td><td>" << ev.segments_improved.value_or("–")
+      << "</td><td>" << num(e.improvement_pct, 3) << " %</td></tr>";
   }
   h << "</table>";
   for (const auto& n : F.not_selected)

@@ -157,7 +157,8 @@ std::string parameters_html(const std::string& id, const analysis::Parameters& p
   for (const auto& p : params) sorted.push_back(&p);
   std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->name < b->name; });
   std::string h;
-  for (const auto* p : sorted) h += (h.empty() ? "" : "<br>") + parameter_html(id, p->name, p->value);
+  for (const auto* p : sorted)
+    h += (h.empty() ? "" : "<br>") + parameter_html(id, p->name, p->value);
   return h;
 }
 
@@ -205,8 +206,9 @@ std::string fit_chart(const AnalysisOutcome& o) {
   TimeChart c;
   c.id = "fit";
   c.title = fit.title;
-  c.caption = "The force the model leaves out of the nut's balance at the samples where the nut "
-              "slides (what the analysis fits), before and after the effects it found.";
+  c.caption =
+      "The force the model leaves out of the nut's balance at the samples where the nut "
+      "slides (what the analysis fits), before and after the effects it found.";
   c.y_label = fit.y_label;
   c.t_s = &fit.curves.front().x;
   for (const auto& curve : fit.curves) c.series.push_back({curve.label, curve.y});

@@ -84,7 +84,8 @@ void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
     const cv::Scalar col = kPalette[ci % std::size(kPalette)];
     // Decimate to about two points per pixel column: plots of hours of 1 kHz data stay fast.
     const std::size_t n = std::min(s.x.size(), s.y.size());
-    const std::size_t stride = std::max<std::size_t>(1, n / (2 * static_cast<std::size_t>(plot.width)));
+    const std::size_t stride =
+        std::max<std::size_t>(1, n / (2 * static_cast<std::size_t>(plot.width)));
     std::vector<cv::Point> pts;
     auto flush = [&] {
       if (pts.size() > 1) cv::polylines(img, pts, false, col, 1, cv::LINE_AA);
@@ -190,7 +191,8 @@ void save_heatmap_png(const std::string& path, const HeatMap& m, int width_px, i
   const ColourScale scale = colour_scale(m.values);
   for (int r = 0; r < m.ny; ++r)
     for (int c = 0; c < m.nx; ++c) {
-      const double v = m.values[static_cast<std::size_t>(r) * static_cast<std::size_t>(m.nx) + static_cast<std::size_t>(c)];
+      const double v = m.values[static_cast<std::size_t>(r) * static_cast<std::size_t>(m.nx) +
+                                static_cast<std::size_t>(c)];
       const int xa = plot.x + c * plot.width / m.nx, xb = plot.x + (c + 1) * plot.width / m.nx;
       const int ya = plot.y + plot.height - (r + 1) * plot.height / m.ny;
       const int yb = plot.y + plot.height - r * plot.height / m.ny;

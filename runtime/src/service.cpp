@@ -16,10 +16,12 @@
 namespace maglead::runtime {
 namespace {
 
-std::unique_ptr<ActuatorHardware> make_simulated(const ActuatorParams& actuator, const BackendOptions& options) {
+std::unique_ptr<ActuatorHardware> make_simulated(const ActuatorParams& actuator,
+                                                 const BackendOptions& options) {
   const SimulatedOptions& o = options.simulated;
   if (!(o.start_pos_m >= actuator.stroke_min_m && o.start_pos_m <= actuator.stroke_max_m))
-    throw std::invalid_argument("simulated actuator: the start position must lie within the stroke");
+    throw std::invalid_argument(
+        "simulated actuator: the start position must lie within the stroke");
   if (!(o.spring_n_per_m >= 0.0))
     throw std::invalid_argument("simulated actuator: the spring rate must not be negative [N/m]");
   PlantParams plant = paper_like_plant();
@@ -62,7 +64,8 @@ class OffCore {
     if (cpu < 0 || pthread_getaffinity_np(pthread_self(), sizeof saved_, &saved_) != 0) return;
     cpu_set_t others = saved_;
     CPU_CLR(cpu, &others);
-    active_ = CPU_COUNT(&others) > 0 && pthread_setaffinity_np(pthread_self(), sizeof others, &others) == 0;
+    active_ = CPU_COUNT(&others) > 0 &&
+              pthread_setaffinity_np(pthread_self(), sizeof others, &others) == 0;
   }
   ~OffCore() {
     if (active_) pthread_setaffinity_np(pthread_self(), sizeof saved_, &saved_);
@@ -92,7 +95,8 @@ std::vector<std::string> backend_names() {
   return names;
 }
 
-std::unique_ptr<ActuatorHardware> make_hardware(const ActuatorParams& actuator, const BackendOptions& options) {
+std::unique_ptr<ActuatorHardware> make_hardware(const ActuatorParams& actuator,
+                                                const BackendOptions& options) {
   BackendFactory factory;
   {
     Registry& r = registry();
@@ -103,7 +107,8 @@ std::unique_ptr<ActuatorHardware> make_hardware(const ActuatorParams& actuator, 
   if (!factory) {
     std::string known;
     for (const auto& n : backend_names()) known += (known.empty() ? "" : ", ") + n;
-    throw std::invalid_argument("unknown hardware backend \"" + options.name + "\" (registered: " + known + ")");
+    throw std::invalid_argument("unknown hardware backend \"" + options.name +
+                                "\" (registered: " + known + ")");
   }
   return factory(actuator, options);
 }
@@ -114,7 +119,8 @@ struct Service::Servers {
   std::unique_ptr<modbus::RtuServer> rtu;
 };
 
-Service::Service(const ServiceConfig& config) : cfg_(config), servers_(std::make_unique<Servers>()) {
+Service::Service(const ServiceConfig& config)
+    : cfg_(config), servers_(std::make_unique<Servers>()) {
   hardware_ = make_hardware(cfg_.controller.actuator, cfg_.backend);
   controller_ = std::make_unique<controller::Controller>(cfg_.controller, *hardware_);
   if (cfg_.twin) {
@@ -128,10 +134,13 @@ Service::Service(const ServiceConfig& config) : cfg_(config), servers_(std::make
   if (cfg_.serve_modbus) {
     const auto& net = cfg_.network;
     servers_->core = std::make_unique<modbus::ModbusCore>(
-        *controller_, modbus::ServerOptions{net.read_only, cfg_.model_name.empty() ? cfg_.backend.name + " actuator"
-                                                                                   : cfg_.model_name});
-    if (net.tcp_enabled) servers_->tcp = std::make_unique<modbus::TcpServer>(*servers_->core, net.tcp);
-    if (!net.rtu.device.empty()) servers_->rtu = std::make_unique<modbus::RtuServer>(*servers_->core, net.rtu);
+        *controller_, modbus::ServerOptions{net.read_only, cfg_.model_name.empty()
+                                                               ? cfg_.backend.name + " actuator"
+                                                               : cfg_.model_name});
+    if (net.tcp_enabled)
+      servers_->tcp = std::make_unique<modbus::TcpServer>(*servers_->core, net.tcp);
+    if (!net.rtu.device.empty())
+      servers_->rtu = std::make_unique<modbus::RtuServer>(*servers_->core, net.rtu);
   }
   loop_ = std::make_unique<controller::LoopRunner>(*controller_);
 }
@@ -145,7 +154,8 @@ void Service::start() {
   loop_->set_realtime(policy, loop_cpu_);
   // The twin first, so the loop's first samples find it running.
   if (twin_)
-    twin_->start({loop_cpu_, policy == controller::RealtimePolicy::off ? 0 : cfg_.twin_fifo_priority});
+    twin_->start(
+        {loop_cpu_, policy == controller::RealtimePolicy::off ? 0 : cfg_.twin_fifo_priority});
   try {
     loop_->start();
   } catch (...) {

@@ -28,7 +28,8 @@ TwinReport report_of(const twin::TwinOutputs& o, bool reset_ok) {
   r.drift_warning = o.drift_warning;
   r.step_out_warning = o.step_out_warning;
   r.drift_reason = static_cast<std::uint16_t>(o.drift_reason);
-  r.health_reason = static_cast<std::uint16_t>(reset_ok ? o.health_reason : twin::HealthReason::solver);
+  r.health_reason =
+      static_cast<std::uint16_t>(reset_ok ? o.health_reason : twin::HealthReason::solver);
   r.step_out_reason = static_cast<std::uint16_t>(o.step_out_reason);
   r.gain = std::isfinite(o.drift_gain_estimate) ? o.drift_gain_estimate : 0.0;
   r.gain_stderr = std::isfinite(o.drift_gain_stderr) ? o.drift_gain_stderr : 0.0;
@@ -84,13 +85,15 @@ void TwinRunner::place(const TwinPlacement& placement) {
     CPU_CLR(placement.avoid_cpu, &cpus);
     // With one core only, sharing it is the only choice: not a refusal.
     if (CPU_COUNT(&cpus) > 0) {
-      if (const int err = pthread_setaffinity_np(pthread_self(), sizeof cpus, &cpus)) refuse("twin off the loop's core", err);
+      if (const int err = pthread_setaffinity_np(pthread_self(), sizeof cpus, &cpus))
+        refuse("twin off the loop's core", err);
     }
   }
   if (placement.fifo_priority > 0) {
     sched_param sp{};
     sp.sched_priority = placement.fifo_priority;
-    if (const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp)) refuse("twin SCHED_FIFO", err);
+    if (const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp))
+      refuse("twin SCHED_FIFO", err);
   }
 }
 
@@ -129,7 +132,8 @@ void TwinRunner::clear_warnings() noexcept { push_control({Kind::clear, {}}); }
 
 void TwinRunner::push_control(const Message& m) noexcept {
   if (has_pending_control_) {
-    if (pending_control_.kind == Kind::resync && m.kind == Kind::clear) return;  // the resync clears too
+    if (pending_control_.kind == Kind::resync && m.kind == Kind::clear)
+      return;  // the resync clears too
     has_pending_control_ = !queue_.push(pending_control_);
   }
   if (has_pending_control_ || !queue_.push(m)) {
@@ -164,7 +168,8 @@ void TwinRunner::process(const Message& m) noexcept {
     case Kind::sample: {
       const TwinSample& s = m.sample;
       // The twin takes the raw measurements: it keeps its own phase and step-out bookkeeping.
-      TwinReport r = report_of(monitor_->step({s.t_s, s.screw_angle_rad, s.nut_pos_m, s.force_setpoint_n, s.load_force_n}),
+      TwinReport r = report_of(monitor_->step({s.t_s, s.screw_angle_rad, s.nut_pos_m,
+                                               s.force_setpoint_n, s.load_force_n}),
                                reset_ok_);
       r.cycle = s.cycle;
       results_.store(r);

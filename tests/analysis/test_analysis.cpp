@@ -31,16 +31,16 @@
 
 #include "../test_tmp.hpp"
 #include "maglead/analysis/analysis.hpp"
-#include "maglead/effects/effect.hpp"
 #include "maglead/analysis/signal.hpp"
+#include "maglead/effects/effect.hpp"
 #include "maglead/plant/scenario.hpp"
 
 namespace {
 
 using maglead::analysis::AnalysisResult;
 using maglead::analysis::EffectFinding;
-using maglead::analysis::Parameters;
 using maglead::analysis::parameter_value;
+using maglead::analysis::Parameters;
 
 bool has(const Parameters& p, const std::string& name) {
   return std::any_of(p.begin(), p.end(), [&](const auto& q) { return q.name == name; });
@@ -410,7 +410,8 @@ TEST(GeneratedSuite, ExternalDisturbancePulsesAreEvents) {
   const double fs_hz = 1000.0, pulse_n = 8.0, pulse_s = 0.050;
   const int decim = g.result.findings.method.decimation;
   std::vector<double> pulse(1000, 0.0);
-  for (std::size_t k = 400; k < 400 + static_cast<std::size_t>(pulse_s * fs_hz); ++k) pulse[k] = pulse_n;
+  for (std::size_t k = 400; k < 400 + static_cast<std::size_t>(pulse_s * fs_hz); ++k)
+    pulse[k] = pulse_n;
   const auto filtered = maglead::analysis::filtfilt_butter4(pulse, 20.0, fs_hz);
   const auto top = std::max_element(filtered.begin(), filtered.end());
   const double hi = *top;
@@ -560,11 +561,11 @@ TEST(Emps, FindsCoulombOffsetThenDirectionDependentFriction) {
   ASSERT_GE(v.size(), 4u);
   const double sym = v[2].fitted_relative_error_pct.value_or(NAN),
                asym = v[3].fitted_relative_error_pct.value_or(NAN);
-  std::printf("EMPS relative error: baseline %.3f %%, symmetric %.3f %% (published 4.08), "
-              "direction-dependent %.3f %% (published 3.11), final %.3f %%, full rate %.3f %%\n",
-              v[0].fitted_relative_error_pct.value_or(NAN), sym, asym,
-              r.findings.final_fit.relative_error_pct,
-              r.findings.final_fit.full_rate_relative_error_pct);
+  std::printf(
+      "EMPS relative error: baseline %.3f %%, symmetric %.3f %% (published 4.08), "
+      "direction-dependent %.3f %% (published 3.11), final %.3f %%, full rate %.3f %%\n",
+      v[0].fitted_relative_error_pct.value_or(NAN), sym, asym,
+      r.findings.final_fit.relative_error_pct, r.findings.final_fit.full_rate_relative_error_pct);
   // Published: 4.08 % and 3.11 %. The symmetric stage lands at 4.13 % here (see the report).
   EXPECT_LT(sym, 4.2);
   EXPECT_LE(asym, 3.11);
@@ -576,12 +577,14 @@ TEST(Emps, FindsCoulombOffsetThenDirectionDependentFriction) {
 
   // The corrected model is the model: analysed again with it, the same recording gives the
   // reported final error (within 0.05 points) and nothing new is missing.
-  const std::string corrected = testing::TempDir() + "/emps_corrected_" + std::to_string(::getpid()) + ".toml";
+  const std::string corrected =
+      testing::TempDir() + "/emps_corrected_" + std::to_string(::getpid()) + ".toml";
   maglead::analysis::save_model(corrected, r.corrected, "test");
-  const auto again = maglead::analysis::analyze_recording(rec, maglead::analysis::load_model(corrected),
-                                                          maglead::paper_calibration(),
-                                                          maglead::ActuatorParams{}, {});
-  EXPECT_NEAR(again.findings.baseline.relative_error_pct, r.findings.final_fit.relative_error_pct, 0.05);
+  const auto again = maglead::analysis::analyze_recording(
+      rec, maglead::analysis::load_model(corrected), maglead::paper_calibration(),
+      maglead::ActuatorParams{}, {});
+  EXPECT_NEAR(again.findings.baseline.relative_error_pct, r.findings.final_fit.relative_error_pct,
+              0.05);
   EXPECT_TRUE(again.findings.effects.empty()) << named_as(again);
   std::filesystem::remove(corrected);
 }

@@ -22,7 +22,8 @@ class FakeLoopClock final : public controller::LoopClock {
   void wake_late(std::uint64_t nth_sleep, std::int64_t late_ns) { late_[nth_sleep] = late_ns; }
   /// Deadlines the loop slept to, in order (up to `capacity` kept, reserved before the loop runs).
   const std::vector<std::int64_t>& deadlines() const { return deadlines_; }
-  explicit FakeLoopClock(std::size_t capacity = 1 << 16, std::int64_t t0_ns = 5'000'000'000) : t_ns_(t0_ns) {
+  explicit FakeLoopClock(std::size_t capacity = 1 << 16, std::int64_t t0_ns = 5'000'000'000)
+      : t_ns_(t0_ns) {
     deadlines_.reserve(capacity);
   }
 

@@ -1,8 +1,9 @@
 #pragma once
 // A fake actuator for the controller's hardware seam: the simulated plant behind it, with
 // sensor and drive faults injected on request (a stroke-limit hit needs no injection: the
-// plant is physical, a free nut in force mode runs into the end). It records every motor command, so a test can tell whether the
-// motor was stopped (commands constant, or none at all) after a fault.
+// plant is physical, a free nut in force mode runs into the end). It records every motor command,
+// so a test can tell whether the motor was stopped (commands constant, or none at all) after a
+// fault.
 #include <cstdint>
 #include <vector>
 
@@ -20,7 +21,9 @@ class FaultInjectingHardware final : public ActuatorHardware {
     drive_on_write,  // write_motor_angle reports drive_fault (the drive refused the command)
   };
 
-  explicit FaultInjectingHardware(SimulatedActuator& plant) : plant_(plant) { commands_.reserve(1 << 16); }
+  explicit FaultInjectingHardware(SimulatedActuator& plant) : plant_(plant) {
+    commands_.reserve(1 << 16);
+  }
 
   /// Injects `fault` from the next access on, until inject(Fault::none).
   void inject(Fault fault) { fault_ = fault; }

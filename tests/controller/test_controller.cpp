@@ -23,7 +23,8 @@ struct Rig {
   CommandImage image;
   double t_s = 0.0;
 
-  explicit Rig(double spring_n_per_m = 2000.0, TwinHook* twin = nullptr, const ControllerConfig& config = {})
+  explicit Rig(double spring_n_per_m = 2000.0, TwinHook* twin = nullptr,
+               const ControllerConfig& config = {})
       : plant(paper_like_plant(), 7, 0.02), cfg(config) {
     if (spring_n_per_m > 0) {
       LoadSetting load;
@@ -168,7 +169,8 @@ TEST(Controller, ForceBeyondTheSafeLimitIsRefusedAndChangesNothing) {
   rig.image.force_setpoint_n = limit + 0.5;
   rig.execute(reg::Mode::force);
   EXPECT_TRUE(rig.cmd(reg::kRejected));
-  EXPECT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::force_beyond_safe_limit));
+  EXPECT_EQ(rig.snap().reject_reason,
+            static_cast<std::uint16_t>(reg::Reject::force_beyond_safe_limit));
   EXPECT_EQ(rig.snap().active_mode, static_cast<std::uint16_t>(reg::Mode::idle));
   EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
 }
@@ -209,8 +211,10 @@ TEST(Controller, ForceReachedMeansWithinTheToleranceForTheWholeDwell) {
   int violations = 0, cycles_set = 0;
   rig.run(2.0, [&](const Snapshot& s) {
     const bool within = std::abs(s.force_est_n - 12.0) <= cfg.force_tol_n && s.active_mode == 2;
-    if (!within) within_since = -1.0;
-    else if (within_since < 0) within_since = s.t_s;
+    if (!within)
+      within_since = -1.0;
+    else if (within_since < 0)
+      within_since = s.t_s;
     const bool set = (s.status_word >> reg::kForceReached) & 1u;
     if (set) {
       ++cycles_set;
@@ -449,7 +453,8 @@ TEST(FaultReaction, WatchdogInForceModeRampsTheForceToZero) {
   arm_watchdog(rig, 0.05);
   double trip_s = -1.0;
   rig.run(0.06, [&](const Snapshot& s) {
-    if (trip_s < 0 && s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault)) trip_s = s.t_s;
+    if (trip_s < 0 && s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
+      trip_s = s.t_s;
   });
   ASSERT_GT(trip_s, 0.0);
   EXPECT_EQ(rig.snap().alarm_code, static_cast<std::uint16_t>(reg::Alarm::watchdog));
@@ -529,7 +534,7 @@ TEST(FaultReaction, OwnerLossFaultsAnEnabledDriveAndReleasesTheForce) {
   rig.control(bit(reg::kEnable));
   EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
 
-  Rig idle;  // not enabled: nothing to react to
+  Rig idle;                       // not enabled: nothing to react to
   idle.ctl->signal_owner_lost();  // the lock-free path (command queue full)
   idle.run(0.01);
   EXPECT_EQ(idle.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));

@@ -35,7 +35,9 @@ struct FaultRig {
   CommandImage image;
 
   explicit FaultRig(double spring_n_per_m = 2000.0, double start_m = 0.02)
-      : plant(paper_like_plant(), 5, start_m), ctl((spring(plant, spring_n_per_m), cfg), hw), loop(ctl, clock, 16) {
+      : plant(paper_like_plant(), 5, start_m),
+        ctl((spring(plant, spring_n_per_m), cfg), hw),
+        loop(ctl, clock, 16) {
     image = ctl.initial_image();
     loop.run_cycles(10);
   }
@@ -161,7 +163,7 @@ TEST(HardwareFault, StrokeLimitHitLatchesAlarm4AndHoldsTheNut) {
   EXPECT_EQ(s.step_out_count, 0u);
   EXPECT_EQ(s.fault_reaction, static_cast<std::uint16_t>(reg::Reaction::holding));
   EXPECT_EQ(s.active_mode, static_cast<std::uint16_t>(reg::Mode::idle));  // force control ended
-  EXPECT_EQ(rig.loop.stats().hardware_error_cycles, 0u);  // not a hardware error
+  EXPECT_EQ(rig.loop.stats().hardware_error_cycles, 0u);                  // not a hardware error
   // Stopped: the nut at rest close to where the limit latched, the motor command settled.
   EXPECT_LT(std::abs(rig.plant.truth().nut_vel_m_s), 1e-4);
   EXPECT_NEAR(s.nut_pos_m, at_latch_m, 1e-3);

@@ -38,7 +38,8 @@ TEST(LoopRunner, SleepsToAbsoluteDeadlinesAndStepsOnScheduledTime) {
   rig.loop.run_cycles(10);
   const auto& d = rig.clock.deadlines();
   ASSERT_EQ(d.size(), 10u);
-  for (std::size_t k = 0; k < d.size(); ++k) EXPECT_EQ(d[k], kT0 + static_cast<std::int64_t>(k + 1) * kPeriod) << k;
+  for (std::size_t k = 0; k < d.size(); ++k)
+    EXPECT_EQ(d[k], kT0 + static_cast<std::int64_t>(k + 1) * kPeriod) << k;
   const Snapshot s = rig.ctl.snapshot();
   EXPECT_EQ(s.cycle, 10u);
   EXPECT_NEAR(s.t_s, 9e-3, 1e-12);  // the controller's time is the schedule, not the wake-up
@@ -54,7 +55,8 @@ TEST(LoopRunner, AStartMoreThanAPeriodLateIsAnOverrunAndShiftsNothing) {
   EXPECT_EQ(s.overrun_count, 1u);
   EXPECT_NEAR(s.late_max_s, 1.5e-3, 1e-12);
   const auto& d = rig.clock.deadlines();
-  for (std::size_t k = 0; k < d.size(); ++k) EXPECT_EQ(d[k], kT0 + static_cast<std::int64_t>(k + 1) * kPeriod) << k;
+  for (std::size_t k = 0; k < d.size(); ++k)
+    EXPECT_EQ(d[k], kT0 + static_cast<std::int64_t>(k + 1) * kPeriod) << k;
   EXPECT_EQ(rig.loop.stats().skips, 0u);
 }
 

@@ -31,29 +31,40 @@ struct CoreRig {
   }
   Bytes req(const Bytes& pdu, std::uint16_t client = 1) {
     std::uint8_t out[ModbusCore::kMaxPdu];
-    const std::size_t n = core.handle(ClientInfo{client, 0x7F000001, false}, pdu.data(), pdu.size(), out);
+    const std::size_t n =
+        core.handle(ClientInfo{client, 0x7F000001, false}, pdu.data(), pdu.size(), out);
     return Bytes(out, out + n);
   }
 };
 
-Bytes u16(std::uint16_t v) { return {static_cast<std::uint8_t>(v >> 8), static_cast<std::uint8_t>(v)}; }
+Bytes u16(std::uint16_t v) {
+  return {static_cast<std::uint8_t>(v >> 8), static_cast<std::uint8_t>(v)};
+}
 Bytes cat(std::initializer_list<Bytes> parts) {
   Bytes out;
   for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
   return out;
 }
-Bytes rd(std::uint8_t fc, std::uint16_t start, std::uint16_t count) { return cat({{fc}, u16(start), u16(count)}); }
+Bytes rd(std::uint8_t fc, std::uint16_t start, std::uint16_t count) {
+  return cat({{fc}, u16(start), u16(count)});
+}
 Bytes write_regs(std::uint16_t start, const std::vector<std::uint16_t>& words) {
-  Bytes p = cat({{16}, u16(start), u16(static_cast<std::uint16_t>(words.size())),
+  Bytes p = cat({{16},
+                 u16(start),
+                 u16(static_cast<std::uint16_t>(words.size())),
                  {static_cast<std::uint8_t>(2 * words.size())}});
   for (auto w : words) p = cat({p, u16(w)});
   return p;
 }
-Bytes write_one(std::uint16_t addr, std::uint16_t value) { return cat({{6}, u16(addr), u16(value)}); }
+Bytes write_one(std::uint16_t addr, std::uint16_t value) {
+  return cat({{6}, u16(addr), u16(value)});
+}
 std::uint16_t word_at(const Bytes& resp, std::size_t i) {
   return static_cast<std::uint16_t>((resp[2 + 2 * i] << 8) | resp[3 + 2 * i]);
 }
-Bytes exception(std::uint8_t fc, Exception e) { return {static_cast<std::uint8_t>(fc | 0x80), static_cast<std::uint8_t>(e)}; }
+Bytes exception(std::uint8_t fc, Exception e) {
+  return {static_cast<std::uint8_t>(fc | 0x80), static_cast<std::uint8_t>(e)};
+}
 std::uint16_t addr(const char* name) { return reg::find(name)->address; }
 std::vector<std::uint16_t> f32_words(float v) {
   const auto u = std::bit_cast<std::uint32_t>(v);
@@ -91,10 +102,10 @@ TEST(ModbusCore, AddressExceptions) {
   EXPECT_EQ(r.req(rd(3, 20, 1)), exception(3, ill));    // ends in the middle
   EXPECT_EQ(r.req(rd(4, 1000, 1)), exception(4, ill));  // FC4 does not read holding registers
   EXPECT_EQ(r.req(rd(3, 65535, 2)), exception(3, ill));
-  EXPECT_EQ(r.req(rd(1, 5, 1)), exception(1, ill));     // no such coil
-  EXPECT_EQ(r.req(rd(2, 10, 8)), exception(2, ill));    // partly beyond the status bits
-  EXPECT_EQ(r.req(write_one(addr("status_word"), 1)), exception(6, ill));            // read-only
-  EXPECT_EQ(r.req(write_one(addr("force_setpoint_mn"), 1)), exception(6, ill));      // half of an i32
+  EXPECT_EQ(r.req(rd(1, 5, 1)), exception(1, ill));   // no such coil
+  EXPECT_EQ(r.req(rd(2, 10, 8)), exception(2, ill));  // partly beyond the status bits
+  EXPECT_EQ(r.req(write_one(addr("status_word"), 1)), exception(6, ill));        // read-only
+  EXPECT_EQ(r.req(write_one(addr("force_setpoint_mn"), 1)), exception(6, ill));  // half of an i32
   EXPECT_EQ(r.req(write_regs(addr("force_setpoint_mn") + 1, {0, 0})), exception(16, ill));
 }
 
@@ -112,7 +123,8 @@ TEST(ModbusCore, BlockReadsAcrossReservedAddressesWork) {
   EXPECT_EQ(word_at(b, 100 - 40), word_at(r.req(rd(4, 100, 2)), 0));  // nut_pos_m_f32, high word
   // Every poll block of the generated docs is one working request.
   for (const auto& blk : reg::poll_blocks()) {
-    const Bytes resp = r.req(rd(blk.table == reg::Table::input_register ? 4 : 3, blk.first, blk.count));
+    const Bytes resp =
+        r.req(rd(blk.table == reg::Table::input_register ? 4 : 3, blk.first, blk.count));
     EXPECT_EQ(resp.size(), 2u + 2u * blk.count) << blk.first;
   }
   // Reserved addresses are not writable, and a read may not split a 32-bit value at a block edge.
@@ -138,8 +150,9 @@ TEST(ModbusCore, OutOfRangeWritesChangeNothing) {
   const Bytes before = r.req(rd(3, 1000, 20));
   EXPECT_EQ(r.req(write_regs(pos, i32_words(41000))), exception(16, Exception::illegal_data_value));
   const double limit = r.ctl.safe_force_limit_n(1.0);
-  EXPECT_EQ(r.req(write_regs(addr("force_setpoint_n_f32"), f32_words(static_cast<float>(limit + 1.0)))),
-            exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(
+      r.req(write_regs(addr("force_setpoint_n_f32"), f32_words(static_cast<float>(limit + 1.0)))),
+      exception(16, Exception::illegal_data_value));
   EXPECT_EQ(r.req(write_regs(addr("force_setpoint_n_f32"), f32_words(std::nanf("")))),
             exception(16, Exception::illegal_data_value));
   // A multi-register write with one bad value writes none of them.
@@ -153,8 +166,10 @@ TEST(ModbusCore, OutOfRangeWritesChangeNothing) {
 TEST(ModbusCore, BadControlWordCombinationsAreRefused) {
   CoreRig r;
   const std::uint16_t cw = addr("control_word");
-  EXPECT_EQ(r.req(write_one(cw, 1u << 5)), exception(6, Exception::illegal_data_value));  // reserved bit
-  EXPECT_EQ(r.req(write_one(cw, (1u << reg::kExecute) | (1u << reg::kStop))), exception(6, Exception::illegal_data_value));
+  EXPECT_EQ(r.req(write_one(cw, 1u << 5)),
+            exception(6, Exception::illegal_data_value));  // reserved bit
+  EXPECT_EQ(r.req(write_one(cw, (1u << reg::kExecute) | (1u << reg::kStop))),
+            exception(6, Exception::illegal_data_value));
   EXPECT_EQ(r.req(write_one(cw, (1u << reg::kExecute) | (1u << reg::kFaultReset))),
             exception(6, Exception::illegal_data_value));
   EXPECT_EQ(word_at(r.req(rd(3, cw, 1)), 0), 0);
@@ -164,7 +179,8 @@ TEST(ModbusCore, WritesReadBackAndBothScalingsShareOneValue) {
   CoreRig r;
   EXPECT_EQ(r.req(write_regs(addr("force_setpoint_mn"), i32_words(-12500))).size(), 5u);
   const Bytes f = r.req(rd(3, addr("force_setpoint_n_f32"), 2));
-  const float v = std::bit_cast<float>(static_cast<std::uint32_t>((word_at(f, 0) << 16) | word_at(f, 1)));
+  const float v =
+      std::bit_cast<float>(static_cast<std::uint32_t>((word_at(f, 0) << 16) | word_at(f, 1)));
   EXPECT_FLOAT_EQ(v, -12.5f);
 }
 
@@ -175,7 +191,8 @@ TEST(ModbusCore, AnEnableEdgeClaimsControlOthersAreRefusedWith04) {
   EXPECT_EQ(r.core.owner(), 7);
   // Finding 9: a refusal that retrying cannot fix is 04, with the reason readable; 06 stays
   // for "busy, try again" (a full command queue).
-  EXPECT_EQ(r.req(write_one(addr("mode_command"), 1), 8), exception(6, Exception::server_device_failure));
+  EXPECT_EQ(r.req(write_one(addr("mode_command"), 1), 8),
+            exception(6, Exception::server_device_failure));
   EXPECT_EQ(r.req(cat({{5}, u16(0), u16(0)}), 8), exception(5, Exception::server_device_failure));
   EXPECT_EQ(word_at(r.req(rd(4, addr("write_refusal_reason"), 1), 8), 0),
             static_cast<std::uint16_t>(reg::Refusal::not_owner));
@@ -225,7 +242,8 @@ TEST(ModbusCore, OwnerLossFaultsTheDriveAndANewOwnerMustClaim) {
   EXPECT_EQ(s.drive_state, static_cast<std::uint16_t>(reg::DriveState::fault));
   EXPECT_EQ(s.active_force_setpoint_n, 0.0);
   // The documented take-over: fault reset, then an enable edge, then execute.
-  ASSERT_EQ(r.req(write_one(cw, 4), 8).size(), 5u);  // fault_reset (enable low: this releases the claim)
+  ASSERT_EQ(r.req(write_one(cw, 4), 8).size(),
+            5u);  // fault_reset (enable low: this releases the claim)
   r.run(3);
   EXPECT_EQ(r.ctl.snapshot().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
   EXPECT_EQ(r.core.owner(), 0);
@@ -285,7 +303,8 @@ TEST(ModbusCore, DiagnosticsEchoAndCounters) {
   EXPECT_EQ(msgs[4], 4);  // echo, read, the exception query, this one
   EXPECT_EQ(r.req({8, 0, 0x0A, 0, 0}), (Bytes{8, 0, 0x0A, 0, 0}));
   EXPECT_EQ(r.req({8, 0, 0x0B, 0, 0}), (Bytes{8, 0, 0x0B, 0, 1}));
-  EXPECT_EQ(r.req({8, 0, 0x04, 0, 0}), exception(8, Exception::illegal_function));  // listen-only: unsupported
+  EXPECT_EQ(r.req({8, 0, 0x04, 0, 0}),
+            exception(8, Exception::illegal_function));  // listen-only: unsupported
 }
 
 TEST(ModbusCore, DeviceIdentification) {
@@ -321,7 +340,8 @@ TEST(ModbusCore, BroadcastSetpointWritesActWithoutReply) {
   CoreRig r;
   const Bytes pdu = write_regs(addr("force_setpoint_n_f32"), f32_words(4.0f));
   std::uint8_t out[ModbusCore::kMaxPdu];
-  EXPECT_EQ(r.core.handle(ClientInfo{ModbusCore::kRtuClient, 0, true}, pdu.data(), pdu.size(), out), 0u);
+  EXPECT_EQ(r.core.handle(ClientInfo{ModbusCore::kRtuClient, 0, true}, pdu.data(), pdu.size(), out),
+            0u);
   EXPECT_EQ(r.req(rd(3, addr("force_setpoint_n_f32"), 2)), (cat({{3, 4}, u16(0x4080), u16(0)})));
 }
 
@@ -330,9 +350,10 @@ TEST(ModbusCore, BroadcastStateChangesAreRefused) {
   CoreRig r;
   std::uint8_t out[ModbusCore::kMaxPdu];
   const ClientInfo bc{ModbusCore::kRtuClient, 0, true};
-  for (const Bytes& pdu : {cat({{5}, u16(reg::kEnable), u16(0xFF00)}), write_one(addr("control_word"), 1),
-                           write_one(addr("mode_command"), 2), cat({{15}, u16(0), u16(3), {1}, {0x05}}),
-                           write_regs(addr("control_word"), {1, 2})}) {
+  for (const Bytes& pdu :
+       {cat({{5}, u16(reg::kEnable), u16(0xFF00)}), write_one(addr("control_word"), 1),
+        write_one(addr("mode_command"), 2), cat({{15}, u16(0), u16(3), {1}, {0x05}}),
+        write_regs(addr("control_word"), {1, 2})}) {
     EXPECT_EQ(r.core.handle(bc, pdu.data(), pdu.size(), out), 0u);  // nothing is answered
     EXPECT_EQ(out[0] & 0x80, 0x80);
     EXPECT_EQ(out[1], static_cast<std::uint8_t>(Exception::server_device_failure));

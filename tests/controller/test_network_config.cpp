@@ -42,10 +42,11 @@ TEST(NetworkConfig, ShippedFileLoadsWithLoopbackDefaults) {
 }
 
 TEST(NetworkConfig, ValuesAreRead) {
-  const auto path = write_temp("net_ok.toml",
-                                "[tcp]\nport = 5020\nallow = [\"10.0.0.0/8\", \"127.0.0.1\"]\nmax_connections = 4\n"
-                                "[rtu]\ndevice = \"/dev/ttyS1\"\nparity = \"N\"\nstop_bits = 2\nunit_id = 17\n"
-                                "[server]\nread_only = true\nwatchdog_ms = 250\n");
+  const auto path = write_temp(
+      "net_ok.toml",
+      "[tcp]\nport = 5020\nallow = [\"10.0.0.0/8\", \"127.0.0.1\"]\nmax_connections = 4\n"
+      "[rtu]\ndevice = \"/dev/ttyS1\"\nparity = \"N\"\nstop_bits = 2\nunit_id = 17\n"
+      "[server]\nread_only = true\nwatchdog_ms = 250\n");
   const NetworkConfig c = load_network_config(path);
   EXPECT_EQ(c.tcp.port, 5020);
   ASSERT_EQ(c.tcp.allow.size(), 2u);
@@ -59,17 +60,27 @@ TEST(NetworkConfig, ValuesAreRead) {
 }
 
 TEST(NetworkConfig, BadFilesNameTheKey) {
-  EXPECT_NE(error_of(write_temp("n1.toml", "[tcp]\nprot = 1\n")).find("[tcp] unknown key 'prot'"), std::string::npos);
-  EXPECT_NE(error_of(write_temp("n2.toml", "[tcp]\nport = 70000\n")).find("tcp.port"), std::string::npos);
-  EXPECT_NE(error_of(write_temp("n3.toml", "[tcp]\nport = \"x\"\n")).find("must be a number"), std::string::npos);
-  EXPECT_NE(error_of(write_temp("n4.toml", "[rtu]\nparity = \"X\"\n")).find("rtu.parity"), std::string::npos);
-  EXPECT_NE(error_of(write_temp("n5.toml", "[tcp]\nallow = [\"300.1.1.1\"]\n")).find("tcp.allow"), std::string::npos);
-  EXPECT_NE(error_of(write_temp("n6.toml", "[modbus]\n")).find("unknown section"), std::string::npos);
+  EXPECT_NE(error_of(write_temp("n1.toml", "[tcp]\nprot = 1\n")).find("[tcp] unknown key 'prot'"),
+            std::string::npos);
+  EXPECT_NE(error_of(write_temp("n2.toml", "[tcp]\nport = 70000\n")).find("tcp.port"),
+            std::string::npos);
+  EXPECT_NE(error_of(write_temp("n3.toml", "[tcp]\nport = \"x\"\n")).find("must be a number"),
+            std::string::npos);
+  EXPECT_NE(error_of(write_temp("n4.toml", "[rtu]\nparity = \"X\"\n")).find("rtu.parity"),
+            std::string::npos);
+  EXPECT_NE(error_of(write_temp("n5.toml", "[tcp]\nallow = [\"300.1.1.1\"]\n")).find("tcp.allow"),
+            std::string::npos);
+  EXPECT_NE(error_of(write_temp("n6.toml", "[modbus]\n")).find("unknown section"),
+            std::string::npos);
   EXPECT_NE(error_of(write_temp("n7.toml", "[tcp\n")).find("n7.toml"), std::string::npos);
-  EXPECT_NE(error_of(write_temp("n8.toml", "[rtu]\nunit_id = 1.5\n")).find("whole number"), std::string::npos);
+  EXPECT_NE(error_of(write_temp("n8.toml", "[rtu]\nunit_id = 1.5\n")).find("whole number"),
+            std::string::npos);
   // Every error points at FILE:LINE:COLUMN (the value, the key's line, or the syntax error).
-  EXPECT_NE(error_of(write_temp("n2.toml", "[tcp]\nport = 70000\n")).find("n2.toml:2:8: tcp.port"), std::string::npos);
-  EXPECT_NE(error_of(write_temp("n1.toml", "[tcp]\nprot = 1\n")).find("n1.toml:2:8: [tcp] unknown key 'prot'"), std::string::npos);
+  EXPECT_NE(error_of(write_temp("n2.toml", "[tcp]\nport = 70000\n")).find("n2.toml:2:8: tcp.port"),
+            std::string::npos);
+  EXPECT_NE(error_of(write_temp("n1.toml", "[tcp]\nprot = 1\n"))
+                .find("n1.toml:2:8: [tcp] unknown key 'prot'"),
+            std::string::npos);
   EXPECT_NE(error_of(write_temp("n7.toml", "[tcp\n")).find("n7.toml:1:"), std::string::npos);
 }
 
@@ -82,11 +93,14 @@ TEST(NetworkConfig, AllowListParsesCidr) {
 }
 
 TEST(NetworkConfig, RuntimeRealtimePolicy) {
-  EXPECT_EQ(load_network_config(MAGLEAD_CONFIG_DIR "/network.toml").realtime, RealtimePolicy::attempt);
-  EXPECT_EQ(load_network_config(write_temp("rt_req.toml", "[runtime]\nrealtime = \"require\"\n")).realtime,
+  EXPECT_EQ(load_network_config(MAGLEAD_CONFIG_DIR "/network.toml").realtime,
+            RealtimePolicy::attempt);
+  EXPECT_EQ(load_network_config(write_temp("rt_req.toml", "[runtime]\nrealtime = \"require\"\n"))
+                .realtime,
             RealtimePolicy::require);
-  EXPECT_EQ(load_network_config(write_temp("rt_off.toml", "[runtime]\nrealtime = \"off\"\n")).realtime,
-            RealtimePolicy::off);
+  EXPECT_EQ(
+      load_network_config(write_temp("rt_off.toml", "[runtime]\nrealtime = \"off\"\n")).realtime,
+      RealtimePolicy::off);
   const std::string e = error_of(write_temp("rt_bad.toml", "[runtime]\nrealtime = \"yes\"\n"));
   EXPECT_NE(e.find("runtime.realtime"), std::string::npos) << e;
   EXPECT_NE(e.find("off, try, require"), std::string::npos) << e;

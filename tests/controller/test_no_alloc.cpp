@@ -2,9 +2,10 @@
 // and count while armed. Armed from the first cycle on, over thousands of cycles of the
 // controller, the simulated plant, the digital twin (runtime::TwinRunner: the loop's push into
 // its queue and read of its results, and, drained on this thread between cycles, CVODE with its
-// look-ahead and the publication of results) and the Modbus snapshot exchange (requests through ModbusCore, which posts commands to the
-// loop's queue and reads its seqlock), through enable, position moves, force mode, a fault and
-// its reset. One allocation fails the test. Own executable: the replacement is process-wide.
+// look-ahead and the publication of results) and the Modbus snapshot exchange (requests through
+// ModbusCore, which posts commands to the loop's queue and reads its seqlock), through enable,
+// position moves, force mode, a fault and its reset. One allocation fails the test. Own executable:
+// the replacement is process-wide.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -14,8 +15,8 @@
 
 #include "maglead/controller/controller.hpp"
 #include "maglead/modbus/modbus_core.hpp"
-#include "maglead/runtime/twin_runner.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
+#include "maglead/runtime/twin_runner.hpp"
 #include "maglead/twin/monitor.hpp"
 
 // GCC sees free() on what it takes for a new-expression's pointer in the replacements below
@@ -35,8 +36,9 @@ void* counted_alloc(std::size_t n, std::size_t align = 0) {
     g_first_size.compare_exchange_strong(none, n, std::memory_order_relaxed);
   }
   if (n == 0) n = 1;
-  void* p = align > alignof(std::max_align_t) ? std::aligned_alloc(align, (n + align - 1) / align * align)
-                                               : std::malloc(n);
+  void* p = align > alignof(std::max_align_t)
+                ? std::aligned_alloc(align, (n + align - 1) / align * align)
+                : std::malloc(n);
   return p;
 }
 
@@ -122,9 +124,18 @@ struct Rig {
       if (with_terms) {
         // A corrected model as maglead analyze writes it: terms looked up by name every cycle,
         // some names longer than a small-string buffer.
-        tc.model.terms.push_back({"stribeck_friction", true, "", {{"breakaway_n", 9.0}, {"coulomb_n", 7.5}, {"stribeck_velocity_m_s", 0.003}}});
-        tc.model.terms.push_back({"asymmetric_friction", true, "", {{"coulomb_pos_n", 8.0}, {"coulomb_neg_n", 7.0}, {"viscous_pos_n_s_per_m", 3.0}}});
-        tc.model.terms.push_back({"angle_ripple", true, "", {{"relative_amplitude", 0.02}, {"phase_rad", 0.5}}});
+        tc.model.terms.push_back(
+            {"stribeck_friction",
+             true,
+             "",
+             {{"breakaway_n", 9.0}, {"coulomb_n", 7.5}, {"stribeck_velocity_m_s", 0.003}}});
+        tc.model.terms.push_back(
+            {"asymmetric_friction",
+             true,
+             "",
+             {{"coulomb_pos_n", 8.0}, {"coulomb_neg_n", 7.0}, {"viscous_pos_n_s_per_m", 3.0}}});
+        tc.model.terms.push_back(
+            {"angle_ripple", true, "", {{"relative_amplitude", 0.02}, {"phase_rad", 0.5}}});
         tc.model.terms.push_back({"load_cell_delay", true, "", {{"delay_s", 0.002}}});
         tc.model.terms.push_back({"backlash", true, "", {{"backlash_rad", 0.01}}});
       }
@@ -150,7 +161,8 @@ struct Rig {
   void write32(std::uint16_t address, std::int32_t v) {
     const auto u = static_cast<std::uint32_t>(v);
     const auto w0 = static_cast<std::uint16_t>(u >> 16), w1 = static_cast<std::uint16_t>(u);
-    const std::uint8_t pdu[] = {16, hi(address), lo(address), 0, 2, 4, hi(w0), lo(w0), hi(w1), lo(w1)};
+    const std::uint8_t pdu[] = {16, hi(address), lo(address), 0,      2,
+                                4,  hi(w0),      lo(w0),      hi(w1), lo(w1)};
     request(pdu, sizeof pdu);
   }
   // What a polling client reads: the three blocks the register doc recommends.
@@ -216,31 +228,71 @@ TEST(NoAllocation, ThousandsOfCyclesWithTwinAndModbusAllocateNothing) {
     const std::uint64_t before = armed.count();
     // The network side, between cycles: commands into the queue, snapshots out of the seqlock.
     switch (i) {
-      case 20: rig.write(cw, bit(reg::kEnable)); break;
-      case 30: rig.write32(pos, 25'000); rig.write(mode, pos_mode); break;  // 25 mm
-      case 31: rig.write(cw, bit(reg::kEnable) | bit(reg::kExecute)); break;
-      case 32: rig.write(cw, bit(reg::kEnable)); break;
-      case 1500: rig.write32(pos, 15'000); break;                            // back to 15 mm
-      case 1501: rig.write(cw, bit(reg::kEnable) | bit(reg::kExecute)); break;
-      case 1502: rig.write(cw, bit(reg::kEnable)); break;
-      case 3000: rig.write32(force, 10'000); rig.write(mode, force_mode); break;  // 10 N
-      case 3001: rig.write(cw, bit(reg::kEnable) | bit(reg::kExecute)); break;
-      case 3002: rig.write(cw, bit(reg::kEnable)); break;
-      case 4500: rig.write(watchdog, 50); break;  // 50 ms without a heartbeat: fault
-      case 5500: rig.write(watchdog, 0); rig.write(cw, bit(reg::kFaultReset)); break;
-      case 5501: rig.write(cw, 0); break;
-      case 5510: rig.write(cw, bit(reg::kEnable)); break;
-      case 5520: rig.write32(pos, 22'000); rig.write(mode, pos_mode); break;
-      case 5521: rig.write(cw, bit(reg::kEnable) | bit(reg::kExecute)); break;
-      case 5522: rig.write(cw, bit(reg::kEnable)); break;
-      default: break;
+      case 20:
+        rig.write(cw, bit(reg::kEnable));
+        break;
+      case 30:
+        rig.write32(pos, 25'000);
+        rig.write(mode, pos_mode);
+        break;  // 25 mm
+      case 31:
+        rig.write(cw, bit(reg::kEnable) | bit(reg::kExecute));
+        break;
+      case 32:
+        rig.write(cw, bit(reg::kEnable));
+        break;
+      case 1500:
+        rig.write32(pos, 15'000);
+        break;  // back to 15 mm
+      case 1501:
+        rig.write(cw, bit(reg::kEnable) | bit(reg::kExecute));
+        break;
+      case 1502:
+        rig.write(cw, bit(reg::kEnable));
+        break;
+      case 3000:
+        rig.write32(force, 10'000);
+        rig.write(mode, force_mode);
+        break;  // 10 N
+      case 3001:
+        rig.write(cw, bit(reg::kEnable) | bit(reg::kExecute));
+        break;
+      case 3002:
+        rig.write(cw, bit(reg::kEnable));
+        break;
+      case 4500:
+        rig.write(watchdog, 50);
+        break;  // 50 ms without a heartbeat: fault
+      case 5500:
+        rig.write(watchdog, 0);
+        rig.write(cw, bit(reg::kFaultReset));
+        break;
+      case 5501:
+        rig.write(cw, 0);
+        break;
+      case 5510:
+        rig.write(cw, bit(reg::kEnable));
+        break;
+      case 5520:
+        rig.write32(pos, 22'000);
+        rig.write(mode, pos_mode);
+        break;
+      case 5521:
+        rig.write(cw, bit(reg::kEnable) | bit(reg::kExecute));
+        break;
+      case 5522:
+        rig.write(cw, bit(reg::kEnable));
+        break;
+      default:
+        break;
     }
     if (i < 4500 && i % 10 == 0) rig.write(heartbeat, static_cast<std::uint16_t>(i));
     rig.poll();
     rig.cycle();
     const Snapshot s = rig.ctl->snapshot();
     seen_states = static_cast<std::uint16_t>(seen_states | (1u << s.drive_state));
-    max_twin_healthy = std::max<std::uint16_t>(max_twin_healthy, (s.status_word >> reg::kTwinHealthy) & 1u);
+    max_twin_healthy =
+        std::max<std::uint16_t>(max_twin_healthy, (s.status_word >> reg::kTwinHealthy) & 1u);
     lagged = lagged || ((s.status_word >> reg::kTwinLagging) & 1u);
     if (first_cycle == 0 && armed.count() != before) first_cycle = static_cast<std::uint64_t>(i);
   }
@@ -270,12 +322,23 @@ TEST(NoAllocation, ModelTermsInTheTwinAllocateNothing) {
   Armed armed;
   for (int i = 1; i <= 3000; ++i) {
     switch (i) {
-      case 10: rig.write(cw, bit(reg::kEnable)); break;
-      case 20: rig.write32(pos, 25000); break;
-      case 21: rig.write(mode, static_cast<std::uint16_t>(reg::Mode::position)); break;
-      case 22: rig.write(cw, bit(reg::kEnable) | bit(reg::kExecute)); break;
-      case 23: rig.write(cw, bit(reg::kEnable)); break;
-      default: break;
+      case 10:
+        rig.write(cw, bit(reg::kEnable));
+        break;
+      case 20:
+        rig.write32(pos, 25000);
+        break;
+      case 21:
+        rig.write(mode, static_cast<std::uint16_t>(reg::Mode::position));
+        break;
+      case 22:
+        rig.write(cw, bit(reg::kEnable) | bit(reg::kExecute));
+        break;
+      case 23:
+        rig.write(cw, bit(reg::kEnable));
+        break;
+      default:
+        break;
     }
     rig.cycle();
     if (i % 10 == 0) rig.poll();

@@ -1,7 +1,8 @@
 // The threads of `maglead serve` together: the loop on LoopRunner's thread (real clock) with
 // the twin on its own thread (runtime::TwinRunner), the Modbus TCP server's network thread, and
-// client threads (libmodbus) that poll while one of them owns the drive and commands a move. Asserts what the clients see,
-// nothing about time; its point is to run under ThreadSanitizer (label `threads`).
+// client threads (libmodbus) that poll while one of them owns the drive and commands a move.
+// Asserts what the clients see, nothing about time; its point is to run under ThreadSanitizer
+// (label `threads`).
 #include <gtest/gtest.h>
 #include <modbus.h>
 
@@ -12,8 +13,8 @@
 #include "maglead/controller/loop_runner.hpp"
 #include "maglead/modbus/modbus_core.hpp"
 #include "maglead/modbus/modbus_tcp.hpp"
-#include "maglead/runtime/twin_runner.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
+#include "maglead/runtime/twin_runner.hpp"
 #include "maglead/twin/monitor.hpp"
 
 using namespace maglead;
@@ -95,7 +96,8 @@ TEST(ServeThreads, LoopTwinNetworkAndClientsTogether) {
   bool seen = false;
   for (int i = 0; i < 20'000 && !seen; ++i) {
     ASSERT_EQ(modbus_read_input_registers(owner, status, 8, words), 8);
-    seen = (words[0] & (1u << reg::kEnabled)) && ctl.snapshot().active_mode == static_cast<std::uint16_t>(reg::Mode::position);
+    seen = (words[0] & (1u << reg::kEnabled)) &&
+           ctl.snapshot().active_mode == static_cast<std::uint16_t>(reg::Mode::position);
   }
   EXPECT_TRUE(seen) << words[0];
   const Snapshot s = ctl.snapshot();

@@ -60,6 +60,7 @@ class RampedLoad final : public ActuatorHardware {
   HwStatus write_motor_angle(double motor_angle_cmd_rad) noexcept override {
     return plant_.write_motor_angle(motor_angle_cmd_rad);
   }
+
  private:
   SimulatedActuator plant_;
 };
@@ -152,8 +153,9 @@ TEST(TwinRunner, StepOutWarningLeadsTheSlipAtTheLagBound) {
     if (k % 5 == 0) twin.drain();
     lead.see(ctl.snapshot());
   }
-  std::printf("through the queue, 5 cycles behind: warning %.3f s, step-out bit %.3f s, lead %.0f ms\n",
-              lead.warn_t_s, lead.flag_t_s, (lead.flag_t_s - lead.warn_t_s) * 1e3);
+  std::printf(
+      "through the queue, 5 cycles behind: warning %.3f s, step-out bit %.3f s, lead %.0f ms\n",
+      lead.warn_t_s, lead.flag_t_s, (lead.flag_t_s - lead.warn_t_s) * 1e3);
   ASSERT_TRUE(std::isfinite(lead.flag_t_s)) << "the plant stepped out";
   ASSERT_TRUE(std::isfinite(lead.warn_t_s));
   EXPECT_EQ(lead.lagging_cycles, 0u);
@@ -170,7 +172,8 @@ TEST(TwinRunner, StepOutWarningLeadsTheSlipOnTheTwinThread) {
   Controller ctl(cfg, hw);
   runtime::TwinRunner twin(monitor_config(cfg));
   ctl.attach_twin(&twin);
-  twin.start({-1, 20});  // as the service asks (SCHED_FIFO below the loop); without privilege, refused
+  twin.start(
+      {-1, 20});  // as the service asks (SCHED_FIFO below the loop); without privilege, refused
   LoopRunner loop(ctl);
   Lead lead;
   while (std::isnan(lead.flag_t_s)) {
@@ -181,12 +184,14 @@ TEST(TwinRunner, StepOutWarningLeadsTheSlipOnTheTwinThread) {
   }
   twin.stop();
   const auto stats = twin.stats();
-  std::printf("twin thread: warning %.3f s, step-out bit %.3f s, lead %.0f ms; largest lag %llu cycles, "
-              "%llu lagging cycles (first at %.3f s, last before the bit at %.3f s); placement not granted: %s\n",
-              lead.warn_t_s, lead.flag_t_s, (lead.flag_t_s - lead.warn_t_s) * 1e3,
-              static_cast<unsigned long long>(stats.max_lag_cycles),
-              static_cast<unsigned long long>(lead.lagging_cycles), lead.first_lag_t_s,
-              lead.last_lag_before_flag_t_s, twin.refused().empty() ? "nothing" : twin.refused().c_str());
+  std::printf(
+      "twin thread: warning %.3f s, step-out bit %.3f s, lead %.0f ms; largest lag %llu cycles, "
+      "%llu lagging cycles (first at %.3f s, last before the bit at %.3f s); placement not "
+      "granted: %s\n",
+      lead.warn_t_s, lead.flag_t_s, (lead.flag_t_s - lead.warn_t_s) * 1e3,
+      static_cast<unsigned long long>(stats.max_lag_cycles),
+      static_cast<unsigned long long>(lead.lagging_cycles), lead.first_lag_t_s,
+      lead.last_lag_before_flag_t_s, twin.refused().empty() ? "nothing" : twin.refused().c_str());
   ASSERT_TRUE(std::isfinite(lead.warn_t_s));
   if (!lead.lagged_near_flag()) {
     EXPECT_GE(lead.flag_t_s - lead.warn_t_s, 0.040);

@@ -30,8 +30,9 @@ namespace reg = maglead::registers;
 
 namespace {
 
-constexpr std::uint16_t kImageFirst = 1000, kImageCount = 20;  // control_word … accel_limit_m_s2_f32
-constexpr std::uint16_t kInspector = 0xFFFE;                   // reads only: never owns control
+constexpr std::uint16_t kImageFirst = 1000,
+                        kImageCount = 20;     // control_word … accel_limit_m_s2_f32
+constexpr std::uint16_t kInspector = 0xFFFE;  // reads only: never owns control
 
 [[noreturn]] void fail(const char* what, const std::uint8_t* pdu, std::size_t len) {
   std::fprintf(stderr, "fuzz_modbus_core oracle failed: %s; request:", what);
@@ -39,8 +40,8 @@ constexpr std::uint16_t kInspector = 0xFFFE;                   // reads only: ne
   std::fprintf(stderr, "\n");
   std::abort();
 }
-#define ORACLE(cond, what) \
-  do {                     \
+#define ORACLE(cond, what)             \
+  do {                                 \
     if (!(cond)) fail(what, pdu, len); \
   } while (0)
 
@@ -75,25 +76,29 @@ Image read_image(Rig& rig, const std::uint8_t* pdu, std::size_t len) {
   const ClientInfo inspector{kInspector, 0, false};
   std::uint8_t out[ModbusCore::kMaxPdu];
   const std::uint8_t rd_regs[] = {3, kImageFirst >> 8, kImageFirst & 0xFF, 0, kImageCount};
-  ORACLE(rig.core.handle(inspector, rd_regs, sizeof rd_regs, out) == 2 + 2u * kImageCount && out[0] == 3,
+  ORACLE(rig.core.handle(inspector, rd_regs, sizeof rd_regs, out) == 2 + 2u * kImageCount &&
+             out[0] == 3,
          "the image's holding registers cannot be read");
   Image img{};
   std::memcpy(img.words, out + 2, sizeof img.words);
   const std::uint8_t rd_coils[] = {1, 0, 0, 0, 5};
-  ORACLE(rig.core.handle(inspector, rd_coils, sizeof rd_coils, out) == 3 && out[0] == 1 && out[1] == 1,
-         "the coils cannot be read");
+  ORACLE(
+      rig.core.handle(inspector, rd_coils, sizeof rd_coils, out) == 3 && out[0] == 1 && out[1] == 1,
+      "the coils cannot be read");
   img.coils = out[2];
 
   for (std::uint16_t a = kImageFirst; a < kImageFirst + kImageCount;) {
     int word = 0;
     const reg::Register* r = reg::at(reg::Table::holding_register, a, &word);
-    ORACLE(r && word == 0 && r->access == reg::Access::read_write, "the image block is not the table's");
+    ORACLE(r && word == 0 && r->access == reg::Access::read_write,
+           "the image block is not the table's");
     std::uint16_t w[2] = {0, 0};
     const int n = reg::word_count(r->type);
     for (int k = 0; k < n; ++k) w[k] = be16(img.words + 2 * (a - kImageFirst + k));
     if (!reg::in_range(*r, reg::decode(*r, w))) {
-      std::fprintf(stderr, "register %.*s = %g outside [%g, %g]\n", static_cast<int>(r->name.size()),
-                   r->name.data(), reg::decode(*r, w), r->min, r->max);
+      std::fprintf(stderr, "register %.*s = %g outside [%g, %g]\n",
+                   static_cast<int>(r->name.size()), r->name.data(), reg::decode(*r, w), r->min,
+                   r->max);
       fail("the writable image left its documented range", pdu, len);
     }
     a = static_cast<std::uint16_t>(a + n);
@@ -105,12 +110,13 @@ Image read_image(Rig& rig, const std::uint8_t* pdu, std::size_t len) {
 }
 
 bool known_exception(std::uint8_t code) {
-  return code == 0x01 || code == 0x02 || code == 0x03 || code == 0x04 || code == 0x06 || code == 0x0B;
+  return code == 0x01 || code == 0x02 || code == 0x03 || code == 0x04 || code == 0x06 ||
+         code == 0x0B;
 }
 
 bool implemented(std::uint8_t fc) {
-  return fc == 1 || fc == 2 || fc == 3 || fc == 4 || fc == 5 || fc == 6 || fc == 8 || fc == 15 || fc == 16 ||
-         fc == 23 || fc == 43;
+  return fc == 1 || fc == 2 || fc == 3 || fc == 4 || fc == 5 || fc == 6 || fc == 8 || fc == 15 ||
+         fc == 16 || fc == 23 || fc == 43;
 }
 
 // The reply shape of a normal (non-exception) response to `pdu`.
@@ -138,7 +144,8 @@ void check_reply(const std::uint8_t* pdu, std::size_t len, const std::uint8_t* o
       ORACLE(n == 5 && std::memcmp(out, pdu, 5) == 0, "write multiple: not start and count");
       return;
     case 23:
-      ORACLE(len >= 10 && out[1] == 2 * be16(pdu + 3) && n == 2u + out[1], "read/write registers: byte count");
+      ORACLE(len >= 10 && out[1] == 2 * be16(pdu + 3) && n == 2u + out[1],
+             "read/write registers: byte count");
       return;
     case 8:
       ORACLE(len >= 3, "diagnostics answered a malformed request");
@@ -148,8 +155,8 @@ void check_reply(const std::uint8_t* pdu, std::size_t len, const std::uint8_t* o
         ORACLE(len == 5 && n == 5 && std::memcmp(out, pdu, 3) == 0, "diagnostics: reply shape");
       return;
     case 43: {
-      ORACLE(len == 4 && n >= 7 && out[1] == 0x0E && out[2] == pdu[2] && out[3] == 0x82 && out[4] == 0 &&
-                 out[5] == 0,
+      ORACLE(len == 4 && n >= 7 && out[1] == 0x0E && out[2] == pdu[2] && out[3] == 0x82 &&
+                 out[4] == 0 && out[5] == 0,
              "device identification: header");
       std::size_t p = 7;
       for (int i = 0; i < out[6]; ++i) {
@@ -178,7 +185,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     i += 2 + len;
 
     const std::uint16_t ids[] = {1, 2, ModbusCore::kRtuClient, ModbusCore::kRtuClient};
-    const ClientInfo client{ids[flags & 3], (flags & 3) < 2 ? 0x7F000001u + (flags & 1u) : 0u, (flags & 3) == 3};
+    const ClientInfo client{ids[flags & 3], (flags & 3) < 2 ? 0x7F000001u + (flags & 1u) : 0u,
+                            (flags & 3) == 3};
     if (flags & 4) rig->core.client_closed(client.id);
 
     const Image before = read_image(*rig, pdu, len);
@@ -191,7 +199,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     } else {
       const std::uint8_t fc = pdu[0];
       ORACLE(n >= 2, "reply shorter than two bytes");
-      if (fc & 0x80) ORACLE(n == 2 && out[0] == fc && out[1] == 0x01, "a function code >= 0x80 not refused with 01");
+      if (fc & 0x80)
+        ORACLE(n == 2 && out[0] == fc && out[1] == 0x01,
+               "a function code >= 0x80 not refused with 01");
       if (out[0] == static_cast<std::uint8_t>(fc | 0x80)) {
         ORACLE(n == 2, "exception reply longer than two bytes");
         ORACLE(known_exception(out[1]), "exception code outside 01 02 03 04 06 0B");
@@ -204,7 +214,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         const Image after = read_image(*rig, pdu, len);
         if (fc == 6) {
           const std::uint16_t a = be16(pdu + 1);
-          ORACLE(a >= kImageFirst && a < kImageFirst + kImageCount, "function 6 accepted outside the image");
+          ORACLE(a >= kImageFirst && a < kImageFirst + kImageCount,
+                 "function 6 accepted outside the image");
           ORACLE(std::memcmp(after.words + 2 * (a - kImageFirst), pdu + 3, 2) == 0,
                  "function 6 accepted but does not read back as written");
         }

@@ -13,7 +13,7 @@ TEST(OperatorClient, ParsesQuantitiesWithUnits) {
   EXPECT_DOUBLE_EQ(op::parse_quantity("20mm", "m"), 0.02);
   EXPECT_DOUBLE_EQ(op::parse_quantity("5mm/s", "m/s"), 0.005);
   EXPECT_DOUBLE_EQ(op::parse_quantity("250ms", "s"), 0.25);
-  EXPECT_THROW(op::parse_quantity("20mm", "N"), op::ClientError);   // wrong quantity
+  EXPECT_THROW(op::parse_quantity("20mm", "N"), op::ClientError);  // wrong quantity
   EXPECT_THROW(op::parse_quantity("twelve", "N"), op::ClientError);
   EXPECT_THROW(op::parse_quantity("nan", "N"), op::ClientError);
   try {
@@ -74,7 +74,8 @@ TEST(OperatorClient, SpellsOutCodesAndBits) {
   EXPECT_EQ(op::code_name(reg::alarm_codes(), 1), "step_out");
   EXPECT_EQ(op::code_name(reg::reject_codes(), 3), "force_beyond_safe_limit");
   EXPECT_EQ(op::code_name(reg::alarm_codes(), 99), "unknown (99)");
-  const auto bits = op::status_bits(static_cast<std::uint16_t>((1u << reg::kEnabled) | (1u << reg::kStepOut)));
+  const auto bits =
+      op::status_bits(static_cast<std::uint16_t>((1u << reg::kEnabled) | (1u << reg::kStepOut)));
   EXPECT_EQ(bits, (std::vector<std::string>{"enabled", "step_out"}));
 }
 
@@ -86,6 +87,7 @@ TEST(OperatorClient, ConnectionRefusedIsOneCommunicationError) {
     FAIL() << "connected to port 1";
   } catch (const op::ClientError& e) {
     EXPECT_EQ(e.exit_code(), 3);
-    EXPECT_NE(std::string(e.what()).find("cannot connect to 127.0.0.1:1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cannot connect to 127.0.0.1:1"), std::string::npos)
+        << e.what();
   }
 }

@@ -21,7 +21,8 @@ TEST(Registers, NamesAreUniqueAndAddressesDoNotOverlap) {
     EXPECT_TRUE(names.insert(r.name).second) << r.name;
     const int space = r.table == Table::coil ? 0 : r.table == Table::discrete_input ? 1 : 2;
     for (int w = 0; w < word_count(r.type); ++w)
-      EXPECT_TRUE(words.insert({space, r.address + w}).second) << r.name << " overlaps at " << r.address + w;
+      EXPECT_TRUE(words.insert({space, r.address + w}).second)
+          << r.name << " overlaps at " << r.address + w;
     EXPECT_LE(r.min, r.max) << r.name;
     EXPECT_GT(r.scale, 0.0) << r.name;
     EXPECT_FALSE(r.description.empty()) << r.name;
@@ -47,7 +48,9 @@ TEST(Registers, Every32BitScaledValueHasAFloatTwin) {
     }
     bool found = false;
     for (const auto& f : table())
-      if (f.type == Type::f32 && std::string(f.name).rfind(base + "_", 0) == 0 && f.table == r.table) found = true;
+      if (f.type == Type::f32 && std::string(f.name).rfind(base + "_", 0) == 0 &&
+          f.table == r.table)
+        found = true;
     EXPECT_TRUE(found) << r.name << " has no float32 twin";
   }
 }
@@ -105,7 +108,8 @@ TEST(Registers, RangeCheckRefusesOutsideAndNonFinite) {
   EXPECT_FALSE(in_range(pos, 0.040001));
   EXPECT_FALSE(in_range(pos, -1e-6));
   EXPECT_FALSE(in_range(*find("force_setpoint_n_f32"), std::numeric_limits<double>::infinity()));
-  EXPECT_TRUE(in_range(*find("position_setpoint_m_f32"), static_cast<float>(0.04)));  // float rounding of the limit
+  EXPECT_TRUE(in_range(*find("position_setpoint_m_f32"),
+                       static_cast<float>(0.04)));  // float rounding of the limit
 }
 
 TEST(Registers, CsvAndJsonListEveryEntry) {

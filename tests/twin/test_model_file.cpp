@@ -26,9 +26,13 @@ TEST(ModelFile, RoundTripKeepsTermsAndParameters) {
   TwinModel m;
   m.source = "analysis of \"run 7\"";
   m.coulomb_n = 6.0;
-  m.terms.push_back({"asymmetric_friction", true, "at reversals", {{"coulomb_pos_n", 6.75}, {"coulomb_neg_n", 5.25}}});
+  m.terms.push_back({"asymmetric_friction",
+                     true,
+                     "at reversals",
+                     {{"coulomb_pos_n", 6.75}, {"coulomb_neg_n", 5.25}}});
   m.terms.push_back({"offset", true, "", {{"offset_n", -1.5}}});
-  m.terms.push_back({"angle_ripple", false, "", {{"relative_amplitude", 0.04}, {"phase_rad", 1.0}}});
+  m.terms.push_back(
+      {"angle_ripple", false, "", {{"relative_amplitude", 0.04}, {"phase_rad", 1.0}}});
   m.terms.push_back({"backlash", true, "", {{"backlash_rad", 0.002}}});
   save_twin_model(tmp("model_rt.toml"), m, "test");
   const TwinModel r = load_twin_model(tmp("model_rt.toml"));
@@ -55,10 +59,12 @@ std::string load_error(const std::string& path) {
 
 TEST(ModelFile, TyposAreErrorsNamingTheKeyAndWhereItIs) {
   const std::string fmt = std::string(kModelFormatLine) + "\n";
-  std::ofstream(tmp("bad_id.toml")) << fmt << "[model]\nnut_mass_kg = 0.12\n[[term]]\nid = \"ofset\"\n";
+  std::ofstream(tmp("bad_id.toml"))
+      << fmt << "[model]\nnut_mass_kg = 0.12\n[[term]]\nid = \"ofset\"\n";
   std::ofstream(tmp("bad_par.toml")) << fmt << "[model]\n[[term]]\nid = \"offset\"\nforce = 1.0\n";
   std::ofstream(tmp("bad_key.toml")) << fmt << "[model]\nmass_kg = 0.12\n";
-  std::ofstream(tmp("bad_num.toml")) << fmt << "[model]\nnut_mass_kg = 0.12\ncoulomb_n =   \"7.5\"\n";
+  std::ofstream(tmp("bad_num.toml"))
+      << fmt << "[model]\nnut_mass_kg = 0.12\ncoulomb_n =   \"7.5\"\n";
   const std::string id = load_error(tmp("bad_id.toml"));
   EXPECT_NE(id.find("'ofset'"), std::string::npos) << id;
   EXPECT_NE(id.find("bad_id.toml:4:1:"), std::string::npos) << id;  // the [[term]] header
@@ -68,7 +74,8 @@ TEST(ModelFile, TyposAreErrorsNamingTheKeyAndWhereItIs) {
   EXPECT_NE(key.find("'mass_kg'"), std::string::npos) << key;
   EXPECT_NE(key.find("bad_key.toml:3:11:"), std::string::npos) << key;  // the value of mass_kg
   const std::string num = load_error(tmp("bad_num.toml"));
-  EXPECT_NE(num.find("bad_num.toml:4:15: [model] coulomb_n must be a number"), std::string::npos) << num;
+  EXPECT_NE(num.find("bad_num.toml:4:15: [model] coulomb_n must be a number"), std::string::npos)
+      << num;
 }
 
 TEST(ModelFile, SyntaxErrorNamesLineAndColumn) {
@@ -101,8 +108,8 @@ TEST(ModelFile, TheAnalysisWritesWhatTheTwinReads) {
                           " --effect offset=" + std::to_string(offset_n) + " --config " + cfg +
                           " --out " + dir + ".csv > /dev/null";
   ASSERT_EQ(std::system(sim.c_str()), 0) << sim;
-  const std::string an = bin + " analyze --recording " + dir + ".csv --out " + dir +
-                         " --config " + cfg + " > /dev/null";
+  const std::string an = bin + " analyze --recording " + dir + ".csv --out " + dir + " --config " +
+                         cfg + " > /dev/null";
   ASSERT_EQ(std::system(an.c_str()), 0) << an;
   const TwinModel m = load_twin_model(dir + "/model_corrected.toml");
   const ModelTerm* found = nullptr;

@@ -1,12 +1,12 @@
 // TwinMonitor on the simulated plant (its own dynamics code, not the twin's): force estimate,
 // step-out warning and flag, drift detection. Recordings are made here with fixed seeds.
-#include <unistd.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
-#include <string>
 #include <limits>
+#include <string>
 
 #include "maglead/plant/scenario.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
@@ -41,8 +41,8 @@ MonitorRun run_recording(const std::string& scenario, double duration_s, std::ui
   opt.seed = seed;
   opt.plant.effects = effects;
   opt.plant.effects.gain_drift_per_min = gain_drift_per_min;
-  const std::string path = std::string(MAGLEAD_TEST_TMP) + "/twin_" + std::to_string(::getpid()) + "_" + scenario + "_" +
-                           std::to_string(seed) + ".csv";
+  const std::string path = std::string(MAGLEAD_TEST_TMP) + "/twin_" + std::to_string(::getpid()) +
+                           "_" + scenario + "_" + std::to_string(seed) + ".csv";
   run_scenario(opt, path);
   const Recording rec = read_recording(path);
   const auto& t = rec.column("t_s");
@@ -83,10 +83,11 @@ TEST(TwinMonitor, DynamicEstimateBeatsStaticOnHandPush) {
 
 TEST(TwinMonitor, HealthyForceControlRaisesNothing) {
   const MonitorRun r = run_recording("force-steps", 60.0, 5);
-  std::printf("force-steps seed 5: MAE twin %.2f N, static %.2f N, drift statistic max %.2f, "
-              "gain %.3f +/- %.3f, healthy %.1f %%\n",
-              r.mae_twin_n, r.mae_static_n, r.max_drift_statistic, r.last.drift_gain_estimate,
-              r.last.drift_gain_stderr, 100 * r.healthy_fraction);
+  std::printf(
+      "force-steps seed 5: MAE twin %.2f N, static %.2f N, drift statistic max %.2f, "
+      "gain %.3f +/- %.3f, healthy %.1f %%\n",
+      r.mae_twin_n, r.mae_static_n, r.max_drift_statistic, r.last.drift_gain_estimate,
+      r.last.drift_gain_stderr, 100 * r.healthy_fraction);
   EXPECT_FALSE(std::isfinite(r.first_drift_s));
   // The plant is the model: the gain is 1 within a few of its standard errors, and the twin
   // explains the encoders within their resolution nearly all the time.
@@ -141,16 +142,26 @@ TEST_P(ConstantEffect, TenMinutesWithoutDriftWarning) {
   PlantEffects e;
   const char* name = "";
   switch (GetParam()) {
-    case 0: e.offset_n = -3.5, name = "offset -3.5 N"; break;
-    case 1: e.asymmetric_friction_n = 1.5, name = "asymmetric friction 1.5 N"; break;
-    case 2: e.backlash_rad = 0.09, name = "backlash 0.09 rad"; break;
-    default: e.load_cell_delay_s = 0.005, name = "load-cell delay 5 ms"; break;
+    case 0:
+      e.offset_n = -3.5, name = "offset -3.5 N";
+      break;
+    case 1:
+      e.asymmetric_friction_n = 1.5, name = "asymmetric friction 1.5 N";
+      break;
+    case 2:
+      e.backlash_rad = 0.09, name = "backlash 0.09 rad";
+      break;
+    default:
+      e.load_cell_delay_s = 0.005, name = "load-cell delay 5 ms";
+      break;
   }
   const MonitorRun r = run_recording("force-steps", 600.0, 11 + GetParam(), 0.0, e);
-  std::printf("force-steps 600 s, %s: drift statistic max %.2f, gain %.3f +/- %.3f, healthy %.1f %%\n",
-              name, r.max_drift_statistic, r.last.drift_gain_estimate, r.last.drift_gain_stderr,
-              100 * r.healthy_fraction);
-  EXPECT_FALSE(std::isfinite(r.first_drift_s)) << drift_message(r.at_drift) << " at " << r.first_drift_s;
+  std::printf(
+      "force-steps 600 s, %s: drift statistic max %.2f, gain %.3f +/- %.3f, healthy %.1f %%\n",
+      name, r.max_drift_statistic, r.last.drift_gain_estimate, r.last.drift_gain_stderr,
+      100 * r.healthy_fraction);
+  EXPECT_FALSE(std::isfinite(r.first_drift_s))
+      << drift_message(r.at_drift) << " at " << r.first_drift_s;
   EXPECT_FALSE(r.step_out);
 }
 
@@ -164,7 +175,8 @@ TEST(TwinMonitor, DriftWarningLatchesUntilCleared) {
   opt.duration_s = 90.0;
   opt.seed = 8;
   opt.plant.effects.gain_drift_per_min = -0.10;
-  const std::string path = std::string(MAGLEAD_TEST_TMP) + "/twin_latch_" + std::to_string(::getpid()) + ".csv";
+  const std::string path =
+      std::string(MAGLEAD_TEST_TMP) + "/twin_latch_" + std::to_string(::getpid()) + ".csv";
   run_scenario(opt, path);
   const Recording rec = read_recording(path);
   std::remove(path.c_str());
@@ -213,7 +225,8 @@ TEST(TwinMonitor, OverloadRampIsWarnedBeforeStepOutAndFlagged) {
     sim.set_load(load);
     sim.read_sensors(t, s);
     sim.write_motor_angle(screw_motor);
-    const double screw = screw_angle_rad_from_motor_rad(motor_angle_rad_from_counts(s.motor_counts, act), act);
+    const double screw =
+        screw_angle_rad_from_motor_rad(motor_angle_rad_from_counts(s.motor_counts, act), act);
     const double pos = nut_pos_m_from_counts(s.linear_counts, act);
     if (k == 0) mon.reset(t, screw, pos);
     const auto o = mon.step({t, screw, pos, kNaN});

@@ -67,12 +67,17 @@ double parse_duration_s(const std::string& text) {
   }
   const std::string unit = text.substr(used);
   double scale = 0;
-  if (unit.empty() || unit == "s") scale = 1;
-  else if (unit == "ms") scale = 1e-3;
-  else if (unit == "min" || unit == "m") scale = 60;
-  else if (unit == "h") scale = 3600;
+  if (unit.empty() || unit == "s")
+    scale = 1;
+  else if (unit == "ms")
+    scale = 1e-3;
+  else if (unit == "min" || unit == "m")
+    scale = 60;
+  else if (unit == "h")
+    scale = 3600;
   if (scale == 0 || !(v > 0))
-    throw CLI::ValidationError("duration", "'" + text + "' is not a positive duration (e.g. 30s, 2min, 1h)");
+    throw CLI::ValidationError("duration",
+                               "'" + text + "' is not a positive duration (e.g. 30s, 2min, 1h)");
   return v * scale;
 }
 
@@ -93,8 +98,8 @@ void Progress::operator()(double fraction) {
   const int pct = std::clamp(static_cast<int>(fraction * 100.0), 0, 100);
   if (!show_ || pct == last_) return;
   const int filled = pct * 30 / 100;
-  std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%", label_.c_str(), filled, "##############################",
-               30 - filled, "", pct);
+  std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%", label_.c_str(), filled,
+               "##############################", 30 - filled, "", pct);
   std::fflush(stderr);
   last_ = pct;
 }
@@ -176,8 +181,9 @@ void load_reached_settings(const std::string& config_dir, ReachedSettings& r) {
   for (const auto& key : keys) {
     char range[64];
     std::snprintf(range, sizeof range, "a number in %g .. %g", key.lo, key.hi);
-    config::read_number(path, *t, "[control]", key.key, *key.out,
-                        [&](double v) { return v >= key.lo && v <= key.hi; }, range);
+    config::read_number(
+        path, *t, "[control]", key.key, *key.out,
+        [&](double v) { return v >= key.lo && v <= key.hi; }, range);
   }
 }
 

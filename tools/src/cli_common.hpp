@@ -49,7 +49,6 @@ class Progress {
 /// (at most a third of the word's length, at least 1); empty otherwise.
 std::string closest_match(const std::string& word, const std::vector<std::string>& candidates);
 
-
 /// Exit code for errors the user can fix (bad input, bad file).
 inline constexpr int kExitBadInput = 2;
 
@@ -57,10 +56,8 @@ inline constexpr int kExitBadInput = 2;
 
 #define MAGLEAD_CONCAT2(a, b) a##b
 #define MAGLEAD_CONCAT(a, b) MAGLEAD_CONCAT2(a, b)
-#define MAGLEAD_COMMAND(order, fn)                                          \
-  static const ::maglead::cli::CommandRegistration MAGLEAD_CONCAT(reg_, __LINE__) { \
-    order, fn                                                               \
-  }
+#define MAGLEAD_COMMAND(order, fn) \
+  static const ::maglead::cli::CommandRegistration MAGLEAD_CONCAT(reg_, __LINE__) { order, fn }
 
 #include "maglead/physics/actuator.hpp"
 #include "maglead/recording/recording.hpp"

@@ -5,10 +5,10 @@
 #include <filesystem>
 
 #include "cli_common.hpp"
-#include "maglead/twin/model.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/report/analysis_json.hpp"
 #include "maglead/report/analysis_page.hpp"
+#include "maglead/twin/model.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -49,7 +49,8 @@ void add_analyze(CLI::App& app) {
     std::string model_path = o->model;
     if (model_path.empty() && std::filesystem::exists(config_file(o->config, "model.toml")))
       model_path = config_file(o->config, "model.toml");
-    if (!model_path.empty()) twin::check_model_format(model_path);  // the analysis reader does not check it
+    if (!model_path.empty())
+      twin::check_model_format(model_path);  // the analysis reader does not check it
     model = model_path.empty() ? analysis::actuator_model_from_config(act)
                                : analysis::load_model(model_path);
     ForceCalibration cal = paper_calibration();
@@ -77,11 +78,13 @@ void add_analyze(CLI::App& app) {
     std::printf("recording %s (%s), baseline %s\n", o->recording.c_str(), J.system.c_str(),
                 model_path.empty() ? "config/actuator.toml" : model_path.c_str());
     std::printf("baseline   RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
-                J.baseline.rms_n, J.baseline.relative_error_pct, J.baseline.full_rate_relative_error_pct);
+                J.baseline.rms_n, J.baseline.relative_error_pct,
+                J.baseline.full_rate_relative_error_pct);
     for (const auto& w : result.where) std::printf("  where: %s\n", w.c_str());
     int k = 1;
     for (const auto& e : J.effects) {
-      std::printf("%d. %-22s %s\n", k++, e.id.c_str(), report::parameters_json(e.parameters).dump().c_str());
+      std::printf("%d. %-22s %s\n", k++, e.id.c_str(),
+                  report::parameters_json(e.parameters).dump().c_str());
       if (e.evidence.heldout_gain_pct)
         std::printf("     held-out gain %.2f %% (t = %.1f, %s segments), improvement %.2f %%\n",
                     *e.evidence.heldout_gain_pct, e.evidence.t_stat.value_or(NAN),
@@ -90,7 +93,8 @@ void add_analyze(CLI::App& app) {
     }
     if (J.effects.empty()) std::printf("%s\n", J.conclusion.c_str());
     std::printf("final      RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
-                J.final_fit.rms_n, J.final_fit.relative_error_pct, J.final_fit.full_rate_relative_error_pct);
+                J.final_fit.rms_n, J.final_fit.relative_error_pct,
+                J.final_fit.full_rate_relative_error_pct);
     std::printf("held-out:");
     for (const auto& v : J.validation) std::printf("  %s %.4g N", v.model.c_str(), v.heldout_rms_n);
     std::printf("\nwrote %s/report.html, analysis.json, model_corrected.toml\n", o->out.c_str());

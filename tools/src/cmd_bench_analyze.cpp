@@ -14,10 +14,10 @@
 
 #include "bench_common.hpp"
 #include "cli_common.hpp"
-#include "maglead/twin/model.hpp"
 #include "maglead/analysis/analysis.hpp"
-#include "maglead/report/analysis_page.hpp"
 #include "maglead/plant/scenario.hpp"
+#include "maglead/report/analysis_page.hpp"
+#include "maglead/twin/model.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -145,7 +145,7 @@ void add_bench_analyze(CLI::App& app) {
     const bool has_model = std::filesystem::exists(config_file(o->config, "model.toml"));
     if (has_model) twin::check_model_format(config_file(o->config, "model.toml"));
     const auto model = has_model ? analysis::load_model(config_file(o->config, "model.toml"))
-                           : analysis::actuator_model_from_config(act);
+                                 : analysis::actuator_model_from_config(act);
     const auto cal = load_calibration(config_file(o->config, "calibration.toml"));
 
     warm_page_cache(path);
@@ -170,8 +170,9 @@ void add_bench_analyze(CLI::App& app) {
     const auto& J = result.findings;
     std::printf("maglead bench analyze: %zu samples (%.0f s at 1 kHz)\n", rec.rows(),
                 static_cast<double>(rec.rows()) / 1000.0);
-    std::printf("  read recording   %7.2f s\n  analysis         %7.2f s\n  report + plots   %7.2f s\n",
-                t_read, t_an, t_out);
+    std::printf(
+        "  read recording   %7.2f s\n  analysis         %7.2f s\n  report + plots   %7.2f s\n",
+        t_read, t_an, t_out);
     std::printf("  total            %7.2f s   (target <= 5 s for one hour)\n", total);
     std::printf("  peak memory      %7.0f MB (max resident set size)\n", peak_rss_mb());
     std::printf("  found:");

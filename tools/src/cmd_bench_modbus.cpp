@@ -38,7 +38,8 @@ class ReferenceServer {
     mapping_ = modbus_mapping_new_start_address(0, 8, 0, 16, 0, 1100, 0, 128);
     if (!ctx_ || !mapping_) throw std::runtime_error("reference server: out of memory");
     listen_fd_ = modbus_tcp_listen(ctx_, 64);
-    if (listen_fd_ < 0) throw std::runtime_error(std::string("reference server: ") + modbus_strerror(errno));
+    if (listen_fd_ < 0)
+      throw std::runtime_error(std::string("reference server: ") + modbus_strerror(errno));
     sockaddr_in sa{};
     socklen_t sl = sizeof sa;
     getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&sa), &sl);
@@ -103,9 +104,12 @@ class ReferenceServer {
 enum class Work { read_holding, read_input, write_multiple };
 const char* work_name(Work w) {
   switch (w) {
-    case Work::read_holding: return "FC3 read 16";
-    case Work::read_input: return "FC4 read 16";
-    case Work::write_multiple: return "FC16 write 16";
+    case Work::read_holding:
+      return "FC3 read 16";
+    case Work::read_input:
+      return "FC4 read 16";
+    case Work::write_multiple:
+      return "FC16 write 16";
   }
   return "?";
 }
@@ -161,8 +165,12 @@ Result measure(int port, Work work, int clients, double seconds) {
         const auto t0 = Clock::now();
         int rc = -1;
         switch (work) {
-          case Work::read_holding: rc = modbus_read_registers(ctx, 10, 16, regs); break;
-          case Work::read_input: rc = modbus_read_input_registers(ctx, 10, 16, regs); break;
+          case Work::read_holding:
+            rc = modbus_read_registers(ctx, 10, 16, regs);
+            break;
+          case Work::read_input:
+            rc = modbus_read_input_registers(ctx, 10, 16, regs);
+            break;
           case Work::write_multiple:
             rc = modbus_write_registers(ctx, 1004, 16, (k++ & 1 ? words_a : words_b).data());
             break;
@@ -218,13 +226,16 @@ class LoopWatch {
     d.overruns = service_.controller().snapshot().overrun_count - overruns0_;
     d.twin_lagging = twin_lagging() - lagging0_;
     for (double& l : log.late_s) l *= 1e6;
-    if (!log.late_s.empty()) d.late_max_us = *std::max_element(log.late_s.begin(), log.late_s.end());
+    if (!log.late_s.empty())
+      d.late_max_us = *std::max_element(log.late_s.begin(), log.late_s.end());
     d.late_p99_us = percentile(log.late_s, 0.99);
     return d;
   }
 
  private:
-  std::uint64_t twin_lagging() const { return service_.twin() ? service_.twin()->stats().lagging_cycles : 0; }
+  std::uint64_t twin_lagging() const {
+    return service_.twin() ? service_.twin()->stats().lagging_cycles : 0;
+  }
   runtime::Service& service_;
   std::uint64_t overruns0_ = 0, lagging0_ = 0;
 };
@@ -242,18 +253,20 @@ runtime::ServiceConfig bench_service(const std::string& config_dir, bool twin) {
   return sc;
 }
 
-void print_row(const char* work, const char* clients, const char* server, const Result& r, const char* ratio,
-               const LoopDuring& d) {
-  std::printf("%-14s %7s  %-9s %9.0f %8.1f %8.1f %9.1f %6s  %8llu %8.1f %8.1f %6llu\n", work, clients, server, r.rps,
-              r.p50_us, r.p99_us, r.max_us, ratio, static_cast<unsigned long long>(d.overruns), d.late_p99_us,
-              d.late_max_us, static_cast<unsigned long long>(d.twin_lagging));
+void print_row(const char* work, const char* clients, const char* server, const Result& r,
+               const char* ratio, const LoopDuring& d) {
+  std::printf("%-14s %7s  %-9s %9.0f %8.1f %8.1f %9.1f %6s  %8llu %8.1f %8.1f %6llu\n", work,
+              clients, server, r.rps, r.p50_us, r.p99_us, r.max_us, ratio,
+              static_cast<unsigned long long>(d.overruns), d.late_p99_us, d.late_max_us,
+              static_cast<unsigned long long>(d.twin_lagging));
 }
 
 void add_bench_modbus(CLI::App& app) {
   auto* cmd = bench_command(app)->add_subcommand(
-      "modbus", "Modbus TCP requests/s and latency of the controller's server, with the 1 kHz loop and the "
-                "digital twin running, beside a plain libmodbus server; the loop's overruns and lateness "
-                "during each case");
+      "modbus",
+      "Modbus TCP requests/s and latency of the controller's server, with the 1 kHz loop and the "
+      "digital twin running, beside a plain libmodbus server; the loop's overruns and lateness "
+      "during each case");
   struct Opts {
     bool quick = false, no_twin = false;
     int twin_priority = runtime::ServiceConfig{}.twin_fifo_priority;
@@ -262,11 +275,15 @@ void add_bench_modbus(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   cmd->add_flag("--quick", o->quick, "Short run (0.4 s per case) for a smoke test");
-  cmd->add_option("--seconds", o->seconds, "Seconds per case")->check(CLI::Range(0.1, 600.0))->capture_default_str();
+  cmd->add_option("--seconds", o->seconds, "Seconds per case")
+      ->check(CLI::Range(0.1, 600.0))
+      ->capture_default_str();
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
   cmd->add_flag("--no-twin", o->no_twin, "Run the loop without the digital twin");
-  cmd->add_option("--twin-priority", o->twin_priority, "The twin thread's SCHED_FIFO priority (0: SCHED_OTHER)")
-      ->check(CLI::Range(0, 49))->capture_default_str();
+  cmd->add_option("--twin-priority", o->twin_priority,
+                  "The twin thread's SCHED_FIFO priority (0: SCHED_OTHER)")
+      ->check(CLI::Range(0, 49))
+      ->capture_default_str();
   cmd->callback([o] {
     const double seconds = o->quick ? 0.4 : o->seconds;
     runtime::ServiceConfig sc = bench_service(o->config, !o->no_twin);
@@ -276,23 +293,29 @@ void add_bench_modbus(CLI::App& app) {
     ReferenceServer reference;
     const int port = service.tcp_port();
 
-    std::printf("maglead bench modbus: %.1f s per case, %u CPUs, loop %.0f Hz on the simulated actuator, %s\n",
-                seconds, std::thread::hardware_concurrency(),
-                service.controller().config().actuator.sample_rate_hz,
-                service.twin() ? "digital twin on its own thread" : "no twin");
+    std::printf(
+        "maglead bench modbus: %.1f s per case, %u CPUs, loop %.0f Hz on the simulated actuator, "
+        "%s\n",
+        seconds, std::thread::hardware_concurrency(),
+        service.controller().config().actuator.sample_rate_hz,
+        service.twin() ? "digital twin on its own thread" : "no twin");
     const auto& grant = service.loop().realtime_grant();
-    std::printf("loop: %s, %s%s\n", grant.fifo ? "SCHED_FIFO" : "normal scheduling (no real-time priority granted)",
-                grant.pinned ? ("pinned to CPU " + std::to_string(grant.cpu)).c_str() : "not pinned",
-                service.refused().empty() ? "" : ("; not granted: " + service.refused()).c_str());
+    std::printf(
+        "loop: %s, %s%s\n",
+        grant.fifo ? "SCHED_FIFO" : "normal scheduling (no real-time priority granted)",
+        grant.pinned ? ("pinned to CPU " + std::to_string(grant.cpu)).c_str() : "not pinned",
+        service.refused().empty() ? "" : ("; not granted: " + service.refused()).c_str());
     {
       LoopWatch watch(service);
       std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
       const LoopDuring idle = watch.end();
       std::printf("no network load: %llu overruns, lateness p99 %.1f us, max %.1f us\n\n",
-                  static_cast<unsigned long long>(idle.overruns), idle.late_p99_us, idle.late_max_us);
+                  static_cast<unsigned long long>(idle.overruns), idle.late_p99_us,
+                  idle.late_max_us);
     }
-    std::printf("%-14s %7s  %-9s %9s %8s %8s %9s %6s  %8s %8s %8s %6s\n", "case", "clients", "server", "req/s",
-                "p50 us", "p99 us", "max us", "ratio", "overruns", "late p99", "late max", "twin lag");
+    std::printf("%-14s %7s  %-9s %9s %8s %8s %9s %6s  %8s %8s %8s %6s\n", "case", "clients",
+                "server", "req/s", "p50 us", "p99 us", "max us", "ratio", "overruns", "late p99",
+                "late max", "twin lag");
     bool throughput_ok = true, latency_ok = true, loop_ok = true;
     std::size_t total_errors = 0;
     for (Work work : {Work::read_holding, Work::read_input, Work::write_multiple}) {
@@ -319,12 +342,15 @@ void add_bench_modbus(CLI::App& app) {
       }
     }
     service.stop();
-    std::printf("\ncolumns overruns/late/twin lag: the loop during that case (cycles started > 1 period late; "
-                "start after deadline [us]; cycles with twin_lagging)\n");
-    std::printf("targets: with 16 clients, throughput >= reference: %s; p99 < 1 ms: %s; "
-                "loop 0 overruns and lateness p99 < 200 us: %s; request errors: %zu\n",
-                throughput_ok ? "met" : "NOT met", latency_ok ? "met" : "NOT met", loop_ok ? "met" : "NOT met",
-                total_errors);
+    std::printf(
+        "\ncolumns overruns/late/twin lag: the loop during that case (cycles started > 1 period "
+        "late; "
+        "start after deadline [us]; cycles with twin_lagging)\n");
+    std::printf(
+        "targets: with 16 clients, throughput >= reference: %s; p99 < 1 ms: %s; "
+        "loop 0 overruns and lateness p99 < 200 us: %s; request errors: %zu\n",
+        throughput_ok ? "met" : "NOT met", latency_ok ? "met" : "NOT met",
+        loop_ok ? "met" : "NOT met", total_errors);
   });
 }
 

@@ -3,12 +3,12 @@
 // and at the twin's (both measured against a tight-tolerance BDF reference in the same run), and
 // the cost of a whole TwinMonitor tick.
 #include <chrono>
-#include <cstdlib>
-#include <memory>
-#include <thread>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
+#include <memory>
+#include <thread>
 #include <vector>
 
 #include "bench_common.hpp"
@@ -74,13 +74,14 @@ GridRun best_of(int repeats, const Make& make, const twin::InputSource& drive, d
   return best;
 }
 
-constexpr double kTargetRtf = 1000.0;       // the twin leaves the loop's core nearly free
-constexpr double kTargetError_m = 1e-6;     // a twentieth of a linear-encoder count
+constexpr double kTargetRtf = 1000.0;    // the twin leaves the loop's core nearly free
+constexpr double kTargetError_m = 1e-6;  // a twentieth of a linear-encoder count
 
 void add_bench_twin(CLI::App& app) {
   auto* cmd = bench_command(app)->add_subcommand(
-      "twin", "Digital twin: real-time factor and CVODE statistics beside fixed-step RK4 at equal "
-              "accuracy, and the TwinMonitor's cost per control tick");
+      "twin",
+      "Digital twin: real-time factor and CVODE statistics beside fixed-step RK4 at equal "
+      "accuracy, and the TwinMonitor's cost per control tick");
   struct Opts {
     bool quick = false;
     double duration_s = 120.0;
@@ -104,12 +105,16 @@ void add_bench_twin(CLI::App& app) {
     const int repeats = o->quick ? 1 : 3;
     double load[1] = {std::numeric_limits<double>::quiet_NaN()};
     getloadavg(load, 1);
-    std::printf("maglead bench twin: %.0f s of simulated time, 1 kHz output grid, single thread, "
-                "best of %d runs\n", T, repeats);
+    std::printf(
+        "maglead bench twin: %.0f s of simulated time, 1 kHz output grid, single thread, "
+        "best of %d runs\n",
+        T, repeats);
     std::printf("  drive: screw moves and hand-like pushes with knocks (seed %llu); model %s\n",
                 static_cast<unsigned long long>(o->seed), cfg.model.source.c_str());
-    std::printf("  machine: %u CPUs, load average %.2f; real-time factors are simulated s per "
-                "thread-CPU s\n", std::thread::hardware_concurrency(), load[0]);
+    std::printf(
+        "  machine: %u CPUs, load average %.2f; real-time factors are simulated s per "
+        "thread-CPU s\n",
+        std::thread::hardware_concurrency(), load[0]);
 
     // Reference: BDF (independent of the twin's Adams), tight tolerances and a 0.1 ms cap.
     twin::IntegratorOptions ref_opt;
@@ -119,8 +124,10 @@ void add_bench_twin(CLI::App& app) {
     ref_opt.max_step_s = 1e-4;
     ref_opt.max_internal_steps = 100000000;
     ref_opt.stiff = true;
-    std::printf("  reference: CVODE BDF, rtol %.0e, max step %.3g ms; errors are max |p - p_ref| "
-                "over the grid\n", ref_opt.rel_tol, ref_opt.max_step_s * 1e3);
+    std::printf(
+        "  reference: CVODE BDF, rtol %.0e, max step %.3g ms; errors are max |p - p_ref| "
+        "over the grid\n",
+        ref_opt.rel_tol, ref_opt.max_step_s * 1e3);
     const auto fresh_twin = [&](const twin::IntegratorOptions& opt) {
       return [&model, &drive, s0, th0, f0, opt] {
         auto tw = std::make_unique<twin::HybridTwin>(model, opt);
@@ -141,12 +148,14 @@ void add_bench_twin(CLI::App& app) {
     std::printf("                       %10.0f  (per wall s, the machine's load included)\n",
                 T / r_cv.wall_s);
     std::printf("    max |p - p_ref|    %10.3g um\n", err_cv * 1e6);
-    std::printf("    steps %ld (sliding), RHS evaluations %ld, Jacobian evaluations %ld, "
-                "break-away checks while stuck %ld\n",
-                st.steps, st.rhs_evals, st.jac_evals, st.stuck_checks);
-    std::printf("    root events %ld (mode switches %ld, stable-branch edge crossings %ld), "
-                "re-initialisations %ld\n",
-                st.root_events, st.mode_switches, st.step_out_crossings, st.reinits);
+    std::printf(
+        "    steps %ld (sliding), RHS evaluations %ld, Jacobian evaluations %ld, "
+        "break-away checks while stuck %ld\n",
+        st.steps, st.rhs_evals, st.jac_evals, st.stuck_checks);
+    std::printf(
+        "    root events %ld (mode switches %ld, stable-branch edge crossings %ld), "
+        "re-initialisations %ld\n",
+        st.root_events, st.mode_switches, st.step_out_crossings, st.reinits);
 
     // RK4 at halving steps until it is as accurate as the twin.
     std::printf("\n  fixed-step RK4 of the same hybrid model (events at step ends)\n");
@@ -173,14 +182,17 @@ void add_bench_twin(CLI::App& app) {
     if (std::isnan(rtf_equal))
       std::printf("    RK4 did not reach the twin's accuracy down to 1 us steps\n");
     else
-      std::printf("    at the twin's accuracy (step %.4g ms): RK4 real-time factor %.0f vs twin "
-                  "%.0f\n", h_equal * 1e3, rtf_equal, rtf_cv);
+      std::printf(
+          "    at the twin's accuracy (step %.4g ms): RK4 real-time factor %.0f vs twin "
+          "%.0f\n",
+          h_equal * 1e3, rtf_equal, rtf_cv);
 
     const bool met = rtf_cv >= kTargetRtf && err_cv <= kTargetError_m;
-    std::printf("\n  target: real-time factor >= %.0f at max |p - p_ref| <= %.0f um: twin %.0f at "
-                "%.3g um, %s; RK4 %.0f at %.3g um (step %.4g ms)\n",
-                kTargetRtf, kTargetError_m * 1e6, rtf_cv, err_cv * 1e6, met ? "met" : "NOT met",
-                rtf_target, err_target * 1e6, h_target * 1e3);
+    std::printf(
+        "\n  target: real-time factor >= %.0f at max |p - p_ref| <= %.0f um: twin %.0f at "
+        "%.3g um, %s; RK4 %.0f at %.3g um (step %.4g ms)\n",
+        kTargetRtf, kTargetError_m * 1e6, rtf_cv, err_cv * 1e6, met ? "met" : "NOT met", rtf_target,
+        err_target * 1e6, h_target * 1e3);
 
     // The whole monitor per tick: quantized positions of the reference run as the measurement.
     twin::TwinMonitor mon(cfg);
@@ -195,8 +207,9 @@ void add_bench_twin(CLI::App& app) {
                   .dynamic_output_force_est_n;
     }
     const double wall = thread_cpu_s() - c0;
-    std::printf("\n  TwinMonitor (observer, twin, %g ms look-ahead every %d ticks, coupling-gain RLS)\n",
-                cfg.lookahead_s * 1e3, cfg.lookahead_every_ticks);
+    std::printf(
+        "\n  TwinMonitor (observer, twin, %g ms look-ahead every %d ticks, coupling-gain RLS)\n",
+        cfg.lookahead_s * 1e3, cfg.lookahead_every_ticks);
     std::printf("    real-time factor   %10.0f  (%.1f us thread CPU per 1 ms tick)%s\n", T / wall,
                 wall / static_cast<double>(n) * 1e6, std::isfinite(sink) ? "" : " (non-finite!)");
   });

@@ -25,8 +25,9 @@ void add_calibrate(CLI::App& app) {
       ->required();
   cmd->add_option("--out", o->out, "Calibration file to write (TOML)")->required();
   cmd->add_option("--plot", o->plot, "Also draw data and fit into this PNG");
-  cmd->add_option("--order-gain", o->gain_pct,
-                  "Choose the lowest order that no higher order improves by more than this [% RMSE]")
+  cmd->add_option(
+         "--order-gain", o->gain_pct,
+         "Choose the lowest order that no higher order improves by more than this [% RMSE]")
       ->capture_default_str();
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
   cmd->callback([o] {

@@ -14,9 +14,10 @@ namespace maglead::cli {
 namespace {
 
 void add_estimate(CLI::App& app) {
-  auto* cmd = app.add_subcommand(
-      "estimate", "Estimate the output force from a recording's angles and positions and "
-                  "compare it with the load cell; plot as in the paper's Fig. 11");
+  auto* cmd =
+      app.add_subcommand("estimate",
+                         "Estimate the output force from a recording's angles and positions and "
+                         "compare it with the load cell; plot as in the paper's Fig. 11");
   struct Opts {
     std::string recording, plot, calibration, model, config = default_config_dir(),
                                                      estimator = "static";
@@ -35,7 +36,8 @@ void add_estimate(CLI::App& app) {
                   "model_corrected.toml that maglead analyze wrote")
       ->check(CLI::ExistingFile);
   cmd->add_option("--plot", o->plot, "PNG to write (default: next to the recording)");
-  cmd->add_option("--calibration", o->calibration, "Calibration file (default: CONFIG/calibration.toml)");
+  cmd->add_option("--calibration", o->calibration,
+                  "Calibration file (default: CONFIG/calibration.toml)");
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
   cmd->callback([o] {
     const ActuatorParams act = load_actuator_or_default(o->config);
@@ -62,7 +64,8 @@ void add_estimate(CLI::App& app) {
       twin::TwinMonitor mon(tc);
       mon.reset(t[0], screw[0], pos[0]);
       const double nan = std::numeric_limits<double>::quiet_NaN();
-      const std::vector<double>* fset = rec.has("force_set_n") ? &rec.column("force_set_n") : nullptr;
+      const std::vector<double>* fset =
+          rec.has("force_set_n") ? &rec.column("force_set_n") : nullptr;
       for (std::size_t i = 0; i < n; ++i) {
         const auto out = mon.step({t[i], screw[i], pos[i], fset ? (*fset)[i] : nan});
         estimate[i] = out.dynamic_output_force_est_n;
@@ -98,12 +101,18 @@ void add_estimate(CLI::App& app) {
       screw_mm[i] = screw[i] * act.lead_m / (2 * std::numbers::pi) * 1e3;
     }
     plot::save_panels_png(
-        png, {{"(a) Output force: estimate against load cell", "time [s]", "force [N]",
+        png, {{"(a) Output force: estimate against load cell",
+               "time [s]",
+               "force [N]",
                {{"load cell", t, measured}, {o->estimator + " estimate", t, estimate}}},
               {"(b) Estimation error (estimate - load cell), mean |e| " +
                    std::to_string(s.mean_abs).substr(0, 4) + " N",
-               "time [s]", "error [N]", {{"error", t, error}}},
-              {"(c) Nut position and screw angle (as lead travel)", "time [s]", "[mm]",
+               "time [s]",
+               "error [N]",
+               {{"error", t, error}}},
+              {"(c) Nut position and screw angle (as lead travel)",
+               "time [s]",
+               "[mm]",
                {{"nut position", t, pos_mm}, {"screw angle x L/2pi", t, screw_mm}}}});
     std::printf("plot: %s\n", png.c_str());
   });

@@ -13,29 +13,32 @@ namespace {
 
 namespace reg = maglead::registers;
 
-
 /// What a code register means, for the table's last column.
 std::string meaning(const reg::Register& r, double v) {
   if (r.name == "status_word") {
     std::string s;
-    for (const auto& n : op::status_bits(static_cast<std::uint16_t>(v))) s += (s.empty() ? "" : " ") + n;
+    for (const auto& n : op::status_bits(static_cast<std::uint16_t>(v)))
+      s += (s.empty() ? "" : " ") + n;
     return s.empty() ? "(no bits set)" : s;
   }
-  if (r.name == "alarm_code") return op::code_name(reg::alarm_codes(), v) + ": " + op::code_meaning(reg::alarm_codes(), v);
+  if (r.name == "alarm_code")
+    return op::code_name(reg::alarm_codes(), v) + ": " + op::code_meaning(reg::alarm_codes(), v);
   if (r.name == "command_reject_reason") return op::code_name(reg::reject_codes(), v);
   if (r.name == "drive_state") return op::code_name(reg::drive_states(), v);
   if (r.name == "active_mode" || r.name == "mode_command") return op::code_name(reg::modes(), v);
   if (r.name == "device_type") {
     char b[32];
-    std::snprintf(b, sizeof b, "0x%04X%s", static_cast<unsigned>(v), v == reg::kDeviceType ? " (maglead)" : "");
+    std::snprintf(b, sizeof b, "0x%04X%s", static_cast<unsigned>(v),
+                  v == reg::kDeviceType ? " (maglead)" : "");
     return b;
   }
   if (r.name == "control_owner_ipv4" && v != 0) {
     const auto a = static_cast<std::uint32_t>(v);
-    return std::to_string(a >> 24) + "." + std::to_string((a >> 16) & 255) + "." + std::to_string((a >> 8) & 255) +
-           "." + std::to_string(a & 255);
+    return std::to_string(a >> 24) + "." + std::to_string((a >> 16) & 255) + "." +
+           std::to_string((a >> 8) & 255) + "." + std::to_string(a & 255);
   }
-  if (r.name == "control_owner") return v == 0 ? "nobody" : v == 65535 ? "the RTU master" : "TCP connection";
+  if (r.name == "control_owner")
+    return v == 0 ? "nobody" : v == 65535 ? "the RTU master" : "TCP connection";
   if (r.name == "control_word") {
     std::string s;
     for (const auto& c : reg::table())
@@ -58,8 +61,10 @@ std::string json_literal(const reg::Register& r, double si, std::uint32_t raw_wo
 }
 
 void add_poll(CLI::App& app) {
-  auto* cmd = app.add_subcommand("poll", "Read a maglead controller's registers once (Modbus TCP or RTU) and "
-                                         "print them by name in SI units");
+  auto* cmd =
+      app.add_subcommand("poll",
+                         "Read a maglead controller's registers once (Modbus TCP or RTU) and "
+                         "print them by name in SI units");
   auto conn = add_connection_options(cmd);
   struct Opts {
     bool json = false, csv = false, raw = false, all = false;
@@ -67,14 +72,16 @@ void add_poll(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   auto* fmt = cmd->add_option_group("Output format");
-  fmt->add_flag("--json", o->json,
-                "JSON: {\"values\": {name: value}, \"units\": …, \"status_bits\": …}; values rounded to the "
-                "register's resolution");
+  fmt->add_flag(
+      "--json", o->json,
+      "JSON: {\"values\": {name: value}, \"units\": …, \"status_bits\": …}; values rounded to the "
+      "register's resolution");
   fmt->add_flag("--csv", o->csv, "CSV: name,value,unit");
   fmt->require_option(0, 1);
-  cmd->add_flag("--raw", o->raw,
-                "Raw register contents (integers as sent) under the register names (nut_pos_um in um), "
-                "instead of SI values under SI names (nut_pos_m in m)");
+  cmd->add_flag(
+      "--raw", o->raw,
+      "Raw register contents (integers as sent) under the register names (nut_pos_um in um), "
+      "instead of SI values under SI names (nut_pos_m in m)");
   cmd->add_flag("--all", o->all, "Also the float32 duplicates and identity probes");
   cmd->add_option("--names", o->names,
                   "Only these registers: register names from 'maglead registers' or their SI names "
@@ -87,10 +94,12 @@ void add_poll(CLI::App& app) {
         const auto* r = op::find_by_any_name(n);
         if (!r) {
           std::vector<std::string> all;
-          for (const auto& x : reg::table()) all.push_back(std::string(x.name)), all.push_back(op::si_name(x));
+          for (const auto& x : reg::table())
+            all.push_back(std::string(x.name)), all.push_back(op::si_name(x));
           const std::string guess = closest_match(n, all);
           throw op::ClientError(op::ClientError::Kind::refused_locally,
-                                "no register named '" + n + "'" + (guess.empty() ? "" : "; did you mean '" + guess + "'?"));
+                                "no register named '" + n + "'" +
+                                    (guess.empty() ? "" : "; did you mean '" + guess + "'?"));
         }
         wanted.push_back(r);
       }
@@ -105,13 +114,19 @@ void add_poll(CLI::App& app) {
       } else {
         for (std::size_t i = 0; i < v.regs.size(); ++i) {
           const auto& r = *v.regs[i];
-          if (!o->all && (r.type == reg::Type::f32 || r.name.starts_with("word_order_probe"))) continue;
+          if (!o->all && (r.type == reg::Type::f32 || r.name.starts_with("word_order_probe")))
+            continue;
           shown.push_back(i);
         }
       }
-      // SI values go under SI names (nut_pos_m), raw integers under the register names (nut_pos_um).
-      const auto name_of = [&](std::size_t i) { return o->raw ? std::string(v.regs[i]->name) : op::si_name(*v.regs[i]); };
-      const auto text_of = [&](std::size_t i) { return o->raw ? std::to_string(v.raw[i]) : op::si_text(*v.regs[i], v.si[i]); };
+      // SI values go under SI names (nut_pos_m), raw integers under the register names
+      // (nut_pos_um).
+      const auto name_of = [&](std::size_t i) {
+        return o->raw ? std::string(v.regs[i]->name) : op::si_name(*v.regs[i]);
+      };
+      const auto text_of = [&](std::size_t i) {
+        return o->raw ? std::to_string(v.raw[i]) : op::si_text(*v.regs[i], v.si[i]);
+      };
       if (o->json) {
         // "values" is written by hand (json_literal) and put in place of a marker after dump().
         static const std::string kMarker = "\"values\": \"@values@\"";
@@ -119,7 +134,8 @@ void add_poll(CLI::App& app) {
         nlohmann::ordered_json j, units = nlohmann::ordered_json::object();
         for (auto i : shown) {
           const auto& r = *v.regs[i];
-          vals += std::string(vals.back() == '{' ? "" : ",") + "\n    " + nlohmann::json(name_of(i)).dump() + ": " +
+          vals += std::string(vals.back() == '{' ? "" : ",") + "\n    " +
+                  nlohmann::json(name_of(i)).dump() + ": " +
                   json_literal(r, v.si[i], v.raw[i], o->raw);
           units[name_of(i)] = o->raw ? "raw" : std::string(r.unit);
         }

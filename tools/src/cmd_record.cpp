@@ -8,8 +8,8 @@
 #include <limits>
 #include <thread>
 
-#include "operator_cli.hpp"
 #include "maglead/recording/recording.hpp"
+#include "operator_cli.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -22,8 +22,9 @@ volatile std::sig_atomic_t g_interrupted = 0;
 void on_interrupt(int) { g_interrupted = 1; }
 
 void add_record(CLI::App& app) {
-  auto* cmd = app.add_subcommand("record", "Poll a controller at a fixed rate and write an mls-recording/1 "
-                                           "(angles, position, force estimate, setpoints, load cell, twin)");
+  auto* cmd = app.add_subcommand("record",
+                                 "Poll a controller at a fixed rate and write an mls-recording/1 "
+                                 "(angles, position, force estimate, setpoints, load cell, twin)");
   auto conn = add_connection_options(cmd);
   struct Opts {
     std::string duration, out, load_cell = "auto";
@@ -32,9 +33,12 @@ void add_record(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   cmd->add_option("--duration", o->duration, "How long to record (e.g. 60s, 2min)")->required();
   cmd->add_option("--out", o->out, "Recording to write (CSV)")->required();
-  cmd->add_option("--rate", o->rate_hz, "Polls per second")->check(CLI::Range(1.0, 1000.0))->capture_default_str();
+  cmd->add_option("--rate", o->rate_hz, "Polls per second")
+      ->check(CLI::Range(1.0, 1000.0))
+      ->capture_default_str();
   cmd->add_option("--load-cell", o->load_cell,
-                  "Log load_force_n: auto (if the controller reports a non-zero load cell at start), yes, no")
+                  "Log load_force_n: auto (if the controller reports a non-zero load cell at "
+                  "start), yes, no")
       ->check(CLI::IsMember({"auto", "yes", "no"}))
       ->capture_default_str();
   cmd->callback([o, conn] {
@@ -43,7 +47,8 @@ void add_record(CLI::App& app) {
       op::Client client(endpoint_of(*conn));
       client.check_identity();
       const double loop_hz = client.read_range(reg::Table::input_register, 3, 1).at("loop_rate_hz");
-      if (!(loop_hz > 0)) throw ClientError(ClientError::Kind::protocol, "controller reports a loop rate of 0 Hz");
+      if (!(loop_hz > 0))
+        throw ClientError(ClientError::Kind::protocol, "controller reports a loop rate of 0 Hz");
       // One request covers status through the cycle counter: every row is one control cycle.
       const auto* first = reg::find("status_word");
       const auto* last = reg::find("loop_cycle_count");
@@ -52,28 +57,30 @@ void add_record(CLI::App& app) {
       auto poll = [&] { return client.read_range(reg::Table::input_register, start, count); };
 
       const auto probe = poll();
-      const bool load_cell =
-          o->load_cell == "yes" || (o->load_cell == "auto" && probe.at("load_cell_force_mn") != 0.0);
+      const bool load_cell = o->load_cell == "yes" ||
+                             (o->load_cell == "auto" && probe.at("load_cell_force_mn") != 0.0);
 
-      std::vector<std::string> names = {"t_s",          "screw_angle_rad", "nut_pos_m", "nut_vel_m_s", "phase_rad",
-                                        "out_force_est_n", "force_set_n",  "pos_set_m", "profile_pos_m"};
+      std::vector<std::string> names = {"t_s",         "screw_angle_rad", "nut_pos_m",
+                                        "nut_vel_m_s", "phase_rad",       "out_force_est_n",
+                                        "force_set_n", "pos_set_m",       "profile_pos_m"};
       if (load_cell) names.push_back("load_force_n");
       for (const char* n : {"twin_pred_nut_pos_m", "twin_pred_out_force_n", "twin_residual_pos_m",
-                            "twin_residual_force_n", "twin_dynamic_out_force_est_n", "status_word", "alarm_code",
-                            "drive_state", "active_mode", "step_out_count"})
+                            "twin_residual_force_n", "twin_dynamic_out_force_est_n", "status_word",
+                            "alarm_code", "drive_state", "active_mode", "step_out_count"})
         names.emplace_back(n);
       char rate_text[32], loop_text[32];
       std::snprintf(rate_text, sizeof rate_text, "%g", o->rate_hz);
       std::snprintf(loop_text, sizeof loop_text, "%g", loop_hz);
-      RecordingWriter out(o->out,
-                          {{"sample_rate_hz", rate_text},
-                           {"source", "maglead record from " + client.endpoint().describe()},
-                           {"system", "magnetic lead-screw actuator"},
-                           {"controller_loop_rate_hz", loop_text},
-                           {"time_base", "controller cycle counter / loop rate (t_s of the sampled cycle)"},
-                           {"load_force_sign", "force on the nut from the load (= -output force of the register)"},
-                           {"twin_columns", "empty while the controller runs no twin (all twin registers 0)"}},
-                          names);
+      RecordingWriter out(
+          o->out,
+          {{"sample_rate_hz", rate_text},
+           {"source", "maglead record from " + client.endpoint().describe()},
+           {"system", "magnetic lead-screw actuator"},
+           {"controller_loop_rate_hz", loop_text},
+           {"time_base", "controller cycle counter / loop rate (t_s of the sampled cycle)"},
+           {"load_force_sign", "force on the nut from the load (= -output force of the register)"},
+           {"twin_columns", "empty while the controller runs no twin (all twin registers 0)"}},
+          names);
 
       std::signal(SIGINT, on_interrupt);
       std::signal(SIGTERM, on_interrupt);
@@ -89,8 +96,9 @@ void add_record(CLI::App& app) {
       std::uint64_t k = 0;
       std::string lost;
       while (!g_interrupted) {
-        const auto deadline = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
-                                        static_cast<double>(k) * period_s));
+        const auto deadline =
+            t0 + std::chrono::duration_cast<Clock::duration>(
+                     std::chrono::duration<double>(static_cast<double>(k) * period_s));
         if (static_cast<double>(k) * period_s >= duration_s) break;
         std::this_thread::sleep_until(deadline);
         // Behind by whole periods (a slow reply): those polls are missed, not made up later.
@@ -114,7 +122,8 @@ void add_record(CLI::App& app) {
           ++timeouts;
           client.flush();
           // Over 2 s without a reply (and more than 3 polls) means the controller is gone.
-          if (static_cast<double>(++consecutive_failures) * period_s > 2.0 && consecutive_failures > 3) {
+          if (static_cast<double>(++consecutive_failures) * period_s > 2.0 &&
+              consecutive_failures > 3) {
             lost = e.what();
             break;
           }
@@ -132,9 +141,10 @@ void add_record(CLI::App& app) {
           last_cycle = cycle;
         }
         const double mode = v.at("active_mode");
-        const bool twin = v.at("twin_pred_nut_pos_um") != 0.0 || v.at("twin_pred_force_mn") != 0.0 ||
-                          v.at("twin_residual_pos_um") != 0.0 || v.at("twin_residual_force_mn") != 0.0 ||
-                          v.at("twin_dynamic_force_mn") != 0.0;
+        const bool twin =
+            v.at("twin_pred_nut_pos_um") != 0.0 || v.at("twin_pred_force_mn") != 0.0 ||
+            v.at("twin_residual_pos_um") != 0.0 || v.at("twin_residual_force_mn") != 0.0 ||
+            v.at("twin_dynamic_force_mn") != 0.0;
         std::size_t c = 0;
         row[c++] = static_cast<double>(cycles) / loop_hz;
         row[c++] = v.at("screw_angle_urad");
@@ -142,10 +152,13 @@ void add_record(CLI::App& app) {
         row[c++] = v.at("nut_vel_um_s");
         row[c++] = v.at("phase_urad");
         row[c++] = v.at("force_est_mn");
-        row[c++] = mode == static_cast<double>(reg::Mode::force) ? v.at("active_force_setpoint_mn") : nan;
-        row[c++] = mode == static_cast<double>(reg::Mode::position) ? v.at("active_target_pos_um") : nan;
+        row[c++] =
+            mode == static_cast<double>(reg::Mode::force) ? v.at("active_force_setpoint_mn") : nan;
+        row[c++] =
+            mode == static_cast<double>(reg::Mode::position) ? v.at("active_target_pos_um") : nan;
         row[c++] = v.at("profile_pos_um");
-        if (load_cell) row[c++] = -v.at("load_cell_force_mn");  // register: output force; column: load force
+        if (load_cell)
+          row[c++] = -v.at("load_cell_force_mn");  // register: output force; column: load force
         row[c++] = twin ? v.at("twin_pred_nut_pos_um") : nan;
         row[c++] = twin ? v.at("twin_pred_force_mn") : nan;
         row[c++] = twin ? v.at("twin_residual_pos_um") : nan;
@@ -166,16 +179,21 @@ void add_record(CLI::App& app) {
       std::signal(SIGTERM, SIG_DFL);
       const double span_s = static_cast<double>(cycles) / loop_hz;
       const std::size_t attempts = static_cast<std::size_t>(k);
-      std::printf("recorded %zu samples over %.2f s of controller time from %s at %g Hz requested (%.1f Hz achieved)%s\n",
-                  rows, span_s, client.endpoint().describe().c_str(), o->rate_hz,
-                  span_s > 0 && rows > 1 ? static_cast<double>(rows - 1) / span_s : 0.0,
-                  g_interrupted ? ", interrupted" : "");
-      std::printf("dropped polls: %zu of %zu (%zu without reply, %zu missed while behind); repeated cycles skipped: %zu\n",
-                  timeouts + late, attempts, timeouts, late, repeated);
+      std::printf(
+          "recorded %zu samples over %.2f s of controller time from %s at %g Hz requested (%.1f Hz "
+          "achieved)%s\n",
+          rows, span_s, client.endpoint().describe().c_str(), o->rate_hz,
+          span_s > 0 && rows > 1 ? static_cast<double>(rows - 1) / span_s : 0.0,
+          g_interrupted ? ", interrupted" : "");
+      std::printf(
+          "dropped polls: %zu of %zu (%zu without reply, %zu missed while behind); repeated cycles "
+          "skipped: %zu\n",
+          timeouts + late, attempts, timeouts, late, repeated);
       std::printf("wrote %s\n", o->out.c_str());
       if (!lost.empty())
-        throw ClientError(ClientError::Kind::connection,
-                          "stopped after " + std::to_string(rows) + " samples (kept in " + o->out + "): " + lost);
+        throw ClientError(
+            ClientError::Kind::connection,
+            "stopped after " + std::to_string(rows) + " samples (kept in " + o->out + "): " + lost);
     });
   });
 }

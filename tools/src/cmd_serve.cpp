@@ -22,8 +22,8 @@ void add_serve(CLI::App& app) {
   struct Opts {
     std::string config = default_config_dir(), network, calibration, duration;
     std::string bind, allow_csv, rtu_device, rtu_parity;
-    int port = -1, unit = -1, max_connections = -1, rtu_baud = -1, rtu_unit = -1, rtu_stop_bits = -1,
-        rtu_data_bits = -1;
+    int port = -1, unit = -1, max_connections = -1, rtu_baud = -1, rtu_unit = -1,
+        rtu_stop_bits = -1, rtu_data_bits = -1;
     double frame_timeout_s = -1, idle_timeout_s = -1, watchdog_ms = -1;
     std::vector<std::string> allow;
     bool read_only = false, no_tcp = false, rs485 = false, no_twin = false;
@@ -33,41 +33,57 @@ void add_serve(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
   cmd->add_option("--network", o->network, "Network configuration (default: CONFIG/network.toml)");
-  cmd->add_option("--calibration", o->calibration, "Force calibration (default: CONFIG/calibration.toml)");
-  cmd->add_option("--duration", o->duration, "Stop after this long (e.g. 30s); default: until Ctrl-C");
+  cmd->add_option("--calibration", o->calibration,
+                  "Force calibration (default: CONFIG/calibration.toml)");
+  cmd->add_option("--duration", o->duration,
+                  "Stop after this long (e.g. 30s); default: until Ctrl-C");
   auto* g = cmd->add_option_group("Modbus TCP (defaults from network.toml)");
   g->add_option("--bind", o->bind, "Bind address (default 127.0.0.1)");
-  g->add_option("--port", o->port, "TCP port (default 1502; 0 = any free port, printed)")->check(CLI::Range(0, 65535));
-  g->add_option("--unit", o->unit, "Unit id answered over TCP (255 is answered too)")->check(CLI::Range(0, 255));
-  g->add_option("--max-connections", o->max_connections, "Connection cap")->check(CLI::Range(1, 1024));
-  g->add_option("--frame-timeout", o->frame_timeout_s, "Seconds a started request may take")->check(CLI::Range(0.001, 3600.0));
-  g->add_option("--idle-timeout", o->idle_timeout_s, "Close idle connections after this many seconds (0 never)")
+  g->add_option("--port", o->port, "TCP port (default 1502; 0 = any free port, printed)")
+      ->check(CLI::Range(0, 65535));
+  g->add_option("--unit", o->unit, "Unit id answered over TCP (255 is answered too)")
+      ->check(CLI::Range(0, 255));
+  g->add_option("--max-connections", o->max_connections, "Connection cap")
+      ->check(CLI::Range(1, 1024));
+  g->add_option("--frame-timeout", o->frame_timeout_s, "Seconds a started request may take")
+      ->check(CLI::Range(0.001, 3600.0));
+  g->add_option("--idle-timeout", o->idle_timeout_s,
+                "Close idle connections after this many seconds (0 never)")
       ->check(CLI::Range(0.0, 1e7));
   g->add_option("--allow", o->allow, "Allowed client IPv4 address or a.b.c.d/len (repeatable)");
   g->add_flag("--no-tcp", o->no_tcp, "Do not serve TCP");
   auto* r = cmd->add_option_group("Modbus RTU (defaults from network.toml)");
   r->add_option("--rtu-device", o->rtu_device, "Serial device; enables RTU");
-  r->add_option("--rtu-baud", o->rtu_baud, "Baud rate (default 19200)")->check(CLI::Range(50, 4000000));
-  r->add_option("--rtu-parity", o->rtu_parity, "Parity N, E or O (default E)")->check(CLI::IsMember({"N", "E", "O"}));
-  r->add_option("--rtu-data-bits", o->rtu_data_bits, "Data bits (default 8)")->check(CLI::Range(7, 8));
-  r->add_option("--rtu-stop-bits", o->rtu_stop_bits, "Stop bits (default 1)")->check(CLI::Range(1, 2));
+  r->add_option("--rtu-baud", o->rtu_baud, "Baud rate (default 19200)")
+      ->check(CLI::Range(50, 4000000));
+  r->add_option("--rtu-parity", o->rtu_parity, "Parity N, E or O (default E)")
+      ->check(CLI::IsMember({"N", "E", "O"}));
+  r->add_option("--rtu-data-bits", o->rtu_data_bits, "Data bits (default 8)")
+      ->check(CLI::Range(7, 8));
+  r->add_option("--rtu-stop-bits", o->rtu_stop_bits, "Stop bits (default 1)")
+      ->check(CLI::Range(1, 2));
   r->add_option("--rtu-unit", o->rtu_unit, "RTU unit id (default 1)")->check(CLI::Range(1, 247));
   r->add_flag("--rtu-rs485", o->rs485, "Switch the line to RS-485 mode");
   cmd->add_flag("--read-only", o->read_only, "Refuse every write (exception 01)");
   cmd->add_flag("--no-twin", o->no_twin, "Run without the digital twin (its registers read 0)");
-  cmd->add_option("--watchdog", o->watchdog_ms, "Communication watchdog at start [ms], 0 = off")->check(CLI::Range(0.0, 60000.0));
+  cmd->add_option("--watchdog", o->watchdog_ms, "Communication watchdog at start [ms], 0 = off")
+      ->check(CLI::Range(0.0, 60000.0));
   auto* s = cmd->add_option_group("Simulated actuator");
   s->add_option("--sim-seed", o->seed, "Random seed of the simulated plant")->capture_default_str();
-  s->add_option("--sim-spring", o->spring_n_per_m, "Load: spring rate to a wall [N/m], 0 = free nut")
-      ->check(CLI::Range(0.0, 1e6))->capture_default_str();
+  s->add_option("--sim-spring", o->spring_n_per_m,
+                "Load: spring rate to a wall [N/m], 0 = free nut")
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
   s->add_option("--sim-spring-anchor", o->spring_anchor_m, "Load: spring free length position [m]")
       ->capture_default_str();
   s->add_option("--sim-start", o->start_pos_m, "Nut position at start [m]")->capture_default_str();
 
   cmd->callback([o] {
-    const std::string net_path = o->network.empty() ? config_file(o->config, "network.toml") : o->network;
+    const std::string net_path =
+        o->network.empty() ? config_file(o->config, "network.toml") : o->network;
     modbus::NetworkConfig net;
-    if (!o->network.empty() || std::filesystem::exists(net_path)) net = modbus::load_network_config(net_path);
+    if (!o->network.empty() || std::filesystem::exists(net_path))
+      net = modbus::load_network_config(net_path);
     if (!o->bind.empty()) net.tcp.bind_address = o->bind;
     if (o->port >= 0) net.tcp.port = o->port;
     if (o->unit >= 0) net.tcp.unit_id = static_cast<std::uint8_t>(o->unit);
@@ -86,14 +102,15 @@ void add_serve(CLI::App& app) {
     if (o->read_only) net.read_only = true;
     if (o->watchdog_ms >= 0) net.watchdog_s = o->watchdog_ms * 1e-3;
     if (!net.tcp_enabled && net.rtu.device.empty())
-      throw CLI::ValidationError("serve", "nothing to serve: TCP is off and no RTU device is given");
+      throw CLI::ValidationError("serve",
+                                 "nothing to serve: TCP is off and no RTU device is given");
     const double duration_s = o->duration.empty() ? 0.0 : parse_duration_s(o->duration);
 
     runtime::ServiceConfig sc;
     auto& cfg = sc.controller;
     cfg.actuator = load_actuator_or_default(o->config);
-    cfg.calibration = load_calibration(o->calibration.empty() ? config_file(o->config, "calibration.toml")
-                                                              : o->calibration);
+    cfg.calibration = load_calibration(
+        o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration);
     cfg.watchdog_s = net.watchdog_s;
     cfg.reactions = net.reactions;
     ReachedSettings reached{cfg.force_tol_n, cfg.in_position_tol_m, cfg.settle_s};
@@ -101,7 +118,8 @@ void add_serve(CLI::App& app) {
     cfg.force_tol_n = reached.force_tolerance_n;
     cfg.in_position_tol_m = reached.position_tolerance_m;
     cfg.settle_s = reached.dwell_s;
-    if (!(o->start_pos_m >= cfg.actuator.stroke_min_m && o->start_pos_m <= cfg.actuator.stroke_max_m))
+    if (!(o->start_pos_m >= cfg.actuator.stroke_min_m &&
+          o->start_pos_m <= cfg.actuator.stroke_max_m))
       throw CLI::ValidationError("--sim-start", "must lie within the stroke");
     sc.backend.simulated = {o->seed, o->spring_n_per_m, o->spring_anchor_m, o->start_pos_m};
     sc.twin = !o->no_twin;
@@ -114,33 +132,38 @@ void add_serve(CLI::App& app) {
     service.start();
     if (!service.refused().empty())
       std::printf("maglead serve: realtime \"try\": not granted: %s\n", service.refused().c_str());
-    std::printf("maglead serve: control loop %.0f Hz on the simulated actuator (%s), %s, %s\n",
-                cfg.actuator.sample_rate_hz,
-                o->spring_n_per_m > 0 ? ("spring " + std::to_string(static_cast<int>(o->spring_n_per_m)) + " N/m").c_str()
-                                      : "free nut",
-                service.loop().realtime() ? "SCHED_FIFO" : "normal scheduling",
-                service.twin() ? "digital twin running on its own thread" : "no twin");
+    std::printf(
+        "maglead serve: control loop %.0f Hz on the simulated actuator (%s), %s, %s\n",
+        cfg.actuator.sample_rate_hz,
+        o->spring_n_per_m > 0
+            ? ("spring " + std::to_string(static_cast<int>(o->spring_n_per_m)) + " N/m").c_str()
+            : "free nut",
+        service.loop().realtime() ? "SCHED_FIFO" : "normal scheduling",
+        service.twin() ? "digital twin running on its own thread" : "no twin");
     std::printf("maglead serve: configuration from %s\n",
                 std::filesystem::absolute(o->config).lexically_normal().string().c_str());
     if (service.tcp_port() >= 0)
-      std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(), service.tcp_port(),
-                  net.tcp.unit_id, net.read_only ? ", read-only" : "");
+      std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(),
+                  service.tcp_port(), net.tcp.unit_id, net.read_only ? ", read-only" : "");
     if (!net.rtu.device.empty())
-      std::printf("maglead serve: Modbus RTU on %s, %d %d%c%d, unit %d%s\n", net.rtu.device.c_str(), net.rtu.baud,
-                  net.rtu.data_bits, net.rtu.parity, net.rtu.stop_bits, net.rtu.unit_id,
-                  net.read_only ? ", read-only" : "");
+      std::printf("maglead serve: Modbus RTU on %s, %d %d%c%d, unit %d%s\n", net.rtu.device.c_str(),
+                  net.rtu.baud, net.rtu.data_bits, net.rtu.parity, net.rtu.stop_bits,
+                  net.rtu.unit_id, net.read_only ? ", read-only" : "");
     std::fflush(stdout);
     const auto t0 = std::chrono::steady_clock::now();
     while (!g_stop) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      if (duration_s > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= duration_s)
+      if (duration_s > 0 &&
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >=
+              duration_s)
         break;
     }
     service.stop();
     const auto snap = service.controller().snapshot();
-    std::printf("maglead serve: stopped after %llu cycles, %llu overruns, latest start %.0f us late\n",
-                static_cast<unsigned long long>(snap.cycle), static_cast<unsigned long long>(snap.overrun_count),
-                snap.late_max_s * 1e6);
+    std::printf(
+        "maglead serve: stopped after %llu cycles, %llu overruns, latest start %.0f us late\n",
+        static_cast<unsigned long long>(snap.cycle),
+        static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
   });
 }
 

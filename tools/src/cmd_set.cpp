@@ -36,13 +36,15 @@ void add_command_flags(CLI::App* cmd, const std::shared_ptr<CommandFlags>& f, bo
 }
 
 constexpr const char* kHoldHelp =
-    "Keep control this long afterwards (e.g. 10s). Control ends with the command: the drive then runs its "
+    "Keep control this long afterwards (e.g. 10s). Control ends with the command: the drive then "
+    "runs its "
     "owner-loss fault reaction (force released, position held)";
 
 void add_set(CLI::App& app) {
   auto* cmd = app.add_subcommand(
-      "set", "Apply a setpoint: 'set force 12.5' [N], 'set position 20mm', 'set idle' (stop and hold), or "
-             "'set NAME VALUE' for a writable holding register (e.g. watchdog_ms 0.5s)");
+      "set",
+      "Apply a setpoint: 'set force 12.5' [N], 'set position 20mm', 'set idle' (stop and hold), or "
+      "'set NAME VALUE' for a writable holding register (e.g. watchdog_ms 0.5s)");
   auto conn = add_connection_options(cmd);
   auto f = std::make_shared<CommandFlags>();
   struct Opts {
@@ -56,11 +58,13 @@ void add_set(CLI::App& app) {
   add_command_flags(cmd, f, true);
   cmd->add_option("--hold", f->hold, kHoldHelp);
   cmd->add_flag("--no-claim", f->no_claim,
-                "Do not take control (by default: clear an owner_lost fault and enable when nobody owns the drive)");
+                "Do not take control (by default: clear an owner_lost fault and enable when nobody "
+                "owns the drive)");
   cmd->callback([o, f, conn] {
     run_operator("set", [&] {
       const auto need_value = [&] {
-        if (o->value.empty()) throw ClientError(Kind::refused_locally, "'set " + o->what + "' needs a value");
+        if (o->value.empty())
+          throw ClientError(Kind::refused_locally, "'set " + o->what + "' needs a value");
       };
       // All checks happen here, before the connection is even opened.
       reg::Mode mode = reg::Mode::idle;
@@ -83,8 +87,10 @@ void add_set(CLI::App& app) {
           throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
         mode = reg::Mode::position;
         setpoints.emplace_back("position_setpoint_um", pos_m);
-        if (!o->speed.empty()) setpoints.emplace_back("velocity_limit_um_s", op::parse_quantity(o->speed, "m/s"));
-        if (!o->accel.empty()) setpoints.emplace_back("accel_limit_um_s2", op::parse_quantity(o->accel, "m/s^2"));
+        if (!o->speed.empty())
+          setpoints.emplace_back("velocity_limit_um_s", op::parse_quantity(o->speed, "m/s"));
+        if (!o->accel.empty())
+          setpoints.emplace_back("accel_limit_um_s2", op::parse_quantity(o->accel, "m/s^2"));
         for (const auto& [name, v] : setpoints)
           if (auto why = op::check_register(*reg::find(name), v))
             throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
@@ -96,13 +102,18 @@ void add_set(CLI::App& app) {
         // A plain register write (limits, watchdog …): checked, written, no execute edge.
         need_value();
         const auto* r = reg::find(o->what);
-        if (!r) throw ClientError(Kind::refused_locally, "no register or setpoint named '" + o->what + "'");
+        if (!r)
+          throw ClientError(Kind::refused_locally,
+                            "no register or setpoint named '" + o->what + "'");
         if (r->table != reg::Table::holding_register || r->access != reg::Access::read_write ||
             r->name == "control_word")
-          throw ClientError(Kind::refused_locally, "'" + o->what + "' is not a writable setting (use enable, "
-                                                   "disable, reset or set force/position)");
-        const double v = r->unit.empty() ? op::parse_quantity(o->value, "") : op::parse_quantity(o->value, r->unit);
-        if (auto why = op::check_register(*r, v)) throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
+          throw ClientError(Kind::refused_locally, "'" + o->what +
+                                                       "' is not a writable setting (use enable, "
+                                                       "disable, reset or set force/position)");
+        const double v = r->unit.empty() ? op::parse_quantity(o->value, "")
+                                         : op::parse_quantity(o->value, r->unit);
+        if (auto why = op::check_register(*r, v))
+          throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
         if (r->name.starts_with("force_setpoint"))
           if (auto why = op::check_force(load_limits(f->config, f->calibration), v))
             throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
@@ -112,7 +123,8 @@ void add_set(CLI::App& app) {
         op::Client client(endpoint_of(*conn));
         client.check_identity();
         client.write({{std::string(r->name), v}});
-        std::printf("%s = %.9g %s written\n", std::string(r->name).c_str(), v, std::string(r->unit).c_str());
+        std::printf("%s = %.9g %s written\n", std::string(r->name).c_str(), v,
+                    std::string(r->unit).c_str());
         return;
       }
       op::Client client(endpoint_of(*conn));
@@ -125,15 +137,20 @@ void add_set(CLI::App& app) {
         // The controller's own limit refused it (exception 03 on the staged setpoint, or a reject
         // reason): say the value and the limit as this machine's configuration has it, and where.
         const std::string msg = e.what();
-        const bool limit = e.kind() == Kind::exception ? msg.find("exception 03") != std::string::npos
-                           : e.kind() == Kind::rejected ? (msg.find("force_beyond_safe_limit") != std::string::npos ||
-                                                           msg.find("target_outside_stroke") != std::string::npos)
-                                                        : false;
+        const bool limit = e.kind() == Kind::exception
+                               ? msg.find("exception 03") != std::string::npos
+                           : e.kind() == Kind::rejected
+                               ? (msg.find("force_beyond_safe_limit") != std::string::npos ||
+                                  msg.find("target_outside_stroke") != std::string::npos)
+                               : false;
         if (!limit || mode == reg::Mode::idle) throw;
         const auto l = load_limits(f->config, f->calibration);
-        throw ClientError(e.kind(), summary + " refused by the controller (" + msg + "); the controller applies "
-                                        "its own configuration, which this machine's copy puts at " +
-                                        (mode == reg::Mode::force ? op::force_limit_text(l) : op::position_limit_text(l)));
+        throw ClientError(
+            e.kind(),
+            summary + " refused by the controller (" + msg +
+                "); the controller applies "
+                "its own configuration, which this machine's copy puts at " +
+                (mode == reg::Mode::force ? op::force_limit_text(l) : op::position_limit_text(l)));
       }
       if (res.done)
         std::printf("%s: done (%s) after %.2f s\n", summary.c_str(),
@@ -157,7 +174,8 @@ void add_drive_command(CLI::App& app, const char* name, const char* help, Step s
   auto resync = std::make_shared<bool>(false);
   auto hold = std::make_shared<std::string>();
   if (std::string_view(name) == "reset")
-    cmd->add_flag("--resync", *resync, "First re-synchronise the phase (after a step-out: the nut's new lead is zero)");
+    cmd->add_flag("--resync", *resync,
+                  "First re-synchronise the phase (after a step-out: the nut's new lead is zero)");
   if (std::string_view(name) == "enable") cmd->add_option("--hold", *hold, kHoldHelp);
   cmd->callback([conn, resync, hold, name, step] {
     run_operator(name, [&] {
@@ -175,13 +193,14 @@ void add_drive_command(CLI::App& app, const char* name, const char* help, Step s
 }
 
 void add_enable(CLI::App& app) {
-  add_drive_command(app, "enable",
-                    "Claim control and enable a ready drive (rising edge of the enable bit); control ends with "
-                    "the command (see --hold)",
-                    [](op::Client& c, bool) {
-                      op::enable(c, {});
-                      return std::string("drive enabled");
-                    });
+  add_drive_command(
+      app, "enable",
+      "Claim control and enable a ready drive (rising edge of the enable bit); control ends with "
+      "the command (see --hold)",
+      [](op::Client& c, bool) {
+        op::enable(c, {});
+        return std::string("drive enabled");
+      });
 }
 void add_disable(CLI::App& app) {
   add_drive_command(app, "disable", "Disable the drive (falling edge of the enable bit)",
@@ -194,7 +213,8 @@ void add_reset(CLI::App& app) {
   add_drive_command(app, "reset", "Clear a latched fault (fault_reset edge, ack/done handshake)",
                     [](op::Client& c, bool resync) {
                       op::reset(c, resync, {});
-                      return std::string(resync ? "resync and " : "") + "fault reset done; enable again to resume";
+                      return std::string(resync ? "resync and " : "") +
+                             "fault reset done; enable again to resume";
                     });
 }
 

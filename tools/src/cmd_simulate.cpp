@@ -24,7 +24,8 @@ void add_simulate(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   cmd->add_option("--scenario", o->scenario, scenario_help)->required();
-  cmd->add_option("--duration", o->duration, "Simulated time, e.g. 30s, 2min, 1h")->capture_default_str();
+  cmd->add_option("--duration", o->duration, "Simulated time, e.g. 30s, 2min, 1h")
+      ->capture_default_str();
   cmd->add_option("--seed", o->seed, "Random seed (hand profile, noise)")->capture_default_str();
   cmd->add_option("--effect", o->effects, effects_help);
   cmd->add_option("--out", o->out, "Output recording (CSV)")->required();
@@ -47,13 +48,13 @@ void add_simulate(CLI::App& app) {
         v = std::stod(e.substr(eq + 1), &used);
         if (used != e.size() - eq - 1) throw std::invalid_argument("trailing");
       } catch (const std::exception&) {
-        throw CLI::ValidationError("--effect", "'" + e.substr(eq + 1) + "' in '" + e +
-                                                   "' is not a number");
+        throw CLI::ValidationError("--effect",
+                                   "'" + e.substr(eq + 1) + "' in '" + e + "' is not a number");
       }
       set_plant_effect(opt.plant.effects, e.substr(0, eq), v);
     }
-    const std::string cal = o->calibration.empty() ? config_file(o->config, "calibration.toml")
-                                                   : o->calibration;
+    const std::string cal =
+        o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration;
     opt.estimator_calibration = load_calibration(cal);
     Progress progress("simulate " + o->scenario);
     opt.progress = [&](double f) { progress(f); };
@@ -61,8 +62,9 @@ void add_simulate(CLI::App& app) {
     progress.done();
     std::printf("wrote %s: %zu samples, %.1f s of %s%s\n", o->out.c_str(), summary.samples,
                 opt.duration_s, o->scenario.c_str(),
-                summary.slips ? (", the nut stepped out " + std::to_string(std::abs(summary.slips)) +
-                                 " lead(s)").c_str()
+                summary.slips ? (", the nut stepped out " +
+                                 std::to_string(std::abs(summary.slips)) + " lead(s)")
+                                    .c_str()
                               : "");
   });
 }

@@ -42,7 +42,8 @@ class Terminal {
     tty_in_ = isatty(STDIN_FILENO) != 0;
     if (tty_in_ && tcgetattr(STDIN_FILENO, &saved_) == 0) {
       termios raw = saved_;
-      raw.c_lflag &= static_cast<tcflag_t>(~(ICANON | ECHO));  // keys at once, not echoed; ISIG kept for Ctrl-C
+      raw.c_lflag &= static_cast<tcflag_t>(
+          ~(ICANON | ECHO));  // keys at once, not echoed; ISIG kept for Ctrl-C
       raw.c_cc[VMIN] = 0;
       raw.c_cc[VTIME] = 0;
       restore_ = tcsetattr(STDIN_FILENO, TCSANOW, &raw) == 0;
@@ -129,16 +130,16 @@ std::string set_bits_text(std::uint16_t sw) {
 struct View {
   std::string endpoint;
   bool connected = true;
-  std::string problem;       // why the connection is down
-  double down_since_s = 0;   // when it went down (watch time)
+  std::string problem;      // why the connection is down
+  double down_since_s = 0;  // when it went down (watch time)
   double now_s = 0;
   std::optional<op::Values> v;  // the latest values read (kept while reconnecting)
 };
 
 /// The trend: force against watch time over the last `window_s`, in `rows` x `cols` cells with
 /// a y axis (7 columns) and a time axis (2 rows) below.
-std::vector<std::string> trend(const std::deque<Sample>& samples, double now_s, double window_s, int rows,
-                               int width) {
+std::vector<std::string> trend(const std::deque<Sample>& samples, double now_s, double window_s,
+                               int rows, int width) {
   const int cols = width - 8;
   std::vector<std::string> out;
   if (cols < 10 || rows < 3) return out;
@@ -153,12 +154,14 @@ std::vector<std::string> trend(const std::deque<Sample>& samples, double now_s, 
   }
   const double pad = 0.05 * (hi - lo);
   lo -= pad, hi += pad;
-  std::vector<std::string> grid(static_cast<std::size_t>(rows), std::string(static_cast<std::size_t>(cols), ' '));
+  std::vector<std::string> grid(static_cast<std::size_t>(rows),
+                                std::string(static_cast<std::size_t>(cols), ' '));
   const auto plot = [&](double t, double value, char mark) {
     if (!std::isfinite(value)) return;
     const int c = static_cast<int>(std::floor((t - (now_s - window_s)) / window_s * cols));
     if (c < 0 || c >= cols) return;
-    const int r = std::clamp(static_cast<int>(std::lround((hi - value) / (hi - lo) * (rows - 1))), 0, rows - 1);
+    const int r = std::clamp(static_cast<int>(std::lround((hi - value) / (hi - lo) * (rows - 1))),
+                             0, rows - 1);
     grid[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)] = mark;
   };
   for (const auto& s : samples) plot(s.t_s, s.set_n, '-');
@@ -188,8 +191,8 @@ std::vector<std::string> trend(const std::deque<Sample>& samples, double now_s, 
 
 /// The full screen for a terminal of `scr` size: each line at most scr.width columns, at most
 /// scr.height lines. Styles (bold, reverse) are whole-line prefixes.
-std::vector<std::string> render(const View& view, const std::deque<Sample>& samples, double window_s, Screen scr,
-                                bool* reverse_title) {
+std::vector<std::string> render(const View& view, const std::deque<Sample>& samples,
+                                double window_s, Screen scr, bool* reverse_title) {
   const int w = scr.width;
   std::vector<std::string> L;
   *reverse_title = !view.connected;
@@ -206,7 +209,8 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   const op::Values& v = *view.v;
   const auto at = [&](const char* name) { return v.at(name); };
   const double alarm = at("alarm_code");
-  L.push_back(fit(printf_str("drive %s   mode %s   alarm %s%s", op::code_name(reg::drive_states(), at("drive_state")).c_str(),
+  L.push_back(fit(printf_str("drive %s   mode %s   alarm %s%s",
+                             op::code_name(reg::drive_states(), at("drive_state")).c_str(),
                              op::code_name(reg::modes(), at("active_mode")).c_str(),
                              op::code_name(reg::alarm_codes(), alarm).c_str(),
                              view.connected ? "" : "   (values from before the drop)"),
@@ -222,10 +226,10 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   L.push_back(bits);
   L.push_back(fit(row2, w));
   const double rej = at("command_reject_reason");
-  L.push_back(fit(rej != 0 ? "last command rejected: " + op::code_name(reg::reject_codes(), rej) + " (" +
-                                 op::code_meaning(reg::reject_codes(), rej) + ")"
-                           : alarm != 0 ? "alarm: " + op::code_meaning(reg::alarm_codes(), alarm)
-                                        : std::string(),
+  L.push_back(fit(rej != 0 ? "last command rejected: " + op::code_name(reg::reject_codes(), rej) +
+                                 " (" + op::code_meaning(reg::reject_codes(), rej) + ")"
+                  : alarm != 0 ? "alarm: " + op::code_meaning(reg::alarm_codes(), alarm)
+                               : std::string(),
                   w));
   // Values in two columns of half the width each.
   const int half = w / 2;
@@ -244,15 +248,18 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
        cell("velocity", printf_str("%.3f mm/s", at("nut_vel_um_s") * 1e3)));
   pair(cell("estimate", printf_str("%.2f N", at("force_est_mn"))),
        cell("load cell", printf_str("%.2f N", at("load_cell_force_mn"))));
-  pair(cell("setpoint", force_mode ? printf_str("%.2f N", at("active_force_setpoint_mn")) : std::string("- (not force)")),
+  pair(cell("setpoint", force_mode ? printf_str("%.2f N", at("active_force_setpoint_mn"))
+                                   : std::string("- (not force)")),
        cell("target", printf_str("%.3f mm", at("active_target_pos_um") * 1e3)));
   pair(cell("phase", printf_str("%.4f rad", at("phase_urad"))),
-       cell("twin", twin ? printf_str("%.2f N, %.1f um", at("twin_dynamic_force_mn"), at("twin_residual_pos_um") * 1e6)
+       cell("twin", twin ? printf_str("%.2f N, %.1f um", at("twin_dynamic_force_mn"),
+                                      at("twin_residual_pos_um") * 1e6)
                          : std::string("not running")));
   // The trend takes what is left: legend, chart rows, two axis rows.
   const int rows = scr.height - static_cast<int>(L.size()) - 3;
   if (rows >= 3) {
-    L.push_back(fit(printf_str("force [N] over %.0f s:  * estimate  o load cell  - setpoint", window_s), w));
+    L.push_back(fit(
+        printf_str("force [N] over %.0f s:  * estimate  o load cell  - setpoint", window_s), w));
     for (auto& line : trend(samples, view.now_s, window_s, rows, w)) L.push_back(fit(line, w));
   }
   if (static_cast<int>(L.size()) > scr.height) L.resize(static_cast<std::size_t>(scr.height));
@@ -267,7 +274,8 @@ std::string plain_line(const View& view) {
   s += "drive=" + op::code_name(reg::drive_states(), v.at("drive_state")) +
        " mode=" + op::code_name(reg::modes(), v.at("active_mode")) +
        " alarm=" + op::code_name(reg::alarm_codes(), v.at("alarm_code"));
-  for (const char* name : {"nut_pos_um", "force_est_mn", "load_cell_force_mn", "active_force_setpoint_mn"}) {
+  for (const char* name :
+       {"nut_pos_um", "force_est_mn", "load_cell_force_mn", "active_force_setpoint_mn"}) {
     const auto* r = reg::find(name);
     s += " " + op::si_name(*r) + "=" + op::si_text(*r, v.at(name));
   }
@@ -278,10 +286,12 @@ std::string plain_line(const View& view) {
 }
 
 void add_watch(CLI::App& app) {
-  auto* cmd = app.add_subcommand(
-      "watch", "Live view of a controller: state, status bits, values and a force trend (setpoint, estimate, "
-               "load cell over time); reconnects when the controller restarts; plain lines when stdout is not "
-               "a terminal (q or Ctrl-C quits)");
+  auto* cmd = app.add_subcommand("watch",
+                                 "Live view of a controller: state, status bits, values and a "
+                                 "force trend (setpoint, estimate, "
+                                 "load cell over time); reconnects when the controller restarts; "
+                                 "plain lines when stdout is not "
+                                 "a terminal (q or Ctrl-C quits)");
   auto conn = add_connection_options(cmd);
   struct Opts {
     double rate_hz = 10.0;
@@ -290,10 +300,15 @@ void add_watch(CLI::App& app) {
     bool once = false;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--rate", o->rate_hz, "Refreshes per second")->check(CLI::Range(0.5, 50.0))->capture_default_str();
-  cmd->add_option("--count", o->count, "Quit after this many refreshes (0: until q or Ctrl-C)")->capture_default_str();
-  cmd->add_option("--window", o->window, "Time span of the trend (e.g. 30s, 2min)")->capture_default_str();
-  cmd->add_flag("--once", o->once, "Print one plain line and exit (exit 3 when the controller cannot be read)");
+  cmd->add_option("--rate", o->rate_hz, "Refreshes per second")
+      ->check(CLI::Range(0.5, 50.0))
+      ->capture_default_str();
+  cmd->add_option("--count", o->count, "Quit after this many refreshes (0: until q or Ctrl-C)")
+      ->capture_default_str();
+  cmd->add_option("--window", o->window, "Time span of the trend (e.g. 30s, 2min)")
+      ->capture_default_str();
+  cmd->add_flag("--once", o->once,
+                "Print one plain line and exit (exit 3 when the controller cannot be read)");
   cmd->callback([o, conn] {
     run_operator("watch", [&] {
       const double window_s = parse_duration_s(o->window);
@@ -334,12 +349,14 @@ void add_watch(CLI::App& app) {
           }
           if (client) {
             try {
-              view.v = client->read_tables({reg::Table::input_register, reg::Table::holding_register});
+              view.v =
+                  client->read_tables({reg::Table::input_register, reg::Table::holding_register});
               const op::Values& v = *view.v;
               const bool force_mode = v.at("active_mode") == static_cast<double>(reg::Mode::force);
               samples.push_back({view.now_s, force_mode ? v.at("active_force_setpoint_mn") : kNaN,
                                  v.at("force_est_mn"), v.at("load_cell_force_mn")});
-              while (!samples.empty() && samples.front().t_s < view.now_s - window_s) samples.pop_front();
+              while (!samples.empty() && samples.front().t_s < view.now_s - window_s)
+                samples.pop_front();
             } catch (const op::ClientError& e) {
               if (o->once) {
                 error = e;
@@ -364,7 +381,8 @@ void add_watch(CLI::App& app) {
               s += lines[i];
               if (i == 0) s += "\x1b[0m";
               s += "\x1b[K";
-              if (i + 1 < lines.size()) s += "\n";  // no newline after the last row: nothing scrolls
+              if (i + 1 < lines.size())
+                s += "\n";  // no newline after the last row: nothing scrolls
             }
             s += "\x1b[J";
             std::fputs(s.c_str(), stdout);
@@ -382,8 +400,8 @@ void add_watch(CLI::App& app) {
       std::signal(SIGTERM, SIG_DFL);
       if (error) throw *error;
       if (full_screen)
-        std::printf("maglead watch: %d refreshes from %s, %d reconnect%s\n", frames, view.endpoint.c_str(), reconnects,
-                    reconnects == 1 ? "" : "s");
+        std::printf("maglead watch: %d refreshes from %s, %d reconnect%s\n", frames,
+                    view.endpoint.c_str(), reconnects, reconnects == 1 ? "" : "s");
     });
   });
 }

@@ -19,7 +19,8 @@ std::string path_of(const CLI::App* app) {
 
 std::vector<std::string> subcommand_names(const CLI::App* app) {
   std::vector<std::string> out;
-  for (const auto* sub : app->get_subcommands([](const CLI::App* s) { return !s->get_name().empty(); }))
+  for (const auto* sub :
+       app->get_subcommands([](const CLI::App* s) { return !s->get_name().empty(); }))
     out.push_back(sub->get_name());
   return out;
 }
@@ -29,7 +30,8 @@ std::vector<std::string> option_names(const CLI::App* app) {
   std::vector<std::string> out;
   for (; app; app = app->get_parent()) {
     std::vector<const CLI::App*> scopes{app};
-    for (const auto* g : app->get_subcommands([](const CLI::App* s) { return s->get_name().empty(); }))
+    for (const auto* g :
+         app->get_subcommands([](const CLI::App* s) { return s->get_name().empty(); }))
       scopes.push_back(g);
     for (const auto* scope : scopes)
       for (const auto* opt : scope->get_options())
@@ -64,8 +66,11 @@ bool explain_unknown(CLI::App& root, int argc, char** argv) {
         continue;
       }
       const std::string guess = closest_match(name, option_names(at));
-      std::fprintf(stderr, "maglead: unknown option '%s' for '%s'%s\nusage: %s [OPTIONS]   ('%s --help' lists them)\n",
-                   name.c_str(), path_of(at).c_str(), guess.empty() ? "" : ("; did you mean '" + guess + "'?").c_str(),
+      std::fprintf(stderr,
+                   "maglead: unknown option '%s' for '%s'%s\nusage: %s [OPTIONS]   ('%s --help' "
+                   "lists them)\n",
+                   name.c_str(), path_of(at).c_str(),
+                   guess.empty() ? "" : ("; did you mean '" + guess + "'?").c_str(),
                    path_of(at).c_str(), path_of(at).c_str());
       return true;
     }
@@ -75,7 +80,8 @@ bool explain_unknown(CLI::App& root, int argc, char** argv) {
     }
     const auto names = subcommand_names(at);
     if (names.empty()) continue;  // a positional value of a leaf command
-    const auto subs = at->get_subcommands([&](const CLI::App* s) { return !s->get_name().empty() && s->check_name(tok); });
+    const auto subs = at->get_subcommands(
+        [&](const CLI::App* s) { return !s->get_name().empty() && s->check_name(tok); });
     if (!subs.empty()) {
       at = subs.front();
       continue;
@@ -83,9 +89,11 @@ bool explain_unknown(CLI::App& root, int argc, char** argv) {
     std::string list;
     for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
     const std::string guess = closest_match(tok, names);
-    std::fprintf(stderr, "maglead: unknown command '%s'%s\nusage: %s COMMAND [OPTIONS]   (commands: %s)\n",
-                 tok.c_str(), guess.empty() ? "" : ("; did you mean '" + path_of(at) + " " + guess + "'?").c_str(),
-                 path_of(at).c_str(), list.c_str());
+    std::fprintf(
+        stderr, "maglead: unknown command '%s'%s\nusage: %s COMMAND [OPTIONS]   (commands: %s)\n",
+        tok.c_str(),
+        guess.empty() ? "" : ("; did you mean '" + path_of(at) + " " + guess + "'?").c_str(),
+        path_of(at).c_str(), list.c_str());
     return true;
   }
   return false;
@@ -99,9 +107,10 @@ int main(int argc, char** argv) {
       "simulated plant and digital twin.\nRun 'maglead COMMAND --help' for a command's options.",
       "maglead"};
   app.set_version_flag("--version", "maglead " MAGLEAD_VERSION, "Print the version and exit");
-  app.add_flag("-q,--quiet", maglead::cli::quiet(),
-               "No progress or notes on stderr (results and errors still print); progress is only ever "
-               "drawn when stderr is a terminal");
+  app.add_flag(
+      "-q,--quiet", maglead::cli::quiet(),
+      "No progress or notes on stderr (results and errors still print); progress is only ever "
+      "drawn when stderr is a terminal");
   app.require_subcommand(1);
   app.fallthrough();
   maglead::cli::register_all(app);

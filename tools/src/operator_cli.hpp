@@ -2,8 +2,8 @@
 // What the operator commands (poll, watch, set, enable, disable, reset, record) share on the
 // command line: the connection options and one-line error reporting with distinct exit codes.
 #include <csignal>
-#include <filesystem>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -21,14 +21,22 @@ inline std::shared_ptr<ConnectionOptions> add_connection_options(CLI::App* cmd) 
   auto c = std::make_shared<ConnectionOptions>();
   auto* g = cmd->add_option_group("Connection", "Modbus TCP (default) or RTU (--serial)");
   g->add_option("--host", c->ep.host, "Controller host (TCP)")->capture_default_str();
-  g->add_option("--port", c->ep.port, "TCP port")->check(CLI::Range(1, 65535))->capture_default_str();
+  g->add_option("--port", c->ep.port, "TCP port")
+      ->check(CLI::Range(1, 65535))
+      ->capture_default_str();
   g->add_option("--unit", c->ep.unit, "Unit id")->check(CLI::Range(0, 255))->capture_default_str();
   g->add_option("--serial", c->ep.serial, "Serial device: Modbus RTU instead of TCP");
-  g->add_option("--baud", c->ep.baud, "RTU baud rate")->check(CLI::Range(50, 4000000))->capture_default_str();
-  g->add_option("--parity", c->parity, "RTU parity N, E or O")->check(CLI::IsMember({"N", "E", "O"}))
+  g->add_option("--baud", c->ep.baud, "RTU baud rate")
+      ->check(CLI::Range(50, 4000000))
       ->capture_default_str();
-  g->add_option("--stop-bits", c->ep.stop_bits, "RTU stop bits")->check(CLI::Range(1, 2))->capture_default_str();
-  g->add_option("--timeout", c->ep.timeout_s, "Reply timeout per request [s]")->check(CLI::Range(0.01, 60.0))
+  g->add_option("--parity", c->parity, "RTU parity N, E or O")
+      ->check(CLI::IsMember({"N", "E", "O"}))
+      ->capture_default_str();
+  g->add_option("--stop-bits", c->ep.stop_bits, "RTU stop bits")
+      ->check(CLI::Range(1, 2))
+      ->capture_default_str();
+  g->add_option("--timeout", c->ep.timeout_s, "Reply timeout per request [s]")
+      ->check(CLI::Range(0.01, 60.0))
       ->capture_default_str();
   return c;
 }
@@ -59,7 +67,8 @@ inline op::Limits load_limits(const std::string& config_dir, const std::string& 
   l.actuator = load_actuator_or_default(config_dir);
   const std::string actuator_path = config_file(config_dir, "actuator.toml");
   if (std::filesystem::exists(actuator_path)) l.actuator_source = actuator_path;
-  const std::string path = calibration_path.empty() ? config_file(config_dir, "calibration.toml") : calibration_path;
+  const std::string path =
+      calibration_path.empty() ? config_file(config_dir, "calibration.toml") : calibration_path;
   l.calibration = load_calibration(path);
   l.calibration_source = path;
   return l;

@@ -3,9 +3,9 @@
 #include <cvode/cvode.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
-#include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
 #include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
+#include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
 
 #include <algorithm>
 #include <cmath>
@@ -108,7 +108,8 @@ double NutModel::model_coupling_force_n(double t_s, double screw_rad, double pos
   s0.coupling_n = 0.0;
   s0.coupling_slope_n_per_rad = 0.0;
   double f = s.coupling_n;
-  for (const auto& t : drive_terms_) f += t.effect->force_n(t.params, s) - t.effect->force_n(t.params, s0);
+  for (const auto& t : drive_terms_)
+    f += t.effect->force_n(t.params, s) - t.effect->force_n(t.params, s0);
   return f;
 }
 
@@ -238,7 +239,8 @@ struct HybridTwin::Impl {
   /// Release time within (lo, hi], where the excess goes from <= 0 to > 0: Illinois
   /// (regula falsi that halves a stale end's value), to CVODE's own root tolerance. Returns a
   /// time at which the nut is already beyond break-away, as CVODE does for its roots.
-  double locate_release(double lo, double g_lo, double hi, double g_hi, double pos_m) const noexcept {
+  double locate_release(double lo, double g_lo, double hi, double g_hi,
+                        double pos_m) const noexcept {
     const double tol = 100.0 * std::numeric_limits<double>::epsilon() * (std::abs(hi) + (hi - lo));
     int kept = 0;  // +1: hi moved last time, -1: lo moved
     for (int i = 0; i < 100 && hi - lo > tol; ++i) {
@@ -268,8 +270,9 @@ struct HybridTwin::Impl {
 
 namespace {
 void check(int flag, const char* what) {
-  if (flag < 0) throw std::runtime_error(std::string("SUNDIALS ") + what + " failed, flag " +
-                                         std::to_string(flag));
+  if (flag < 0)
+    throw std::runtime_error(std::string("SUNDIALS ") + what + " failed, flag " +
+                             std::to_string(flag));
 }
 void check_ptr(const void* p, const char* what) {
   if (!p) throw std::runtime_error(std::string("SUNDIALS ") + what + " returned null");
@@ -317,7 +320,8 @@ HybridTwin::HybridTwin(NutModel model, IntegratorOptions options)
 
 HybridTwin::~HybridTwin() = default;
 
-void HybridTwin::reset(double t_s, const NutState& s, double screw_rad, double ext_force_n) noexcept {
+void HybridTwin::reset(double t_s, const NutState& s, double screw_rad,
+                       double ext_force_n) noexcept {
   Impl& m = *impl_;
   t_s_ = t_s;
   screw_rad_ = screw_rad;
@@ -326,8 +330,8 @@ void HybridTwin::reset(double t_s, const NutState& s, double screw_rad, double e
   // A stuck nut under more than break-away, or a sliding one at exactly zero speed, takes the
   // mode the physics gives it.
   if (state_.mode == FrictionMode::stick || state_.vel_m_s == 0.0)
-    state_.mode = model_.mode_at_rest(
-        model_.drive_force_n(t_s, screw_rad, state_.pos_m, 0.0, ext_force_n));
+    state_.mode =
+        model_.mode_at_rest(model_.drive_force_n(t_s, screw_rad, state_.pos_m, 0.0, ext_force_n));
   else
     state_.mode = state_.vel_m_s > 0 ? FrictionMode::slide_pos : FrictionMode::slide_neg;
   m.mode = state_.mode;
@@ -377,8 +381,8 @@ TwinStatus HybridTwin::run(double tout_s, bool stop_at_tout) noexcept {
   for (int events = 0;; ++events) {
     if (events > opt_.max_events_per_call) return ++m.done.failures, TwinStatus::zeno;
     if (!(tout_s > t_s_)) return TwinStatus::ok;
-    const Leg leg = state_.mode == FrictionMode::stick ? hold_stuck(tout_s)
-                                                        : slide(tout_s, stop_at_tout);
+    const Leg leg =
+        state_.mode == FrictionMode::stick ? hold_stuck(tout_s) : slide(tout_s, stop_at_tout);
     if (leg == Leg::failed) return ++m.done.failures, TwinStatus::solver_error;
     if (leg == Leg::reached_tout) return TwinStatus::ok;
   }
@@ -414,8 +418,8 @@ HybridTwin::Leg HybridTwin::hold_stuck(double tout_s) noexcept {
     return Leg::reached_tout;
   }
   // Broken loose (now, or at the located release): slide in the drive's direction.
-  const double drive = model_.drive_force_n(t_s_, m.inputs->screw_rad(t_s_), pos, 0.0,
-                                            m.inputs->ext_force_n(t_s_));
+  const double drive =
+      model_.drive_force_n(t_s_, m.inputs->screw_rad(t_s_), pos, 0.0, m.inputs->ext_force_n(t_s_));
   state_.mode = drive > 0 ? FrictionMode::slide_pos : FrictionMode::slide_neg;
   state_.vel_m_s = 0.0;
   ++m.done.mode_switches;
@@ -469,7 +473,8 @@ void Rk4Twin::integrate_to(double tout_s, const InputSource& in) noexcept {
     const double t = t_s_;
     NutState& s = state_;
     if (s.mode == FrictionMode::stick) {
-      const double drive = model_.drive_force_n(t, in.screw_rad(t), s.pos_m, 0.0, in.ext_force_n(t));
+      const double drive =
+          model_.drive_force_n(t, in.screw_rad(t), s.pos_m, 0.0, in.ext_force_n(t));
       ++rhs_evals_;
       s.mode = model_.mode_at_rest(drive);
       if (s.mode == FrictionMode::stick) {
@@ -554,7 +559,9 @@ class DemoDrive final : public InputSource {
 
  private:
   static constexpr double kLongestPush_s = 2.5, kKnock_s = 0.03, kBlend_s = 0.4;
-  struct Pulse { double t0, len, peak; };
+  struct Pulse {
+    double t0, len, peak;
+  };
   double push(double t) const noexcept { return shape(pulses_, kLongestPush_s, t); }
   double knock_at(double t) const noexcept { return shape(knocks_, kKnock_s, t); }
   /// The earliest pulse (sorted by start, none longer than longest_s) that covers t.
@@ -571,7 +578,9 @@ class DemoDrive final : public InputSource {
     }
     return 0.0;
   }
-  struct Move { double t0, dp; };
+  struct Move {
+    double t0, dp;
+  };
   /// Where the nut target stands once every move before `end` has completed.
   double final_target(std::vector<Move>::const_iterator end) const noexcept {
     const auto i = static_cast<std::size_t>(end - moves_.begin()) - 1;

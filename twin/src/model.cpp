@@ -5,8 +5,8 @@
 #include "maglead/effects/effect.hpp"
 
 #include <algorithm>
-#include <cstdlib>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -44,7 +44,8 @@ ModelTerm& TwinModel::term(const std::string& id) {
 
 void validate_twin_model(const TwinModel& m) {
   if (m.system != "actuator" && m.system != "axis")
-    throw std::invalid_argument("[model] system = '" + m.system + "' (expected \"actuator\" or \"axis\")");
+    throw std::invalid_argument("[model] system = '" + m.system +
+                                "' (expected \"actuator\" or \"axis\")");
   if (!(m.nut_mass_kg >= 0.0) || !std::isfinite(m.nut_mass_kg) ||
       (m.system == "actuator" && !(m.nut_mass_kg > 0.0)))
     throw std::invalid_argument("nut_mass_kg must be positive");
@@ -52,13 +53,15 @@ void validate_twin_model(const TwinModel& m) {
     throw std::invalid_argument("viscous_n_s_per_m and coulomb_n must be >= 0");
   for (const auto& k : m.fit)
     if (k != "nut_mass_kg" && k != "viscous_n_s_per_m" && k != "coulomb_n")
-      throw std::invalid_argument("[model] fit: '" + k + "' (expected nut_mass_kg, viscous_n_s_per_m or coulomb_n)");
+      throw std::invalid_argument("[model] fit: '" + k +
+                                  "' (expected nut_mass_kg, viscous_n_s_per_m or coulomb_n)");
   for (std::size_t i = 0; i < m.terms.size(); ++i) {
     const auto& t = m.terms[i];
     const auto* e = effects::find(t.id);
     if (!e) {
       std::string known;
-      for (const auto* k : effects::library()) known += (known.empty() ? "" : ", ") + std::string(k->id());
+      for (const auto* k : effects::library())
+        known += (known.empty() ? "" : ", ") + std::string(k->id());
       throw std::invalid_argument("term " + std::to_string(i + 1) + ": unknown id '" + t.id +
                                   "' (known: " + known + ")");
     }
@@ -80,10 +83,12 @@ void check_model_format(const std::string& path) {
   std::getline(f, first);
   while (!first.empty() && (first.back() == '\r' || first.back() == ' ')) first.pop_back();
   if (first.rfind("# format:", 0) != 0)
-    throw std::runtime_error(path + ":1:1: a model file starts with the line '" + std::string(kModelFormatLine) +
+    throw std::runtime_error(path + ":1:1: a model file starts with the line '" +
+                             std::string(kModelFormatLine) +
                              "' (add it; without it another TOML file could be taken for a model)");
   if (first != kModelFormatLine)
-    throw std::runtime_error(path + ":1:11: format '" + first.substr(first.find_first_not_of(' ', 9)) +
+    throw std::runtime_error(path + ":1:11: format '" +
+                             first.substr(first.find_first_not_of(' ', 9)) +
                              "' is not maglead-model/1");
 }
 
@@ -116,7 +121,8 @@ TwinModel load_twin_model(const std::string& path) {
       term_nodes.push_back(&node);
       ModelTerm term;
       const auto id = (*t)["id"].value<std::string>();
-      if (!id) config::fail(path, t->get("id") ? t->get("id") : &node, where + " has no id (a string)");
+      if (!id)
+        config::fail(path, t->get("id") ? t->get("id") : &node, where + " has no id (a string)");
       term.id = *id;
       for (const auto& [k, value] : *t) {
         const std::string key(k.str());
@@ -129,7 +135,8 @@ TwinModel load_twin_model(const std::string& path) {
           term.note = value.value_or(std::string());
         } else {
           const auto v = value.value<double>();
-          if (!v) config::fail(path, &value, where + " (" + term.id + ") " + key + " is not a number");
+          if (!v)
+            config::fail(path, &value, where + " (" + term.id + ") " + key + " is not a number");
           term.parameters.emplace_back(key, *v);
         }
       }
@@ -151,7 +158,8 @@ TwinModel load_twin_model(const std::string& path) {
   return m;
 }
 
-void save_twin_model(const std::string& path, const TwinModel& m, const std::string& header_comment) {
+void save_twin_model(const std::string& path, const TwinModel& m,
+                     const std::string& header_comment) {
   validate_twin_model(m);
   std::ofstream out(path);
   if (!out) throw std::runtime_error(path + ": cannot write");
@@ -159,14 +167,19 @@ void save_twin_model(const std::string& path, const TwinModel& m, const std::str
     std::string q = "\"";
     for (char c : s) {
       if (c == '"' || c == '\\') q += '\\';
-      if (c == '\n') { q += "\\n"; continue; }
+      if (c == '\n') {
+        q += "\\n";
+        continue;
+      }
       q += c;
     }
     return q + "\"";
   };
-  out << kModelFormatLine << "\n# maglead model file (format: twin/include/maglead/twin/model.hpp)\n";
+  out << kModelFormatLine
+      << "\n# maglead model file (format: twin/include/maglead/twin/model.hpp)\n";
   std::string line;
-  for (std::istringstream lines(header_comment); std::getline(lines, line);) out << "# " << line << "\n";
+  for (std::istringstream lines(header_comment); std::getline(lines, line);)
+    out << "# " << line << "\n";
   out << std::setprecision(17) << "[model]\n";
   if (m.system != "actuator") out << "system = " << quoted(m.system) << "\n";
   out << "source = " << quoted(m.source) << "\n"

@@ -16,7 +16,8 @@ namespace maglead::twin {
 TwinMonitorConfig load_monitor_config(const std::string& dir) {
   TwinMonitorConfig c;
   const auto path = [&](const char* name) { return (std::filesystem::path(dir) / name).string(); };
-  if (std::filesystem::exists(path("actuator.toml"))) c.actuator = load_actuator_params(path("actuator.toml"));
+  if (std::filesystem::exists(path("actuator.toml")))
+    c.actuator = load_actuator_params(path("actuator.toml"));
   c.calibration = std::filesystem::exists(path("calibration.toml"))
                       ? load_calibration(path("calibration.toml"))
                       : paper_calibration();
@@ -95,7 +96,8 @@ class StickFilter {
     const double alpha = alpha_total / sub;
     for (int k = 0; k < sub; ++k) {
       tmp_[0] = tmp_[kN - 1] = 0.0;  // absorbing edges
-      for (int i = 1; i < kN - 1; ++i) tmp_[i] = w_[i] + alpha * (w_[i - 1] - 2.0 * w_[i] + w_[i + 1]);
+      for (int i = 1; i < kN - 1; ++i)
+        tmp_[i] = w_[i] + alpha * (w_[i - 1] - 2.0 * w_[i] + w_[i + 1]);
       w_ = tmp_;
     }
     normalise();
@@ -120,7 +122,6 @@ class StickFilter {
   std::array<double, kN> w_{}, tmp_{};
   double lo_ = -1, hi_ = 1, dx_ = 0.025;
 };
-
 
 /// Recursive least squares with exponential forgetting for y = xᵀθ, with an estimate of the
 /// noise variance from the a-priori residuals and of their lag-1 correlation (successive blocks
@@ -212,8 +213,8 @@ struct TwinMonitor::Impl {
   double d0_prev = 0;  // model drive without F_ext at the previous tick (stick filter shift)
 
   // Force
-  double fext_hat = 0;        // load convention, along +p
-  double fext_rate = 0;       // N/s, smoothed, for the look-ahead
+  double fext_hat = 0;   // load convention, along +p
+  double fext_rate = 0;  // N/s, smoothed, for the look-ahead
   double theta_prev = 0, theta_rate = 0;
   double fset_prev = std::numeric_limits<double>::quiet_NaN(), fset_rate = 0;
   double t_prev = 0;
@@ -240,8 +241,8 @@ struct TwinMonitor::Impl {
   std::array<double, kP> block_x{};
   double block_y = 0, block_t = 0;
   double slide_start_t = 0, load_prev = std::numeric_limits<double>::quiet_NaN();
-  double excited_s = 0;              // excitation-rich time used since the reference restarted
-  double ref_t_sum = 0;              // mean time of the reference blocks
+  double excited_s = 0;  // excitation-rich time used since the reference restarted
+  double ref_t_sum = 0;  // mean time of the reference blocks
   bool ref_frozen = false;
   double ref_g = std::numeric_limits<double>::quiet_NaN(), ref_se = 0, ref_t = 0;
   double gain_est = std::numeric_limits<double>::quiet_NaN(), gain_se = 0, drift_stat = 0;
@@ -282,8 +283,7 @@ struct TwinMonitor::Impl {
     // Leaving a slide, friction was at its sliding level: that is where n starts.
     const double n0 = from_dir == 0 ? std::numeric_limits<double>::quiet_NaN()
                                     : from_dir * model.sliding_friction_n(from_dir, 0.0);
-    stick.start(-model.breakaway_n(-1), model.breakaway_n(1), n0, d0 + expected_fext,
-                load_sd_n());
+    stick.start(-model.breakaway_n(-1), model.breakaway_n(1), n0, d0 + expected_fext, load_sd_n());
   }
 
   // Load prior: an Ornstein-Uhlenbeck process around the expected external force (minus the
@@ -349,18 +349,23 @@ struct TwinMonitor::Impl {
   /// these do not end up in g. Only excitation-rich ticks count (see the config), averaged over
   /// blocks of block_ticks consecutive ones (quantization averages out along the motion).
   void gain_tick(double t, double theta, double rel_phase, double load_n, double h) noexcept {
-    const double load_rate = std::isfinite(load_prev) ? (load_n - load_prev) / h : std::numeric_limits<double>::quiet_NaN();
+    const double load_rate = std::isfinite(load_prev) ? (load_n - load_prev) / h
+                                                      : std::numeric_limits<double>::quiet_NaN();
     load_prev = load_n;
     const int dir = static_cast<int>(mode);
     const double u = model.model_coupling_force_n(t, theta, pos_hat, vel);
     const double slope = std::abs(cfg.calibration.periodic.slope_n_per_rad(0.0));
-    const double f_count = slope * 2.0 * kPi * q_m / lead_m;  // force of one linear count near φ = 0
-    const double end_zone = std::isfinite(cfg.drift_end_exclusion_m) ? cfg.drift_end_exclusion_m : lead_m;
+    const double f_count =
+        slope * 2.0 * kPi * q_m / lead_m;  // force of one linear count near φ = 0
+    const double end_zone =
+        std::isfinite(cfg.drift_end_exclusion_m) ? cfg.drift_end_exclusion_m : lead_m;
     const double edge = std::min(cfg.calibration.stable_max_rad, -cfg.calibration.stable_min_rad);
     // A slide the encoder follows: several edges in a row, so velocity and the interpolated
     // position are measured, not guessed from one edge (slow creep, stick-slip).
-    const bool rich = dir != 0 && run_edges >= cfg.drift_min_edges && t - slide_start_t >= cfg.drift_settle_s && std::isfinite(load_n) &&
-                      std::isfinite(load_rate) && std::abs(u) >= cfg.drift_min_force_counts * f_count &&
+    const bool rich = dir != 0 && run_edges >= cfg.drift_min_edges &&
+                      t - slide_start_t >= cfg.drift_settle_s && std::isfinite(load_n) &&
+                      std::isfinite(load_rate) &&
+                      std::abs(u) >= cfg.drift_min_force_counts * f_count &&
                       std::abs(rel_phase) <= cfg.drift_phase_fraction * edge &&
                       pos_hat - cfg.actuator.stroke_min_m >= end_zone &&
                       cfg.actuator.stroke_max_m - pos_hat >= end_zone && !step_out;
@@ -369,12 +374,18 @@ struct TwinMonitor::Impl {
       return;
     }
     const double d0 = model.drive_force_n(t, theta, pos_hat, vel, 0.0);
-    const double y = model.mass_kg() * acc - (d0 - u) + dir * model.sliding_friction_n(dir, vel) - load_n;
-    const double slope_here = std::abs(model.model_coupling_force_n(t, theta + 1e-4, pos_hat, vel) - u) / 1e-4;
+    const double y =
+        model.mass_kg() * acc - (d0 - u) + dir * model.sliding_friction_n(dir, vel) - load_n;
+    const double slope_here =
+        std::abs(model.model_coupling_force_n(t, theta + 1e-4, pos_hat, vel) - u) / 1e-4;
     // The gain as a local linear trend, g + ġ·(t − t_o), t_o moved to the newest block: g is the
     // gain now, not the average over the memory (a drift would otherwise be seen late).
-    const std::array<double, kP> x{u, u * (t - trend_origin_t) / 60.0, 1.0, static_cast<double>(dir),
-                                   (u > 0 ? 1.0 : -1.0) * slope_here * 0.05, vel * 100.0,
+    const std::array<double, kP> x{u,
+                                   u * (t - trend_origin_t) / 60.0,
+                                   1.0,
+                                   static_cast<double>(dir),
+                                   (u > 0 ? 1.0 : -1.0) * slope_here * 0.05,
+                                   vel * 100.0,
                                    load_rate * 0.01};  // scaled to forces of a few N
     if (block_n == 0) {
       block_x.fill(0.0);
@@ -424,7 +435,8 @@ struct TwinMonitor::Impl {
     // Significant (beyond drift_sigmas combined standard errors) and physical (beyond
     // drift_min_change of the reference), sustained for drift_sustain_s.
     const double diff = gain_est - ref_g;
-    const double need = std::max(cfg.drift_sigmas * std::hypot(gain_se, ref_se), cfg.drift_min_change * std::abs(ref_g));
+    const double need = std::max(cfg.drift_sigmas * std::hypot(gain_se, ref_se),
+                                 cfg.drift_min_change * std::abs(ref_g));
     drift_stat = std::abs(diff) / need;
     if (drift_stat < 1.0) {
       cond_since = std::numeric_limits<double>::quiet_NaN();
@@ -449,7 +461,8 @@ struct TwinMonitor::Impl {
     const long long k = std::llround(in.nut_pos_m / q_m);
     if (k != count) {
       const int dir = k > count ? 1 : -1;
-      const double e_pos = dir > 0 ? static_cast<double>(k) * q_m : static_cast<double>(k + 1) * q_m;
+      const double e_pos =
+          dir > 0 ? static_cast<double>(k) * q_m : static_cast<double>(k + 1) * q_m;
       const double e_t = t - 0.5 * h;
       const double gap = e_t - edge_t;
       if (dir == edge_dir && mode != FrictionMode::stick && gap > 0) {
@@ -514,13 +527,15 @@ struct TwinMonitor::Impl {
     o.predicted_nut_pos_m = ts.pos_m;
     o.residual_pos_m = pos_hat - ts.pos_m;
     const double twin_acc = model.accel_m_s2(ts.mode, t, theta, ts.pos_m, ts.vel_m_s, fext_hat);
-    o.predicted_output_force_n =
-        -ext_force(ts.mode, t, theta, ts.pos_m, ts.vel_m_s, twin_acc,
-                   ts.mode == FrictionMode::stick ? fext_hat + model.drive_force_n(t, theta, ts.pos_m, 0, 0) : 0.0);
+    o.predicted_output_force_n = -ext_force(
+        ts.mode, t, theta, ts.pos_m, ts.vel_m_s, twin_acc,
+        ts.mode == FrictionMode::stick ? fext_hat + model.drive_force_n(t, theta, ts.pos_m, 0, 0)
+                                       : 0.0);
     fext_hat = fext_new;
     if (t >= next_resync_t || !ok) {
       // Health: judged on what the twin predicted over one open-loop interval, in counts.
-      bad_intervals = std::abs(o.residual_pos_m) > cfg.healthy_residual_counts * q_m ? bad_intervals + 1 : 0;
+      bad_intervals =
+          std::abs(o.residual_pos_m) > cfg.healthy_residual_counts * q_m ? bad_intervals + 1 : 0;
       twin.reset(t, {pos_hat, vel, mode}, theta, fext_hat);
       next_resync_t = t + cfg.resync_s;
     }
@@ -580,15 +595,17 @@ struct TwinMonitor::Impl {
     o.drift_reference_t_s = ref_t;
     o.drift_warning = drift;
     o.drift_reason = drift_reason;
-    if (drift) o.drift_warning_t_s = drift_t, o.drift_warning_gain = drift_g, o.drift_warning_stderr = drift_se;
+    if (drift)
+      o.drift_warning_t_s = drift_t, o.drift_warning_gain = drift_g,
+      o.drift_warning_stderr = drift_se;
     o.friction_mode = static_cast<int>(mode);
     o.solver_ok = ok;
     // Health: the twin explains the measurements within their resolution. Its prediction over
     // each open-loop interval (resync_s) is judged in linear-encoder counts, and only a miss
     // repeated over healthy_intervals intervals in a row counts: a stick or a slip the twin
     // times a few ms differently is not a fault.
-    o.health_reason = !ok        ? HealthReason::solver
-                      : step_out ? HealthReason::step_out
+    o.health_reason = !ok                                      ? HealthReason::solver
+                      : step_out                               ? HealthReason::step_out
                       : bad_intervals >= cfg.healthy_intervals ? HealthReason::position_residual
                                                                : HealthReason::none;
     o.healthy = o.health_reason == HealthReason::none;

@@ -40,17 +40,21 @@ std::string Endpoint::describe() const {
     return serial + " " + std::to_string(baud) + " " + std::to_string(data_bits) + parity +
            std::to_string(stop_bits) + " unit " + std::to_string(unit);
   const bool v6 = host.find(':') != std::string::npos;
-  return (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port) + " unit " + std::to_string(unit);
+  return (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port) + " unit " +
+         std::to_string(unit);
 }
 
 int ClientError::exit_code() const {
   switch (kind_) {
-    case Kind::refused_locally: return 2;
+    case Kind::refused_locally:
+      return 2;
     case Kind::connection:
     case Kind::no_reply:
-    case Kind::protocol: return 3;
+    case Kind::protocol:
+      return 3;
     case Kind::exception:
-    case Kind::rejected: return 4;
+    case Kind::rejected:
+      return 4;
   }
   return 3;
 }
@@ -99,18 +103,22 @@ Client::Client(const Endpoint& endpoint) : ep_(endpoint) {
     addrinfo* found = nullptr;
     const std::string service = std::to_string(ep_.port);
     const int gai = getaddrinfo(ep_.host.c_str(), service.c_str(), &hints, &found);
-    if (gai != 0) throw ClientError(Kind::connection, "cannot resolve host '" + ep_.host + "': " + gai_strerror(gai));
+    if (gai != 0)
+      throw ClientError(Kind::connection,
+                        "cannot resolve host '" + ep_.host + "': " + gai_strerror(gai));
     freeaddrinfo(found);
     // Tries every address the name resolves to (e.g. ::1, then 127.0.0.1), in order.
     ctx_ = modbus_new_tcp_pi(ep_.host.c_str(), service.c_str());
   }
-  if (!ctx_) throw ClientError(Kind::connection, "cannot set up a Modbus context for " + ep_.describe() + ": " +
-                                                     modbus_strerror(errno));
+  if (!ctx_)
+    throw ClientError(Kind::connection, "cannot set up a Modbus context for " + ep_.describe() +
+                                            ": " + modbus_strerror(errno));
   auto* ctx = ctx_of(ctx_);
   if (modbus_set_slave(ctx, ep_.unit) != 0) {
     modbus_free(ctx);
     ctx_ = nullptr;
-    throw ClientError(Kind::refused_locally, "unit id " + std::to_string(ep_.unit) + " is not valid (0..247, TCP 255)");
+    throw ClientError(Kind::refused_locally,
+                      "unit id " + std::to_string(ep_.unit) + " is not valid (0..247, TCP 255)");
   }
   const double t = std::max(ep_.timeout_s, 0.01);
   const auto sec = static_cast<std::uint32_t>(t);
@@ -120,11 +128,13 @@ Client::Client(const Endpoint& endpoint) : ep_(endpoint) {
     modbus_free(ctx);
     ctx_ = nullptr;
     if (!ep_.serial.empty())
-      throw ClientError(Kind::connection, "cannot open serial line " + ep_.serial + ": " + std::strerror(e));
-    throw ClientError(Kind::connection, "cannot connect to " + ep_.host + ":" + std::to_string(ep_.port) + ": " +
-                                            (e == ECONNREFUSED ? std::string("connection refused (no controller "
-                                                                             "listening on that port?)")
-                                                               : std::string(modbus_strerror(e))));
+      throw ClientError(Kind::connection,
+                        "cannot open serial line " + ep_.serial + ": " + std::strerror(e));
+    throw ClientError(Kind::connection,
+                      "cannot connect to " + ep_.host + ":" + std::to_string(ep_.port) + ": " +
+                          (e == ECONNREFUSED ? std::string("connection refused (no controller "
+                                                           "listening on that port?)")
+                                             : std::string(modbus_strerror(e))));
   }
 }
 
@@ -144,18 +154,33 @@ void Client::fail(const std::string& what) const {
   const std::string where = ep_.describe();
   const char* exc = nullptr;
   switch (e) {
-    case EMBXILFUN: exc = "01 illegal function (a read-only controller refuses every write)"; break;
-    case EMBXILADD: exc = "02 illegal data address (register not in this controller's map, or read-only)"; break;
-    case EMBXILVAL: exc = "03 illegal data value (out of range or beyond its limits)"; break;
-    case EMBXSFAIL:
-      exc = "04 refused (another client owns control, or a state change sent by broadcast; the reason is in "
-            "write_refusal_reason)";
+    case EMBXILFUN:
+      exc = "01 illegal function (a read-only controller refuses every write)";
       break;
-    case EMBXSBUSY: exc = "06 server busy (its command queue is full: try again)"; break;
-    case EMBXGPATH: exc = "0A gateway path unavailable"; break;
-    default: break;
+    case EMBXILADD:
+      exc = "02 illegal data address (register not in this controller's map, or read-only)";
+      break;
+    case EMBXILVAL:
+      exc = "03 illegal data value (out of range or beyond its limits)";
+      break;
+    case EMBXSFAIL:
+      exc =
+          "04 refused (another client owns control, or a state change sent by broadcast; the "
+          "reason is in "
+          "write_refusal_reason)";
+      break;
+    case EMBXSBUSY:
+      exc = "06 server busy (its command queue is full: try again)";
+      break;
+    case EMBXGPATH:
+      exc = "0A gateway path unavailable";
+      break;
+    default:
+      break;
   }
-  if (exc) throw ClientError(Kind::exception, what + ": controller at " + where + " answered with exception " + exc);
+  if (exc)
+    throw ClientError(Kind::exception,
+                      what + ": controller at " + where + " answered with exception " + exc);
   switch (e) {
     case EMBXGTAR:
       throw ClientError(Kind::no_reply, what + ": " + ep_.host + ":" + std::to_string(ep_.port) +
@@ -167,14 +192,16 @@ void Client::fail(const std::string& what) const {
     case EMBUNKEXC:
     case EMBMDATA:
     case EMBBADSLAVE:
-      throw ClientError(Kind::protocol, what + ": malformed or mismatched reply from " + where + " (" +
-                                            modbus_strerror(e) + ")");
+      throw ClientError(Kind::protocol, what + ": malformed or mismatched reply from " + where +
+                                            " (" + modbus_strerror(e) + ")");
     case ETIMEDOUT:
       if (!ep_.serial.empty())
-        throw ClientError(Kind::no_reply, what + ": no reply from unit " + std::to_string(ep_.unit) + " on " +
-                                              ep_.serial + " within " + fmt(ep_.timeout_s) +
-                                              " s: wrong --unit, --baud or --parity, or the controller is off");
-      throw ClientError(Kind::no_reply, what + ": no reply from " + where + " within " + fmt(ep_.timeout_s) + " s");
+        throw ClientError(Kind::no_reply,
+                          what + ": no reply from unit " + std::to_string(ep_.unit) + " on " +
+                              ep_.serial + " within " + fmt(ep_.timeout_s) +
+                              " s: wrong --unit, --baud or --parity, or the controller is off");
+      throw ClientError(Kind::no_reply,
+                        what + ": no reply from " + where + " within " + fmt(ep_.timeout_s) + " s");
     case ECONNRESET:
     case EPIPE:
     case ENOTCONN:
@@ -188,15 +215,20 @@ void Client::fail(const std::string& what) const {
 void Client::check_identity() {
   const auto w = read_words(reg::Table::input_register, 0, 3);
   if (w[0] != reg::kDeviceType)
-    throw ClientError(Kind::protocol, ep_.describe() + " is not a maglead controller (device type 0x" +
-                                          [&] { char b[8]; std::snprintf(b, sizeof b, "%04X", w[0]); return std::string(b); }() +
-                                          ", expected 0x4D4C)");
+    throw ClientError(
+        Kind::protocol, ep_.describe() + " is not a maglead controller (device type 0x" + [&] {
+          char b[8];
+          std::snprintf(b, sizeof b, "%04X", w[0]);
+          return std::string(b);
+        }() + ", expected 0x4D4C)");
   if (w[2] != reg::kMapVersion)
-    throw ClientError(Kind::protocol, ep_.describe() + " speaks register map version " + std::to_string(w[2]) +
-                                          ", this tool knows version " + std::to_string(reg::kMapVersion));
+    throw ClientError(Kind::protocol, ep_.describe() + " speaks register map version " +
+                                          std::to_string(w[2]) + ", this tool knows version " +
+                                          std::to_string(reg::kMapVersion));
 }
 
-std::vector<std::uint16_t> Client::read_words(reg::Table table, std::uint16_t start, std::uint16_t count) {
+std::vector<std::uint16_t> Client::read_words(reg::Table table, std::uint16_t start,
+                                              std::uint16_t count) {
   std::vector<std::uint16_t> words(count);
   int rc = -1;
   if (table == reg::Table::input_register)
@@ -217,11 +249,14 @@ Values Client::read_range(reg::Table table, std::uint16_t start, std::uint16_t c
   const auto words = read_words(table, start, count);
   Values v;
   for (const auto& r : reg::table()) {
-    if (r.table != table || r.address < start || r.address + reg::word_count(r.type) > start + count) continue;
+    if (r.table != table || r.address < start ||
+        r.address + reg::word_count(r.type) > start + count)
+      continue;
     const std::uint16_t* w = words.data() + (r.address - start);
     v.regs.push_back(&r);
     v.si.push_back(reg::decode(r, w));
-    v.raw.push_back(reg::word_count(r.type) == 2 ? (static_cast<std::uint32_t>(w[0]) << 16) | w[1] : w[0]);
+    v.raw.push_back(reg::word_count(r.type) == 2 ? (static_cast<std::uint32_t>(w[0]) << 16) | w[1]
+                                                 : w[0]);
   }
   return v;
 }
@@ -280,11 +315,12 @@ double parse_quantity(const std::string& text, std::string_view si_unit) {
     double factor;
   };
   static constexpr U kUnits[] = {
-      {"N", "N", 1}, {"N", "mN", 1e-3}, {"N", "kN", 1e3},
-      {"m", "m", 1}, {"m", "mm", 1e-3}, {"m", "um", 1e-6}, {"m", "µm", 1e-6},
-      {"m/s", "m/s", 1}, {"m/s", "mm/s", 1e-3}, {"m/s", "um/s", 1e-6},
-      {"m/s^2", "m/s^2", 1}, {"m/s^2", "mm/s^2", 1e-3}, {"m/s^2", "m/s2", 1}, {"m/s^2", "mm/s2", 1e-3},
-      {"s", "s", 1}, {"s", "ms", 1e-3},
+      {"N", "N", 1},         {"N", "mN", 1e-3},        {"N", "kN", 1e3},
+      {"m", "m", 1},         {"m", "mm", 1e-3},        {"m", "um", 1e-6},
+      {"m", "µm", 1e-6},     {"m/s", "m/s", 1},        {"m/s", "mm/s", 1e-3},
+      {"m/s", "um/s", 1e-6}, {"m/s^2", "m/s^2", 1},    {"m/s^2", "mm/s^2", 1e-3},
+      {"m/s^2", "m/s2", 1},  {"m/s^2", "mm/s2", 1e-3}, {"s", "s", 1},
+      {"s", "ms", 1e-3},
   };
   std::size_t used = 0;
   double v = 0;
@@ -296,7 +332,8 @@ double parse_quantity(const std::string& text, std::string_view si_unit) {
   std::string unit = text.substr(used);
   unit.erase(std::remove(unit.begin(), unit.end(), ' '), unit.end());
   if (unit.empty()) {
-    if (!std::isfinite(v)) throw ClientError(Kind::refused_locally, "'" + text + "' is not a finite number");
+    if (!std::isfinite(v))
+      throw ClientError(Kind::refused_locally, "'" + text + "' is not a finite number");
     return v;  // a bare number is in the SI unit
   }
   std::string accepted;
@@ -305,8 +342,9 @@ double parse_quantity(const std::string& text, std::string_view si_unit) {
     if (u.name == unit) return v * u.factor;
     accepted += (accepted.empty() ? "" : ", ") + std::string(u.name);
   }
-  throw ClientError(Kind::refused_locally, "'" + text + "': unit '" + unit + "' is not one of " +
-                                               (accepted.empty() ? std::string(si_unit) : accepted));
+  throw ClientError(Kind::refused_locally,
+                    "'" + text + "': unit '" + unit + "' is not one of " +
+                        (accepted.empty() ? std::string(si_unit) : accepted));
 }
 
 std::string code_name(std::span<const reg::Code> codes, double value) {
@@ -348,8 +386,10 @@ int si_decimals(const reg::Register& r) {
 double si_rounded(const reg::Register& r, double v) {
   if (!std::isfinite(v)) return v;
   char b[64];
-  if (r.type == reg::Type::f32) std::snprintf(b, sizeof b, "%.7g", v);
-  else std::snprintf(b, sizeof b, "%.*f", si_decimals(r), v);
+  if (r.type == reg::Type::f32)
+    std::snprintf(b, sizeof b, "%.7g", v);
+  else
+    std::snprintf(b, sizeof b, "%.*f", si_decimals(r), v);
   return std::strtod(b, nullptr);
 }
 
@@ -357,8 +397,10 @@ std::string si_text(const reg::Register& r, double v) {
   char b[64];
   // %.17g of the rounded value prints the shortest decimal only by luck; %g with enough digits
   // for the resolution, then trailing zeros trimmed, does it by construction.
-  if (r.type == reg::Type::f32) std::snprintf(b, sizeof b, "%.7g", v);
-  else std::snprintf(b, sizeof b, "%.*f", si_decimals(r), v);
+  if (r.type == reg::Type::f32)
+    std::snprintf(b, sizeof b, "%.7g", v);
+  else
+    std::snprintf(b, sizeof b, "%.*f", si_decimals(r), v);
   std::string s = b;
   if (s.find('.') != std::string::npos && s.find('e') == std::string::npos) {
     s.erase(s.find_last_not_of('0') + 1);
@@ -371,7 +413,8 @@ std::string si_text(const reg::Register& r, double v) {
 std::vector<std::string> status_bits(std::uint16_t status_word) {
   std::vector<std::string> out;
   for (const auto& r : reg::table())
-    if (r.table == reg::Table::discrete_input && ((status_word >> r.address) & 1u)) out.emplace_back(r.name);
+    if (r.table == reg::Table::discrete_input && ((status_word >> r.address) & 1u))
+      out.emplace_back(r.name);
   return out;
 }
 
@@ -385,32 +428,34 @@ std::optional<std::string> check_register(const reg::Register& r, double v) {
 std::optional<std::string> check_force(const Limits& limits, double force_n) {
   if (auto why = check_register(*reg::find("force_setpoint_mn"), force_n)) return why;
   // The server's own check: the calibrated inverse refuses beyond safe_fraction × peak.
-  const auto inv = phase_for_output_force(limits.calibration, force_n, limits.actuator.safe_force_fraction);
+  const auto inv =
+      phase_for_output_force(limits.calibration, force_n, limits.actuator.safe_force_fraction);
   if (inv.status != InverseStatus::ok)
-    return "force " + fmt(force_n) + " N is beyond the safe limit " + fmt(inv.limit_n) + " N; allowed " +
-           force_limit_text(limits);
+    return "force " + fmt(force_n) + " N is beyond the safe limit " + fmt(inv.limit_n) +
+           " N; allowed " + force_limit_text(limits);
   return std::nullopt;
 }
 
 std::string force_limit_text(const Limits& limits) {
   const auto& cal = limits.calibration;
   const double f = limits.actuator.safe_force_fraction;
-  return fmt(f * cal.peak_pull_n) + " .. " + fmt(f * cal.peak_push_n) + " N (safe_force_fraction " + fmt(f) +
-         " in " + limits.actuator_source + " x calibration peaks " + fmt(cal.peak_pull_n) + " / " +
-         fmt(cal.peak_push_n) + " N in " + limits.calibration_source + ")";
+  return fmt(f * cal.peak_pull_n) + " .. " + fmt(f * cal.peak_push_n) + " N (safe_force_fraction " +
+         fmt(f) + " in " + limits.actuator_source + " x calibration peaks " + fmt(cal.peak_pull_n) +
+         " / " + fmt(cal.peak_push_n) + " N in " + limits.calibration_source + ")";
 }
 
 std::string position_limit_text(const Limits& limits) {
   const auto& a = limits.actuator;
-  return fmt(a.stroke_min_m * 1e3) + " .. " + fmt(a.stroke_max_m * 1e3) + " mm (stroke_min_m, stroke_max_m in " +
-         limits.actuator_source + ")";
+  return fmt(a.stroke_min_m * 1e3) + " .. " + fmt(a.stroke_max_m * 1e3) +
+         " mm (stroke_min_m, stroke_max_m in " + limits.actuator_source + ")";
 }
 
 std::optional<std::string> check_position(const Limits& limits, double position_m) {
   // The stroke first: it is the configured limit, usually inside the register's range.
   const auto& a = limits.actuator;
   if (!(position_m >= a.stroke_min_m && position_m <= a.stroke_max_m))
-    return "position " + fmt(position_m * 1e3) + " mm is outside the stroke " + position_limit_text(limits);
+    return "position " + fmt(position_m * 1e3) + " mm is outside the stroke " +
+           position_limit_text(limits);
   return check_register(*reg::find("position_setpoint_um"), position_m);
 }
 
@@ -419,7 +464,9 @@ std::optional<std::string> check_position(const Limits& limits, double position_
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 /// The loop's command-side state: one read of input registers 10..53 (one control cycle).
 struct Status {
@@ -457,13 +504,15 @@ constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b);
 
 /// Waits until the loop has run two cycles past `after` (our write was posted before the reply,
 /// so by then it was applied), feeding the watchdog if one is set.
-Status settle(Client& c, std::uint32_t after, const Image& im, const CommandOptions& o, const char* what) {
+Status settle(Client& c, std::uint32_t after, const Image& im, const CommandOptions& o,
+              const char* what) {
   const auto t0 = Clock::now();
   for (;;) {
     const Status s = read_status(c);
     if (static_cast<std::uint32_t>(s.cycle - after) >= 2u) return s;
     if (since(t0) > o.ack_timeout_s)
-      throw ClientError(Kind::no_reply, std::string(what) + ": the controller's loop did not run within " +
+      throw ClientError(Kind::no_reply, std::string(what) +
+                                            ": the controller's loop did not run within " +
                                             fmt(o.ack_timeout_s) + " s");
     if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});
     std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
@@ -482,7 +531,8 @@ std::string alarm_text(double alarm) {
 
 }  // namespace
 
-CommandResult execute(Client& c, reg::Mode mode, const std::vector<std::pair<std::string, double>>& setpoints,
+CommandResult execute(Client& c, reg::Mode mode,
+                      const std::vector<std::pair<std::string, double>>& setpoints,
                       const CommandOptions& o) {
   const auto t0 = Clock::now();
   if (o.claim) {
@@ -492,13 +542,15 @@ CommandResult execute(Client& c, reg::Mode mode, const std::vector<std::pair<std
     if (st.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault) &&
         st.alarm == static_cast<std::uint16_t>(reg::Alarm::owner_lost))
       reset(c, false, o);
-    if (read_status(c).drive_state == static_cast<std::uint16_t>(reg::DriveState::ready)) enable(c, o);
+    if (read_status(c).drive_state == static_cast<std::uint16_t>(reg::DriveState::ready))
+      enable(c, o);
   }
   const Image im = read_image(c);
   std::uint16_t cw = im.control_word;
   if (!setpoints.empty()) c.write(setpoints);
   // A rising edge needs the bit low first (a previous client may have left it high).
-  if (cw & bit(reg::kExecute)) write_cw(c, cw = static_cast<std::uint16_t>(cw & ~bit(reg::kExecute)));
+  if (cw & bit(reg::kExecute))
+    write_cw(c, cw = static_cast<std::uint16_t>(cw & ~bit(reg::kExecute)));
   cw = static_cast<std::uint16_t>(cw & ~(bit(reg::kFaultReset) | bit(reg::kResync)));
   // The mode and the edge in one request: the loop applies both in the same cycle.
   c.write({{"control_word", cw | bit(reg::kExecute)}, {"mode_command", static_cast<double>(mode)}});
@@ -507,7 +559,8 @@ CommandResult execute(Client& c, reg::Mode mode, const std::vector<std::pair<std
   write_cw(c, cw);  // drop execute again: the handshake's falling edge
   if (s.bit(reg::kRejected) && !s.bit(reg::kExecuteAck)) rejected("execute", s);
   if (!s.bit(reg::kExecuteAck) && !s.bit(reg::kExecuteDone))
-    throw ClientError(Kind::protocol, "execute: the controller neither acknowledged nor rejected the edge");
+    throw ClientError(Kind::protocol,
+                      "execute: the controller neither acknowledged nor rejected the edge");
   CommandResult r;
   if (!o.wait_done || mode == reg::Mode::idle) {
     r.elapsed_s = since(t0);
@@ -519,13 +572,17 @@ CommandResult execute(Client& c, reg::Mode mode, const std::vector<std::pair<std
       break;
     }
     if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
-      throw ClientError(Kind::rejected, "execute: the drive faulted before reaching the target: alarm " +
-                                            alarm_text(s.alarm));
+      throw ClientError(
+          Kind::rejected,
+          "execute: the drive faulted before reaching the target: alarm " + alarm_text(s.alarm));
     if (s.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled))
-      throw ClientError(Kind::rejected, "execute: the drive was disabled before reaching the target");
+      throw ClientError(Kind::rejected,
+                        "execute: the drive was disabled before reaching the target");
     if (since(t0) > o.done_timeout_s)
-      throw ClientError(Kind::no_reply, "execute: acknowledged, but not done (in position / force reached) within " +
-                                            fmt(o.done_timeout_s) + " s");
+      throw ClientError(
+          Kind::no_reply,
+          "execute: acknowledged, but not done (in position / force reached) within " +
+              fmt(o.done_timeout_s) + " s");
     if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});
     std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
     s = read_status(c);
@@ -541,36 +598,40 @@ void enable(Client& c, const CommandOptions& o) {
   if (s.drive_state == static_cast<std::uint16_t>(DS::enabled)) return;
   // The controller ignores an enable edge outside "ready" without a reason code: say why here.
   if (s.drive_state == static_cast<std::uint16_t>(DS::fault))
-    throw ClientError(Kind::rejected, "enable: the drive is in fault (alarm " + alarm_text(s.alarm) +
-                                          "); run 'maglead reset' first");
+    throw ClientError(Kind::rejected, "enable: the drive is in fault (alarm " +
+                                          alarm_text(s.alarm) + "); run 'maglead reset' first");
   if (s.drive_state != static_cast<std::uint16_t>(DS::ready))
     throw ClientError(Kind::rejected, "enable: the drive is not ready (" +
                                           code_meaning(reg::drive_states(), s.drive_state) + ")");
-  std::uint16_t cw = static_cast<std::uint16_t>(im.control_word & ~(bit(reg::kExecute) | bit(reg::kFaultReset) |
-                                                                     bit(reg::kResync)));
-  if (im.control_word & bit(reg::kEnable)) write_cw(c, static_cast<std::uint16_t>(cw & ~bit(reg::kEnable)));
+  std::uint16_t cw = static_cast<std::uint16_t>(
+      im.control_word & ~(bit(reg::kExecute) | bit(reg::kFaultReset) | bit(reg::kResync)));
+  if (im.control_word & bit(reg::kEnable))
+    write_cw(c, static_cast<std::uint16_t>(cw & ~bit(reg::kEnable)));
   write_cw(c, cw | bit(reg::kEnable));
   const auto t0 = Clock::now();
   for (;;) {
     s = read_status(c);
     if (s.drive_state == static_cast<std::uint16_t>(DS::enabled)) return;
     if (since(t0) > o.ack_timeout_s)
-      throw ClientError(Kind::rejected, "enable: the drive did not enable within " + fmt(o.ack_timeout_s) +
-                                            " s (state " + code_name(reg::drive_states(), s.drive_state) +
-                                            (s.alarm ? ", alarm " + alarm_text(s.alarm) : std::string()) + ")");
+      throw ClientError(Kind::rejected,
+                        "enable: the drive did not enable within " + fmt(o.ack_timeout_s) +
+                            " s (state " + code_name(reg::drive_states(), s.drive_state) +
+                            (s.alarm ? ", alarm " + alarm_text(s.alarm) : std::string()) + ")");
     std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
   }
 }
 
 void disable(Client& c, const CommandOptions& o) {
   const Image im = read_image(c);
-  write_cw(c, static_cast<std::uint16_t>(im.control_word & ~(bit(reg::kEnable) | bit(reg::kExecute))));
+  write_cw(c,
+           static_cast<std::uint16_t>(im.control_word & ~(bit(reg::kEnable) | bit(reg::kExecute))));
   const auto t0 = Clock::now();
   for (;;) {
     const Status s = read_status(c);
     if (s.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled)) return;
     if (since(t0) > o.ack_timeout_s)
-      throw ClientError(Kind::no_reply, "disable: the drive is still enabled after " + fmt(o.ack_timeout_s) + " s");
+      throw ClientError(Kind::no_reply,
+                        "disable: the drive is still enabled after " + fmt(o.ack_timeout_s) + " s");
     std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
   }
 }
@@ -585,7 +646,9 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
     const Status s = settle(c, before.cycle, im, o, what);
     write_cw(c, cw);
     if (s.bit(reg::kRejected) && !s.bit(ack)) rejected(what, s);
-    if (!s.bit(done)) throw ClientError(Kind::protocol, std::string(what) + ": no acknowledgement from the controller");
+    if (!s.bit(done))
+      throw ClientError(Kind::protocol,
+                        std::string(what) + ": no acknowledgement from the controller");
   };
   if (resync_first) edge(reg::kResync, reg::kResyncAck, reg::kResyncDone, "resync");
   edge(reg::kFaultReset, reg::kResetAck, reg::kResetDone, "fault reset");

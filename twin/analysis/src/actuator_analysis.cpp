@@ -55,7 +55,8 @@ double sample_rate(const Recording& rec) {
 struct Coupling {
   const ForceCalibration& cal;
   double force(double phi) const {
-    if (phi >= cal.stable_min_rad && phi <= cal.stable_max_rad) return -cal.polynomial.load_force_n(phi);
+    if (phi >= cal.stable_min_rad && phi <= cal.stable_max_rad)
+      return -cal.polynomial.load_force_n(phi);
     return -cal.periodic.load_force_n(phi);
   }
   double slope(double phi) const {
@@ -112,7 +113,9 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   for (const char* c : {"t_s", "nut_pos_m", "load_force_n"}) require_finite(rec, rec.column(c), c);
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
-  if (n < 200) throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(n) + " rows)");
+  if (n < 200)
+    throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(n) +
+                                " rows)");
   const auto theta_raw = angle_column(rec, act);
   require_finite(rec, theta_raw, "screw_angle_rad");
   const auto& pos_raw = rec.column("nut_pos_m");
@@ -144,7 +147,8 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   {
     std::vector<double> d2;
     d2.reserve(n);
-    for (std::size_t i = 1; i + 1 < n; ++i) d2.push_back(load_raw[i + 1] - 2 * load_raw[i] + load_raw[i - 1]);
+    for (std::size_t i = 1; i + 1 < n; ++i)
+      d2.push_back(load_raw[i + 1] - 2 * load_raw[i] + load_raw[i - 1]);
     P.load_noise_n = robust_sigma(d2) / std::sqrt(6.0);
   }
 
@@ -287,7 +291,8 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
       for (int q = 0; q < k; ++q) x[j + q] = buf[q];
       j += k;
     }
-    auto f = static_cast<std::size_t>(std::min<double>(folds - 1, std::floor(folds * s.t_s / P.duration_s)));
+    auto f = static_cast<std::size_t>(
+        std::min<double>(folds - 1, std::floor(folds * s.t_s / P.duration_s)));
     g.xx[f].selfadjointView<Eigen::Lower>().rankUpdate(x);
     g.xr[f] += x * P.residual[i];
     g.rr[f] += P.residual[i] * P.residual[i];
@@ -374,7 +379,8 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   Eigen::MatrixXd R = S;
   if (nb > 0) {
     Eigen::MatrixXd Sbr = S.topRows(nb);
-    Eigen::LDLT<Eigen::MatrixXd> ld(Sbb + 1e-12 * Eigen::MatrixXd::Identity(nb, nb) * (Sbb.trace() / static_cast<double>(nb) + 1e-300));
+    Eigen::LDLT<Eigen::MatrixXd> ld(Sbb + 1e-12 * Eigen::MatrixXd::Identity(nb, nb) *
+                                              (Sbb.trace() / static_cast<double>(nb) + 1e-300));
     R = S - Sbr.transpose() * ld.solve(Sbr);
   }
   const Eigen::MatrixXd Raa = R.block(nb, nb, na, na), Rab = R.block(nb, nb + na, na, nn),
@@ -382,7 +388,8 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   const double zz = wa.dot(Raa * wa);
   if (!(zz > 0)) return 0.0;
   const Eigen::VectorXd bz = Rab.transpose() * wa;
-  Eigen::LDLT<Eigen::MatrixXd> lb(Rbb + 1e-12 * Eigen::MatrixXd::Identity(nn, nn) * (Rbb.trace() / static_cast<double>(nn) + 1e-300));
+  Eigen::LDLT<Eigen::MatrixXd> lb(Rbb + 1e-12 * Eigen::MatrixXd::Identity(nn, nn) *
+                                            (Rbb.trace() / static_cast<double>(nn) + 1e-300));
   return std::clamp(bz.dot(lb.solve(bz)) / zz, 0.0, 1.0);
 }
 
@@ -451,7 +458,8 @@ Selection select(const Prepared& P, const Options& opt,
         std::vector<int> idx = current;
         idx.insert(idx.end(), var.idx.begin(), var.idx.end());
         const Fit full = solve(g, idx, -1);
-        const auto prm = e->parameters(var.shape, full.theta.tail(static_cast<Eigen::Index>(var.idx.size())).data(), model);
+        const auto prm = e->parameters(
+            var.shape, full.theta.tail(static_cast<Eigen::Index>(var.idx.size())).data(), model);
         if (!prm || !effects::plausible(*e, *prm)) continue;
         auto ho = heldout(g, idx);
         const double s = total(ho);
@@ -479,7 +487,8 @@ Selection select(const Prepared& P, const Options& opt,
         Eigen::MatrixXd xx(k, k);
         for (Eigen::Index r = 0; r < k; ++r)
           for (Eigen::Index c = 0; c < k; ++c)
-            xx(r, c) = g.xx[f](best.var->idx[static_cast<std::size_t>(r)], best.var->idx[static_cast<std::size_t>(c)]);
+            xx(r, c) = g.xx[f](best.var->idx[static_cast<std::size_t>(r)],
+                               best.var->idx[static_cast<std::size_t>(c)]);
         if (w.dot(xx * w) < opt.acting_share * cur_ho[f]) continue;
         d.push_back(cur_ho[f] - best.ho[f]);
         rel.push_back(d.back() / cur_ho[f]);
@@ -509,11 +518,12 @@ Selection select(const Prepared& P, const Options& opt,
     const bool significant = it->gain >= opt.min_gain_pct && it->t >= opt.min_t &&
                              explained_n >= opt.min_explained_counts * P.count_force_n;
     if (!significant) {
-      out.next_best = Candidate{std::string(it->var->effect->id()), it->params, it->gain, it->t,
-                                it->improved, folds, {}};
+      out.next_best = Candidate{
+          std::string(it->var->effect->id()), it->params, it->gain, it->t, it->improved, folds, {}};
       break;
     }
-    Candidate c{std::string(it->var->effect->id()), it->params, it->gain, it->t, it->improved, folds, {}};
+    Candidate c{
+        std::string(it->var->effect->id()), it->params, it->gain, it->t, it->improved, folds, {}};
     c.shape = it->var->shape;
     // Alternatives: other effects whose columns reproduce this one's contribution.
     const Fit full_new = [&] {
@@ -535,7 +545,9 @@ Selection select(const Prepared& P, const Options& opt,
       std::vector<int> idx = current;
       idx.insert(idx.end(), best_v->idx.begin(), best_v->idx.end());
       const Fit fa = solve(g, idx, -1);
-      const auto pa = e->parameters(best_v->shape, fa.theta.tail(static_cast<Eigen::Index>(best_v->idx.size())).data(), model);
+      const auto pa =
+          e->parameters(best_v->shape,
+                        fa.theta.tail(static_cast<Eigen::Index>(best_v->idx.size())).data(), model);
       if (!pa || !effects::plausible(*e, *pa)) continue;
       c.alternatives.push_back({std::string(e->id()), *pa, 100.0 * best_r2});
     }
@@ -569,7 +581,8 @@ Selection select(const Prepared& P, const Options& opt,
   for (auto& c : out.chosen) {
     const auto* e = effects::find(c.id);
     const auto k = static_cast<Eigen::Index>(e->columns());
-    if (auto prm = e->parameters(c.shape, final_fit.theta.segment(static_cast<Eigen::Index>(off), k).data(), model))
+    if (auto prm = e->parameters(
+            c.shape, final_fit.theta.segment(static_cast<Eigen::Index>(off), k).data(), model))
       c.params = *prm;
     off += static_cast<std::size_t>(k);
   }
@@ -598,7 +611,8 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
       }
       // At release the net driving force equals the break-away friction.
       excess.push_back(dir * net - level);
-      count_force.push_back(std::abs(e.state.coupling_slope_n_per_rad) * 2 * kPi * P.count_m / P.lead_m);
+      count_force.push_back(std::abs(e.state.coupling_slope_n_per_rad) * 2 * kPi * P.count_m /
+                            P.lead_m);
     }
     auto& s = side == 0 ? out.pos : out.neg;
     s.episodes = excess.size();

@@ -28,19 +28,19 @@ struct Baseline {
 };
 
 struct Options {
-  int folds = 10;                 // contiguous held-out time segments
-  double filter_hz = 20.0;        // zero-phase low-pass of every signal
-  double min_gain_pct = 1.0;      // held-out mean-square error a term must remove …
-  double min_t = 3.0;             // … consistently over the segments (t of per-segment gains)
-  double acting_share = 0.1;      // segments where the term carries this share of the error count
+  int folds = 10;             // contiguous held-out time segments
+  double filter_hz = 20.0;    // zero-phase low-pass of every signal
+  double min_gain_pct = 1.0;  // held-out mean-square error a term must remove …
+  double min_t = 3.0;         // … consistently over the segments (t of per-segment gains)
+  double acting_share = 0.1;  // segments where the term carries this share of the error count
   double min_explained_counts = 0.1;  // … and explain this share of one count's force (RMS)
-  double parsimony = 0.99;        // a simpler term reaching this share of the best gain wins
-  double alternative_r2 = 0.95;   // another effect reproducing this much is named beside it
-  double breakaway_sigmas = 3.0;  // break-away excess significance (standard errors)
+  double parsimony = 0.99;            // a simpler term reaching this share of the best gain wins
+  double alternative_r2 = 0.95;       // another effect reproducing this much is named beside it
+  double breakaway_sigmas = 3.0;      // break-away excess significance (standard errors)
   int max_terms = 6;
-  double pulse_sigmas = 8.0;          // a disturbance pulse stands this far out of the residual …
-  double pulse_max_s = 1.0;           // … for at most this long …
-  double pulse_min_spacing_s = 2.0;   // … and pulses are at least this far apart on average
+  double pulse_sigmas = 8.0;         // a disturbance pulse stands this far out of the residual …
+  double pulse_max_s = 1.0;          // … for at most this long …
+  double pulse_min_spacing_s = 2.0;  // … and pulses are at least this far apart on average
   std::vector<std::string> exclude;  // ids already in the baseline model
 };
 
@@ -86,7 +86,7 @@ struct Candidate {
 struct Selection {
   std::vector<Candidate> chosen;
   std::vector<double> heldout_sse_after;  // after each chosen term
-  Candidate next_best;                     // the best rejected one (id empty if none)
+  Candidate next_best;                    // the best rejected one (id empty if none)
   double baseline_sse = 0, baseline_heldout_sse = 0, final_sse = 0, measured_ss = 0;
   std::vector<double> final_residual;  // at Prepared::states, after every chosen term
   std::size_t samples_used = 0;
@@ -107,7 +107,8 @@ struct BreakawayTest {
 
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
                  const ActuatorParams& act, const Options& opt);
-Selection select(const Prepared& P, const Options& opt, const std::function<void(double)>& progress);
+Selection select(const Prepared& P, const Options& opt,
+                 const std::function<void(double)>& progress);
 std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
                                                  const Selection& sel, const BreakawayTest& bt,
                                                  const Options& opt);

@@ -59,7 +59,9 @@ ModelFile corrected_model(const ModelFile& base, const actuator::Selection& sel,
 // between them keeps a plot from drawing a line across the stuck time in between.
 Chart fit_over_time(const actuator::Prepared& P, const actuator::Selection& sel) {
   const bool added = !sel.chosen.empty();
-  Chart c{"The fit before and after", "time [s]", "missing force [N]",
+  Chart c{"The fit before and after",
+          "time [s]",
+          "missing force [N]",
           {{added ? "before (the model as configured)" : "the model (nothing added)", {}, {}}}};
   if (added) c.curves.push_back({"after (with the effects found)", {}, {}});
   const double gap_s = 2.0 * P.decimation / P.fs_hz;
@@ -105,8 +107,8 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
     const effects::Params kinetic{{"coulomb_n", stribeck->params.at("coulomb_n")}};
     sel.final_sse = 0;
     for (std::size_t i = 0; i < P.states.size(); ++i) {
-      sel.final_residual[i] -= e->force_n(stribeck->params, P.states[i]) -
-                               coulomb->force_n(kinetic, P.states[i]);
+      sel.final_residual[i] -=
+          e->force_n(stribeck->params, P.states[i]) - coulomb->force_n(kinetic, P.states[i]);
       sel.final_sse += sel.final_residual[i] * sel.final_residual[i];
     }
   }
@@ -116,22 +118,27 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   J.recording = rec.path;
   J.samples = P.samples;
   J.samples_used = sel.samples_used;
-  J.method.domain = "force (inverse model: the force the baseline leaves out of the nut's balance, "
-                    "from measured motion and load)";
-  J.method.filter = "4th-order Butterworth at " + fmt(P.filter_hz) + " Hz, zero phase, on every signal";
+  J.method.domain =
+      "force (inverse model: the force the baseline leaves out of the nut's balance, "
+      "from measured motion and load)";
+  J.method.filter =
+      "4th-order Butterworth at " + fmt(P.filter_hz) + " Hz, zero phase, on every signal";
   J.method.decimation = P.decimation;
   J.method.folds = o.folds;
-  J.method.selection = "forward, by held-out error on contiguous time segments; a term must cut the "
-                       "held-out mean square error by " + fmt(o.min_gain_pct) + " % with t >= " +
-                       fmt(o.min_t) + " over the segments";
+  J.method.selection =
+      "forward, by held-out error on contiguous time segments; a term must cut the "
+      "held-out mean square error by " +
+      fmt(o.min_gain_pct) + " % with t >= " + fmt(o.min_t) + " over the segments";
   J.method.moving_only = "sliding samples only (faster than " + fmt(P.v_min_m_s * 1e3) +
                          " mm/s, one direction over the filter's support); stuck episodes feed "
                          "the break-away test";
   J.noise_floor_n = P.load_noise_n;
   const double n_used = std::max<double>(1.0, static_cast<double>(sel.samples_used));
   auto rms = [&](double s) { return std::sqrt(s / n_used); };
-  auto rel = [&](double s) { return sel.measured_ss > 0 ? 100.0 * std::sqrt(s / sel.measured_ss) : 0.0; };
-  J.baseline = {rms(sel.baseline_sse), rel(sel.baseline_sse), rms(sel.baseline_sse),
+  auto rel = [&](double s) {
+    return sel.measured_ss > 0 ? 100.0 * std::sqrt(s / sel.measured_ss) : 0.0;
+  };
+  J.baseline = {rms(sel.baseline_sse), rel(sel.baseline_sse),         rms(sel.baseline_sse),
                 rel(sel.baseline_sse), rms(sel.baseline_heldout_sse), std::nullopt};
   auto& effects_found = J.effects;
   auto& validation = J.validation;
@@ -145,7 +152,8 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
     e.parameters = params_of(c.params);
     e.evidence.heldout_gain_pct = c.gain_pct;
     e.evidence.t_stat = c.t_stat;
-    e.evidence.segments_improved = std::to_string(c.segments_improved) + "/" + std::to_string(c.segments);
+    e.evidence.segments_improved =
+        std::to_string(c.segments_improved) + "/" + std::to_string(c.segments);
     e.evidence.explained_rms_n = std::sqrt(std::max(0.0, prev - sel.heldout_sse_after[k]) / n_used);
     e.evidence.noise_floor_n = P.load_noise_n;
     e.improvement_pct = 100.0 * (prev - sel.heldout_sse_after[k]) / sel.baseline_heldout_sse;
@@ -161,7 +169,8 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   }
   if (stribeck) {
     // Stribeck's law holds the kinetic level: a coulomb_friction finding becomes part of it.
-    std::erase_if(sel.chosen, [](const actuator::Candidate& c) { return c.id == "coulomb_friction"; });
+    std::erase_if(sel.chosen,
+                  [](const actuator::Candidate& c) { return c.id == "coulomb_friction"; });
     for (auto it = effects_found.begin(); it != effects_found.end(); ++it)
       if (it->id == "coulomb_friction") {
         effects_found.erase(it);
@@ -225,14 +234,16 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   }
   J.breakaway_test = BreakawayTest{{bt.pos.episodes, bt.pos.median_excess_n, bt.pos.se_n},
                                    {bt.neg.episodes, bt.neg.median_excess_n, bt.neg.se_n}};
-  J.final_fit = {rms(sel.final_sse), rel(sel.final_sse), rms(sel.final_sse), rel(sel.final_sse),
-                 std::nullopt, std::nullopt};
+  J.final_fit = {rms(sel.final_sse), rel(sel.final_sse), rms(sel.final_sse),
+                 rel(sel.final_sse), std::nullopt,       std::nullopt};
   if (!sel.next_best.id.empty())
     J.not_selected.push_back({sel.next_best.id, sel.next_best.gain_pct, sel.next_best.t_stat,
-                              std::nullopt, std::nullopt, std::nullopt, params_of(sel.next_best.params)});
-  J.conclusion = sel.chosen.empty() ? "nothing is missing: no effect explains a significant part of "
-                                      "the held-out error"
-                                    : std::to_string(sel.chosen.size()) + " effect(s) found";
+                              std::nullopt, std::nullopt, std::nullopt,
+                              params_of(sel.next_best.params)});
+  J.conclusion = sel.chosen.empty()
+                     ? "nothing is missing: no effect explains a significant part of "
+                       "the held-out error"
+                     : std::to_string(sel.chosen.size()) + " effect(s) found";
   AnalysisResult r;
   r.findings = std::move(J);
   r.corrected = corrected_model(model, sel, rec.path);

@@ -24,9 +24,36 @@ constexpr double kPi = std::numbers::pi;
 
 // ---------------------------------------------------------------- columns and candidates
 enum Col : int {
-  kAcc, kVel, kSign, kAbsV, kMoving, kStrib0, kStrib1, kStrib2, kStrib3, kStrib4, kStrib5, kOne,
-  kSpring, kDrift, kSinTh, kCosTh, kSinP, kCosP, kEnd0, kEnd1, kEnd2, kEnd3, kEnd4, kEnd5,
-  kBacklash, kDelay, kBurst, kGain, kLead, kNumCols
+  kAcc,
+  kVel,
+  kSign,
+  kAbsV,
+  kMoving,
+  kStrib0,
+  kStrib1,
+  kStrib2,
+  kStrib3,
+  kStrib4,
+  kStrib5,
+  kOne,
+  kSpring,
+  kDrift,
+  kSinTh,
+  kCosTh,
+  kSinP,
+  kCosP,
+  kEnd0,
+  kEnd1,
+  kEnd2,
+  kEnd3,
+  kEnd4,
+  kEnd5,
+  kBacklash,
+  kDelay,
+  kBurst,
+  kGain,
+  kLead,
+  kNumCols
 };
 constexpr double kStribeckVel_m_s[6] = {0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3, 16e-3};
 constexpr double kEndDist_m[6] = {1e-3, 2e-3, 3e-3, 4e-3, 6e-3, 8e-3};
@@ -85,16 +112,36 @@ void fill_row(const Signals& s, std::size_t i, const std::vector<int>& cols, dou
     const int c = cols[j];
     double x = 0.0;
     switch (c) {
-      case kAcc: x = s.a[i]; break;
-      case kVel: x = v; break;
-      case kSign: x = sgn(v); break;
-      case kAbsV: x = std::abs(v); break;
-      case kMoving: x = std::abs(v) > s.moving_speed ? 1.0 : 0.0; break;
-      case kOne: x = 1.0; break;
-      case kSpring: x = s.p[i] - s.mid_m; break;
-      case kSinP: x = std::sin(2 * kPi * s.p[i] / s.pos_period_m); break;
-      case kCosP: x = std::cos(2 * kPi * s.p[i] / s.pos_period_m); break;
-      case kBurst: x = s.burst.empty() ? 0.0 : s.burst[i]; break;
+      case kAcc:
+        x = s.a[i];
+        break;
+      case kVel:
+        x = v;
+        break;
+      case kSign:
+        x = sgn(v);
+        break;
+      case kAbsV:
+        x = std::abs(v);
+        break;
+      case kMoving:
+        x = std::abs(v) > s.moving_speed ? 1.0 : 0.0;
+        break;
+      case kOne:
+        x = 1.0;
+        break;
+      case kSpring:
+        x = s.p[i] - s.mid_m;
+        break;
+      case kSinP:
+        x = std::sin(2 * kPi * s.p[i] / s.pos_period_m);
+        break;
+      case kCosP:
+        x = std::cos(2 * kPi * s.p[i] / s.pos_period_m);
+        break;
+      case kBurst:
+        x = s.burst.empty() ? 0.0 : s.burst[i];
+        break;
       default:
         if (c >= kStrib0 && c <= kStrib5) {
           const double r = v / kStribeckVel_m_s[c - kStrib0];
@@ -103,13 +150,27 @@ void fill_row(const Signals& s, std::size_t i, const std::vector<int>& cols, dou
         }
         if (!s.actuator) break;
         switch (c) {
-          case kDrift: x = s.fs[i] * s.t[i] / 60.0; break;
-          case kSinTh: x = std::sin(s.theta[i]); break;
-          case kCosTh: x = std::cos(s.theta[i]); break;
-          case kBacklash: x = -0.5 * s.play[i] * s.fs_slope[i]; break;
-          case kDelay: x = -s.fs_slope[i] * 2 * kPi * v / s.lead_m; break;
-          case kGain: x = s.fs[i]; break;
-          case kLead: x = s.fs_slope[i] * 2 * kPi * s.p[i] / (s.lead_m * s.lead_m); break;
+          case kDrift:
+            x = s.fs[i] * s.t[i] / 60.0;
+            break;
+          case kSinTh:
+            x = std::sin(s.theta[i]);
+            break;
+          case kCosTh:
+            x = std::cos(s.theta[i]);
+            break;
+          case kBacklash:
+            x = -0.5 * s.play[i] * s.fs_slope[i];
+            break;
+          case kDelay:
+            x = -s.fs_slope[i] * 2 * kPi * v / s.lead_m;
+            break;
+          case kGain:
+            x = s.fs[i];
+            break;
+          case kLead:
+            x = s.fs_slope[i] * 2 * kPi * s.p[i] / (s.lead_m * s.lead_m);
+            break;
           default:
             if (c >= kEnd0 && c <= kEnd5)
               x = s.fs[i] * std::clamp(1.0 - s.to_end[i] / kEndDist_m[c - kEnd0], 0.0, 1.0);
@@ -131,8 +192,8 @@ void require_finite(const Recording& rec, const std::string& name) {
   const auto& c = rec.column(name);
   for (std::size_t i = 0; i < c.size(); ++i)
     if (!std::isfinite(c[i]))
-      throw RecordingError(rec.path + ": data row " + std::to_string(i + 1) + ", column '" +
-                           name + "': missing value (the analysis needs every sample)");
+      throw RecordingError(rec.path + ": data row " + std::to_string(i + 1) + ", column '" + name +
+                           "': missing value (the analysis needs every sample)");
 }
 
 double robust_sigma(std::vector<double> x) {
@@ -147,10 +208,10 @@ double robust_sigma(std::vector<double> x) {
 
 // ---------------------------------------------------------------- Gram per segment
 struct Grams {
-  std::vector<int> cols;                  // column kinds, in matrix order
-  std::vector<Eigen::MatrixXd> xx;        // per fold
-  std::vector<Eigen::VectorXd> xr;        // X' r, r = y − y_fixed
-  std::vector<double> rr, yy;             // r' r, y' y
+  std::vector<int> cols;            // column kinds, in matrix order
+  std::vector<Eigen::MatrixXd> xx;  // per fold
+  std::vector<Eigen::VectorXd> xr;  // X' r, r = y − y_fixed
+  std::vector<double> rr, yy;       // r' r, y' y
   std::vector<std::size_t> n;
   int index(int col) const {
     for (std::size_t j = 0; j < cols.size(); ++j)
@@ -365,7 +426,9 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
   const double w = b.centre.size() > 1 ? b.centre[1] - b.centre[0] : 0.0;
   while (i < hot.size() && shown < 4) {
     std::size_t j = i;
-    while (j + 1 < hot.size() && hot[j + 1] == hot[j] + 1 && sgn(b.mean[hot[j + 1]]) == sgn(b.mean[hot[i]])) ++j;
+    while (j + 1 < hot.size() && hot[j + 1] == hot[j] + 1 &&
+           sgn(b.mean[hot[j + 1]]) == sgn(b.mean[hot[i]]))
+      ++j;
     double peak = 0;
     for (std::size_t k = i; k <= j; ++k)
       if (std::abs(b.mean[hot[k]]) > std::abs(peak)) peak = b.mean[hot[k]];
@@ -386,7 +449,7 @@ struct Prepared {
   Eigen::MatrixXd id_columns;  // axis, decimated: parallel-filtered columns (n × kNumCols)
   int decimation = 1;
   double fs_hz = 0, filter_hz = 0, noise_floor_n = 0, bandwidth_hz = 0;
-  std::vector<double> y_raw;  // full-rate measured force, unfiltered
+  std::vector<double> y_raw;                  // full-rate measured force, unfiltered
   std::vector<std::pair<double, int>> slips;  // step-outs: time, leads
 };
 
@@ -421,8 +484,9 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
     require_finite(rec, c);
   }
   const auto& t = rec.column("t_s");
-  if (t.size() < 200) throw std::invalid_argument(rec.path + ": too short to analyse (" +
-                                                  std::to_string(t.size()) + " rows)");
+  if (t.size() < 200)
+    throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(t.size()) +
+                                " rows)");
   const double dt = median_step(t);
   if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
   P.fs_hz = 1.0 / dt;
@@ -456,7 +520,8 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
     const auto* term = model.find(id);
     return term ? term->get(key, fallback) : fallback;
   };
-  const bool fit_m = model.fit.count("nut_mass_kg") > 0, fit_c = model.fit.count("viscous_n_s_per_m") > 0,
+  const bool fit_m = model.fit.count("nut_mass_kg") > 0,
+             fit_c = model.fit.count("viscous_n_s_per_m") > 0,
              fit_f = model.fit.count("coulomb_n") > 0;
   // Fixed part of the baseline: known dynamics plus any extra term the model file switches on
   // (force on the moving part along +p enters the measured force with the opposite sign on the
@@ -471,9 +536,12 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
   const auto* ar = model.find("angle_ripple");
   const auto* ee = model.find("end_effect");
   const auto* as = model.find("asymmetric_friction");
-  const double mass_fixed = fit_m ? 0.0 : term_value("mass_error", "nut_mass_kg", model.nut_mass_kg);
-  const double visc_fixed = fit_c ? 0.0 : term_value("viscous_friction", "viscous_n_s_per_m", model.viscous_n_s_per_m);
-  const double coul_fixed = fit_f ? 0.0 : term_value("coulomb_friction", "coulomb_n", model.coulomb_n);
+  const double mass_fixed =
+      fit_m ? 0.0 : term_value("mass_error", "nut_mass_kg", model.nut_mass_kg);
+  const double visc_fixed =
+      fit_c ? 0.0 : term_value("viscous_friction", "viscous_n_s_per_m", model.viscous_n_s_per_m);
+  const double coul_fixed =
+      fit_f ? 0.0 : term_value("coulomb_friction", "coulomb_n", model.coulomb_n);
   // Direction-dependent friction: its levels replace the symmetric ones in their direction.
   const double coul_pos = as ? as->get("coulomb_pos_n", coul_fixed) - coul_fixed : 0.0;
   const double coul_neg = as ? as->get("coulomb_neg_n", coul_fixed) - coul_fixed : 0.0;
@@ -485,11 +553,14 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
   const double offset = term_value("offset", "offset_n", 0.0);
   const double spring_k = sp ? sp->get("stiffness_n_per_m", 0.0) : 0.0,
                spring_c = sp ? sp->get("rest_position_m", s.mid_m) : 0.0;
-  const double pr_n = pr ? pr->get("amplitude_n", 0.0) : 0.0, pr_per = pr ? pr->get("period_m", 5e-3) : 1.0,
+  const double pr_n = pr ? pr->get("amplitude_n", 0.0) : 0.0,
+               pr_per = pr ? pr->get("period_m", 5e-3) : 1.0,
                pr_ph = pr ? pr->get("phase_rad", 0.0) : 0.0;
-  const double ar_n = ar ? ar->get("relative_amplitude", 0.0) : 0.0, ar_ph = ar ? ar->get("phase_rad", 0.0) : 0.0;
+  const double ar_n = ar ? ar->get("relative_amplitude", 0.0) : 0.0,
+               ar_ph = ar ? ar->get("phase_rad", 0.0) : 0.0;
   const double drift = term_value("gain_drift", "gain_change_per_min", 0.0);
-  const double ee_m = ee ? ee->get("zone_m", 1e-3) : 0.0, ee_depth = ee ? ee->get("max_reduction", 0.5) : 0.0;
+  const double ee_m = ee ? ee->get("zone_m", 1e-3) : 0.0,
+               ee_depth = ee ? ee->get("max_reduction", 0.5) : 0.0;
   auto fixed_dynamics = [&](std::size_t i, double gain_fs, double fs_raw) {
     const double v = s.v[i];
     const double dir = sgn(v);
@@ -587,7 +658,8 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
       }
     }
     for (const auto& slip : P.slips) {
-      auto i = static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), slip.first - 0.2) - t.begin());
+      auto i = static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), slip.first - 0.2) -
+                                        t.begin());
       for (; i < n && t[i] < slip.first + 0.2; ++i) s.valid[i] = 0;
     }
   } else {
@@ -664,8 +736,8 @@ Grams accumulate_matrix(const Prepared& P, int folds) {
   for (int f = 0; f < folds; ++f) {
     const std::size_t lo = n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
     const std::size_t hi = n * static_cast<std::size_t>(f + 1) / static_cast<std::size_t>(folds);
-    const auto rows = P.id_columns.middleRows(static_cast<Eigen::Index>(lo),
-                                              static_cast<Eigen::Index>(hi - lo));
+    const auto rows =
+        P.id_columns.middleRows(static_cast<Eigen::Index>(lo), static_cast<Eigen::Index>(hi - lo));
     Eigen::VectorXd r(static_cast<Eigen::Index>(hi - lo));
     double yy = 0;
     for (std::size_t i = lo; i < hi; ++i) {
@@ -689,7 +761,8 @@ std::vector<double> predict(const Signals& s, const Grams& g, const Fit& fit) {
   for (std::size_t i = 0; i < s.size(); ++i) {
     fill_row(s, i, cols, row.data());
     double y = s.y_fixed[i];
-    for (std::size_t j = 0; j < cols.size(); ++j) y += fit.theta[static_cast<Eigen::Index>(j)] * row[j];
+    for (std::size_t j = 0; j < cols.size(); ++j)
+      y += fit.theta[static_cast<Eigen::Index>(j)] * row[j];
     out[i] = y;
   }
   return out;
@@ -745,8 +818,9 @@ Params physical(const std::string& id, const std::vector<int>& cols, const Eigen
   // Value of a baseline quantity: the model file's, or the fitted one when it was unknown.
   auto base = [&](const char* key, int col) {
     if (!model.fit.count(key))
-      return key == std::string("nut_mass_kg") ? model.nut_mass_kg
-             : key == std::string("viscous_n_s_per_m") ? model.viscous_n_s_per_m : model.coulomb_n;
+      return key == std::string("nut_mass_kg")         ? model.nut_mass_kg
+             : key == std::string("viscous_n_s_per_m") ? model.viscous_n_s_per_m
+                                                       : model.coulomb_n;
     const int k = g.index(col);
     for (std::size_t j = 0; j < full.idx.size(); ++j)
       if (full.idx[j] == k) return full.theta[static_cast<Eigen::Index>(j)];
@@ -765,12 +839,15 @@ Params physical(const std::string& id, const std::vector<int>& cols, const Eigen
     const double dv = coef(kAbsV), dc = coef(kMoving);
     auto in_full = [&](int col) {
       for (std::size_t j = 0; j < full.idx.size(); ++j)
-        if (g.cols[static_cast<std::size_t>(full.idx[j])] == col) return full.theta[static_cast<Eigen::Index>(j)];
+        if (g.cols[static_cast<std::size_t>(full.idx[j])] == col)
+          return full.theta[static_cast<Eigen::Index>(j)];
       return 0.0;
     };
     // The same fit written as the benchmark's direction-dependent model (no separate offset).
-    const double fc = base("coulomb_n", kSign) + (model.fit.count("coulomb_n") ? 0.0 : in_full(kSign));
-    const double fv = base("viscous_n_s_per_m", kVel) + (model.fit.count("viscous_n_s_per_m") ? 0.0 : in_full(kVel));
+    const double fc =
+        base("coulomb_n", kSign) + (model.fit.count("coulomb_n") ? 0.0 : in_full(kSign));
+    const double fv = base("viscous_n_s_per_m", kVel) +
+                      (model.fit.count("viscous_n_s_per_m") ? 0.0 : in_full(kVel));
     const double off = in_full(kOne) + dc;  // constant force in the measured-force domain
     set_parameter(p.values, "coulomb_pos_n", fc + off);
     set_parameter(p.values, "coulomb_neg_n", fc - off);
@@ -795,7 +872,8 @@ Params physical(const std::string& id, const std::vector<int>& cols, const Eigen
     const double b = base("nut_mass_kg", kAcc);
     set_parameter(p.values, "nut_mass_kg", b + coef(kAcc));
     // A known mass wrong by more than five times itself is not a mass error but something else.
-    p.plausible = b + coef(kAcc) > 0 && (model.fit.count("nut_mass_kg") || std::abs(coef(kAcc)) <= 5 * b);
+    p.plausible =
+        b + coef(kAcc) > 0 && (model.fit.count("nut_mass_kg") || std::abs(coef(kAcc)) <= 5 * b);
   } else if (id == "gain_drift") {
     set_parameter(p.values, "gain_drift_per_min", coef(kDrift));
     p.plausible = std::abs(coef(kDrift)) < 1.0;
@@ -835,21 +913,33 @@ std::string where_text(const std::string& id, const Parameters& v, const Signals
                        const std::vector<std::pair<double, double>>& bursts) {
   std::ostringstream o;
   o.precision(3);
-  if (id == "coulomb_friction") o << "a step at every velocity reversal, constant while moving";
-  else if (id == "viscous_friction") o << "grows in proportion to speed";
-  else if (id == "asymmetric_friction") o << "differs between the two directions of motion";
+  if (id == "coulomb_friction")
+    o << "a step at every velocity reversal, constant while moving";
+  else if (id == "viscous_friction")
+    o << "grows in proportion to speed";
+  else if (id == "asymmetric_friction")
+    o << "differs between the two directions of motion";
   else if (id == "stribeck_friction")
-    o << "at low speed, below about " << parameter_value(v, "stribeck_velocity_m_s") * 1e3 << " mm/s, after break-away";
-  else if (id == "offset") o << "everywhere, the same in both directions";
-  else if (id == "spring") o << "grows with distance from mid-stroke (" << s.mid_m * 1e3 << " mm)";
-  else if (id == "mass_error") o << "during accelerations";
-  else if (id == "gain_drift") o << "grows over time, in proportion to the coupling force";
-  else if (id == "angle_ripple") o << "once per screw turn (screw angle mod 2π)";
-  else if (id == "position_ripple") o << "every " << s.pos_period_m * 1e3 << " mm of nut travel";
+    o << "at low speed, below about " << parameter_value(v, "stribeck_velocity_m_s") * 1e3
+      << " mm/s, after break-away";
+  else if (id == "offset")
+    o << "everywhere, the same in both directions";
+  else if (id == "spring")
+    o << "grows with distance from mid-stroke (" << s.mid_m * 1e3 << " mm)";
+  else if (id == "mass_error")
+    o << "during accelerations";
+  else if (id == "gain_drift")
+    o << "grows over time, in proportion to the coupling force";
+  else if (id == "angle_ripple")
+    o << "once per screw turn (screw angle mod 2π)";
+  else if (id == "position_ripple")
+    o << "every " << s.pos_period_m * 1e3 << " mm of nut travel";
   else if (id == "end_effect")
     o << "within " << parameter_value(v, "distance_m") * 1e3 << " mm of the stroke ends";
-  else if (id == "backlash") o << "after each reversal of the screw, in proportion to the coupling stiffness";
-  else if (id == "sensor_delay") o << "in proportion to nut speed times coupling stiffness";
+  else if (id == "backlash")
+    o << "after each reversal of the screw, in proportion to the coupling stiffness";
+  else if (id == "sensor_delay")
+    o << "in proportion to nut speed times coupling stiffness";
   else if (id == "external_disturbance") {
     o << bursts.size() << " isolated pulses at t =";
     for (std::size_t i = 0; i < std::min<std::size_t>(bursts.size(), 8); ++i)
@@ -969,17 +1059,17 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   std::vector<int> base_cols;
   std::set<std::string> in_baseline;
   if (model.fit.count("nut_mass_kg")) base_cols.push_back(kAcc), in_baseline.insert("mass_error");
-  if (model.fit.count("viscous_n_s_per_m")) base_cols.push_back(kVel), in_baseline.insert("viscous_friction");
-  if (model.fit.count("coulomb_n")) base_cols.push_back(kSign), in_baseline.insert("coulomb_friction");
+  if (model.fit.count("viscous_n_s_per_m"))
+    base_cols.push_back(kVel), in_baseline.insert("viscous_friction");
+  if (model.fit.count("coulomb_n"))
+    base_cols.push_back(kSign), in_baseline.insert("coulomb_friction");
   // Terms the model already has are not candidates again (their values are taken as given).
   for (const auto& t : model.terms)
     if (t.enabled) in_baseline.insert(t.id);
 
   // Baseline fit alone first: its residual is what the maps and detectors look at.
   const int folds = std::max(3, opt.folds);
-  auto stage = [&](const std::string& name) {
-    return [&, name](double f) { progress(name, f); };
-  };
+  auto stage = [&](const std::string& name) { return [&, name](double f) { progress(name, f); }; };
   std::vector<double> r0(S.size()), r_scan(S.size());
   {
     // The friction terms every drive has (Coulomb, offset, direction-dependent) dwarf a position
@@ -1014,14 +1104,16 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   }
 
   // One pass: per-segment Grams of every column.
-  Grams g = P.decimated ? accumulate_matrix(P, folds) : accumulate(S, all_columns(), folds, stage("gram"));
+  Grams g = P.decimated ? accumulate_matrix(P, folds)
+                        : accumulate(S, all_columns(), folds, stage("gram"));
   double yy_total = 0, n_total = 0;
   for (int f = 0; f < folds; ++f) {
     yy_total += g.yy[static_cast<std::size_t>(f)];
     n_total += static_cast<double>(g.n[static_cast<std::size_t>(f)]);
   }
   if (n_total < 100)
-    throw std::invalid_argument(rec.path + ": fewer than 100 usable samples (the nut hardly moves)");
+    throw std::invalid_argument(rec.path +
+                                ": fewer than 100 usable samples (the nut hardly moves)");
 
   // ------------------------------------------------------------ forward selection
   const auto library = candidate_library();
@@ -1031,12 +1123,14 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   Score cur = heldout(g, current);
   const double base_heldout = cur.total;
   std::vector<ValidationStep> validation;
-  auto validation_step = [&](const std::string& name, const Score& sc, const std::vector<int>& idx) {
+  auto validation_step = [&](const std::string& name, const Score& sc,
+                             const std::vector<int>& idx) {
     const Fit f = fit_all(g, idx);
     double in = 0;
     for (std::size_t k = 0; k < g.xx.size(); ++k) in += sse(g, f, k);
-    return ValidationStep{name, std::sqrt(sc.total / n_total), 100.0 * std::sqrt(sc.total / yy_total),
-                          std::sqrt(in / n_total), 100.0 * std::sqrt(in / yy_total)};
+    return ValidationStep{name, std::sqrt(sc.total / n_total),
+                          100.0 * std::sqrt(sc.total / yy_total), std::sqrt(in / n_total),
+                          100.0 * std::sqrt(in / yy_total)};
   };
   validation.push_back(validation_step("baseline", cur, current));
   struct Chosen {
@@ -1066,7 +1160,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     for (const auto& cand : library) {
       if (!cand.selectable || used.count(cand.id) || (cand.actuator_only && !actuator)) continue;
       if (cand.id == "external_disturbance" && bursts.size() < 2) continue;
-      if ((cand.id == "coulomb_friction" || cand.id == "viscous_friction") && used.count(cand.id)) continue;
+      if ((cand.id == "coulomb_friction" || cand.id == "viscous_friction") && used.count(cand.id))
+        continue;
       Trial best;
       best.sc.total = INFINITY;
       for (const auto& var_all : cand.variants) {
@@ -1074,7 +1169,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
         // once an offset is in) add nothing the data can tell apart: leave them out.
         std::vector<int> var;
         for (int c : var_all)
-          if (current.empty() || partial_r2(g, {}, {g.index(c)}, Eigen::VectorXd::Ones(1), current) < 0.999)
+          if (current.empty() ||
+              partial_r2(g, {}, {g.index(c)}, Eigen::VectorXd::Ones(1), current) < 0.999)
             var.push_back(c);
         if (var.empty()) continue;
         std::vector<int> idx = current;
@@ -1121,14 +1217,17 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     // A localized effect (stroke ends, pulses) improves only the segments where it occurs: a
     // large total gain that makes no segment worse counts as consistent too.
     auto significant = [&](const Trial& tr) {
-      const bool consistent = tr.t >= opt.min_t || (tr.gain >= 10.0 * opt.min_gain_pct && tr.worst > -1.0);
+      const bool consistent =
+          tr.t >= opt.min_t || (tr.gain >= 10.0 * opt.min_gain_pct && tr.worst > -1.0);
       return tr.gain >= opt.min_gain_pct && consistent && explained_n(tr) >= P.noise_floor_n;
     };
-    std::sort(trials.begin(), trials.end(), [](auto& a, auto& b) { return a.sc.total < b.sc.total; });
+    std::sort(trials.begin(), trials.end(),
+              [](auto& a, auto& b) { return a.sc.total < b.sc.total; });
     if (!significant(trials.front())) {
       const auto& tb = trials.front();
       rejected.push_back({tb.id, tb.gain, tb.t, tb.worst, explained_n(tb),
-                          "best remaining candidate, below the significance threshold", std::nullopt});
+                          "best remaining candidate, below the significance threshold",
+                          std::nullopt});
       break;
     }
     // Parsimony among nested alternatives: a simpler candidate that lies (almost) inside the
@@ -1141,7 +1240,11 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       for (int c : trials[0].cols) bidx.push_back(g.index(c));
       std::vector<int> aidx;
       for (int c : a.cols) aidx.push_back(g.index(c));
-      const Fit fa = fit_all(g, [&] { auto v = current; v.insert(v.end(), aidx.begin(), aidx.end()); return v; }());
+      const Fit fa = fit_all(g, [&] {
+        auto v = current;
+        v.insert(v.end(), aidx.begin(), aidx.end());
+        return v;
+      }());
       const Eigen::VectorXd wa = fa.theta.tail(static_cast<Eigen::Index>(aidx.size()));
       std::vector<int> bonly;
       for (int c : trials[0].cols) bonly.push_back(g.index(c));
@@ -1177,16 +1280,17 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
         std::vector<int> aidx = current;
         for (int c : best_var) aidx.push_back(g.index(c));
         const Fit fa = fit_all(g, aidx);
-        const Params pa = physical(cand.id, best_var,
-                                   fa.theta.tail(static_cast<Eigen::Index>(best_var.size())), S,
-                                   model, fa, g);
+        const Params pa =
+            physical(cand.id, best_var, fa.theta.tail(static_cast<Eigen::Index>(best_var.size())),
+                     S, model, fa, g);
         ch.alternatives.push_back({cand.id, pa.values, 100.0 * best_r2, pa.plausible});
       }
     }
     Score next = heldout(g, idx);
     ch.improvement_pct = 100.0 * (1.0 - std::sqrt(next.total / cur.total));
     if (pick != 0)
-      ch.note = "chosen before '" + trials[0].id + "', which contains it: the simpler explanation first";
+      ch.note =
+          "chosen before '" + trials[0].id + "', which contains it: the simpler explanation first";
     chosen.push_back(ch);
     used.insert(tr.id);
     current = idx;
@@ -1229,15 +1333,17 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   J.method.decimation = P.decimation;
   J.method.identification_bandwidth_hz = P.bandwidth_hz;
   J.method.folds = folds;
-  J.method.selection = "forward, by held-out error on contiguous time segments; a term must cut the "
-                       "held-out mean square error by >= " + fmt(opt.min_gain_pct) +
-                       " % with t >= " + fmt(opt.min_t) +
-                       " over the segments (or >= 10x that gain with no segment worse), and explain "
-                       "more RMS than the force noise floor";
-  J.method.moving_only = actuator ? "samples slower than " + fmt(opt.min_speed_m_s) +
-                                        " m/s, and within half a filter period of a start, stop or "
-                                        "reversal, are left out: a sticking nut's friction is unknown"
-                                  : "all samples";
+  J.method.selection =
+      "forward, by held-out error on contiguous time segments; a term must cut the "
+      "held-out mean square error by >= " +
+      fmt(opt.min_gain_pct) + " % with t >= " + fmt(opt.min_t) +
+      " over the segments (or >= 10x that gain with no segment worse), and explain "
+      "more RMS than the force noise floor";
+  J.method.moving_only = actuator
+                             ? "samples slower than " + fmt(opt.min_speed_m_s) +
+                                   " m/s, and within half a filter period of a start, stop or "
+                                   "reversal, are left out: a sticking nut's friction is unknown"
+                             : "all samples";
   J.noise_floor_n = P.noise_floor_n;
   auto fitted_base = [&](const Fit& fit) {
     Parameters b;
@@ -1245,11 +1351,20 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       double v = 0;
       for (std::size_t k = 0; k < fit.idx.size(); ++k)
         if (fit.idx[k] == g.index(c)) v = fit.theta[static_cast<Eigen::Index>(k)];
-      set_parameter(b, c == kAcc ? "nut_mass_kg" : c == kVel ? "viscous_n_s_per_m" : c == kSign ? "coulomb_n" : "offset_n", v);
+      set_parameter(b,
+                    c == kAcc    ? "nut_mass_kg"
+                    : c == kVel  ? "viscous_n_s_per_m"
+                    : c == kSign ? "coulomb_n"
+                                 : "offset_n",
+                    v);
     }
     return b;
   };
-  J.baseline = {eb.rms, eb.rel_pct, eb_full.rms, eb_full.rel_pct, std::sqrt(base_heldout / n_total),
+  J.baseline = {eb.rms,
+                eb.rel_pct,
+                eb_full.rms,
+                eb_full.rel_pct,
+                std::sqrt(base_heldout / n_total),
                 fitted_base(base_fit)};
   auto& effects = J.effects;
   std::size_t off = base_cols.size();
@@ -1283,11 +1398,13 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     effects.push_back(e);
   }
   J.nothing_missing = chosen.empty();
-  J.conclusion = chosen.empty()
-                     ? "nothing is missing: no candidate effect lowers the held-out error significantly"
-                     : std::to_string(chosen.size()) + " effect(s) found";
+  J.conclusion =
+      chosen.empty()
+          ? "nothing is missing: no candidate effect lowers the held-out error significantly"
+          : std::to_string(chosen.size()) + " effect(s) found";
   J.not_selected = rejected;
-  J.final_fit = {ef.rms, ef.rel_pct, ef_full.rms, ef_full.rel_pct, std::nullopt, fitted_base(final_fit)};
+  J.final_fit = {ef.rms,          ef.rel_pct,   ef_full.rms,
+                 ef_full.rel_pct, std::nullopt, fitted_base(final_fit)};
   J.validation = validation;
 
   // Events: step-outs and isolated pulses, windows where the final residual stays large.
@@ -1325,8 +1442,9 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     res1[i] = S.y[i] - yf[i];
   }
   const double rms0 = eb.rms;
-  auto add_map = [&](const std::string& name, const std::vector<double>& x, const std::string& label,
-                     const std::string& unit, double scale, double lo, double hi, int nb) {
+  auto add_map = [&](const std::string& name, const std::vector<double>& x,
+                     const std::string& label, const std::string& unit, double scale, double lo,
+                     double hi, int nb) {
     const auto b0 = bin(x, res0, S.valid, lo, hi, nb);
     const auto b1 = bin(x, res1, S.valid, lo, hi, nb);
     const std::string text = describe_regions(b0, label, unit, scale, rms0);
@@ -1338,7 +1456,9 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     // The finding already names where ("over velocity: …"): the caption does not repeat it.
     fig.caption = text.empty() ? "Mean residual (measured - model) over " + label
                                : "Mean residual (measured - model) " + text;
-    fig.charts.push_back({"Mean residual over " + label, label + " [" + unit + "]", "residual [N]",
+    fig.charts.push_back({"Mean residual over " + label,
+                          label + " [" + unit + "]",
+                          "residual [N]",
                           {to_series("baseline", b0, scale), to_series("corrected", b1, scale)}});
     R.figures.push_back(fig);
   };
@@ -1349,8 +1469,14 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     double sp = 0, sn = 0, np = 0, nn = 0;
     for (std::size_t i = 0; i < S.size(); ++i) {
       if (!S.valid[i]) continue;
-      if (S.v[i] > 0) { sp += res0[i]; ++np; }
-      if (S.v[i] < 0) { sn += res0[i]; ++nn; }
+      if (S.v[i] > 0) {
+        sp += res0[i];
+        ++np;
+      }
+      if (S.v[i] < 0) {
+        sn += res0[i];
+        ++nn;
+      }
     }
     if (np > 0 && nn > 0) {
       std::ostringstream o;
@@ -1367,11 +1493,13 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     if (actuator) {
       add_map("phase", S.phi, "phase", "rad", 1.0, -kPi / 2, kPi / 2, 60);
       std::vector<double> ang(S.size());
-      for (std::size_t i = 0; i < S.size(); ++i) ang[i] = S.theta[i] - 2 * kPi * std::floor(S.theta[i] / (2 * kPi));
+      for (std::size_t i = 0; i < S.size(); ++i)
+        ang[i] = S.theta[i] - 2 * kPi * std::floor(S.theta[i] / (2 * kPi));
       add_map("screw_angle", ang, "screw angle mod one turn", "rad", 1.0, 0.0, 2 * kPi, 36);
       // Heat maps: residual over (angle mod turn, position) and (velocity, position).
-      auto heat = [&](const std::string& file, const std::string& title, const std::vector<double>& x,
-                      double xlo, double xhi, const std::string& xl, double xs) {
+      auto heat = [&](const std::string& file, const std::string& title,
+                      const std::vector<double>& x, double xlo, double xhi, const std::string& xl,
+                      double xs) {
         Grid h;
         h.title = title;
         h.x_label = xl;
@@ -1389,12 +1517,14 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
           const int ix = static_cast<int>((x[i] - xlo) / (xhi - xlo) * h.nx);
           const int iy = static_cast<int>((S.p[i] - plo) / (phi_ - plo + 1e-12) * h.ny);
           if (ix < 0 || ix >= h.nx || iy < 0 || iy >= h.ny) continue;
-          const auto cell = static_cast<std::size_t>(iy) * static_cast<std::size_t>(h.nx) + static_cast<std::size_t>(ix);
+          const auto cell = static_cast<std::size_t>(iy) * static_cast<std::size_t>(h.nx) +
+                            static_cast<std::size_t>(ix);
           sum[cell] += res0[i];
           cnt[cell] += 1;
         }
         h.values.resize(sum.size());
-        for (std::size_t k = 0; k < sum.size(); ++k) h.values[k] = cnt[k] >= 3 ? sum[k] / cnt[k] : NAN;
+        for (std::size_t k = 0; k < sum.size(); ++k)
+          h.values[k] = cnt[k] >= 3 ? sum[k] / cnt[k] : NAN;
         Figure f;
         f.file = file;
         f.caption = title + " (baseline residual)";
@@ -1435,8 +1565,12 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     }
     if (wr.size() >= 6) {
       const std::size_t q = wr.size() / 3;
-      const double first = std::accumulate(wr.begin(), wr.begin() + static_cast<std::ptrdiff_t>(q), 0.0) / static_cast<double>(q);
-      const double last = std::accumulate(wr.end() - static_cast<std::ptrdiff_t>(q), wr.end(), 0.0) / static_cast<double>(q);
+      const double first =
+          std::accumulate(wr.begin(), wr.begin() + static_cast<std::ptrdiff_t>(q), 0.0) /
+          static_cast<double>(q);
+      const double last =
+          std::accumulate(wr.end() - static_cast<std::ptrdiff_t>(q), wr.end(), 0.0) /
+          static_cast<double>(q);
       std::ostringstream o;
       o.precision(3);
       if (last > 1.5 * first && last > 0.3 * rms0) {
@@ -1452,7 +1586,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       w2.precision(4);
       for (std::size_t k = 0; k < wr.size() && shown < 6; ++k)
         if (wr[k] > 3 * med && wr[k] > P.noise_floor_n * 3) {
-          w2 << (shown ? ", " : "") << rms_t0.x[k] - win / 2 << "–" << rms_t0.x[k] + win / 2 << " s";
+          w2 << (shown ? ", " : "") << rms_t0.x[k] - win / 2 << "–" << rms_t0.x[k] + win / 2
+             << " s";
           Event ev;
           ev.type = "misfit_window";
           ev.t_s = rms_t0.x[k] - win / 2;
@@ -1473,14 +1608,16 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     // Event-locked averages: the residual around velocity reversals and input edges.
     const double fs_id = P.fs_hz / P.decimation;
     const int half = static_cast<int>(0.15 * fs_id);
-    auto locked = [&](const std::vector<std::pair<std::size_t, double>>& at, const std::string& file,
-                      const std::string& what) {
+    auto locked = [&](const std::vector<std::pair<std::size_t, double>>& at,
+                      const std::string& file, const std::string& what) {
       std::vector<double> acc0(static_cast<std::size_t>(2 * half + 1), 0.0), acc1(acc0.size(), 0.0),
           cnt(acc0.size(), 0.0);
       for (const auto& [i, d] : at)
         for (int k = -half; k <= half; ++k) {
           const auto ii = static_cast<std::ptrdiff_t>(i) + k;
-          if (ii < 0 || ii >= static_cast<std::ptrdiff_t>(S.size()) || !S.valid[static_cast<std::size_t>(ii)]) continue;
+          if (ii < 0 || ii >= static_cast<std::ptrdiff_t>(S.size()) ||
+              !S.valid[static_cast<std::size_t>(ii)])
+            continue;
           const int lag = k + half;
           const auto kk = static_cast<std::size_t>(lag);
           acc0[kk] += d * res0[static_cast<std::size_t>(ii)];
@@ -1500,7 +1637,10 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
           s1.x.push_back(tt * 1e3);
           s1.y.push_back(acc1[k] / cnt[k]);
         }
-      fr.charts.push_back({"Residual locked to " + what, "time from event [ms]", "residual x direction [N]", {s0, s1}});
+      fr.charts.push_back({"Residual locked to " + what,
+                           "time from event [ms]",
+                           "residual x direction [N]",
+                           {s0, s1}});
       R.figures.push_back(fr);
     };
     std::vector<std::pair<std::size_t, double>> rev;
@@ -1539,12 +1679,17 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     Curve m{"measured", {}, {}}, b{"baseline", {}, {}}, c{"corrected", {}, {}},
         rb{"baseline", {}, {}}, rc{"corrected", {}, {}};
     for (std::size_t i = 0; i < S.size(); i += step) {
-      m.x.push_back(S.t[i]); m.y.push_back(S.y[i]);
-      b.x.push_back(S.t[i]); b.y.push_back(yb[i]);
-      c.x.push_back(S.t[i]); c.y.push_back(yf[i]);
+      m.x.push_back(S.t[i]);
+      m.y.push_back(S.y[i]);
+      b.x.push_back(S.t[i]);
+      b.y.push_back(yb[i]);
+      c.x.push_back(S.t[i]);
+      c.y.push_back(yf[i]);
       if (S.valid[i]) {
-        rb.x.push_back(S.t[i]); rb.y.push_back(S.y[i] - yb[i]);
-        rc.x.push_back(S.t[i]); rc.y.push_back(S.y[i] - yf[i]);
+        rb.x.push_back(S.t[i]);
+        rb.y.push_back(S.y[i] - yb[i]);
+        rc.x.push_back(S.t[i]);
+        rc.y.push_back(S.y[i] - yf[i]);
       }
     }
     Figure f;
@@ -1580,7 +1725,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     std::ostringstream note;
     note.precision(3);
     note << "maglead analyze: " << e.where;
-    if (e.evidence.heldout_gain_pct) note << "; held-out gain " << *e.evidence.heldout_gain_pct << " %";
+    if (e.evidence.heldout_gain_pct)
+      note << "; held-out gain " << *e.evidence.heldout_gain_pct << " %";
     if (!e.finding.empty()) note << "; " << e.finding;
     auto add = [&](const std::vector<std::pair<std::string, double>>& kv) {
       auto& t = M.term(id);
@@ -1588,9 +1734,12 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
       t.note = note.str();
       for (const auto& [k, v] : kv) t.set(k, v);
     };
-    if (id == "mass_error") M.nut_mass_kg = val("nut_mass_kg");
-    else if (id == "coulomb_friction") M.coulomb_n = val("coulomb_n");
-    else if (id == "viscous_friction") M.viscous_n_s_per_m = val("viscous_n_s_per_m");
+    if (id == "mass_error")
+      M.nut_mass_kg = val("nut_mass_kg");
+    else if (id == "coulomb_friction")
+      M.coulomb_n = val("coulomb_n");
+    else if (id == "viscous_friction")
+      M.viscous_n_s_per_m = val("viscous_n_s_per_m");
     else if (id == "asymmetric_friction") {
       // The benchmark's direction-dependent form: it already holds any constant force, so a
       // separate offset finding is not written beside it.
@@ -1600,14 +1749,19 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
            {"viscous_neg_n_s_per_m", val("viscous_neg_n_s_per_m")}});
       std::erase_if(M.terms, [](const ModelTerm& t) { return t.id == "offset"; });
       has_asym = true;
-    } else if (id == "offset" && !has_asym) add({{"offset_n", val("offset_n")}});
+    } else if (id == "offset" && !has_asym)
+      add({{"offset_n", val("offset_n")}});
     else if (id == "stribeck_friction")
-      add({{"breakaway_n", M.coulomb_n + val("stribeck_n")}, {"coulomb_n", M.coulomb_n},
+      add({{"breakaway_n", M.coulomb_n + val("stribeck_n")},
+           {"coulomb_n", M.coulomb_n},
            {"stribeck_velocity_m_s", val("stribeck_velocity_m_s")}});
     else if (id == "spring")
-      add({{"stiffness_n_per_m", val("spring_n_per_m")}, {"rest_position_m", val("free_position_m")}});
+      add({{"stiffness_n_per_m", val("spring_n_per_m")},
+           {"rest_position_m", val("free_position_m")}});
     else if (id == "position_ripple")
-      add({{"amplitude_n", val("amplitude_n")}, {"period_m", val("period_m")}, {"phase_rad", val("phase_rad")}});
+      add({{"amplitude_n", val("amplitude_n")},
+           {"period_m", val("period_m")},
+           {"phase_rad", val("phase_rad")}});
     // step_out: the twin's coupling is periodic, slips are always modelled.
   }
   M.source = (model.source.empty() ? std::string("baseline") : model.source) +
@@ -1616,14 +1770,16 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   if (actuator) {
     progress("twin", 0.0);
     try {
-      J.twin_simulation = simulate_twins({S.t, S.p, S.v, S.theta, S.y, act, cal.periodic, P.fs_hz, 0.1}, model, M);
+      J.twin_simulation =
+          simulate_twins({S.t, S.p, S.v, S.theta, S.y, act, cal.periodic, P.fs_hz, 0.1}, model, M);
     } catch (const std::exception& e) {
       J.twin_simulation = TwinSimulation{};
       J.twin_simulation->reason = e.what();
     }
   } else {
     J.twin_simulation = TwinSimulation{};
-    J.twin_simulation->reason = "the twin models the magnetic actuator; this is a force-driven axis";
+    J.twin_simulation->reason =
+        "the twin models the magnetic actuator; this is a force-driven axis";
   }
   progress("done", 1.0);
   return R;

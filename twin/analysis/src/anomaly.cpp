@@ -171,7 +171,8 @@ Grid space_map(const Anomaly& a) {
     const int ix = static_cast<int>((v_mm_s[i] - g.x_min) / (g.x_max - g.x_min) * g.nx);
     const int iy = static_cast<int>((tr.nut_pos_m[i] * 1e3 - g.y_min) / (g.y_max - g.y_min) * g.ny);
     if (ix < 0 || ix >= g.nx || iy < 0 || iy >= g.ny) continue;
-    const auto cell = static_cast<std::size_t>(iy) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(ix);
+    const auto cell = static_cast<std::size_t>(iy) * static_cast<std::size_t>(g.nx) +
+                      static_cast<std::size_t>(ix);
     sum[cell] += value[i];
     count[cell] += 1;
   }

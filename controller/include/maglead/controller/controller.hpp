@@ -20,9 +20,9 @@ namespace maglead::controller {
 /// "fault reaction"), chosen per cause.
 enum class FaultReaction : std::uint8_t {
   mode_default = 0,  // force mode: release; position and idle: hold
-  release = 1,       // ramp the output force to zero at release_rate_n_per_s, then stay at zero force
-  hold = 2,          // hold position (a running move decelerates at its acceleration limit first)
-  disable = 3,       // zero force at once (the screw follows the nut)
+  release = 1,  // ramp the output force to zero at release_rate_n_per_s, then stay at zero force
+  hold = 2,     // hold position (a running move decelerates at its acceleration limit first)
+  disable = 3,  // zero force at once (the screw follows the nut)
 };
 struct FaultReactions {
   FaultReaction watchdog = FaultReaction::mode_default;
@@ -35,14 +35,14 @@ struct FaultReactions {
 struct ControllerConfig {
   ActuatorParams actuator;
   ForceCalibration calibration = paper_calibration();
-  double velocity_limit_m_s = 0.01;   // profile defaults until a client writes its own
+  double velocity_limit_m_s = 0.01;  // profile defaults until a client writes its own
   double accel_limit_m_s2 = 0.1;
-  double watchdog_s = 0.0;            // 0: communication watchdog off
+  double watchdog_s = 0.0;  // 0: communication watchdog off
   // "in position" / "force reached": |target − measured| or |setpoint − estimate| within the
   // tolerance, continuously for settle_s ([control] in config/actuator.toml, README "Status").
-  double in_position_tol_m = 50e-6;   // about two linear-encoder counts
-  double force_tol_n = 1.5;           // about one count of phase near φ = 0, plus noise
-  double settle_s = 0.05;             // "reached" must hold this long
+  double in_position_tol_m = 50e-6;  // about two linear-encoder counts
+  double force_tol_n = 1.5;          // about one count of phase near φ = 0, plus noise
+  double settle_s = 0.05;            // "reached" must hold this long
   // Position loop: phase correction per metre of error, and its integral action.
   double position_gain_rad_per_m = 1500.0;
   double position_integral_rad_per_m_s = 12000.0;
@@ -81,7 +81,8 @@ struct CommandImage {
 struct Command {
   CommandImage image;
   bool heartbeat = false;  // the heartbeat register was written (feeds the watchdog)
-  bool owner_lost = false; // the owner's connection closed: fault reaction if enabled, before the image
+  bool owner_lost =
+      false;  // the owner's connection closed: fault reaction if enabled, before the image
 };
 
 enum class CycleStatus : std::uint8_t { ok, hardware_error };
@@ -138,7 +139,7 @@ class Controller {
   CommandImage image_{};
   bool synced_ = false;
   double last_t_s_ = 0.0, last_heartbeat_s_ = 0.0;
-  double phase_offset_rad_ = 0.0;   // whole leads the nut slipped, taken up by resync
+  double phase_offset_rad_ = 0.0;  // whole leads the nut slipped, taken up by resync
   double last_phase_rad_ = 0.0;
   registers::DriveState state_ = registers::DriveState::disabled;
   registers::Mode mode_ = registers::Mode::idle;

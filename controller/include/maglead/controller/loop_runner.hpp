@@ -45,7 +45,7 @@ struct RealtimeGrant {
 /// What the runner saw (any thread may read; updated once per cycle).
 struct LoopStats {
   std::uint64_t cycles = 0;
-  std::uint64_t hardware_error_cycles = 0;  // step() returned CycleStatus::hardware_error
+  std::uint64_t hardware_error_cycles = 0;       // step() returned CycleStatus::hardware_error
   std::uint64_t first_hardware_error_cycle = 0;  // 1-based cycle number, 0 = none yet
   std::uint64_t skips = 0;  // times the loop was so far behind that it skipped periods
 };
@@ -68,7 +68,7 @@ class LoopRunner {
   /// if the thread cannot start, or (policy require) naming what was refused.
   void start();
   void stop();
-  bool realtime() const { return realtime_.load(); }  // SCHED_FIFO granted
+  bool realtime() const { return realtime_.load(); }              // SCHED_FIFO granted
   const RealtimeGrant& realtime_grant() const { return grant_; }  // after start()
 
   /// Runs `cycles` cycles on the calling thread (not while started), on the same deadlines

@@ -17,7 +17,7 @@ namespace maglead::effects {
 struct ParamSpec {
   std::string name;  // spec name, unit in the name (offset_n, delay_s)
   std::string meaning;
-  double min, max;   // plausible range: a fit outside it is not this physics
+  double min, max;  // plausible range: a fit outside it is not this physics
 };
 
 // Transparent comparison: the twin looks parameters up by name inside the 1 kHz cycle, and a
@@ -26,11 +26,11 @@ using Params = std::map<std::string, double, std::less<>>;
 
 /// One instant of the actuator as the twin or the analysis sees it (SI units).
 struct State {
-  double t_s = 0;            // time since the start of the recording
+  double t_s = 0;  // time since the start of the recording
   double p_m = 0, v_m_s = 0, a_m_s2 = 0;
   double theta_rad = 0, phi_rad = 0, phi_rate_rad_s = 0;
-  double coupling_n = 0;                // F_m(φ): calibrated magnetic force on the nut along +p
-  double coupling_slope_n_per_rad = 0;  // dF_m/dφ
+  double coupling_n = 0;                 // F_m(φ): calibrated magnetic force on the nut along +p
+  double coupling_slope_n_per_rad = 0;   // dF_m/dφ
   double load_n = 0, load_rate_n_s = 0;  // F_ext as the load cell reads it, and its rate
   double stroke_min_m = 0, stroke_max_m = 0.04, lead_m = 0.006;
   // The baseline model's own values: friction and mass effects are stated as totals and act

@@ -20,19 +20,22 @@ using controller::Controller;
 using controller::Snapshot;
 
 struct ServerOptions {
-  bool read_only = false;       // every write is refused with exception 01
+  bool read_only = false;  // every write is refused with exception 01
   std::string model_name = "simulated actuator";
 };
 
 struct ClientInfo {
-  std::uint16_t id = 0;        // TCP connection number (1…), or kRtuClient
-  std::uint32_t ipv4 = 0;      // host order; 0 for RTU
-  bool broadcast = false;      // RTU unit 0: setpoint writes act, nothing is answered
+  std::uint16_t id = 0;    // TCP connection number (1…), or kRtuClient
+  std::uint32_t ipv4 = 0;  // host order; 0 for RTU
+  bool broadcast = false;  // RTU unit 0: setpoint writes act, nothing is answered
 };
 
 /// Modbus exception codes used here.
 enum class Exception : std::uint8_t {
-  illegal_function = 1, illegal_data_address = 2, illegal_data_value = 3, server_device_failure = 4,
+  illegal_function = 1,
+  illegal_data_address = 2,
+  illegal_data_value = 3,
+  server_device_failure = 4,
   server_busy = 6,
   gateway_target_failed = 0x0B,
 };
@@ -47,7 +50,8 @@ class ModbusCore {
 
   /// Handles one request PDU (function code first). Writes the response PDU to `out`
   /// (kMaxPdu bytes) and returns its length; 0 means send nothing. Thread-safe.
-  std::size_t handle(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len, std::uint8_t* out);
+  std::size_t handle(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len,
+                     std::uint8_t* out);
   /// Builds an exception response for a transport-level refusal (wrong unit id …).
   static std::size_t exception(std::uint8_t function, Exception code, std::uint8_t* out);
 
@@ -64,12 +68,15 @@ class ModbusCore {
     std::int16_t reg = kUnmapped;  // index into registers::table(), or unmapped / reserved
     std::int8_t word = 0;
   };
-  std::size_t dispatch(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len, std::uint8_t* out);
-  std::size_t read_registers(bool input_only, std::uint16_t start, std::uint16_t count, std::uint8_t* out,
-                             std::size_t& n, Exception& ex);
-  bool write_image(const ClientInfo& client, CommandImage next, bool heartbeat, bool touches_control, Exception& ex);
+  std::size_t dispatch(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len,
+                       std::uint8_t* out);
+  std::size_t read_registers(bool input_only, std::uint16_t start, std::uint16_t count,
+                             std::uint8_t* out, std::size_t& n, Exception& ex);
+  bool write_image(const ClientInfo& client, CommandImage next, bool heartbeat,
+                   bool touches_control, Exception& ex);
   bool decode_registers(std::uint16_t start, std::uint16_t count, const std::uint8_t* data,
-                        CommandImage& image, bool& heartbeat, bool& touches_control, Exception& ex) const;
+                        CommandImage& image, bool& heartbeat, bool& touches_control,
+                        Exception& ex) const;
   double read_value(std::size_t reg_index, const Snapshot& snap) const;
   bool refuse(registers::Refusal why, Exception& ex);  // exception 04 with its reason; false
 

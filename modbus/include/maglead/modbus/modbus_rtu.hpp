@@ -12,9 +12,9 @@
 namespace maglead::modbus {
 
 struct RtuOptions {
-  std::string device;       // e.g. /dev/ttyUSB0, or a pty from socat
+  std::string device;  // e.g. /dev/ttyUSB0, or a pty from socat
   int baud = 19200;
-  char parity = 'E';        // N, E or O
+  char parity = 'E';  // N, E or O
   int data_bits = 8;
   int stop_bits = 1;
   std::uint8_t unit_id = 1;  // 1..247; unit 0 is broadcast

@@ -16,10 +16,10 @@ namespace maglead::modbus {
 
 struct TcpOptions {
   std::string bind_address = "127.0.0.1";
-  int port = 1502;                 // 0: any free port (see TcpServer::port())
-  std::uint8_t unit_id = 1;        // also answered: 255 (the TCP "no unit" id)
-  int max_connections = 32;        // at the cap, the connection idle longest makes room
-  double frame_timeout_s = 1.0;    // a started frame must complete within this
+  int port = 1502;               // 0: any free port (see TcpServer::port())
+  std::uint8_t unit_id = 1;      // also answered: 255 (the TCP "no unit" id)
+  int max_connections = 32;      // at the cap, the connection idle longest makes room
+  double frame_timeout_s = 1.0;  // a started frame must complete within this
   // Close a connection with no request for this long (0: never). Any polling client is far
   // inside it; a client gone without a FIN (cable pulled, crash behind NAT) is found, and an
   // owner that vanished loses control (its fault reaction) within a minute even without a

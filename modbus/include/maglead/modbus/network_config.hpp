@@ -18,11 +18,12 @@ struct NetworkConfig {
   bool read_only = false;
   double watchdog_s = 0.0;
   controller::FaultReactions reactions;  // [fault_reaction]
-  controller::RealtimePolicy realtime = controller::RealtimePolicy::attempt;  // [runtime] realtime: "off" | "try" | "require"
+  controller::RealtimePolicy realtime =
+      controller::RealtimePolicy::attempt;  // [runtime] realtime: "off" | "try" | "require"
 };
 
-/// Reads [tcp], [rtu], [server], [fault_reaction] and [runtime]; absent keys keep their defaults. Throws std::runtime_error
-/// naming the file and key on a malformed value or an unknown key.
+/// Reads [tcp], [rtu], [server], [fault_reaction] and [runtime]; absent keys keep their defaults.
+/// Throws std::runtime_error naming the file and key on a malformed value or an unknown key.
 NetworkConfig load_network_config(const std::string& path);
 /// "mode_default", "release", "hold" or "disable"; nothing otherwise.
 std::optional<controller::FaultReaction> parse_fault_reaction(std::string_view text);

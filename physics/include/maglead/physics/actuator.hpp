@@ -9,17 +9,17 @@
 namespace maglead {
 
 struct ActuatorParams {
-  double lead_m = 0.006;                       // nut travel per screw turn (paper)
-  double gear_ratio = 6.6;                     // motor : screw (paper)
-  double motor_counts_per_rev = 4096.0;        // quadrature counts per motor turn (assumed)
-  double linear_count_m = 0.0254 / 1176.0;     // 21.6 µm per linear-encoder count (paper)
-  double nut_mass_kg = 0.12;                   // assumed
-  double viscous_n_s_per_m = 2.0;              // assumed
-  double coulomb_n = 7.5;                      // paper
-  double stroke_min_m = 0.0;                   // assumed
-  double stroke_max_m = 0.040;                 // assumed
-  double sample_rate_hz = 1000.0;              // assumed
-  double safe_force_fraction = 0.8;            // largest commandable |F_out| / peak force
+  double lead_m = 0.006;                    // nut travel per screw turn (paper)
+  double gear_ratio = 6.6;                  // motor : screw (paper)
+  double motor_counts_per_rev = 4096.0;     // quadrature counts per motor turn (assumed)
+  double linear_count_m = 0.0254 / 1176.0;  // 21.6 µm per linear-encoder count (paper)
+  double nut_mass_kg = 0.12;                // assumed
+  double viscous_n_s_per_m = 2.0;           // assumed
+  double coulomb_n = 7.5;                   // paper
+  double stroke_min_m = 0.0;                // assumed
+  double stroke_max_m = 0.040;              // assumed
+  double sample_rate_hz = 1000.0;           // assumed
+  double safe_force_fraction = 0.8;         // largest commandable |F_out| / peak force
 };
 
 /// Reads the [actuator] table of a TOML file; absent keys keep their defaults.

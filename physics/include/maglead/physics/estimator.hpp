@@ -43,8 +43,8 @@ class EncoderVelocityEstimator {
 enum class InverseStatus { ok, beyond_safe_limit };
 struct PhaseForForce {
   InverseStatus status;
-  double phase_rad;   // phase on the stable branch whose static output force is the request
-  double limit_n;     // the safe limit in the requested direction (signed)
+  double phase_rad;  // phase on the stable branch whose static output force is the request
+  double limit_n;    // the safe limit in the requested direction (signed)
 };
 /// The phase that yields a requested output force F_out at standstill (−F̂_s(φ) = F_out), on
 /// the stable branch. Requests beyond safe_fraction × peak are refused, not clipped.

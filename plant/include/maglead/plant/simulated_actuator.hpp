@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "maglead/controller/ports/hardware.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
-#include "maglead/controller/ports/hardware.hpp"
 
 namespace maglead {
 
@@ -64,9 +64,9 @@ struct LoadSetting {
   enum class Kind : std::uint8_t { none, compliant, spring_to_wall, constant } kind = Kind::none;
   double stiffness_n_per_m = 0.0;  // compliant: stage / hand stiffness; spring: spring rate
   double damping_n_s_per_m = 0.0;
-  double anchor_pos_m = 0.0;       // compliant: where the stage / hand is; spring: free length
+  double anchor_pos_m = 0.0;  // compliant: where the stage / hand is; spring: free length
   double anchor_vel_m_s = 0.0;
-  double force_n = 0.0;            // constant: force along +p
+  double force_n = 0.0;  // constant: force along +p
 };
 
 /// The plant's state at one instant t_s (every field at that same instant).

@@ -29,21 +29,46 @@ struct Register {
 
 /// Status word bits; also the discrete-input addresses.
 enum StatusBit : std::uint16_t {
-  kReady = 0, kEnabled, kFault, kMoving, kInPosition, kForceReached, kStepOut, kDriftWarning,
-  kWatchdogExpired, kTwinHealthy, kStepOutWarning, kStopped, kOwned, kStrokeLimit, kTwinLagging,
+  kReady = 0,
+  kEnabled,
+  kFault,
+  kMoving,
+  kInPosition,
+  kForceReached,
+  kStepOut,
+  kDriftWarning,
+  kWatchdogExpired,
+  kTwinHealthy,
+  kStepOutWarning,
+  kStopped,
+  kOwned,
+  kStrokeLimit,
+  kTwinLagging,
 };
 /// Control word bits; also the coil addresses. enable/stop are levels, the rest act on edges.
 enum ControlBit : std::uint16_t { kEnable = 0, kStop, kFaultReset, kResync, kExecute };
 inline constexpr std::uint16_t kControlWordMask = 0x1F;
 /// command_status bits: acknowledge (edge seen, cleared when the bit falls) and done.
 enum CommandBit : std::uint16_t {
-  kExecuteAck = 0, kExecuteDone, kResetAck, kResetDone, kResyncAck, kResyncDone, kRejected,
+  kExecuteAck = 0,
+  kExecuteDone,
+  kResetAck,
+  kResetDone,
+  kResyncAck,
+  kResyncDone,
+  kRejected,
 };
 enum class DriveState : std::uint16_t { disabled = 0, ready = 1, enabled = 2, fault = 3 };
 enum class Mode : std::uint16_t { idle = 0, position = 1, force = 2 };
 enum class Alarm : std::uint16_t {
-  none = 0, step_out = 1, phase_jump = 2, watchdog = 3, stroke_limit = 4, sensor_fault = 5,
-  drive_fault = 6, owner_lost = 7,
+  none = 0,
+  step_out = 1,
+  phase_jump = 2,
+  watchdog = 3,
+  stroke_limit = 4,
+  sensor_fault = 5,
+  drive_fault = 6,
+  owner_lost = 7,
 };
 /// The fault reaction the drive is carrying out (register fault_reaction).
 enum class Reaction : std::uint16_t { none = 0, releasing = 1, holding = 2, released = 3 };
@@ -51,8 +76,14 @@ enum class Reaction : std::uint16_t { none = 0, releasing = 1, holding = 2, rele
 /// that retrying cannot fix.
 enum class Refusal : std::uint16_t { none = 0, not_owner = 1, broadcast_state_change = 2 };
 enum class Reject : std::uint16_t {
-  none = 0, not_enabled = 1, in_fault = 2, force_beyond_safe_limit = 3, target_outside_stroke = 4,
-  stopped = 5, still_faulty = 6, not_stepped_out = 7,
+  none = 0,
+  not_enabled = 1,
+  in_fault = 2,
+  force_beyond_safe_limit = 3,
+  target_outside_stroke = 4,
+  stopped = 5,
+  still_faulty = 6,
+  not_stepped_out = 7,
 };
 
 struct Code {

@@ -30,14 +30,16 @@ struct BackendOptions {
 };
 
 /// Builds the hardware port for an actuator. Throws std::invalid_argument on bad options.
-using BackendFactory =
-    std::function<std::unique_ptr<ActuatorHardware>(const ActuatorParams& actuator, const BackendOptions& options)>;
-/// A real drive registers its factory here (before the service is built). Throws if the name is taken.
+using BackendFactory = std::function<std::unique_ptr<ActuatorHardware>(
+    const ActuatorParams& actuator, const BackendOptions& options)>;
+/// A real drive registers its factory here (before the service is built). Throws if the name is
+/// taken.
 void register_backend(const std::string& name, BackendFactory factory);
 /// The registered names ("simulated" is built in).
 std::vector<std::string> backend_names();
 /// Throws std::invalid_argument naming the registered backends if `options.name` is unknown.
-std::unique_ptr<ActuatorHardware> make_hardware(const ActuatorParams& actuator, const BackendOptions& options);
+std::unique_ptr<ActuatorHardware> make_hardware(const ActuatorParams& actuator,
+                                                const BackendOptions& options);
 
 struct ServiceConfig {
   controller::ControllerConfig controller;

@@ -16,9 +16,9 @@
 #include <cstdint>
 #include <memory>
 
+#include "maglead/effects/effect.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
-#include "maglead/effects/effect.hpp"
 #include "maglead/twin/model.hpp"
 
 namespace maglead::twin {
@@ -69,8 +69,9 @@ class NutModel {
   };
   /// The calibration's F̂_s(φ) (load convention) and, when asked, its slope dF̂_s/dφ.
   void calibrated_load_n(double phi_rad, double& load_n, double* slope) const noexcept;
-  effects::State state(double t_s, double screw_rad, double pos_m, double vel_m_s, double ext_force_n,
-                       double screw_rate_rad_s, double ext_rate_n_s) const noexcept;
+  effects::State state(double t_s, double screw_rad, double pos_m, double vel_m_s,
+                       double ext_force_n, double screw_rate_rad_s,
+                       double ext_rate_n_s) const noexcept;
   PeriodicForceModel coupling_;
   double lead_m_, stroke_min_m_, stroke_max_m_;
   double mass_kg_, viscous_, coulomb_n_;
@@ -91,17 +92,17 @@ class InputSource {
 
 struct IntegratorOptions {
   double rel_tol = 1e-6;
-  double abs_tol_pos_m = 1e-9;     // well below one encoder count (21.6 µm)
+  double abs_tol_pos_m = 1e-9;  // well below one encoder count (21.6 µm)
   double abs_tol_vel_m_s = 1e-7;
-  double max_step_s = 1e-3;        // the sample period; 0 removes the cap (tests show why not)
+  double max_step_s = 1e-3;  // the sample period; 0 removes the cap (tests show why not)
   // The nut on its coupling is a lightly damped oscillator (about 100 Hz, damping ratio ~0.01):
   // its eigenvalues lie near the imaginary axis, not far out on the negative real one, so the
   // system is not stiff. Adams with fixed-point iteration fits it; BDF with a dense Newton
   // solve (stiff = true) pays for Jacobians and linear solves it does not need, and damps the
   // oscillation numerically. The reference solutions use BDF, a method independent of Adams.
   bool stiff = false;
-  int max_order = 5;               // order limit (Adams: small orders have the larger stability region)
-  int max_events_per_call = 64;    // Zeno guard: more mode switches than this in one call fail
+  int max_order = 5;  // order limit (Adams: small orders have the larger stability region)
+  int max_events_per_call = 64;  // Zeno guard: more mode switches than this in one call fail
   long max_internal_steps = 100000;
 };
 
@@ -169,7 +170,6 @@ class Rk4Twin {
 
 /// A reproducible test drive: screw moves and hand-like force pulses (sin² shapes, 10–35 N,
 /// random directions), fixed by the seed. Used by the reference test and the benchmark.
-std::unique_ptr<InputSource> make_demo_drive(std::uint64_t seed, double duration_s,
-                                             double lead_m);
+std::unique_ptr<InputSource> make_demo_drive(std::uint64_t seed, double duration_s, double lead_m);
 
 }  // namespace maglead::twin

@@ -46,7 +46,7 @@ struct TwinModel {
   std::vector<ModelTerm> terms;
 
   const ModelTerm* find(const std::string& id) const;  // enabled terms only
-  ModelTerm& term(const std::string& id);               // finds or appends
+  ModelTerm& term(const std::string& id);              // finds or appends
 };
 
 inline constexpr const char* kModelFormatLine = "# format: maglead-model/1";

@@ -22,7 +22,8 @@ struct TwinInputs {
   double nut_pos_m = 0.0;         // measured p (linear encoder)
   double force_setpoint_n = 0.0;  // output-force setpoint F_out; NaN if not in force control
   double load_force_n = std::numeric_limits<double>::quiet_NaN();  // load cell (force on the nut
-                                  // from the load, F_ext); NaN without one: no gain estimate
+                                                                   // from the load, F_ext); NaN
+                                                                   // without one: no gain estimate
 };
 
 /// Why drift_warning is set (README "Digital twin"). Latched with the warning.
@@ -56,55 +57,55 @@ struct TwinOutputs {
   double phase_rad = 0.0;                   // measured φ, unwrapped
   double step_out_margin_rad = 0.0;         // π/2 − max |φ| over the look-ahead (<0: crossing)
   // Drift: coupling gain g relative to the model (1 = as calibrated), NaN until estimated.
-  double drift_statistic = 0.0;        // |g − g_ref| / margin (≥ 1, sustained: drift_warning)
-  double drift_gain_estimate = std::numeric_limits<double>::quiet_NaN();  // current g
-  double drift_gain_stderr = 0.0;                                         // its standard error
-  double drift_reference_gain = std::numeric_limits<double>::quiet_NaN(); // early g (reference)
+  double drift_statistic = 0.0;  // |g − g_ref| / margin (≥ 1, sustained: drift_warning)
+  double drift_gain_estimate = std::numeric_limits<double>::quiet_NaN();   // current g
+  double drift_gain_stderr = 0.0;                                          // its standard error
+  double drift_reference_gain = std::numeric_limits<double>::quiet_NaN();  // early g (reference)
   double drift_reference_stderr = 0.0;
-  double drift_reference_t_s = 0.0;    // mean time of the reference stretch
-  double drift_warning_t_s = 0.0;      // when the warning was raised, with g and its error then
+  double drift_reference_t_s = 0.0;  // mean time of the reference stretch
+  double drift_warning_t_s = 0.0;    // when the warning was raised, with g and its error then
   double drift_warning_gain = 0.0, drift_warning_stderr = 0.0;
   DriftReason drift_reason = DriftReason::none;
   HealthReason health_reason = HealthReason::none;
   StepOutReason step_out_reason = StepOutReason::none;
-  bool healthy = true;          // the twin explains the measurements within their resolution
-  bool drift_warning = false;   // coupling gain moved away from its early value (latched)
-  bool step_out = false;        // φ left the stable branch / nut slipped a lead (latched)
+  bool healthy = true;            // the twin explains the measurements within their resolution
+  bool drift_warning = false;     // coupling gain moved away from its early value (latched)
+  bool step_out = false;          // φ left the stable branch / nut slipped a lead (latched)
   bool step_out_warning = false;  // look-ahead crosses ±π/2 (not latched)
-  int slips = 0;                // signed number of leads slipped since reset
-  int friction_mode = 0;        // observer's mode: −1 sliding −p, 0 stuck, +1 sliding +p
-  bool solver_ok = true;        // every SUNDIALS call of this tick succeeded
+  int slips = 0;                  // signed number of leads slipped since reset
+  int friction_mode = 0;          // observer's mode: −1 sliding −p, 0 stuck, +1 sliding +p
+  bool solver_ok = true;          // every SUNDIALS call of this tick succeeded
 };
 
 struct TwinMonitorConfig {
-  ActuatorParams actuator;        // geometry, encoders, sample rate
-  ForceCalibration calibration;   // the controller's calibration (periodic model used)
-  TwinModel model;                // mass, friction, extra terms (config/model.toml)
-  IntegratorOptions integrator;   // CVODE settings of the twin (step cap = sample period)
+  ActuatorParams actuator;       // geometry, encoders, sample rate
+  ForceCalibration calibration;  // the controller's calibration (periodic model used)
+  TwinModel model;               // mass, friction, extra terms (config/model.toml)
+  IntegratorOptions integrator;  // CVODE settings of the twin (step cap = sample period)
   // Observer. While the nut sticks its friction is unknown within ± break-away, so the external
   // force needs a prior: a mean-reverting random walk (Ornstein-Uhlenbeck) of this intensity
   // [N²/s] that relaxes with this time constant towards the expected load (−setpoint in force
   // control, else zero: loads come and go). time constant 0 = pure random walk.
   double load_force_rate_n2_per_s = 5.0;
   double load_force_time_constant_s = 1.0;
-  double stop_after_intervals = 2.0;  // no encoder edge for this many edge intervals: stopped
-  double stop_min_s = 0.010;          // … and at least this long
-  double resync_s = 0.020;            // twin runs open loop this long, then re-syncs
-  double lookahead_s = 0.050;         // step-out warning horizon
-  int lookahead_every_ticks = 10;      // look-ahead cadence (its cost is ~horizon/cap steps)
+  double stop_after_intervals = 2.0;      // no encoder edge for this many edge intervals: stopped
+  double stop_min_s = 0.010;              // … and at least this long
+  double resync_s = 0.020;                // twin runs open loop this long, then re-syncs
+  double lookahead_s = 0.050;             // step-out warning horizon
+  int lookahead_every_ticks = 10;         // look-ahead cadence (its cost is ~horizon/cap steps)
   double step_out_warn_margin_rad = 0.0;  // warn when look-ahead |φ| exceeds the edge − this
   // Drift detector: recursive least squares of the coupling gain g with nuisance terms, on
   // excitation-rich ticks only (monitor.cpp gain_tick; README "Digital twin").
-  double drift_block_s = 0.020;        // ticks averaged into one least-squares sample
-  double drift_memory_s = 4.0;         // forgetting time constant, in excitation-rich time
-  double drift_reference_s = 5.0;      // excitation-rich time that makes the early reference
-  double drift_sigmas = 4.0;           // significance: combined standard errors of g and g_ref
-  double drift_min_change = 0.03;      // physical: relative change of g worth an operator's action
-  double drift_sustain_s = 2.0;        // both must hold this long
+  double drift_block_s = 0.020;    // ticks averaged into one least-squares sample
+  double drift_memory_s = 4.0;     // forgetting time constant, in excitation-rich time
+  double drift_reference_s = 5.0;  // excitation-rich time that makes the early reference
+  double drift_sigmas = 4.0;       // significance: combined standard errors of g and g_ref
+  double drift_min_change = 0.03;  // physical: relative change of g worth an operator's action
+  double drift_sustain_s = 2.0;    // both must hold this long
   double drift_min_force_counts = 10.0;  // |F_m| ≥ this many counts' worth of force (≈ 11 N)
-  double drift_phase_fraction = 0.75;  // |φ| within this fraction of the stable branch
-  double drift_settle_s = 0.010;       // skip this long after the nut breaks loose
-  int drift_min_edges = 3;             // … and until the encoder has counted this many edges
+  double drift_phase_fraction = 0.75;    // |φ| within this fraction of the stable branch
+  double drift_settle_s = 0.010;         // skip this long after the nut breaks loose
+  int drift_min_edges = 3;               // … and until the encoder has counted this many edges
   double drift_end_exclusion_m = std::numeric_limits<double>::quiet_NaN();  // NaN: one lead
   // Health: the twin's prediction at the end of an open-loop interval (resync_s) misses the
   // measured position by more than this many linear counts, in this many intervals in a row.

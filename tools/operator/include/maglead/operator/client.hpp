@@ -25,7 +25,7 @@ struct Endpoint {
   int data_bits = 8;
   int stop_bits = 1;
   int unit = 1;
-  double timeout_s = 1.0;  // per request
+  double timeout_s = 1.0;        // per request
   std::string describe() const;  // "127.0.0.1:1502 unit 1" / "/dev/ttyUSB0 19200 8E1 unit 3"
 };
 
@@ -79,7 +79,8 @@ class Client {
   /// controller speaking register map 1.
   void check_identity();
   /// Reads words [start, start+count) of a table (FC4 for input registers, FC3 for holding).
-  std::vector<std::uint16_t> read_words(registers::Table table, std::uint16_t start, std::uint16_t count);
+  std::vector<std::uint16_t> read_words(registers::Table table, std::uint16_t start,
+                                        std::uint16_t count);
   /// Reads every register of the given tables in as few requests as possible.
   Values read_tables(const std::vector<registers::Table>& tables);
   /// Reads the named registers whose addresses lie in one block (one request, one cycle).
@@ -129,7 +130,8 @@ struct Limits {
   ActuatorParams actuator;
   ForceCalibration calibration;
   std::string calibration_source;
-  std::string actuator_source = "built-in defaults";  // where stroke and safe_force_fraction come from
+  std::string actuator_source =
+      "built-in defaults";  // where stroke and safe_force_fraction come from
 };
 /// The allowed range of a force or position setpoint with where its limits are set, e.g.
 /// "-38.4 .. 38.4 N (safe_force_fraction 0.8 in config/actuator.toml x calibration peaks
@@ -146,15 +148,15 @@ std::optional<std::string> check_register(const registers::Register& reg, double
 // ---------------------------------------------------------------------------- commands
 
 struct CommandOptions {
-  double ack_timeout_s = 2.0;   // the loop must see the edge within this
-  double done_timeout_s = 30.0; // and finish (in position / force reached) within this
+  double ack_timeout_s = 2.0;    // the loop must see the edge within this
+  double done_timeout_s = 30.0;  // and finish (in position / force reached) within this
   bool wait_done = true;
   double poll_period_s = 0.01;
   /// execute: take control first when nobody has it (clear an owner_lost fault, enable edge).
   bool claim = true;
 };
 struct CommandResult {
-  bool done = false;      // execute done (target reached) seen
+  bool done = false;  // execute done (target reached) seen
   double elapsed_s = 0.0;
 };
 

@@ -25,8 +25,8 @@ void set_parameter(Parameters& p, const std::string& name, double value, bool is
 
 /// Why an effect was named: its held-out statistics (sliding fits) or its events.
 struct Evidence {
-  std::optional<double> heldout_gain_pct;  // reduction of the held-out mean square error [%]
-  std::optional<double> t_stat;            // consistency of that gain over the segments
+  std::optional<double> heldout_gain_pct;        // reduction of the held-out mean square error [%]
+  std::optional<double> t_stat;                  // consistency of that gain over the segments
   std::optional<std::string> segments_improved;  // "7/10", or "12 releases"
   std::optional<double> explained_rms_n;
   std::optional<double> worst_segment_pct;
