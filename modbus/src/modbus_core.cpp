@@ -139,6 +139,19 @@ void put16(std::uint8_t* p, std::uint16_t v) {
   p[1] = static_cast<std::uint8_t>(v & 0xFF);
 }
 
+// Coil k is bit k of the control word (the coil addresses are the bit numbers).
+void set_coil(std::uint16_t& control_word, std::uint32_t addr, bool on) {
+  const auto mask = static_cast<std::uint16_t>(1u << addr);
+  control_word = static_cast<std::uint16_t>(on ? (control_word | mask) : (control_word & ~mask));
+}
+
+// A read reply: function code, byte count, then the n data bytes already in out + 2.
+std::size_t byte_count_reply(std::uint8_t fc, std::size_t n, std::uint8_t* out) {
+  out[0] = fc;
+  out[1] = static_cast<std::uint8_t>(n);
+  return 2 + n;
+}
+
 struct DeviceObject {
   std::uint8_t id;
   std::string_view value;
@@ -359,217 +372,283 @@ std::size_t ModbusCore::dispatch(const ClientInfo& client, const std::uint8_t* p
                                  std::uint8_t* out) {
   if (len < 1) return 0;
   const std::uint8_t fc = pdu[0];
-  Exception ex = Exception::illegal_function;
-  const auto fail = [&](Exception e) { return exception(fc, e, out); };
+  // Writes are gated here, before any parsing, so every write function refuses the same way.
   const bool is_write = fc == 5 || fc == 6 || fc == 15 || fc == 16 || fc == 23;
   if (is_write) {
-    if (options_.read_only) return fail(Exception::illegal_function);
+    if (options_.read_only) return exception(fc, Exception::illegal_function, out);
     // Not busy: retrying cannot help until the owner lets go. 04 is not retried by clients; the
     // reason is in write_refusal_reason.
     if (owner_ != 0 && owner_ != client.id) {
+      Exception ex = Exception::illegal_function;
       refuse(registers::Refusal::not_owner, ex);
-      return fail(ex);
+      return exception(fc, ex, out);
     }
   }
   switch (fc) {
     case 1:
-    case 2: {  // read coils / discrete inputs
-      if (len != 5) return fail(Exception::illegal_data_value);
-      const std::uint16_t start = be16(pdu + 1), count = be16(pdu + 3);
-      if (count < 1 || count > 2000) return fail(Exception::illegal_data_value);
-      if (start + count > 65536) return fail(Exception::illegal_data_address);
-      const auto& slots = fc == 1 ? coil_slots_ : di_slots_;
-      std::uint16_t word = image_.control_word;
-      if (fc == 2) {
-        const Snapshot snap = controller_.snapshot();
-        word = static_cast<std::uint16_t>(snap.status_word | (owner_ ? 1u << reg::kOwned : 0u));
-      }
-      const auto bytes = static_cast<std::size_t>((count + 7) / 8);
-      out[0] = fc;
-      out[1] = static_cast<std::uint8_t>(bytes);
-      std::memset(out + 2, 0, bytes);
-      for (std::uint32_t k = 0; k < count; ++k) {
-        const Slot s = slots[start + k];
-        if (s.reg < 0) return fail(Exception::illegal_data_address);
-        const auto bit = reg::table()[static_cast<std::size_t>(s.reg)].address;
-        if ((word >> bit) & 1u)
-          out[2 + k / 8] = static_cast<std::uint8_t>(out[2 + k / 8] | (1u << (k % 8)));
-      }
-      return 2 + bytes;
-    }
+    case 2:
+      return handle_read_bits(pdu, len, out);
     case 3:
-    case 4: {
-      if (len != 5) return fail(Exception::illegal_data_value);
-      std::size_t n = 0;
-      if (!read_registers(fc == 4, be16(pdu + 1), be16(pdu + 3), out + 2, n, ex)) return fail(ex);
-      out[0] = fc;
-      out[1] = static_cast<std::uint8_t>(n);
-      return 2 + n;
-    }
-    case 5: {
-      if (len != 5) return fail(Exception::illegal_data_value);
-      const std::uint16_t addr = be16(pdu + 1), value = be16(pdu + 3);
-      if (coil_slots_[addr].reg < 0) return fail(Exception::illegal_data_address);
-      if (value != 0xFF00 && value != 0x0000) return fail(Exception::illegal_data_value);
-      CommandImage next = image_;
-      const auto mask = static_cast<std::uint16_t>(1u << addr);
-      next.control_word = static_cast<std::uint16_t>(value ? (next.control_word | mask)
-                                                           : (next.control_word & ~mask));
-      if (!write_image(client, next, false, true, ex)) return fail(ex);
-      std::memcpy(out, pdu, 5);
-      return 5;
-    }
-    case 15: {
-      if (len < 7) return fail(Exception::illegal_data_value);
-      const std::uint16_t start = be16(pdu + 1), count = be16(pdu + 3);
-      const std::uint8_t bytes = pdu[5];
-      if (count < 1 || count > 1968 || bytes != (count + 7) / 8 || len != 6u + bytes)
-        return fail(Exception::illegal_data_value);
-      if (start + count > 65536) return fail(Exception::illegal_data_address);
-      CommandImage next = image_;
-      for (std::uint32_t k = 0; k < count; ++k) {
-        const std::uint32_t addr = start + k;
-        if (coil_slots_[addr].reg < 0) return fail(Exception::illegal_data_address);
-        const bool on = (pdu[6 + k / 8] >> (k % 8)) & 1u;
-        const auto mask = static_cast<std::uint16_t>(1u << addr);
-        next.control_word = static_cast<std::uint16_t>(on ? (next.control_word | mask)
-                                                          : (next.control_word & ~mask));
-      }
-      if (!write_image(client, next, false, true, ex)) return fail(ex);
-      std::memcpy(out, pdu, 5);
-      return 5;
-    }
-    case 6: {
-      if (len != 5) return fail(Exception::illegal_data_value);
-      CommandImage next = image_;
-      bool heartbeat = false, touches = false;
-      if (!decode_registers(be16(pdu + 1), 1, pdu + 3, next, heartbeat, touches, ex))
-        return fail(ex);
-      if (!write_image(client, next, heartbeat, touches, ex)) return fail(ex);
-      std::memcpy(out, pdu, 5);
-      return 5;
-    }
-    case 16: {
-      if (len < 6) return fail(Exception::illegal_data_value);
-      const std::uint16_t start = be16(pdu + 1), count = be16(pdu + 3);
-      if (count < 1 || count > 123 || pdu[5] != 2 * count || len != 6u + 2u * count)
-        return fail(Exception::illegal_data_value);
-      CommandImage next = image_;
-      bool heartbeat = false, touches = false;
-      if (!decode_registers(start, count, pdu + 6, next, heartbeat, touches, ex)) return fail(ex);
-      if (!write_image(client, next, heartbeat, touches, ex)) return fail(ex);
-      std::memcpy(out, pdu, 5);
-      return 5;
-    }
-    case 23: {  // write first, then read (the spec's order); validate both before writing
-      if (len < 10) return fail(Exception::illegal_data_value);
-      const std::uint16_t rstart = be16(pdu + 1), rcount = be16(pdu + 3);
-      const std::uint16_t wstart = be16(pdu + 5), wcount = be16(pdu + 7);
-      if (rcount < 1 || rcount > 125 || wcount < 1 || wcount > 121 || pdu[9] != 2 * wcount ||
-          len != 10u + 2u * wcount)
-        return fail(Exception::illegal_data_value);
-      std::size_t n = 0;
-      if (!read_registers(false, rstart, rcount, out + 2, n, ex)) return fail(ex);  // address check
-      CommandImage next = image_;
-      bool heartbeat = false, touches = false;
-      if (!decode_registers(wstart, wcount, pdu + 10, next, heartbeat, touches, ex))
-        return fail(ex);
-      if (!write_image(client, next, heartbeat, touches, ex)) return fail(ex);
-      if (!read_registers(false, rstart, rcount, out + 2, n, ex)) return fail(ex);
-      out[0] = fc;
-      out[1] = static_cast<std::uint8_t>(n);
-      return 2 + n;
-    }
-    case 8: {  // diagnostics: echo and counters
-      if (len < 3) return fail(Exception::illegal_data_value);
-      const std::uint16_t sub = be16(pdu + 1);
-      if (sub == 0x0000) {
-        std::memcpy(out, pdu, len);
-        return len;
-      }
-      if (len != 5) return fail(Exception::illegal_data_value);
-      std::uint16_t value = 0;
-      switch (sub) {
-        case 0x01:  // restart communications: clear counters, echo
-        case 0x0A:
-          bus_messages_ = comm_errors_ = exceptions_ = server_messages_ = no_response_ = busy_ = 0;
-          value = be16(pdu + 3);
-          break;
-        case 0x0B:
-          value = bus_messages_;
-          break;
-        case 0x0C:
-          value = comm_errors_;
-          break;
-        case 0x0D:
-          value = exceptions_;
-          break;
-        case 0x0E:
-          value = server_messages_;
-          break;
-        case 0x0F:
-          value = no_response_;
-          break;
-        case 0x10:
-          value = 0;
-          break;  // NAKs: never sent
-        case 0x11:
-          value = busy_;
-          break;
-        case 0x12:
-          value = 0;
-          break;  // character overruns: the OS would lose them, not us
-        default:
-          return fail(Exception::illegal_function);
-      }
-      std::memcpy(out, pdu, 3);
-      put16(out + 3, value);
-      return 5;
-    }
-    case 43: {  // encapsulated interface: read device identification (MEI 14)
-      if (len != 4)
-        return fail(len >= 2 && pdu[1] != 0x0E ? Exception::illegal_function
-                                               : Exception::illegal_data_value);
-      if (pdu[1] != 0x0E) return fail(Exception::illegal_function);
-      const std::uint8_t code = pdu[2];
-      std::uint8_t object = pdu[3];
-      const std::array<DeviceObject, 6> objects{
-          {{0, "maglead project"},
-           {1, "MAGLEAD-CTRL"},
-           {2, MAGLEAD_VERSION},
-           {3, MAGLEAD_VENDOR_URL},
-           {4, "maglead magnetic lead-screw actuator controller"},
-           {5, options_.model_name}}};
-      if (code < 1 || code > 4) return fail(Exception::illegal_data_value);
-      std::size_t first = 0, last = 0;  // inclusive object range to send
-      if (code == 4) {
-        if (object > 5) return fail(Exception::illegal_data_address);
-        first = last = object;
-      } else {
-        last = code == 1 ? 2 : 5;
-        first = object <= last ? object : 0;  // unknown start: restart at object 0
-      }
-      out[0] = 43;
-      out[1] = 0x0E;
-      out[2] = code;
-      out[3] = 0x82;  // conformity: regular identification, stream and individual access
-      out[4] = 0;     // more follows: everything fits in one response
-      out[5] = 0;
-      std::size_t p = 7, count = 0;
-      for (std::size_t i = first; i <= last; ++i) {
-        const auto v = objects[i].value.substr(0, 64);
-        out[p++] = objects[i].id;
-        out[p++] = static_cast<std::uint8_t>(v.size());
-        std::memcpy(out + p, v.data(), v.size());
-        p += v.size();
-        ++count;
-      }
-      out[6] = static_cast<std::uint8_t>(count);
-      return p;
-    }
+    case 4:
+      return handle_read_registers(pdu, len, out);
+    case 5:
+      return handle_write_coil(client, pdu, len, out);
+    case 15:
+      return handle_write_coils(client, pdu, len, out);
+    case 6:
+      return handle_write_register(client, pdu, len, out);
+    case 16:
+      return handle_write_registers(client, pdu, len, out);
+    case 23:
+      return handle_read_write_registers(client, pdu, len, out);
+    case 8:
+      return handle_diagnostics(pdu, len, out);
+    case 43:
+      return handle_device_identification(pdu, len, out);
     default:
-      return fail(Exception::illegal_function);
+      return exception(fc, Exception::illegal_function, out);
   }
+}
+
+// FC1 read coils (bits of the client's control word) / FC2 read discrete inputs (bits of the
+// status word, plus the owned bit the core adds).
+std::size_t ModbusCore::handle_read_bits(const std::uint8_t* pdu, std::size_t len,
+                                         std::uint8_t* out) {
+  const std::uint8_t fc = pdu[0];
+  if (len != 5) return exception(fc, Exception::illegal_data_value, out);
+  const std::uint16_t start = be16(pdu + 1), count = be16(pdu + 3);
+  if (count < 1 || count > 2000) return exception(fc, Exception::illegal_data_value, out);
+  if (start + count > 65536) return exception(fc, Exception::illegal_data_address, out);
+  const auto& slots = fc == 1 ? coil_slots_ : di_slots_;
+  std::uint16_t word = image_.control_word;
+  if (fc == 2) {
+    const Snapshot snap = controller_.snapshot();
+    word = static_cast<std::uint16_t>(snap.status_word | (owner_ ? 1u << reg::kOwned : 0u));
+  }
+  const auto bytes = static_cast<std::size_t>((count + 7) / 8);
+  out[0] = fc;
+  out[1] = static_cast<std::uint8_t>(bytes);
+  std::memset(out + 2, 0, bytes);
+  for (std::uint32_t k = 0; k < count; ++k) {
+    const Slot s = slots[start + k];
+    if (s.reg < 0) return exception(fc, Exception::illegal_data_address, out);
+    const auto bit = reg::table()[static_cast<std::size_t>(s.reg)].address;
+    if ((word >> bit) & 1u)
+      out[2 + k / 8] = static_cast<std::uint8_t>(out[2 + k / 8] | (1u << (k % 8)));
+  }
+  return 2 + bytes;
+}
+
+// FC3 read holding registers / FC4 read input registers.
+std::size_t ModbusCore::handle_read_registers(const std::uint8_t* pdu, std::size_t len,
+                                              std::uint8_t* out) {
+  const std::uint8_t fc = pdu[0];
+  if (len != 5) return exception(fc, Exception::illegal_data_value, out);
+  Exception ex = Exception::illegal_function;
+  std::size_t n = 0;
+  if (!read_registers(fc == 4, be16(pdu + 1), be16(pdu + 3), out + 2, n, ex))
+    return exception(fc, ex, out);
+  return byte_count_reply(fc, n, out);
+}
+
+// FC5 write single coil: one bit of the control word; FF00 sets it, 0000 clears it.
+std::size_t ModbusCore::handle_write_coil(const ClientInfo& client, const std::uint8_t* pdu,
+                                          std::size_t len, std::uint8_t* out) {
+  const std::uint8_t fc = pdu[0];
+  if (len != 5) return exception(fc, Exception::illegal_data_value, out);
+  const std::uint16_t addr = be16(pdu + 1), value = be16(pdu + 3);
+  if (coil_slots_[addr].reg < 0) return exception(fc, Exception::illegal_data_address, out);
+  if (value != 0xFF00 && value != 0x0000) return exception(fc, Exception::illegal_data_value, out);
+  CommandImage next = image_;
+  set_coil(next.control_word, addr, value != 0);
+  return apply_and_echo(client, next, false, true, pdu, out);
+}
+
+// FC15 write multiple coils: bits of the control word, all applied as one image change.
+std::size_t ModbusCore::handle_write_coils(const ClientInfo& client, const std::uint8_t* pdu,
+                                           std::size_t len, std::uint8_t* out) {
+  const std::uint8_t fc = pdu[0];
+  if (len < 7) return exception(fc, Exception::illegal_data_value, out);
+  const std::uint16_t start = be16(pdu + 1), count = be16(pdu + 3);
+  const std::uint8_t bytes = pdu[5];
+  if (count < 1 || count > 1968 || bytes != (count + 7) / 8 || len != 6u + bytes)
+    return exception(fc, Exception::illegal_data_value, out);
+  if (start + count > 65536) return exception(fc, Exception::illegal_data_address, out);
+  CommandImage next = image_;
+  for (std::uint32_t k = 0; k < count; ++k) {
+    const std::uint32_t addr = start + k;
+    if (coil_slots_[addr].reg < 0) return exception(fc, Exception::illegal_data_address, out);
+    const bool on = (pdu[6 + k / 8] >> (k % 8)) & 1u;
+    set_coil(next.control_word, addr, on);
+  }
+  return apply_and_echo(client, next, false, true, pdu, out);
+}
+
+// FC6 write single register.
+std::size_t ModbusCore::handle_write_register(const ClientInfo& client, const std::uint8_t* pdu,
+                                              std::size_t len, std::uint8_t* out) {
+  if (len != 5) return exception(pdu[0], Exception::illegal_data_value, out);
+  return write_registers_and_echo(client, be16(pdu + 1), 1, pdu + 3, pdu, out);
+}
+
+// FC16 write multiple registers.
+std::size_t ModbusCore::handle_write_registers(const ClientInfo& client, const std::uint8_t* pdu,
+                                               std::size_t len, std::uint8_t* out) {
+  if (len < 6) return exception(pdu[0], Exception::illegal_data_value, out);
+  const std::uint16_t start = be16(pdu + 1), count = be16(pdu + 3);
+  if (count < 1 || count > 123 || pdu[5] != 2 * count || len != 6u + 2u * count)
+    return exception(pdu[0], Exception::illegal_data_value, out);
+  return write_registers_and_echo(client, start, count, pdu + 6, pdu, out);
+}
+
+// FC23 read/write multiple registers: write first, then read (the spec's order). The read range
+// is checked before anything is written, so a bad read address leaves the image as it was.
+std::size_t ModbusCore::handle_read_write_registers(const ClientInfo& client,
+                                                    const std::uint8_t* pdu, std::size_t len,
+                                                    std::uint8_t* out) {
+  const std::uint8_t fc = pdu[0];
+  if (len < 10) return exception(fc, Exception::illegal_data_value, out);
+  const std::uint16_t rstart = be16(pdu + 1), rcount = be16(pdu + 3);
+  const std::uint16_t wstart = be16(pdu + 5), wcount = be16(pdu + 7);
+  if (rcount < 1 || rcount > 125 || wcount < 1 || wcount > 121 || pdu[9] != 2 * wcount ||
+      len != 10u + 2u * wcount)
+    return exception(fc, Exception::illegal_data_value, out);
+  Exception ex = Exception::illegal_function;
+  std::size_t n = 0;
+  if (!read_registers(false, rstart, rcount, out + 2, n, ex)) return exception(fc, ex, out);
+  CommandImage next = image_;
+  bool heartbeat = false, touches = false;
+  if (!decode_registers(wstart, wcount, pdu + 10, next, heartbeat, touches, ex))
+    return exception(fc, ex, out);
+  if (!write_image(client, next, heartbeat, touches, ex)) return exception(fc, ex, out);
+  if (!read_registers(false, rstart, rcount, out + 2, n, ex)) return exception(fc, ex, out);
+  return byte_count_reply(fc, n, out);
+}
+
+// FC6 and FC16 once their framing is checked: decode the words into a copy of the image, so a
+// bad word changes nothing, then apply it.
+std::size_t ModbusCore::write_registers_and_echo(const ClientInfo& client, std::uint16_t start,
+                                                 std::uint16_t count, const std::uint8_t* data,
+                                                 const std::uint8_t* pdu, std::uint8_t* out) {
+  CommandImage next = image_;
+  bool heartbeat = false, touches = false;
+  Exception ex = Exception::illegal_function;
+  if (!decode_registers(start, count, data, next, heartbeat, touches, ex))
+    return exception(pdu[0], ex, out);
+  return apply_and_echo(client, next, heartbeat, touches, pdu, out);
+}
+
+// FC5/6/15/16 answer a successful write with the request's first five bytes (function, address,
+// value or count).
+std::size_t ModbusCore::apply_and_echo(const ClientInfo& client, const CommandImage& next,
+                                       bool heartbeat, bool touches_control,
+                                       const std::uint8_t* pdu, std::uint8_t* out) {
+  Exception ex = Exception::illegal_function;
+  if (!write_image(client, next, heartbeat, touches_control, ex)) return exception(pdu[0], ex, out);
+  std::memcpy(out, pdu, 5);
+  return 5;
+}
+
+// FC8 diagnostics: sub-function 0000 echoes the request whatever its length; the others carry one
+// data word and answer with it replaced by a counter.
+std::size_t ModbusCore::handle_diagnostics(const std::uint8_t* pdu, std::size_t len,
+                                           std::uint8_t* out) {
+  if (len < 3) return exception(pdu[0], Exception::illegal_data_value, out);
+  const std::uint16_t sub = be16(pdu + 1);
+  if (sub == 0x0000) {
+    std::memcpy(out, pdu, len);
+    return len;
+  }
+  if (len != 5) return exception(pdu[0], Exception::illegal_data_value, out);
+  std::uint16_t value = 0;
+  if (!diagnostic_value(sub, be16(pdu + 3), value))
+    return exception(pdu[0], Exception::illegal_function, out);
+  std::memcpy(out, pdu, 3);
+  put16(out + 3, value);
+  return 5;
+}
+
+// The data word FC8 answers sub-function sub with (data: the request's); false if unsupported.
+bool ModbusCore::diagnostic_value(std::uint16_t sub, std::uint16_t data, std::uint16_t& value) {
+  switch (sub) {
+    case 0x01:  // restart communications: clear counters, echo
+    case 0x0A:
+      bus_messages_ = comm_errors_ = exceptions_ = server_messages_ = no_response_ = busy_ = 0;
+      value = data;
+      return true;
+    case 0x0B:
+      return value = bus_messages_, true;
+    case 0x0C:
+      return value = comm_errors_, true;
+    case 0x0D:
+      return value = exceptions_, true;
+    case 0x0E:
+      return value = server_messages_, true;
+    case 0x0F:
+      return value = no_response_, true;
+    case 0x10:  // NAKs: never sent
+      return value = 0, true;
+    case 0x11:
+      return value = busy_, true;
+    case 0x12:  // character overruns: the OS would lose them, not us
+      return value = 0, true;
+    default:
+      return false;
+  }
+}
+
+// FC43 encapsulated interface, MEI 14 read device identification: picks the objects to send.
+std::size_t ModbusCore::handle_device_identification(const std::uint8_t* pdu, std::size_t len,
+                                                     std::uint8_t* out) {
+  const std::uint8_t fc = pdu[0];
+  // A wrong MEI type is an unknown function whatever the length; only MEI 14 has a length rule.
+  if (len != 4)
+    return exception(
+        fc,
+        len >= 2 && pdu[1] != 0x0E ? Exception::illegal_function : Exception::illegal_data_value,
+        out);
+  if (pdu[1] != 0x0E) return exception(fc, Exception::illegal_function, out);
+  const std::uint8_t code = pdu[2];
+  const std::uint8_t object = pdu[3];
+  if (code < 1 || code > 4) return exception(fc, Exception::illegal_data_value, out);
+  std::size_t first = 0, last = 0;  // inclusive object range to send
+  if (code == 4) {
+    if (object > 5) return exception(fc, Exception::illegal_data_address, out);
+    first = last = object;
+  } else {
+    last = code == 1 ? 2 : 5;
+    first = object <= last ? object : 0;  // unknown start: restart at object 0
+  }
+  return device_identification_reply(code, first, last, out);
+}
+
+// The FC43/14 reply with objects first..last (inclusive). Values are cut at 64 bytes, so every
+// range fits in one response and "more follows" is always 0.
+std::size_t ModbusCore::device_identification_reply(std::uint8_t code, std::size_t first,
+                                                    std::size_t last, std::uint8_t* out) const {
+  const std::array<DeviceObject, 6> objects{{{0, "maglead project"},
+                                             {1, "MAGLEAD-CTRL"},
+                                             {2, MAGLEAD_VERSION},
+                                             {3, MAGLEAD_VENDOR_URL},
+                                             {4, "maglead magnetic lead-screw actuator controller"},
+                                             {5, options_.model_name}}};
+  out[0] = 43;
+  out[1] = 0x0E;
+  out[2] = code;
+  out[3] = 0x82;  // conformity: regular identification, stream and individual access
+  out[4] = 0;     // more follows: everything fits in one response
+  out[5] = 0;
+  std::size_t p = 7, count = 0;
+  for (std::size_t i = first; i <= last; ++i) {
+    const auto v = objects[i].value.substr(0, 64);
+    out[p++] = objects[i].id;
+    out[p++] = static_cast<std::uint8_t>(v.size());
+    std::memcpy(out + p, v.data(), v.size());
+    p += v.size();
+    ++count;
+  }
+  out[6] = static_cast<std::uint8_t>(count);
+  return p;
 }
 
 }  // namespace maglead::modbus

@@ -70,6 +70,30 @@ class ModbusCore {
   };
   std::size_t dispatch(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len,
                        std::uint8_t* out);
+  // One handler per function code (group); each takes the whole PDU and returns the reply length.
+  std::size_t handle_read_bits(const std::uint8_t* pdu, std::size_t len, std::uint8_t* out);
+  std::size_t handle_read_registers(const std::uint8_t* pdu, std::size_t len, std::uint8_t* out);
+  std::size_t handle_write_coil(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len,
+                                std::uint8_t* out);
+  std::size_t handle_write_coils(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len,
+                                 std::uint8_t* out);
+  std::size_t handle_write_register(const ClientInfo& client, const std::uint8_t* pdu,
+                                    std::size_t len, std::uint8_t* out);
+  std::size_t handle_write_registers(const ClientInfo& client, const std::uint8_t* pdu,
+                                     std::size_t len, std::uint8_t* out);
+  std::size_t handle_read_write_registers(const ClientInfo& client, const std::uint8_t* pdu,
+                                          std::size_t len, std::uint8_t* out);
+  std::size_t handle_diagnostics(const std::uint8_t* pdu, std::size_t len, std::uint8_t* out);
+  std::size_t handle_device_identification(const std::uint8_t* pdu, std::size_t len,
+                                           std::uint8_t* out);
+  std::size_t write_registers_and_echo(const ClientInfo& client, std::uint16_t start,
+                                       std::uint16_t count, const std::uint8_t* data,
+                                       const std::uint8_t* pdu, std::uint8_t* out);
+  std::size_t apply_and_echo(const ClientInfo& client, const CommandImage& next, bool heartbeat,
+                             bool touches_control, const std::uint8_t* pdu, std::uint8_t* out);
+  bool diagnostic_value(std::uint16_t sub, std::uint16_t data, std::uint16_t& value);
+  std::size_t device_identification_reply(std::uint8_t code, std::size_t first, std::size_t last,
+                                          std::uint8_t* out) const;
   std::size_t read_registers(bool input_only, std::uint16_t start, std::uint16_t count,
                              std::uint8_t* out, std::size_t& n, Exception& ex);
   bool write_image(const ClientInfo& client, CommandImage next, bool heartbeat,
