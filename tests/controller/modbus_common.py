@@ -1,10 +1,12 @@
 """Shared helpers for the Modbus integration tests: start `maglead serve`, raw MBAP frames."""
+import contextlib
 import os
 import signal
 import socket
 import struct
 import subprocess
 import sys
+import tempfile
 import time
 
 FAILURES = []
@@ -107,3 +109,27 @@ def words_f32(words):
 
 def words_i32(words):
     return struct.unpack(">i", struct.pack(">HH", *words))[0]
+
+
+@contextlib.contextmanager
+def rtu_server(maglead, config, unit, prefix):
+    """`maglead serve` (RTU only) on one end of a socat pseudo-terminal pair; yields the server and
+    the other end's path. Stops both afterwards; the server must say it stopped cleanly."""
+    tmp = tempfile.mkdtemp(prefix=prefix)
+    dev_a, dev_b = os.path.join(tmp, "ttyA"), os.path.join(tmp, "ttyB")
+    socat = subprocess.Popen(["socat", f"pty,raw,echo=0,link={dev_a}", f"pty,raw,echo=0,link={dev_b}"],
+                             stderr=subprocess.DEVNULL)
+    try:
+        end = time.time() + 5
+        while not (os.path.exists(dev_a) and os.path.exists(dev_b)) and time.time() < end:
+            time.sleep(0.05)
+        check(os.path.exists(dev_b), "socat made a pty pair")
+        srv = Server(maglead, config, "--no-tcp", "--rtu-device", dev_a, "--rtu-unit", str(unit))
+        try:
+            yield srv, dev_b
+        finally:
+            tail = srv.stop()
+        check("stopped after" in tail, "serve stops cleanly")
+    finally:
+        socat.terminate()
+        socat.wait(5)

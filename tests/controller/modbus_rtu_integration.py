@@ -6,11 +6,10 @@ import os
 import struct
 import subprocess
 import sys
-import tempfile
 import time
 
 import select
-from modbus_common import Server, check, f32_words, finish, watchdog, words_f32
+from modbus_common import check, f32_words, finish, rtu_server, watchdog, words_f32
 from pymodbus.client import ModbusSerialClient
 from pymodbus.diag_message import ReturnQueryDataRequest
 from pymodbus.mei_message import ReadDeviceInformationRequest
@@ -48,25 +47,9 @@ def raw(port, frame, wait=0.3, crc=None):
 
 def main():
     watchdog(90)
-    tmp = tempfile.mkdtemp(prefix="maglead-rtu-")
-    dev_a, dev_b = os.path.join(tmp, "ttyA"), os.path.join(tmp, "ttyB")
-    socat = subprocess.Popen(["socat", f"pty,raw,echo=0,link={dev_a}", f"pty,raw,echo=0,link={dev_b}"],
-                             stderr=subprocess.DEVNULL)
-    try:
-        end = time.time() + 5
-        while not (os.path.exists(dev_a) and os.path.exists(dev_b)) and time.time() < end:
-            time.sleep(0.05)
-        check(os.path.exists(dev_b), "socat made a pty pair")
-        srv = Server(MAGLEAD, CONFIG, "--no-tcp", "--rtu-device", dev_a, "--rtu-unit", str(UNIT))
+    with rtu_server(MAGLEAD, CONFIG, UNIT, "maglead-rtu-") as (srv, dev_b):
         check(any("Modbus RTU on" in l and "8E1" in l for l in srv.lines), f"serve reports RTU 8E1 {srv.lines}")
-        try:
-            run(dev_b)
-        finally:
-            tail = srv.stop()
-        check("stopped after" in tail, "serve stops cleanly")
-    finally:
-        socat.terminate()
-        socat.wait(5)
+        run(dev_b)
     finish()
 
 

@@ -7,7 +7,7 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "controller"))
-from modbus_common import FAILURES, Server, check, finish, raw_request, watchdog, words_i32  # noqa: E402,F401
+from modbus_common import FAILURES, Server, check, finish, raw_request, rtu_server, watchdog, words_i32  # noqa: E402,F401
 
 
 def run(maglead, *args, timeout=60):

@@ -3,12 +3,10 @@ unit 3), poll / enable / set / record / disable on the other, a wrong unit id an
 Usage: operator_rtu.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
 import json
 import os
-import subprocess
 import sys
-import tempfile
 import time
 
-from op_common import Server, check, finish, one_line, run, watchdog
+from op_common import check, finish, one_line, rtu_server, run, watchdog
 
 MAGLEAD, CONFIG, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
 UNIT = 3
@@ -17,24 +15,8 @@ UNIT = 3
 def main():
     watchdog(85)
     os.makedirs(WORK, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix="maglead-op-rtu-")
-    dev_a, dev_b = os.path.join(tmp, "ttyA"), os.path.join(tmp, "ttyB")
-    socat = subprocess.Popen(["socat", f"pty,raw,echo=0,link={dev_a}", f"pty,raw,echo=0,link={dev_b}"],
-                             stderr=subprocess.DEVNULL)
-    try:
-        end = time.time() + 5
-        while not (os.path.exists(dev_a) and os.path.exists(dev_b)) and time.time() < end:
-            time.sleep(0.05)
-        check(os.path.exists(dev_b), "socat made a pty pair")
-        srv = Server(MAGLEAD, CONFIG, "--no-tcp", "--rtu-device", dev_a, "--rtu-unit", str(UNIT))
-        try:
-            scenario(dev_b)
-        finally:
-            tail = srv.stop()
-        check("stopped after" in tail, "serve stops cleanly")
-    finally:
-        socat.terminate()
-        socat.wait(5)
+    with rtu_server(MAGLEAD, CONFIG, UNIT, "maglead-op-rtu-") as (_, dev_b):
+        scenario(dev_b)
     finish()
 
 
