@@ -15,7 +15,33 @@ using registers::Mode;
 using registers::Reject;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kStrokeMargin_m = 0.5e-3;  // beyond the stroke by this much is a fault
+constexpr double kMaxTrack_rad = 0.5;       // most the phase tracking may add to a command
 constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b); }
+
+LoadObserverConfig observer_config(const ControllerConfig& c) {
+  LoadObserverConfig o;
+  o.calibration = c.calibration;
+  o.friction = c.friction;
+  o.lead_m = c.actuator.lead_m;
+  o.linear_count_m = c.actuator.linear_count_m;
+  o.model_uncertainty_n = c.observer_model_uncertainty_n;
+  o.load_drift_n_per_s = c.load_drift_n_per_s;
+  return o;
+}
+
+ForceLoopConfig force_loop_config(const ControllerConfig& c, const LoadForceObserver& obs) {
+  ForceLoopConfig f;
+  f.friction = c.friction;
+  f.damping_n_s_per_m = c.force_damping_n_s_per_m;
+  f.breakaway_ramp_n_per_s = c.breakaway_ramp_n_per_s;
+  f.tolerance_n = c.force_tol_n;
+  // Land where a slide's bound still fits inside the tolerance, with room for the stop.
+  f.land_tolerance_n = std::max(0.1, 0.5 * (c.force_tol_n - obs.sliding_half_width_n()));
+  const double frac = c.actuator.safe_force_fraction;
+  f.drive_min_n = frac * c.calibration.peak_pull_n;
+  f.drive_max_n = frac * c.calibration.peak_push_n;
+  return f;
+}
 
 }  // namespace
 
@@ -23,7 +49,9 @@ Controller::Controller(const ControllerConfig& config, ActuatorHardware& hardwar
     : cfg_(config),
       hw_(hardware),
       velocity_(1.0 / config.actuator.sample_rate_hz, config.actuator.linear_count_m),
-      estimator_(config.calibration, config.actuator.coulomb_n, 1e-4) {
+      estimator_(config.calibration, config.actuator.coulomb_n, 1e-4),
+      observer_(observer_config(config)),
+      force_loop_(force_loop_config(config, observer_)) {
   const auto& a = cfg_.actuator;
   const auto& cal = cfg_.calibration;
   if (!(a.sample_rate_hz > 0) || !(a.lead_m > 0) || !(a.gear_ratio > 0) ||
@@ -123,7 +151,7 @@ void Controller::latch_fault(Alarm alarm) noexcept {
     case FaultReaction::disable: {
       // Start from the force held now (its setpoint in force mode, else the estimate); past
       // the stable branch the force curve means nothing: release from zero at once.
-      double f = mode_ == Mode::force ? force_set_n_ : s_.force_est_n;
+      double f = mode_ == Mode::force ? drive_n_ - cfg_.friction.offset_n : s_.force_est_n;
       if (slipped || how == FaultReaction::disable || !std::isfinite(f)) f = 0.0;
       release_force_n_ = std::clamp(f, safe_force_limit_n(-1.0), safe_force_limit_n(1.0));
       reaction_ =
@@ -189,7 +217,11 @@ void Controller::on_execute() noexcept {
           phase_for_output_force(cfg_.calibration, image_.force_setpoint_n, a.safe_force_fraction);
       if (inv.status != InverseStatus::ok) return reject(Reject::force_beyond_safe_limit);
       force_set_n_ = image_.force_setpoint_n;
-      force_phase_rad_ = inv.phase_rad;
+      if (mode_ != Mode::force) {
+        drive_n_ = load_.drive_n;  // start from the phase the nut has
+        phase_track_rad_ = 0.0;
+      }
+      force_loop_.start(force_set_n_, drive_n_, load_);
       mode_ = Mode::force;
       break;
     }
@@ -240,6 +272,7 @@ void Controller::apply(const Command& c) noexcept {
       s_.phase_rad -= leads * kTwoPi;
       last_phase_rad_ = s_.phase_rad;
       if (twin_) twin_->resync(s_.t_s, s_.screw_angle_rad, s_.nut_pos_m);
+      observer_.reset();
       command_bits_ |=
           static_cast<std::uint16_t>(bit(registers::kResyncAck) | bit(registers::kResyncDone));
     }
@@ -304,6 +337,30 @@ double Controller::position_command_rad(double dt) noexcept {
   return rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + phase;
 }
 
+double Controller::force_command_rad(double dt) noexcept {
+  const auto& a = cfg_.actuator;
+  drive_n_ = force_loop_.drive_n(load_, dt);
+  // The drive is the coupling force plus the model's offset; the calibration gives F_m.
+  const auto inv = phase_for_output_force(cfg_.calibration, drive_n_ - cfg_.friction.offset_n, 1.0);
+  const double phase = inv.status == InverseStatus::ok ? inv.phase_rad : 0.0;
+  // The motor's servo lags a moving nut (a phase error that grows with speed and acts like
+  // strong viscous friction): integrate the phase the coupling misses into the command.
+  phase_track_rad_ =
+      std::clamp(phase_track_rad_ + cfg_.phase_tracking_per_s * dt * (phase - s_.phase_rad),
+                 -kMaxTrack_rad, kMaxTrack_rad);
+  const double cmd = std::clamp(phase + phase_track_rad_, phase_lo_rad_, phase_hi_rad_);
+  return rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + cmd;
+}
+
+void Controller::publish_observer() noexcept {
+  s_.load_force_est_n = load_.force_n;
+  s_.load_force_lo_n = load_.lo_n;
+  s_.load_force_hi_n = load_.hi_n;
+  s_.observer_basis = static_cast<std::uint16_t>(load_.basis);
+  s_.force_loop_state = static_cast<std::uint16_t>(force_loop_.state());
+  s_.force_reached_reason = static_cast<std::uint16_t>(force_loop_.reason(load_));
+}
+
 CycleStatus Controller::step(double now_s, double late_s) noexcept {
   const auto& a = cfg_.actuator;
   const auto& cal = cfg_.calibration;
@@ -336,6 +393,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
       state_ = DriveState::ready;
       synced_ = true;
       if (twin_) twin_->resync(now_s, screw, pos);
+      observer_.reset();
     }
     s_.screw_angle_rad = screw;
     s_.nut_pos_m = pos;
@@ -343,7 +401,10 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     s_.nut_vel_m_s = velocity_.update(pos);
     s_.force_est_n = estimator_.output_force_n(s_.phase_rad, s_.nut_vel_m_s);
     s_.load_cell_force_n = std::isnan(sample.load_force_n) ? 0.0 : -sample.load_force_n;
-    load_force_n_ = sample.load_force_n;
+    load_force_n_ = sample.load_force_n;  // for the twin's checks and the register only
+    // Under force control the load is what the loop presses; else loads come and go.
+    load_ = observer_.update(now_s, s_.phase_rad, s_.nut_pos_m,
+                             mode_ == Mode::force ? LoadForceObserver::kPassiveLoad : 0.0);
   }
 
   if (owner_lost_flag_.exchange(false, std::memory_order_acquire)) on_owner_lost();
@@ -400,9 +461,8 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
       break;  // hold the last command
     case DriveState::enabled:
       if (mode_ == Mode::force) {
-        screw_cmd_rad_ =
-            rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + force_phase_rad_;
-        force_reached = std::abs(s_.force_est_n - force_set_n_) <= cfg_.force_tol_n;
+        screw_cmd_rad_ = force_command_rad(dt);
+        force_reached = force_loop_.reason(load_) == ForceReachedReason::reached;
       } else {
         screw_cmd_rad_ = position_command_rad(dt);
         in_position = prof_pos_m_ == target_m_ && prof_vel_m_s_ == 0.0 &&
@@ -427,6 +487,8 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
       }
       break;
   }
+  if (mode_ != Mode::force || state_ != DriveState::enabled) force_loop_.stop();
+  publish_observer();
   const bool reached = in_position || force_reached;
   settled_s_ = reached ? settled_s_ + dt : 0.0;
   const bool settled = reached && settled_s_ >= cfg_.settle_s;

@@ -94,6 +94,25 @@ constexpr std::array kTable = std::to_array<Register>({
     {"twin_step_out_reason", IR, 58, Type::u16, 1, "", RO, 0, 3,
      "Twin: why step_out_warning is set: 0 none, 1 look-ahead leaves the stable branch, "
      "2 setpoint trend beyond the calibrated peak, 3 stepped out"},
+    {"force_loop_state", IR, 59, Type::u16, 1, "", RO, 0, 6,
+     "Force loop: 0 off (not force mode), 1 breaking a stuck nut loose, 2 approaching the "
+     "setpoint (sliding, friction fed forward), 3 landing, 4 holding (load force at the "
+     "setpoint, coupling mid stick band), 5 holding without motion (the setpoint was already "
+     "inside the known load-force bound), 6 blocked (no motion at twice the model's break-away)"},
+    {"load_force_est_mn", IR, 60, Type::i32, 1e-3, "N", RO, -1e6, 1e6,
+     "Load observer: output force at the load, from phase and encoder only (no load cell): the "
+     "force balance while the nut slides, the force it had when it stopped while it sticks"},
+    {"load_force_lo_mn", IR, 62, Type::i32, 1e-3, "N", RO, -1e6, 1e6,
+     "Load observer: lowest output force consistent with what it has seen (the bound)"},
+    {"load_force_hi_mn", IR, 64, Type::i32, 1e-3, "N", RO, -1e6, 1e6,
+     "Load observer: highest output force consistent with what it has seen"},
+    {"force_reached_reason", IR, 66, Type::u16, 1, "", RO, 0, 6,
+     "Why force_reached is clear: 0 reached, 1 not in force mode, 2 load force outside the "
+     "tolerance, 3 load force unknown (nothing slid since start-up, or the load changed while "
+     "the nut stuck), 4 bound wider than the tolerance, 5 nut sliding, 6 dwell running"},
+    {"observer_basis", IR, 67, Type::u16, 1, "", RO, 0, 2,
+     "Load observer: what pins the estimate down: 0 only the stick band (load force anywhere in "
+     "drive +- break-away), 1 sliding (force balance), 2 stuck after a slide"},
     {"twin_gain_f32", IR, 70, Type::f32, 1, "", RO, -1e9, 1e9,
      "Twin: coupling gain estimate relative to the calibration (0 until estimated)"},
     {"twin_gain_stderr_f32", IR, 72, Type::f32, 1, "", RO, -1e9, 1e9,
@@ -120,6 +139,12 @@ constexpr std::array kTable = std::to_array<Register>({
      "Twin: force residual"},
     {"twin_dynamic_force_n_f32", IR, 126, Type::f32, 1, "N", RO, -1e9, 1e9,
      "Twin: dynamic force estimate"},
+    {"load_force_est_n_f32", IR, 128, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Load observer: output force at the load"},
+    {"load_force_lo_n_f32", IR, 130, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Load observer: lowest output force consistent"},
+    {"load_force_hi_n_f32", IR, 132, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Load observer: highest output force consistent"},
     // Commands and setpoints. Setpoints are staged: an execute edge applies them.
     {"control_word", HR, 1000, Type::u16, 1, "", RW, 0, 31,
      "Control bits, see coils; enable and stop are levels, the others act on rising edges; "
@@ -165,7 +190,8 @@ constexpr std::array kTable = std::to_array<Register>({
     {"in_position", DI, kInPosition, Type::bit, 1, "", RO, 0, 1,
      "Position mode: at target within tolerance"},
     {"force_reached", DI, kForceReached, Type::bit, 1, "", RO, 0, 1,
-     "Force mode: estimate at setpoint"},
+     "Force mode: the load observer's whole bound lies within the tolerance of the setpoint "
+     "for the dwell (the load force, not the coupling force); force_reached_reason says why not"},
     {"step_out", DI, kStepOut, Type::bit, 1, "", RO, 0, 1,
      "The nut stepped out; resync then reset"},
     {"drift_warning", DI, kDriftWarning, Type::bit, 1, "", RO, 0, 1,
@@ -231,16 +257,17 @@ constexpr std::array kModes = std::to_array<Code>({
 });
 
 constexpr std::array kRanges = std::to_array<AddressRange>({
-    {IR, 0, 128, "identity, status, measurements (scaled and float32), twin, loop"},
+    {IR, 0, 136,
+     "identity, status, measurements (scaled and float32), twin, loop, load observer"},
     {HR, 1000, 20, "commands and setpoints"},
     {CO, 0, 5, "control word bits"},
     {DI, 0, 15, "status word bits"},
 });
 constexpr std::array kPollBlocks = std::to_array<AddressRange>({
-    {IR, 0, 56,
+    {IR, 0, 68,
      "FC4 (or FC3): identity, status, alarm, owner, scaled measurements, twin, loop, fault "
-     "reaction"},
-    {IR, 100, 28, "FC4 (or FC3): the same measurements as float32"},
+     "reaction, load observer and force loop"},
+    {IR, 100, 34, "FC4 (or FC3): the same measurements as float32"},
     {HR, 1000, 20,
      "FC3: commands and setpoints as written (or FC23: write 1000.. and read 10..55 in one)"},
 });

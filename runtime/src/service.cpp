@@ -26,6 +26,7 @@ std::unique_ptr<ActuatorHardware> make_simulated(const ActuatorParams& actuator,
     throw std::invalid_argument("simulated actuator: the spring rate must not be negative [N/m]");
   PlantParams plant = paper_like_plant();
   plant.actuator = actuator;
+  plant.effects = o.effects;
   auto sim = std::make_unique<SimulatedActuator>(plant, o.seed, o.start_pos_m);
   if (o.spring_n_per_m > 0) {
     LoadSetting load;
@@ -127,6 +128,7 @@ Service::Service(const ServiceConfig& config)
     twin::TwinMonitorConfig tc = twin::load_monitor_config(cfg_.twin_config_dir);
     tc.actuator = cfg_.controller.actuator;  // the twin sees the same actuator and calibration
     tc.calibration = cfg_.controller.calibration;
+    if (!cfg_.model_path.empty()) tc.model = twin::load_twin_model(cfg_.model_path);
     tc.integrator.max_step_s = 1.0 / cfg_.controller.actuator.sample_rate_hz;
     twin_ = std::make_unique<TwinRunner>(tc, cfg_.twin_options);
     controller_->attach_twin(twin_.get());

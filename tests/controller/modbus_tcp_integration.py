@@ -76,14 +76,14 @@ def run(port):
     def exc(pdu):
         return exc_code(raw_request(port, pdu))
     check(exc(struct.pack(">BHH", 3, 200, 1)) == 2, "read of an unmapped address: exception 02")
-    check(exc(struct.pack(">BHH", 3, 120, 10)) == 2, "read partly outside the map: exception 02")
-    # Finding 8: block reads across reserved addresses (IR 8-9, 56-99) answer, reserved as 0.
+    check(exc(struct.pack(">BHH", 3, 130, 10)) == 2, "read partly outside the map: exception 02")
+    # Finding 8: block reads across reserved addresses (IR 8-9, 68-69, 76-99) answer, reserved as 0.
     rr = c.read_input_registers(0, 16, slave=UNIT)
     check(not rr.isError() and rr.registers[8:10] == [0, 0] and rr.registers[0] == 0x4D4C,
           "FC4 0..15 reads, reserved 8-9 as 0")
     rr = c.read_holding_registers(40, 72, slave=UNIT)
-    check(not rr.isError() and len(rr.registers) == 72 and rr.registers[16:60] == [0] * 44,
-          "FC3 40..111 reads, reserved 56-99 as 0")
+    check(not rr.isError() and len(rr.registers) == 72 and rr.registers[28:30] == [0] * 2
+          and rr.registers[36:60] == [0] * 24, "FC3 40..111 reads, reserved 68-69 and 76-99 as 0")
     check(exc(struct.pack(">BHH", 4, 21, 2)) == 2, "read splitting a 32-bit value: exception 02")
     check(exc(struct.pack(">BHH", 4, 1000, 1)) == 2, "FC4 on a holding register: exception 02")
     check(exc(struct.pack(">BHH", 3, 10, 0)) == 3, "quantity 0: exception 03")
@@ -122,9 +122,12 @@ def run(port):
     c.write_register(CW, ENABLE | EXECUTE, slave=UNIT)
     c.write_register(CW, ENABLE, slave=UNIT)
     check(wait_status(c, ST_FORCE_REACHED), "force mode reports force reached")
-    rr = c.read_input_registers(108, 2, slave=UNIT)
+    rr = c.read_input_registers(128, 2, slave=UNIT)
     force = words_f32(rr.registers)
-    check(abs(force - 10.0) <= 1.5, f"estimated output force {force:.2f} N within 1.5 N of 10 N")
+    check(abs(force - 10.0) <= 1.5, f"load observer's output force {force:.2f} N within 1.5 N of 10 N")
+    rr = c.read_input_registers(110, 2, slave=UNIT)
+    load = words_f32(rr.registers)
+    check(abs(load - 10.0) <= 1.5, f"and the load cell reads {load:.2f} N: the force is at the load")
     rr = c.read_input_registers(15, 1, slave=UNIT)
     check(rr.registers[0] & 0b11 == 0b10, "execute: ack cleared with the bit, done set")
 

@@ -103,8 +103,10 @@ def scenario(port):
         time.sleep(0.05)
     w = read_regs(port, 4, 14, 1) + read_regs(port, 4, 34, 2)
     check(w[0] == 2 and i32(w[1:3]) == 10000, f"controller holds 10 N in force mode (raw {w})")
-    est = i32(read_regs(port, 4, 28, 2)) * 1e-3
-    check(abs(est - 10.0) < 2.0, f"force estimate near the setpoint: {est:.2f} N")
+    est = i32(read_regs(port, 4, 60, 2)) * 1e-3
+    check(abs(est - 10.0) < 2.0, f"load observer's force near the setpoint: {est:.2f} N")
+    load = i32(read_regs(port, 4, 30, 2)) * 1e-3
+    check(abs(load - 10.0) < 2.0, f"and the load cell agrees: {load:.2f} N")
 
     # record while in force mode: load cell, setpoint and the sign convention.
     rec = os.path.join(WORK, "tcp_rec.csv")

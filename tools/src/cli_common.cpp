@@ -187,4 +187,23 @@ void load_reached_settings(const std::string& config_dir, ReachedSettings& r) {
   }
 }
 
+void apply_plant_effects(const std::string& option, const std::vector<std::string>& words,
+                         PlantEffects& effects) {
+  for (const auto& e : words) {
+    const auto eq = e.find('=');
+    if (eq == std::string::npos)
+      throw CLI::ValidationError(option, "'" + e + "' is not NAME=VALUE");
+    double v = 0;
+    try {
+      std::size_t used = 0;
+      v = std::stod(e.substr(eq + 1), &used);
+      if (used != e.size() - eq - 1) throw std::invalid_argument("trailing");
+    } catch (const std::exception&) {
+      throw CLI::ValidationError(option,
+                                 "'" + e.substr(eq + 1) + "' in '" + e + "' is not a number");
+    }
+    set_plant_effect(effects, e.substr(0, eq), v);
+  }
+}
+
 }  // namespace maglead::cli

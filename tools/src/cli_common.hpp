@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "maglead/plant/simulated_actuator.hpp"
+
 namespace maglead::cli {
 
 using Registrar = void (*)(CLI::App& app);
@@ -24,6 +26,10 @@ std::string config_file(const std::string& config_dir, const std::string& name);
 
 /// "30s", "2min", "500ms", "1h" or a plain number of seconds. Throws CLI::ValidationError.
 double parse_duration_s(const std::string& text);
+/// Applies repeated `--effect NAME=VALUE` words (simulate, serve --sim-effect) to the plant's
+/// effects; throws CLI::ValidationError naming the option and the bad word.
+void apply_plant_effects(const std::string& option, const std::vector<std::string>& words,
+                         PlantEffects& effects);
 
 /// --quiet (a global option): no progress and no notes, only results and errors.
 bool& quiet();

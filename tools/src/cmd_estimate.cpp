@@ -6,6 +6,7 @@
 
 #include "cli_common.hpp"
 #include "maglead/physics/estimator.hpp"
+#include "maglead/physics/load_observer.hpp"
 #include "maglead/recording/error_stats.hpp"
 #include "maglead/report/plot.hpp"
 #include "maglead/twin/monitor.hpp"
@@ -28,8 +29,10 @@ void add_estimate(CLI::App& app) {
       ->required();
   cmd->add_option("--estimator", o->estimator,
                   "static: the paper's eq. 6; twin: the digital twin's dynamic observer "
-                  "(M p'' + C p' + hybrid stick/slip friction, config/model.toml)")
-      ->check(CLI::IsMember({"static", "twin"}))
+                  "(M p'' + C p' + hybrid stick/slip friction, config/model.toml); observer: the "
+                  "controller's stick-aware load observer (force balance while sliding, the "
+                  "force at the stop while stuck, same model file)")
+      ->check(CLI::IsMember({"static", "twin", "observer"}))
       ->capture_default_str();
   cmd->add_option("--model", o->model,
                   "Model file for --estimator twin (default: CONFIG/model.toml), e.g. the "
@@ -53,14 +56,37 @@ void add_estimate(CLI::App& app) {
     const double period = (t.back() - t.front()) / static_cast<double>(n - 1);
 
     std::vector<double> measured(n), estimate(n), error(n);
-    if (o->estimator == "twin") {
+    const auto model_file = [&] {
+      if (!o->model.empty()) return twin::load_twin_model(o->model);
+      return twin::load_monitor_config(o->config).model;
+    };
+    if (o->estimator == "observer") {
+      LoadObserverConfig oc;
+      oc.calibration = cal;
+      oc.friction = twin::friction_model(model_file());
+      oc.lead_m = act.lead_m;
+      oc.linear_count_m = act.linear_count_m;
+      LoadForceObserver obs(oc);
+      // Under force control the load is what the loop presses (passive); otherwise loads come
+      // and go and rest at zero.
+      const std::vector<double>* fset =
+          rec.has("force_set_n") ? &rec.column("force_set_n") : nullptr;
+      for (std::size_t i = 0; i < n; ++i) {
+        const bool pressed = fset && std::isfinite((*fset)[i]);
+        estimate[i] = obs.update(t[i], phase_rad(screw[i], pos[i], act.lead_m), pos[i],
+                                 pressed ? LoadForceObserver::kPassiveLoad : 0.0)
+                          .force_n;
+        measured[i] = -load[i];
+        error[i] = estimate[i] - measured[i];
+      }
+    } else if (o->estimator == "twin") {
       // The TwinMonitor the controller runs, fed row by row exactly as the loop would.
       twin::TwinMonitorConfig tc = twin::load_monitor_config(o->config);
       tc.actuator = act;
       tc.actuator.sample_rate_hz = period > 0 ? 1.0 / period : act.sample_rate_hz;
       tc.integrator.max_step_s = 1.0 / tc.actuator.sample_rate_hz;
       tc.calibration = cal;
-      if (!o->model.empty()) tc.model = twin::load_twin_model(o->model);
+      tc.model = model_file();
       twin::TwinMonitor mon(tc);
       mon.reset(t[0], screw[0], pos[0]);
       const double nan = std::numeric_limits<double>::quiet_NaN();

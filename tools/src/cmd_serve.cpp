@@ -9,6 +9,7 @@
 #include "cli_common.hpp"
 #include "maglead/modbus/network_config.hpp"
 #include "maglead/runtime/service.hpp"
+#include "maglead/twin/model.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -20,7 +21,8 @@ void add_serve(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "serve", "Run the controller on the simulated actuator and serve it over Modbus TCP/RTU");
   struct Opts {
-    std::string config = default_config_dir(), network, calibration, duration;
+    std::string config = default_config_dir(), network, calibration, duration, model;
+    std::vector<std::string> sim_effects;
     std::string bind, allow_csv, rtu_device, rtu_parity;
     int port = -1, unit = -1, max_connections = -1, rtu_baud = -1, rtu_unit = -1,
         rtu_stop_bits = -1, rtu_data_bits = -1;
@@ -35,6 +37,10 @@ void add_serve(CLI::App& app) {
   cmd->add_option("--network", o->network, "Network configuration (default: CONFIG/network.toml)");
   cmd->add_option("--calibration", o->calibration,
                   "Force calibration (default: CONFIG/calibration.toml)");
+  cmd->add_option("--model", o->model,
+                  "Model file the controller compensates with and the twin runs (default: "
+                  "CONFIG/model.toml), e.g. the model_corrected.toml maglead analyze wrote")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--duration", o->duration,
                   "Stop after this long (e.g. 30s); default: until Ctrl-C");
   auto* g = cmd->add_option_group("Modbus TCP (defaults from network.toml)");
@@ -77,6 +83,11 @@ void add_serve(CLI::App& app) {
   s->add_option("--sim-spring-anchor", o->spring_anchor_m, "Load: spring free length position [m]")
       ->capture_default_str();
   s->add_option("--sim-start", o->start_pos_m, "Nut position at start [m]")->capture_default_str();
+  std::string effects_help =
+      "Where the simulated plant differs from the model, NAME=VALUE as simulate --effect "
+      "(repeatable):";
+  for (const auto& [name, help] : plant_effect_help()) effects_help += "\n  " + name + "  " + help;
+  s->add_option("--sim-effect", o->sim_effects, effects_help);
 
   cmd->callback([o] {
     const std::string net_path =
@@ -121,7 +132,17 @@ void add_serve(CLI::App& app) {
     if (!(o->start_pos_m >= cfg.actuator.stroke_min_m &&
           o->start_pos_m <= cfg.actuator.stroke_max_m))
       throw CLI::ValidationError("--sim-start", "must lie within the stroke");
-    sc.backend.simulated = {o->seed, o->spring_n_per_m, o->spring_anchor_m, o->start_pos_m};
+    const std::string model_path =
+        o->model.empty() ? config_file(o->config, "model.toml") : o->model;
+    if (std::filesystem::exists(model_path)) {
+      const twin::TwinModel model = twin::load_twin_model(model_path);
+      cfg.friction = twin::friction_model(model);
+      sc.model_path = model_path;
+    } else {
+      cfg.friction = friction_from_actuator(cfg.actuator);
+    }
+    sc.backend.simulated = {o->seed, o->spring_n_per_m, o->spring_anchor_m, o->start_pos_m, {}};
+    apply_plant_effects("--sim-effect", o->sim_effects, sc.backend.simulated.effects);
     sc.twin = !o->no_twin;
     sc.twin_config_dir = o->config;
     sc.network = net;
@@ -142,6 +163,12 @@ void add_serve(CLI::App& app) {
         service.twin() ? "digital twin running on its own thread" : "no twin");
     std::printf("maglead serve: configuration from %s\n",
                 std::filesystem::absolute(o->config).lexically_normal().string().c_str());
+    std::printf(
+        "maglead serve: friction model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N "
+        "(+p/-p)%s\n",
+        sc.model_path.empty() ? "[actuator]" : sc.model_path.c_str(), cfg.friction.coulomb_pos_n,
+        cfg.friction.coulomb_neg_n, cfg.friction.breakaway_pos_n, cfg.friction.breakaway_neg_n,
+        o->sim_effects.empty() ? "" : "; the simulated plant differs (--sim-effect)");
     if (service.tcp_port() >= 0)
       std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(),
                   service.tcp_port(), net.tcp.unit_id, net.read_only ? ", read-only" : "");

@@ -38,21 +38,7 @@ void add_simulate(CLI::App& app) {
     opt.duration_s = parse_duration_s(o->duration);
     opt.seed = o->seed;
     opt.plant.actuator = load_actuator_or_default(o->config);
-    for (const auto& e : o->effects) {
-      const auto eq = e.find('=');
-      if (eq == std::string::npos)
-        throw CLI::ValidationError("--effect", "'" + e + "' is not NAME=VALUE");
-      double v = 0;
-      try {
-        std::size_t used = 0;
-        v = std::stod(e.substr(eq + 1), &used);
-        if (used != e.size() - eq - 1) throw std::invalid_argument("trailing");
-      } catch (const std::exception&) {
-        throw CLI::ValidationError("--effect",
-                                   "'" + e.substr(eq + 1) + "' in '" + e + "' is not a number");
-      }
-      set_plant_effect(opt.plant.effects, e.substr(0, eq), v);
-    }
+    apply_plant_effects("--effect", o->effects, opt.plant.effects);
     const std::string cal =
         o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration;
     opt.estimator_calibration = load_calibration(cal);

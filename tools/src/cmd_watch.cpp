@@ -162,7 +162,9 @@ std::vector<std::string> trend(const std::deque<Sample>& samples, double now_s, 
     if (c < 0 || c >= cols) return;
     const int r = std::clamp(static_cast<int>(std::lround((hi - value) / (hi - lo) * (rows - 1))),
                              0, rows - 1);
-    grid[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)] = mark;
+    char& cell = grid[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)];
+    // Where two curves share a cell, say so: the estimate on the load cell is the good case.
+    cell = cell == ' ' || cell == mark ? mark : '#';
   };
   for (const auto& s : samples) plot(s.t_s, s.set_n, '-');
   for (const auto& s : samples) plot(s.t_s, s.load_n, 'o');
@@ -246,7 +248,9 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   const bool force_mode = at("active_mode") == static_cast<double>(reg::Mode::force);
   pair(cell("position", printf_str("%.3f mm", at("nut_pos_um") * 1e3)),
        cell("velocity", printf_str("%.3f mm/s", at("nut_vel_um_s") * 1e3)));
-  pair(cell("estimate", printf_str("%.2f N", at("force_est_mn"))),
+  // The load observer's output force and the interval it is sure of (no load cell needed).
+  pair(cell("estimate", printf_str("%.2f N in [%.1f, %.1f]", at("load_force_est_mn"),
+                                   at("load_force_lo_mn"), at("load_force_hi_mn"))),
        cell("load cell", printf_str("%.2f N", at("load_cell_force_mn"))));
   pair(cell("setpoint", force_mode ? printf_str("%.2f N", at("active_force_setpoint_mn"))
                                    : std::string("- (not force)")),
@@ -258,8 +262,9 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   // The trend takes what is left: legend, chart rows, two axis rows.
   const int rows = scr.height - static_cast<int>(L.size()) - 3;
   if (rows >= 3) {
-    L.push_back(fit(
-        printf_str("force [N] over %.0f s:  * estimate  o load cell  - setpoint", window_s), w));
+    L.push_back(
+        fit(printf_str("force [N] over %.0f s: * estimate o load cell - setpoint # same", window_s),
+            w));
     for (auto& line : trend(samples, view.now_s, window_s, rows, w)) L.push_back(fit(line, w));
   }
   if (static_cast<int>(L.size()) > scr.height) L.resize(static_cast<std::size_t>(scr.height));
@@ -275,7 +280,7 @@ std::string plain_line(const View& view) {
        " mode=" + op::code_name(reg::modes(), v.at("active_mode")) +
        " alarm=" + op::code_name(reg::alarm_codes(), v.at("alarm_code"));
   for (const char* name :
-       {"nut_pos_um", "force_est_mn", "load_cell_force_mn", "active_force_setpoint_mn"}) {
+       {"nut_pos_um", "load_force_est_mn", "load_cell_force_mn", "active_force_setpoint_mn"}) {
     const auto* r = reg::find(name);
     s += " " + op::si_name(*r) + "=" + op::si_text(*r, v.at(name));
   }
@@ -354,7 +359,7 @@ void add_watch(CLI::App& app) {
               const op::Values& v = *view.v;
               const bool force_mode = v.at("active_mode") == static_cast<double>(reg::Mode::force);
               samples.push_back({view.now_s, force_mode ? v.at("active_force_setpoint_mn") : kNaN,
-                                 v.at("force_est_mn"), v.at("load_cell_force_mn")});
+                                 v.at("load_force_est_mn"), v.at("load_cell_force_mn")});
               while (!samples.empty() && samples.front().t_s < view.now_s - window_s)
                 samples.pop_front();
             } catch (const op::ClientError& e) {

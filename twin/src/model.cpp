@@ -205,4 +205,34 @@ void save_twin_model(const std::string& path, const TwinModel& m,
   if (!out) throw std::runtime_error(path + ": write failed");
 }
 
+FrictionModel friction_model(const TwinModel& model) {
+  FrictionModel f;
+  double fc = model.coulomb_n, c = model.viscous_n_s_per_m;
+  if (const auto* t = model.find("coulomb_friction")) fc = t->get("coulomb_n", fc);
+  if (const auto* t = model.find("viscous_friction")) c = t->get("viscous_n_s_per_m", c);
+  double fc_pos = fc, fc_neg = fc, c_pos = c, c_neg = c;
+  if (const auto* t = model.find("asymmetric_friction")) {
+    fc_pos = t->get("coulomb_pos_n", fc);
+    fc_neg = t->get("coulomb_neg_n", fc);
+    c_pos = t->get("viscous_pos_n_s_per_m", c);
+    c_neg = t->get("viscous_neg_n_s_per_m", c);
+  }
+  double excess = 0.0;  // Stribeck: break-away above the kinetic level, both directions
+  if (const auto* t = model.find("stribeck_friction")) {
+    const double kinetic = t->get("coulomb_n", fc);
+    fc_pos += kinetic - fc;
+    fc_neg += kinetic - fc;
+    excess = std::max(0.0, t->get("breakaway_n", kinetic) - kinetic);
+    f.stribeck_velocity_m_s = t->get("stribeck_velocity_m_s", 0.0);
+  }
+  f.coulomb_pos_n = fc_pos, f.coulomb_neg_n = fc_neg;
+  f.breakaway_pos_n = fc_pos + excess, f.breakaway_neg_n = fc_neg + excess;
+  f.viscous_pos_n_s_per_m = c_pos, f.viscous_neg_n_s_per_m = c_neg;
+  if (const auto* t = model.find("offset")) f.offset_n = t->get("offset_n", 0.0);
+  f.nut_mass_kg = model.nut_mass_kg;
+  if (const auto* t = model.find("mass_error"))
+    f.nut_mass_kg = t->get("nut_mass_kg", f.nut_mass_kg);
+  return f;
+}
+
 }  // namespace maglead::twin

@@ -7,11 +7,14 @@
 #include <limits>
 
 #include "maglead/controller/detail/seqlock.hpp"
+#include "maglead/controller/force_loop.hpp"
 #include "maglead/controller/ports/hardware.hpp"
 #include "maglead/controller/ports/twin_hook.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/estimator.hpp"
 #include "maglead/physics/force_model.hpp"
+#include "maglead/physics/friction_model.hpp"
+#include "maglead/physics/load_observer.hpp"
 #include "maglead/registers/registers.hpp"
 
 namespace maglead::controller {
@@ -46,6 +49,14 @@ struct ControllerConfig {
   // Position loop: phase correction per metre of error, and its integral action.
   double position_gain_rad_per_m = 1500.0;
   double position_integral_rad_per_m_s = 12000.0;
+  // The model's friction, offset and mass (the model file's terms, twin::friction_model): the
+  // load observer's force balance and the force loop's feed-forward.
+  FrictionModel friction;
+  double force_damping_n_s_per_m = 60.0;      // force loop damping D while the nut slides
+  double breakaway_ramp_n_per_s = 200.0;      // drive ramp that breaks a stuck nut loose
+  double observer_model_uncertainty_n = 0.3;  // the model's force error while sliding
+  double load_drift_n_per_s = 0.0;     // how fast a pressed load may change on its own (0 passive)
+  double phase_tracking_per_s = 50.0;  // force mode: integral gain on the missed phase
   FaultReactions reactions;
 };
 
@@ -54,7 +65,10 @@ struct Snapshot {
   std::uint64_t cycle = 0;
   double t_s = 0.0;
   double nut_pos_m = 0.0, nut_vel_m_s = 0.0, screw_angle_rad = 0.0, phase_rad = 0.0;
-  double force_est_n = 0.0, load_cell_force_n = 0.0;
+  double force_est_n = 0.0, load_cell_force_n = 0.0;  // paper eq. 6; load cell (checking only)
+  // The load observer: output force at the load and the interval consistent with what it saw.
+  double load_force_est_n = 0.0, load_force_lo_n = 0.0, load_force_hi_n = 0.0;
+  std::uint16_t observer_basis = 0, force_loop_state = 0, force_reached_reason = 1;
   double profile_pos_m = 0.0, active_force_setpoint_n = 0.0, active_target_pos_m = 0.0;
   double period_s = 0.0, late_max_s = 0.0;
   std::uint64_t overrun_count = 0;
@@ -119,6 +133,8 @@ class Controller {
   void start_hold() noexcept;
   void controlled_stop() noexcept;
   void run_profile(double dt) noexcept;
+  double force_command_rad(double dt) noexcept;
+  void publish_observer() noexcept;
   double position_command_rad(double dt) noexcept;
   void reject(registers::Reject why) noexcept;
   void on_owner_lost() noexcept;
@@ -129,6 +145,9 @@ class Controller {
   TwinHook* twin_ = nullptr;
   EncoderVelocityEstimator velocity_;
   StaticForceEstimator estimator_;
+  LoadForceObserver observer_;
+  ForceLoop force_loop_;
+  LoadEstimate load_{};
   detail::SpscQueue<Command, 1024> commands_;
   detail::SeqLock<Snapshot> published_;
   std::atomic<bool> owner_lost_flag_{false};
@@ -147,7 +166,8 @@ class Controller {
   double screw_cmd_rad_ = 0.0;
   double target_m_ = 0.0, prof_pos_m_ = 0.0, prof_vel_m_s_ = 0.0, integral_rad_ = 0.0;
   double vmax_ = 0.01, amax_ = 0.1;
-  double force_set_n_ = 0.0, force_phase_rad_ = 0.0;
+  double force_set_n_ = 0.0, drive_n_ = 0.0;  // force setpoint; coupling drive commanded
+  double phase_track_rad_ = 0.0;              // integral of the phase the coupling missed
   double load_force_n_ = std::numeric_limits<double>::quiet_NaN();  // last load-cell sample (twin)
   double settled_s_ = 0.0;
   std::uint16_t command_bits_ = 0;

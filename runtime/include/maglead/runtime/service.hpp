@@ -12,6 +12,7 @@
 #include "maglead/controller/loop_runner.hpp"
 #include "maglead/controller/ports/hardware.hpp"
 #include "maglead/modbus/network_config.hpp"
+#include "maglead/plant/simulated_actuator.hpp"
 #include "maglead/runtime/twin_runner.hpp"
 
 namespace maglead::runtime {
@@ -22,6 +23,7 @@ struct SimulatedOptions {
   double spring_n_per_m = 2000.0;  // spring to a wall, 0: free nut
   double spring_anchor_m = 0.02;   // the spring's free-length position
   double start_pos_m = 0.02;       // nut position at start
+  PlantEffects effects;            // where the plant differs from the model (--sim-effect)
 };
 
 struct BackendOptions {
@@ -45,7 +47,9 @@ struct ServiceConfig {
   controller::ControllerConfig controller;
   BackendOptions backend;
   bool twin = true;
-  std::string twin_config_dir;  // model.toml for the twin (twin::load_monitor_config)
+  std::string twin_config_dir;  // actuator/calibration/model.toml for the twin
+  std::string model_path;       // the model file (serve --model): the twin runs it and the
+                                // controller's friction comes from it; "" = CONFIG/model.toml
   TwinRunnerOptions twin_options;
   // The twin thread's SCHED_FIFO priority when realtime is not "off": below the loop's (50),
   // above every SCHED_OTHER thread (network, clients), so a busy network cannot starve the

@@ -24,6 +24,8 @@
 #include <utility>
 #include <vector>
 
+#include "maglead/physics/friction_model.hpp"
+
 namespace maglead::twin {
 
 struct ModelTerm {
@@ -60,5 +62,9 @@ void save_twin_model(const std::string& path, const TwinModel& model,
 /// Validates values, ids and parameter names against the effect library; throws
 /// std::invalid_argument naming the term and parameter.
 void validate_twin_model(const TwinModel& model);
+/// The friction, offset and mass the controller's force loop and load observer compensate
+/// with: [model] M, C, F_c and the enabled coulomb_friction, viscous_friction,
+/// asymmetric_friction, stribeck_friction, offset and mass_error terms (docs/effects.md).
+FrictionModel friction_model(const TwinModel& model);
 
 }  // namespace maglead::twin

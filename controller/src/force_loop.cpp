@@ -1,0 +1,109 @@
+#include "maglead/controller/force_loop.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace maglead::controller {
+namespace {
+// A bound inside the tolerance is good enough; a landing within the land tolerance is better.
+// The loop tries this many times for the better one, then holds what it has.
+constexpr int kRefineAttempts = 3;
+}  // namespace
+
+ForceLoop::ForceLoop(const ForceLoopConfig& config) : cfg_(config) {
+  if (!(cfg_.damping_n_s_per_m > 0) || !(cfg_.breakaway_ramp_n_per_s > 0) ||
+      !(cfg_.tolerance_n > 0) || !(cfg_.land_tolerance_n > 0) ||
+      !(cfg_.drive_max_n > cfg_.drive_min_n) || !cfg_.friction.valid())
+    throw std::invalid_argument(
+        "force loop: damping, ramp and tolerances must be positive, the friction model valid");
+}
+
+bool ForceLoop::bound_inside_tolerance(const LoadEstimate& est) const noexcept {
+  return est.lo_n >= setpoint_n_ - cfg_.tolerance_n && est.hi_n <= setpoint_n_ + cfg_.tolerance_n;
+}
+
+ForceReachedReason ForceLoop::reason(const LoadEstimate& est) const noexcept {
+  if (state_ == ForceLoopState::off) return ForceReachedReason::not_force_mode;
+  if (est.motion != 0) return ForceReachedReason::moving;
+  if (bound_inside_tolerance(est)) return ForceReachedReason::reached;
+  if (est.basis == ObserverBasis::band) return ForceReachedReason::bound_unknown;
+  if (est.width_n() > 2.0 * cfg_.tolerance_n) return ForceReachedReason::bound_too_wide;
+  return ForceReachedReason::load_force_off;
+}
+
+void ForceLoop::start(double setpoint_n, double drive_now_n, const LoadEstimate& est) noexcept {
+  setpoint_n_ = setpoint_n;
+  hold_drive_n_ = ramp_n_ = drive_now_n;
+  // A setpoint the known bound already covers needs no motion: say so and stay.
+  attempts_ = 0;
+  held_by_bound_ = est.motion == 0 && bound_inside_tolerance(est);
+  state_ = held_by_bound_ ? ForceLoopState::holding_no_motion : ForceLoopState::approaching;
+  // No motion needed: still move the coupling to the stick band's centre (the nut stays put,
+  // friction only eases) so that a disturbance either way finds the most margin.
+  if (held_by_bound_) hold_drive_n_ = est.force_n;
+}
+
+double ForceLoop::breakaway_drive_n(const LoadEstimate& est, double dt_s) noexcept {
+  const auto& f = cfg_.friction;
+  if (state_ != ForceLoopState::breaking_away && state_ != ForceLoopState::blocked) {
+    const double e = setpoint_n_ - est.force_n;
+    dir_ = e >= 0.0 ? 1 : -1;
+    // The lowest drive that could move the nut towards the setpoint, given the bound.
+    ramp_n_ = dir_ > 0 ? est.lo_n + f.breakaway_n(1) : est.hi_n - f.breakaway_n(-1);
+    state_ = ForceLoopState::breaking_away;
+    ++attempts_;
+  }
+  // Beyond the highest drive that must have moved it (twice the model's break-away past the
+  // bound) something else holds the nut: stop raising the force.
+  const double limit =
+      dir_ > 0 ? est.hi_n + 2.0 * f.breakaway_n(1) : est.lo_n - 2.0 * f.breakaway_n(-1);
+  ramp_n_ += dir_ * cfg_.breakaway_ramp_n_per_s * dt_s;
+  if ((ramp_n_ - limit) * dir_ >= 0.0) {
+    ramp_n_ = limit;
+    state_ = ForceLoopState::blocked;
+  }
+  return ramp_n_;
+}
+
+double ForceLoop::sliding_drive_n(const LoadEstimate& est) noexcept {
+  const double e = setpoint_n_ - est.force_n;
+  const double damping = cfg_.damping_n_s_per_m * est.nut_vel_m_s;
+  if (std::abs(e) <= cfg_.land_tolerance_n) {
+    state_ = ForceLoopState::landing;  // friction alone stops the nut here
+    return setpoint_n_ - damping;
+  }
+  state_ = ForceLoopState::approaching;
+  // Feed friction forward only while the nut moves the way the load force must go; moving
+  // the other way, friction and damping brake it.
+  const bool towards = (e > 0.0) == (est.motion > 0);
+  return setpoint_n_ - damping + (towards ? cfg_.friction.sliding_n(est.nut_vel_m_s) : 0.0);
+}
+
+double ForceLoop::drive_n(const LoadEstimate& est, double dt_s) noexcept {
+  if (state_ == ForceLoopState::off) return hold_drive_n_;
+  double drive;
+  if (est.motion != 0) {
+    drive = sliding_drive_n(est);
+  } else {
+    const bool holding =
+        state_ == ForceLoopState::holding || state_ == ForceLoopState::holding_no_motion;
+    const bool inside = bound_inside_tolerance(est);
+    const bool landed = est.basis == ObserverBasis::stuck &&
+                        std::abs(setpoint_n_ - est.force_n) <= cfg_.land_tolerance_n;
+    // Hold while what made us hold still holds: the bound inside the tolerance (it widens if
+    // the load may change on its own: then land again), or a landing the bound cannot refine.
+    if (holding && (held_by_bound_ ? inside : landed || inside)) {
+      drive = hold_drive_n_;
+    } else if (landed || (inside && attempts_ >= kRefineAttempts)) {
+      state_ = ForceLoopState::holding;
+      held_by_bound_ = inside;
+      hold_drive_n_ = drive = est.force_n;  // the stick band's centre
+    } else {
+      drive = breakaway_drive_n(est, dt_s);
+    }
+  }
+  return std::clamp(drive, cfg_.drive_min_n, cfg_.drive_max_n);
+}
+
+}  // namespace maglead::controller

@@ -1,0 +1,98 @@
+#pragma once
+// LoadForceObserver: the force the load receives (F_out), from the phase and the nut's encoder
+// only — no load cell — knowing whether the nut slides or sticks.
+//
+// While the nut slides, its force balance with the model's terms gives the load force:
+//   F_out = F_m(φ) + F_offset − F_f(v)   (M a left out: encoder noise at 1 kHz).
+// When it sticks, friction takes any value within its break-away levels, so the phase alone
+// says only F_out ∈ [F_m + F_offset − F_s+, F_m + F_offset + F_s−] (the stick band). A passive
+// load does not change while nothing moves: the force it had when the nut stopped stays, and
+// every stuck sample's band narrows the interval further. A load that changes on its own while
+// the nut sticks is seen when the band no longer contains the interval (the data contradict
+// it: the interval restarts from the band) or when it breaks the nut loose (motion).
+// No allocation and no lock: runs in the 1 kHz loop.
+#include <cstdint>
+#include <limits>
+
+#include "maglead/physics/force_model.hpp"
+#include "maglead/physics/friction_model.hpp"
+
+namespace maglead {
+
+/// What pins the estimate down (input register observer_basis).
+enum class ObserverBasis : std::uint8_t {
+  band = 0,     // only the stick band: nothing slid since start-up or since the data contradicted
+  sliding = 1,  // the nut slides: force balance with the model's terms
+  stuck = 2,    // stopped after a slide: the load force it had then, narrowed by the band
+};
+
+struct LoadEstimate {
+  double force_n = 0.0;           // best estimate of F_out (+ pushes the load along +p)
+  double lo_n = 0.0, hi_n = 0.0;  // every F_out consistent with what was seen since
+  double drive_n = 0.0;           // F_m(φ) + F_offset: the model's drive on the nut now
+  double nut_vel_m_s = 0.0;       // from encoder-edge timing, 0 while stuck
+  int motion = 0;                 // −1 sliding −p, 0 stuck, +1 sliding +p
+  ObserverBasis basis = ObserverBasis::band;
+  double width_n() const noexcept { return hi_n - lo_n; }
+};
+
+struct LoadObserverConfig {
+  ForceCalibration calibration;  // F_m(φ) = −F̂_s(φ) on the stable branch
+  FrictionModel friction;
+  double lead_m = 0.006;
+  double linear_count_m = 2.16e-5;
+  // The model's force error while sliding (friction level, mass, calibration) [N]: the
+  // half-width of the interval a slide leaves, beside half a count's force.
+  double model_uncertainty_n = 0.3;
+  double stop_intervals = 2.0;  // no encoder edge for this many edge intervals: stopped …
+  double stop_min_s = 0.010;    // … and for at least this long
+  // A load that is not held passive (no force control presses it: a hand, a process force)
+  // may change while the nut sticks: the estimate relaxes towards the expected load with this
+  // time constant, and the interval is the whole stick band.
+  double load_relax_s = 1.0;
+  // How fast a pressed load may change on its own while the nut sticks (a hand, a process that
+  // creeps) [N/s]: the interval widens at this rate. 0: a passive load (a spring, a part).
+  double load_drift_n_per_s = 0.0;
+};
+
+class LoadForceObserver {
+ public:
+  /// Throws std::invalid_argument on an invalid friction model or geometry.
+  explicit LoadForceObserver(const LoadObserverConfig& config);
+  /// Forget everything: the next samples start from the stick band.
+  void reset() noexcept { started_ = false; }
+  /// One sample: loop time, measured phase φ (within the nut's lead) and nut position.
+  /// expected_load_n: NaN while the load is passive (force control presses it: it keeps the
+  /// force it had when the nut stopped); else the output force a load that comes and goes is
+  /// expected to return to (0 with the screw held).
+  const LoadEstimate& update(double t_s, double phase_rad, double nut_pos_m,
+                             double expected_load_n = kPassiveLoad) noexcept;
+  static constexpr double kPassiveLoad = std::numeric_limits<double>::quiet_NaN();
+  const LoadEstimate& estimate() const noexcept { return est_; }
+  /// Force of one linear-encoder count of phase near φ = 0: the resolution of any estimate.
+  double count_force_n() const noexcept { return count_force_n_; }
+  /// Half-width of the interval a slide leaves.
+  double sliding_half_width_n() const noexcept;
+  const LoadObserverConfig& config() const noexcept { return cfg_; }
+
+ private:
+  void start(double t_s, double nut_pos_m) noexcept;
+  void on_edge(double t_s, double nut_pos_m) noexcept;
+  double drive_n(double phase_rad) const noexcept;
+  void slide_sample(double t_s, double phase_rad, double nut_pos_m) noexcept;
+  void stuck_sample(double t_s, double phase_rad, double expected_load_n) noexcept;
+
+  LoadObserverConfig cfg_;
+  double count_force_n_ = 0.0;
+  LoadEstimate est_{};
+  bool started_ = false;
+  double last_pos_m_ = 0.0;
+  double last_t_s_ = 0.0;
+  double edge_t_s_ = 0.0, edge_pos_m_ = 0.0, interval_s_ = 0.0;
+  double edge_mid_m_ = 0.0;  // where the nut was at the last edge: between the two counts
+  double vel_m_s_ = 0.0;
+  double edge_force_n_ = 0.0;  // the sliding estimate at the last edge
+  bool edge_pending_ = false;  // an edge this sample: store its sliding estimate
+};
+
+}  // namespace maglead
