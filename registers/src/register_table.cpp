@@ -257,8 +257,7 @@ constexpr std::array kModes = std::to_array<Code>({
 });
 
 constexpr std::array kRanges = std::to_array<AddressRange>({
-    {IR, 0, 136,
-     "identity, status, measurements (scaled and float32), twin, loop, load observer"},
+    {IR, 0, 136, "identity, status, measurements (scaled and float32), twin, loop, load observer"},
     {HR, 1000, 20, "commands and setpoints"},
     {CO, 0, 5, "control word bits"},
     {DI, 0, 15, "status word bits"},
