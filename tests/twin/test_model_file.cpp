@@ -93,6 +93,14 @@ TEST(ModelFile, FormatLineIsRequired) {
   EXPECT_NE(none.find("# format: maglead-model/1"), std::string::npos) << none;
   const std::string other = load_error(tmp("other_format.toml"));
   EXPECT_NE(other.find("mls-recording/1"), std::string::npos) << other;
+  // A format line naming no format (found by fuzz_config: it threw std::out_of_range).
+  for (const char* line : {"# format:", "# format:   "}) {
+    std::ofstream(tmp("empty_format.toml")) << line << "\n[model]\n";
+    const std::string empty = load_error(tmp("empty_format.toml"));
+    EXPECT_NE(empty.find("empty_format.toml:1:11: format '' is not maglead-model/1"),
+              std::string::npos)
+        << empty;
+  }
   // What save_twin_model writes carries it.
   save_twin_model(tmp("saved.toml"), TwinModel{});
   EXPECT_NO_THROW(check_model_format(tmp("saved.toml")));

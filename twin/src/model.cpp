@@ -86,10 +86,13 @@ void check_model_format(const std::string& path) {
     throw std::runtime_error(path + ":1:1: a model file starts with the line '" +
                              std::string(kModelFormatLine) +
                              "' (add it; without it another TOML file could be taken for a model)");
-  if (first != kModelFormatLine)
+  if (first != kModelFormatLine) {
+    // "# format:" with nothing after it names no format (found by tests/fuzz/fuzz_config).
+    const std::size_t name_at = first.find_first_not_of(' ', 9);
     throw std::runtime_error(path + ":1:11: format '" +
-                             first.substr(first.find_first_not_of(' ', 9)) +
+                             (name_at == std::string::npos ? "" : first.substr(name_at)) +
                              "' is not maglead-model/1");
+  }
 }
 
 TwinModel load_twin_model(const std::string& path) {
