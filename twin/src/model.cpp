@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <iomanip>
@@ -172,6 +173,16 @@ void save_twin_model(const std::string& path, const TwinModel& m,
       if (c == '"' || c == '\\') q += '\\';
       if (c == '\n') {
         q += "\\n";
+        continue;
+      }
+      // TOML forbids control characters other than tab inside a string: a note or source read
+      // from a file as "\u0001" must be written back escaped, or the file cannot be read again
+      // (found by tests/fuzz/fuzz_config).
+      const auto u = static_cast<unsigned char>(c);
+      if ((u < 0x20 && c != '\t') || u == 0x7F) {
+        char esc[8];
+        std::snprintf(esc, sizeof esc, "\\u%04X", u);
+        q += esc;
         continue;
       }
       q += c;
