@@ -13,8 +13,8 @@ total_s=${MAGLEAD_FUZZ_SECONDS:-90}
 # The third field is the target's share of the time (in 90ths): the framers are small and saturate
 # in seconds; the recording reader runs ~50 inputs/s under ASan here (its 1 MiB read buffer is
 # fresh pages every input), the TOML readers a few hundred.
-targets=(fuzz_modbus_core:core:20 fuzz_tcp_framer:tcp:8 fuzz_rtu_framer:rtu:12
-  fuzz_recording:recording:25 fuzz_config:config:25)
+targets=(fuzz_modbus_core:core:20 fuzz_tcp_framer:tcp:5 fuzz_rtu_framer:rtu:8
+  fuzz_recording:recording:22 fuzz_config:config:35)
 if (($# > 0)); then
   chosen=()
   for want in "$@"; do
@@ -34,10 +34,14 @@ for t in "${targets[@]}"; do
   # New inputs go to build-fuzz/corpus (kept between runs); the seeds in the tree stay as they are.
   mkdir -p "build-fuzz/corpus/$corpus" build-fuzz/crashes
   echo "fuzz: $name for ${per_s} s"
+  dict=()  # tests/fuzz/corpus/CORPUS.dict: tokens of the format (keys, sections), if it has one
+  [[ -f tests/fuzz/corpus/$corpus.dict ]] && dict=("-dict=tests/fuzz/corpus/$corpus.dict")
+  start_ms=$((${EPOCHREALTIME/./} / 1000))
   if ! ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-      "build-fuzz/bin/$name" -max_total_time="$per_s" -timeout=10 -print_final_stats=1 \
+      "build-fuzz/bin/$name" -max_total_time="$per_s" -timeout=10 -print_final_stats=1 "${dict[@]}" \
       -artifact_prefix="build-fuzz/crashes/$name-" "build-fuzz/corpus/$corpus" "tests/fuzz/corpus/$corpus"; then
-    echo "fuzz: $name FAILED (input in build-fuzz/crashes/)" >&2
+    ms=$((${EPOCHREALTIME/./} / 1000 - start_ms))
+    echo "fuzz: $name FAILED after $((ms / 1000)).$((ms % 1000 / 100)) s (input in build-fuzz/crashes/)" >&2
     exit 1
   fi
 done

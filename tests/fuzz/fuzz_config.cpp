@@ -7,7 +7,8 @@
 // Oracles: each reader returns or throws a std::exception whose message names the file and says
 // why (no crash, no hang); what it returns keeps its documented promises: actuator values
 // positive with stroke_min_m < stroke_max_m and safe_force_fraction ≤ 1; a calibration's
-// polynomial finite; a model file written back by save_twin_model reads back the same.
+// coefficients finite, its push peak > 0 and pull peak < 0; a model file written back by
+// save_twin_model reads back the same.
 #include <cmath>
 
 #include "fuzz_common.hpp"
@@ -34,8 +35,13 @@ void check_actuator(const maglead::ActuatorParams& a) {
 }
 
 void check_calibration(const maglead::ForceCalibration& c) {
-  for (const double v : c.polynomial.coeffs_ascending)
-    check(std::isfinite(v), "a calibration coefficient not finite");
+  bool finite = std::isfinite(c.periodic.mean_n);
+  for (const auto* values : {&c.polynomial.coeffs_ascending, &c.periodic.cos_n, &c.periodic.sin_n})
+    for (const double v : *values) finite = finite && std::isfinite(v);
+  check(finite, "a calibration coefficient not finite");
+  check(c.peak_push_n > 0 && std::isfinite(c.peak_push_n) && c.peak_pull_n < 0 &&
+            std::isfinite(c.peak_pull_n),
+        "a calibration without a finite push (> 0) and pull (< 0) peak");
 }
 
 bool same_model(const maglead::twin::TwinModel& a, const maglead::twin::TwinModel& b) {

@@ -101,18 +101,53 @@ RECORDING = {
 }
 
 
+def without_comments(text):
+    """The file without its comment lines and inline comments (the format line stays): mutations
+    then land on keys and values instead of prose."""
+    lines = []
+    for line in text.splitlines():
+        if line.startswith("# format:") or not line.lstrip().startswith("#"):
+            line = line.split(" #")[0].rstrip()
+            if line:
+                lines.append(line)
+    return "\n".join(lines) + "\n"
+
+
 def config_seeds():
-    """[reader] + file: 0 actuator, 1 calibration, 2 network, 3 model (model.toml, emps_baseline)."""
+    """[reader] + file: 0 actuator, 1 calibration, 2 network, 3 model (model.toml, emps_baseline),
+    each as in config/ and without its comments."""
     seeds = {}
     for reader, name in enumerate(["actuator", "calibration", "network", "model", "emps_baseline"]):
         with open(os.path.join(CONFIG, name + ".toml"), "rb") as f:
-            seeds[name] = bytes([min(reader, 3)]) + f.read()
+            text = f.read()
+        seeds[name] = bytes([min(reader, 3)]) + text
+        seeds[name + "_bare"] = bytes([min(reader, 3)]) + without_comments(text.decode()).encode()
     seeds["model_with_terms"] = bytes([3]) + (
         b'# format: maglead-model/1\n[model]\nsource = "fuzz seed"\nnut_mass_kg = 0.1\n'
         b'fit = ["coulomb_n"]\n[[term]]\nid = "offset"\nnote = "a note"\noffset_n = -3.5\n'
         b'[[term]]\nid = "offset"\nenabled = false\noffset_n = 1\n')
     seeds["network_allow"] = bytes([2]) + b'[tcp]\nport = 0\nallow = ["10.0.0.0/8", "127.0.0.1"]\n'
     return seeds
+
+
+def config_dict():
+    """libFuzzer dictionary of the TOML readers: every key and section name of config/, and TOML's
+    own tokens."""
+    words = {"[[term]]", "=", "true", "false", "inf", "-inf", "nan", "[", "]", "\"\"", "1e308", "-0.0"}
+    for name in os.listdir(CONFIG):
+        with open(os.path.join(CONFIG, name)) as f:
+            for line in f:
+                line = line.split(" #")[0].strip()
+                if line.startswith("[") and not line.startswith("[["):
+                    words.add(line)
+                elif "=" in line and not line.startswith("#"):
+                    words.add(line.split("=")[0].strip())
+    return sorted(w for w in words if w)
+
+
+def write_dict(corpus, words):
+    with open(os.path.join(HERE, "corpus", corpus + ".dict"), "w") as f:
+        f.write("".join('"' + w.replace("\\", "\\\\").replace('"', '\\"') + '"\n' for w in words))
 
 
 def write(corpus, seeds):
@@ -129,3 +164,4 @@ if __name__ == "__main__":
     write("rtu", RTU)
     write("recording", RECORDING)
     write("config", config_seeds())
+    write_dict("config", config_dict())
