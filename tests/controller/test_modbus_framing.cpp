@@ -113,6 +113,14 @@ TEST(RtuFramer, RefusesABadCrcAndAnOversizedFrameWithAReason) {
   const RtuFrame o = frame_rtu(big.data(), big.size(), false);
   EXPECT_EQ(o.status, FrameStatus::error);
   EXPECT_NE(o.reason.find("longer"), std::string_view::npos);
+  // A function without a length rule: 256 bytes ended by the silence are a frame, 257 bytes are
+  // too long even before the silence.
+  Bytes longest = {1, 0x41};
+  longest.resize(254, 0x55);
+  longest = with_crc(longest);
+  EXPECT_EQ(frame_rtu(longest.data(), longest.size(), true).size, kMaxRtuAdu);
+  longest.push_back(0);
+  EXPECT_EQ(frame_rtu(longest.data(), longest.size(), false).status, FrameStatus::error);
   const Bytes tiny = {1, 0x41};
   EXPECT_EQ(frame_rtu(tiny.data(), tiny.size(), true).status, FrameStatus::error);
 }
