@@ -170,7 +170,8 @@ def main():
                                     daemon=True))
     rec_path = os.path.join(work, "soak.csv")
     recorder = subprocess.Popen([args.maglead, "record", "--port", str(port), "--rate", str(args.record_rate),
-                                 "--duration", f"{int(args.duration)}s", "--out", rec_path],
+                                 "--duration", f"{int(args.duration)}s", "--out", rec_path,
+                                 "--timeout", str(args.timeout)],
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     for t in threads:
         t.start()
