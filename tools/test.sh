@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The test command: set up, check the tree, check the format and run clang-tidy, build, run every
 # test; then again under ASan/UBSan, the tests that start threads (label threads) under
-# ThreadSanitizer, and the fuzz targets (clang, libFuzzer) for 60 s in all. Every build is a
+# ThreadSanitizer, and the fuzz targets (clang, libFuzzer) for 90 s in all. Every build is a
 # preset of CMakePresets.json (release, asan-ubsan, tsan, fuzz); the preset says what is built
 # and which tests run. MAGLEAD_LINT=0 skips the format check and clang-tidy,
 # MAGLEAD_SKIP_SANITIZERS=1 the sanitizer and fuzz passes (both for local runs; CI runs all).

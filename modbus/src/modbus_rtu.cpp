@@ -14,49 +14,11 @@
 namespace maglead::modbus {
 namespace {
 
-constexpr std::size_t kMaxRtuAdu = 256;
-
-/// Total length of the request in buf (address, PDU, CRC), 0 if not known yet, -1 when the
-/// function has no length rule (then the line's silence ends the frame).
-long expected_length(const std::uint8_t* buf, std::size_t n) {
-  if (n < 2) return 0;
-  switch (buf[1]) {
-    case 1:
-    case 2:
-    case 3:
-    case 4:
-    case 5:
-    case 6:
-    case 8:
-      return 8;
-    case 15:
-    case 16:
-      return n < 7 ? 0 : 9 + buf[6];
-    case 23:
-      return n < 11 ? 0 : 13 + buf[10];
-    case 43:
-      return 7;
-    default:
-      return -1;
-  }
-}
-
 double mono_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 }  // namespace
-
-std::uint16_t modbus_crc16(const std::uint8_t* data, std::size_t len) {
-  std::uint16_t crc = 0xFFFF;
-  for (std::size_t i = 0; i < len; ++i) {
-    crc ^= data[i];
-    for (int b = 0; b < 8; ++b)
-      crc = (crc & 1) ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001)
-                      : static_cast<std::uint16_t>(crc >> 1);
-  }
-  return crc;
-}
 
 RtuServer::RtuServer(ModbusCore& core, RtuOptions options)
     : core_(core), options_(std::move(options)) {
@@ -150,36 +112,20 @@ void RtuServer::run() {
     }
     const bool silent = mono_s() - last_byte_s >= silence_s;
     while (n > 0) {
-      const long want = expected_length(buf, n);
-      std::size_t frame = 0;
-      // Two discards on purpose: an over-long frame and a cut-short one are told apart by order.
-      if (want > static_cast<long>(kMaxRtuAdu) ||
-          n >= kMaxRtuAdu + 1) {  // NOLINT(bugprone-branch-clone)
-        discard();
-        break;
-      } else if (want > 0 && n >= static_cast<std::size_t>(want)) {
-        frame = static_cast<std::size_t>(want);
-      } else if (want < 0 && silent) {
-        frame = n;  // unknown function: the silence ends it
-      } else if (silent) {
-        discard();  // a frame cut short: t3.5 of silence ends it
-        break;
-      } else {
-        break;  // wait for more
-      }
-      const bool crc_ok =
-          frame >= 4 && modbus_crc16(buf, frame - 2) == (buf[frame - 2] | (buf[frame - 1] << 8));
-      if (!crc_ok) {
+      const RtuFrame f = frame_rtu(buf, n, silent);
+      if (f.status == FrameStatus::need_more) break;
+      if (f.status == FrameStatus::error) {
         discard();  // framing is lost: resynchronise on the next silence
         break;
       }
-      const std::uint8_t unit = buf[0];
-      const std::uint8_t fc = buf[1];
+      const std::size_t frame = f.size;
+      const std::uint8_t unit = f.unit_id;
+      const std::uint8_t fc = f.pdu[0];
       const bool broadcast = unit == 0;
       const bool broadcast_write = fc == 5 || fc == 6 || fc == 15 || fc == 16;
       if (unit == options_.unit_id || (broadcast && broadcast_write)) {
         const std::size_t len = core_.handle(ClientInfo{ModbusCore::kRtuClient, 0, broadcast},
-                                             buf + 1, frame - 3, pdu_out + 1);
+                                             f.pdu, f.pdu_size, pdu_out + 1);
         if (len > 0) {
           pdu_out[0] = unit;
           modbus_send_raw_request(ctx, pdu_out, static_cast<int>(len + 1));

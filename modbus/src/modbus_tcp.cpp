@@ -1,5 +1,7 @@
 #include "maglead/modbus/modbus_tcp.hpp"
 
+#include "maglead/modbus/framing.hpp"
+
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -19,8 +21,6 @@
 namespace maglead::modbus {
 namespace {
 
-constexpr std::size_t kMbap = 7;
-constexpr std::size_t kMaxAdu = 260;
 // A client that does not read its replies is dropped once this much waits for it beyond the
 // kernel's send buffer (kSendBuffer, which the kernel doubles): a few hundred replies, not the
 // megabytes an autotuned loopback buffer would take while the others wait.
@@ -64,7 +64,7 @@ struct TcpServer::Conn {
   int fd = -1;
   std::uint16_t id = 0;
   std::uint32_t ipv4 = 0;
-  std::uint8_t in[kMaxAdu * 2];
+  std::uint8_t in[kMaxTcpAdu * 2];
   std::size_t in_len = 0;
   double frame_started_s = 0.0;  // when the bytes of an incomplete frame began
   double last_activity_s = 0.0;
@@ -171,29 +171,25 @@ void TcpServer::run() {
   // Frames every complete ADU in the buffer; false: the stream is broken, close it.
   const auto serve = [&](Conn& c, double now) -> bool {
     std::size_t off = 0;
-    std::uint8_t resp[kMaxAdu];
-    while (c.in_len - off >= kMbap) {
-      const std::uint8_t* h = c.in + off;
-      const std::uint16_t protocol = static_cast<std::uint16_t>((h[2] << 8) | h[3]);
-      const std::uint16_t length = static_cast<std::uint16_t>((h[4] << 8) | h[5]);
-      // A wrong protocol id or length means we cannot know where the next frame starts.
-      if (protocol != 0 || length < 2 || length > 254) return false;
-      if (c.in_len - off < 6u + length) break;
-      const std::uint8_t unit = h[6];
+    std::uint8_t resp[kMaxTcpAdu];
+    for (;;) {
+      const TcpFrame f = frame_tcp(c.in + off, c.in_len - off);
+      if (f.status == FrameStatus::error) return false;
+      if (f.status == FrameStatus::need_more) break;
       std::size_t n = 0;
-      if (unit == options_.unit_id || unit == 0xFF) {
-        n = core_.handle(ClientInfo{c.id, c.ipv4, false}, h + kMbap, length - 1u, resp + kMbap);
+      if (f.unit_id == options_.unit_id || f.unit_id == 0xFF) {
+        n = core_.handle(ClientInfo{c.id, c.ipv4, false}, f.pdu, f.pdu_size, resp + kMbapSize);
       } else {
-        n = ModbusCore::exception(h[7], Exception::gateway_target_failed, resp + kMbap);
+        n = ModbusCore::exception(f.pdu[0], Exception::gateway_target_failed, resp + kMbapSize);
       }
       if (n > 0) {
-        std::memcpy(resp, h, 4);  // transaction id, protocol id
+        std::memcpy(resp, c.in + off, 4);  // transaction id, protocol id
         resp[4] = static_cast<std::uint8_t>((n + 1) >> 8);
         resp[5] = static_cast<std::uint8_t>((n + 1) & 0xFF);
-        resp[6] = unit;
-        c.out.append(reinterpret_cast<const char*>(resp), kMbap + n);
+        resp[6] = f.unit_id;
+        c.out.append(reinterpret_cast<const char*>(resp), kMbapSize + n);
       }
-      off += 6u + length;
+      off += f.size;
     }
     if (off > 0) {
       std::memmove(c.in, c.in + off, c.in_len - off);

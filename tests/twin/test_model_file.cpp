@@ -48,6 +48,19 @@ TEST(ModelFile, RoundTripKeepsTermsAndParameters) {
   EXPECT_DOUBLE_EQ(r.terms[3].get("backlash_rad", 0.0), 0.002);
 }
 
+TEST(ModelFile, ControlCharactersInTextRoundTrip) {
+  // A note or source holding control characters (read from a file as "\u0001", "\r") is
+  // written back escaped; it was written raw, which TOML refuses (found by fuzz_config).
+  TwinModel m;
+  m.source = std::string("bench\r\x01\x7F\t\"7\"\nrun");
+  m.terms.push_back({"offset", true, std::string("note\x1F\x02", 6), {{"offset_n", 1.0}}});
+  save_twin_model(tmp("model_ctrl.toml"), m);
+  const TwinModel r = load_twin_model(tmp("model_ctrl.toml"));
+  EXPECT_EQ(r.source, m.source);
+  ASSERT_EQ(r.terms.size(), 1u);
+  EXPECT_EQ(r.terms[0].note, m.terms[0].note);
+}
+
 std::string load_error(const std::string& path) {
   try {
     load_twin_model(path);
@@ -93,6 +106,14 @@ TEST(ModelFile, FormatLineIsRequired) {
   EXPECT_NE(none.find("# format: maglead-model/1"), std::string::npos) << none;
   const std::string other = load_error(tmp("other_format.toml"));
   EXPECT_NE(other.find("mls-recording/1"), std::string::npos) << other;
+  // A format line naming no format (found by fuzz_config: it threw std::out_of_range).
+  for (const char* line : {"# format:", "# format:   "}) {
+    std::ofstream(tmp("empty_format.toml")) << line << "\n[model]\n";
+    const std::string empty = load_error(tmp("empty_format.toml"));
+    EXPECT_NE(empty.find("empty_format.toml:1:11: format '' is not maglead-model/1"),
+              std::string::npos)
+        << empty;
+  }
   // What save_twin_model writes carries it.
   save_twin_model(tmp("saved.toml"), TwinModel{});
   EXPECT_NO_THROW(check_model_format(tmp("saved.toml")));

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <iomanip>
@@ -86,10 +87,13 @@ void check_model_format(const std::string& path) {
     throw std::runtime_error(path + ":1:1: a model file starts with the line '" +
                              std::string(kModelFormatLine) +
                              "' (add it; without it another TOML file could be taken for a model)");
-  if (first != kModelFormatLine)
+  if (first != kModelFormatLine) {
+    // "# format:" with nothing after it names no format (found by tests/fuzz/fuzz_config).
+    const std::size_t name_at = first.find_first_not_of(' ', 9);
     throw std::runtime_error(path + ":1:11: format '" +
-                             first.substr(first.find_first_not_of(' ', 9)) +
+                             (name_at == std::string::npos ? "" : first.substr(name_at)) +
                              "' is not maglead-model/1");
+  }
 }
 
 TwinModel load_twin_model(const std::string& path) {
@@ -169,6 +173,16 @@ void save_twin_model(const std::string& path, const TwinModel& m,
       if (c == '"' || c == '\\') q += '\\';
       if (c == '\n') {
         q += "\\n";
+        continue;
+      }
+      // TOML forbids control characters other than tab inside a string: a note or source read
+      // from a file as "\u0001" must be written back escaped, or the file cannot be read again
+      // (found by tests/fuzz/fuzz_config).
+      const auto u = static_cast<unsigned char>(c);
+      if ((u < 0x20 && c != '\t') || u == 0x7F) {
+        char esc[8];
+        std::snprintf(esc, sizeof esc, "\\u%04X", u);
+        q += esc;
         continue;
       }
       q += c;

@@ -7,6 +7,7 @@
 #include <string>
 #include <thread>
 
+#include "maglead/modbus/framing.hpp"
 #include "maglead/modbus/modbus_core.hpp"
 
 namespace maglead::modbus {
@@ -47,8 +48,5 @@ struct RtuTiming {
 /// From the baud rate and the bits per character (start + data + parity + stop); fixed at
 /// 750 us / 1.75 ms above 19200 Bd, as the serial-line specification says.
 RtuTiming rtu_timing(int baud, int bits_per_char);
-
-/// Modbus CRC-16 (poly 0xA001, init 0xFFFF) as sent on the line (low byte first).
-std::uint16_t modbus_crc16(const std::uint8_t* data, std::size_t len);
 
 }  // namespace maglead::modbus
