@@ -129,7 +129,8 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
 // that digit is 1), the value to the same decimal place.
 std::string with_error(const std::string& name, double v, double se) {
   char buf[96];
-  if (!(se > 0) || !std::isfinite(se)) {  // a value on a scanned grid, or not fitted
+  // A value on a scanned grid (the same in every segment's fit), or not fitted.
+  if (!(se > 1e-9 * std::abs(v)) || !std::isfinite(se)) {
     std::snprintf(buf, sizeof buf, "%s %.4g", name.c_str(), v);
     return buf;
   }
