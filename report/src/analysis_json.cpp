@@ -28,6 +28,8 @@ Json evidence_json(const Evidence& e) {
   put(j, "breakaway_excess_neg_n", e.breakaway_excess_neg_n);
   put(j, "encoder_count_force_n", e.encoder_count_force_n);
   put(j, "events", e.events);
+  put(j, "resolution_floor_n", e.resolution_floor_n);
+  put(j, "minimum_n", e.minimum_n);
   return j;
 }
 
@@ -52,6 +54,8 @@ Json effect_json(const EffectFinding& e) {
   }
   if (!e.finding.empty()) j["finding"] = e.finding;
   if (!e.note.empty()) j["note"] = e.note;
+  if (!e.standard_errors.empty()) j["standard_errors"] = parameters_json(e.standard_errors);
+  if (!e.summary.empty()) j["summary"] = e.summary;
   return j;
 }
 
@@ -153,6 +157,26 @@ Json analysis_json(const AnalysisResult& r) {
   put(J, "reversals", f.reversals);
   put(J, "input_edges", f.input_edges);
   if (f.twin_simulation) J["twin_simulation"] = twin_json(*f.twin_simulation);
+  if (f.unexplained) {
+    const auto& u = *f.unexplained;
+    J["unexplained"] = {{"message", u.message},
+                        {"closest_id", u.id},
+                        {"parameters", parameters_json(u.parameters)},
+                        {"heldout_gain_pct", u.heldout_gain_pct},
+                        {"explained_rms_n", u.explained_rms_n},
+                        {"where", u.where},
+                        {"check", u.check}};
+  }
+  if (f.twin_force_check) {
+    const auto& c = *f.twin_force_check;
+    J["twin_force_check"] = c.available ? Json{{"available", true},
+                                               {"baseline_mae_n", c.baseline_mae_n},
+                                               {"corrected_mae_n", c.corrected_mae_n},
+                                               {"kept", c.kept},
+                                               {"dropped", c.dropped}}
+                                        : Json{{"available", false}, {"reason", c.reason}};
+  }
+  if (!f.sliding_note.empty()) J["sliding_note"] = f.sliding_note;
   return J;
 }
 

@@ -42,6 +42,9 @@ void add_analyze(CLI::App& app) {
   cmd->add_option("--min-gain", o->a.min_gain_pct,
                   "Held-out mean-square-error reduction a term must bring [%]")
       ->capture_default_str();
+  cmd->add_flag("!--no-twin-check", o->a.twin_force_check,
+                "Skip the twin's force estimate with the corrected model (it runs the twin over "
+                "the recording two or more times)");
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
   cmd->callback([o] {
     const ActuatorParams act = load_actuator_or_default(o->config);
@@ -84,7 +87,8 @@ void add_analyze(CLI::App& app) {
     int k = 1;
     for (const auto& e : J.effects) {
       std::printf("%d. %-22s %s\n", k++, e.id.c_str(),
-                  report::parameters_json(e.parameters).dump().c_str());
+                  e.summary.empty() ? report::parameters_json(e.parameters).dump().c_str()
+                                    : e.summary.c_str());
       if (e.evidence.heldout_gain_pct)
         std::printf("     held-out gain %.2f %% (t = %.1f, %s segments), improvement %.2f %%\n",
                     *e.evidence.heldout_gain_pct, e.evidence.t_stat.value_or(NAN),
@@ -92,6 +96,17 @@ void add_analyze(CLI::App& app) {
       if (!e.finding.empty()) std::printf("     %s\n", e.finding.c_str());
     }
     if (J.effects.empty()) std::printf("%s\n", J.conclusion.c_str());
+    if (J.unexplained)
+      std::printf("%s\n  where: %s\n  check: %s\n", J.unexplained->message.c_str(),
+                  J.unexplained->where.c_str(), J.unexplained->check.c_str());
+    if (!J.sliding_note.empty()) std::printf("note: %s\n", J.sliding_note.c_str());
+    if (const auto& c = J.twin_force_check; c && c->available) {
+      std::printf("twin force error %.2f → %.2f N (mean absolute, against the load cell)",
+                  c->baseline_mae_n, c->corrected_mae_n);
+      for (const auto& d : c->dropped)
+        std::printf("; %s left out (it raised the error)", d.c_str());
+      std::printf("\n");
+    }
     std::printf("final      RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
                 J.final_fit.rms_n, J.final_fit.relative_error_pct,
                 J.final_fit.full_rate_relative_error_pct);

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
@@ -90,6 +91,24 @@ std::vector<SlipEvent> find_slips(const std::vector<double>& t, const std::vecto
     }
   }
   return out;
+}
+
+// Least-squares slope of the raw net driving force (coupling + load) over the last `window_s`
+// of a stuck episode [first, last]: how fast the force that will break the nut loose rises.
+double rising_rate(const std::vector<double>& t, const std::vector<double>& phi,
+                   const std::vector<double>& load, const Coupling& cp, std::size_t first,
+                   std::size_t last, double window_s) {
+  std::size_t k = last;
+  while (k > first && t[last] - t[k - 1] <= window_s) --k;
+  if (last - k < 3) return 0.0;
+  double st = 0, sf = 0, stt = 0, stf = 0;
+  const auto m = static_cast<double>(last - k + 1);
+  for (std::size_t q = k; q <= last; ++q) {
+    const double x = t[q] - t[last], f = cp.force(phi[q]) + load[q];
+    st += x, sf += f, stt += x * x, stf += x * f;
+  }
+  const double den = m * stt - st * st;
+  return den > 0 ? (m * stf - st * sf) / den : 0.0;
 }
 
 }  // namespace
@@ -183,6 +202,12 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.decimation = std::max(1, static_cast<int>(std::floor(P.fs_hz / (5 * P.filter_hz))));
   const Coupling cp{cal};
   P.count_force_n = std::abs(cp.slope(0.0)) * 2 * kPi * P.count_m / act.lead_m;
+  // Rounding to a count is uniform over one count (RMS c/√12); both it and the load-cell noise
+  // are broadband, and the filter keeps 2 f_c / f_s of their power.
+  const double kept = std::sqrt(std::min(1.0, 2.0 * P.filter_hz / P.fs_hz));
+  P.floor_n = kept * std::hypot(P.count_force_n / std::sqrt(12.0), P.load_noise_n);
+  P.minimum_n =
+      opt.min_effect_of_peak * std::max(std::abs(cal.peak_push_n), std::abs(cal.peak_pull_n));
   P.t0_s = t.front();
   auto state_at = [&](std::size_t i) {
     State s;
@@ -247,6 +272,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
         e.net_n = s.coupling_n + s.load_n;
         for (const auto& term : base.terms) e.net_n += term.effect->force_n(term.params, s);
         e.state = s;
+        e.net_rate_n_s = dir * rising_rate(t, phi_raw, load_raw, cp, i, j, 0.05);
         P.stuck.push_back(e);
       }
     }
@@ -393,6 +419,57 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   return std::clamp(bz.dot(lb.solve(bz)) / zz, 0.0, 1.0);
 }
 
+// Standard error of a chosen term's parameters from the held-out segments: the fit without
+// each segment in turn (a jackknife over contiguous time, so slow drifts and correlated noise
+// count as they would in a new recording), (K−1)/K times the sum of squared deviations.
+effects::Params jackknife_se(const Grams& g, const std::vector<int>& idx, Eigen::Index off,
+                             const Candidate& c, const State& model) {
+  const auto* e = effects::find(c.id);
+  const auto k = static_cast<Eigen::Index>(e->columns());
+  std::map<std::string, std::vector<double>, std::less<>> values;
+  for (std::size_t f = 0; f < g.xx.size(); ++f) {
+    if (g.n[f] == 0) continue;
+    const Fit fit = solve(g, idx, static_cast<int>(f));
+    if (auto prm = e->parameters(c.shape, fit.theta.segment(off, k).data(), model))
+      for (const auto& [name, v] : *prm) values[name].push_back(v);
+  }
+  effects::Params se;
+  for (const auto& [name, v] : values) {
+    if (v.size() < 2) continue;
+    const double mean = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+    double ss = 0;
+    for (double x : v) ss += (x - mean) * (x - mean);
+    const auto kk = static_cast<double>(v.size());
+    se[name] = std::sqrt((kk - 1) / kk * ss);
+  }
+  return se;
+}
+
+// Keeps the implausible fit that removes the most held-out error, and where the error it
+// leaves is largest (the segment a user should look at first).
+void note_implausible(Selection& out, const Grams& g, const std::vector<double>& cur_ho,
+                      const std::vector<double>& ho, const effects::Effect& e,
+                      const effects::Params& prm, const Prepared& P, std::size_t n_used) {
+  const double before = total(cur_ho), after = total(ho);
+  if (!(before > 0) || after >= before) return;
+  const double gain = 100.0 * (before - after) / before;
+  if (out.implausible && out.implausible->gain_pct >= gain) return;
+  Implausible imp{std::string(e.id()),
+                  prm,
+                  gain,
+                  0.0,
+                  std::sqrt((before - after) / static_cast<double>(n_used)),
+                  0.0,
+                  0.0};
+  std::size_t worst = 0;
+  for (std::size_t f = 0; f < ho.size(); ++f)
+    if (ho[f] > ho[worst]) worst = f;
+  const double seg = P.duration_s / static_cast<double>(g.xx.size());
+  imp.worst_t0_s = P.t0_s + seg * static_cast<double>(worst);
+  imp.worst_t1_s = imp.worst_t0_s + seg;
+  out.implausible = imp;
+}
+
 }  // namespace
 
 // ------------------------------------------------------------------------------- select
@@ -460,9 +537,13 @@ Selection select(const Prepared& P, const Options& opt,
         const Fit full = solve(g, idx, -1);
         const auto prm = e->parameters(
             var.shape, full.theta.tail(static_cast<Eigen::Index>(var.idx.size())).data(), model);
-        if (!prm || !effects::plausible(*e, *prm)) continue;
+        if (!prm) continue;
         auto ho = heldout(g, idx);
         const double s = total(ho);
+        if (!effects::plausible(*e, *prm)) {
+          note_implausible(out, g, cur_ho, ho, *e, *prm, P, n_used);
+          continue;
+        }
         if (s < best_sse) {
           best_sse = s;
           best.var = &var;
@@ -516,8 +597,13 @@ Selection select(const Prepared& P, const Options& opt,
     const double explained_n =
         std::sqrt(std::max(0.0, total(cur_ho) - total(it->ho)) / static_cast<double>(n_used));
     const bool significant = it->gain >= opt.min_gain_pct && it->t >= opt.min_t &&
-                             explained_n >= opt.min_explained_counts * P.count_force_n;
+                             explained_n >= std::max(P.floor_n, P.minimum_n);
     if (!significant) {
+      // What a plausible term could not explain may still be an implausible fit's: reported
+      // only when it would have stood out (its gain beyond what was left untaken).
+      if (out.implausible && (out.implausible->gain_pct < opt.min_gain_pct ||
+                              out.implausible->explained_n < std::max(P.floor_n, P.minimum_n)))
+        out.implausible.reset();
       out.next_best = Candidate{
           std::string(it->var->effect->id()), it->params, it->gain, it->t, it->improved, folds, {}};
       break;
@@ -551,6 +637,7 @@ Selection select(const Prepared& P, const Options& opt,
       if (!pa || !effects::plausible(*e, *pa)) continue;
       c.alternatives.push_back({std::string(e->id()), *pa, 100.0 * best_r2});
     }
+    out.implausible.reset();  // judged against what the next step leaves
     current.insert(current.end(), it->var->idx.begin(), it->var->idx.end());
     used.push_back(it->var->effect);
     cur_ho = it->ho;
@@ -584,6 +671,7 @@ Selection select(const Prepared& P, const Options& opt,
     if (auto prm = e->parameters(
             c.shape, final_fit.theta.segment(static_cast<Eigen::Index>(off), k).data(), model))
       c.params = *prm;
+    c.standard_errors = jackknife_se(g, current, static_cast<Eigen::Index>(off), c, model);
     off += static_cast<std::size_t>(k);
   }
   return out;
@@ -599,7 +687,7 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
   for (const auto& c : chosen) terms.emplace_back(effects::find(c.id), c.params);
   for (int side = 0; side < 2; ++side) {
     const double dir = side == 0 ? 1.0 : -1.0;
-    std::vector<double> excess, count_force;
+    std::vector<double> excess, count_force, rate;
     for (const auto& e : P.stuck) {
       if (e.dir != dir) continue;
       double net = e.net_n;
@@ -613,12 +701,23 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
       excess.push_back(dir * net - level);
       count_force.push_back(std::abs(e.state.coupling_slope_n_per_rad) * 2 * kPi * P.count_m /
                             P.lead_m);
+      rate.push_back(std::max(0.0, e.net_rate_n_s));
     }
     auto& s = side == 0 ? out.pos : out.neg;
     s.episodes = excess.size();
     if (excess.size() < 3) continue;
     s.median_excess_n = median_of(excess);
     s.count_force_n = median_of(count_force);
+    // The release is seen once the nut has moved one count; meanwhile the driving force keeps
+    // rising at Ḟ. A nut that breaks away at its kinetic level (no hump) is pushed by the excess
+    // Ḟt alone: x = Ḟt³/(6M), so one count c takes t = (6Mc/Ḟ)^⅓ and the force seen at release
+    // is up to (6McḞ²)^⅓ above the true break-away. With a hump ΔF the nut jumps off at once:
+    // half a count (the mean distance to the next edge) in √(Mc/ΔF), Ḟ times that.
+    const double rdot = median_of(rate), M = base.nut_mass_kg, c = P.count_m;
+    s.lag_bound_n = std::cbrt(6.0 * M * c * rdot * rdot);
+    s.lag_expected_n =
+        std::min(0.75 * s.lag_bound_n,
+                 rdot * std::sqrt(M * c / std::max(s.median_excess_n, 0.5 * s.count_force_n)));
     // Spread of the median: 1.25 σ/√n for a normal sample, σ from the median deviation.
     s.se_n = 1.2533 * robust_sigma(excess) / std::sqrt(static_cast<double>(excess.size()));
   }
@@ -629,9 +728,10 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
 
 namespace maglead::analysis::actuator {
 
-// Break-away above the kinetic level in both directions is static friction (Stribeck's law);
-// the release is seen only once the nut has crossed an encoder count, so up to one count's
-// worth of coupling force of excess is resolution, not physics.
+// Break-away above the kinetic level in both directions is static friction (Stribeck's law).
+// The release is seen only once the nut has crossed an encoder count: the force read then is
+// late by up to the lag bound (breakaway_test), and the phase it is computed from is known to
+// half a count's coupling force. Only an excess beyond both is physics.
 std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
                                                  const Selection& sel, const BreakawayTest& bt,
                                                  const Options& opt) {
@@ -645,13 +745,13 @@ std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseli
     if (id == "stribeck_friction") return std::nullopt;
   auto margin = [&](const BreakawayTest::Side& s) {
     if (s.episodes < 3 || !(s.se_n > 0)) return -std::numeric_limits<double>::infinity();
-    return (s.median_excess_n - s.count_force_n) / s.se_n;
+    return (s.median_excess_n - s.lag_bound_n - 0.5 * s.count_force_n) / s.se_n;
   };
   const double t_pos = margin(bt.pos), t_neg = margin(bt.neg);
   if (std::min(t_pos, t_neg) < opt.breakaway_sigmas) return std::nullopt;
-  // Expected reading bias at release: half a count of coupling force.
-  const double excess = 0.5 * (bt.pos.median_excess_n - 0.5 * bt.pos.count_force_n +
-                               bt.neg.median_excess_n - 0.5 * bt.neg.count_force_n);
+  // The break-away corrected for the force that rose while the nut crossed its first count.
+  const double excess = 0.5 * (bt.pos.median_excess_n - bt.pos.lag_expected_n +
+                               bt.neg.median_excess_n - bt.neg.lag_expected_n);
   const auto* e = effects::find("stribeck_friction");
   State model = P.states.empty() ? State{} : P.states.front();
   model.coulomb_n = kinetic_n;

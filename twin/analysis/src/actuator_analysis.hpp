@@ -33,10 +33,13 @@ struct Options {
   double min_gain_pct = 1.0;  // held-out mean-square error a term must remove …
   double min_t = 3.0;         // … consistently over the segments (t of per-segment gains)
   double acting_share = 0.1;  // segments where the term carries this share of the error count
-  double min_explained_counts = 0.1;  // … and explain this share of one count's force (RMS)
-  double parsimony = 0.99;            // a simpler term reaching this share of the best gain wins
-  double alternative_r2 = 0.95;       // another effect reproducing this much is named beside it
-  double breakaway_sigmas = 3.0;      // break-away excess significance (standard errors)
+  // … and change the force by more than the recording resolves (Prepared::floor_n) and than a
+  // stated minimum: this fraction of the calibrated peak force (a bench calibration is good to
+  // about a thousandth of its range; a force change below that nobody would act on).
+  double min_effect_of_peak = 1e-3;
+  double parsimony = 0.99;        // a simpler term reaching this share of the best gain wins
+  double alternative_r2 = 0.95;   // another effect reproducing this much is named beside it
+  double breakaway_sigmas = 3.0;  // break-away excess significance (standard errors)
   int max_terms = 6;
   double pulse_sigmas = 8.0;         // a disturbance pulse stands this far out of the residual …
   double pulse_max_s = 1.0;          // … for at most this long …
@@ -52,6 +55,7 @@ struct SlipEvent {
 
 struct StuckEpisode {
   double t_release_s = 0, dir = 0, net_n = 0;  // net driving force on the nut at release
+  double net_rate_n_s = 0;  // how fast that force rose while the nut was held (along dir)
   effects::State state;
 };
 
@@ -59,6 +63,9 @@ struct Prepared {
   double fs_hz = 0, filter_hz = 0, lead_m = 0, count_m = 0, v_min_m_s = 0, t0_s = 0;
   double duration_s = 0, load_noise_n = 0;
   double count_force_n = 0;  // coupling force of one linear encoder count at φ = 0
+  double floor_n = 0;        // RMS force the recording resolves: one count's rounding and the
+                             // load-cell noise, both after the filter
+  double minimum_n = 0;      // the stated minimum (Options::min_effect_of_peak × peak force)
   int decimation = 1;
   std::size_t samples = 0;
   std::vector<effects::State> states;  // sliding samples (decimated)
@@ -80,11 +87,22 @@ struct Candidate {
   int segments_improved = 0, segments = 0;
   std::vector<Alternative> alternatives;
   double shape = 0;
-  bool velocity_determined = true;  // Stribeck: did slow sliding pin down v_s?
+  effects::Params standard_errors{};  // jackknife over the held-out segments' fits
+  bool velocity_determined = true;    // Stribeck: did slow sliding pin down v_s?
+};
+
+/// The best fit the selection could not take because its parameters lie outside the effect's
+/// physical range: the missing force is real, but no library effect explains it plausibly.
+struct Implausible {
+  std::string id;
+  effects::Params params;
+  double gain_pct = 0, t_stat = 0, explained_n = 0;
+  double worst_t0_s = 0, worst_t1_s = 0;  // the held-out segment with the most error left
 };
 
 struct Selection {
   std::vector<Candidate> chosen;
+  std::optional<Implausible> implausible;
   std::vector<double> heldout_sse_after;  // after each chosen term
   Candidate next_best;                    // the best rejected one (id empty if none)
   double baseline_sse = 0, baseline_heldout_sse = 0, final_sse = 0, measured_ss = 0;
@@ -101,7 +119,9 @@ struct BreakawayTest {
   struct Side {
     std::size_t episodes = 0;
     double median_excess_n = 0, se_n = 0;
-    double count_force_n = 0;  // coupling force of one encoder count at release (resolution)
+    double count_force_n = 0;   // coupling force of one encoder count at release (resolution)
+    double lag_bound_n = 0;     // most the force rises before a Coulomb nut moves one count
+    double lag_expected_n = 0;  // what it rises behind a break-away of the median excess
   } pos, neg;
 };
 

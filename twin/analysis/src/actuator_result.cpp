@@ -1,11 +1,14 @@
 // The actuator analysis end to end: runs the stages of actuator_analysis.cpp and turns their
 // typed results into the analysis result (findings, corrected model, figures).
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
 
 #include "actuator_analysis.hpp"
+#include "actuator_twin_force.hpp"
 #include "maglead/analysis/analysis.hpp"
 
 namespace maglead::analysis {
@@ -24,6 +27,12 @@ std::string fmt(double v, int prec = 3) {
   return o.str();
 }
 
+std::string params_text(const effects::Params& p) {
+  std::string s;
+  for (const auto& [k, v] : p) s += (s.empty() ? "" : ", ") + k + " = " + fmt(v);
+  return s;
+}
+
 actuator::Baseline baseline_of(const ModelFile& m) {
   actuator::Baseline b;
   b.nut_mass_kg = m.nut_mass_kg;
@@ -40,12 +49,12 @@ actuator::Baseline baseline_of(const ModelFile& m) {
   return b;
 }
 
-// The baseline plus every finding: what the twin should run from now on.
-ModelFile corrected_model(const ModelFile& base, const actuator::Selection& sel,
+// The baseline plus the findings given: what the twin should run from now on.
+ModelFile corrected_model(const ModelFile& base, const std::vector<actuator::Candidate>& terms,
                           const std::string& recording) {
   ModelFile m = base;
   m.source = "maglead analyze of " + recording;
-  for (const auto& c : sel.chosen) {
+  for (const auto& c : terms) {
     auto& term = m.term(c.id);
     term.enabled = true;
     term.parameters.assign(c.params.begin(), c.params.end());
@@ -74,6 +83,93 @@ Chart fit_over_time(const actuator::Prepared& P, const actuator::Selection& sel)
     if (added) c.curves[1].x.push_back(t), c.curves[1].y.push_back(sel.final_residual[i]);
   }
   return c;
+}
+
+// The corrected model never makes the twin's force estimate worse on its own recording: terms
+// join in the order they were found, each kept only if the error against the load cell does
+// not rise. `corrected` becomes the model of the kept terms.
+TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
+                               const ForceCalibration& cal, const ModelFile& base,
+                               const std::vector<actuator::Candidate>& terms,
+                               ModelFile& corrected) {
+  TwinForceCheck out;
+  const auto before = actuator::twin_force_mae_n(rec, act, cal, base);
+  if (!before) {
+    out.reason = "maglead_twin (SUNDIALS) not built";
+    return out;
+  }
+  out.available = true;
+  out.baseline_mae_n = out.corrected_mae_n = *before;
+  if (terms.empty()) return out;
+  const auto all = actuator::twin_force_mae_n(rec, act, cal, corrected);
+  if (all && *all <= *before) {  // the usual case: everything together helps
+    out.corrected_mae_n = *all;
+    for (const auto& c : terms) out.kept.push_back(c.id);
+    return out;
+  }
+  std::vector<actuator::Candidate> kept;
+  for (const auto& c : terms) {
+    auto trial = kept;
+    trial.push_back(c);
+    const auto m = corrected_model(base, trial, rec.path);
+    const auto err = actuator::twin_force_mae_n(rec, act, cal, m);
+    if (err && *err <= out.corrected_mae_n) {
+      kept = std::move(trial);
+      out.corrected_mae_n = *err;
+      out.kept.push_back(c.id);
+    } else {
+      out.dropped.push_back(c.id);
+    }
+  }
+  corrected = corrected_model(base, kept, rec.path);
+  return out;
+}
+
+// A value at the digits its standard error allows: the error to one significant digit (two when
+// that digit is 1), the value to the same decimal place.
+std::string with_error(const std::string& name, double v, double se) {
+  char buf[96];
+  // A value on a scanned grid (the same in every segment's fit), or not fitted.
+  if (!(se > 1e-9 * std::abs(v)) || !std::isfinite(se)) {
+    std::snprintf(buf, sizeof buf, "%s %.4g", name.c_str(), v);
+    return buf;
+  }
+  int digits = -static_cast<int>(std::floor(std::log10(se)));
+  if (se * std::pow(10.0, digits) < 2.0) ++digits;
+  digits = std::clamp(digits, 0, 12);
+  std::snprintf(buf, sizeof buf, "%s %.*f ± %.*f", name.c_str(), digits, v, digits, se);
+  return buf;
+}
+
+std::string summary_of(const actuator::Candidate& c, const actuator::Prepared& P) {
+  std::string s;
+  for (const auto& [name, v] : c.params) {
+    const auto it = c.standard_errors.find(name);
+    s += (s.empty() ? "" : ", ") +
+         with_error(name, v, it == c.standard_errors.end() ? 0.0 : it->second);
+  }
+  char buf[128];
+  std::snprintf(buf, sizeof buf, " (floor %.3f N resolved, minimum %.3f N)", P.floor_n,
+                P.minimum_n);
+  return s + buf;
+}
+
+std::optional<Unexplained> unexplained_of(const actuator::Selection& sel) {
+  if (!sel.implausible) return std::nullopt;
+  const auto& imp = *sel.implausible;
+  Unexplained u;
+  u.id = imp.id;
+  u.parameters = params_of(imp.params);
+  u.heldout_gain_pct = imp.gain_pct;
+  u.explained_rms_n = imp.explained_n;
+  u.where = "the missing force follows the law of " + imp.id +
+            ", most left in t = " + fmt(imp.worst_t0_s) + " .. " + fmt(imp.worst_t1_s) + " s";
+  u.check =
+      "units and sign of load_force_n, the calibration (is it this actuator's?), the encoder "
+      "scales (lead, counts) and the load cell itself";
+  u.message = "no library effect explains this plausibly: " + imp.id + " would need " +
+              params_text(imp.params) + ", outside its physical range";
+  return u;
 }
 
 }  // namespace
@@ -156,6 +252,10 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
         std::to_string(c.segments_improved) + "/" + std::to_string(c.segments);
     e.evidence.explained_rms_n = std::sqrt(std::max(0.0, prev - sel.heldout_sse_after[k]) / n_used);
     e.evidence.noise_floor_n = P.load_noise_n;
+    e.evidence.resolution_floor_n = P.floor_n;
+    e.evidence.minimum_n = P.minimum_n;
+    e.standard_errors = params_of(c.standard_errors);
+    e.summary = summary_of(c, P);
     e.improvement_pct = 100.0 * (prev - sel.heldout_sse_after[k]) / sel.baseline_heldout_sse;
     e.where = "sliding samples";
     if (!c.alternatives.empty()) {
@@ -185,6 +285,18 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
     e.evidence.breakaway_excess_pos_n = bt.pos.median_excess_n;
     e.evidence.breakaway_excess_neg_n = bt.neg.median_excess_n;
     e.evidence.encoder_count_force_n = bt.pos.count_force_n;
+    {
+      // The break-away's error: the two sides' medians averaged.
+      auto c = *stribeck;
+      c.standard_errors["breakaway_n"] = 0.5 * std::hypot(bt.pos.se_n, bt.neg.se_n);
+      e.standard_errors = params_of(c.standard_errors);
+      e.summary = summary_of(c, P);
+    }
+    e.note +=
+        "; the force read at release is corrected for what rose while the nut crossed "
+        "its first count (" +
+        fmt(0.5 * (bt.pos.lag_expected_n + bt.neg.lag_expected_n)) + " N, at most " +
+        fmt(std::max(bt.pos.lag_bound_n, bt.neg.lag_bound_n)) + " N)";
     e.improvement_pct = 0.0;
     e.note = stribeck->velocity_determined
                  ? "break-away from the net force at release; the Stribeck velocity is the one "
@@ -240,13 +352,32 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
     J.not_selected.push_back({sel.next_best.id, sel.next_best.gain_pct, sel.next_best.t_stat,
                               std::nullopt, std::nullopt, std::nullopt,
                               params_of(sel.next_best.params)});
+  J.unexplained = unexplained_of(sel);
+  // Sliding samples are counted after decimation; the recording's samples before.
+  const std::size_t sliding = sel.samples_used * static_cast<std::size_t>(P.decimation);
+  if (sel.too_little_sliding || sliding < P.samples / 20)
+    J.sliding_note = "the nut barely slides (" + std::to_string(sliding) + " sliding samples of " +
+                     std::to_string(P.samples) +
+                     "): the sliding fit says little; the stuck episodes (" +
+                     std::to_string(P.stuck.size()) +
+                     " releases) still tell the break-away friction, and events (step-outs, "
+                     "pulses) are still found";
   J.conclusion = sel.chosen.empty()
                      ? "nothing is missing: no effect explains a significant part of "
                        "the held-out error"
                      : std::to_string(sel.chosen.size()) + " effect(s) found";
   AnalysisResult r;
   r.findings = std::move(J);
-  r.corrected = corrected_model(model, sel, rec.path);
+  r.corrected = corrected_model(model, sel.chosen, rec.path);
+  if (opt.twin_force_check) {
+    r.findings.twin_force_check = check_with_twin(rec, act, cal, model, sel.chosen, r.corrected);
+    for (auto& e : r.findings.effects)
+      for (const auto& d : r.findings.twin_force_check->dropped)
+        if (e.id == d)
+          e.note += std::string(e.note.empty() ? "" : "; ") +
+                    "left out of model_corrected.toml: with it the twin's force estimate was "
+                    "further from the load cell";
+  }
   r.fit_over_time = fit_over_time(P, sel);
   return r;
 }

@@ -24,6 +24,9 @@ struct AnalysisOptions {
   double min_t = 3.0;           // … consistently over the segments (t statistic of the gains)
   double min_speed_m_s = 2e-4;  // actuator: slower samples stick, their friction is unknown
   int max_terms = 8;
+  // actuator: run the twin's force estimate with the corrected model against the load cell and
+  // keep only terms that do not raise its error (several twin runs over the recording).
+  bool twin_force_check = true;
   std::function<void(const std::string& stage, double fraction)> progress;
 };
 

@@ -34,6 +34,9 @@ struct Evidence {
   std::optional<bool> plausible;
   std::optional<double> breakaway_excess_pos_n, breakaway_excess_neg_n, encoder_count_force_n;
   std::optional<std::size_t> events;  // event effects: how many
+  // What a finding must exceed (RMS force it changes): what the recording resolves (one
+  // encoder count's rounding and the load-cell noise after the filter) and the stated minimum.
+  std::optional<double> resolution_floor_n, minimum_n;
 };
 
 /// Another effect that reproduces a named effect's contribution (the data cannot tell them apart).
@@ -55,6 +58,27 @@ struct EffectFinding {
   std::vector<Alternative> alternatives;  // none: written not at all
   std::string finding;                    // empty: not written
   std::string note;                       // empty: not written
+  Parameters standard_errors;             // from the held-out segments; none: not written
+  std::string summary;                    // "gain 0.94 ± 0.01", at the digits the error allows
+};
+
+/// A missing force that only an effect outside its physical range would explain: reported as
+/// such, never as a finding.
+struct Unexplained {
+  std::string id;  // the library effect whose law fits best (with implausible parameters)
+  Parameters parameters;
+  double heldout_gain_pct = 0.0, explained_rms_n = 0.0;
+  std::string where, check, message;
+};
+
+/// The twin's own force estimate (TwinMonitor, as `estimate --estimator twin`) against the
+/// load cell, with the baseline and the corrected model. Checking only: the live observer never
+/// reads the load cell.
+struct TwinForceCheck {
+  bool available = false;
+  std::string reason;  // when not available
+  double baseline_mae_n = 0.0, corrected_mae_n = 0.0;
+  std::vector<std::string> kept, dropped;  // terms of the corrected model
 };
 
 /// The best candidate the selection did not take.
@@ -156,6 +180,9 @@ struct Findings {
   std::optional<std::size_t> reversals;
   std::optional<std::size_t> input_edges;
   std::optional<TwinSimulation> twin_simulation;
+  std::optional<Unexplained> unexplained;
+  std::optional<TwinForceCheck> twin_force_check;
+  std::string sliding_note;  // a recording that barely slides says so; empty: not written
 };
 
 }  // namespace maglead::analysis

@@ -1,0 +1,329 @@
+// The generated matrix (issue 24): every effect of docs/effects.md at two magnitudes, at 500 Hz,
+// 1 kHz and 2 kHz, with two load-cell noise levels, alone and in pairs, on two actuators given
+// by their configuration folders: the paper's (config/) and another one
+// (tests/analysis/other_actuator/: other lead, encoders, mass, friction, a coupling 1.6 times as
+// strong, and a calibration polynomial off from that coupling by about 0.05 N). Each case prints
+// one row; the suite prints the false-claim count and asserts it is 0.
+//
+// A claim is false when the analysis names an effect (a finding's id) that is not concealed in
+// the plant, unless an alternative it lists (>= 95 %) or an accepted equivalence (offset ~
+// asymmetric friction, angle ~ position ripple at one lead) is. A concealed effect not named is
+// a miss: printed and counted, and asserted only for the larger magnitude alone on the paper's
+// actuator at 1 kHz (the sizes the rest of the suite shows are resolved).
+//
+// CI runs a representative subset (each effect once alone per actuator, on a rotating rate and
+// noise, and a chain of pairs); MAGLEAD_FULL_MATRIX=1 runs every combination.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "../test_tmp.hpp"
+#include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/model_file.hpp"
+#include "maglead/plant/scenario.hpp"
+
+namespace {
+
+using maglead::analysis::AnalysisResult;
+
+// The effect, its plant key, the larger magnitude and the scenario that exercises it.
+struct EffectCase {
+  std::string id, scenario;
+  double magnitude;
+  std::vector<std::pair<std::string, double>> extra;  // shape keys (phase, …)
+};
+
+const std::vector<EffectCase>& effect_cases() {
+  static const std::vector<EffectCase> all = {
+      {"coulomb_friction", "position-moves", 2.0, {}},
+      {"viscous_friction", "position-moves", 50.0, {}},
+      {"asymmetric_friction", "hand-push", 2.0, {}},
+      {"stribeck_friction", "hand-push", 4.5, {}},
+      {"offset", "hand-push", 2.0, {}},
+      {"spring", "position-moves", 300.0, {}},
+      {"mass_error", "force-steps", 2.0, {}},
+      {"coupling_gain_error", "hand-push", 0.1, {}},
+      {"gain_drift", "hand-push", -0.05, {}},
+      {"angle_ripple", "position-moves", 0.1, {{"angle_ripple.phase_rad", 0.5}}},
+      {"position_ripple", "position-moves", 1.5, {{"position_ripple.phase_rad", 1.0}}},
+      {"end_effect", "position-moves", 0.005, {}},
+      {"backlash", "force-steps", 0.05, {}},
+      {"sensor_delay", "force-steps", 0.010, {}},
+      {"load_cell_delay", "force-steps", 0.010, {}},
+      {"external_disturbance", "position-moves", 8.0, {}},
+  };
+  return all;
+}
+
+struct Bench {
+  std::string name;
+  maglead::ActuatorParams act;
+  maglead::ForceCalibration cal;
+  maglead::analysis::ModelFile model;
+  maglead::PlantParams plant;
+};
+
+// The actuator of a configuration folder; the plant's true coupling is the paper-like curve
+// times `coupling_scale` (a plant's truth is not configuration: the calibration only
+// approximates it).
+Bench setup_from(const std::string& name, const std::string& dir, double coupling_scale) {
+  Bench s;
+  s.name = name;
+  s.act = maglead::load_actuator_params(dir + "/actuator.toml");
+  s.cal = maglead::load_calibration(dir + "/calibration.toml");
+  s.model = maglead::analysis::load_model(dir + "/model.toml");
+  s.plant = maglead::paper_like_plant();
+  s.plant.actuator = s.act;
+  auto& c = s.plant.coupling;
+  c.mean_n *= coupling_scale;
+  for (double& x : c.cos_n) x *= coupling_scale;
+  for (double& x : c.sin_n) x *= coupling_scale;
+  return s;
+}
+
+const Bench& paper() {
+  static const Bench s = setup_from("paper", MAGLEAD_CONFIG_DIR, 1.0);
+  return s;
+}
+const Bench& other() {
+  static const Bench s = setup_from("other", MAGLEAD_OTHER_ACTUATOR_DIR, 1.6);
+  return s;
+}
+
+struct Case {
+  const Bench* setup;
+  std::vector<const EffectCase*> effects;
+  double scale;  // 1: the larger magnitude, 0.5: the smaller
+  double rate_hz, noise_n;
+};
+
+// Ids that name a concealed effect: its own and its accepted equivalents.
+std::set<std::string> accepted(const std::vector<const EffectCase*>& truth) {
+  std::set<std::string> ok;
+  for (const auto* e : truth) {
+    ok.insert(e->id);
+    if (e->id == "offset") ok.insert("asymmetric_friction");
+    if (e->id == "asymmetric_friction") ok.insert("offset");
+    if (e->id == "angle_ripple") ok.insert("position_ripple");
+  }
+  return ok;
+}
+
+struct Outcome {
+  int named = 0, missed = 0, false_claims = 0;
+  std::string claims;
+};
+
+Outcome judge(const AnalysisResult& r, const std::vector<const EffectCase*>& truth) {
+  const auto ok = accepted(truth);
+  Outcome o;
+  std::set<std::string> seen;
+  for (const auto& f : r.findings.effects) {
+    o.claims += (o.claims.empty() ? "" : ", ") + f.id;
+    bool right = ok.count(f.id) > 0;
+    if (right) seen.insert(f.id);
+    for (const auto& a : f.alternatives)
+      if (a.explains_pct >= 95.0 && ok.count(a.id)) right = true, seen.insert(a.id);
+    o.false_claims += right ? 0 : 1;
+  }
+  for (const auto* e : truth) {
+    const auto eq = accepted({e});
+    const bool named = std::any_of(eq.begin(), eq.end(), [&](auto& id) { return seen.count(id); });
+    (named ? o.named : o.missed) += 1;
+  }
+  if (o.claims.empty()) o.claims = "nothing";
+  return o;
+}
+
+Outcome run_case(const Case& c, int index) {
+  maglead::ScenarioOptions opt;
+  opt.scenario = c.effects.front()->scenario;
+  opt.duration_s = 40.0;
+  opt.seed = 5;
+  opt.plant = c.setup->plant;
+  opt.plant.actuator.sample_rate_hz = c.rate_hz;
+  opt.plant.load_cell_noise_n = c.noise_n;
+  opt.estimator_calibration = c.setup->cal;
+  for (const auto* e : c.effects) {
+    maglead::set_plant_effect(opt.plant.effects, e->id, c.scale * e->magnitude);
+    for (const auto& [k, v] : e->extra) maglead::set_plant_effect(opt.plant.effects, k, v);
+  }
+  const std::string path = test_tmp_dir() + "/matrix_" + std::to_string(index) + ".csv";
+  maglead::run_scenario(opt, path);
+  auto act = c.setup->act;
+  act.sample_rate_hz = c.rate_hz;
+  maglead::analysis::AnalysisOptions aopt;
+  aopt.twin_force_check = false;  // analysis_twin_round_trip checks it (and costs twin runs)
+  const auto r = maglead::analysis::analyze_recording(maglead::read_recording(path), c.setup->model,
+                                                      c.setup->cal, act, aopt);
+  std::filesystem::remove(path);
+  auto o = judge(r, c.effects);
+  std::string truth;
+  for (const auto* e : c.effects) truth += (truth.empty() ? "" : " + ") + e->id;
+  std::printf("| %s | %s ×%.1f | %s | %.0f Hz | %.1f N | %s | %d | %d |\n", c.setup->name.c_str(),
+              truth.c_str(), c.scale, opt.scenario.c_str(), c.rate_hz, c.noise_n, o.claims.c_str(),
+              o.missed, o.false_claims);
+  return o;
+}
+
+bool full_matrix() {
+  const char* f = std::getenv("MAGLEAD_FULL_MATRIX");
+  return f && std::string(f) == "1";
+}
+
+std::vector<Case> cases_for(const Bench& s) {
+  const std::vector<double> rates = {500.0, 1000.0, 2000.0}, noises = {0.1, 0.5};
+  const auto& all = effect_cases();
+  std::vector<Case> out;
+  int k = 0;
+  for (const auto& e : all)
+    for (double scale : {1.0, 0.5})
+      for (double rate : rates)
+        for (double noise : noises) {
+          // The subset: one rate and noise per effect and magnitude, rotating.
+          const bool pick = full_matrix() || (rate == rates[static_cast<std::size_t>(k) % 3] &&
+                                              noise == noises[static_cast<std::size_t>(k / 3) % 2]);
+          if (pick) out.push_back({&s, {&e}, scale, rate, noise});
+          if (rate == rates.back() && noise == noises.back()) ++k;
+        }
+  // Pairs: each effect with the next (the first's scenario), at the larger magnitude.
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const auto& a = all[i];
+    const auto& b = all[(i + 1) % all.size()];
+    for (double rate : full_matrix() ? rates : std::vector<double>{1000.0})
+      for (double noise : full_matrix() ? noises : std::vector<double>{0.1})
+        out.push_back({&s, {&a, &b}, 1.0, rate, noise});
+  }
+  return out;
+}
+
+class Matrix : public ::testing::TestWithParam<int> {};
+
+TEST_P(Matrix, NamesNoEffectThatIsNotThere) {
+  const Bench& s = GetParam() == 0 ? paper() : other();
+  const auto cases = cases_for(s);
+  std::printf(
+      "| actuator | concealed | scenario | rate | load-cell noise | named | missed | "
+      "false |\n|---|---|---|---|---|---|---|---|\n");
+  int named = 0, missed = 0, false_claims = 0, index = 0, resolved_missed = 0;
+  const char* only = std::getenv("MAGLEAD_MATRIX_FILTER");  // a substring of an effect id
+  for (const auto& c : cases) {
+    if (only && std::none_of(c.effects.begin(), c.effects.end(),
+                             [&](auto* e) { return e->id.find(only) != std::string::npos; }))
+      continue;
+    const auto o = run_case(c, index++);
+    named += o.named, missed += o.missed, false_claims += o.false_claims;
+    if (&s == &paper() && c.effects.size() == 1 && c.scale == 1.0 && c.rate_hz == 1000.0)
+      resolved_missed += o.missed;
+  }
+  std::printf("%s actuator: %zu cases (%s), named %d, missed %d, false claims %d\n", s.name.c_str(),
+              cases.size(), full_matrix() ? "full matrix" : "CI subset", named, missed,
+              false_claims);
+  EXPECT_EQ(false_claims, 0);
+  EXPECT_EQ(resolved_missed, 0) << "a resolved effect alone was not named";
+}
+
+INSTANTIATE_TEST_SUITE_P(Actuators, Matrix, ::testing::Values(0, 1),
+                         [](const ::testing::TestParamInfo<int>& p) {
+                           return p.param == 0 ? "Paper" : "Other";
+                         });
+
+// The other actuator's calibration is off from its plant's coupling by about 0.05 N, as the
+// fixture says: the suite runs on the calibration it claims to.
+TEST(OtherActuator, CalibrationIsOffByAboutFiveHundredthsOfANewton) {
+  const auto& s = other();
+  double worst = 0, ss = 0;
+  int n = 0;
+  for (double phi = -1.5; phi <= 1.5; phi += 0.01, ++n) {
+    const double d = s.cal.polynomial.load_force_n(phi) - s.plant.coupling.load_force_n(phi);
+    worst = std::max(worst, std::abs(d));
+    ss += d * d;
+  }
+  const double rms = std::sqrt(ss / n);
+  std::printf("calibration off by %.3f N RMS, at most %.3f N\n", rms, worst);
+  EXPECT_GT(rms, 0.03);
+  EXPECT_LT(worst, 0.08);
+}
+
+}  // namespace
+
+namespace {
+
+maglead::analysis::AnalysisResult analyze_generated(
+    const std::string& scenario, const maglead::ForceCalibration& cal,
+    const std::vector<std::pair<std::string, double>>& keys) {
+  const auto& s = paper();
+  maglead::ScenarioOptions opt;
+  opt.scenario = scenario;
+  opt.duration_s = 40.0;
+  opt.seed = 5;
+  opt.plant = s.plant;
+  opt.estimator_calibration = s.cal;
+  for (const auto& [k, v] : keys) maglead::set_plant_effect(opt.plant.effects, k, v);
+  const std::string path = test_tmp_dir() + "/single_" + scenario + ".csv";
+  maglead::run_scenario(opt, path);
+  maglead::analysis::AnalysisOptions aopt;
+  aopt.twin_force_check = false;
+  auto r = maglead::analysis::analyze_recording(maglead::read_recording(path), s.model, cal, s.act,
+                                                aopt);
+  std::filesystem::remove(path);
+  return r;
+}
+
+// A calibration three times too strong (a wrong file, a unit slip) makes the missing force
+// follow the coupling with a gain of about 0.33: a broken magnet, not a finding. It is reported
+// as what no library effect explains plausibly, with where and what to check.
+TEST(Plausibility, AGainOutsideItsPhysicalRangeIsNotAFinding) {
+  auto cal = paper().cal;
+  for (double& c : cal.polynomial.coeffs_ascending) c *= 3.0;
+  cal.periodic.mean_n *= 3.0;
+  for (double& c : cal.periodic.cos_n) c *= 3.0;
+  for (double& c : cal.periodic.sin_n) c *= 3.0;
+  cal.derive_limits();
+  const auto r = analyze_generated("hand-push", cal, {});
+  for (const auto& e : r.findings.effects) EXPECT_NE(e.id, "coupling_gain_error");
+  ASSERT_TRUE(r.findings.unexplained.has_value()) << "the implausible fit must be reported";
+  const auto& u = *r.findings.unexplained;
+  std::printf("%s\n  where: %s\n  check: %s\n", u.message.c_str(), u.where.c_str(),
+              u.check.c_str());
+  EXPECT_EQ(u.id, "coupling_gain_error");
+  EXPECT_NEAR(maglead::analysis::parameter_value(u.parameters, "gain"), 1.0 / 3.0, 0.05);
+  EXPECT_NE(u.message.find("no library effect explains this plausibly"), std::string::npos);
+}
+
+// A recording where the nut never slides says so, and still names what its stuck episodes tell.
+TEST(StickSlip, ARecordingThatBarelySlidesSaysSo) {
+  const auto r = analyze_generated("hand-push", paper().cal, {{"stribeck_friction", 4.5}});
+  std::printf("%s\n", r.findings.sliding_note.c_str());
+  EXPECT_FALSE(r.findings.sliding_note.empty());
+  ASSERT_EQ(r.findings.effects.size(), 1u);
+  EXPECT_EQ(r.findings.effects[0].id, "stribeck_friction");
+  EXPECT_FALSE(r.findings.effects[0].summary.empty());
+}
+
+// Each fitted parameter carries its standard error, and the summary prints the value at the
+// digits that error allows.
+TEST(Uncertainty, ParametersCarryTheirStandardErrorAtItsDigits) {
+  const auto r = analyze_generated("hand-push", paper().cal, {{"coupling_gain_error", 0.1}});
+  ASSERT_FALSE(r.findings.effects.empty());
+  const auto& e = r.findings.effects[0];
+  std::printf("%s: %s\n", e.id.c_str(), e.summary.c_str());
+  ASSERT_EQ(e.id, "coupling_gain_error");
+  const double se = maglead::analysis::parameter_value(e.standard_errors, "gain", -1.0);
+  EXPECT_GT(se, 0.0);
+  EXPECT_LT(se, 0.02);
+  // The true gain lies within four standard errors, plus 0.005 for the plant's coupling curve
+  // (a periodic fit) against the calibration polynomial: a bias no standard error covers.
+  EXPECT_NEAR(maglead::analysis::parameter_value(e.parameters, "gain"), 1.1, 4 * se + 0.005);
+  EXPECT_NE(e.summary.find("gain 1.0"), std::string::npos) << e.summary;
+  EXPECT_NE(e.summary.find(" ± 0.00"), std::string::npos) << e.summary;
+}
+
+}  // namespace

@@ -1,0 +1,51 @@
+// The twin's force estimate on the recording the analysis came from, with the baseline and the
+// corrected model: the same TwinMonitor, fed row by row as `maglead estimate --estimator twin`
+// feeds it (screw angle, nut position, force setpoint; never the load cell). The load cell is
+// read here only to score the estimate: checking, not observing.
+#include "actuator_twin_force.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "actuator_analysis.hpp"
+
+#ifdef MAGLEAD_HAVE_TWIN
+#include "maglead/twin/monitor.hpp"
+#endif
+
+namespace maglead::analysis::actuator {
+
+#ifdef MAGLEAD_HAVE_TWIN
+std::optional<double> twin_force_mae_n(const Recording& rec, const ActuatorParams& act,
+                                       const ForceCalibration& cal, const ModelFile& model) {
+  const auto& t = rec.column("t_s");
+  const std::size_t n = t.size();
+  if (n < 2 || !(t.back() > t.front())) return std::nullopt;
+  const auto screw = angle_column(rec, act);
+  const auto& pos = rec.column("nut_pos_m");
+  const auto& load = rec.column("load_force_n");
+  const std::vector<double>* fset = rec.has("force_set_n") ? &rec.column("force_set_n") : nullptr;
+  twin::TwinMonitorConfig tc;
+  tc.actuator = act;
+  tc.actuator.sample_rate_hz = static_cast<double>(n - 1) / (t.back() - t.front());
+  tc.integrator.max_step_s = 1.0 / tc.actuator.sample_rate_hz;
+  tc.calibration = cal;
+  tc.model = model;
+  twin::TwinMonitor mon(tc);
+  mon.reset(t[0], screw[0], pos[0]);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  double sum = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto out = mon.step({t[i], screw[i], pos[i], fset ? (*fset)[i] : nan});
+    sum += std::abs(out.dynamic_output_force_est_n + load[i]);  // output force = −load
+  }
+  return sum / static_cast<double>(n);
+}
+#else
+std::optional<double> twin_force_mae_n(const Recording&, const ActuatorParams&,
+                                       const ForceCalibration&, const ModelFile&) {
+  return std::nullopt;
+}
+#endif
+
+}  // namespace maglead::analysis::actuator
