@@ -15,12 +15,17 @@
 
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/signal.hpp"
+#include "statistics.hpp"
 #include "twin_check.hpp"
 
 namespace maglead::analysis {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+using stats::Fit;
+using stats::partial_r2;
+using stats::robust_sigma;
+using stats::sse;
 
 // ---------------------------------------------------------------- columns and candidates
 enum Col : int {
@@ -188,31 +193,10 @@ double median_step(const std::vector<double>& t) {
   return d[d.size() / 2];
 }
 
-void require_finite(const Recording& rec, const std::string& name) {
-  const auto& c = rec.column(name);
-  for (std::size_t i = 0; i < c.size(); ++i)
-    if (!std::isfinite(c[i]))
-      throw RecordingError(rec.path + ": data row " + std::to_string(i + 1) + ", column '" + name +
-                           "': missing value (the analysis needs every sample)");
-}
-
-double robust_sigma(std::vector<double> x) {
-  if (x.empty()) return 0.0;
-  auto mid = x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2);
-  std::nth_element(x.begin(), mid, x.end());
-  const double med = *mid;
-  for (double& e : x) e = std::abs(e - med);
-  std::nth_element(x.begin(), mid, x.end());
-  return 1.4826 * *mid;
-}
-
 // ---------------------------------------------------------------- Gram per segment
-struct Grams {
-  std::vector<int> cols;            // column kinds, in matrix order
-  std::vector<Eigen::MatrixXd> xx;  // per fold
-  std::vector<Eigen::VectorXd> xr;  // X' r, r = y − y_fixed
-  std::vector<double> rr, yy;       // r' r, y' y
-  std::vector<std::size_t> n;
+// The shared per-segment normal equations, with the column kinds in matrix order.
+struct Grams : stats::Grams {
+  std::vector<int> cols;
   int index(int col) const {
     for (std::size_t j = 0; j < cols.size(); ++j)
       if (cols[j] == col) return static_cast<int>(j);
@@ -222,22 +206,18 @@ struct Grams {
 
 Grams accumulate(const Signals& s, const std::vector<int>& cols, int folds,
                  const std::function<void(double)>& progress) {
-  Grams g;
-  g.cols = cols;
   const auto m = static_cast<Eigen::Index>(cols.size());
+  Grams g{stats::Grams(static_cast<std::size_t>(folds), m), cols};
   const std::size_t n = s.size();
   constexpr std::size_t kChunk = 2048;
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> x(kChunk, m);
+  stats::Grams::RowMatrix x(kChunk, m);
   Eigen::VectorXd r(kChunk);
   for (int f = 0; f < folds; ++f) {
     const std::size_t lo = n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
     const std::size_t hi = n * static_cast<std::size_t>(f + 1) / static_cast<std::size_t>(folds);
-    Eigen::MatrixXd xx = Eigen::MatrixXd::Zero(m, m);
-    Eigen::VectorXd xr = Eigen::VectorXd::Zero(m);
-    double rr = 0, yy = 0;
-    std::size_t used = 0;
     for (std::size_t i0 = lo; i0 < hi; i0 += kChunk) {
       Eigen::Index k = 0;
+      double yy = 0;
       for (std::size_t i = i0; i < std::min(hi, i0 + kChunk); ++i) {
         if (!s.valid[i]) continue;
         fill_row(s, i, cols, x.row(k).data());
@@ -245,56 +225,12 @@ Grams accumulate(const Signals& s, const std::vector<int>& cols, int folds,
         yy += s.y[i] * s.y[i];
         ++k;
       }
-      used += static_cast<std::size_t>(k);
-      xx.selfadjointView<Eigen::Lower>().rankUpdate(x.topRows(k).transpose());
-      xr.noalias() += x.topRows(k).transpose() * r.head(k);
-      rr += r.head(k).squaredNorm();
+      g.add_rows(static_cast<std::size_t>(f), x.topRows(k), r.head(k), yy);
     }
-    g.xx.push_back(xx.selfadjointView<Eigen::Lower>());
-    g.xr.push_back(xr);
-    g.rr.push_back(rr);
-    g.yy.push_back(yy);
-    g.n.push_back(used);
     if (progress) progress(static_cast<double>(f + 1) / folds);
   }
+  g.symmetrize();
   return g;
-}
-
-struct Fit {
-  Eigen::VectorXd theta;  // in the order of `idx`
-  std::vector<int> idx;   // positions in Grams::cols
-};
-
-// Least squares on the folds flagged in `use`, with a tiny ridge on scaled columns so that
-// collinear columns (an alternative already spanned) do not blow up.
-Fit solve(const Grams& g, const std::vector<int>& idx, const std::vector<bool>& use) {
-  const auto m = static_cast<Eigen::Index>(idx.size());
-  Fit fit{Eigen::VectorXd::Zero(m), idx};
-  if (m == 0) return fit;
-  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m, m);
-  Eigen::VectorXd b = Eigen::VectorXd::Zero(m);
-  for (std::size_t f = 0; f < g.xx.size(); ++f) {
-    if (!use[f]) continue;
-    for (Eigen::Index i = 0; i < m; ++i) {
-      b[i] += g.xr[f][idx[i]];
-      for (Eigen::Index j = 0; j < m; ++j) a(i, j) += g.xx[f](idx[i], idx[j]);
-    }
-  }
-  Eigen::VectorXd d = a.diagonal().cwiseMax(1e-300).cwiseSqrt();
-  Eigen::MatrixXd as = d.asDiagonal().inverse() * a * d.asDiagonal().inverse();
-  as.diagonal().array() += 1e-9;
-  fit.theta = d.asDiagonal().inverse() * as.ldlt().solve(d.asDiagonal().inverse() * b);
-  return fit;
-}
-
-double sse(const Grams& g, const Fit& fit, std::size_t f) {
-  double e = g.rr[f];
-  for (Eigen::Index i = 0; i < fit.theta.size(); ++i) {
-    e -= 2 * fit.theta[i] * g.xr[f][fit.idx[i]];
-    for (Eigen::Index j = 0; j < fit.theta.size(); ++j)
-      e += fit.theta[i] * fit.theta[j] * g.xx[f](fit.idx[i], fit.idx[j]);
-  }
-  return std::max(e, 0.0);
 }
 
 struct Score {
@@ -303,55 +239,12 @@ struct Score {
 };
 
 Score heldout(const Grams& g, const std::vector<int>& idx) {
-  Score s;
-  const std::size_t k = g.xx.size();
-  for (std::size_t f = 0; f < k; ++f) {
-    std::vector<bool> use(k, true);
-    use[f] = false;
-    const double e = sse(g, solve(g, idx, use), f);
-    s.heldout_sse.push_back(e);
-    s.total += e;
-  }
+  Score s{stats::heldout(g, idx), 0.0};
+  s.total = stats::total(s.heldout_sse);
   return s;
 }
 
-Fit fit_all(const Grams& g, const std::vector<int>& idx) {
-  return solve(g, idx, std::vector<bool>(g.xx.size(), true));
-}
-
-// Fraction of `target`'s fitted contribution (combination w of columns tw) that columns `alt`
-// reproduce after both are cleared of the columns `base`: partial R² from the Grams.
-double partial_r2(const Grams& g, const std::vector<int>& base, const std::vector<int>& tw,
-                  const Eigen::VectorXd& w, const std::vector<int>& alt) {
-  std::vector<int> all = base;
-  all.insert(all.end(), tw.begin(), tw.end());
-  all.insert(all.end(), alt.begin(), alt.end());
-  const auto m = static_cast<Eigen::Index>(all.size());
-  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m, m);
-  for (const auto& xx : g.xx)
-    for (Eigen::Index i = 0; i < m; ++i)
-      for (Eigen::Index j = 0; j < m; ++j) a(i, j) += xx(all[i], all[j]);
-  Eigen::VectorXd d = a.diagonal().cwiseMax(1e-300).cwiseSqrt();
-  a = d.asDiagonal().inverse() * a * d.asDiagonal().inverse();
-  const auto nb = static_cast<Eigen::Index>(base.size());
-  const auto nt = static_cast<Eigen::Index>(tw.size());
-  const auto na = static_cast<Eigen::Index>(alt.size());
-  // Residualise on base (Schur complement).
-  Eigen::MatrixXd s = a.bottomRightCorner(m - nb, m - nb);
-  if (nb > 0) {
-    Eigen::MatrixXd abb = a.topLeftCorner(nb, nb);
-    abb.diagonal().array() += 1e-9;
-    const Eigen::MatrixXd abo = a.topRightCorner(nb, m - nb);
-    s -= abo.transpose() * abb.ldlt().solve(abo);
-  }
-  Eigen::VectorXd ws = d.segment(nb, nt).cwiseProduct(w);  // w in scaled units
-  const double tt = ws.dot(s.topLeftCorner(nt, nt) * ws);
-  if (!(tt > 0)) return 0.0;
-  Eigen::MatrixXd saa = s.bottomRightCorner(na, na);
-  saa.diagonal().array() += 1e-9;
-  const Eigen::VectorXd sat = s.bottomLeftCorner(na, nt) * ws;
-  return std::clamp(sat.dot(saa.ldlt().solve(sat)) / tt, 0.0, 1.0);
-}
+Fit fit_all(const Grams& g, const std::vector<int>& idx) { return stats::solve(g, idx); }
 
 // ---------------------------------------------------------------- binned maps
 struct Binned {
@@ -480,8 +373,7 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
   const std::string pos_col = actuator ? "nut_pos_m" : "pos_m";
   const std::string force_col = actuator ? "load_force_n" : "drive_force_n";
   for (const auto& c : {std::string("t_s"), pos_col, force_col}) {
-    rec.column(c);  // throws naming the file and column
-    require_finite(rec, c);
+    stats::require_finite(rec, rec.column(c), c);  // column(): throws naming file and column
   }
   const auto& t = rec.column("t_s");
   if (t.size() < 200)
@@ -590,10 +482,10 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
     s.y = filtfilt_butter4(P.y_raw, P.filter_hz, P.fs_hz);
     std::vector<double> theta;
     if (rec.has("screw_angle_rad")) {
-      require_finite(rec, "screw_angle_rad");
+      stats::require_finite(rec, rec.column("screw_angle_rad"), "screw_angle_rad");
       theta = rec.column("screw_angle_rad");
     } else if (rec.has("motor_angle_rad")) {
-      require_finite(rec, "motor_angle_rad");
+      stats::require_finite(rec, rec.column("motor_angle_rad"), "motor_angle_rad");
       double gear = act.gear_ratio;
       if (auto g = rec.meta("gear_ratio")) gear = std::stod(*g);
       theta = rec.column("motor_angle_rad");
@@ -736,19 +628,15 @@ Grams accumulate_matrix(const Prepared& P, int folds) {
   for (int f = 0; f < folds; ++f) {
     const std::size_t lo = n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
     const std::size_t hi = n * static_cast<std::size_t>(f + 1) / static_cast<std::size_t>(folds);
-    const auto rows =
-        P.id_columns.middleRows(static_cast<Eigen::Index>(lo), static_cast<Eigen::Index>(hi - lo));
     Eigen::VectorXd r(static_cast<Eigen::Index>(hi - lo));
     double yy = 0;
     for (std::size_t i = lo; i < hi; ++i) {
       r[static_cast<Eigen::Index>(i - lo)] = s.y[i] - s.y_fixed[i];
       yy += s.y[i] * s.y[i];
     }
-    g.xx.push_back(rows.transpose() * rows);
-    g.xr.push_back(rows.transpose() * r);
-    g.rr.push_back(r.squaredNorm());
-    g.yy.push_back(yy);
-    g.n.push_back(hi - lo);
+    g.add_segment(
+        P.id_columns.middleRows(static_cast<Eigen::Index>(lo), static_cast<Eigen::Index>(hi - lo)),
+        r, yy);
   }
   return g;
 }
@@ -1197,12 +1085,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
         d.push_back((cur.heldout_sse[fu] - best.sc.heldout_sse[fu]) / cur.heldout_sse[fu]);
         if (d.back() > 0) ++best.improved;
       }
-      const auto nd = static_cast<double>(d.size());
-      const double mean = nd > 0 ? std::accumulate(d.begin(), d.end(), 0.0) / nd : 0.0;
-      double var = 0;
-      for (double x : d) var += (x - mean) * (x - mean);
-      var /= std::max(1.0, nd - 1);
-      best.t = var > 0 ? mean / std::sqrt(var / nd) : (mean > 0 ? 1e9 : 0.0);
+      best.t = stats::t_statistic(d);
       best.worst = d.empty() ? 0.0 : 100.0 * *std::min_element(d.begin(), d.end());
       best.gain = 100.0 * (cur.total - best.sc.total) / cur.total;
       trials.push_back(best);
