@@ -1592,6 +1592,14 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
     v.charts.push_back({"Held-out error per step (0 = baseline)", "terms added", "RMS [N]", {hs}});
     R.figures.insert(R.figures.begin() + 1, v);
   }
+  // The fit over time at every fitted sample, as the actuator path gives it (the page's chart).
+  const bool added = !chosen.empty();
+  R.fit_over_time = {
+      "The fit before and after",
+      "time [s]",
+      "missing force [N]",
+      {{added ? "before (the model as configured)" : "the model (nothing added)", S.t, res0}}};
+  if (added) R.fit_over_time.curves.push_back({"after (with the effects found)", S.t, res1});
 
   // ------------------------------------------------------------ corrected model file
   ModelFile M = model;
