@@ -366,15 +366,127 @@ ModelFile actuator_model_from_config(const ActuatorParams& act) {
 
 namespace {
 
-Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibration& cal,
-                 const ActuatorParams& act, const AnalysisOptions& opt) {
-  Prepared P;
-  const bool actuator = model.system == "actuator";
-  const std::string pos_col = actuator ? "nut_pos_m" : "pos_m";
-  const std::string force_col = actuator ? "load_force_n" : "drive_force_n";
-  for (const auto& c : {std::string("t_s"), pos_col, force_col}) {
-    stats::require_finite(rec, rec.column(c), c);  // column(): throws naming file and column
+// The baseline's fixed force at every sample of a force-driven axis: the known dynamics plus
+// every term the model file switches on, in the effect library's names (totals for mass and
+// friction). Forces on the moving part along +p (offset, spring, ripple) are what the drive force
+// does not have to supply: they subtract.
+struct FixedTerms {
+  const ModelTerm *st = nullptr, *sp = nullptr, *pr = nullptr;
+  double mass = 0, visc = 0, coul = 0;  // fixed values (0: fitted instead)
+  double coul_pos = 0, coul_neg = 0, visc_pos = 0, visc_neg = 0;
+  double strib_c = 0, strib_n = 0, strib_v = 1.0, offset = 0;
+  double spring_k = 0, spring_c = 0, pr_n = 0, pr_per = 1.0, pr_ph = 0;
+
+  double force(const Signals& s, std::size_t i) const {
+    const double v = s.v[i];
+    double y = mass * s.a[i] + visc * v + (v > 0 ? visc_pos : visc_neg) * v;
+    double fc = (st ? strib_c : coul) + (v > 0 ? coul_pos : v < 0 ? coul_neg : 0.0);
+    if (st) {
+      const double r = v / strib_v;
+      fc += strib_n * std::exp(-r * r);
+    }
+    y += sgn(v) * fc;
+    double other = offset;
+    if (sp) other -= spring_k * (s.p[i] - spring_c);
+    if (pr) other += pr_n * std::sin(2 * kPi * s.p[i] / pr_per + pr_ph);
+    return y - other;
   }
+};
+
+FixedTerms fixed_terms(const ModelFile& model, double mid_m) {
+  auto term_value = [&](const char* id, const char* key, double fallback) {
+    const auto* term = model.find(id);
+    return term ? term->get(key, fallback) : fallback;
+  };
+  FixedTerms f;
+  f.st = model.find("stribeck_friction");
+  f.sp = model.find("spring");
+  f.pr = model.find("position_ripple");
+  const auto* as = model.find("asymmetric_friction");
+  if (!model.fit.count("nut_mass_kg"))
+    f.mass = term_value("mass_error", "nut_mass_kg", model.nut_mass_kg);
+  if (!model.fit.count("viscous_n_s_per_m"))
+    f.visc = term_value("viscous_friction", "viscous_n_s_per_m", model.viscous_n_s_per_m);
+  if (!model.fit.count("coulomb_n"))
+    f.coul = term_value("coulomb_friction", "coulomb_n", model.coulomb_n);
+  // Direction-dependent friction: its levels replace the symmetric ones in their direction.
+  if (as) {
+    f.coul_pos = as->get("coulomb_pos_n", f.coul) - f.coul;
+    f.coul_neg = as->get("coulomb_neg_n", f.coul) - f.coul;
+    f.visc_pos = as->get("viscous_pos_n_s_per_m", f.visc) - f.visc;
+    f.visc_neg = as->get("viscous_neg_n_s_per_m", f.visc) - f.visc;
+  }
+  if (f.st) {
+    f.strib_c = f.st->get("coulomb_n", f.coul);
+    f.strib_n = f.st->get("breakaway_n", f.strib_c) - f.strib_c;
+    f.strib_v = f.st->get("stribeck_velocity_m_s", 2e-3);
+  }
+  f.offset = term_value("offset", "offset_n", 0.0);
+  if (f.sp) {
+    f.spring_k = f.sp->get("stiffness_n_per_m", 0.0);
+    f.spring_c = f.sp->get("rest_position_m", mid_m);
+  }
+  if (f.pr) {
+    f.pr_n = f.pr->get("amplitude_n", 0.0);
+    f.pr_per = f.pr->get("period_m", 5e-3);
+    f.pr_ph = f.pr->get("phase_rad", 0.0);
+  }
+  return f;
+}
+
+// A noise floor from the force's sample-to-sample roughness (white noise: var(Δ²y) = 6σ²).
+double noise_floor(const std::vector<double>& y) {
+  std::vector<double> d2;
+  for (std::size_t i = 1; i + 1 < y.size(); i += 1) d2.push_back(y[i + 1] - 2 * y[i] + y[i - 1]);
+  return robust_sigma(d2) / std::sqrt(6.0);
+}
+
+// Identification bandwidth: the lowest frequency below which the acceleration (the most
+// demanding regressor) keeps 99 % of its energy; decimate as far as the decimation filter
+// (80 % of the new Nyquist frequency) stays above it.
+int bandwidth_decimation(Prepared& P) {
+  const auto& a = P.full.a;
+  double ea = 0;
+  for (double x : a) ea += x * x;
+  P.bandwidth_hz = 0.25 * P.fs_hz;
+  for (double f = 0.5; f < 0.25 * P.fs_hz; f *= 1.1) {
+    const auto af = filtfilt_butter4(a, f, P.fs_hz);
+    double lost = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) lost += (a[i] - af[i]) * (a[i] - af[i]);
+    if (lost <= 0.01 * ea) {
+      P.bandwidth_hz = f;
+      break;
+    }
+  }
+  return std::max(1, static_cast<int>(std::floor(0.4 * P.fs_hz / P.bandwidth_hz)));
+}
+
+// Decimation to the identification bandwidth: parallel filtering of every signal.
+void decimate_signals(Prepared& P, int nd) {
+  P.decimation = nd;
+  if (nd <= 1) return;
+  const Signals& s = P.full;
+  P.decimated = true;
+  Signals& d = P.id;
+  d = Signals{};
+  d.lead_m = s.lead_m;
+  d.mid_m = s.mid_m;
+  d.moving_speed = s.moving_speed;
+  for (std::size_t i = 0; i < s.size(); i += static_cast<std::size_t>(nd)) d.t.push_back(s.t[i]);
+  d.p = decimate(s.p, nd, P.fs_hz);
+  d.v = decimate(s.v, nd, P.fs_hz);
+  d.a = decimate(s.a, nd, P.fs_hz);
+  d.y = decimate(s.y, nd, P.fs_hz);
+  d.y_fixed = decimate(s.y_fixed, nd, P.fs_hz);
+  d.valid.assign(d.t.size(), 1);
+}
+
+// A force-driven axis: position filtered zero-phase, velocity and acceleration by central
+// differences, the drive force as logged, the baseline's fixed part at every sample.
+Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOptions& opt) {
+  Prepared P;
+  for (const char* c : {"t_s", "pos_m", "drive_force_n"})
+    stats::require_finite(rec, rec.column(c), c);  // column(): throws naming file and column
   const auto& t = rec.column("t_s");
   if (t.size() < 200)
     throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(t.size()) +
@@ -382,222 +494,23 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
   const double dt = median_step(t);
   if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
   P.fs_hz = 1.0 / dt;
-  P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : (actuator ? 20.0 : 100.0);
+  P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : 100.0;
   Signals& s = P.full;
-  s.actuator = actuator;
   s.t = t;
-  std::vector<double> pos = rec.column(pos_col);
-  if (actuator) {
-    // Incremental encoders floor: the nut is on average half a count above the count.
-    for (double& p : pos) p += 0.5 * act.linear_count_m;
-  }
-  s.p = filtfilt_butter4(pos, P.filter_hz, P.fs_hz);
+  s.p = filtfilt_butter4(rec.column("pos_m"), P.filter_hz, P.fs_hz);
   s.v = central_diff(s.p, dt);
   s.a = central_diff2(s.p, dt);
-  P.y_raw = rec.column(force_col);
-  // A noise floor from the force's sample-to-sample roughness (white noise: var(Δ²y) = 6σ²).
-  {
-    std::vector<double> d2;
-    for (std::size_t i = 1; i + 1 < P.y_raw.size(); i += 1)
-      d2.push_back(P.y_raw[i + 1] - 2 * P.y_raw[i] + P.y_raw[i - 1]);
-    P.noise_floor_n = robust_sigma(d2) / std::sqrt(6.0);
-  }
-  const std::size_t n = s.size();
-  s.valid.assign(n, 1);
-  double pmin = *std::min_element(s.p.begin(), s.p.end());
-  double pmax = *std::max_element(s.p.begin(), s.p.end());
-  s.mid_m = actuator ? 0.5 * (act.stroke_min_m + act.stroke_max_m) : 0.5 * (pmin + pmax);
-
-  auto term_value = [&](const char* id, const char* key, double fallback) {
-    const auto* term = model.find(id);
-    return term ? term->get(key, fallback) : fallback;
-  };
-  const bool fit_m = model.fit.count("nut_mass_kg") > 0,
-             fit_c = model.fit.count("viscous_n_s_per_m") > 0,
-             fit_f = model.fit.count("coulomb_n") > 0;
-  // Fixed part of the baseline: known dynamics plus any extra term the model file switches on
-  // (force on the moving part along +p enters the measured force with the opposite sign on the
-  // actuator's load cell and with the same sign in an axis' drive force).
-  // Forces on the moving part along +p (offset, spring, ripple) are what the drive force does
-  // not have to supply, and what the actuator's load cell does not see: both subtract.
-  const double other_sign = -1.0;
-  // Term values resolved once, in the effect library's names (totals for mass and friction).
-  const auto* st = model.find("stribeck_friction");
-  const auto* sp = model.find("spring");
-  const auto* pr = model.find("position_ripple");
-  const auto* ar = model.find("angle_ripple");
-  const auto* ee = model.find("end_effect");
-  const auto* as = model.find("asymmetric_friction");
-  const double mass_fixed =
-      fit_m ? 0.0 : term_value("mass_error", "nut_mass_kg", model.nut_mass_kg);
-  const double visc_fixed =
-      fit_c ? 0.0 : term_value("viscous_friction", "viscous_n_s_per_m", model.viscous_n_s_per_m);
-  const double coul_fixed =
-      fit_f ? 0.0 : term_value("coulomb_friction", "coulomb_n", model.coulomb_n);
-  // Direction-dependent friction: its levels replace the symmetric ones in their direction.
-  const double coul_pos = as ? as->get("coulomb_pos_n", coul_fixed) - coul_fixed : 0.0;
-  const double coul_neg = as ? as->get("coulomb_neg_n", coul_fixed) - coul_fixed : 0.0;
-  const double visc_pos = as ? as->get("viscous_pos_n_s_per_m", visc_fixed) - visc_fixed : 0.0;
-  const double visc_neg = as ? as->get("viscous_neg_n_s_per_m", visc_fixed) - visc_fixed : 0.0;
-  const double strib_c = st ? st->get("coulomb_n", coul_fixed) : 0.0;
-  const double strib_n = st ? st->get("breakaway_n", strib_c) - strib_c : 0.0,
-               strib_v = st ? st->get("stribeck_velocity_m_s", 2e-3) : 1.0;
-  const double offset = term_value("offset", "offset_n", 0.0);
-  const double spring_k = sp ? sp->get("stiffness_n_per_m", 0.0) : 0.0,
-               spring_c = sp ? sp->get("rest_position_m", s.mid_m) : 0.0;
-  const double pr_n = pr ? pr->get("amplitude_n", 0.0) : 0.0,
-               pr_per = pr ? pr->get("period_m", 5e-3) : 1.0,
-               pr_ph = pr ? pr->get("phase_rad", 0.0) : 0.0;
-  const double ar_n = ar ? ar->get("relative_amplitude", 0.0) : 0.0,
-               ar_ph = ar ? ar->get("phase_rad", 0.0) : 0.0;
-  const double drift = term_value("gain_drift", "gain_change_per_min", 0.0);
-  const double ee_m = ee ? ee->get("zone_m", 1e-3) : 0.0,
-               ee_depth = ee ? ee->get("max_reduction", 0.5) : 0.0;
-  auto fixed_dynamics = [&](std::size_t i, double gain_fs, double fs_raw) {
-    const double v = s.v[i];
-    const double dir = sgn(v);
-    double y = gain_fs + mass_fixed * s.a[i] + visc_fixed * v + (v > 0 ? visc_pos : visc_neg) * v;
-    double fc = (st ? strib_c : coul_fixed) + (v > 0 ? coul_pos : v < 0 ? coul_neg : 0.0);
-    if (st) {
-      const double r = v / strib_v;
-      fc += strib_n * std::exp(-r * r);
-    }
-    y += dir * fc;
-    double other = offset;
-    if (sp) other -= spring_k * (s.p[i] - spring_c);
-    if (pr) other += pr_n * std::sin(2 * kPi * s.p[i] / pr_per + pr_ph);
-    if (actuator) {
-      if (ar) other += ar_n * std::sin(s.theta[i] + ar_ph) * -fs_raw;
-      // Coupling strength changes scale F̂_s (the load-cell image of F_m).
-      double g = 1.0 + drift * s.t[i] / 60.0;
-      if (ee) {
-        const double x = std::clamp(1.0 - s.to_end[i] / ee_m, 0.0, 1.0);
-        g *= 1.0 - ee_depth * x * x * (3 - 2 * x);
-      }
-      y += (g - 1.0) * fs_raw;
-    }
-    return y + other_sign * other;
-  };
-  if (actuator) {
-    s.y = filtfilt_butter4(P.y_raw, P.filter_hz, P.fs_hz);
-    std::vector<double> theta;
-    if (rec.has("screw_angle_rad")) {
-      stats::require_finite(rec, rec.column("screw_angle_rad"), "screw_angle_rad");
-      theta = rec.column("screw_angle_rad");
-    } else if (rec.has("motor_angle_rad")) {
-      stats::require_finite(rec, rec.column("motor_angle_rad"), "motor_angle_rad");
-      double gear = act.gear_ratio;
-      if (auto g = rec.meta("gear_ratio")) gear = std::stod(*g);
-      theta = rec.column("motor_angle_rad");
-      for (double& x : theta) x /= gear;
-    } else {
-      throw RecordingError(rec.path + ": needs column 'screw_angle_rad' or 'motor_angle_rad'");
-    }
-    s.lead_m = act.lead_m;
-    const double gain = term_value("coupling_gain_error", "gain", 1.0);
-    // Step-outs: the raw phase leaves its period (hysteresis of 0.3 rad against chatter).
-    int lead_count = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double phi = theta[i] - 2 * kPi * pos[i] / s.lead_m;
-      if (i == 0) lead_count = static_cast<int>(std::lround(phi / (2 * kPi)));
-      const double rel = phi - 2 * kPi * lead_count;
-      if (std::abs(rel) > kPi + 0.3) {
-        const int k = static_cast<int>(std::lround(phi / (2 * kPi)));
-        P.slips.emplace_back(t[i], k - lead_count);
-        lead_count = k;
-      }
-    }
-    s.theta = filtfilt_butter4(theta, P.filter_hz, P.fs_hz);
-    const auto theta_vel = central_diff(s.theta, dt);
-    s.phi.resize(n);
-    s.fs.resize(n);
-    s.fs_slope.resize(n);
-    s.play.resize(n);
-    s.to_end.resize(n);
-    s.y_fixed.resize(n);
-    // Play side: the direction the gear last turned the screw (a small threshold against
-    // encoder chatter); zero until it has moved.
-    double side = 0.0;
-    const double turn_thr = 0.05;  // rad/s at the screw
-    s.moving_speed = opt.min_speed_m_s;
-    for (std::size_t i = 0; i < n; ++i) {
-      s.phi[i] = s.theta[i] - 2 * kPi * s.p[i] / s.lead_m;
-      s.fs[i] = gain * cal.periodic.load_force_n(s.phi[i]);
-      s.fs_slope[i] = gain * cal.periodic.slope_n_per_rad(s.phi[i]);
-      if (std::abs(theta_vel[i]) > turn_thr) side = sgn(theta_vel[i]);
-      s.play[i] = side;
-      s.to_end[i] = std::min(s.p[i] - act.stroke_min_m, act.stroke_max_m - s.p[i]);
-      s.y_fixed[i] = fixed_dynamics(i, s.fs[i], s.fs[i]);
-      // Sticking nut: friction anywhere within ±F_c, so the sample says nothing about the model.
-      s.valid[i] = std::abs(s.v[i]) > opt.min_speed_m_s ? 1 : 0;
-    }
-    // The filtered velocity smears a stop over the filter's impulse response: near a start, a
-    // stop or a reversal the friction direction is unknown (stick-slip). Keep only samples inside
-    // a run of sliding in one direction, half a filter period away from its ends.
-    {
-      const auto w = static_cast<std::size_t>(std::ceil(0.5 * P.fs_hz / P.filter_hz));
-      std::size_t i = 0;
-      while (i < n) {
-        if (!s.valid[i]) {
-          ++i;
-          continue;
-        }
-        std::size_t j = i;
-        while (j < n && s.valid[j] && sgn(s.v[j]) == sgn(s.v[i])) ++j;
-        for (std::size_t k = i; k < j; ++k)
-          if (k < i + w || k + w >= j) s.valid[k] = 0;
-        i = j;
-      }
-    }
-    for (const auto& slip : P.slips) {
-      auto i = static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), slip.first - 0.2) -
-                                        t.begin());
-      for (; i < n && t[i] < slip.first + 0.2; ++i) s.valid[i] = 0;
-    }
-  } else {
-    s.y = P.y_raw;
-    s.y_fixed.resize(n);
-    for (std::size_t i = 0; i < n; ++i) s.y_fixed[i] = fixed_dynamics(i, 0.0, 0.0);
-    s.moving_speed = 0.0;
-  }
-  // Decimation to the identification bandwidth (axis): parallel filtering of every column.
-  int nd = opt.decimation;
-  if (nd <= 0 && !actuator) {
-    // Identification bandwidth: the lowest frequency below which the acceleration (the most
-    // demanding regressor) keeps 99 % of its energy; decimate as far as the decimation filter
-    // (80 % of the new Nyquist frequency) stays above it.
-    double ea = 0;
-    for (double x : s.a) ea += x * x;
-    P.bandwidth_hz = 0.25 * P.fs_hz;
-    for (double f = 0.5; f < 0.25 * P.fs_hz; f *= 1.1) {
-      const auto af = filtfilt_butter4(s.a, f, P.fs_hz);
-      double lost = 0;
-      for (std::size_t i = 0; i < n; ++i) lost += (s.a[i] - af[i]) * (s.a[i] - af[i]);
-      if (lost <= 0.01 * ea) {
-        P.bandwidth_hz = f;
-        break;
-      }
-    }
-    nd = std::max(1, static_cast<int>(std::floor(0.4 * P.fs_hz / P.bandwidth_hz)));
-  }
-  if (nd <= 0) nd = 1;
-  P.decimation = nd;
-  if (nd > 1) {
-    P.decimated = true;
-    Signals& d = P.id;
-    d = Signals{};
-    d.actuator = actuator;
-    d.lead_m = s.lead_m;
-    d.mid_m = s.mid_m;
-    d.moving_speed = s.moving_speed;
-    for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(nd)) d.t.push_back(t[i]);
-    d.p = decimate(s.p, nd, P.fs_hz);
-    d.v = decimate(s.v, nd, P.fs_hz);
-    d.a = decimate(s.a, nd, P.fs_hz);
-    d.y = decimate(s.y, nd, P.fs_hz);
-    d.y_fixed = decimate(s.y_fixed, nd, P.fs_hz);
-    d.valid.assign(d.t.size(), 1);
-  }
+  P.y_raw = rec.column("drive_force_n");
+  P.noise_floor_n = noise_floor(P.y_raw);
+  s.valid.assign(s.size(), 1);
+  s.mid_m =
+      0.5 * (*std::min_element(s.p.begin(), s.p.end()) + *std::max_element(s.p.begin(), s.p.end()));
+  const FixedTerms fixed = fixed_terms(model, s.mid_m);
+  s.y = P.y_raw;
+  s.y_fixed.resize(s.size());
+  for (std::size_t i = 0; i < s.size(); ++i) s.y_fixed[i] = fixed.force(s, i);
+  s.moving_speed = 0.0;
+  decimate_signals(P, opt.decimation > 0 ? opt.decimation : bandwidth_decimation(P));
   return P;
 }
 
@@ -1666,11 +1579,10 @@ ModelFile corrected_model(const AxisRun& run, const Findings& J, const Fit& fina
 
 // A force-driven axis (EMPS): prepare → locate → select → findings, maps, corrected model.
 AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
-                            const ForceCalibration& cal, const ActuatorParams& act,
                             const AnalysisOptions& opt) {
   AxisRun run(rec, model, opt);
   run.progress("prepare", 0.0);
-  run.P = prepare(rec, model, cal, act, opt);
+  run.P = prepare(rec, model, opt);
   run.S = run.P.decimated ? &run.P.id : &run.P.full;
   run.folds = std::max(3, opt.folds);
   run.progress("prepare", 1.0);
@@ -1705,7 +1617,7 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& opt) {
   if (model.system == "actuator") return analyze_actuator(rec, model, cal, act, opt);
-  return analyze_axis(rec, model, cal, act, opt);
+  return analyze_axis(rec, model, opt);
 }
 
 }  // namespace maglead::analysis
