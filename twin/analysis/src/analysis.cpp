@@ -1404,7 +1404,8 @@ void locked_average(AnalysisResult& R, const Signals& S, const Residuals& res, d
       if (ii < 0 || ii >= static_cast<std::ptrdiff_t>(S.size()) ||
           !S.valid[static_cast<std::size_t>(ii)])
         continue;
-      const auto kk = static_cast<std::size_t>(k + half);
+      const int lag = k + half;  // in an int first: the sum is never negative
+      const auto kk = static_cast<std::size_t>(lag);
       acc0[kk] += d * res.before[static_cast<std::size_t>(ii)];
       acc1[kk] += d * res.after[static_cast<std::size_t>(ii)];
       cnt[kk] += 1;
