@@ -99,7 +99,7 @@ def screenshot(browser, w, h, docs):
 
 
 def main():
-    watchdog(170)
+    watchdog(260)  # five pages in chromium at two sizes; about 100 s on an idle machine
     os.makedirs(WORK, exist_ok=True)
     check(os.path.exists(CHROMIUM), f"chromium found at {CHROMIUM}")
     clean, page, out_dir = make_report("clean", "--scenario", "hand-push", "--duration", "8s", "--seed", "4")
