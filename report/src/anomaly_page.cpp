@@ -12,7 +12,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "effect_text.hpp"
+#include "analysis_part.hpp"
 #include "maglead/report/analysis_json.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/plot.hpp"
@@ -24,21 +24,6 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
 using analysis::Anomaly;
-
-constexpr const char* kStyle = R"css(
-body{font-family:system-ui,sans-serif;max-width:1150px;margin:0 auto;padding:0 12px 2em;
-  color:#222;line-height:1.4}
-h1{font-size:1.45em;margin:.6em 0 .3em}
-h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}
-table{border-collapse:collapse;margin:.5em 0;display:block;overflow-x:auto;max-width:100%}
-td,th{border:1px solid #ccc;padding:3px 8px;text-align:left;vertical-align:top}
-.ok{background:#e6f4e6;padding:.6em}.bad{background:#fbe9e7;padding:.6em}
-figure{margin:1em 0;border:1px solid #ddd;padding:8px;box-sizing:border-box;max-width:100%}
-figcaption{color:#444;font-size:.92em;margin-bottom:4px}
-.legend{font-size:.85em;min-height:1.3em;margin:2px 0 4px}
-.plot{width:100%;height:260px}.map{max-width:100%;height:auto;display:block}
-.hint,.meaning{color:#666;font-size:.9em}code{font-size:.95em}
-)css";
 
 std::string seconds(double t_s) { return number(t_s, 6); }
 
@@ -150,92 +135,10 @@ std::string where_section(const Anomaly& a, const std::string& out_dir) {
   return h.str();
 }
 
-// ---------------------------------------------------------------- section 2: missing physics
-// One line per parameter, by name (as analysis.json has them).
-std::string parameters_html(const std::string& id, const analysis::Parameters& params) {
-  std::vector<const analysis::Parameter*> sorted;
-  for (const auto& p : params) sorted.push_back(&p);
-  std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->name < b->name; });
-  std::string h;
-  for (const auto* p : sorted)
-    h += (h.empty() ? "" : "<br>") + parameter_html(id, p->name, p->value);
-  return h;
-}
-
-std::string effect_row(const analysis::EffectFinding& e) {
-  std::string h = "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" +
-                  escape_html(e.id) + "</code></td><td>" + escape_html(effect_law(e.id)) +
-                  "</td><td>" + parameters_html(e.id, e.parameters) + "</td><td>" +
-                  escape_html(e.where);
-  if (!e.finding.empty()) h += "<br>" + escape_html(e.finding);
-  for (const auto& alt : e.alternatives)
-    h += "<br>alternative: <b>" + escape_html(effect_title(alt.id)) + "</b> " +
-         parameters_html(alt.id, alt.parameters) + " (reproduces " + number(alt.explains_pct) +
-         " %)";
-  return h + "</td></tr>\n";
-}
-
-std::string physics_section(const AnalysisOutcome& o) {
-  std::string h = "<h2 id=\"physics\">2. What physics is missing</h2>\n";
-  if (o.status == AnalysisOutcome::Status::skipped)
-    return h + "<p>The analysis was not run (" + escape_html(o.reason) + ").</p>\n";
-  if (o.status == AnalysisOutcome::Status::failed)
-    return h + "<p>The analysis could not run on this recording: " + escape_html(o.reason) +
-           "</p>\n";
-  const auto& effects = o.result->findings.effects;
-  if (effects.empty())
-    return h +
-           "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
-           "significant "
-           "part of the held-out force error, so the model stays as it is.</p>\n";
-  h += "<p>The analysis compared the model with the recording in the force domain and names what "
-       "it lacks "
-       "(effects, laws and parameter names of "
-       "docs/effects.md):</p>\n<table><tr><th>effect</th><th>law</th>"
-       "<th>parameters</th><th>where, evidence</th></tr>\n";
-  for (const auto& e : effects) h += effect_row(e);
-  return h + "</table>\n";
-}
-
 // ---------------------------------------------------------------- section 3: the fit
-// The analysis's missing force at sliding samples, on the same time axis as the other plots.
-std::string fit_chart(const AnalysisOutcome& o) {
-  if (o.status != AnalysisOutcome::Status::done) return "";
-  const auto& fit = o.result->fit_over_time;
-  if (fit.curves.empty() || fit.curves.front().x.size() < 2) return "";
-  TimeChart c;
-  c.id = "fit";
-  c.title = fit.title;
-  c.caption =
-      "The force the model leaves out of the nut's balance at the samples where the nut "
-      "slides (what the analysis fits), before and after the effects it found.";
-  c.y_label = fit.y_label;
-  c.t_s = &fit.curves.front().x;
-  for (const auto& curve : fit.curves) c.series.push_back({curve.label, curve.y});
-  return time_chart_html(c);
-}
-
 std::string fit_section(const Anomaly& a, const AnalysisOutcome& o) {
   std::ostringstream h;
-  h << "<h2 id=\"fit\">3. The fit before and after</h2>\n";
-  if (o.status == AnalysisOutcome::Status::done) {
-    const auto& F = o.result->findings;
-    const auto rel = [](const analysis::FitErrors& e) { return number(e.relative_error_pct); };
-    const auto rms = [](const analysis::FitErrors& e) { return number(e.rms_n); };
-    if (F.effects.empty()) {
-      h << "<p>One fit, since nothing was added: the model's force error is " << rms(F.baseline)
-        << " N RMS (" << rel(F.baseline) << " % of the force).</p>\n";
-    } else {
-      h << "<table><tr><th>model</th><th>force error RMS [N]</th><th>relative error "
-           "[%]</th></tr>\n<tr><td>before "
-           "(the model as configured)</td><td>"
-        << rms(F.baseline) << "</td><td>" << rel(F.baseline)
-        << "</td></tr>\n<tr><td>after (with the effects "
-        << "above)</td><td>" << rms(F.final_fit) << "</td><td>" << rel(F.final_fit)
-        << "</td></tr></table>\n";
-    }
-  }
-  h << fit_chart(o);
+  h << "<h2 id=\"fit\">3. The fit before and after</h2>\n" << fit_part(o);
   auto force = chart_of(
       a, "force", "Output force: setpoint, load cell and estimates",
       "The load cell as output force (−load force), the controller's setpoint where it logged "
@@ -267,19 +170,6 @@ std::string window_table(const std::vector<analysis::TimeWindow>& w, const std::
   for (const auto& x : w)
     h += "<tr><td>" + seconds(x.start_s) + "</td><td>" + seconds(x.end_s) + "</td></tr>\n";
   return h + "</table>\n";
-}
-
-std::string analysis_events(const AnalysisOutcome& o) {
-  if (o.status != AnalysisOutcome::Status::done) return "";
-  std::string h;
-  for (const auto& e : o.result->findings.events) {
-    if (e.type != "external_disturbance") continue;
-    h += "<tr><td>" + seconds(e.t_s) + "</td><td>" + number(e.duration_s.value_or(NAN)) +
-         "</td><td>" + number(e.force_n.value_or(NAN)) + "</td></tr>\n";
-  }
-  if (h.empty()) return "";
-  return "<table><tr><th>force pulse at [s]</th><th>lasting [s]</th><th>force [N]</th></tr>\n" + h +
-         "</table>\n";
 }
 
 std::string events_section(const Anomaly& a, const AnalysisOutcome& o) {
@@ -396,12 +286,8 @@ void write_anomaly_report(const std::string& out_dir, const std::string& recordi
   fs::create_directories(out_dir);
   const std::string headline = anomaly_headline(a, o);
   std::ostringstream h;
-  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
-       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>maglead "
-       "anomaly report: "
-    << escape_html(fs::path(recording).filename().string()) << "</title>\n<style>" << kStyle
-    << "</style>\n"
-    << time_chart_head()
+  h << "<!DOCTYPE html>\n<html lang=\"en\"><head>"
+    << page_head("maglead anomaly report: " + fs::path(recording).filename().string())
     << "</head>\n<body>\n<h1>Twin versus actual: anomaly report</h1>\n<p>Recording <code title=\""
     << escape_html(recording) << "\">" << escape_html(fs::path(recording).filename().string())
     << "</code>: " << a.trace.t_s.size() << " samples, " << number(a.duration_s, 4) << " s at "
@@ -413,8 +299,8 @@ void write_anomaly_report(const std::string& out_dir, const std::string& recordi
     << escape_html(headline)
     << "</b></p>\n<p class=\"hint\">Plots: drag to zoom, shift-drag to pan, double-click "
     << "to reset; every time plot follows the others. Values show on hover.</p>\n"
-    << where_section(a, out_dir) << physics_section(o) << fit_section(a, o) << events_section(a, o)
-    << time_chart_tail() << "</body></html>\n";
+    << where_section(a, out_dir) << physics_section(o, 2) << fit_section(a, o)
+    << events_section(a, o) << time_chart_tail() << "</body></html>\n";
   write_text(fs::path(out_dir) / "index.html", h.str());
   write_text(fs::path(out_dir) / "report.json", json_of(recording, a, o, headline).dump(2) + "\n");
 }

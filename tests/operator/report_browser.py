@@ -6,7 +6,9 @@ time plot has data in every series, tick labels and axis labels, its legend insi
 and off the plot, nothing overlaps, nothing is wider than the window, the map decodes, zooming
 one chart zooms the others, hovering puts values into the legend. The reports themselves: the
 overload pulses' step-outs are found, the clean run has none and its analysis adds nothing (the
-page says so and shows one fit), the coupling drift is found and named.
+page says so and shows one fit), the coupling drift is found and named. `maglead analyze` writes
+the same analysis part on a page of its own: checked on the drifting actuator and on the real
+EMPS recording (an axis), with the same harness.
 
 Usage: report_browser.py MAGLEAD_BIN CONFIG_DIR WORK_DIR [--screenshots DOCS_DIR]"""
 import json
@@ -43,13 +45,26 @@ def make_report(name, *sim_args, analysis=True):
     return summary, page, out_dir
 
 
+def make_analyze_page(name, rec, *args):
+    """`maglead analyze` on a recording: its analysis.json and its page."""
+    out_dir = os.path.join(WORK, "analyze_" + name)
+    rc, out, err = run(MAGLEAD, "analyze", "--recording", rec, "--out", out_dir, *args, timeout=120)
+    check(rc == 0, f"analyze {name}: {out.strip()[-200:]} {err.strip()[-300:]}")
+    check(not os.path.exists(os.path.join(out_dir, "report.html")), f"analyze {name}: one page, no report.html")
+    with open(os.path.join(out_dir, "analysis.json")) as f:
+        findings = json.load(f)
+    with open(os.path.join(out_dir, "index.html"), encoding="utf-8") as f:
+        page = f.read()
+    return findings, page, out_dir
+
+
 def visible_text(page):
     """The page's text outside <script> and <style>: what a reader sees."""
     text = re.sub(r"<(script|style)\b.*?</\1>", "", page, flags=re.S)
     return re.sub(r"<[^>]+>", " ", text)
 
 
-def in_browser(name, page, out_dir, docs=None):
+def in_browser(name, page, out_dir, docs=None, min_charts=4):
     """Runs the harness at both sizes (and writes the screenshots into docs)."""
     check("report_harness" not in page and "maglead.graphs.push" in page, f"{name}: the shipped page has no test code")
     with open(HARNESS, encoding="utf-8") as f:
@@ -64,7 +79,7 @@ def in_browser(name, page, out_dir, docs=None):
             r = browser.evaluate(harness)
             check(r["viewport"] == [w, h], f"{name}: laid out at {r['viewport']} for {w}x{h}")
             check(r["problems"] == [], f"{name} {w}x{h}: {len(r['charts'])} charts laid out cleanly {r['problems'][:6]}")
-            check(len(r["charts"]) >= 4 and all(c and c["rows"] >= 10 for c in r["charts"]),
+            check(len(r["charts"]) >= min_charts and all(c and c["rows"] >= 10 for c in r["charts"]),
                   f"{name} {w}x{h}: charts with data {[(c['id'], c['rows']) for c in r['charts'] if c]}")
             z = r["zoom"]
             check(z is not None and z["zoomed"][1] - z["zoomed"][0] < 0.1 * (z["full"][1] - z["full"][0]),
@@ -84,7 +99,7 @@ def screenshot(browser, w, h, docs):
 
 
 def main():
-    watchdog(170)
+    watchdog(260)  # five pages in chromium at two sizes; about 100 s on an idle machine
     os.makedirs(WORK, exist_ok=True)
     check(os.path.exists(CHROMIUM), f"chromium found at {CHROMIUM}")
     clean, page, out_dir = make_report("clean", "--scenario", "hand-push", "--duration", "8s", "--seed", "4")
@@ -117,6 +132,26 @@ def main():
           "drift: the parameter with its unit, the fit before and after")
     check(not [w for w in FORBIDDEN if w in text], "drift: no test strings or raw JSON in the text")
     in_browser("drift", page, out_dir, SCREENSHOTS)
+    report_physics = text[text.index("What physics is missing"):text.index("3. The fit before")]
+
+    # analyze: the same analysis part (same words, same fit chart), on its own page.
+    found, page, out_dir = make_analyze_page("drift", os.path.join(WORK, "drift.csv"), "--config", CONFIG)
+    text = visible_text(page)
+    check([e["id"] for e in found["effects"]] == effects, f"analyze names what report names {effects}")
+    check("What physics is missing" in text and "before (the model" in text and "gain_change_per_min" in text,
+          "analyze drift: the physics table and the fit before and after, as in the report")
+    analyze_physics = text[text.index("What physics is missing"):text.index("2. The fit before")]
+    check(analyze_physics == report_physics, "analyze drift: the physics section reads as the report's")
+    check(not [w for w in FORBIDDEN if w in text], "analyze drift: no test strings or raw JSON in the text")
+    in_browser("analyze drift", page, out_dir, min_charts=1)
+
+    emps = os.path.join(os.path.dirname(os.path.abspath(CONFIG)), "data", "emps", "emps_estimation.csv")
+    found, page, out_dir = make_analyze_page("emps", emps, "--model", os.path.join(CONFIG, "emps_baseline.toml"))
+    text = visible_text(page)
+    check(found["effects"][0]["id"] == "coulomb_friction" and "asymmetric friction" in text
+          and "held-out gain" in text, "analyze EMPS: the friction it finds, with its evidence")
+    check(page.count("data:image/png;base64,") >= 4, "analyze EMPS: the residual maps are in the page")
+    in_browser("analyze emps", page, out_dir, min_charts=1)
     finish()
 
 

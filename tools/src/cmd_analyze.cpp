@@ -17,8 +17,8 @@ void add_analyze(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "analyze",
       "Compare a baseline model with a recording, locate the misfit, explain it by named "
-      "physical effects chosen on held-out data, write report.html, analysis.json and the "
-      "corrected model");
+      "physical effects chosen on held-out data; write the report page index.html (the analysis "
+      "part of `maglead report`'s page), analysis.json and the corrected model");
   struct Opts {
     std::string recording, model, out, calibration, config = default_config_dir();
     analysis::AnalysisOptions a;
@@ -112,7 +112,7 @@ void add_analyze(CLI::App& app) {
                 J.final_fit.full_rate_relative_error_pct);
     std::printf("held-out:");
     for (const auto& v : J.validation) std::printf("  %s %.4g N", v.model.c_str(), v.heldout_rms_n);
-    std::printf("\nwrote %s/report.html, analysis.json, model_corrected.toml\n", o->out.c_str());
+    std::printf("\nwrote %s/index.html, analysis.json, model_corrected.toml\n", o->out.c_str());
   });
 }
 

@@ -14,26 +14,16 @@
 #include <stdexcept>
 
 #include "maglead/analysis/signal.hpp"
+#include "statistics.hpp"
 
 namespace maglead::analysis::actuator {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
 using effects::State;
-
-double median_of(std::vector<double> x) {
-  if (x.empty()) return 0.0;
-  const auto mid = x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2);
-  std::nth_element(x.begin(), mid, x.end());
-  return *mid;
-}
-
-double robust_sigma(std::vector<double> x) {
-  if (x.empty()) return 0.0;
-  const double m = median_of(x);
-  for (double& v : x) v = std::abs(v - m);
-  return 1.4826 * median_of(x);
-}
+using stats::median_of;
+using stats::require_finite;
+using stats::robust_sigma;
 
 double sample_rate(const Recording& rec) {
   if (auto s = rec.meta("sample_rate_hz")) {
@@ -66,13 +56,6 @@ struct Coupling {
     return -cal.periodic.slope_n_per_rad(phi);
   }
 };
-
-void require_finite(const Recording& rec, const std::vector<double>& x, const std::string& name) {
-  for (std::size_t i = 0; i < x.size(); ++i)
-    if (!std::isfinite(x[i]))
-      throw RecordingError(rec.path + ": column '" + name + "' has no number at data row " +
-                           std::to_string(i + 1));
-}
 
 // Step-outs from the raw phase: a slip carries φ past ±π from the branch it sat on.
 std::vector<SlipEvent> find_slips(const std::vector<double>& t, const std::vector<double>& phi) {
@@ -284,28 +267,24 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
 // ------------------------------------------------------------------------------- fitting
 namespace {
 
+using stats::Fit;
+using stats::Grams;
+using stats::heldout;
+using stats::partial_r2;
+using stats::solve;
+using stats::sse;
+using stats::t_statistic;
+using stats::total;
+
 struct Column {
   const effects::Effect* effect;
   double shape;
   int index;  // within the effect's columns
 };
 
-// Per-segment normal equations over a set of columns; a fit is a small solve on their sums.
-struct Grams {
-  std::vector<Eigen::MatrixXd> xx;
-  std::vector<Eigen::VectorXd> xr;
-  std::vector<double> rr, yy;  // residual and measured force, sums of squares
-  std::vector<std::size_t> n;
-};
-
 Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) {
   const auto m = static_cast<Eigen::Index>(cols.size());
-  Grams g;
-  g.xx.assign(static_cast<std::size_t>(folds), Eigen::MatrixXd::Zero(m, m));
-  g.xr.assign(static_cast<std::size_t>(folds), Eigen::VectorXd::Zero(m));
-  g.rr.assign(static_cast<std::size_t>(folds), 0.0);
-  g.yy.assign(static_cast<std::size_t>(folds), 0.0);
-  g.n.assign(static_cast<std::size_t>(folds), 0);
+  Grams g(static_cast<std::size_t>(folds), m);
   Eigen::VectorXd x(m);
   double buf[8];
   for (std::size_t i = 0; i < P.states.size(); ++i) {
@@ -319,104 +298,10 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
     }
     auto f = static_cast<std::size_t>(
         std::min<double>(folds - 1, std::floor(folds * s.t_s / P.duration_s)));
-    g.xx[f].selfadjointView<Eigen::Lower>().rankUpdate(x);
-    g.xr[f] += x * P.residual[i];
-    g.rr[f] += P.residual[i] * P.residual[i];
-    g.yy[f] += s.load_n * s.load_n;
-    ++g.n[f];
+    g.add_row(f, x, P.residual[i], s.load_n);
   }
-  for (auto& a : g.xx) a = a.selfadjointView<Eigen::Lower>();
+  g.symmetrize();
   return g;
-}
-
-struct Fit {
-  std::vector<int> idx;
-  Eigen::VectorXd theta;
-};
-
-Fit solve(const Grams& g, const std::vector<int>& idx, int skip_fold) {
-  const auto m = static_cast<Eigen::Index>(idx.size());
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(m, m);
-  Eigen::VectorXd b = Eigen::VectorXd::Zero(m);
-  for (std::size_t f = 0; f < g.xx.size(); ++f) {
-    if (static_cast<int>(f) == skip_fold) continue;
-    for (Eigen::Index r = 0; r < m; ++r) {
-      b[r] += g.xr[f][idx[static_cast<std::size_t>(r)]];
-      for (Eigen::Index c = 0; c < m; ++c)
-        A(r, c) += g.xx[f](idx[static_cast<std::size_t>(r)], idx[static_cast<std::size_t>(c)]);
-    }
-  }
-  // A whisper of ridge on the scaled normal equations keeps collinear columns finite.
-  for (Eigen::Index r = 0; r < m; ++r) A(r, r) += 1e-9 * A(r, r) + 1e-300;
-  Fit fit{idx, m ? Eigen::VectorXd(A.ldlt().solve(b)) : Eigen::VectorXd()};
-  return fit;
-}
-
-double sse(const Grams& g, const Fit& fit, std::size_t f) {
-  double s = g.rr[f];
-  const auto m = static_cast<Eigen::Index>(fit.idx.size());
-  for (Eigen::Index r = 0; r < m; ++r) {
-    s -= 2 * fit.theta[r] * g.xr[f][fit.idx[static_cast<std::size_t>(r)]];
-    for (Eigen::Index c = 0; c < m; ++c)
-      s += fit.theta[r] * fit.theta[c] *
-           g.xx[f](fit.idx[static_cast<std::size_t>(r)], fit.idx[static_cast<std::size_t>(c)]);
-  }
-  return std::max(0.0, s);
-}
-
-// Held-out error per segment: fit on the others, score on this one.
-std::vector<double> heldout(const Grams& g, const std::vector<int>& idx) {
-  std::vector<double> out(g.xx.size(), 0.0);
-  for (std::size_t f = 0; f < g.xx.size(); ++f) {
-    if (g.n[f] == 0) continue;
-    out[f] = sse(g, solve(g, idx, static_cast<int>(f)), f);
-  }
-  return out;
-}
-
-// Mean over its standard error (one-sample t); large when every value is positive alike.
-double t_statistic(const std::vector<double>& x) {
-  const double n = static_cast<double>(x.size());
-  if (n < 2) return 0.0;
-  const double mean = std::accumulate(x.begin(), x.end(), 0.0) / n;
-  double var = 0;
-  for (double v : x) var += (v - mean) * (v - mean);
-  var /= n - 1;
-  return var > 0 ? mean / std::sqrt(var / n) : (mean > 0 ? 1e9 : 0.0);
-}
-
-double total(const std::vector<double>& x) { return std::accumulate(x.begin(), x.end(), 0.0); }
-
-// Share of `a`'s fitted contribution (beyond `base`) that columns `b` reproduce: partial R².
-double partial_r2(const Grams& g, const std::vector<int>& base, const std::vector<int>& a,
-                  const Eigen::VectorXd& wa, const std::vector<int>& b) {
-  std::vector<int> all = base;
-  all.insert(all.end(), a.begin(), a.end());
-  all.insert(all.end(), b.begin(), b.end());
-  const auto m = static_cast<Eigen::Index>(all.size());
-  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(m, m);
-  for (const auto& xx : g.xx)
-    for (Eigen::Index r = 0; r < m; ++r)
-      for (Eigen::Index c = 0; c < m; ++c) S(r, c) += xx(all[r], all[c]);
-  const auto nb = static_cast<Eigen::Index>(base.size()), na = static_cast<Eigen::Index>(a.size()),
-             nn = static_cast<Eigen::Index>(b.size());
-  // Residualise on `base`, then ask how much of z = X_a wa the span of X_b explains.
-  Eigen::MatrixXd Sbb = S.topLeftCorner(nb, nb);
-  Eigen::MatrixXd R = S;
-  if (nb > 0) {
-    Eigen::MatrixXd Sbr = S.topRows(nb);
-    Eigen::LDLT<Eigen::MatrixXd> ld(Sbb + 1e-12 * Eigen::MatrixXd::Identity(nb, nb) *
-                                              (Sbb.trace() / static_cast<double>(nb) + 1e-300));
-    R = S - Sbr.transpose() * ld.solve(Sbr);
-  }
-  const Eigen::MatrixXd Raa = R.block(nb, nb, na, na), Rab = R.block(nb, nb + na, na, nn),
-                        Rbb = R.block(nb + na, nb + na, nn, nn);
-  const double zz = wa.dot(Raa * wa);
-  if (!(zz > 0)) return 0.0;
-  const Eigen::VectorXd bz = Rab.transpose() * wa;
-  Eigen::LDLT<Eigen::MatrixXd> lb(Rbb + 1e-12 * Eigen::MatrixXd::Identity(nn, nn) *
-                                            (Rbb.trace() / static_cast<double>(nn) + 1e-300));
-  return std::clamp(bz.dot(lb.solve(bz)) / zz, 0.0, 1.0);
 }
 
 // Standard error of a chosen term's parameters from the held-out segments: the fit without

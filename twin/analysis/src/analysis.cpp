@@ -9,18 +9,23 @@
 #include <map>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/signal.hpp"
-#include "twin_check.hpp"
+#include "statistics.hpp"
 
 namespace maglead::analysis {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+using stats::Fit;
+using stats::partial_r2;
+using stats::robust_sigma;
+using stats::sse;
 
 // ---------------------------------------------------------------- columns and candidates
 enum Col : int {
@@ -188,31 +193,10 @@ double median_step(const std::vector<double>& t) {
   return d[d.size() / 2];
 }
 
-void require_finite(const Recording& rec, const std::string& name) {
-  const auto& c = rec.column(name);
-  for (std::size_t i = 0; i < c.size(); ++i)
-    if (!std::isfinite(c[i]))
-      throw RecordingError(rec.path + ": data row " + std::to_string(i + 1) + ", column '" + name +
-                           "': missing value (the analysis needs every sample)");
-}
-
-double robust_sigma(std::vector<double> x) {
-  if (x.empty()) return 0.0;
-  auto mid = x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2);
-  std::nth_element(x.begin(), mid, x.end());
-  const double med = *mid;
-  for (double& e : x) e = std::abs(e - med);
-  std::nth_element(x.begin(), mid, x.end());
-  return 1.4826 * *mid;
-}
-
 // ---------------------------------------------------------------- Gram per segment
-struct Grams {
-  std::vector<int> cols;            // column kinds, in matrix order
-  std::vector<Eigen::MatrixXd> xx;  // per fold
-  std::vector<Eigen::VectorXd> xr;  // X' r, r = y − y_fixed
-  std::vector<double> rr, yy;       // r' r, y' y
-  std::vector<std::size_t> n;
+// The shared per-segment normal equations, with the column kinds in matrix order.
+struct Grams : stats::Grams {
+  std::vector<int> cols;
   int index(int col) const {
     for (std::size_t j = 0; j < cols.size(); ++j)
       if (cols[j] == col) return static_cast<int>(j);
@@ -222,22 +206,18 @@ struct Grams {
 
 Grams accumulate(const Signals& s, const std::vector<int>& cols, int folds,
                  const std::function<void(double)>& progress) {
-  Grams g;
-  g.cols = cols;
   const auto m = static_cast<Eigen::Index>(cols.size());
+  Grams g{stats::Grams(static_cast<std::size_t>(folds), m), cols};
   const std::size_t n = s.size();
   constexpr std::size_t kChunk = 2048;
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> x(kChunk, m);
+  stats::Grams::RowMatrix x(kChunk, m);
   Eigen::VectorXd r(kChunk);
   for (int f = 0; f < folds; ++f) {
     const std::size_t lo = n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
     const std::size_t hi = n * static_cast<std::size_t>(f + 1) / static_cast<std::size_t>(folds);
-    Eigen::MatrixXd xx = Eigen::MatrixXd::Zero(m, m);
-    Eigen::VectorXd xr = Eigen::VectorXd::Zero(m);
-    double rr = 0, yy = 0;
-    std::size_t used = 0;
     for (std::size_t i0 = lo; i0 < hi; i0 += kChunk) {
       Eigen::Index k = 0;
+      double yy = 0;
       for (std::size_t i = i0; i < std::min(hi, i0 + kChunk); ++i) {
         if (!s.valid[i]) continue;
         fill_row(s, i, cols, x.row(k).data());
@@ -245,56 +225,12 @@ Grams accumulate(const Signals& s, const std::vector<int>& cols, int folds,
         yy += s.y[i] * s.y[i];
         ++k;
       }
-      used += static_cast<std::size_t>(k);
-      xx.selfadjointView<Eigen::Lower>().rankUpdate(x.topRows(k).transpose());
-      xr.noalias() += x.topRows(k).transpose() * r.head(k);
-      rr += r.head(k).squaredNorm();
+      g.add_rows(static_cast<std::size_t>(f), x.topRows(k), r.head(k), yy);
     }
-    g.xx.push_back(xx.selfadjointView<Eigen::Lower>());
-    g.xr.push_back(xr);
-    g.rr.push_back(rr);
-    g.yy.push_back(yy);
-    g.n.push_back(used);
     if (progress) progress(static_cast<double>(f + 1) / folds);
   }
+  g.symmetrize();
   return g;
-}
-
-struct Fit {
-  Eigen::VectorXd theta;  // in the order of `idx`
-  std::vector<int> idx;   // positions in Grams::cols
-};
-
-// Least squares on the folds flagged in `use`, with a tiny ridge on scaled columns so that
-// collinear columns (an alternative already spanned) do not blow up.
-Fit solve(const Grams& g, const std::vector<int>& idx, const std::vector<bool>& use) {
-  const auto m = static_cast<Eigen::Index>(idx.size());
-  Fit fit{Eigen::VectorXd::Zero(m), idx};
-  if (m == 0) return fit;
-  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m, m);
-  Eigen::VectorXd b = Eigen::VectorXd::Zero(m);
-  for (std::size_t f = 0; f < g.xx.size(); ++f) {
-    if (!use[f]) continue;
-    for (Eigen::Index i = 0; i < m; ++i) {
-      b[i] += g.xr[f][idx[i]];
-      for (Eigen::Index j = 0; j < m; ++j) a(i, j) += g.xx[f](idx[i], idx[j]);
-    }
-  }
-  Eigen::VectorXd d = a.diagonal().cwiseMax(1e-300).cwiseSqrt();
-  Eigen::MatrixXd as = d.asDiagonal().inverse() * a * d.asDiagonal().inverse();
-  as.diagonal().array() += 1e-9;
-  fit.theta = d.asDiagonal().inverse() * as.ldlt().solve(d.asDiagonal().inverse() * b);
-  return fit;
-}
-
-double sse(const Grams& g, const Fit& fit, std::size_t f) {
-  double e = g.rr[f];
-  for (Eigen::Index i = 0; i < fit.theta.size(); ++i) {
-    e -= 2 * fit.theta[i] * g.xr[f][fit.idx[i]];
-    for (Eigen::Index j = 0; j < fit.theta.size(); ++j)
-      e += fit.theta[i] * fit.theta[j] * g.xx[f](fit.idx[i], fit.idx[j]);
-  }
-  return std::max(e, 0.0);
 }
 
 struct Score {
@@ -303,55 +239,12 @@ struct Score {
 };
 
 Score heldout(const Grams& g, const std::vector<int>& idx) {
-  Score s;
-  const std::size_t k = g.xx.size();
-  for (std::size_t f = 0; f < k; ++f) {
-    std::vector<bool> use(k, true);
-    use[f] = false;
-    const double e = sse(g, solve(g, idx, use), f);
-    s.heldout_sse.push_back(e);
-    s.total += e;
-  }
+  Score s{stats::heldout(g, idx), 0.0};
+  s.total = stats::total(s.heldout_sse);
   return s;
 }
 
-Fit fit_all(const Grams& g, const std::vector<int>& idx) {
-  return solve(g, idx, std::vector<bool>(g.xx.size(), true));
-}
-
-// Fraction of `target`'s fitted contribution (combination w of columns tw) that columns `alt`
-// reproduce after both are cleared of the columns `base`: partial R² from the Grams.
-double partial_r2(const Grams& g, const std::vector<int>& base, const std::vector<int>& tw,
-                  const Eigen::VectorXd& w, const std::vector<int>& alt) {
-  std::vector<int> all = base;
-  all.insert(all.end(), tw.begin(), tw.end());
-  all.insert(all.end(), alt.begin(), alt.end());
-  const auto m = static_cast<Eigen::Index>(all.size());
-  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m, m);
-  for (const auto& xx : g.xx)
-    for (Eigen::Index i = 0; i < m; ++i)
-      for (Eigen::Index j = 0; j < m; ++j) a(i, j) += xx(all[i], all[j]);
-  Eigen::VectorXd d = a.diagonal().cwiseMax(1e-300).cwiseSqrt();
-  a = d.asDiagonal().inverse() * a * d.asDiagonal().inverse();
-  const auto nb = static_cast<Eigen::Index>(base.size());
-  const auto nt = static_cast<Eigen::Index>(tw.size());
-  const auto na = static_cast<Eigen::Index>(alt.size());
-  // Residualise on base (Schur complement).
-  Eigen::MatrixXd s = a.bottomRightCorner(m - nb, m - nb);
-  if (nb > 0) {
-    Eigen::MatrixXd abb = a.topLeftCorner(nb, nb);
-    abb.diagonal().array() += 1e-9;
-    const Eigen::MatrixXd abo = a.topRightCorner(nb, m - nb);
-    s -= abo.transpose() * abb.ldlt().solve(abo);
-  }
-  Eigen::VectorXd ws = d.segment(nb, nt).cwiseProduct(w);  // w in scaled units
-  const double tt = ws.dot(s.topLeftCorner(nt, nt) * ws);
-  if (!(tt > 0)) return 0.0;
-  Eigen::MatrixXd saa = s.bottomRightCorner(na, na);
-  saa.diagonal().array() += 1e-9;
-  const Eigen::VectorXd sat = s.bottomLeftCorner(na, nt) * ws;
-  return std::clamp(sat.dot(saa.ldlt().solve(sat)) / tt, 0.0, 1.0);
-}
+Fit fit_all(const Grams& g, const std::vector<int>& idx) { return stats::solve(g, idx); }
 
 // ---------------------------------------------------------------- binned maps
 struct Binned {
@@ -473,16 +366,127 @@ ModelFile actuator_model_from_config(const ActuatorParams& act) {
 
 namespace {
 
-Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibration& cal,
-                 const ActuatorParams& act, const AnalysisOptions& opt) {
-  Prepared P;
-  const bool actuator = model.system == "actuator";
-  const std::string pos_col = actuator ? "nut_pos_m" : "pos_m";
-  const std::string force_col = actuator ? "load_force_n" : "drive_force_n";
-  for (const auto& c : {std::string("t_s"), pos_col, force_col}) {
-    rec.column(c);  // throws naming the file and column
-    require_finite(rec, c);
+// The baseline's fixed force at every sample of a force-driven axis: the known dynamics plus
+// every term the model file switches on, in the effect library's names (totals for mass and
+// friction). Forces on the moving part along +p (offset, spring, ripple) are what the drive force
+// does not have to supply: they subtract.
+struct FixedTerms {
+  const ModelTerm *st = nullptr, *sp = nullptr, *pr = nullptr;
+  double mass = 0, visc = 0, coul = 0;  // fixed values (0: fitted instead)
+  double coul_pos = 0, coul_neg = 0, visc_pos = 0, visc_neg = 0;
+  double strib_c = 0, strib_n = 0, strib_v = 1.0, offset = 0;
+  double spring_k = 0, spring_c = 0, pr_n = 0, pr_per = 1.0, pr_ph = 0;
+
+  double force(const Signals& s, std::size_t i) const {
+    const double v = s.v[i];
+    double y = mass * s.a[i] + visc * v + (v > 0 ? visc_pos : visc_neg) * v;
+    double fc = (st ? strib_c : coul) + (v > 0 ? coul_pos : v < 0 ? coul_neg : 0.0);
+    if (st) {
+      const double r = v / strib_v;
+      fc += strib_n * std::exp(-r * r);
+    }
+    y += sgn(v) * fc;
+    double other = offset;
+    if (sp) other -= spring_k * (s.p[i] - spring_c);
+    if (pr) other += pr_n * std::sin(2 * kPi * s.p[i] / pr_per + pr_ph);
+    return y - other;
   }
+};
+
+FixedTerms fixed_terms(const ModelFile& model, double mid_m) {
+  auto term_value = [&](const char* id, const char* key, double fallback) {
+    const auto* term = model.find(id);
+    return term ? term->get(key, fallback) : fallback;
+  };
+  FixedTerms f;
+  f.st = model.find("stribeck_friction");
+  f.sp = model.find("spring");
+  f.pr = model.find("position_ripple");
+  const auto* as = model.find("asymmetric_friction");
+  if (!model.fit.count("nut_mass_kg"))
+    f.mass = term_value("mass_error", "nut_mass_kg", model.nut_mass_kg);
+  if (!model.fit.count("viscous_n_s_per_m"))
+    f.visc = term_value("viscous_friction", "viscous_n_s_per_m", model.viscous_n_s_per_m);
+  if (!model.fit.count("coulomb_n"))
+    f.coul = term_value("coulomb_friction", "coulomb_n", model.coulomb_n);
+  // Direction-dependent friction: its levels replace the symmetric ones in their direction.
+  if (as) {
+    f.coul_pos = as->get("coulomb_pos_n", f.coul) - f.coul;
+    f.coul_neg = as->get("coulomb_neg_n", f.coul) - f.coul;
+    f.visc_pos = as->get("viscous_pos_n_s_per_m", f.visc) - f.visc;
+    f.visc_neg = as->get("viscous_neg_n_s_per_m", f.visc) - f.visc;
+  }
+  if (f.st) {
+    f.strib_c = f.st->get("coulomb_n", f.coul);
+    f.strib_n = f.st->get("breakaway_n", f.strib_c) - f.strib_c;
+    f.strib_v = f.st->get("stribeck_velocity_m_s", 2e-3);
+  }
+  f.offset = term_value("offset", "offset_n", 0.0);
+  if (f.sp) {
+    f.spring_k = f.sp->get("stiffness_n_per_m", 0.0);
+    f.spring_c = f.sp->get("rest_position_m", mid_m);
+  }
+  if (f.pr) {
+    f.pr_n = f.pr->get("amplitude_n", 0.0);
+    f.pr_per = f.pr->get("period_m", 5e-3);
+    f.pr_ph = f.pr->get("phase_rad", 0.0);
+  }
+  return f;
+}
+
+// A noise floor from the force's sample-to-sample roughness (white noise: var(Δ²y) = 6σ²).
+double noise_floor(const std::vector<double>& y) {
+  std::vector<double> d2;
+  for (std::size_t i = 1; i + 1 < y.size(); i += 1) d2.push_back(y[i + 1] - 2 * y[i] + y[i - 1]);
+  return robust_sigma(d2) / std::sqrt(6.0);
+}
+
+// Identification bandwidth: the lowest frequency below which the acceleration (the most
+// demanding regressor) keeps 99 % of its energy; decimate as far as the decimation filter
+// (80 % of the new Nyquist frequency) stays above it.
+int bandwidth_decimation(Prepared& P) {
+  const auto& a = P.full.a;
+  double ea = 0;
+  for (double x : a) ea += x * x;
+  P.bandwidth_hz = 0.25 * P.fs_hz;
+  for (double f = 0.5; f < 0.25 * P.fs_hz; f *= 1.1) {
+    const auto af = filtfilt_butter4(a, f, P.fs_hz);
+    double lost = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) lost += (a[i] - af[i]) * (a[i] - af[i]);
+    if (lost <= 0.01 * ea) {
+      P.bandwidth_hz = f;
+      break;
+    }
+  }
+  return std::max(1, static_cast<int>(std::floor(0.4 * P.fs_hz / P.bandwidth_hz)));
+}
+
+// Decimation to the identification bandwidth: parallel filtering of every signal.
+void decimate_signals(Prepared& P, int nd) {
+  P.decimation = nd;
+  if (nd <= 1) return;
+  const Signals& s = P.full;
+  P.decimated = true;
+  Signals& d = P.id;
+  d = Signals{};
+  d.lead_m = s.lead_m;
+  d.mid_m = s.mid_m;
+  d.moving_speed = s.moving_speed;
+  for (std::size_t i = 0; i < s.size(); i += static_cast<std::size_t>(nd)) d.t.push_back(s.t[i]);
+  d.p = decimate(s.p, nd, P.fs_hz);
+  d.v = decimate(s.v, nd, P.fs_hz);
+  d.a = decimate(s.a, nd, P.fs_hz);
+  d.y = decimate(s.y, nd, P.fs_hz);
+  d.y_fixed = decimate(s.y_fixed, nd, P.fs_hz);
+  d.valid.assign(d.t.size(), 1);
+}
+
+// A force-driven axis: position filtered zero-phase, velocity and acceleration by central
+// differences, the drive force as logged, the baseline's fixed part at every sample.
+Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOptions& opt) {
+  Prepared P;
+  for (const char* c : {"t_s", "pos_m", "drive_force_n"})
+    stats::require_finite(rec, rec.column(c), c);  // column(): throws naming file and column
   const auto& t = rec.column("t_s");
   if (t.size() < 200)
     throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(t.size()) +
@@ -490,222 +494,23 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const ForceCalibr
   const double dt = median_step(t);
   if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
   P.fs_hz = 1.0 / dt;
-  P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : (actuator ? 20.0 : 100.0);
+  P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : 100.0;
   Signals& s = P.full;
-  s.actuator = actuator;
   s.t = t;
-  std::vector<double> pos = rec.column(pos_col);
-  if (actuator) {
-    // Incremental encoders floor: the nut is on average half a count above the count.
-    for (double& p : pos) p += 0.5 * act.linear_count_m;
-  }
-  s.p = filtfilt_butter4(pos, P.filter_hz, P.fs_hz);
+  s.p = filtfilt_butter4(rec.column("pos_m"), P.filter_hz, P.fs_hz);
   s.v = central_diff(s.p, dt);
   s.a = central_diff2(s.p, dt);
-  P.y_raw = rec.column(force_col);
-  // A noise floor from the force's sample-to-sample roughness (white noise: var(Δ²y) = 6σ²).
-  {
-    std::vector<double> d2;
-    for (std::size_t i = 1; i + 1 < P.y_raw.size(); i += 1)
-      d2.push_back(P.y_raw[i + 1] - 2 * P.y_raw[i] + P.y_raw[i - 1]);
-    P.noise_floor_n = robust_sigma(d2) / std::sqrt(6.0);
-  }
-  const std::size_t n = s.size();
-  s.valid.assign(n, 1);
-  double pmin = *std::min_element(s.p.begin(), s.p.end());
-  double pmax = *std::max_element(s.p.begin(), s.p.end());
-  s.mid_m = actuator ? 0.5 * (act.stroke_min_m + act.stroke_max_m) : 0.5 * (pmin + pmax);
-
-  auto term_value = [&](const char* id, const char* key, double fallback) {
-    const auto* term = model.find(id);
-    return term ? term->get(key, fallback) : fallback;
-  };
-  const bool fit_m = model.fit.count("nut_mass_kg") > 0,
-             fit_c = model.fit.count("viscous_n_s_per_m") > 0,
-             fit_f = model.fit.count("coulomb_n") > 0;
-  // Fixed part of the baseline: known dynamics plus any extra term the model file switches on
-  // (force on the moving part along +p enters the measured force with the opposite sign on the
-  // actuator's load cell and with the same sign in an axis' drive force).
-  // Forces on the moving part along +p (offset, spring, ripple) are what the drive force does
-  // not have to supply, and what the actuator's load cell does not see: both subtract.
-  const double other_sign = -1.0;
-  // Term values resolved once, in the effect library's names (totals for mass and friction).
-  const auto* st = model.find("stribeck_friction");
-  const auto* sp = model.find("spring");
-  const auto* pr = model.find("position_ripple");
-  const auto* ar = model.find("angle_ripple");
-  const auto* ee = model.find("end_effect");
-  const auto* as = model.find("asymmetric_friction");
-  const double mass_fixed =
-      fit_m ? 0.0 : term_value("mass_error", "nut_mass_kg", model.nut_mass_kg);
-  const double visc_fixed =
-      fit_c ? 0.0 : term_value("viscous_friction", "viscous_n_s_per_m", model.viscous_n_s_per_m);
-  const double coul_fixed =
-      fit_f ? 0.0 : term_value("coulomb_friction", "coulomb_n", model.coulomb_n);
-  // Direction-dependent friction: its levels replace the symmetric ones in their direction.
-  const double coul_pos = as ? as->get("coulomb_pos_n", coul_fixed) - coul_fixed : 0.0;
-  const double coul_neg = as ? as->get("coulomb_neg_n", coul_fixed) - coul_fixed : 0.0;
-  const double visc_pos = as ? as->get("viscous_pos_n_s_per_m", visc_fixed) - visc_fixed : 0.0;
-  const double visc_neg = as ? as->get("viscous_neg_n_s_per_m", visc_fixed) - visc_fixed : 0.0;
-  const double strib_c = st ? st->get("coulomb_n", coul_fixed) : 0.0;
-  const double strib_n = st ? st->get("breakaway_n", strib_c) - strib_c : 0.0,
-               strib_v = st ? st->get("stribeck_velocity_m_s", 2e-3) : 1.0;
-  const double offset = term_value("offset", "offset_n", 0.0);
-  const double spring_k = sp ? sp->get("stiffness_n_per_m", 0.0) : 0.0,
-               spring_c = sp ? sp->get("rest_position_m", s.mid_m) : 0.0;
-  const double pr_n = pr ? pr->get("amplitude_n", 0.0) : 0.0,
-               pr_per = pr ? pr->get("period_m", 5e-3) : 1.0,
-               pr_ph = pr ? pr->get("phase_rad", 0.0) : 0.0;
-  const double ar_n = ar ? ar->get("relative_amplitude", 0.0) : 0.0,
-               ar_ph = ar ? ar->get("phase_rad", 0.0) : 0.0;
-  const double drift = term_value("gain_drift", "gain_change_per_min", 0.0);
-  const double ee_m = ee ? ee->get("zone_m", 1e-3) : 0.0,
-               ee_depth = ee ? ee->get("max_reduction", 0.5) : 0.0;
-  auto fixed_dynamics = [&](std::size_t i, double gain_fs, double fs_raw) {
-    const double v = s.v[i];
-    const double dir = sgn(v);
-    double y = gain_fs + mass_fixed * s.a[i] + visc_fixed * v + (v > 0 ? visc_pos : visc_neg) * v;
-    double fc = (st ? strib_c : coul_fixed) + (v > 0 ? coul_pos : v < 0 ? coul_neg : 0.0);
-    if (st) {
-      const double r = v / strib_v;
-      fc += strib_n * std::exp(-r * r);
-    }
-    y += dir * fc;
-    double other = offset;
-    if (sp) other -= spring_k * (s.p[i] - spring_c);
-    if (pr) other += pr_n * std::sin(2 * kPi * s.p[i] / pr_per + pr_ph);
-    if (actuator) {
-      if (ar) other += ar_n * std::sin(s.theta[i] + ar_ph) * -fs_raw;
-      // Coupling strength changes scale F̂_s (the load-cell image of F_m).
-      double g = 1.0 + drift * s.t[i] / 60.0;
-      if (ee) {
-        const double x = std::clamp(1.0 - s.to_end[i] / ee_m, 0.0, 1.0);
-        g *= 1.0 - ee_depth * x * x * (3 - 2 * x);
-      }
-      y += (g - 1.0) * fs_raw;
-    }
-    return y + other_sign * other;
-  };
-  if (actuator) {
-    s.y = filtfilt_butter4(P.y_raw, P.filter_hz, P.fs_hz);
-    std::vector<double> theta;
-    if (rec.has("screw_angle_rad")) {
-      require_finite(rec, "screw_angle_rad");
-      theta = rec.column("screw_angle_rad");
-    } else if (rec.has("motor_angle_rad")) {
-      require_finite(rec, "motor_angle_rad");
-      double gear = act.gear_ratio;
-      if (auto g = rec.meta("gear_ratio")) gear = std::stod(*g);
-      theta = rec.column("motor_angle_rad");
-      for (double& x : theta) x /= gear;
-    } else {
-      throw RecordingError(rec.path + ": needs column 'screw_angle_rad' or 'motor_angle_rad'");
-    }
-    s.lead_m = act.lead_m;
-    const double gain = term_value("coupling_gain_error", "gain", 1.0);
-    // Step-outs: the raw phase leaves its period (hysteresis of 0.3 rad against chatter).
-    int lead_count = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double phi = theta[i] - 2 * kPi * pos[i] / s.lead_m;
-      if (i == 0) lead_count = static_cast<int>(std::lround(phi / (2 * kPi)));
-      const double rel = phi - 2 * kPi * lead_count;
-      if (std::abs(rel) > kPi + 0.3) {
-        const int k = static_cast<int>(std::lround(phi / (2 * kPi)));
-        P.slips.emplace_back(t[i], k - lead_count);
-        lead_count = k;
-      }
-    }
-    s.theta = filtfilt_butter4(theta, P.filter_hz, P.fs_hz);
-    const auto theta_vel = central_diff(s.theta, dt);
-    s.phi.resize(n);
-    s.fs.resize(n);
-    s.fs_slope.resize(n);
-    s.play.resize(n);
-    s.to_end.resize(n);
-    s.y_fixed.resize(n);
-    // Play side: the direction the gear last turned the screw (a small threshold against
-    // encoder chatter); zero until it has moved.
-    double side = 0.0;
-    const double turn_thr = 0.05;  // rad/s at the screw
-    s.moving_speed = opt.min_speed_m_s;
-    for (std::size_t i = 0; i < n; ++i) {
-      s.phi[i] = s.theta[i] - 2 * kPi * s.p[i] / s.lead_m;
-      s.fs[i] = gain * cal.periodic.load_force_n(s.phi[i]);
-      s.fs_slope[i] = gain * cal.periodic.slope_n_per_rad(s.phi[i]);
-      if (std::abs(theta_vel[i]) > turn_thr) side = sgn(theta_vel[i]);
-      s.play[i] = side;
-      s.to_end[i] = std::min(s.p[i] - act.stroke_min_m, act.stroke_max_m - s.p[i]);
-      s.y_fixed[i] = fixed_dynamics(i, s.fs[i], s.fs[i]);
-      // Sticking nut: friction anywhere within ±F_c, so the sample says nothing about the model.
-      s.valid[i] = std::abs(s.v[i]) > opt.min_speed_m_s ? 1 : 0;
-    }
-    // The filtered velocity smears a stop over the filter's impulse response: near a start, a
-    // stop or a reversal the friction direction is unknown (stick-slip). Keep only samples inside
-    // a run of sliding in one direction, half a filter period away from its ends.
-    {
-      const auto w = static_cast<std::size_t>(std::ceil(0.5 * P.fs_hz / P.filter_hz));
-      std::size_t i = 0;
-      while (i < n) {
-        if (!s.valid[i]) {
-          ++i;
-          continue;
-        }
-        std::size_t j = i;
-        while (j < n && s.valid[j] && sgn(s.v[j]) == sgn(s.v[i])) ++j;
-        for (std::size_t k = i; k < j; ++k)
-          if (k < i + w || k + w >= j) s.valid[k] = 0;
-        i = j;
-      }
-    }
-    for (const auto& slip : P.slips) {
-      auto i = static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), slip.first - 0.2) -
-                                        t.begin());
-      for (; i < n && t[i] < slip.first + 0.2; ++i) s.valid[i] = 0;
-    }
-  } else {
-    s.y = P.y_raw;
-    s.y_fixed.resize(n);
-    for (std::size_t i = 0; i < n; ++i) s.y_fixed[i] = fixed_dynamics(i, 0.0, 0.0);
-    s.moving_speed = 0.0;
-  }
-  // Decimation to the identification bandwidth (axis): parallel filtering of every column.
-  int nd = opt.decimation;
-  if (nd <= 0 && !actuator) {
-    // Identification bandwidth: the lowest frequency below which the acceleration (the most
-    // demanding regressor) keeps 99 % of its energy; decimate as far as the decimation filter
-    // (80 % of the new Nyquist frequency) stays above it.
-    double ea = 0;
-    for (double x : s.a) ea += x * x;
-    P.bandwidth_hz = 0.25 * P.fs_hz;
-    for (double f = 0.5; f < 0.25 * P.fs_hz; f *= 1.1) {
-      const auto af = filtfilt_butter4(s.a, f, P.fs_hz);
-      double lost = 0;
-      for (std::size_t i = 0; i < n; ++i) lost += (s.a[i] - af[i]) * (s.a[i] - af[i]);
-      if (lost <= 0.01 * ea) {
-        P.bandwidth_hz = f;
-        break;
-      }
-    }
-    nd = std::max(1, static_cast<int>(std::floor(0.4 * P.fs_hz / P.bandwidth_hz)));
-  }
-  if (nd <= 0) nd = 1;
-  P.decimation = nd;
-  if (nd > 1) {
-    P.decimated = true;
-    Signals& d = P.id;
-    d = Signals{};
-    d.actuator = actuator;
-    d.lead_m = s.lead_m;
-    d.mid_m = s.mid_m;
-    d.moving_speed = s.moving_speed;
-    for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(nd)) d.t.push_back(t[i]);
-    d.p = decimate(s.p, nd, P.fs_hz);
-    d.v = decimate(s.v, nd, P.fs_hz);
-    d.a = decimate(s.a, nd, P.fs_hz);
-    d.y = decimate(s.y, nd, P.fs_hz);
-    d.y_fixed = decimate(s.y_fixed, nd, P.fs_hz);
-    d.valid.assign(d.t.size(), 1);
-  }
+  P.y_raw = rec.column("drive_force_n");
+  P.noise_floor_n = noise_floor(P.y_raw);
+  s.valid.assign(s.size(), 1);
+  s.mid_m =
+      0.5 * (*std::min_element(s.p.begin(), s.p.end()) + *std::max_element(s.p.begin(), s.p.end()));
+  const FixedTerms fixed = fixed_terms(model, s.mid_m);
+  s.y = P.y_raw;
+  s.y_fixed.resize(s.size());
+  for (std::size_t i = 0; i < s.size(); ++i) s.y_fixed[i] = fixed.force(s, i);
+  s.moving_speed = 0.0;
+  decimate_signals(P, opt.decimation > 0 ? opt.decimation : bandwidth_decimation(P));
   return P;
 }
 
@@ -736,19 +541,15 @@ Grams accumulate_matrix(const Prepared& P, int folds) {
   for (int f = 0; f < folds; ++f) {
     const std::size_t lo = n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
     const std::size_t hi = n * static_cast<std::size_t>(f + 1) / static_cast<std::size_t>(folds);
-    const auto rows =
-        P.id_columns.middleRows(static_cast<Eigen::Index>(lo), static_cast<Eigen::Index>(hi - lo));
     Eigen::VectorXd r(static_cast<Eigen::Index>(hi - lo));
     double yy = 0;
     for (std::size_t i = lo; i < hi; ++i) {
       r[static_cast<Eigen::Index>(i - lo)] = s.y[i] - s.y_fixed[i];
       yy += s.y[i] * s.y[i];
     }
-    g.xx.push_back(rows.transpose() * rows);
-    g.xr.push_back(rows.transpose() * r);
-    g.rr.push_back(r.squaredNorm());
-    g.yy.push_back(yy);
-    g.n.push_back(hi - lo);
+    g.add_segment(
+        P.id_columns.middleRows(static_cast<Eigen::Index>(lo), static_cast<Eigen::Index>(hi - lo)),
+        r, yy);
   }
   return g;
 }
@@ -1040,749 +841,784 @@ double scan_position_period(const Signals& s, const std::vector<double>& r0, dou
   return best_p;
 }
 
+// ---------------------------------------------------------------- the axis analysis, in stages
+// Everything one axis analysis works on, shared by its stages.
+struct AxisRun {
+  const Recording& rec;
+  const ModelFile& model;
+  const AnalysisOptions& opt;
+  Prepared P;
+  Signals* S = nullptr;  // P.id when decimated, else P.full (no copy: an hour is 3.6 M samples)
+  int folds = 3;
+  std::vector<int> base_cols;         // baseline terms whose values are unknown (fit = true)
+  std::set<std::string> in_baseline;  // effects the model has already: not candidates again
+  std::vector<std::pair<double, double>> bursts;
+  Grams g;
+  double yy_total = 0, n_total = 0;
+  AxisRun(const Recording& r, const ModelFile& m, const AnalysisOptions& o)
+      : rec(r), model(m), opt(o) {}
+  void progress(const std::string& stage, double f) const {
+    if (opt.progress) opt.progress(stage, f);
+  }
+};
+
+void baseline_columns(AxisRun& run) {
+  const auto& fit = run.model.fit;
+  if (fit.count("nut_mass_kg")) run.base_cols.push_back(kAcc), run.in_baseline.insert("mass_error");
+  if (fit.count("viscous_n_s_per_m"))
+    run.base_cols.push_back(kVel), run.in_baseline.insert("viscous_friction");
+  if (fit.count("coulomb_n"))
+    run.base_cols.push_back(kSign), run.in_baseline.insert("coulomb_friction");
+  // Terms the model already has are not candidates again (their values are taken as given).
+  for (const auto& t : run.model.terms)
+    if (t.enabled) run.in_baseline.insert(t.id);
+}
+
+std::vector<int> indices(const Grams& g, const std::vector<int>& cols) {
+  std::vector<int> idx;
+  idx.reserve(cols.size());
+  for (int c : cols) idx.push_back(g.index(c));
+  return idx;
+}
+
+std::vector<double> predict_any(const AxisRun& run, const Grams& g, const Fit& fit) {
+  return run.P.decimated ? predict_decimated(run.P, g, fit) : predict(*run.S, g, fit);
+}
+
+// The baseline fit alone first: its residual is where the detectors look (the position ripple's
+// period, isolated pulses); both become columns of the selection.
+void locate_structure(AxisRun& run) {
+  Signals& S = *run.S;
+  std::vector<double> r0(S.size()), r_scan(S.size());
+  // The friction terms every drive has (Coulomb, offset, direction-dependent) dwarf a position
+  // ripple in the baseline residual: the ripple's period is looked for once they are out.
+  std::vector<int> rich = run.base_cols;
+  for (int c : {kSign, kOne, kAbsV, kMoving, kVel})
+    if (std::find(rich.begin(), rich.end(), c) == rich.end()) rich.push_back(c);
+  Grams gb;
+  if (run.P.decimated) {
+    decimate_columns(run.P, all_columns());
+    gb = accumulate_matrix(run.P, run.folds);
+  } else {
+    gb = accumulate(S, rich, run.folds, [&](double f) { run.progress("baseline", f); });
+  }
+  const auto yb = predict_any(run, gb, fit_all(gb, indices(gb, run.base_cols)));
+  const auto yr = predict_any(run, gb, fit_all(gb, indices(gb, rich)));
+  for (std::size_t i = 0; i < S.size(); ++i) r0[i] = S.y[i] - yb[i], r_scan[i] = S.y[i] - yr[i];
+  double pos_amp = 0;
+  S.pos_period_m = scan_position_period(S, r_scan, &pos_amp);
+  run.P.full.pos_period_m = S.pos_period_m;
+  run.bursts = find_bursts(S, r0, run.P.fs_hz / run.P.decimation, 0.0);
+  if (run.P.decimated) {
+    run.P.full.burst.assign(run.P.full.size(), 0.0);
+    decimate_columns(run.P, all_columns());  // now with the period and the bursts
+  }
+}
+
+// One pass: per-segment Grams of every column.
+void accumulate_all(AxisRun& run) {
+  run.g = run.P.decimated ? accumulate_matrix(run.P, run.folds)
+                          : accumulate(*run.S, all_columns(), run.folds,
+                                       [&](double f) { run.progress("gram", f); });
+  for (std::size_t f = 0; f < run.g.folds(); ++f) {
+    run.yy_total += run.g.yy[f];
+    run.n_total += static_cast<double>(run.g.n[f]);
+  }
+  if (run.n_total < 100)
+    throw std::invalid_argument(run.rec.path +
+                                ": fewer than 100 usable samples (the axis hardly moves)");
+}
+
+// ---------------------------------------------------------------- forward selection
+struct Chosen {
+  std::string id;
+  std::vector<int> cols;  // kinds
+  double gain_pct, t_stat, improvement_pct;
+  int folds_improved;
+  std::vector<Alternative> alternatives;
+  std::string note;
+  double explained_n = 0, worst = 0;
+};
+
+struct Trial {
+  std::string id;
+  std::vector<int> cols;
+  Score sc;
+  double gain = 0, t = 0, worst = 0;  // worst: the worst segment's relative gain [%]
+  int improved = 0;
+  std::size_t ncols = 0;
+};
+
+struct Selected {
+  std::vector<int> current;  // Gram positions of the baseline and every chosen column
+  std::vector<Chosen> chosen;
+  std::vector<ValidationStep> validation;
+  std::vector<Rejected> rejected;
+  double base_heldout = 0;
+};
+
+ValidationStep validation_step(const AxisRun& run, const std::string& name, const Score& sc,
+                               const std::vector<int>& idx) {
+  const Fit f = fit_all(run.g, idx);
+  double in = 0;
+  for (std::size_t k = 0; k < run.g.xx.size(); ++k) in += sse(run.g, f, k);
+  return ValidationStep{name, std::sqrt(sc.total / run.n_total),
+                        100.0 * std::sqrt(sc.total / run.yy_total), std::sqrt(in / run.n_total),
+                        100.0 * std::sqrt(in / run.yy_total)};
+}
+
+// The candidate's best plausible variant by held-out error (nothing if none is plausible).
+std::optional<Trial> best_variant(const AxisRun& run, const Candidate& cand,
+                                  const std::vector<int>& current) {
+  const Grams& g = run.g;
+  Trial best;
+  best.sc.total = INFINITY;
+  for (const auto& var_all : cand.variants) {
+    // Columns the model already spans (the constant part of direction-dependent friction
+    // once an offset is in) add nothing the data can tell apart: leave them out.
+    std::vector<int> var;
+    for (int c : var_all)
+      if (current.empty() ||
+          partial_r2(g, {}, {g.index(c)}, Eigen::VectorXd::Ones(1), current) < 0.999)
+        var.push_back(c);
+    if (var.empty()) continue;
+    std::vector<int> idx = current;
+    for (int c : var) idx.push_back(g.index(c));
+    Score sc = heldout(g, idx);
+    const Fit f = fit_all(g, idx);
+    Eigen::VectorXd cv = f.theta.tail(static_cast<Eigen::Index>(var.size()));
+    const Params pp = physical(cand.id, var, cv, *run.S, run.model, f, g);
+    if (!pp.plausible) continue;  // a term must make physical sense to explain anything
+    if (sc.total < best.sc.total) best = Trial{cand.id, var, sc, 0, 0, 0, 0, var.size()};
+  }
+  if (!std::isfinite(best.sc.total)) return std::nullopt;
+  return best;
+}
+
+// Consistency over the segments: t statistic of the per-segment relative gains (relative, so an
+// effect that grows over time counts in early segments too), the worst segment, the total gain.
+void score_trial(Trial& t, const Score& cur) {
+  std::vector<double> d;
+  for (std::size_t f = 0; f < cur.heldout_sse.size(); ++f) {
+    if (!(cur.heldout_sse[f] > 0)) continue;
+    d.push_back((cur.heldout_sse[f] - t.sc.heldout_sse[f]) / cur.heldout_sse[f]);
+    if (d.back() > 0) ++t.improved;
+  }
+  t.t = stats::t_statistic(d);
+  t.worst = d.empty() ? 0.0 : 100.0 * *std::min_element(d.begin(), d.end());
+  t.gain = 100.0 * (cur.total - t.sc.total) / cur.total;
+}
+
+std::vector<Trial> trials_of(const AxisRun& run, const std::vector<Candidate>& library,
+                             const std::set<std::string>& used, const std::vector<int>& current,
+                             const Score& cur) {
+  std::vector<Trial> trials;
+  for (const auto& cand : library) {
+    if (!cand.selectable || used.count(cand.id) || cand.actuator_only) continue;
+    if (cand.id == "external_disturbance" && run.bursts.size() < 2) continue;
+    auto best = best_variant(run, cand, current);
+    if (!best) continue;
+    score_trial(*best, cur);
+    trials.push_back(std::move(*best));
+  }
+  // Best (lowest held-out error) first.
+  std::sort(trials.begin(), trials.end(),
+            [](const Trial& a, const Trial& b) { return a.sc.total < b.sc.total; });
+  return trials;
+}
+
+// Root-mean-square force a trial explains on top of the current model.
+double explained_n(const AxisRun& run, const Score& cur, const Trial& tr) {
+  return std::sqrt(std::max(0.0, cur.total - tr.sc.total) / run.n_total);
+}
+
+// Significant: a real share of the held-out error, consistent over the segments, and larger
+// than the force sensor's own noise per sample (below that a "term" only fits the small
+// structure every model leaves: quantization, filter edges). A localized effect (pulses)
+// improves only the segments where it occurs: a large total gain that makes no segment worse
+// counts as consistent too.
+bool significant(const AxisRun& run, const Score& cur, const Trial& tr) {
+  const auto& opt = run.opt;
+  const bool consistent =
+      tr.t >= opt.min_t || (tr.gain >= 10.0 * opt.min_gain_pct && tr.worst > -1.0);
+  return tr.gain >= opt.min_gain_pct && consistent &&
+         explained_n(run, cur, tr) >= run.P.noise_floor_n;
+}
+
+// Parsimony among nested alternatives: a simpler candidate that lies (almost) inside the best
+// one's span and brings at least half its gain goes first; the rest is tested next.
+std::size_t parsimony_pick(const AxisRun& run, const std::vector<Trial>& trials,
+                           const std::vector<int>& current, const Score& cur) {
+  const Grams& g = run.g;
+  for (std::size_t k = 1; k < trials.size(); ++k) {
+    const auto& a = trials[k];
+    if (!significant(run, cur, a) || a.ncols >= trials[0].ncols || a.gain < 0.5 * trials[0].gain)
+      continue;
+    const std::vector<int> aidx = indices(g, a.cols);
+    std::vector<int> with = current;
+    with.insert(with.end(), aidx.begin(), aidx.end());
+    const Eigen::VectorXd wa = fit_all(g, with).theta.tail(static_cast<Eigen::Index>(aidx.size()));
+    if (partial_r2(g, current, aidx, wa, indices(g, trials[0].cols)) > 0.98) return k;
+  }
+  return 0;
+}
+
+// Identifiability: other candidates reproducing the chosen term's contribution are named with it.
+std::vector<Alternative> alternatives_of(const AxisRun& run, const std::vector<Candidate>& library,
+                                         const std::set<std::string>& used, const Trial& tr,
+                                         const std::vector<int>& current) {
+  const Grams& g = run.g;
+  std::vector<int> idx = current;
+  const std::vector<int> tidx = indices(g, tr.cols);
+  idx.insert(idx.end(), tidx.begin(), tidx.end());
+  const Eigen::VectorXd w = fit_all(g, idx).theta.tail(static_cast<Eigen::Index>(tr.cols.size()));
+  std::vector<Alternative> out;
+  for (const auto& cand : library) {
+    if (cand.id == tr.id || cand.actuator_only || used.count(cand.id)) continue;
+    double best_r2 = 0;
+    std::vector<int> best_var;
+    for (const auto& var : cand.variants) {
+      const double r2 = partial_r2(g, current, tidx, w, indices(g, var));
+      if (r2 > best_r2) best_r2 = r2, best_var = var;
+    }
+    if (best_r2 <= 0.9) continue;
+    std::vector<int> aidx = current;
+    for (int c : best_var) aidx.push_back(g.index(c));
+    const Fit fa = fit_all(g, aidx);
+    const Params pa =
+        physical(cand.id, best_var, fa.theta.tail(static_cast<Eigen::Index>(best_var.size())),
+                 *run.S, run.model, fa, g);
+    out.push_back({cand.id, pa.values, 100.0 * best_r2, pa.plausible});
+  }
+  return out;
+}
+
+Selected select_terms(const AxisRun& run) {
+  const auto library = candidate_library();
+  Selected sel;
+  sel.current = indices(run.g, run.base_cols);
+  Score cur = heldout(run.g, sel.current);
+  sel.base_heldout = cur.total;
+  sel.validation.push_back(validation_step(run, "baseline", cur, sel.current));
+  std::set<std::string> used(run.in_baseline.begin(), run.in_baseline.end());
+  for (int step = 0; step < run.opt.max_terms; ++step) {
+    run.progress("selection", static_cast<double>(step) / run.opt.max_terms);
+    const auto trials = trials_of(run, library, used, sel.current, cur);
+    if (trials.empty()) break;
+    if (!significant(run, cur, trials.front())) {
+      const auto& tb = trials.front();
+      sel.rejected.push_back({tb.id, tb.gain, tb.t, tb.worst, explained_n(run, cur, tb),
+                              "best remaining candidate, below the significance threshold",
+                              std::nullopt});
+      break;
+    }
+    const std::size_t pick = parsimony_pick(run, trials, sel.current, cur);
+    const Trial& tr = trials[pick];
+    Chosen ch{tr.id,   tr.cols, tr.gain, tr.t, 0, tr.improved, {}, "", explained_n(run, cur, tr),
+              tr.worst};
+    ch.alternatives = alternatives_of(run, library, used, tr, sel.current);
+    for (int c : tr.cols) sel.current.push_back(run.g.index(c));
+    const Score next = heldout(run.g, sel.current);
+    ch.improvement_pct = 100.0 * (1.0 - std::sqrt(next.total / cur.total));
+    if (pick != 0)
+      ch.note =
+          "chosen before '" + trials[0].id + "', which contains it: the simpler explanation first";
+    sel.chosen.push_back(ch);
+    used.insert(tr.id);
+    cur = next;
+    sel.validation.push_back(validation_step(run, "+ " + tr.id, cur, sel.current));
+  }
+  run.progress("selection", 1.0);
+  return sel;
+}
+
+// ---------------------------------------------------------------- findings
+struct Predictions {
+  Fit base_fit, final_fit;
+  std::vector<double> yb, yf;  // at the identification samples
+  Errors eb, ef, eb_full, ef_full;
+};
+
+Predictions predictions(AxisRun& run, const Selected& sel) {
+  Predictions p;
+  const Grams& g = run.g;
+  Signals& S = *run.S;
+  p.final_fit = fit_all(g, sel.current);
+  p.base_fit = fit_all(g, indices(g, run.base_cols));
+  p.yb = predict_any(run, g, p.base_fit);
+  p.yf = predict_any(run, g, p.final_fit);
+  p.eb = errors(S.y, p.yb, S.valid);
+  p.ef = errors(S.y, p.yf, S.valid);
+  // Full rate: raw force against the model evaluated on every sample (undecimated).
+  Signals& F = run.P.full;
+  const auto yb_full = run.P.decimated ? predict(F, g, p.base_fit) : p.yb;
+  const auto yf_full = run.P.decimated ? predict(F, g, p.final_fit) : p.yf;
+  p.eb_full = errors(run.P.y_raw, yb_full, F.valid);
+  p.ef_full = errors(run.P.y_raw, yf_full, F.valid);
+  return p;
+}
+
+std::string fmt(double v) {
+  std::ostringstream o;
+  o << v;
+  return o.str();
+}
+
+void describe_method(Findings& J, const AxisRun& run) {
+  J.method.domain = "force (inverse model: measured force predicted from measured motion)";
+  J.method.filter = "4th-order Butterworth, zero phase (forward-backward), position at " +
+                    fmt(run.P.filter_hz) + " Hz; central differences";
+  J.method.decimation = run.P.decimation;
+  J.method.identification_bandwidth_hz = run.P.bandwidth_hz;
+  J.method.folds = run.folds;
+  J.method.selection =
+      "forward, by held-out error on contiguous time segments; a term must cut the "
+      "held-out mean square error by >= " +
+      fmt(run.opt.min_gain_pct) + " % with t >= " + fmt(run.opt.min_t) +
+      " over the segments (or >= 10x that gain with no segment worse), and explain "
+      "more RMS than the force noise floor";
+  J.method.moving_only = "all samples";
+  J.noise_floor_n = run.P.noise_floor_n;
+}
+
+// The baseline's unknown values (fit = true) as the fit gives them.
+Parameters fitted_base(const AxisRun& run, const Fit& fit) {
+  Parameters b;
+  for (const int c : run.base_cols) {
+    double v = 0;
+    for (std::size_t k = 0; k < fit.idx.size(); ++k)
+      if (fit.idx[k] == run.g.index(c)) v = fit.theta[static_cast<Eigen::Index>(k)];
+    set_parameter(b,
+                  c == kAcc    ? "nut_mass_kg"
+                  : c == kVel  ? "viscous_n_s_per_m"
+                  : c == kSign ? "coulomb_n"
+                               : "offset_n",
+                  v);
+  }
+  return b;
+}
+
+EffectFinding finding_of(const AxisRun& run, const Chosen& ch, const Params& pp) {
+  EffectFinding e;
+  e.id = ch.id;
+  e.parameters = pp.values;
+  e.where = where_text(ch.id, pp.values, *run.S, run.bursts);
+  e.evidence.heldout_gain_pct = ch.gain_pct;
+  e.evidence.t_stat = ch.t_stat;
+  e.evidence.segments_improved =
+      std::to_string(ch.folds_improved) + "/" + std::to_string(run.folds);
+  e.evidence.explained_rms_n = ch.explained_n;
+  e.evidence.worst_segment_pct = ch.worst;
+  e.evidence.noise_floor_n = run.P.noise_floor_n;
+  e.evidence.plausible = pp.plausible;
+  e.improvement_pct = ch.improvement_pct;
+  e.identifiable = ch.alternatives.empty();
+  if (!ch.alternatives.empty()) {
+    e.alternatives = ch.alternatives;
+    std::string names = ch.id;
+    for (const auto& a : ch.alternatives) names += " or " + a.id;
+    e.finding = "one combined finding: the data cannot tell " + names + " apart";
+  }
+  e.note = ch.note;
+  return e;
+}
+
+void fill_findings(Findings& J, const AxisRun& run, const Selected& sel, const Predictions& p) {
+  J.recording = run.rec.path;
+  J.system = run.model.system;
+  J.samples = run.rec.rows();
+  J.samples_used = static_cast<std::size_t>(run.n_total);
+  describe_method(J, run);
+  J.baseline = {p.eb.rms,
+                p.eb.rel_pct,
+                p.eb_full.rms,
+                p.eb_full.rel_pct,
+                std::sqrt(sel.base_heldout / run.n_total),
+                fitted_base(run, p.base_fit)};
+  std::size_t off = run.base_cols.size();
+  for (const auto& ch : sel.chosen) {
+    const Eigen::VectorXd c = p.final_fit.theta.segment(static_cast<Eigen::Index>(off),
+                                                        static_cast<Eigen::Index>(ch.cols.size()));
+    off += ch.cols.size();
+    J.effects.push_back(
+        finding_of(run, ch, physical(ch.id, ch.cols, c, *run.S, run.model, p.final_fit, run.g)));
+  }
+  J.nothing_missing = sel.chosen.empty();
+  J.conclusion =
+      sel.chosen.empty()
+          ? "nothing is missing: no candidate effect lowers the held-out error significantly"
+          : std::to_string(sel.chosen.size()) + " effect(s) found";
+  J.not_selected = sel.rejected;
+  J.final_fit = {p.ef.rms,          p.ef.rel_pct, p.ef_full.rms,
+                 p.ef_full.rel_pct, std::nullopt, fitted_base(run, p.final_fit)};
+  J.validation = sel.validation;
+  for (const auto& [ts, amp] : run.bursts) {
+    Event ev;
+    ev.type = "isolated_disturbance";
+    ev.t_s = ts;
+    ev.residual_n = amp;
+    J.events.push_back(ev);
+  }
+}
+
+// ---------------------------------------------------------------- localisation
+// Residuals before and after at the identification samples, and what the maps draw on.
+struct Residuals {
+  std::vector<double> before, after;
+  double rms0 = 0;  // baseline RMS
+};
+
+void add_map(AnalysisResult& R, const Signals& S, const Residuals& res, const std::string& name,
+             const std::vector<double>& x, const std::string& label, const std::string& unit,
+             double scale, std::pair<double, double> range, int nb) {
+  const auto b0 = bin(x, res.before, S.valid, range.first, range.second, nb);
+  const auto b1 = bin(x, res.after, S.valid, range.first, range.second, nb);
+  const std::string text = describe_regions(b0, label, unit, scale, res.rms0);
+  if (!text.empty()) R.where.push_back(text);
+  Figure fig;
+  fig.file = "map_" + name + ".png";
+  // The finding already names where ("over velocity: …"): the caption does not repeat it.
+  fig.caption = text.empty() ? "Mean residual (measured - model) over " + label
+                             : "Mean residual (measured - model) " + text;
+  fig.charts.push_back({"Mean residual over " + label,
+                        label + " [" + unit + "]",
+                        "residual [N]",
+                        {to_series("baseline", b0, scale), to_series("corrected", b1, scale)}});
+  R.figures.push_back(fig);
+}
+
+// Direction dependence in words.
+std::string direction_text(const Signals& S, const Residuals& res) {
+  double sp = 0, sn = 0, np = 0, nn = 0;
+  for (std::size_t i = 0; i < S.size(); ++i) {
+    if (!S.valid[i]) continue;
+    if (S.v[i] > 0) sp += res.before[i], ++np;
+    if (S.v[i] < 0) sn += res.before[i], ++nn;
+  }
+  if (!(np > 0 && nn > 0)) return "";
+  std::ostringstream o;
+  o.precision(3);
+  o << "by direction: mean residual " << std::showpos << sp / np << " N moving +, " << sn / nn
+    << " N moving −" << std::noshowpos;
+  if (std::abs(sp / np - sn / nn) > 0.3 * res.rms0) o << " (jumps at velocity reversals)";
+  return o.str();
+}
+
+void residual_maps(AnalysisResult& R, const Signals& S, const Residuals& res) {
+  add_map(R, S, res, "velocity", S.v, "velocity", "mm/s", 1e3,
+          percentile_range(S.v, S.valid, 0.005), 60);
+  if (auto d = direction_text(S, res); !d.empty()) R.where.push_back(d);
+  add_map(R, S, res, "position", S.p, "position", "mm", 1e3, percentile_range(S.p, S.valid, 0.0),
+          80);
+}
+
+// Residual RMS in time windows, before and after.
+struct Windows {
+  double win_s = 1.0;
+  Curve before{"baseline", {}, {}}, after{"corrected", {}, {}};
+};
+
+Windows windowed_rms(const Signals& S, const Residuals& res) {
+  Windows w;
+  w.win_s = std::max(1.0, (S.t.back() - S.t.front()) / 400.0);
+  for (std::size_t i = 0; i < S.size();) {
+    const double t0 = S.t[i];
+    double e0 = 0, e1 = 0;
+    std::size_t c = 0, j = i;
+    for (; j < S.size() && S.t[j] < t0 + w.win_s; ++j)
+      if (S.valid[j]) {
+        e0 += res.before[j] * res.before[j];
+        e1 += res.after[j] * res.after[j];
+        ++c;
+      }
+    if (c > 10) {
+      w.before.x.push_back(t0 + w.win_s / 2);
+      w.before.y.push_back(std::sqrt(e0 / static_cast<double>(c)));
+      w.after.x.push_back(t0 + w.win_s / 2);
+      w.after.y.push_back(std::sqrt(e1 / static_cast<double>(c)));
+    }
+    i = j;
+  }
+  return w;
+}
+
+// Growth over time, and windows far above the median (events).
+void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& res,
+                        double noise_floor_n) {
+  const Windows w = windowed_rms(S, res);
+  const auto& wr = w.before.y;
+  const double win = w.win_s;
+  if (wr.size() >= 6) {
+    const std::size_t q = wr.size() / 3;
+    const double first =
+        std::accumulate(wr.begin(), wr.begin() + static_cast<std::ptrdiff_t>(q), 0.0) /
+        static_cast<double>(q);
+    const double last = std::accumulate(wr.end() - static_cast<std::ptrdiff_t>(q), wr.end(), 0.0) /
+                        static_cast<double>(q);
+    std::ostringstream o;
+    o.precision(3);
+    if (last > 1.5 * first && last > 0.3 * res.rms0) {
+      o << "over time: the residual grows (RMS " << first << " N in the first third, " << last
+        << " N in the last)";
+      R.where.push_back(o.str());
+    }
+    std::vector<double> sorted = wr;
+    std::sort(sorted.begin(), sorted.end());
+    const double med = sorted[sorted.size() / 2];
+    int shown = 0;
+    std::ostringstream w2;
+    w2.precision(4);
+    for (std::size_t k = 0; k < wr.size() && shown < 6; ++k)
+      if (wr[k] > 3 * med && wr[k] > noise_floor_n * 3) {
+        w2 << (shown ? ", " : "") << w.before.x[k] - win / 2 << "–" << w.before.x[k] + win / 2
+           << " s";
+        Event ev;
+        ev.type = "misfit_window";
+        ev.t_s = w.before.x[k] - win / 2;
+        ev.duration_s = win;
+        ev.rms_n = wr[k];
+        R.findings.events.push_back(ev);
+        ++shown;
+      }
+    if (shown)
+      R.where.push_back("in time: windows with residual RMS over 3× the median: " + w2.str());
+  }
+  Figure ft;
+  ft.file = "residual_time.png";
+  ft.caption = "Residual RMS in time windows";
+  ft.charts.push_back({"Residual RMS over time", "time [s]", "RMS [N]", {w.before, w.after}});
+  R.figures.push_back(ft);
+}
+
+using Onsets = std::vector<std::pair<std::size_t, double>>;  // sample, signed direction
+
+// The residual averaged around events (signed by the new direction), before and after.
+void locked_average(AnalysisResult& R, const Signals& S, const Residuals& res, double fs_id,
+                    const Onsets& at, const std::string& file, const std::string& what) {
+  const int half = static_cast<int>(0.15 * fs_id);
+  std::vector<double> acc0(static_cast<std::size_t>(2 * half + 1), 0.0), acc1(acc0.size(), 0.0),
+      cnt(acc0.size(), 0.0);
+  for (const auto& [i, d] : at)
+    for (int k = -half; k <= half; ++k) {
+      const auto ii = static_cast<std::ptrdiff_t>(i) + k;
+      if (ii < 0 || ii >= static_cast<std::ptrdiff_t>(S.size()) ||
+          !S.valid[static_cast<std::size_t>(ii)])
+        continue;
+      const int lag = k + half;  // in an int first: the sum is never negative
+      const auto kk = static_cast<std::size_t>(lag);
+      acc0[kk] += d * res.before[static_cast<std::size_t>(ii)];
+      acc1[kk] += d * res.after[static_cast<std::size_t>(ii)];
+      cnt[kk] += 1;
+    }
+  Figure fr;
+  fr.file = file;
+  fr.caption = "Residual averaged around " + std::to_string(at.size()) + " " + what +
+               " (signed by the new direction)";
+  Curve s0{"baseline", {}, {}}, s1{"corrected", {}, {}};
+  for (std::size_t k = 0; k < cnt.size(); ++k)
+    if (cnt[k] > 0) {
+      const double tt = (static_cast<double>(k) - half) / fs_id;
+      s0.x.push_back(tt * 1e3);
+      s0.y.push_back(acc0[k] / cnt[k]);
+      s1.x.push_back(tt * 1e3);
+      s1.y.push_back(acc1[k] / cnt[k]);
+    }
+  fr.charts.push_back(
+      {"Residual locked to " + what, "time from event [ms]", "residual x direction [N]", {s0, s1}});
+  R.figures.push_back(fr);
+}
+
+Onsets reversals(const Signals& S) {
+  Onsets rev;
+  double last_dir = 0;
+  for (std::size_t i = 0; i < S.size(); ++i) {
+    const double d = std::abs(S.v[i]) > std::max(S.moving_speed, 1e-6) ? sgn(S.v[i]) : 0.0;
+    if (d != 0 && last_dir != 0 && d != last_dir) rev.emplace_back(i, d);
+    if (d != 0) last_dir = d;
+  }
+  return rev;
+}
+
+// Steps of a setpoint column larger than 5 % of its range, at the identification rate.
+Onsets input_edges(const std::vector<double>& x, int decimation) {
+  double lo = INFINITY, hi = -INFINITY;
+  for (double e : x)
+    if (std::isfinite(e)) lo = std::min(lo, e), hi = std::max(hi, e);
+  Onsets edges;
+  for (std::size_t i = 1; i < x.size(); ++i) {
+    const double d = x[i] - x[i - 1];
+    if (std::isfinite(d) && std::abs(d) > 0.05 * (hi - lo) && hi > lo)
+      edges.emplace_back(i / static_cast<std::size_t>(decimation), sgn(d));
+  }
+  return edges;
+}
+
+// Event-locked averages: the residual around velocity reversals and input edges.
+void event_locked(AnalysisResult& R, const AxisRun& run, const Residuals& res) {
+  const Signals& S = *run.S;
+  const double fs_id = run.P.fs_hz / run.P.decimation;
+  const Onsets rev = reversals(S);
+  locked_average(R, S, res, fs_id, rev, "reversal_locked.png", "velocity reversals");
+  R.findings.reversals = rev.size();
+  // Input edges: steps in a setpoint column, if the recording has one.
+  for (const char* col : {"force_set_n", "pos_set_m", "ref_pos_m"}) {
+    if (!run.rec.has(col)) continue;
+    const Onsets edges = input_edges(run.rec.column(col), run.P.decimation);
+    if (!edges.empty()) {
+      locked_average(R, S, res, fs_id, edges, std::string("edge_locked_") + col + ".png",
+                     std::string("steps of ") + col);
+      R.findings.input_edges = edges.size();
+    }
+    break;
+  }
+}
+
+// Measured force with both models over time, the held-out error per step, and the fit over time
+// (the page's interactive chart, as the actuator path gives it).
+void time_figures(AnalysisResult& R, const Signals& S, const Predictions& p, const Residuals& res,
+                  bool added) {
+  const std::size_t step = std::max<std::size_t>(1, S.size() / 6000);
+  Curve m{"measured", {}, {}}, b{"baseline", {}, {}}, c{"corrected", {}, {}},
+      rb{"baseline", {}, {}}, rc{"corrected", {}, {}};
+  for (std::size_t i = 0; i < S.size(); i += step) {
+    m.x.push_back(S.t[i]), m.y.push_back(S.y[i]);
+    b.x.push_back(S.t[i]), b.y.push_back(p.yb[i]);
+    c.x.push_back(S.t[i]), c.y.push_back(p.yf[i]);
+    if (!S.valid[i]) continue;
+    rb.x.push_back(S.t[i]), rb.y.push_back(S.y[i] - p.yb[i]);
+    rc.x.push_back(S.t[i]), rc.y.push_back(S.y[i] - p.yf[i]);
+  }
+  Figure f;
+  f.file = "force_time.png";
+  f.caption = "Measured force and the models' predictions from measured motion; residuals below";
+  f.charts.push_back({"Force", "time [s]", "force [N]", {m, b, c}});
+  f.charts.push_back({"Residual (measured - model)", "time [s]", "residual [N]", {rb, rc}});
+  R.figures.insert(R.figures.begin(), f);
+  Figure v;
+  v.file = "heldout.png";
+  v.caption = "Held-out RMS error after each added term";
+  Curve hs{"held-out RMS", {}, {}};
+  for (std::size_t k = 0; k < R.findings.validation.size(); ++k) {
+    hs.x.push_back(static_cast<double>(k));
+    hs.y.push_back(R.findings.validation[k].heldout_rms_n);
+  }
+  v.charts.push_back({"Held-out error per step (0 = baseline)", "terms added", "RMS [N]", {hs}});
+  R.figures.insert(R.figures.begin() + 1, v);
+  R.fit_over_time = {"The fit before and after",
+                     "time [s]",
+                     "missing force [N]",
+                     {{added ? "before (the model as configured)" : "the model (nothing added)",
+                       S.t, res.before}}};
+  if (added) R.fit_over_time.curves.push_back({"after (with the effects found)", S.t, res.after});
+}
+
+// ---------------------------------------------------------------- corrected model file
+std::string term_note(const EffectFinding& e) {
+  std::ostringstream note;
+  note.precision(3);
+  note << "maglead analyze: " << e.where;
+  if (e.evidence.heldout_gain_pct)
+    note << "; held-out gain " << *e.evidence.heldout_gain_pct << " %";
+  if (!e.finding.empty()) note << "; " << e.finding;
+  return note.str();
+}
+
+// One finding into the model: baseline values or a term in the model file's form.
+void apply_finding(ModelFile& M, const EffectFinding& e, bool& has_asym) {
+  const std::string& id = e.id;
+  auto val = [&](const char* k) { return parameter_value(e.parameters, k); };
+  auto add = [&](const std::vector<std::pair<std::string, double>>& kv) {
+    auto& t = M.term(id);
+    t.enabled = true;
+    t.note = term_note(e);
+    for (const auto& [k, v] : kv) t.set(k, v);
+  };
+  if (id == "mass_error")
+    M.nut_mass_kg = val("nut_mass_kg");
+  else if (id == "coulomb_friction")
+    M.coulomb_n = val("coulomb_n");
+  else if (id == "viscous_friction")
+    M.viscous_n_s_per_m = val("viscous_n_s_per_m");
+  else if (id == "asymmetric_friction") {
+    // The benchmark's direction-dependent form: it already holds any constant force, so a
+    // separate offset finding is not written beside it.
+    add({{"coulomb_pos_n", val("coulomb_pos_n")},
+         {"coulomb_neg_n", val("coulomb_neg_n")},
+         {"viscous_pos_n_s_per_m", val("viscous_pos_n_s_per_m")},
+         {"viscous_neg_n_s_per_m", val("viscous_neg_n_s_per_m")}});
+    std::erase_if(M.terms, [](const ModelTerm& t) { return t.id == "offset"; });
+    has_asym = true;
+  } else if (id == "offset" && !has_asym)
+    add({{"offset_n", val("offset_n")}});
+  else if (id == "stribeck_friction")
+    add({{"breakaway_n", M.coulomb_n + val("stribeck_n")},
+         {"coulomb_n", M.coulomb_n},
+         {"stribeck_velocity_m_s", val("stribeck_velocity_m_s")}});
+  else if (id == "spring")
+    add({{"stiffness_n_per_m", val("spring_n_per_m")},
+         {"rest_position_m", val("free_position_m")}});
+  else if (id == "position_ripple")
+    add({{"amplitude_n", val("amplitude_n")},
+         {"period_m", val("period_m")},
+         {"phase_rad", val("phase_rad")}});
+}
+
+ModelFile corrected_model(const AxisRun& run, const Findings& J, const Fit& final_fit) {
+  ModelFile M = run.model;
+  M.fit.clear();  // the corrected model is a model: every value fixed, as fitted here
+  for (const auto& [name, value, is_count] : fitted_base(run, final_fit)) {
+    if (name == "nut_mass_kg") M.nut_mass_kg = value;
+    if (name == "viscous_n_s_per_m") M.viscous_n_s_per_m = value;
+    if (name == "coulomb_n") M.coulomb_n = value;
+  }
+  bool has_asym = false;
+  for (const auto& e : J.effects) apply_finding(M, e, has_asym);
+  M.source = (run.model.source.empty() ? std::string("baseline") : run.model.source) +
+             "; corrected by maglead analyze from " + run.rec.path;
+  return M;
+}
+
+// A force-driven axis (EMPS): prepare → locate → select → findings, maps, corrected model.
+AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
+                            const AnalysisOptions& opt) {
+  AxisRun run(rec, model, opt);
+  run.progress("prepare", 0.0);
+  run.P = prepare(rec, model, opt);
+  run.S = run.P.decimated ? &run.P.id : &run.P.full;
+  run.folds = std::max(3, opt.folds);
+  run.progress("prepare", 1.0);
+  baseline_columns(run);
+  locate_structure(run);
+  accumulate_all(run);
+  const Selected sel = select_terms(run);
+  const Predictions p = predictions(run, sel);
+  AnalysisResult R;
+  fill_findings(R.findings, run, sel, p);
+  const Signals& S = *run.S;
+  Residuals res{std::vector<double>(S.size()), std::vector<double>(S.size()), p.eb.rms};
+  for (std::size_t i = 0; i < S.size(); ++i) {
+    res.before[i] = S.y[i] - p.yb[i];
+    res.after[i] = S.y[i] - p.yf[i];
+  }
+  residual_maps(R, S, res);
+  residual_over_time(R, S, res, run.P.noise_floor_n);
+  event_locked(R, run, res);
+  time_figures(R, S, p, res, !sel.chosen.empty());
+  R.corrected = corrected_model(run, R.findings, p.final_fit);
+  R.findings.twin_simulation = TwinSimulation{};
+  R.findings.twin_simulation->reason =
+      "the twin models the magnetic actuator; this is a force-driven axis";
+  run.progress("done", 1.0);
+  return R;
+}
+
 }  // namespace
 
 AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& opt) {
   if (model.system == "actuator") return analyze_actuator(rec, model, cal, act, opt);
-  auto progress = [&](const std::string& stage, double f) {
-    if (opt.progress) opt.progress(stage, f);
-  };
-  progress("prepare", 0.0);
-  Prepared P = prepare(rec, model, cal, act, opt);
-  Signals& S = P.decimated ? P.id : P.full;  // no copy: an hour at 1 kHz is 3.6 M samples
-  const bool actuator = S.actuator;
-  progress("prepare", 1.0);
-
-  // Baseline columns: terms whose values are unknown (fit = true).
-  std::vector<int> base_cols;
-  std::set<std::string> in_baseline;
-  if (model.fit.count("nut_mass_kg")) base_cols.push_back(kAcc), in_baseline.insert("mass_error");
-  if (model.fit.count("viscous_n_s_per_m"))
-    base_cols.push_back(kVel), in_baseline.insert("viscous_friction");
-  if (model.fit.count("coulomb_n"))
-    base_cols.push_back(kSign), in_baseline.insert("coulomb_friction");
-  // Terms the model already has are not candidates again (their values are taken as given).
-  for (const auto& t : model.terms)
-    if (t.enabled) in_baseline.insert(t.id);
-
-  // Baseline fit alone first: its residual is what the maps and detectors look at.
-  const int folds = std::max(3, opt.folds);
-  auto stage = [&](const std::string& name) { return [&, name](double f) { progress(name, f); }; };
-  std::vector<double> r0(S.size()), r_scan(S.size());
-  {
-    // The friction terms every drive has (Coulomb, offset, direction-dependent) dwarf a position
-    // ripple in the baseline residual: the ripple's period is looked for once they are out.
-    std::vector<int> rich = base_cols;
-    for (int c : {kSign, kOne, kAbsV, kMoving, kVel})
-      if (std::find(rich.begin(), rich.end(), c) == rich.end()) rich.push_back(c);
-    Grams gb;
-    if (P.decimated) {
-      decimate_columns(P, all_columns());
-      gb = accumulate_matrix(P, folds);
-    } else {
-      gb = accumulate(S, rich, folds, stage("baseline"));
-    }
-    std::vector<int> idx, idx_rich;
-    for (int c : base_cols) idx.push_back(gb.index(c));
-    for (int c : rich) idx_rich.push_back(gb.index(c));
-    const Fit f = fit_all(gb, idx);
-    const auto yb = P.decimated ? predict_decimated(P, gb, f) : predict(S, gb, f);
-    const Fit fr = fit_all(gb, idx_rich);
-    const auto yr = P.decimated ? predict_decimated(P, gb, fr) : predict(S, gb, fr);
-    for (std::size_t i = 0; i < S.size(); ++i) r0[i] = S.y[i] - yb[i], r_scan[i] = S.y[i] - yr[i];
-  }
-  double pos_amp = 0;
-  S.pos_period_m = scan_position_period(S, r_scan, &pos_amp);
-  P.full.pos_period_m = S.pos_period_m;
-  const auto bursts = find_bursts(S, r0, P.fs_hz / P.decimation, actuator ? P.filter_hz : 0.0);
-
-  if (P.decimated) {
-    P.full.burst.assign(P.full.size(), 0.0);
-    decimate_columns(P, all_columns());  // now with the period and the bursts
-  }
-
-  // One pass: per-segment Grams of every column.
-  Grams g = P.decimated ? accumulate_matrix(P, folds)
-                        : accumulate(S, all_columns(), folds, stage("gram"));
-  double yy_total = 0, n_total = 0;
-  for (int f = 0; f < folds; ++f) {
-    yy_total += g.yy[static_cast<std::size_t>(f)];
-    n_total += static_cast<double>(g.n[static_cast<std::size_t>(f)]);
-  }
-  if (n_total < 100)
-    throw std::invalid_argument(rec.path +
-                                ": fewer than 100 usable samples (the nut hardly moves)");
-
-  // ------------------------------------------------------------ forward selection
-  const auto library = candidate_library();
-  std::vector<int> current;
-  current.reserve(base_cols.size());
-  for (int c : base_cols) current.push_back(g.index(c));
-  Score cur = heldout(g, current);
-  const double base_heldout = cur.total;
-  std::vector<ValidationStep> validation;
-  auto validation_step = [&](const std::string& name, const Score& sc,
-                             const std::vector<int>& idx) {
-    const Fit f = fit_all(g, idx);
-    double in = 0;
-    for (std::size_t k = 0; k < g.xx.size(); ++k) in += sse(g, f, k);
-    return ValidationStep{name, std::sqrt(sc.total / n_total),
-                          100.0 * std::sqrt(sc.total / yy_total), std::sqrt(in / n_total),
-                          100.0 * std::sqrt(in / yy_total)};
-  };
-  validation.push_back(validation_step("baseline", cur, current));
-  struct Chosen {
-    std::string id;
-    std::vector<int> cols;  // kinds
-    double gain_pct, t_stat, improvement_pct;
-    int folds_improved;
-    std::vector<Alternative> alternatives;
-    std::string note;
-    double explained_n = 0, worst = 0;
-  };
-  std::vector<Chosen> chosen;
-  std::set<std::string> used(in_baseline.begin(), in_baseline.end());
-  std::vector<Rejected> rejected;
-  for (int step = 0; step < opt.max_terms; ++step) {
-    progress("selection", static_cast<double>(step) / opt.max_terms);
-    struct Trial {
-      std::string id;
-      std::vector<int> cols;
-      Score sc;
-      double gain = 0, t = 0, worst = 0;  // worst: the worst segment's relative gain [%]
-      int improved = 0;
-      bool plausible = true;
-      std::size_t ncols = 0;
-    };
-    std::vector<Trial> trials;
-    for (const auto& cand : library) {
-      if (!cand.selectable || used.count(cand.id) || (cand.actuator_only && !actuator)) continue;
-      if (cand.id == "external_disturbance" && bursts.size() < 2) continue;
-      if ((cand.id == "coulomb_friction" || cand.id == "viscous_friction") && used.count(cand.id))
-        continue;
-      Trial best;
-      best.sc.total = INFINITY;
-      for (const auto& var_all : cand.variants) {
-        // Columns the model already spans (the constant part of direction-dependent friction
-        // once an offset is in) add nothing the data can tell apart: leave them out.
-        std::vector<int> var;
-        for (int c : var_all)
-          if (current.empty() ||
-              partial_r2(g, {}, {g.index(c)}, Eigen::VectorXd::Ones(1), current) < 0.999)
-            var.push_back(c);
-        if (var.empty()) continue;
-        std::vector<int> idx = current;
-        for (int c : var) idx.push_back(g.index(c));
-        Score sc = heldout(g, idx);
-        const Fit f = fit_all(g, idx);
-        Eigen::VectorXd cv = f.theta.tail(static_cast<Eigen::Index>(var.size()));
-        const Params pp = physical(cand.id, var, cv, S, model, f, g);
-        if (!pp.plausible) continue;  // a term must make physical sense to explain anything
-        if (sc.total < best.sc.total) {
-          best.id = cand.id;
-          best.cols = var;
-          best.sc = sc;
-          best.ncols = var.size();
-        }
-      }
-      if (!std::isfinite(best.sc.total)) continue;
-      // Consistency over the segments: t statistic of the per-segment relative gains (relative,
-      // so an effect that grows over time counts in early segments too).
-      std::vector<double> d;
-      for (int f = 0; f < folds; ++f) {
-        const auto fu = static_cast<std::size_t>(f);
-        if (!(cur.heldout_sse[fu] > 0)) continue;
-        d.push_back((cur.heldout_sse[fu] - best.sc.heldout_sse[fu]) / cur.heldout_sse[fu]);
-        if (d.back() > 0) ++best.improved;
-      }
-      const auto nd = static_cast<double>(d.size());
-      const double mean = nd > 0 ? std::accumulate(d.begin(), d.end(), 0.0) / nd : 0.0;
-      double var = 0;
-      for (double x : d) var += (x - mean) * (x - mean);
-      var /= std::max(1.0, nd - 1);
-      best.t = var > 0 ? mean / std::sqrt(var / nd) : (mean > 0 ? 1e9 : 0.0);
-      best.worst = d.empty() ? 0.0 : 100.0 * *std::min_element(d.begin(), d.end());
-      best.gain = 100.0 * (cur.total - best.sc.total) / cur.total;
-      trials.push_back(best);
-    }
-    if (trials.empty()) break;
-    // Significant: a real share of the held-out error, consistent over the segments, and
-    // larger than the force sensor's own noise per sample (below that a "term" only fits the
-    // small structure every model leaves: quantization, filter edges).
-    auto explained_n = [&](const Trial& tr) {
-      return std::sqrt(std::max(0.0, cur.total - tr.sc.total) / n_total);
-    };
-    // A localized effect (stroke ends, pulses) improves only the segments where it occurs: a
-    // large total gain that makes no segment worse counts as consistent too.
-    auto significant = [&](const Trial& tr) {
-      const bool consistent =
-          tr.t >= opt.min_t || (tr.gain >= 10.0 * opt.min_gain_pct && tr.worst > -1.0);
-      return tr.gain >= opt.min_gain_pct && consistent && explained_n(tr) >= P.noise_floor_n;
-    };
-    std::sort(trials.begin(), trials.end(),
-              [](auto& a, auto& b) { return a.sc.total < b.sc.total; });
-    if (!significant(trials.front())) {
-      const auto& tb = trials.front();
-      rejected.push_back({tb.id, tb.gain, tb.t, tb.worst, explained_n(tb),
-                          "best remaining candidate, below the significance threshold",
-                          std::nullopt});
-      break;
-    }
-    // Parsimony among nested alternatives: a simpler candidate that lies (almost) inside the
-    // best one's span and brings at least half its gain goes first; the rest is tested next.
-    std::size_t pick = 0;
-    for (std::size_t k = 1; k < trials.size(); ++k) {
-      const auto& a = trials[k];
-      if (!significant(a) || a.ncols >= trials[0].ncols || a.gain < 0.5 * trials[0].gain) continue;
-      std::vector<int> bidx = current;
-      for (int c : trials[0].cols) bidx.push_back(g.index(c));
-      std::vector<int> aidx;
-      for (int c : a.cols) aidx.push_back(g.index(c));
-      const Fit fa = fit_all(g, [&] {
-        auto v = current;
-        v.insert(v.end(), aidx.begin(), aidx.end());
-        return v;
-      }());
-      const Eigen::VectorXd wa = fa.theta.tail(static_cast<Eigen::Index>(aidx.size()));
-      std::vector<int> bonly;
-      for (int c : trials[0].cols) bonly.push_back(g.index(c));
-      if (partial_r2(g, current, aidx, wa, bonly) > 0.98) {
-        pick = k;
-        break;
-      }
-    }
-    const Trial& tr = trials[pick];
-    std::vector<int> idx = current;
-    for (int c : tr.cols) idx.push_back(g.index(c));
-    // Identifiability: another candidate reproducing this term's contribution is named with it.
-    const Fit f = fit_all(g, idx);
-    const Eigen::VectorXd w = f.theta.tail(static_cast<Eigen::Index>(tr.cols.size()));
-    std::vector<int> tidx;
-    for (int c : tr.cols) tidx.push_back(g.index(c));
-    Chosen ch{tr.id, tr.cols, tr.gain, tr.t, 0, tr.improved, {}, "", explained_n(tr), tr.worst};
-    for (const auto& cand : library) {
-      if (cand.id == tr.id || (cand.actuator_only && !actuator) || used.count(cand.id)) continue;
-      double best_r2 = 0;
-      std::vector<int> best_var;
-      for (const auto& var : cand.variants) {
-        std::vector<int> aidx;
-        aidx.reserve(var.size());
-        for (int c : var) aidx.push_back(g.index(c));
-        const double r2 = partial_r2(g, current, tidx, w, aidx);
-        if (r2 > best_r2) {
-          best_r2 = r2;
-          best_var = var;
-        }
-      }
-      if (best_r2 > 0.9) {
-        std::vector<int> aidx = current;
-        for (int c : best_var) aidx.push_back(g.index(c));
-        const Fit fa = fit_all(g, aidx);
-        const Params pa =
-            physical(cand.id, best_var, fa.theta.tail(static_cast<Eigen::Index>(best_var.size())),
-                     S, model, fa, g);
-        ch.alternatives.push_back({cand.id, pa.values, 100.0 * best_r2, pa.plausible});
-      }
-    }
-    Score next = heldout(g, idx);
-    ch.improvement_pct = 100.0 * (1.0 - std::sqrt(next.total / cur.total));
-    if (pick != 0)
-      ch.note =
-          "chosen before '" + trials[0].id + "', which contains it: the simpler explanation first";
-    chosen.push_back(ch);
-    used.insert(tr.id);
-    current = idx;
-    cur = next;
-    validation.push_back(validation_step("+ " + tr.id, cur, current));
-  }
-  progress("selection", 1.0);
-
-  // ------------------------------------------------------------ final fit and outputs
-  const Fit final_fit = fit_all(g, current);
-  std::vector<int> base_idx;
-  base_idx.reserve(base_cols.size());
-  for (int c : base_cols) base_idx.push_back(g.index(c));
-  const Fit base_fit = fit_all(g, base_idx);
-  auto yb = P.decimated ? predict_decimated(P, g, base_fit) : predict(S, g, base_fit);
-  auto yf = P.decimated ? predict_decimated(P, g, final_fit) : predict(S, g, final_fit);
-  const Errors eb = errors(S.y, yb, S.valid), ef = errors(S.y, yf, S.valid);
-  // Full rate: raw force against the model evaluated on every sample (axis: undecimated).
-  Signals& F = P.full;
-  const auto yb_full = P.decimated ? predict(F, g, base_fit) : std::vector<double>{};
-  const auto yf_full = P.decimated ? predict(F, g, final_fit) : std::vector<double>{};
-  const Errors eb_full = errors(P.y_raw, P.decimated ? yb_full : yb, F.valid),
-               ef_full = errors(P.y_raw, P.decimated ? yf_full : yf, F.valid);
-
-  AnalysisResult R;
-  Findings& J = R.findings;
-  J.recording = rec.path;
-  J.system = model.system;
-  J.samples = rec.rows();
-  J.samples_used = static_cast<std::size_t>(n_total);
-  auto fmt = [](double v) {
-    std::ostringstream o;
-    o << v;
-    return o.str();
-  };
-  J.method.domain = "force (inverse model: measured force predicted from measured motion)";
-  J.method.filter = "4th-order Butterworth, zero phase (forward-backward), position at " +
-                    fmt(P.filter_hz) + " Hz; central differences" +
-                    (actuator ? "; load force filtered alike" : "");
-  J.method.decimation = P.decimation;
-  J.method.identification_bandwidth_hz = P.bandwidth_hz;
-  J.method.folds = folds;
-  J.method.selection =
-      "forward, by held-out error on contiguous time segments; a term must cut the "
-      "held-out mean square error by >= " +
-      fmt(opt.min_gain_pct) + " % with t >= " + fmt(opt.min_t) +
-      " over the segments (or >= 10x that gain with no segment worse), and explain "
-      "more RMS than the force noise floor";
-  J.method.moving_only = actuator
-                             ? "samples slower than " + fmt(opt.min_speed_m_s) +
-                                   " m/s, and within half a filter period of a start, stop or "
-                                   "reversal, are left out: a sticking nut's friction is unknown"
-                             : "all samples";
-  J.noise_floor_n = P.noise_floor_n;
-  auto fitted_base = [&](const Fit& fit) {
-    Parameters b;
-    for (const int c : base_cols) {
-      double v = 0;
-      for (std::size_t k = 0; k < fit.idx.size(); ++k)
-        if (fit.idx[k] == g.index(c)) v = fit.theta[static_cast<Eigen::Index>(k)];
-      set_parameter(b,
-                    c == kAcc    ? "nut_mass_kg"
-                    : c == kVel  ? "viscous_n_s_per_m"
-                    : c == kSign ? "coulomb_n"
-                                 : "offset_n",
-                    v);
-    }
-    return b;
-  };
-  J.baseline = {eb.rms,
-                eb.rel_pct,
-                eb_full.rms,
-                eb_full.rel_pct,
-                std::sqrt(base_heldout / n_total),
-                fitted_base(base_fit)};
-  auto& effects = J.effects;
-  std::size_t off = base_cols.size();
-  for (const auto& ch : chosen) {
-    const Eigen::VectorXd c = final_fit.theta.segment(static_cast<Eigen::Index>(off),
-                                                      static_cast<Eigen::Index>(ch.cols.size()));
-    off += ch.cols.size();
-    const Params pp = physical(ch.id, ch.cols, c, S, model, final_fit, g);
-    EffectFinding e;
-    e.id = ch.id;
-    e.parameters = pp.values;
-    e.where = where_text(ch.id, pp.values, S, bursts);
-    e.evidence.heldout_gain_pct = ch.gain_pct;
-    e.evidence.t_stat = ch.t_stat;
-    e.evidence.segments_improved = std::to_string(ch.folds_improved) + "/" + std::to_string(folds);
-    e.evidence.explained_rms_n = ch.explained_n;
-    e.evidence.worst_segment_pct = ch.worst;
-    e.evidence.noise_floor_n = P.noise_floor_n;
-    e.evidence.plausible = pp.plausible;
-    e.improvement_pct = ch.improvement_pct;
-    if (!ch.alternatives.empty()) {
-      e.identifiable = false;
-      e.alternatives = ch.alternatives;
-      std::string names = ch.id;
-      for (const auto& a : ch.alternatives) names += " or " + a.id;
-      e.finding = "one combined finding: the data cannot tell " + names + " apart";
-    } else {
-      e.identifiable = true;
-    }
-    e.note = ch.note;
-    effects.push_back(e);
-  }
-  J.nothing_missing = chosen.empty();
-  J.conclusion =
-      chosen.empty()
-          ? "nothing is missing: no candidate effect lowers the held-out error significantly"
-          : std::to_string(chosen.size()) + " effect(s) found";
-  J.not_selected = rejected;
-  J.final_fit = {ef.rms,          ef.rel_pct,   ef_full.rms,
-                 ef_full.rel_pct, std::nullopt, fitted_base(final_fit)};
-  J.validation = validation;
-
-  // Events: step-outs and isolated pulses, windows where the final residual stays large.
-  auto& events = J.events;
-  for (const auto& [ts, k] : P.slips) {
-    Event ev;
-    ev.type = "step_out";
-    ev.t_s = ts;
-    ev.leads = k;
-    events.push_back(ev);
-  }
-  for (const auto& [ts, amp] : bursts) {
-    Event ev;
-    ev.type = "isolated_disturbance";
-    ev.t_s = ts;
-    ev.residual_n = amp;
-    events.push_back(ev);
-  }
-  if (!P.slips.empty()) {
-    EffectFinding e;
-    e.id = "step_out";
-    set_parameter(e.parameters, "count", static_cast<double>(P.slips.size()), true);
-    e.where = "phase left the stable branch and the nut slipped by a lead";
-    e.evidence.events = P.slips.size();
-    e.improvement_pct = 0.0;
-    e.identifiable = true;
-    e.note = "an event, not a force term: the slips' windows (±0.2 s) are left out of the fits";
-    J.effects.push_back(e);
-  }
-
-  // ------------------------------------------------------------ localisation
-  std::vector<double> res0(S.size()), res1(S.size());
-  for (std::size_t i = 0; i < S.size(); ++i) {
-    res0[i] = S.y[i] - yb[i];
-    res1[i] = S.y[i] - yf[i];
-  }
-  const double rms0 = eb.rms;
-  auto add_map = [&](const std::string& name, const std::vector<double>& x,
-                     const std::string& label, const std::string& unit, double scale, double lo,
-                     double hi, int nb) {
-    const auto b0 = bin(x, res0, S.valid, lo, hi, nb);
-    const auto b1 = bin(x, res1, S.valid, lo, hi, nb);
-    const std::string text = describe_regions(b0, label, unit, scale, rms0);
-    if (!text.empty()) {
-      R.where.push_back(text);
-    }
-    Figure fig;
-    fig.file = "map_" + name + ".png";
-    // The finding already names where ("over velocity: …"): the caption does not repeat it.
-    fig.caption = text.empty() ? "Mean residual (measured - model) over " + label
-                               : "Mean residual (measured - model) " + text;
-    fig.charts.push_back({"Mean residual over " + label,
-                          label + " [" + unit + "]",
-                          "residual [N]",
-                          {to_series("baseline", b0, scale), to_series("corrected", b1, scale)}});
-    R.figures.push_back(fig);
-  };
-  {
-    auto [vlo, vhi] = percentile_range(S.v, S.valid, 0.005);
-    add_map("velocity", S.v, "velocity", "mm/s", 1e3, vlo, vhi, 60);
-    // Direction dependence in words.
-    double sp = 0, sn = 0, np = 0, nn = 0;
-    for (std::size_t i = 0; i < S.size(); ++i) {
-      if (!S.valid[i]) continue;
-      if (S.v[i] > 0) {
-        sp += res0[i];
-        ++np;
-      }
-      if (S.v[i] < 0) {
-        sn += res0[i];
-        ++nn;
-      }
-    }
-    if (np > 0 && nn > 0) {
-      std::ostringstream o;
-      o.precision(3);
-      o << "by direction: mean residual " << std::showpos << sp / np << " N moving +, " << sn / nn
-        << " N moving −" << std::noshowpos;
-      if (std::abs(sp / np - sn / nn) > 0.3 * rms0) o << " (jumps at velocity reversals)";
-      R.where.push_back(o.str());
-    }
-    // Plain variables, not a structured binding: clang 14 (clang-tidy) cannot capture bindings.
-    const auto p_range = percentile_range(S.p, S.valid, 0.0);
-    const double plo = p_range.first, phi_ = p_range.second;
-    add_map("position", S.p, "position", "mm", 1e3, plo, phi_, 80);
-    if (actuator) {
-      add_map("phase", S.phi, "phase", "rad", 1.0, -kPi / 2, kPi / 2, 60);
-      std::vector<double> ang(S.size());
-      for (std::size_t i = 0; i < S.size(); ++i)
-        ang[i] = S.theta[i] - 2 * kPi * std::floor(S.theta[i] / (2 * kPi));
-      add_map("screw_angle", ang, "screw angle mod one turn", "rad", 1.0, 0.0, 2 * kPi, 36);
-      // Heat maps: residual over (angle mod turn, position) and (velocity, position).
-      auto heat = [&](const std::string& file, const std::string& title,
-                      const std::vector<double>& x, double xlo, double xhi, const std::string& xl,
-                      double xs) {
-        Grid h;
-        h.title = title;
-        h.x_label = xl;
-        h.y_label = "position [mm]";
-        h.value_label = "mean residual [N]";
-        h.nx = 48;
-        h.ny = 40;
-        h.x_min = xlo * xs;
-        h.x_max = xhi * xs;
-        h.y_min = plo * 1e3;
-        h.y_max = phi_ * 1e3;
-        std::vector<double> sum(static_cast<std::size_t>(h.nx * h.ny), 0.0), cnt(sum.size(), 0.0);
-        for (std::size_t i = 0; i < S.size(); ++i) {
-          if (!S.valid[i]) continue;
-          const int ix = static_cast<int>((x[i] - xlo) / (xhi - xlo) * h.nx);
-          const int iy = static_cast<int>((S.p[i] - plo) / (phi_ - plo + 1e-12) * h.ny);
-          if (ix < 0 || ix >= h.nx || iy < 0 || iy >= h.ny) continue;
-          const auto cell = static_cast<std::size_t>(iy) * static_cast<std::size_t>(h.nx) +
-                            static_cast<std::size_t>(ix);
-          sum[cell] += res0[i];
-          cnt[cell] += 1;
-        }
-        h.values.resize(sum.size());
-        for (std::size_t k = 0; k < sum.size(); ++k)
-          h.values[k] = cnt[k] >= 3 ? sum[k] / cnt[k] : NAN;
-        Figure f;
-        f.file = file;
-        f.caption = title + " (baseline residual)";
-        f.is_grid = true;
-        f.grid = h;
-        R.figures.push_back(f);
-      };
-      heat("heat_angle_position.png", "Residual over screw angle mod one turn and position", ang, 0,
-           2 * kPi, "screw angle mod 2pi [rad]", 1.0);
-      heat("heat_velocity_position.png", "Residual over velocity and position", S.v, vlo, vhi,
-           "velocity [mm/s]", 1e3);
-    } else {
-      Grid h;
-      (void)h;
-    }
-    // Time: 1 s windows of residual RMS; growth over time; windows far above the median.
-    const double win = std::max(1.0, (S.t.back() - S.t.front()) / 400.0);
-    Curve rms_t0{"baseline", {}, {}}, rms_t1{"corrected", {}, {}};
-    std::vector<double> wr;
-    for (std::size_t i = 0; i < S.size();) {
-      const double t0 = S.t[i];
-      double e0 = 0, e1 = 0;
-      std::size_t c = 0, j = i;
-      for (; j < S.size() && S.t[j] < t0 + win; ++j)
-        if (S.valid[j]) {
-          e0 += res0[j] * res0[j];
-          e1 += res1[j] * res1[j];
-          ++c;
-        }
-      if (c > 10) {
-        rms_t0.x.push_back(t0 + win / 2);
-        rms_t0.y.push_back(std::sqrt(e0 / static_cast<double>(c)));
-        rms_t1.x.push_back(t0 + win / 2);
-        rms_t1.y.push_back(std::sqrt(e1 / static_cast<double>(c)));
-        wr.push_back(rms_t0.y.back());
-      }
-      i = j;
-    }
-    if (wr.size() >= 6) {
-      const std::size_t q = wr.size() / 3;
-      const double first =
-          std::accumulate(wr.begin(), wr.begin() + static_cast<std::ptrdiff_t>(q), 0.0) /
-          static_cast<double>(q);
-      const double last =
-          std::accumulate(wr.end() - static_cast<std::ptrdiff_t>(q), wr.end(), 0.0) /
-          static_cast<double>(q);
-      std::ostringstream o;
-      o.precision(3);
-      if (last > 1.5 * first && last > 0.3 * rms0) {
-        o << "over time: the residual grows (RMS " << first << " N in the first third, " << last
-          << " N in the last)";
-        R.where.push_back(o.str());
-      }
-      std::vector<double> sorted = wr;
-      std::sort(sorted.begin(), sorted.end());
-      const double med = sorted[sorted.size() / 2];
-      int shown = 0;
-      std::ostringstream w2;
-      w2.precision(4);
-      for (std::size_t k = 0; k < wr.size() && shown < 6; ++k)
-        if (wr[k] > 3 * med && wr[k] > P.noise_floor_n * 3) {
-          w2 << (shown ? ", " : "") << rms_t0.x[k] - win / 2 << "–" << rms_t0.x[k] + win / 2
-             << " s";
-          Event ev;
-          ev.type = "misfit_window";
-          ev.t_s = rms_t0.x[k] - win / 2;
-          ev.duration_s = win;
-          ev.rms_n = wr[k];
-          events.push_back(ev);
-          ++shown;
-        }
-      if (shown) {
-        R.where.push_back("in time: windows with residual RMS over 3× the median: " + w2.str());
-      }
-    }
-    Figure ft;
-    ft.file = "residual_time.png";
-    ft.caption = "Residual RMS in time windows";
-    ft.charts.push_back({"Residual RMS over time", "time [s]", "RMS [N]", {rms_t0, rms_t1}});
-    R.figures.push_back(ft);
-    // Event-locked averages: the residual around velocity reversals and input edges.
-    const double fs_id = P.fs_hz / P.decimation;
-    const int half = static_cast<int>(0.15 * fs_id);
-    auto locked = [&](const std::vector<std::pair<std::size_t, double>>& at,
-                      const std::string& file, const std::string& what) {
-      std::vector<double> acc0(static_cast<std::size_t>(2 * half + 1), 0.0), acc1(acc0.size(), 0.0),
-          cnt(acc0.size(), 0.0);
-      for (const auto& [i, d] : at)
-        for (int k = -half; k <= half; ++k) {
-          const auto ii = static_cast<std::ptrdiff_t>(i) + k;
-          if (ii < 0 || ii >= static_cast<std::ptrdiff_t>(S.size()) ||
-              !S.valid[static_cast<std::size_t>(ii)])
-            continue;
-          const int lag = k + half;
-          const auto kk = static_cast<std::size_t>(lag);
-          acc0[kk] += d * res0[static_cast<std::size_t>(ii)];
-          acc1[kk] += d * res1[static_cast<std::size_t>(ii)];
-          cnt[kk] += 1;
-        }
-      Figure fr;
-      fr.file = file;
-      fr.caption = "Residual averaged around " + std::to_string(at.size()) + " " + what +
-                   " (signed by the new direction)";
-      Curve s0{"baseline", {}, {}}, s1{"corrected", {}, {}};
-      for (std::size_t k = 0; k < cnt.size(); ++k)
-        if (cnt[k] > 0) {
-          const double tt = (static_cast<double>(k) - half) / fs_id;
-          s0.x.push_back(tt * 1e3);
-          s0.y.push_back(acc0[k] / cnt[k]);
-          s1.x.push_back(tt * 1e3);
-          s1.y.push_back(acc1[k] / cnt[k]);
-        }
-      fr.charts.push_back({"Residual locked to " + what,
-                           "time from event [ms]",
-                           "residual x direction [N]",
-                           {s0, s1}});
-      R.figures.push_back(fr);
-    };
-    std::vector<std::pair<std::size_t, double>> rev;
-    double last_dir = 0;
-    for (std::size_t i = 0; i < S.size(); ++i) {
-      const double d = std::abs(S.v[i]) > std::max(S.moving_speed, 1e-6) ? sgn(S.v[i]) : 0.0;
-      if (d != 0 && last_dir != 0 && d != last_dir) rev.emplace_back(i, d);
-      if (d != 0) last_dir = d;
-    }
-    locked(rev, "reversal_locked.png", "velocity reversals");
-    J.reversals = rev.size();
-    // Input edges: steps in a setpoint column, if the recording has one.
-    for (const char* col : {"force_set_n", "pos_set_m", "ref_pos_m"}) {
-      if (!rec.has(col)) continue;
-      const auto& x = rec.column(col);
-      double lo = INFINITY, hi = -INFINITY;
-      for (double e : x)
-        if (std::isfinite(e)) lo = std::min(lo, e), hi = std::max(hi, e);
-      std::vector<std::pair<std::size_t, double>> edges;
-      for (std::size_t i = 1; i < x.size(); ++i) {
-        const double d = x[i] - x[i - 1];
-        if (std::isfinite(d) && std::abs(d) > 0.05 * (hi - lo) && hi > lo)
-          edges.emplace_back(i / static_cast<std::size_t>(P.decimation), sgn(d));
-      }
-      if (!edges.empty()) {
-        locked(edges, std::string("edge_locked_") + col + ".png", std::string("steps of ") + col);
-        J.input_edges = edges.size();
-      }
-      break;
-    }
-  }
-
-  // Time series: measured, baseline, corrected (thinned for drawing).
-  {
-    const std::size_t step = std::max<std::size_t>(1, S.size() / 6000);
-    Curve m{"measured", {}, {}}, b{"baseline", {}, {}}, c{"corrected", {}, {}},
-        rb{"baseline", {}, {}}, rc{"corrected", {}, {}};
-    for (std::size_t i = 0; i < S.size(); i += step) {
-      m.x.push_back(S.t[i]);
-      m.y.push_back(S.y[i]);
-      b.x.push_back(S.t[i]);
-      b.y.push_back(yb[i]);
-      c.x.push_back(S.t[i]);
-      c.y.push_back(yf[i]);
-      if (S.valid[i]) {
-        rb.x.push_back(S.t[i]);
-        rb.y.push_back(S.y[i] - yb[i]);
-        rc.x.push_back(S.t[i]);
-        rc.y.push_back(S.y[i] - yf[i]);
-      }
-    }
-    Figure f;
-    f.file = "force_time.png";
-    f.caption = "Measured force and the models' predictions from measured motion; residuals below";
-    f.charts.push_back({"Force", "time [s]", "force [N]", {m, b, c}});
-    f.charts.push_back({"Residual (measured - model)", "time [s]", "residual [N]", {rb, rc}});
-    R.figures.insert(R.figures.begin(), f);
-    Figure v;
-    v.file = "heldout.png";
-    v.caption = "Held-out RMS error after each added term";
-    Curve hs{"held-out RMS", {}, {}};
-    for (std::size_t k = 0; k < validation.size(); ++k) {
-      hs.x.push_back(static_cast<double>(k));
-      hs.y.push_back(validation[k].heldout_rms_n);
-    }
-    v.charts.push_back({"Held-out error per step (0 = baseline)", "terms added", "RMS [N]", {hs}});
-    R.figures.insert(R.figures.begin() + 1, v);
-  }
-
-  // ------------------------------------------------------------ corrected model file
-  ModelFile M = model;
-  M.fit.clear();  // the corrected model is a model: every value fixed, as fitted here
-  for (const auto& [name, value, is_count] : fitted_base(final_fit)) {
-    if (name == "nut_mass_kg") M.nut_mass_kg = value;
-    if (name == "viscous_n_s_per_m") M.viscous_n_s_per_m = value;
-    if (name == "coulomb_n") M.coulomb_n = value;
-  }
-  bool has_asym = false;
-  for (const auto& e : J.effects) {
-    const std::string& id = e.id;
-    auto val = [&](const char* k) { return parameter_value(e.parameters, k); };
-    std::ostringstream note;
-    note.precision(3);
-    note << "maglead analyze: " << e.where;
-    if (e.evidence.heldout_gain_pct)
-      note << "; held-out gain " << *e.evidence.heldout_gain_pct << " %";
-    if (!e.finding.empty()) note << "; " << e.finding;
-    auto add = [&](const std::vector<std::pair<std::string, double>>& kv) {
-      auto& t = M.term(id);
-      t.enabled = true;
-      t.note = note.str();
-      for (const auto& [k, v] : kv) t.set(k, v);
-    };
-    if (id == "mass_error")
-      M.nut_mass_kg = val("nut_mass_kg");
-    else if (id == "coulomb_friction")
-      M.coulomb_n = val("coulomb_n");
-    else if (id == "viscous_friction")
-      M.viscous_n_s_per_m = val("viscous_n_s_per_m");
-    else if (id == "asymmetric_friction") {
-      // The benchmark's direction-dependent form: it already holds any constant force, so a
-      // separate offset finding is not written beside it.
-      add({{"coulomb_pos_n", val("coulomb_pos_n")},
-           {"coulomb_neg_n", val("coulomb_neg_n")},
-           {"viscous_pos_n_s_per_m", val("viscous_pos_n_s_per_m")},
-           {"viscous_neg_n_s_per_m", val("viscous_neg_n_s_per_m")}});
-      std::erase_if(M.terms, [](const ModelTerm& t) { return t.id == "offset"; });
-      has_asym = true;
-    } else if (id == "offset" && !has_asym)
-      add({{"offset_n", val("offset_n")}});
-    else if (id == "stribeck_friction")
-      add({{"breakaway_n", M.coulomb_n + val("stribeck_n")},
-           {"coulomb_n", M.coulomb_n},
-           {"stribeck_velocity_m_s", val("stribeck_velocity_m_s")}});
-    else if (id == "spring")
-      add({{"stiffness_n_per_m", val("spring_n_per_m")},
-           {"rest_position_m", val("free_position_m")}});
-    else if (id == "position_ripple")
-      add({{"amplitude_n", val("amplitude_n")},
-           {"period_m", val("period_m")},
-           {"phase_rad", val("phase_rad")}});
-    // step_out: the twin's coupling is periodic, slips are always modelled.
-  }
-  M.source = (model.source.empty() ? std::string("baseline") : model.source) +
-             "; corrected by maglead analyze from " + rec.path;
-  R.corrected = M;
-  if (actuator) {
-    progress("twin", 0.0);
-    try {
-      J.twin_simulation =
-          simulate_twins({S.t, S.p, S.v, S.theta, S.y, act, cal.periodic, P.fs_hz, 0.1}, model, M);
-    } catch (const std::exception& e) {
-      J.twin_simulation = TwinSimulation{};
-      J.twin_simulation->reason = e.what();
-    }
-  } else {
-    J.twin_simulation = TwinSimulation{};
-    J.twin_simulation->reason =
-        "the twin models the magnetic actuator; this is a force-driven axis";
-  }
-  progress("done", 1.0);
-  return R;
+  return analyze_axis(rec, model, opt);
 }
 
 }  // namespace maglead::analysis

@@ -1,13 +1,14 @@
 #pragma once
-// The output of `maglead analyze`: analysis.json for machines, report.html (figures embedded)
-// for people, the figures as PNG and the corrected model file.
+// The output of `maglead analyze`: analysis.json for machines, the corrected model file, and
+// index.html for people: the analysis part of `maglead report`'s page (interactive fit chart,
+// the residual maps as embedded PNG, written beside it).
 #include <string>
 
 #include "maglead/analysis/analysis.hpp"
 
 namespace maglead::report {
 
-/// Writes analysis.json, report.html, the figures and model_corrected.toml into out_dir.
+/// Writes analysis.json, model_corrected.toml, index.html and its PNG maps into out_dir.
 /// Throws std::runtime_error when a file cannot be written.
 void write_analysis_outputs(const analysis::AnalysisResult& result, const std::string& out_dir);
 

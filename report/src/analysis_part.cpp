@@ -1,0 +1,192 @@
+// The analysis's part of a report page (see analysis_part.hpp).
+#include "analysis_part.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+#include <vector>
+
+#include "effect_text.hpp"
+#include "maglead/report/html.hpp"
+#include "maglead/report/plot.hpp"
+#include "maglead/report/time_chart.hpp"
+
+namespace maglead::report {
+namespace {
+
+constexpr const char* kStyle = R"css(
+body{font-family:system-ui,sans-serif;max-width:1150px;margin:0 auto;padding:0 12px 2em;
+  color:#222;line-height:1.4}
+h1{font-size:1.45em;margin:.6em 0 .3em}
+h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}
+table{border-collapse:collapse;margin:.5em 0;display:block;overflow-x:auto;max-width:100%}
+td,th{border:1px solid #ccc;padding:3px 8px;text-align:left;vertical-align:top}
+.ok{background:#e6f4e6;padding:.6em}.bad{background:#fbe9e7;padding:.6em}
+figure{margin:1em 0;border:1px solid #ddd;padding:8px;box-sizing:border-box;max-width:100%}
+figcaption{color:#444;font-size:.92em;margin-bottom:4px}
+.legend{font-size:.85em;min-height:1.3em;margin:2px 0 4px}
+.plot{width:100%;height:260px}.map{max-width:100%;height:auto;display:block}
+.hint,.meaning{color:#666;font-size:.9em}code{font-size:.95em}
+)css";
+
+using Status = AnalysisOutcome::Status;
+
+// One line per parameter, by name (as analysis.json has them).
+std::string parameters_html(const std::string& id, const analysis::Parameters& params) {
+  std::vector<const analysis::Parameter*> sorted;
+  for (const auto& p : params) sorted.push_back(&p);
+  std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->name < b->name; });
+  std::string h;
+  for (const auto* p : sorted)
+    h += (h.empty() ? "" : "<br>") + parameter_html(id, p->name, p->value);
+  return h;
+}
+
+std::string evidence_text(const analysis::EffectFinding& e) {
+  const auto& ev = e.evidence;
+  if (!ev.heldout_gain_pct) return "";
+  std::string s = "held-out gain " + number(*ev.heldout_gain_pct) + " %";
+  if (ev.t_stat) s += ", t = " + number(*ev.t_stat);
+  if (ev.segments_improved) s += ", " + *ev.segments_improved + " segments better";
+  return s;
+}
+
+std::string effect_row(const analysis::EffectFinding& e) {
+  std::string h = "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" +
+                  escape_html(e.id) + "</code></td><td>" + escape_html(effect_law(e.id)) +
+                  "</td><td>" + parameters_html(e.id, e.parameters) + "</td><td>" +
+                  escape_html(e.where);
+  if (!e.finding.empty()) h += "<br>" + escape_html(e.finding);
+  if (const auto ev = evidence_text(e); !ev.empty()) h += "<br>" + escape_html(ev);
+  for (const auto& alt : e.alternatives)
+    h += "<br>alternative: <b>" + escape_html(effect_title(alt.id)) + "</b> " +
+         parameters_html(alt.id, alt.parameters) + " (reproduces " + number(alt.explains_pct) +
+         " %)";
+  return h + "</td></tr>\n";
+}
+
+// Where the baseline misfits, in words (the axis path locates it over velocity, position, time).
+std::string where_list(const analysis::AnalysisResult& r) {
+  if (r.where.empty()) return "";
+  std::string h = "<p>Where the model as configured misfits:</p>\n<ul>";
+  for (const auto& w : r.where) h += "<li>" + escape_html(w) + "</li>";
+  return h + "</ul>\n";
+}
+
+// The missing force over time, on the same time axis as the page's other plots.
+std::string fit_chart(const analysis::AnalysisResult& r) {
+  const auto& fit = r.fit_over_time;
+  if (fit.curves.empty() || fit.curves.front().x.size() < 2) return "";
+  TimeChart c;
+  c.id = "fit";
+  c.title = fit.title;
+  c.caption =
+      "The force the model leaves out at the samples the analysis fits, before and after the "
+      "effects it found.";
+  c.y_label = fit.y_label;
+  c.t_s = &fit.curves.front().x;
+  for (const auto& curve : fit.curves) c.series.push_back({curve.label, curve.y});
+  return time_chart_html(c);
+}
+
+std::string heldout_cell(const std::optional<double>& rms) {
+  return "<td>" + (rms ? number(*rms) : std::string("–")) + "</td>";
+}
+
+std::string fit_table(const analysis::Findings& F) {
+  const auto rel = [](const analysis::FitErrors& e) { return number(e.relative_error_pct); };
+  const auto rms = [](const analysis::FitErrors& e) { return number(e.rms_n); };
+  std::optional<double> ho_before, ho_after;
+  if (!F.validation.empty()) {
+    ho_before = F.validation.front().heldout_rms_n;
+    ho_after = F.validation.back().heldout_rms_n;
+  }
+  if (F.effects.empty())
+    return "<p>One fit, since nothing was added: the model's force error is " + rms(F.baseline) +
+           " N RMS (" + rel(F.baseline) + " % of the force).</p>\n";
+  return "<table><tr><th>model</th><th>force error RMS [N]</th><th>relative error [%]</th>"
+         "<th>held-out RMS [N]</th></tr>\n<tr><td>before (the model as configured)</td><td>" +
+         rms(F.baseline) + "</td><td>" + rel(F.baseline) + "</td>" + heldout_cell(ho_before) +
+         "</tr>\n<tr><td>after (with the effects above)</td><td>" + rms(F.final_fit) + "</td><td>" +
+         rel(F.final_fit) + "</td>" + heldout_cell(ho_after) + "</tr></table>\n";
+}
+
+plot::Panel panel_of(const analysis::Chart& c) {
+  plot::Panel p{c.title, c.x_label, c.y_label, {}};
+  for (const auto& curve : c.curves) p.series.push_back({curve.label, curve.x, curve.y});
+  return p;
+}
+
+plot::HeatMap heatmap_of(const analysis::Grid& g) {
+  return {g.title, g.x_label, g.y_label, g.value_label, g.x_min, g.x_max,
+          g.y_min, g.y_max,   g.nx,      g.ny,          g.values};
+}
+
+}  // namespace
+
+std::string page_head(const std::string& title) {
+  return "<meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, "
+         "initial-scale=1\">\n<title>" +
+         escape_html(title) + "</title>\n<style>" + kStyle + "</style>\n" + time_chart_head();
+}
+
+std::string physics_section(const AnalysisOutcome& o, int number) {
+  std::string h =
+      "<h2 id=\"physics\">" + std::to_string(number) + ". What physics is missing</h2>\n";
+  if (o.status == Status::skipped)
+    return h + "<p>The analysis was not run (" + escape_html(o.reason) + ").</p>\n";
+  if (o.status == Status::failed)
+    return h + "<p>The analysis could not run on this recording: " + escape_html(o.reason) +
+           "</p>\n";
+  const auto& effects = o.result->findings.effects;
+  if (effects.empty())
+    return h +
+           "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
+           "significant part of the held-out force error, so the model stays as it is.</p>\n" +
+           where_list(*o.result);
+  h += "<p>The analysis compared the model with the recording in the force domain and names what "
+       "it lacks (effects, laws and parameter names of docs/effects.md):</p>\n<table><tr>"
+       "<th>effect</th><th>law</th><th>parameters</th><th>where, evidence</th></tr>\n";
+  for (const auto& e : effects) h += effect_row(e);
+  return h + "</table>\n" + where_list(*o.result);
+}
+
+std::string fit_part(const AnalysisOutcome& o) {
+  if (o.status != Status::done) return "";
+  return fit_table(o.result->findings) + fit_chart(*o.result);
+}
+
+std::string analysis_events(const AnalysisOutcome& o) {
+  if (o.status != Status::done) return "";
+  std::string h;
+  for (const auto& e : o.result->findings.events) {
+    if (e.type != "external_disturbance") continue;
+    h += "<tr><td>" + number(e.t_s, 6) + "</td><td>" + number(e.duration_s.value_or(NAN)) +
+         "</td><td>" + number(e.force_n.value_or(NAN)) + "</td></tr>\n";
+  }
+  if (h.empty()) return "";
+  return "<table><tr><th>force pulse at [s]</th><th>lasting [s]</th><th>force [N]</th></tr>\n" + h +
+         "</table>\n";
+}
+
+std::string analysis_figures(const AnalysisOutcome& o, const std::string& out_dir) {
+  if (o.status != Status::done) return "";
+  std::string h;
+  for (const auto& f : o.result->figures) {
+    const auto file = (std::filesystem::path(out_dir) / f.file).string();
+    if (f.is_grid) {
+      plot::save_heatmap_png(file, heatmap_of(f.grid));
+    } else {
+      std::vector<plot::Panel> panels;
+      for (const auto& c : f.charts) panels.push_back(panel_of(c));
+      plot::save_panels_png(file, panels, 1100, 300);
+    }
+    h += "<figure><figcaption>" + escape_html(f.caption) +
+         "</figcaption>\n<img class=\"map\" alt=\"" + escape_html(f.caption) + "\" src=\"" +
+         png_data_url(file) + "\"></figure>\n";
+  }
+  return h;
+}
+
+}  // namespace maglead::report

@@ -1,0 +1,27 @@
+#pragma once
+// The analysis's part of a report page, one rendering for both pages that show it: `report`'s
+// anomaly page (index.html) and `analyze`'s page (index.html). A user reads the same sections,
+// tables and interactive fit chart in both.
+#include <string>
+
+#include "maglead/report/anomaly_page.hpp"
+
+namespace maglead::report {
+
+/// <head> content both pages share: charset, viewport, title, style and dygraphs.
+std::string page_head(const std::string& title);
+
+/// "N. What physics is missing": the effects with law, parameters, where and evidence, and where
+/// the model misfits in words. `number` is the section's number on its page.
+std::string physics_section(const AnalysisOutcome& o, int number);
+
+/// The fit before and after: errors (in-sample and held-out) and the interactive fit chart.
+std::string fit_part(const AnalysisOutcome& o);
+
+/// Force pulses the analysis found, as a table (empty when none).
+std::string analysis_events(const AnalysisOutcome& o);
+
+/// The analysis's other figures (maps of the residual), drawn to PNG in out_dir and embedded.
+std::string analysis_figures(const AnalysisOutcome& o, const std::string& out_dir);
+
+}  // namespace maglead::report

@@ -1,0 +1,150 @@
+// Shared statistics of the analysis engines (see statistics.hpp).
+#include "statistics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace maglead::analysis::stats {
+
+double median_of(std::vector<double> x) {
+  if (x.empty()) return 0.0;
+  const auto mid = x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2);
+  std::nth_element(x.begin(), mid, x.end());
+  return *mid;
+}
+
+double robust_sigma(std::vector<double> x) {
+  if (x.empty()) return 0.0;
+  const double m = median_of(x);
+  for (double& v : x) v = std::abs(v - m);
+  return 1.4826 * median_of(x);
+}
+
+double t_statistic(const std::vector<double>& x) {
+  const double n = static_cast<double>(x.size());
+  if (n < 2) return 0.0;
+  const double mean = std::accumulate(x.begin(), x.end(), 0.0) / n;
+  double var = 0;
+  for (double v : x) var += (v - mean) * (v - mean);
+  var /= n - 1;
+  return var > 0 ? mean / std::sqrt(var / n) : (mean > 0 ? 1e9 : 0.0);
+}
+
+double total(const std::vector<double>& x) { return std::accumulate(x.begin(), x.end(), 0.0); }
+
+void require_finite(const Recording& rec, const std::vector<double>& x, const std::string& name) {
+  for (std::size_t i = 0; i < x.size(); ++i)
+    if (!std::isfinite(x[i]))
+      throw RecordingError(rec.path + ": column '" + name + "' has no number at data row " +
+                           std::to_string(i + 1));
+}
+
+Grams::Grams(std::size_t folds, Eigen::Index columns)
+    : xx(folds, Eigen::MatrixXd::Zero(columns, columns)),
+      xr(folds, Eigen::VectorXd::Zero(columns)),
+      rr(folds, 0.0),
+      yy(folds, 0.0),
+      n(folds, 0) {}
+
+void Grams::add_row(std::size_t fold, const Eigen::VectorXd& x, double r, double y) {
+  xx[fold].selfadjointView<Eigen::Lower>().rankUpdate(x);
+  xr[fold] += x * r;
+  rr[fold] += r * r;
+  yy[fold] += y * y;
+  ++n[fold];
+}
+
+void Grams::add_rows(std::size_t fold, const Eigen::Ref<const RowMatrix>& x,
+                     const Eigen::Ref<const Eigen::VectorXd>& r, double yy_sum) {
+  xx[fold].selfadjointView<Eigen::Lower>().rankUpdate(x.transpose());
+  xr[fold].noalias() += x.transpose() * r;
+  rr[fold] += r.squaredNorm();
+  yy[fold] += yy_sum;
+  n[fold] += static_cast<std::size_t>(x.rows());
+}
+
+void Grams::symmetrize() {
+  for (auto& a : xx) a = a.selfadjointView<Eigen::Lower>();
+}
+
+void Grams::add_segment(const Eigen::Ref<const Eigen::MatrixXd>& x, const Eigen::VectorXd& r,
+                        double yy_sum) {
+  xx.push_back(x.transpose() * x);
+  xr.push_back(x.transpose() * r);
+  rr.push_back(r.squaredNorm());
+  yy.push_back(yy_sum);
+  n.push_back(static_cast<std::size_t>(x.rows()));
+}
+
+Fit solve(const Grams& g, const std::vector<int>& idx, int skip_fold) {
+  const auto m = static_cast<Eigen::Index>(idx.size());
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(m, m);
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(m);
+  for (std::size_t f = 0; f < g.xx.size(); ++f) {
+    if (static_cast<int>(f) == skip_fold) continue;
+    for (Eigen::Index r = 0; r < m; ++r) {
+      b[r] += g.xr[f][idx[static_cast<std::size_t>(r)]];
+      for (Eigen::Index c = 0; c < m; ++c)
+        A(r, c) += g.xx[f](idx[static_cast<std::size_t>(r)], idx[static_cast<std::size_t>(c)]);
+    }
+  }
+  // A whisper of ridge on the scaled normal equations keeps collinear columns finite.
+  for (Eigen::Index r = 0; r < m; ++r) A(r, r) += 1e-9 * A(r, r) + 1e-300;
+  Fit fit{idx, m ? Eigen::VectorXd(A.ldlt().solve(b)) : Eigen::VectorXd()};
+  return fit;
+}
+
+double sse(const Grams& g, const Fit& fit, std::size_t f) {
+  double s = g.rr[f];
+  const auto m = static_cast<Eigen::Index>(fit.idx.size());
+  for (Eigen::Index r = 0; r < m; ++r) {
+    s -= 2 * fit.theta[r] * g.xr[f][fit.idx[static_cast<std::size_t>(r)]];
+    for (Eigen::Index c = 0; c < m; ++c)
+      s += fit.theta[r] * fit.theta[c] *
+           g.xx[f](fit.idx[static_cast<std::size_t>(r)], fit.idx[static_cast<std::size_t>(c)]);
+  }
+  return std::max(0.0, s);
+}
+
+std::vector<double> heldout(const Grams& g, const std::vector<int>& idx) {
+  std::vector<double> out(g.xx.size(), 0.0);
+  for (std::size_t f = 0; f < g.xx.size(); ++f) {
+    if (g.n[f] == 0) continue;
+    out[f] = sse(g, solve(g, idx, static_cast<int>(f)), f);
+  }
+  return out;
+}
+
+double partial_r2(const Grams& g, const std::vector<int>& base, const std::vector<int>& a,
+                  const Eigen::VectorXd& wa, const std::vector<int>& b) {
+  std::vector<int> all = base;
+  all.insert(all.end(), a.begin(), a.end());
+  all.insert(all.end(), b.begin(), b.end());
+  const auto m = static_cast<Eigen::Index>(all.size());
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(m, m);
+  for (const auto& xx : g.xx)
+    for (Eigen::Index r = 0; r < m; ++r)
+      for (Eigen::Index c = 0; c < m; ++c) S(r, c) += xx(all[r], all[c]);
+  const auto nb = static_cast<Eigen::Index>(base.size()), na = static_cast<Eigen::Index>(a.size()),
+             nn = static_cast<Eigen::Index>(b.size());
+  // Residualise on `base`, then ask how much of z = X_a wa the span of X_b explains.
+  Eigen::MatrixXd Sbb = S.topLeftCorner(nb, nb);
+  Eigen::MatrixXd R = S;
+  if (nb > 0) {
+    Eigen::MatrixXd Sbr = S.topRows(nb);
+    Eigen::LDLT<Eigen::MatrixXd> ld(Sbb + 1e-12 * Eigen::MatrixXd::Identity(nb, nb) *
+                                              (Sbb.trace() / static_cast<double>(nb) + 1e-300));
+    R = S - Sbr.transpose() * ld.solve(Sbr);
+  }
+  const Eigen::MatrixXd Raa = R.block(nb, nb, na, na), Rab = R.block(nb, nb + na, na, nn),
+                        Rbb = R.block(nb + na, nb + na, nn, nn);
+  const double zz = wa.dot(Raa * wa);
+  if (!(zz > 0)) return 0.0;
+  const Eigen::VectorXd bz = Rab.transpose() * wa;
+  Eigen::LDLT<Eigen::MatrixXd> lb(Rbb + 1e-12 * Eigen::MatrixXd::Identity(nn, nn) *
+                                            (Rbb.trace() / static_cast<double>(nn) + 1e-300));
+  return std::clamp(bz.dot(lb.solve(bz)) / zz, 0.0, 1.0);
+}
+
+}  // namespace maglead::analysis::stats

@@ -1,0 +1,61 @@
+#pragma once
+// Statistics both analysis engines share (internal to twin/analysis): robust spread, per-segment
+// normal equations, least squares on the segments, held-out errors and partial R².
+#include <Eigen/Dense>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "maglead/recording/recording.hpp"
+
+namespace maglead::analysis::stats {
+
+double median_of(std::vector<double> x);
+/// Standard deviation from the median absolute deviation (normal data), robust to outliers.
+double robust_sigma(std::vector<double> x);
+/// Mean over its standard error (one-sample t); large when every value is positive alike.
+double t_statistic(const std::vector<double>& x);
+double total(const std::vector<double>& x);
+
+/// Throws RecordingError naming the file, the column and the data row of the first non-number.
+void require_finite(const Recording& rec, const std::vector<double>& x, const std::string& name);
+
+/// Per-segment normal equations over a set of columns; a fit is a small solve on their sums.
+struct Grams {
+  using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  std::vector<Eigen::MatrixXd> xx;
+  std::vector<Eigen::VectorXd> xr;
+  std::vector<double> rr, yy;  // residual and measured force, sums of squares
+  std::vector<std::size_t> n;
+
+  Grams() = default;
+  Grams(std::size_t folds, Eigen::Index columns);
+  /// One sample: regressors x, residual r, measured force y; fills the lower triangle only.
+  void add_row(std::size_t fold, const Eigen::VectorXd& x, double r, double y);
+  /// A block of rows into segment `fold` (lower triangle only, as add_row); yy_sum is their Σy².
+  void add_rows(std::size_t fold, const Eigen::Ref<const RowMatrix>& x,
+                const Eigen::Ref<const Eigen::VectorXd>& r, double yy_sum);
+  /// Copies the lower triangle of every segment's X'X to its upper one (after add_row).
+  void symmetrize();
+  /// A whole segment at once: rows of regressors, residuals and Σy².
+  void add_segment(const Eigen::Ref<const Eigen::MatrixXd>& x, const Eigen::VectorXd& r,
+                   double yy_sum);
+  std::size_t folds() const { return xx.size(); }
+};
+
+struct Fit {
+  std::vector<int> idx;   // column positions in the Grams
+  Eigen::VectorXd theta;  // in the order of idx
+};
+
+/// Least squares on every segment but `skip_fold` (−1: all of them).
+Fit solve(const Grams& g, const std::vector<int>& idx, int skip_fold = -1);
+/// Squared error of `fit` on segment f.
+double sse(const Grams& g, const Fit& fit, std::size_t f);
+/// Held-out error per segment: fit on the others, score on this one.
+std::vector<double> heldout(const Grams& g, const std::vector<int>& idx);
+/// Share of `a`'s fitted contribution wa (beyond `base`) that columns `b` reproduce.
+double partial_r2(const Grams& g, const std::vector<int>& base, const std::vector<int>& a,
+                  const Eigen::VectorXd& wa, const std::vector<int>& b);
+
+}  // namespace maglead::analysis::stats
