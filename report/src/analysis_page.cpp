@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "maglead/fileio/atomic_file.hpp"
 #include "maglead/report/analysis_json.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/plot.hpp"
@@ -77,11 +78,7 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
   namespace fs = std::filesystem;
   fs::create_directories(out_dir);
   const auto path = [&](const std::string& f) { return (fs::path(out_dir) / f).string(); };
-  {
-    std::ofstream j(path("analysis.json"));
-    j << analysis_json(r).dump(2) << "\n";
-    if (!j) throw std::runtime_error("cannot write " + path("analysis.json"));
-  }
+  write_file_atomically(path("analysis.json"), analysis_json(r).dump(2) + "\n");
   analysis::save_model(path("model_corrected.toml"), r.corrected,
                        "model corrected by maglead analyze from " + r.findings.recording);
   // The fit over time is a chart of its own in the result; here it is one more figure.
@@ -164,9 +161,7 @@ void write_analysis_outputs(const AnalysisResult& r, const std::string& out_dir)
     h << "<figure><img src=\"" << png_data_url(path(f.file)) << "\" alt=\"" << escape_html(f.file)
       << "\"><figcaption>" << escape_html(f.caption) << "</figcaption></figure>\n";
   h << "</body></html>\n";
-  std::ofstream out(path("report.html"));
-  out << h.str();
-  if (!out) throw std::runtime_error("cannot write " + path("report.html"));
+  write_file_atomically(path("report.html"), h.str());
 }
 
 }  // namespace maglead::report
