@@ -49,7 +49,7 @@ def one_kill(port, i, rng):
     deadline = time.time() + 20
     while time.time() < deadline and proc.poll() is None and len(rows_of(path)[1]) < 1:
         time.sleep(0.02)
-    time.sleep(rng.uniform(0.0, 1.5))
+    time.sleep(rng.uniform(0.0, 0.8))
     proc.send_signal(signal.SIGKILL)
     cycle_after_kill = controller_cycle(port)  # read after the kill: the loss is over-, never under-stated
     proc.wait()
@@ -78,7 +78,7 @@ def one_kill(port, i, rng):
 
 
 def main():
-    watchdog(110)
+    watchdog(170)
     os.makedirs(WORK, exist_ok=True)
     seed = int(os.environ.get("MAGLEAD_KILL_SEED", time.time_ns() % 100000))
     print(f"seed {seed} (MAGLEAD_KILL_SEED to repeat)", flush=True)
