@@ -7,9 +7,12 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <random>
+#include <tuple>
 #include <vector>
 
 #include "maglead/recording/error_stats.hpp"
@@ -137,7 +140,8 @@ void expect_same_bits(const Recording& a, const std::vector<std::vector<double>>
 TEST(Recording, LargeFileRoundTripIsBitExact) {
   std::mt19937_64 rng(20240610);
   const std::size_t rows = 200000, ncol = 6;
-  std::vector<std::string> names = {"t_s", "nut_pos_m", "a_m", "b_n", "c_rad", "d_a"};
+  // Any bit pattern: no column is a position or an angle, whose values must be plausible.
+  std::vector<std::string> names = {"t_s", "x_a", "a_m", "b_n", "c_v", "d_a"};
   std::vector<std::vector<double>> cols(ncol, std::vector<double>(rows));
   double t = 0;
   for (std::size_t r = 0; r < rows; ++r) {
@@ -164,7 +168,7 @@ TEST(Recording, LargeFileRoundTripIsBitExact) {
   {
     std::FILE* f = std::fopen(g17.c_str(), "w");
     ASSERT_NE(f, nullptr);
-    std::fprintf(f, "# format: mls-recording/1\nt_s,nut_pos_m,a_m,b_n,c_rad,d_a\n");
+    std::fprintf(f, "# format: mls-recording/1\nt_s,x_a,a_m,b_n,c_v,d_a\n");
     for (std::size_t r = 0; r < rows; ++r)
       for (std::size_t c = 0; c < ncol; ++c) {
         if (!std::isnan(cols[c][r])) std::fprintf(f, "%.17g", cols[c][r]);
@@ -297,8 +301,146 @@ TEST(Recording, TrailingLineWithoutNewline) {
   EXPECT_EQ(r.names, (std::vector<std::string>{"t_s", "a_m"}));
   EXPECT_EQ(r.rows(), 0u);
 
-  const std::string e = error_of(write_file("nonl_bad.csv", "t_s,a_m\n0,1\n1,z"));
-  EXPECT_NE(e.find("nonl_bad.csv:3: column 2 (a_m): 'z' is not a number"), std::string::npos) << e;
+  // A last line without a line end that is not a row: torn by a crash, dropped with a warning
+  // naming the line; the rows before it are all there.
+  r = read_recording(write_file("nonl_bad.csv", "t_s,a_m\n0,1\n1,z"));
+  ASSERT_EQ(r.rows(), 1u);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("nonl_bad.csv:3: the last line has no line end and was dropped"),
+            std::string::npos)
+      << r.warnings[0];
+  EXPECT_NE(r.warnings[0].find("'z' is not a number"), std::string::npos) << r.warnings[0];
+}
+
+// Issue 25: in an mls-recording/1 file every row ends with a line end, so a last line without
+// one is torn even when it reads as numbers (a power cut can cut a row inside a number); a torn
+// line anywhere before the last stays an error.
+TEST(Recording, TornLastLineIsDroppedTornMiddleLineIsAnError) {
+  const std::string head = "# format: mls-recording/1\nt_s,a_m,b_n\n";
+  Recording r = read_recording(write_file("torn.csv", head + "0,1,2\n0.001,1,2\n0.002,1.2"));
+  EXPECT_EQ(r.rows(), 2u);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("torn.csv:5: the last line has no line end and was dropped"),
+            std::string::npos)
+      << r.warnings[0];
+
+  r = read_recording(write_file("whole.csv", head + "0,1,2\n0.001,1,2\n"));
+  EXPECT_EQ(r.rows(), 2u);
+  EXPECT_TRUE(r.warnings.empty());
+
+  const std::string e = error_of(write_file("torn_mid.csv", head + "0,1,2\n0.001,1\n0.002,1,2\n"));
+  EXPECT_NE(e.find("torn_mid.csv:4: has 2 fields, header has 3"), std::string::npos) << e;
+}
+
+// Binary or non-UTF-8 input is refused with the byte's value and place, never the bytes.
+TEST(Recording, BinaryInputIsRefusedWithoutEchoingIt) {
+  std::mt19937 rng(25);
+  std::string noise(4096, '\0');
+  for (auto& ch : noise) ch = static_cast<char>(rng() & 0xFF);
+  const std::string latin1 =
+      "# format: mls-recording/1\n# source: Pr\xFC"
+      "fstand\nt_s\n0\n";
+  const std::string in_row = "# format: mls-recording/1\nt_s,a_m\n0,1\n0.001,\x01\x02\x7F\n";
+  for (const auto& [name, text, at] :
+       {std::tuple{"noise.bin", noise, "noise.bin:1: byte 0x"},
+        std::tuple{"latin1.csv", latin1, "latin1.csv:2: byte 0xFC at column 13 is not UTF-8"},
+        std::tuple{"ctrl.csv", in_row, "ctrl.csv:4: byte 0x01 at column 7 is not UTF-8"}}) {
+    const std::string e = error_of(write_file(name, text));
+    EXPECT_NE(e.find(at), std::string::npos) << e;
+    EXPECT_NE(e.find("the line is not shown"), std::string::npos) << e;
+    for (const char ch : e)
+      ASSERT_TRUE(ch >= 0x20 && ch < 0x7F) << name << ": the message echoes a non-ASCII byte";
+  }
+  // UTF-8 text is text.
+  const Recording ok = read_recording(
+      write_file("utf8.csv", "# format: mls-recording/1\n# source: Prüfstand µ ✓\nt_s\n0\n"));
+  EXPECT_EQ(ok.meta("source"), "Prüfstand µ ✓");
+}
+
+// Values that cannot be in the column's unit are refused naming the column, the values and the
+// likely unit; values at the scale of any plausible machine pass.
+TEST(Recording, ColumnsThatCannotBeInTheirUnitAreRefused) {
+  const std::string head =
+      "# format: mls-recording/1\n# sample_rate_hz: 1000\nt_s,screw_angle_rad,nut_pos_m\n";
+  struct Case {
+    const char* name;
+    std::string rows;
+    std::vector<std::string> expected;
+  };
+  const std::vector<Case> cases = {
+      {"pos_mm",
+       "0,20.85,20.0003\n0.001,20.86,20.0105\n",
+       {"pos_mm.csv: column nut_pos_m cannot be in metres", "20.0105 at data row 2",
+        "beyond +-10 m", "likely unit: millimetres"}},
+      {"angle_urad",
+       "0,20854236,0.02\n0.001,20864236,0.02\n0.002,20954236,0.02\n",
+       {"column screw_angle_rad cannot be in radians", "jumps by 90000 rad",
+        "from 2.08642e+07 to 2.09542e+07 at data row 3", "likely unit: microradians"}},
+      {"time_ms",
+       "0,20.85,0.02\n1,20.86,0.02\n2,20.87,0.02\n3,20.88,0.02\n",
+       {"column t_s cannot be in seconds", "advances by 1 per row", "sample_rate_hz 1000",
+        "likely unit: milliseconds"}},
+  };
+  for (const auto& c : cases) {
+    const std::string e = error_of(write_file(std::string(c.name) + ".csv", head + c.rows));
+    for (const auto& want : c.expected)
+      EXPECT_NE(e.find(want), std::string::npos) << c.name << ": " << e;
+  }
+  // Plausible: a long stroke, fast turning (10 turns a sample), time at the header's rate.
+  const Recording r = read_recording(
+      write_file("plausible.csv", head + "0,0,-2.5\n0.001,62.8,9.9\n0.002,125.6,0\n"));
+  EXPECT_EQ(r.rows(), 3u);
+  // The bound can come from the caller's configuration, and its source is quoted.
+  PlausibleRanges stroke;
+  stroke.position_bound_m = 0.5;
+  stroke.position_bound_source = "10 x the configured stroke";
+  try {
+    check_plausible_units(r, stroke);
+    ADD_FAILURE() << "9.9 m passed a 0.5 m bound";
+  } catch (const RecordingError& e) {
+    EXPECT_NE(std::string(e.what()).find("beyond +-0.5 m (10 x the configured stroke)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+// A streaming writer puts each row in the file as it is given (a SIGKILL loses none of them); a
+// whole writer shows nothing under the name until close(), and leaves the old file when it is
+// never closed.
+TEST(RecordingWriter, StreamingRowsAreInTheFileAtOnceWholeFilesAppearAtClose) {
+  const std::string dir = test_tmp_dir();
+  const std::string streamed = dir + "/streamed.csv";
+  RecordingWriter s(streamed, {{"sample_rate_hz", "1000"}}, {"t_s", "nut_pos_m"});
+  const double rows[3][2] = {{0.0, 0.026}, {0.001, 0.020011}, {0.002, NAN}};
+  for (const auto& row : rows) s.write_row(row, 2);
+  std::ifstream in(streamed);
+  const std::string text{std::istreambuf_iterator<char>(in), {}};
+  EXPECT_EQ(text,
+            "# format: mls-recording/1\n# sample_rate_hz: 1000\nt_s,nut_pos_m\n0,0.026\n"
+            "0.001,0.020011\n0.002,\n");
+  s.close();
+
+  const std::string whole = dir + "/whole.csv";
+  write_file("whole.csv", "old\n");
+  {
+    RecordingWriter w(whole, {}, {"t_s"}, WriteMode::whole);
+    const double t = 0.5;
+    w.write_row(&t, 1);
+    std::ifstream old(whole);
+    EXPECT_EQ(std::string(std::istreambuf_iterator<char>(old), {}), "old\n");
+  }  // never closed: the old file stays, the temporary file is gone
+  std::ifstream still(whole);
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(still), {}), "old\n");
+  {
+    RecordingWriter w(whole, {}, {"t_s"}, WriteMode::whole);
+    const double t = 0.5;
+    w.write_row(&t, 1);
+    w.close();
+  }
+  EXPECT_EQ(read_recording(whole).column("t_s"), std::vector<double>{0.5});
+  std::size_t files = 0;
+  for ([[maybe_unused]] const auto& f : std::filesystem::directory_iterator(dir)) ++files;
+  EXPECT_EQ(files, 2u) << "a temporary file was left behind";
 }
 
 // Rows need not be tidy: spaces around fields, a '+' sign, comment and blank lines between rows.

@@ -7,6 +7,7 @@
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
+#include "maglead/fileio/atomic_file.hpp"
 #include "maglead/physics/toml_config.hpp"
 
 namespace maglead {
@@ -121,8 +122,7 @@ std::string join(const std::vector<double>& v) {
 
 void save_calibration(const std::string& path, const ForceCalibration& cal,
                       const std::string& header_comment) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error(path + ": cannot write");
+  std::ostringstream out;  // then written atomically: a crash never leaves half a calibration
   out << "# maglead force calibration: load-cell force on the nut [N] against phase phi [rad]\n";
   if (!header_comment.empty()) out << "# " << header_comment << "\n";
   out << std::setprecision(10) << "[calibration]\n"
@@ -133,7 +133,7 @@ void save_calibration(const std::string& path, const ForceCalibration& cal,
       << "periodic_mean_n = " << cal.periodic.mean_n << "\n"
       << "periodic_cos_n = " << join(cal.periodic.cos_n) << "\n"
       << "periodic_sin_n = " << join(cal.periodic.sin_n) << "\n";
-  if (!out) throw std::runtime_error(path + ": write failed");
+  write_file_atomically(path, out.str());
 }
 
 ForceCalibration load_calibration(const std::string& path) {

@@ -176,7 +176,7 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
                                     "nut_pos_m", "load_force_n",    "out_force_est_n"};
   if (force_mode) names.push_back("force_set_n");
   if (move_mode) names.push_back("pos_set_m");
-  RecordingWriter writer(out_path, meta, names);
+  RecordingWriter writer(out_path, meta, names, WriteMode::whole);  // appears when complete
 
   StaticForceEstimator estimator(opt.estimator_calibration, act.coulomb_n, 1e-5);
   EncoderVelocityEstimator velocity(dt, act.linear_count_m);
@@ -240,7 +240,7 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
     plant.write_motor_angle(screw_cmd * act.gear_ratio);
 
     std::size_t c = 0;
-    row[c++] = t;
+    row[c++] = static_cast<double>(k) / fs;  // 0.026, where k * dt is 0.026000000000000002
     row[c++] = motor;
     row[c++] = screw;
     row[c++] = pos;

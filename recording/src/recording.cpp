@@ -1,16 +1,24 @@
 #include "maglead/recording/recording.hpp"
 
+#include <fcntl.h>
 #include <string.h>  // NOLINT(modernize-deprecated-headers): memrchr is GNU, not in <cstring>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <sstream>
 #include <string_view>
+#include <utility>
+
+#include "maglead/fileio/atomic_file.hpp"
 
 namespace maglead {
 
@@ -62,9 +70,50 @@ std::string where(const std::string& path, std::size_t line) {
   return path + ":" + std::to_string(line) + ": ";
 }
 
+/// Index of the first byte of `s` that is not UTF-8 text (a control character other than tab and
+/// CR, or a malformed, overlong or surrogate sequence); npos when all is text.
+std::size_t first_non_text_byte(std::string_view s) {
+  for (std::size_t i = 0; i < s.size();) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c < 0x80) {
+      if ((c < 0x20 && c != '\t' && c != '\r') || c == 0x7F) return i;
+      ++i;
+      continue;
+    }
+    const std::size_t len = (c >= 0xC2 && c <= 0xDF)   ? 2
+                            : (c >= 0xE0 && c <= 0xEF) ? 3
+                            : (c >= 0xF0 && c <= 0xF4) ? 4
+                                                       : 0;
+    if (len == 0 || i + len > s.size()) return i;
+    for (std::size_t k = 1; k < len; ++k)
+      if ((static_cast<unsigned char>(s[i + k]) & 0xC0) != 0x80) return i;
+    const auto c1 = static_cast<unsigned char>(s[i + 1]);
+    if ((c == 0xE0 && c1 < 0xA0) || (c == 0xED && c1 > 0x9F) || (c == 0xF0 && c1 < 0x90) ||
+        (c == 0xF4 && c1 > 0x8F))
+      return i;
+    i += len;
+  }
+  return std::string_view::npos;
+}
+
+/// Refuses a line that is not text, naming the first bad byte by value and column but never
+/// echoing the line: raw binary on a terminal garbles it, and says nothing to the reader.
+void require_text(std::string_view line, const std::string& path, std::size_t line_no) {
+  const std::size_t bad = first_non_text_byte(line);
+  if (bad == std::string_view::npos) return;
+  char hex[8];
+  std::snprintf(hex, sizeof hex, "0x%02X",
+                static_cast<unsigned>(static_cast<unsigned char>(line[bad])));
+  throw RecordingError(where(path, line_no) + "byte " + hex + " at column " +
+                       std::to_string(bad + 1) +
+                       " is not UTF-8 text: a binary file or another encoding, not an "
+                       "mls-recording/1 CSV (the line is not shown)");
+}
+
 /// The file in blocks of whole lines, read 1 MiB at a time: a one-hour recording (~400 MB) is
 /// never held in memory at once, and each block is parsed while it is still in the CPU cache.
-/// Every block ends with '\n'; a last line without one gets one, so the parser needs no end test.
+/// Every block ends with '\n', so the parser needs no end test; a last line without one is kept
+/// apart (unterminated_tail): it may be a row torn by a crash.
 class LineBlocks {
  public:
   explicit LineBlocks(const std::string& path) : path_(path) {
@@ -82,7 +131,10 @@ class LineBlocks {
     return ec ? 0 : n;
   }
 
-  /// The next block of complete lines; false at the end of the file.
+  /// The file's last line when it has no line end (empty otherwise), known once next() is false.
+  std::string& unterminated_tail() { return tail_; }
+
+  /// The next block of complete lines, each ending with '\n'; false at the end of the file.
   bool next(std::string_view& block) {
     std::memmove(buf_.data(), buf_.data() + used_, have_ - used_);
     have_ -= used_;
@@ -97,8 +149,13 @@ class LineBlocks {
         }
       }
       if (eof_ && have_ > 0 && buf_[have_ - 1] != '\n') {
-        if (have_ == buf_.size()) buf_.resize(buf_.size() + 1);
-        buf_[have_++] = '\n';
+        // The last line has no line end: set aside for the caller to judge (torn or not).
+        const void* last_nl = memrchr(buf_.data(), '\n', have_);
+        const std::size_t keep =
+            last_nl ? static_cast<std::size_t>(static_cast<const char*>(last_nl) - buf_.data()) + 1
+                    : 0;
+        tail_.assign(buf_.data() + keep, have_ - keep);
+        have_ = keep;
       }
       if (have_ == 0) return false;
       const void* nl = memrchr(buf_.data(), '\n', have_);
@@ -117,6 +174,7 @@ class LineBlocks {
   std::vector<char> buf_ = std::vector<char>(std::size_t{1} << 20);
   std::size_t have_ = 0, used_ = 0;
   bool eof_ = false;
+  std::string tail_;
 };
 
 /// The numeric rows after the header. Well-formed rows (no spaces, no '+', no comment) take a
@@ -146,9 +204,33 @@ class RowParser {
     }
   }
 
+  /// The file's last line when it has no line end; returns a warning, empty when none. Every
+  /// row of an mls-recording/1 file ends with one (RecordingWriter writes a row per write()), so
+  /// there the line is torn by a crash or power cut: dropped. A file without the format line (a
+  /// third-party CSV) keeps the line when it reads as a row and drops it when not.
+  std::string parse_last_line(std::string_view line, bool own_format) {
+    ++line_no_;
+    if (line.find_first_not_of(" \t\r") == std::string_view::npos) return "";
+    std::string why = "every row of an mls-recording/1 file ends with one";
+    if (!own_format) {
+      try {
+        parse_line(line);
+        return "";
+      } catch (const RecordingError& e) {
+        why = e.what();
+        const std::string prefix = where(rec_.path, line_no_);
+        if (why.rfind(prefix, 0) == 0) why.erase(0, prefix.size());
+      }
+    }
+    return where(rec_.path, line_no_) +
+           "the last line has no line end and was dropped as torn by a crash or power cut (" + why +
+           ")";
+  }
+
   /// One line (without its '\n'): blank and '#' lines are skipped, a row is checked and kept.
   void parse_line(std::string_view line) {
     const std::string& path = rec_.path;
+    require_text(line, path, line_no_);  // before any message quotes a field
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     if (line.empty() || line.front() == '#') return;
     std::size_t start = 0;
@@ -245,45 +327,56 @@ std::size_t estimate_rows(std::uintmax_t bytes, std::string_view sample, std::si
 
 }  // namespace
 
-Recording read_recording(const std::string& path, const std::vector<std::string>& required) {
-  LineBlocks blocks(path);
-  Recording rec;
-  rec.path = path;
+namespace {
 
-  // Metadata and the header row, one line at a time; `block` keeps what follows the header.
+/// One line before the rows: metadata (`# key: value`) is kept, blank lines skipped. True when it
+/// was the header row, whose names are then in rec.names.
+bool take_head_line(Recording& rec, std::string_view line, std::size_t line_no) {
+  require_text(line, rec.path, line_no);
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  if (line.empty()) return false;
+  if (line.front() == '#') {
+    std::string_view body = line.substr(1);
+    const std::size_t colon = body.find(':');
+    if (colon != std::string_view::npos)
+      rec.metadata.emplace_back(trim(body.substr(0, colon)), trim(body.substr(colon + 1)));
+    return false;
+  }
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    rec.names.push_back(trim(line.substr(start, comma - start)));
+    if (comma == std::string_view::npos) return true;
+    start = comma + 1;
+  }
+}
+
+/// Metadata and the header row; returns the header's line number. `block` keeps what follows the
+/// header in the current block.
+std::size_t read_head(Recording& rec, LineBlocks& blocks, std::string_view& block) {
   std::size_t line_no = 0;
-  std::string_view block;
-  bool have_header = false;
-  while (!have_header && blocks.next(block)) {
+  while (blocks.next(block)) {
     while (!block.empty()) {
       const std::size_t nl = block.find('\n');
-      std::string_view line = block.substr(0, nl);
+      const std::string_view line = block.substr(0, nl);
       block.remove_prefix(nl + 1);
-      ++line_no;
-      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-      if (line.empty()) continue;
-      if (line.front() == '#') {
-        std::string_view body = line.substr(1);
-        const std::size_t colon = body.find(':');
-        if (colon != std::string_view::npos)
-          rec.metadata.emplace_back(trim(body.substr(0, colon)), trim(body.substr(colon + 1)));
-        continue;
-      }
-      std::size_t start = 0;
-      while (true) {
-        const std::size_t comma = line.find(',', start);
-        rec.names.push_back(trim(line.substr(start, comma - start)));
-        if (comma == std::string_view::npos) break;
-        start = comma + 1;
-      }
-      have_header = true;
-      break;
+      if (take_head_line(rec, line, ++line_no)) return line_no;
     }
   }
-  if (!have_header) throw RecordingError(path + ": no header row");
+  // A header (or a file) without a line end: the header is whole if the names are.
+  std::string& tail = blocks.unterminated_tail();
+  if (!tail.empty() && take_head_line(rec, tail, ++line_no)) {
+    tail.clear();
+    return line_no;
+  }
+  throw RecordingError(rec.path + ": no header row");
+}
+
+void check_header(const Recording& rec, std::size_t header_line,
+                  const std::vector<std::string>& required) {
+  const std::string& path = rec.path;
   if (auto fmt = rec.meta("format"); fmt && *fmt != "mls-recording/1")
     throw RecordingError(path + ": format '" + *fmt + "' is not mls-recording/1");
-  const std::size_t header_line = line_no;
   for (std::size_t i = 0; i < rec.names.size(); ++i) {
     if (rec.names[i].empty())
       throw RecordingError(where(path, header_line) + "column " + std::to_string(i + 1) +
@@ -300,6 +393,17 @@ Recording read_recording(const std::string& path, const std::vector<std::string>
       throw RecordingError(where(path, header_line) + "missing required column '" + r +
                            "' (header has: " + have + ")");
     }
+}
+
+}  // namespace
+
+Recording read_recording(const std::string& path, const std::vector<std::string>& required) {
+  LineBlocks blocks(path);
+  Recording rec;
+  rec.path = path;
+  std::string_view block;
+  const std::size_t header_line = read_head(rec, blocks, block);
+  check_header(rec, header_line, required);
 
   const std::size_t ncol = rec.names.size();
   rec.columns.assign(ncol, {});
@@ -309,63 +413,128 @@ Recording read_recording(const std::string& path, const std::vector<std::string>
   RowParser rows(rec, header_line);
   rows.parse_block(block);
   while (blocks.next(block)) rows.parse_block(block);
+  const std::string& tail = blocks.unterminated_tail();
+  if (!tail.empty()) {
+    std::string warning = rows.parse_last_line(tail, rec.meta("format").has_value());
+    if (!warning.empty()) {
+      std::fprintf(stderr, "warning: %s\n", warning.c_str());
+      rec.warnings.push_back(std::move(warning));
+    }
+  }
+  check_plausible_units(rec);
   return rec;
 }
 
+/// Streaming: rows go to the file itself, one write() per row, so they leave the process whole
+/// and at once. Whole: rows collect in blocks written to an AtomicFile, renamed in by close().
 struct RecordingWriter::Impl {
-  std::FILE* f = nullptr;
   std::string path;
   std::size_t ncol = 0;
+  WriteMode mode = WriteMode::streaming;
+  int fd = -1;                         // streaming
+  std::unique_ptr<AtomicFile> atomic;  // whole
+  std::string pending;                 // text not yet written
+  std::chrono::steady_clock::time_point last_sync = std::chrono::steady_clock::now();
+
+  void put_pending() {
+    if (mode == WriteMode::whole) {
+      atomic->write(pending);
+    } else if (!write_all(fd, pending)) {
+      throw std::runtime_error(path + ": write failed (" + std::strerror(errno) + ")");
+    }
+    pending.clear();
+  }
+
+  /// Streaming: to disk when the interval has passed since the last sync.
+  void sync_if_due() {
+    const auto now = std::chrono::steady_clock::now();
+    if (std::chrono::duration<double>(now - last_sync).count() < kRecordingSyncInterval_s) return;
+    if (::fdatasync(fd) != 0)
+      throw std::runtime_error(path + ": cannot sync to disk (" + std::strerror(errno) + ")");
+    last_sync = now;
+  }
 };
 
 RecordingWriter::RecordingWriter(const std::string& path,
                                  const std::vector<std::pair<std::string, std::string>>& metadata,
                                  const std::vector<std::string>& names)
+    : RecordingWriter(path, metadata, names, WriteMode::streaming) {}
+
+RecordingWriter::RecordingWriter(const std::string& path,
+                                 const std::vector<std::pair<std::string, std::string>>& metadata,
+                                 const std::vector<std::string>& names, WriteMode mode)
     : impl_(new Impl) {
-  impl_->path = path;
-  impl_->ncol = names.size();
-  impl_->f = std::fopen(path.c_str(), "w");
-  if (!impl_->f) {
-    delete impl_;
-    throw std::runtime_error(path + ": cannot write");
+  std::unique_ptr<Impl> impl(impl_);  // freed if the constructor throws
+  impl->path = path;
+  impl->ncol = names.size();
+  impl->mode = mode;
+  if (mode == WriteMode::whole) {
+    impl->atomic = std::make_unique<AtomicFile>(path);
+  } else {
+    impl->fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (impl->fd < 0)
+      throw std::runtime_error(path + ": cannot write (" + std::strerror(errno) + ")");
   }
-  std::fprintf(impl_->f, "# format: mls-recording/1\n");
+  std::string& h = impl->pending;
+  h = "# format: mls-recording/1\n";
   for (const auto& [k, v] : metadata)
-    if (k != "format") std::fprintf(impl_->f, "# %s: %s\n", k.c_str(), v.c_str());
-  for (std::size_t i = 0; i < names.size(); ++i)
-    std::fprintf(impl_->f, "%s%s", i ? "," : "", names[i].c_str());
-  std::fprintf(impl_->f, "\n");
+    if (k != "format") h += "# " + k + ": " + v + "\n";
+  for (std::size_t i = 0; i < names.size(); ++i) h += (i ? "," : "") + names[i];
+  h += "\n";
+  if (mode == WriteMode::streaming) impl->put_pending();
+  static_cast<void>(impl.release());
 }
 
 RecordingWriter::~RecordingWriter() {
-  if (impl_->f) std::fclose(impl_->f);
-  delete impl_;
+  if (impl_->fd >= 0) {
+    try {
+      impl_->put_pending();
+    } catch (const std::exception&) {  // NOLINT(bugprone-empty-catch): a destructor cannot report
+    }
+    ::close(impl_->fd);
+  }
+  delete impl_;  // a whole file never closed: AtomicFile removes its temporary file
 }
 
 void RecordingWriter::write_row(const double* values, std::size_t count) {
   if (count != impl_->ncol)
     throw std::logic_error("RecordingWriter: row width differs from header");
+  std::string& out = impl_->pending;
   char buf[32];
   for (std::size_t i = 0; i < count; ++i) {
-    if (i) std::fputc(',', impl_->f);
+    if (i) out += ',';
     if (std::isnan(values[i])) continue;
     auto [p, ec] = std::to_chars(buf, buf + sizeof buf, values[i]);
-    std::fwrite(buf, 1, static_cast<std::size_t>(p - buf), impl_->f);
+    out.append(buf, static_cast<std::size_t>(p - buf));
   }
-  std::fputc('\n', impl_->f);
+  out += '\n';
+  if (impl_->mode == WriteMode::streaming) {
+    impl_->put_pending();  // the whole row in one write()
+    impl_->sync_if_due();
+  } else if (out.size() >= (std::size_t{1} << 20)) {
+    impl_->put_pending();
+  }
 }
 
 void RecordingWriter::close() {
-  if (impl_->f) {
-    const bool bad = std::ferror(impl_->f) != 0;
-    const bool close_failed = std::fclose(impl_->f) != 0;
-    impl_->f = nullptr;
-    if (bad || close_failed) throw std::runtime_error(impl_->path + ": write failed");
+  Impl& m = *impl_;
+  if (m.mode == WriteMode::whole) {
+    if (!m.atomic) return;
+    m.put_pending();
+    m.atomic->commit();
+    m.atomic.reset();
+    return;
   }
+  if (m.fd < 0) return;
+  m.put_pending();
+  const int fd = std::exchange(m.fd, -1);
+  const bool synced = ::fdatasync(fd) == 0;
+  if (::close(fd) != 0 || !synced)
+    throw std::runtime_error(m.path + ": write failed (" + std::strerror(errno) + ")");
 }
 
 void write_recording(const std::string& path, const Recording& rec) {
-  RecordingWriter w(path, rec.metadata, rec.names);
+  RecordingWriter w(path, rec.metadata, rec.names, WriteMode::whole);
   std::vector<double> row(rec.names.size());
   for (std::size_t r = 0; r < rec.rows(); ++r) {
     for (std::size_t c = 0; c < row.size(); ++c) row[c] = rec.columns[c][r];

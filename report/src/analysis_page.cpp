@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "analysis_part.hpp"
+#include "maglead/fileio/atomic_file.hpp"
 #include "maglead/report/analysis_json.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/time_chart.hpp"
@@ -18,9 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 
 void write_text(const fs::path& path, const std::string& text) {
-  std::ofstream f(path);
-  f << text;
-  if (!f) throw std::runtime_error("cannot write " + path.string());
+  write_file_atomically(path.string(), text);  // a crash never leaves half a page or model
 }
 
 std::string intro(const analysis::Findings& F) {

@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "analysis_part.hpp"
+#include "effect_text.hpp"
+#include "maglead/fileio/atomic_file.hpp"
 #include "maglead/report/analysis_json.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/plot.hpp"
@@ -254,9 +256,7 @@ Json json_of(const std::string& recording, const Anomaly& a, const AnalysisOutco
 }
 
 void write_text(const fs::path& path, const std::string& text) {
-  std::ofstream f(path);
-  f << text;
-  if (!f) throw std::runtime_error("cannot write " + path.string());
+  write_file_atomically(path.string(), text);
 }
 
 }  // namespace

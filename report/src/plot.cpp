@@ -8,6 +8,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <string_view>
+#include <vector>
+
+#include "maglead/fileio/atomic_file.hpp"
 
 namespace maglead::plot {
 namespace {
@@ -161,13 +165,17 @@ ColourScale colour_scale(const std::vector<double>& values) {
 }
 
 void write_png(const std::string& path, const cv::Mat& img) {
+  // Encoded in memory, then written atomically: a report never holds half a figure.
+  std::vector<unsigned char> png;
   bool ok = false;
   try {
-    ok = cv::imwrite(path, img);
+    ok = cv::imencode(".png", img, png);
   } catch (const cv::Exception& e) {
     throw std::runtime_error(path + ": cannot write PNG: " + e.what());
   }
   if (!ok) throw std::runtime_error(path + ": cannot write PNG");
+  write_file_atomically(path,
+                        std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -157,6 +158,25 @@ ActuatorParams load_actuator_or_default(const std::string& config_dir) {
   const std::string path = config_file(config_dir, "actuator.toml");
   if (!std::filesystem::exists(path)) return {};
   return load_actuator_params(path);
+}
+
+Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
+                                  const std::string& config_dir,
+                                  const std::vector<std::string>& required) {
+  Recording rec = read_recording(path, required);
+  if (!rec.has("nut_pos_m")) return rec;  // another machine (pos_m): its stroke is not ours
+  const double stroke_m = act.stroke_max_m - act.stroke_min_m;
+  PlausibleRanges r;
+  r.position_bound_m =
+      std::max(std::abs(act.stroke_min_m), std::abs(act.stroke_max_m)) + 10.0 * stroke_m;
+  const std::string file = config_file(config_dir, "actuator.toml");
+  char text[160];
+  std::snprintf(text, sizeof text, "the stroke %g .. %g m of %s widened by 10 strokes each way",
+                act.stroke_min_m, act.stroke_max_m,
+                std::filesystem::exists(file) ? file.c_str() : "the built-in defaults");
+  r.position_bound_source = text;
+  check_plausible_units(rec, r);
+  return rec;
 }
 
 }  // namespace maglead::cli

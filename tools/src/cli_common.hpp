@@ -74,6 +74,12 @@ namespace maglead::cli {
 std::vector<double> screw_angle_of(const Recording& rec, const ActuatorParams& act);
 /// Loads config/actuator.toml (defaults when the file is absent).
 ActuatorParams load_actuator_or_default(const std::string& config_dir);
+/// Reads a recording as read_recording does and, for the actuator (a nut_pos_m column), also
+/// refuses positions beyond the configured stroke widened by ten strokes each way: millimetres
+/// where metres belong pass the reader's machine-independent 10 m bound on a short stroke.
+Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
+                                  const std::string& config_dir,
+                                  const std::vector<std::string>& required = {});
 
 /// The controller's "reached" judgement from [control] in config/actuator.toml; keys absent from
 /// the file (or no file) keep the values passed in. Errors name FILE:LINE:COLUMN.

@@ -61,7 +61,7 @@ void add_analyze(CLI::App& app) {
       cal = load_calibration(o->calibration.empty() ? config_file(o->config, "calibration.toml")
                                                     : o->calibration);
     note("reading " + o->recording);
-    const Recording rec = read_recording(o->recording);
+    const Recording rec = read_actuator_recording(o->recording, act, o->config);
     std::string last_stage;
     Progress* bar = nullptr;
     std::unique_ptr<Progress> holder;

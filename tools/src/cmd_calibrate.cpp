@@ -32,7 +32,8 @@ void add_calibrate(CLI::App& app) {
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
   cmd->callback([o] {
     const ActuatorParams act = load_actuator_or_default(o->config);
-    const Recording rec = read_recording(o->recording, {"t_s", "nut_pos_m", "load_force_n"});
+    const Recording rec =
+        read_actuator_recording(o->recording, act, o->config, {"t_s", "nut_pos_m", "load_force_n"});
     const auto screw = screw_angle_of(rec, act);
     const auto& t = rec.column("t_s");
     const auto& pos = rec.column("nut_pos_m");

@@ -46,7 +46,8 @@ void add_estimate(CLI::App& app) {
     const ActuatorParams act = load_actuator_or_default(o->config);
     const ForceCalibration cal = load_calibration(
         o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration);
-    const Recording rec = read_recording(o->recording, {"t_s", "nut_pos_m", "load_force_n"});
+    const Recording rec =
+        read_actuator_recording(o->recording, act, o->config, {"t_s", "nut_pos_m", "load_force_n"});
     const auto screw = screw_angle_of(rec, act);
     const auto& t = rec.column("t_s");
     const auto& pos = rec.column("nut_pos_m");

@@ -76,7 +76,8 @@ void add_report(CLI::App& app) {
     const ActuatorParams act = load_actuator_or_default(o->config);
     const ForceCalibration cal = load_calibration(
         o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration);
-    const Recording rec = read_recording(o->recording, {"t_s", "nut_pos_m"});
+    const Recording rec =
+        read_actuator_recording(o->recording, act, o->config, {"t_s", "nut_pos_m"});
     twin::TwinMonitorConfig monitor = twin::load_monitor_config(o->config);
     monitor.actuator = act;
     monitor.calibration = cal;

@@ -34,7 +34,8 @@ void add_twin_check(CLI::App& app) {
   cmd->callback([o] {
     twin::TwinMonitorConfig tc = twin::load_monitor_config(o->config);
     if (!o->model.empty()) tc.model = twin::load_twin_model(o->model);
-    const Recording rec = read_recording(o->recording, {"t_s", "nut_pos_m"});
+    const Recording rec =
+        read_actuator_recording(o->recording, tc.actuator, o->config, {"t_s", "nut_pos_m"});
     const auto screw = screw_angle_of(rec, tc.actuator);
     const auto& t = rec.column("t_s");
     const std::size_t n = t.size();

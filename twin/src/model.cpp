@@ -1,5 +1,6 @@
 #include "maglead/twin/model.hpp"
 
+#include "maglead/fileio/atomic_file.hpp"
 #include "maglead/physics/toml_config.hpp"
 
 #include "maglead/effects/effect.hpp"
@@ -165,8 +166,7 @@ TwinModel load_twin_model(const std::string& path) {
 void save_twin_model(const std::string& path, const TwinModel& m,
                      const std::string& header_comment) {
   validate_twin_model(m);
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error(path + ": cannot write");
+  std::ostringstream out;  // then written atomically: `serve --model` never sees half a model
   const auto quoted = [](const std::string& s) {
     std::string q = "\"";
     for (char c : s) {
@@ -216,7 +216,7 @@ void save_twin_model(const std::string& path, const TwinModel& m,
       out << k << " = " << v << "\n";
     }
   }
-  if (!out) throw std::runtime_error(path + ": write failed");
+  write_file_atomically(path, out.str());
 }
 
 FrictionModel friction_model(const TwinModel& model) {

@@ -2,6 +2,7 @@
 // The `mls-recording/1` time-series format (docs/recording-format.md): CSV with `# key: value`
 // metadata, one header row of `<quantity>_<unit>` names, numeric rows, empty field = missing.
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -21,6 +22,9 @@ struct Recording {
   std::vector<std::pair<std::string, std::string>> metadata;
   std::vector<std::string> names;
   std::vector<std::vector<double>> columns;  // column-major; NaN marks a missing value
+  /// What the reader accepted but the user should know (a torn last line it dropped), each
+  /// naming the file and line. read_recording also prints them to stderr.
+  std::vector<std::string> warnings;
 
   std::size_t rows() const { return columns.empty() ? 0 : columns.front().size(); }
   bool has(const std::string& name) const;
@@ -35,20 +39,57 @@ struct Recording {
 /// non-decreasing. Throws RecordingError on any malformed content.
 Recording read_recording(const std::string& path, const std::vector<std::string>& required = {});
 
-/// Writes a whole recording (format line first). Throws std::runtime_error on I/O failure.
+/// Bounds a column's values must keep to be in its unit at all (not a fit to any actuator).
+struct PlausibleRanges {
+  /// Positions (columns named `*pos*_m`) beyond ±this cannot be metres.
+  double position_bound_m = 10.0;
+  /// Where the bound comes from, quoted in the message.
+  std::string position_bound_source = "a generous bound: no lead-screw actuator travels 10 m";
+};
+
+/// Refuses a recording whose columns cannot be in their units: a position beyond the bound, an
+/// angle (`*_rad`) that jumps by more than 100 turns between rows, a time (`t_s`) whose median
+/// step is 100x the header's sample period (sample_rate_hz). Throws RecordingError naming the
+/// column, the values seen and the likely unit. read_recording applies the default ranges.
+void check_plausible_units(const Recording& rec, const PlausibleRanges& ranges = {});
+
+/// Writes a whole recording (format line first) atomically: under a temporary name, renamed into
+/// place when complete. Throws std::runtime_error on I/O failure, leaving `path` as it was.
 void write_recording(const std::string& path, const Recording& rec);
 
-/// Streams rows to a file as they come (recorders, simulators): nothing is held in memory.
+/// How a RecordingWriter puts rows on disk.
+enum class WriteMode : std::uint8_t {
+  /// A recorder: every row is written to `path` whole (one line per write) as it is given, and
+  /// the file is synced to disk at least every kRecordingSyncInterval_s. A crash (SIGKILL) loses
+  /// no row already given; a power cut at most the last interval's rows; neither tears an
+  /// earlier row (the reader drops a torn last line with a warning).
+  streaming,
+  /// A file made in one go (simulate, write_recording): written under a temporary name and
+  /// renamed into place by close(), so `path` holds the whole recording or what it held before.
+  whole,
+};
+
+/// Longest time a streaming writer leaves written rows unsynced to disk.
+inline constexpr double kRecordingSyncInterval_s = 1.0;
+
+/// Writes rows to a file as they come: nothing is held in memory but the current block.
 class RecordingWriter {
  public:
+  /// A streaming writer (WriteMode::streaming).
   RecordingWriter(const std::string& path,
                   const std::vector<std::pair<std::string, std::string>>& metadata,
                   const std::vector<std::string>& names);
+  RecordingWriter(const std::string& path,
+                  const std::vector<std::pair<std::string, std::string>>& metadata,
+                  const std::vector<std::string>& names, WriteMode mode);
   ~RecordingWriter();
   RecordingWriter(const RecordingWriter&) = delete;
   RecordingWriter& operator=(const RecordingWriter&) = delete;
-  /// One row; NaN is written as an empty field.
+  /// One row; NaN is written as an empty field, a value as the shortest text that reads back
+  /// as the same double (std::to_chars). Throws std::runtime_error on an I/O error.
   void write_row(const double* values, std::size_t count);
+  /// Writes what is left, syncs and (WriteMode::whole) renames into place. A whole writer
+  /// destroyed without close() leaves `path` untouched.
   void close();
 
  private:

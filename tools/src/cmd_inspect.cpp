@@ -1,0 +1,58 @@
+// maglead inspect: read a recording as analyze, report and estimate do and say what it holds, so
+// a file left by a crash or copied from a bench can be checked before anything else reads it.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "cli_common.hpp"
+
+namespace maglead::cli {
+namespace {
+
+/// Values a column holds (missing ones left out) and their range.
+struct ColumnSummary {
+  std::size_t present = 0;
+  double lo = INFINITY, hi = -INFINITY;
+};
+
+ColumnSummary summarise(const std::vector<double>& v) {
+  ColumnSummary s;
+  for (const double x : v)
+    if (!std::isnan(x)) ++s.present, s.lo = std::min(s.lo, x), s.hi = std::max(s.hi, x);
+  return s;
+}
+
+void add_inspect(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "inspect",
+      "Read a recording (mls-recording/1) as analyze does and print its rows, time span and "
+      "columns; exit 0 when every reader will take it (a dropped torn last line is a warning)");
+  struct Opts {
+    std::string recording, config = default_config_dir();
+  };
+  auto o = std::make_shared<Opts>();
+  cmd->add_option("--recording", o->recording, "mls-recording/1 CSV")->required();
+  cmd->add_option("--config", o->config, "Configuration directory (the actuator's stroke)")
+      ->capture_default_str();
+  cmd->callback([o] {
+    const std::string* path = &o->recording;
+    const Recording rec =
+        read_actuator_recording(*path, load_actuator_or_default(o->config), o->config);
+    std::printf("%s: %zu rows, %zu columns", path->c_str(), rec.rows(), rec.names.size());
+    if (rec.has("t_s") && rec.rows() > 0)
+      std::printf(", t_s %g .. %g s", rec.column("t_s").front(), rec.column("t_s").back());
+    std::printf("%s\n", rec.warnings.empty() ? "" : " (see the warnings)");
+    for (std::size_t c = 0; c < rec.names.size(); ++c) {
+      const ColumnSummary s = summarise(rec.columns[c]);
+      if (s.present == 0)
+        std::printf("  %-30s empty\n", rec.names[c].c_str());
+      else
+        std::printf("  %-30s %g .. %g (%zu values)\n", rec.names[c].c_str(), s.lo, s.hi, s.present);
+    }
+  });
+}
+
+MAGLEAD_COMMAND(50, add_inspect);
+
+}  // namespace
+}  // namespace maglead::cli
