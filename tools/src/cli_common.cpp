@@ -183,21 +183,27 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
 
 namespace maglead::cli {
 
-void load_reached_settings(const std::string& config_dir, ReachedSettings& r) {
+void load_control_settings(const std::string& config_dir, ControlSettings& r) {
   const std::string path = config_file(config_dir, "actuator.toml");
   if (!std::filesystem::exists(path)) return;
   const toml::table root = config::parse_file(path);
   const toml::table* t = config::section(path, root, "control");
   if (!t) return;
   config::check_keys(path, *t, "[control]",
-                     {"force_reached_tolerance_n", "in_position_tolerance_m", "reached_dwell_s"});
+                     {"force_reached_tolerance_n", "in_position_tolerance_m", "reached_dwell_s",
+                      "force_damping_n_s_per_m", "breakaway_ramp_n_per_s",
+                      "observer_model_uncertainty_n", "load_drift_n_per_s"});
   const struct {
     const char* key;
     double* out;
     double lo, hi;
   } keys[] = {{"force_reached_tolerance_n", &r.force_tolerance_n, 0.0, 100.0},
               {"in_position_tolerance_m", &r.position_tolerance_m, 0.0, 0.01},
-              {"reached_dwell_s", &r.dwell_s, 0.0, 60.0}};
+              {"reached_dwell_s", &r.dwell_s, 0.0, 60.0},
+              {"force_damping_n_s_per_m", &r.force_damping_n_s_per_m, 1e-3, 1e5},
+              {"breakaway_ramp_n_per_s", &r.breakaway_ramp_n_per_s, 1e-3, 1e5},
+              {"observer_model_uncertainty_n", &r.observer_model_uncertainty_n, 0.0, 100.0},
+              {"load_drift_n_per_s", &r.load_drift_n_per_s, 0.0, 1000.0}};
   for (const auto& key : keys) {
     char range[64];
     std::snprintf(range, sizeof range, "a number in %g .. %g", key.lo, key.hi);

@@ -83,10 +83,16 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
 
 /// The controller's "reached" judgement from [control] in config/actuator.toml; keys absent from
 /// the file (or no file) keep the values passed in. Errors name FILE:LINE:COLUMN.
-struct ReachedSettings {
+/// The [control] table of CONFIG/actuator.toml: when "reached" holds, and the force loop's
+/// settings (README "Force control"). Absent keys keep the values given.
+struct ControlSettings {
   double force_tolerance_n;
   double position_tolerance_m;
   double dwell_s;
+  double force_damping_n_s_per_m;
+  double breakaway_ramp_n_per_s;
+  double observer_model_uncertainty_n;
+  double load_drift_n_per_s;
 };
-void load_reached_settings(const std::string& config_dir, ReachedSettings& settings);
+void load_control_settings(const std::string& config_dir, ControlSettings& settings);
 }  // namespace maglead::cli
