@@ -149,9 +149,9 @@ constexpr std::array kTable = std::to_array<Register>({
     {"control_word", HR, 1000, Type::u16, 1, "", RW, 0, 31,
      "Control bits, see coils; enable and stop are levels, the others act on rising edges; "
      "refused by broadcast"},
-    {"mode_command", HR, 1001, Type::u16, 1, "", RW, 0, 2,
-     "Mode the next execute edge applies: 0 idle (stop and hold), 1 position, 2 force; refused by "
-     "broadcast"},
+    {"mode_command", HR, 1001, Type::u16, 1, "", RW, 0, 3,
+     "Mode the next execute edge applies: 0 idle (stop and hold), 1 position, 2 force, "
+     "3 reference move (the twin's drift check); refused by broadcast"},
     {"heartbeat", HR, 1002, Type::u16, 1, "", RW, 0, kU16Max,
      "Write anything to feed the communication watchdog"},
     {"watchdog_ms", HR, 1003, Type::u16, 1e-3, "s", RW, 0, 60.0,
@@ -253,6 +253,9 @@ constexpr std::array kModes = std::to_array<Code>({
     {0, "idle", "hold the screw where it is"},
     {1, "position", "move the nut to a target with speed and acceleration limits"},
     {2, "force", "hold an output-force setpoint"},
+    {3, "reference_move",
+     "back-and-forth at two speeds inside the configured window, nothing touching the nut: the "
+     "twin judges estimation drift on it (then hold; active_mode reads 1 while it runs)"},
 });
 
 constexpr std::array kRanges = std::to_array<AddressRange>({

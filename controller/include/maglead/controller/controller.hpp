@@ -9,6 +9,7 @@
 #include "maglead/controller/detail/seqlock.hpp"
 #include "maglead/controller/ports/hardware.hpp"
 #include "maglead/controller/ports/twin_hook.hpp"
+#include "maglead/controller/reference_move.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/estimator.hpp"
 #include "maglead/physics/force_model.hpp"
@@ -47,6 +48,7 @@ struct ControllerConfig {
   double position_gain_rad_per_m = 1500.0;
   double position_integral_rad_per_m_s = 12000.0;
   FaultReactions reactions;
+  ReferenceMoveConfig reference_move;  // mode_command 3 ([reference_move] in actuator.toml)
 };
 
 /// Everything a client can read, from one cycle.
@@ -119,6 +121,8 @@ class Controller {
   void start_hold() noexcept;
   void controlled_stop() noexcept;
   void run_profile(double dt) noexcept;
+  /// Starts the reference move's next leg (a position target at its speed), if any.
+  bool next_reference_leg() noexcept;
   double position_command_rad(double dt) noexcept;
   void reject(registers::Reject why) noexcept;
   void on_owner_lost() noexcept;
@@ -147,6 +151,7 @@ class Controller {
   double screw_cmd_rad_ = 0.0;
   double target_m_ = 0.0, prof_pos_m_ = 0.0, prof_vel_m_s_ = 0.0, integral_rad_ = 0.0;
   double vmax_ = 0.01, amax_ = 0.1;
+  ReferenceMove ref_move_;  // runs as position legs; the twin is told the nut is free
   double force_set_n_ = 0.0, force_phase_rad_ = 0.0;
   double load_force_n_ = std::numeric_limits<double>::quiet_NaN();  // last load-cell sample (twin)
   double settled_s_ = 0.0;
