@@ -197,6 +197,7 @@ void Controller::on_execute() noexcept {
   if (state_ != DriveState::enabled) return reject(Reject::not_enabled);
   if (image_.control_word & bit(registers::kStop)) return reject(Reject::stopped);
   const auto& a = cfg_.actuator;
+  ref_move_.cancel();
   switch (static_cast<Mode>(image_.mode_command)) {
     case Mode::idle:
       controlled_stop();
@@ -225,6 +226,13 @@ void Controller::on_execute() noexcept {
       mode_ = Mode::force;
       break;
     }
+    case Mode::reference_move:
+      if (!ref_move_.start(cfg_.reference_move, a.stroke_min_m, a.stroke_max_m))
+        return reject(Reject::target_outside_stroke);
+      if (mode_ == Mode::force) start_hold();
+      mode_ = Mode::position;
+      next_reference_leg();
+      break;
     default:
       return reject(Reject::not_enabled);  // unreachable: the server range-checks mode_command
   }
@@ -320,7 +328,18 @@ void Controller::run_profile(double dt) noexcept {
       std::abs(prof_vel_m_s_) <= 2.0 * amax_ * dt + 1e-6) {
     prof_pos_m_ = target_m_;
     prof_vel_m_s_ = 0.0;
+    next_reference_leg();
   }
+}
+
+bool Controller::next_reference_leg() noexcept {
+  if (mode_ != Mode::position) ref_move_.cancel();  // a stop or a fault ended it
+  ReferenceMove::Leg leg;
+  if (!ref_move_.next(leg)) return false;
+  target_m_ = leg.target_m;
+  vmax_ = leg.speed_m_s;
+  amax_ = ref_move_.accel_m_s2();
+  return true;
 }
 
 double Controller::position_command_rad(double dt) noexcept {
@@ -423,7 +442,8 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
         s_.phase_rad,
         s_.force_est_n,
         mode_ == Mode::force ? force_set_n_ : std::numeric_limits<double>::quiet_NaN(),
-        load_force_n_};
+        load_force_n_,
+        ref_move_.active() && mode_ == Mode::position};
     twin_->step(in, tw);
   }
   s_.twin = tw;

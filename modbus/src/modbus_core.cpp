@@ -62,6 +62,16 @@ const ModbusCore::Binding kBindings[] = {
     {"twin_gain_f32", TWIN(gain), nullptr, nullptr},
     {"twin_gain_stderr_f32", TWIN(gain_stderr), nullptr, nullptr},
     {"twin_gain_reference_f32", TWIN(gain_reference), nullptr, nullptr},
+    {"twin_drift_observability", TWIN(drift_observability), nullptr, nullptr},
+    {"twin_drift_separable", TWIN(drift_separable), nullptr, nullptr},
+    {"twin_drift_zero_load_error_n_f32", TWIN(drift_zero_load_n), nullptr, nullptr},
+    {"twin_drift_zero_load_stderr_n_f32", TWIN(drift_zero_load_se_n), nullptr, nullptr},
+    {"twin_drift_rated_error_n_f32", TWIN(drift_rated_n), nullptr, nullptr},
+    {"twin_drift_rated_stderr_n_f32", TWIN(drift_rated_se_n), nullptr, nullptr},
+    {"twin_drift_gain_change_f32", TWIN(drift_gain_change), nullptr, nullptr},
+    {"twin_drift_friction_change_n_f32", TWIN(drift_friction_change_n), nullptr, nullptr},
+    {"twin_drift_known_force_s_f32", TWIN(drift_known_s), nullptr, nullptr},
+    {"twin_drift_statistic_f32", TWIN(drift_statistic), nullptr, nullptr},
     {"control_owner", CONST(0), nullptr, nullptr},       // patched
     {"control_owner_ipv4", CONST(0), nullptr, nullptr},  // patched
     {"nut_pos_um", SNAP(nut_pos_m), nullptr, nullptr},

@@ -137,7 +137,8 @@ void SimulatedActuator::step(double dt) noexcept {
   // breaks away when |drive| exceeds F_k(0) = F_s and sticks when its velocity passes zero.
   auto kinetic = [&](double dir, double speed) {
     const double coulomb =
-        std::max(0.0, a.coulomb_n + e.coulomb_friction_n + dir * e.asymmetric_friction_n);
+        std::max(0.0, a.coulomb_n + e.coulomb_friction_n + dir * e.asymmetric_friction_n +
+                          e.coulomb_drift_n_per_min * t_s_ / 60.0);
     const double r = speed / e.stribeck_velocity_m_s;
     return coulomb + e.stribeck_friction_n * std::exp(-r * r);
   };

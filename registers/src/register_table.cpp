@@ -85,9 +85,11 @@ constexpr std::array kTable = std::to_array<Register>({
      "Fault reaction in progress, see fault reactions (0 none)"},
     {"write_refusal_reason", IR, 55, Type::u16, 1, "", RO, 0, kU16Max,
      "Why the last write was refused with exception 04, see write refusals (0 none)"},
-    {"twin_drift_reason", IR, 56, Type::u16, 1, "", RO, 0, 2,
-     "Twin: why drift_warning is set: 0 none, 1 coupling gain fell, 2 rose (latched with the "
-     "warning; fault_reset clears both)"},
+    {"twin_drift_reason", IR, 56, Type::u16, 1, "", RO, 0, 6,
+     "Twin: why drift_warning is set, judged on free moves only (never the load cell): 0 none, "
+     "1 coupling gain fell, 2 gain rose, 3 friction rose, 4 friction fell, 5 estimate error rose "
+     "(gain fell or friction rose: not separable), 6 error fell (gain rose or friction fell) "
+     "(latched with the warning; fault_reset clears both)"},
     {"twin_health_reason", IR, 57, Type::u16, 1, "", RO, 0, 3,
      "Twin: why twin_healthy is off: 0 healthy, 1 position residual beyond tolerance, "
      "2 stepped out, 3 solver error"},
@@ -114,11 +116,34 @@ constexpr std::array kTable = std::to_array<Register>({
      "Load observer: what pins the estimate down: 0 only the stick band (load force anywhere in "
      "drive +- break-away), 1 sliding (force balance), 2 stuck after a slide"},
     {"twin_gain_f32", IR, 70, Type::f32, 1, "", RO, -1e9, 1e9,
-     "Twin: coupling gain estimate relative to the calibration (0 until estimated)"},
+     "Twin, load-cell check (not used by the drift flag): coupling gain relative to the "
+     "calibration from strong-force slides against the load cell (0 until estimated)"},
     {"twin_gain_stderr_f32", IR, 72, Type::f32, 1, "", RO, -1e9, 1e9,
-     "Twin: standard error of the gain estimate"},
+     "Twin, load-cell check: standard error of that gain"},
     {"twin_gain_reference_f32", IR, 74, Type::f32, 1, "", RO, -1e9, 1e9,
-     "Twin: early reference of the gain the drift warning compares with (0 until set)"},
+     "Twin, load-cell check: early reference of that gain (0 until set)"},
+    {"twin_drift_observability", IR, 76, Type::u16, 1, "", RO, 0, 2,
+     "Twin drift flag: 0 not observable (no stretch with a known external force yet), "
+     "1 free moves seen, reference forming, 2 tracking against the reference"},
+    {"twin_drift_separable", IR, 77, Type::u16, 1, "", RO, 0, 1,
+     "Twin drift flag: 1 if the moves separate coupling gain from friction"},
+    {"twin_drift_zero_load_error_n_f32", IR, 78, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Twin drift: change of the force estimate's error at zero load since the reference "
+     "(+: overstates, in the direction of motion; 0 until tracking)"},
+    {"twin_drift_zero_load_stderr_n_f32", IR, 80, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Twin drift: standard error of that change"},
+    {"twin_drift_rated_error_n_f32", IR, 82, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Twin drift: the change at the rated force (not separable: the worst case, all gain)"},
+    {"twin_drift_rated_stderr_n_f32", IR, 84, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Twin drift: standard error of that change (0 when not separable)"},
+    {"twin_drift_gain_change_f32", IR, 86, Type::f32, 1, "", RO, -1e9, 1e9,
+     "Twin drift: change of the coupling gain since the reference (0 unless separable)"},
+    {"twin_drift_friction_change_n_f32", IR, 88, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Twin drift: change of the sliding friction since the reference (0 unless separable)"},
+    {"twin_drift_known_force_s_f32", IR, 90, Type::f32, 1, "s", RO, -1e9, 1e9,
+     "Twin drift: free-move time used since the reference restarted"},
+    {"twin_drift_statistic_f32", IR, 92, Type::f32, 1, "", RO, -1e9, 1e9,
+     "Twin drift: change over its margin (1 or more for 2 s raises drift_warning)"},
     // The same 32-bit values as float32, SI units.
     {"nut_pos_m_f32", IR, 100, Type::f32, 1, "m", RO, -1e9, 1e9, "Measured nut position"},
     {"nut_vel_m_s_f32", IR, 102, Type::f32, 1, "m/s", RO, -1e9, 1e9, "Nut velocity"},
@@ -149,9 +174,9 @@ constexpr std::array kTable = std::to_array<Register>({
     {"control_word", HR, 1000, Type::u16, 1, "", RW, 0, 31,
      "Control bits, see coils; enable and stop are levels, the others act on rising edges; "
      "refused by broadcast"},
-    {"mode_command", HR, 1001, Type::u16, 1, "", RW, 0, 2,
-     "Mode the next execute edge applies: 0 idle (stop and hold), 1 position, 2 force; refused by "
-     "broadcast"},
+    {"mode_command", HR, 1001, Type::u16, 1, "", RW, 0, 3,
+     "Mode the next execute edge applies: 0 idle (stop and hold), 1 position, 2 force, "
+     "3 reference move (the twin's drift check); refused by broadcast"},
     {"heartbeat", HR, 1002, Type::u16, 1, "", RW, 0, kU16Max,
      "Write anything to feed the communication watchdog"},
     {"watchdog_ms", HR, 1003, Type::u16, 1e-3, "s", RW, 0, 60.0,
@@ -254,6 +279,9 @@ constexpr std::array kModes = std::to_array<Code>({
     {0, "idle", "hold the screw where it is"},
     {1, "position", "move the nut to a target with speed and acceleration limits"},
     {2, "force", "hold an output-force setpoint"},
+    {3, "reference_move",
+     "back-and-forth at two speeds inside the configured window, nothing touching the nut: the "
+     "twin judges estimation drift on it (then hold; active_mode reads 1 while it runs)"},
 });
 
 constexpr std::array kRanges = std::to_array<AddressRange>({
@@ -263,9 +291,9 @@ constexpr std::array kRanges = std::to_array<AddressRange>({
     {DI, 0, 15, "status word bits"},
 });
 constexpr std::array kPollBlocks = std::to_array<AddressRange>({
-    {IR, 0, 68,
+    {IR, 0, 94,
      "FC4 (or FC3): identity, status, alarm, owner, scaled measurements, twin, loop, fault "
-     "reaction, load observer and force loop"},
+     "reaction, load observer and force loop, drift without a load cell"},
     {IR, 100, 34, "FC4 (or FC3): the same measurements as float32"},
     {HR, 1000, 20,
      "FC3: commands and setpoints as written (or FC23: write 1000.. and read 10..55 in one)"},

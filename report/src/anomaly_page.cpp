@@ -126,8 +126,8 @@ std::string where_section(const Anomaly& a, const std::string& out_dir) {
     h << time_chart_html(err);
     auto drift =
         chart_of(a, "drift", "Drift statistic",
-                 "|g − g_ref| over its margin, g the coupling gain: at 1 or more for 2 s the drift "
-                 "warning is raised.",
+                 "Change of the force estimate's error since the reference, from free moves "
+                 "only, over its margin: at 1 or more for 2 s the drift warning is raised.",
                  "statistic [-]");
     drift.series.push_back({"drift statistic", a.trace.drift_statistic});
     drift.series.push_back({"warning level", std::vector<double>(a.trace.t_s.size(), 1.0)});
@@ -182,8 +182,11 @@ std::string events_section(const Anomaly& a, const AnalysisOutcome& o) {
       << a.step_out_warnings.size()
       << " window(s), the first from t = " << seconds(a.step_out_warnings.front().start_s)
       << " s.</p>\n";
-  if (!a.has_load_cell)
-    h << "<p>Drift: not estimated (no load cell logged).</p>\n";
+  if (a.drift_windows.empty() && a.drift_observability == 0)
+    h << "<p>Drift not observable: no stretch with a known external force (the flag judges free "
+         "moves only and never reads the load cell).</p>\n";
+  else if (a.drift_windows.empty() && a.drift_observability == 1)
+    h << "<p>Drift not observable yet: too few free moves to form the reference.</p>\n";
   else if (a.drift_windows.empty())
     h << "<p>Drift warnings: none (the statistic reached " << number(a.max_drift_statistic)
       << " of 1).</p>\n";

@@ -17,6 +17,23 @@ namespace {
 using controller::TwinReport;
 using controller::TwinSample;
 
+double finite_or_zero(double v) { return std::isfinite(v) ? v : 0.0; }
+
+/// The drift flag's figures (free moves only), 0 where not yet estimated.
+void drift_report(const twin::TwinOutputs& o, TwinReport& r) {
+  const twin::DriftFigures& f = o.drift_now;
+  r.drift_observability = static_cast<std::uint16_t>(o.drift_observability);
+  r.drift_zero_load_n = finite_or_zero(f.zero_load_n);
+  r.drift_zero_load_se_n = finite_or_zero(f.zero_load_se_n);
+  r.drift_separable = f.separable;
+  r.drift_rated_n = finite_or_zero(f.separable ? f.rated_n : f.rated_worst_n);
+  r.drift_rated_se_n = finite_or_zero(f.separable ? f.rated_se_n : 0.0);
+  r.drift_gain_change = finite_or_zero(f.gain_change);
+  r.drift_friction_change_n = finite_or_zero(f.friction_change_n);
+  r.drift_known_s = o.drift_known_s;
+  r.drift_statistic = o.drift_statistic;
+}
+
 TwinReport report_of(const twin::TwinOutputs& o, bool reset_ok) {
   TwinReport r;
   r.pred_nut_pos_m = o.predicted_nut_pos_m;
@@ -34,6 +51,7 @@ TwinReport report_of(const twin::TwinOutputs& o, bool reset_ok) {
   r.gain = std::isfinite(o.drift_gain_estimate) ? o.drift_gain_estimate : 0.0;
   r.gain_stderr = std::isfinite(o.drift_gain_stderr) ? o.drift_gain_stderr : 0.0;
   r.gain_reference = std::isfinite(o.drift_reference_gain) ? o.drift_reference_gain : 0.0;
+  drift_report(o, r);
   return r;
 }
 
@@ -169,7 +187,7 @@ void TwinRunner::process(const Message& m) noexcept {
       const TwinSample& s = m.sample;
       // The twin takes the raw measurements: it keeps its own phase and step-out bookkeeping.
       TwinReport r = report_of(monitor_->step({s.t_s, s.screw_angle_rad, s.nut_pos_m,
-                                               s.force_setpoint_n, s.load_force_n}),
+                                               s.force_setpoint_n, s.load_force_n, s.free_move}),
                                reset_ok_);
       r.cycle = s.cycle;
       results_.store(r);

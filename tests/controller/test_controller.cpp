@@ -2,6 +2,7 @@
 // state machine, position and force modes, edge commands, step-out, watchdog, twin hook.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -564,3 +565,39 @@ TEST(FaultReaction, ReleaseRateMustBePositive) {
   cfg.reactions.release_rate_n_per_s = 0.0;
   EXPECT_THROW(Controller(cfg, plant), std::invalid_argument);
 }
+
+namespace {
+
+/// Records what the controller tells the twin about free moves.
+struct FreeMoveTwin final : TwinHook {
+  int free_ticks = 0;
+  double lo = 1.0, hi = -1.0;
+  void step(const TwinSample& in, TwinReport&) noexcept override {
+    if (!in.free_move) return;
+    ++free_ticks;
+    lo = std::min(lo, in.nut_pos_m);
+    hi = std::max(hi, in.nut_pos_m);
+  }
+};
+
+// mode_command 3: a back-and-forth over the configured window at its two speeds, with the
+// twin told the nut is free while it runs (and only then).
+TEST(Controller, ReferenceMoveRunsTheWindowAtTwoSpeedsAndTellsTheTwin) {
+  FreeMoveTwin twin;
+  Rig rig(0.0, &twin);
+  rig.enable();
+  rig.execute(reg::Mode::reference_move);
+  EXPECT_FALSE(rig.cmd(reg::kRejected));
+  double vmax = 0.0;
+  rig.run(5.0, [&](const Snapshot& s) { vmax = std::max(vmax, std::abs(s.nut_vel_m_s)); });
+  const ReferenceMoveConfig c;
+  EXPECT_NEAR(twin.lo, c.window_min_m, 1e-4);
+  EXPECT_NEAR(twin.hi, c.window_max_m, 1e-4);
+  EXPECT_GT(vmax, 0.8 * c.fast_m_s);
+  EXPECT_GT(twin.free_ticks, 2000);
+  const int n = twin.free_ticks;
+  rig.run(0.5);
+  EXPECT_EQ(twin.free_ticks, n);  // over: no longer declared free
+}
+
+}  // namespace

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 #include <string>
 
@@ -34,7 +35,8 @@ struct MonitorRun {
 };
 
 MonitorRun run_recording(const std::string& scenario, double duration_s, std::uint64_t seed,
-                         double gain_drift_per_min = 0.0, const PlantEffects& effects = {}) {
+                         double gain_drift_per_min = 0.0, const PlantEffects& effects = {},
+                         bool feed_load_cell = true) {
   ScenarioOptions opt;
   opt.scenario = scenario;
   opt.duration_s = duration_s;
@@ -54,7 +56,8 @@ MonitorRun run_recording(const std::string& scenario, double duration_s, std::ui
   mon.reset(t[0], th[0], p[0]);
   MonitorRun r;
   for (std::size_t i = 0; i < t.size(); ++i) {
-    const auto o = mon.step({t[i], th[i], p[i], fset ? (*fset)[i] : kNaN, load[i]});
+    const auto o =
+        mon.step({t[i], th[i], p[i], fset ? (*fset)[i] : kNaN, feed_load_cell ? load[i] : kNaN});
     r.mae_twin_n += std::abs(o.dynamic_output_force_est_n + load[i]);
     r.mae_static_n += std::abs(o.static_output_force_est_n + load[i]);
     if (o.drift_warning && std::isnan(r.first_drift_s)) r.first_drift_s = t[i], r.at_drift = o;
@@ -99,79 +102,140 @@ TEST(TwinMonitor, HealthyForceControlRaisesNothing) {
   EXPECT_LT(r.mae_twin_n, r.mae_static_n);
 }
 
-TEST(TwinMonitor, MagnetGainDriftIsDetected) {
-  // −5 % per minute, from t = 0 (the plant's gain_drift effect).
-  const MonitorRun r = run_recording("force-steps", 100.0, 5, -0.05);
-  std::printf("force-steps seed 5 with gain drift -5 %%/min: drift warning at %.1f s\n",
-              r.first_drift_s);
-  ASSERT_TRUE(std::isfinite(r.first_drift_s));
-  EXPECT_FALSE(r.step_out);
-  // The estimate at the warning is the plant's gain then (within two percent), the reference is
-  // the early gain, and the message says what was seen.
-  const double g_true = 1.0 - 0.05 * r.first_drift_s / 60.0;
-  const auto& o = r.at_drift;
-  std::printf("  %s; plant gain then %.3f\n", drift_message(o).c_str(), g_true);
-  EXPECT_NEAR(o.drift_warning_gain, g_true, 0.02);
-  EXPECT_NEAR(o.drift_reference_gain, 1.0 - 0.05 * o.drift_reference_t_s / 60.0, 0.02);
-  EXPECT_EQ(o.drift_reason, DriftReason::gain_fell);
-  EXPECT_NE(drift_message(o).find("coupling gain fell from"), std::string::npos);
-  // A warning is not raised before the gain changed by the physical minimum.
-  EXPECT_LT(g_true, 1.0 - test_config().drift_min_change);
-  // Nor long after. The plant's gain leaves the detector's resolution (drift_min_change of the
-  // reference gain) at t_cross; the warning then needs drift_sustain_s, and the forgetting
-  // least-squares estimate of a ramp lags by its time constant drift_memory_s, counted in
-  // excitation-rich time: one τ for the lag, one more for force-steps' quiet stretches
-  // (measured: 8.8 s after t_cross, against 10 s allowed).
-  const auto cfg = test_config();
-  const double rate_per_s = 0.05 / 60.0;
-  const double g_ref_true = 1.0 - rate_per_s * o.drift_reference_t_s;
-  const double t_cross = o.drift_reference_t_s + cfg.drift_min_change * g_ref_true / rate_per_s;
-  const double t_limit = t_cross + cfg.drift_sustain_s + 2.0 * cfg.drift_memory_s;
-  std::printf("  reference at %.1f s, plant gain 3 %% below it at %.1f s; warning due by %.1f s\n",
-              o.drift_reference_t_s, t_cross, t_limit);
-  EXPECT_LE(r.first_drift_s, t_limit) << "the drift was seen too late";
+// The drift flag reads no load cell: it judges free moves (no contact), where the force the
+// model needs is known. The project's plant, 120 s of position-moves (5, 20 and 50 mm/s, a
+// constant 2 N load with a 10 N·s/m drag, which the flag's nuisance terms take up).
+MonitorRun moves(double gain_drift_per_min, const PlantEffects& e = {}, bool load_cell = false,
+                 std::uint64_t seed = 4) {
+  return run_recording("position-moves", 120.0, seed, gain_drift_per_min, e, load_cell);
 }
 
-// Constant effects the baseline model lacks (of the size found on the bench) must be taken up by
-// the nuisance parameters, not by the gain: ten simulated minutes each, no drift warning.
-// (In force-steps' later sweeps the gain is rarely precise enough to be compared at all: the
-// statistic printed shows how close a warning came.)
-class ConstantEffect : public ::testing::TestWithParam<int> {};
-
-TEST_P(ConstantEffect, TenMinutesWithoutDriftWarning) {
-  PlantEffects e;
-  const char* name = "";
-  switch (GetParam()) {
-    case 0:
-      e.offset_n = -3.5, name = "offset -3.5 N";
-      break;
-    case 1:
-      e.asymmetric_friction_n = 1.5, name = "asymmetric friction 1.5 N";
-      break;
-    case 2:
-      e.backlash_rad = 0.09, name = "backlash 0.09 rad";
-      break;
-    default:
-      e.load_cell_delay_s = 0.005, name = "load-cell delay 5 ms";
-      break;
-  }
-  const MonitorRun r = run_recording("force-steps", 600.0, 11 + GetParam(), 0.0, e);
+/// The warning comes after the reference and within the issue's 30 s of t_cross (when the true
+/// change crosses the physical minimum after the reference).
+void expect_in_time(const MonitorRun& r, double t_cross, const char* what) {
+  const auto& o = r.at_drift;
   std::printf(
-      "force-steps 600 s, %s: drift statistic max %.2f, gain %.3f +/- %.3f, healthy %.1f %%\n",
-      name, r.max_drift_statistic, r.last.drift_gain_estimate, r.last.drift_gain_stderr,
-      100 * r.healthy_fraction);
+      "%s: reference at %.1f s, change crosses the minimum at %.1f s, warning at %.1f s\n"
+      "  %s [reason %d]\n",
+      what, o.drift_reference_t_s, t_cross, r.first_drift_s, drift_message(o).c_str(),
+      static_cast<int>(o.drift_reason));
+  ASSERT_TRUE(std::isfinite(r.first_drift_s)) << what;
+  EXPECT_LE(r.first_drift_s, t_cross + 30.0) << "seen too late";
+  EXPECT_GT(r.first_drift_s, o.drift_reference_t_s);
+}
+
+TEST(TwinMonitor, CouplingLossFlaggedFromFreeMovesWithoutLoadCell) {
+  // −5 %/min: 10 % over the two minutes. Warned within 30 s of the gain crossing 3 % below its
+  // value at the reference; the moves (one acceleration, speeds where C·v is 0.1 N) cannot tell
+  // gain from friction, and the message says so.
+  const MonitorRun r = moves(-0.05);
+  const double t_ref = r.at_drift.drift_reference_t_s;
+  const double g_ref = 1.0 - 0.05 * t_ref / 60.0;
+  expect_in_time(r, 60.0 * (1.0 - 0.97 * g_ref) / 0.05, "gain -5 %/min");
+  const auto& o = r.at_drift;
+  EXPECT_TRUE(o.drift_reason == DriftReason::error_rose ||
+              o.drift_reason == DriftReason::gain_fell);
+  EXPECT_GT(o.drift_at_warning.zero_load_n, 0.0);  // a weaker coupling: the estimate overstates
+  if (!o.drift_at_warning.separable) {
+    EXPECT_NE(drift_message(o).find("cannot be told apart"), std::string::npos);
+  }
+  // The same run with the load cell fed: the same verdict at the same tick (the flag never
+  // reads it).
+  const MonitorRun with = moves(-0.05, {}, true);
+  EXPECT_EQ(with.first_drift_s, r.first_drift_s);
+  EXPECT_EQ(with.at_drift.drift_reason, o.drift_reason);
+  EXPECT_TRUE(std::isnan(r.last.drift_gain_estimate));  // no load cell, no check gain
+}
+
+TEST(TwinMonitor, FrictionRiseFlaggedFromFreeMovesWithoutLoadCell) {
+  // +1 N/min: 2 N over the two minutes (the plant's coulomb_drift_n_per_min). Warned within 30 s
+  // of the rise crossing 1 N after the reference.
+  PlantEffects e;
+  e.coulomb_drift_n_per_min = 1.0;
+  const MonitorRun r = moves(0.0, e);
+  expect_in_time(r, r.at_drift.drift_reference_t_s + 60.0, "friction +1 N/min");
+  const auto& o = r.at_drift;
+  EXPECT_TRUE(o.drift_reason == DriftReason::error_rose ||
+              o.drift_reason == DriftReason::friction_rose);
+  // The zero-load figure is the friction change itself (the estimate assumes the old friction),
+  // late by about the forgetting time constant.
+  const double true_change = (r.first_drift_s - o.drift_reference_t_s) / 60.0;
+  EXPECT_GT(o.drift_at_warning.zero_load_n, 0.0);
+  EXPECT_LT(o.drift_at_warning.zero_load_n, true_change + 4 * o.drift_at_warning.zero_load_se_n);
+}
+
+TEST(TwinMonitor, ForceControlLeavesDriftNotObservable) {
+  // Force steps against a spring: no stretch has a known external force, so the flag says "not
+  // observable" and stays off even with a real drift; the load-cell check still sees the gain.
+  const MonitorRun r = run_recording("force-steps", 100.0, 5, -0.05);
+  std::printf("force-steps with gain -5 %%/min: observability %d, check gain %.3f (ref %.3f)\n",
+              static_cast<int>(r.last.drift_observability), r.last.drift_gain_estimate,
+              r.last.drift_reference_gain);
+  EXPECT_FALSE(std::isfinite(r.first_drift_s));
+  EXPECT_EQ(r.last.drift_observability, DriftObservability::none);
+  ASSERT_TRUE(std::isfinite(r.last.drift_gain_estimate));
+  EXPECT_LT(r.last.drift_gain_estimate - r.last.drift_reference_gain, -0.03);
+}
+
+// Every effect of docs/effects.md that is not a drift (of the size found on the bench), on the
+// moves: no warning, and the flag really compared (reference formed), so "none" means "none".
+// Two are not compared, and say so: with Stribeck friction the nut stick-slips through the
+// moves (the screw does not drive it smoothly, so no stretch passes as free), and a 0.9 N ripple
+// every 5 mm leaves the reference short of its precision in a minute.
+struct Control {
+  const char* name;
+  double PlantEffects::*field;
+  double value;
+  bool compared = true;
+};
+const Control kControls[] = {
+    {"none", &PlantEffects::offset_n, 0.0},
+    {"coulomb_friction +1.5 N", &PlantEffects::coulomb_friction_n, 1.5},
+    {"viscous_friction +5 N s/m", &PlantEffects::viscous_friction_n_s_per_m, 5.0},
+    {"asymmetric_friction 1.5 N", &PlantEffects::asymmetric_friction_n, 1.5},
+    {"stribeck_friction 4 N", &PlantEffects::stribeck_friction_n, 4.0, false},
+    {"offset -3.5 N", &PlantEffects::offset_n, -3.5},
+    {"spring 200 N/m", &PlantEffects::spring_n_per_m, 200.0},
+    {"mass_error +0.05 kg", &PlantEffects::mass_error_kg, 0.05},
+    {"coupling_gain_error -5 %", &PlantEffects::coupling_gain_error, -0.05},
+    {"angle_ripple 5 %", &PlantEffects::angle_ripple, 0.05},
+    {"position_ripple 0.9 N", &PlantEffects::position_ripple_n, 0.9, false},
+    {"end_effect 5 mm", &PlantEffects::end_effect_zone_m, 0.005},
+    {"backlash 0.09 rad", &PlantEffects::backlash_rad, 0.09},
+    {"sensor_delay 2 ms", &PlantEffects::sensor_delay_s, 0.002},
+    {"load_cell_delay 5 ms", &PlantEffects::load_cell_delay_s, 0.005},
+    {"external_disturbance 5 N pulses", &PlantEffects::external_disturbance_n, 5.0},
+};
+
+class NoDriftControl : public ::testing::TestWithParam<int> {};
+
+TEST_P(NoDriftControl, NoWarningOnMoves) {
+  const Control& c = kControls[GetParam()];
+  PlantEffects e;
+  e.*(c.field) = c.value;
+  const MonitorRun r = run_recording("position-moves", 60.0,
+                                     11 + static_cast<std::uint64_t>(GetParam()), 0.0, e, false);
+  std::printf("position-moves 60 s, %s: statistic max %.2f, %.1f s of free moves; at the end %s\n",
+              c.name, r.max_drift_statistic, r.last.drift_known_s,
+              drift_figures_text(r.last.drift_now).c_str());
   EXPECT_FALSE(std::isfinite(r.first_drift_s))
       << drift_message(r.at_drift) << " at " << r.first_drift_s;
+  if (c.compared) {
+    EXPECT_EQ(r.last.drift_observability, DriftObservability::tracking) << "nothing compared";
+  } else {
+    EXPECT_NE(r.last.drift_observability, DriftObservability::tracking) << "now compared: update";
+  }
   EXPECT_FALSE(r.step_out);
 }
 
-INSTANTIATE_TEST_SUITE_P(TwinMonitor, ConstantEffect, ::testing::Range(0, 4));
+INSTANTIATE_TEST_SUITE_P(TwinMonitor, NoDriftControl,
+                         ::testing::Range(0, static_cast<int>(std::size(kControls))));
 
 TEST(TwinMonitor, DriftWarningLatchesUntilCleared) {
-  // −10 %/min: the warning comes, stays set while the run goes on, and clear_drift() (what a
-  // fault_reset edge does) clears it and restarts the reference.
+  // −10 %/min on the moves: the warning comes, stays set while the run goes on, and
+  // clear_drift() (what a fault_reset edge does) clears it and restarts the reference.
   ScenarioOptions opt;
-  opt.scenario = "force-steps";
+  opt.scenario = "position-moves";
   opt.duration_s = 90.0;
   opt.seed = 8;
   opt.plant.effects.gain_drift_per_min = -0.10;
@@ -186,8 +250,8 @@ TEST(TwinMonitor, DriftWarningLatchesUntilCleared) {
   double t_warn = kNaN;
   bool dropped = false, cleared = false, after_clear = false;
   for (std::size_t i = 0; i < t.size(); ++i) {
-    const auto o = mon.step({t[i], rec.column("screw_angle_rad")[i], rec.column("nut_pos_m")[i],
-                             rec.column("force_set_n")[i], rec.column("load_force_n")[i]});
+    const auto o =
+        mon.step({t[i], rec.column("screw_angle_rad")[i], rec.column("nut_pos_m")[i], kNaN});
     if (o.drift_warning && std::isnan(t_warn)) t_warn = t[i];
     if (std::isfinite(t_warn) && !cleared) dropped |= !o.drift_warning;
     if (std::isfinite(t_warn) && !cleared && t[i] > t_warn + 5.0) {
@@ -199,7 +263,7 @@ TEST(TwinMonitor, DriftWarningLatchesUntilCleared) {
       after_clear = true;
       EXPECT_FALSE(o.drift_warning);
       EXPECT_EQ(o.drift_reason, DriftReason::none);
-      EXPECT_TRUE(std::isnan(o.drift_reference_gain));
+      EXPECT_NE(o.drift_observability, DriftObservability::tracking);
     }
   }
   ASSERT_TRUE(std::isfinite(t_warn));

@@ -12,14 +12,58 @@
 namespace maglead::cli {
 namespace {
 
+/// The flag's verdict: from free moves only (known external force), never from the load cell.
+void print_drift(const twin::TwinOutputs& last, const twin::TwinOutputs& at_drift, double t_drift,
+                 double max_stat) {
+  using twin::DriftObservability;
+  if (!std::isnan(t_drift)) {
+    std::printf("  drift warning: at t = %.2f s: %s [reason %d]\n", t_drift,
+                twin::drift_message(at_drift).c_str(), static_cast<int>(at_drift.drift_reason));
+    return;
+  }
+  switch (last.drift_observability) {
+    case DriftObservability::none:
+      std::printf("  drift not observable: no stretch with a known external force\n");
+      return;
+    case DriftObservability::reference:
+      std::printf(
+          "  drift not observable yet: %.1f s of free moves, too few to form the reference\n",
+          last.drift_known_s);
+      return;
+    case DriftObservability::tracking:
+      std::printf(
+          "  drift warning: none (%.1f s of free moves, reference at t = %.1f s; at the end %s; "
+          "max statistic %.2f of the margin)\n",
+          last.drift_known_s, last.drift_reference_t_s,
+          twin::drift_figures_text(last.drift_now).c_str(), max_stat);
+      return;
+  }
+}
+
+/// A check of the flag against the load cell, where one is logged (the flag never reads it).
+void print_load_cell_check(const twin::TwinOutputs& last) {
+  if (std::isnan(last.drift_gain_estimate) || std::isnan(last.drift_reference_gain)) {
+    std::printf("  load cell check: no coupling-gain estimate (too little sliding under load)\n");
+    return;
+  }
+  std::printf(
+      "  load cell check (not used by the flag): coupling gain %.3f +/- %.3f at the end, "
+      "%.3f +/- %.3f at its reference: change %+.3f +/- %.3f\n",
+      last.drift_gain_estimate, last.drift_gain_stderr, last.drift_reference_gain,
+      last.drift_reference_stderr, last.drift_gain_estimate - last.drift_reference_gain,
+      std::hypot(last.drift_gain_stderr, last.drift_reference_stderr));
+}
+
 void add_twin_check(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "twin-check",
       "Run the digital twin monitor over a recording, tick by tick as the controller "
-      "does: drift warning (coupling gain against its early value; needs a logged "
-      "load cell), health, step-out warning and flag, force error against the load cell");
+      "does: drift warning (the force estimate's error from free moves, without a load "
+      "cell), health, step-out warning and flag; where a load cell is logged, the force "
+      "error and a coupling-gain check against it");
   struct Opts {
     std::string recording, config = default_config_dir(), model, trace;
+    bool no_load_cell = false;
   };
   auto o = std::make_shared<Opts>();
   cmd->add_option("--recording", o->recording,
@@ -31,6 +75,8 @@ void add_twin_check(CLI::App& app) {
       "--trace", o->trace,
       "Write the monitor's outputs every 10 ms to this CSV (gain, its error, reference, "
       "statistic, flags and reason codes)");
+  cmd->add_flag("--no-load-cell", o->no_load_cell,
+                "Ignore a logged load_force_n column (the flag never reads it; this shows it)");
   cmd->callback([o] {
     twin::TwinMonitorConfig tc = twin::load_monitor_config(o->config);
     if (!o->model.empty()) tc.model = twin::load_twin_model(o->model);
@@ -40,10 +86,11 @@ void add_twin_check(CLI::App& app) {
     const auto& t = rec.column("t_s");
     const std::size_t n = t.size();
     const double nan = std::numeric_limits<double>::quiet_NaN();
-    const bool has_load = rec.has("load_force_n");
+    const bool has_load = rec.has("load_force_n") && !o->no_load_cell;
     const auto optional = [&](const char* name) {
       return rec.has(name) ? std::span<const double>(rec.column(name)) : std::span<const double>();
     };
+    const auto load = has_load ? optional("load_force_n") : std::span<const double>();
     double t_drift = nan, t_warn = nan, t_step = nan, max_res = 0, err_dyn = 0, err_static = 0;
     std::size_t healthy = 0, counted = 0;
     double drift_stat = 0.0;
@@ -52,34 +99,35 @@ void add_twin_check(CLI::App& app) {
     if (!o->trace.empty() && !trace) throw std::runtime_error("cannot write " + o->trace);
     if (trace)
       std::fprintf(trace,
-                   "t_s,gain,gain_stderr,reference_gain,reference_stderr,drift_statistic,"
-                   "drift_warning,drift_reason,healthy,health_reason,residual_pos_m,"
-                   "step_out_warning,step_out_reason\n");
-    const auto load = optional("load_force_n");
+                   "t_s,zero_load_error_n,zero_load_stderr_n,drift_statistic,drift_observability,"
+                   "drift_warning,drift_reason,check_gain,check_gain_stderr,healthy,health_reason,"
+                   "residual_pos_m,step_out_warning,step_out_reason\n");
     const auto t0 = std::chrono::steady_clock::now();
-    twin::replay_monitor(
-        tc, {t, screw, rec.column("nut_pos_m"), optional("force_set_n"), load},
-        [&](std::size_t i, const twin::TwinOutputs& out) {
-          if (out.drift_warning && std::isnan(t_drift)) t_drift = t[i], at_drift = out;
-          if (out.step_out_warning && std::isnan(t_warn)) t_warn = t[i];
-          if (out.step_out && std::isnan(t_step)) t_step = t[i];
-          max_res = std::max(max_res, std::abs(out.residual_pos_m));
-          healthy += out.healthy;
-          last = out;
-          if (trace && i % 10 == 0)
-            std::fprintf(trace, "%.3f,%.5f,%.5f,%.5f,%.5f,%.3f,%d,%d,%d,%d,%.3e,%d,%d\n", t[i],
-                         out.drift_gain_estimate, out.drift_gain_stderr, out.drift_reference_gain,
-                         out.drift_reference_stderr, out.drift_statistic, out.drift_warning,
-                         static_cast<int>(out.drift_reason), out.healthy,
-                         static_cast<int>(out.health_reason), out.residual_pos_m,
-                         out.step_out_warning, static_cast<int>(out.step_out_reason));
-          drift_stat = std::max(drift_stat, out.drift_statistic);
-          if (has_load && std::isfinite(load[i])) {
-            err_dyn += std::abs(out.dynamic_output_force_est_n + load[i]);
-            err_static += std::abs(out.static_output_force_est_n + load[i]);
-            ++counted;
-          }
-        });
+    twin::replay_monitor(tc, {t, screw, rec.column("nut_pos_m"), optional("force_set_n"), load},
+                         [&](std::size_t i, const twin::TwinOutputs& out) {
+                           if (out.drift_warning && std::isnan(t_drift))
+                             t_drift = t[i], at_drift = out;
+                           if (out.step_out_warning && std::isnan(t_warn)) t_warn = t[i];
+                           if (out.step_out && std::isnan(t_step)) t_step = t[i];
+                           max_res = std::max(max_res, std::abs(out.residual_pos_m));
+                           healthy += out.healthy;
+                           last = out;
+                           if (trace && i % 10 == 0)
+                             std::fprintf(
+                                 trace, "%.3f,%.4f,%.4f,%.3f,%d,%d,%d,%.5f,%.5f,%d,%d,%.3e,%d,%d\n",
+                                 t[i], out.drift_now.zero_load_n, out.drift_now.zero_load_se_n,
+                                 out.drift_statistic, static_cast<int>(out.drift_observability),
+                                 out.drift_warning, static_cast<int>(out.drift_reason),
+                                 out.drift_gain_estimate, out.drift_gain_stderr, out.healthy,
+                                 static_cast<int>(out.health_reason), out.residual_pos_m,
+                                 out.step_out_warning, static_cast<int>(out.step_out_reason));
+                           drift_stat = std::max(drift_stat, out.drift_statistic);
+                           if (has_load && std::isfinite(load[i])) {
+                             err_dyn += std::abs(out.dynamic_output_force_est_n + load[i]);
+                             err_static += std::abs(out.static_output_force_est_n + load[i]);
+                             ++counted;
+                           }
+                         });
     if (trace) std::fclose(trace);
     const double wall_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -91,18 +139,8 @@ void add_twin_check(CLI::App& app) {
                   err_static / static_cast<double>(counted));
     std::printf("  position residual: max %.1f um; healthy %.1f %% of ticks\n", max_res * 1e6,
                 100.0 * static_cast<double>(healthy) / static_cast<double>(n));
-    if (!has_load)
-      std::printf("  drift: not estimated (the recording has no load_force_n column)\n");
-    else if (std::isnan(t_drift))
-      std::printf(
-          "  drift warning: none (coupling gain %.3f +/- %.3f at the end, reference %.3f +/- "
-          "%.3f, max statistic %.2f of the margin)\n",
-          last.drift_gain_estimate, last.drift_gain_stderr, last.drift_reference_gain,
-          last.drift_reference_stderr, drift_stat);
-    else
-      std::printf("  drift warning: at t = %.2f s: %s [reason %d, gain %.3f +/- %.3f]\n", t_drift,
-                  twin::drift_message(at_drift).c_str(), static_cast<int>(at_drift.drift_reason),
-                  at_drift.drift_warning_gain, at_drift.drift_warning_stderr);
+    print_drift(last, at_drift, t_drift, drift_stat);
+    if (has_load) print_load_cell_check(last);
     if (std::isnan(t_warn) && std::isnan(t_step))
       std::printf("  step-out: none, no warning\n");
     else {

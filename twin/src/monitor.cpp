@@ -9,7 +9,9 @@
 #include <limits>
 #include <numbers>
 
+#include "free_drift.hpp"
 #include "maglead/physics/estimator.hpp"
+#include "rls.hpp"
 
 namespace maglead::twin {
 
@@ -26,19 +28,62 @@ TwinMonitorConfig load_monitor_config(const std::string& dir) {
   return c;
 }
 
+std::string drift_figures_text(const DriftFigures& f) {
+  if (std::isnan(f.zero_load_n)) return "no figures yet";
+  char buf[320];
+  int n = std::snprintf(buf, sizeof buf, "estimate error %+.2f ± %.2f N at zero load",
+                        f.zero_load_n, f.zero_load_se_n);
+  const auto left = [&] { return sizeof buf - static_cast<std::size_t>(std::max(0, n)); };
+  if (f.separable)
+    std::snprintf(buf + n, left(),
+                  ", %+.2f ± %.2f N at %.1f N; coupling gain %+.3f ± %.3f, friction %+.2f ± %.2f N",
+                  f.rated_n, f.rated_se_n, f.rated_force_n, f.gain_change, f.gain_change_se,
+                  f.friction_change_n, f.friction_change_se_n);
+  else
+    std::snprintf(buf + n, left(),
+                  ", at %.1f N between %+.2f N (all friction) and %+.2f N (all gain): gain and "
+                  "friction cannot be told apart from these moves",
+                  f.rated_force_n, f.zero_load_n, f.rated_worst_n);
+  return buf;
+}
+
 std::string drift_message(const TwinOutputs& o) {
   if (!o.drift_warning) return {};
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "coupling gain %s from %.2f to %.2f over %.0f s (±%.2f)",
-                o.drift_reason == DriftReason::gain_rose ? "rose" : "fell", o.drift_reference_gain,
-                o.drift_warning_gain, o.drift_warning_t_s - o.drift_reference_t_s,
-                std::hypot(o.drift_warning_stderr, o.drift_reference_stderr));
-  return buf;
+  static constexpr const char* kWhat[] = {
+      "",
+      "coupling gain fell",
+      "coupling gain rose",
+      "friction rose",
+      "friction fell",
+      "gain fell or friction rose",
+      "gain rose or friction fell",
+  };
+  const int r = std::clamp(static_cast<int>(o.drift_reason), 0, 6);
+  char head[96];
+  std::snprintf(head, sizeof head, "%s over %.0f s: ", kWhat[r],
+                o.drift_warning_t_s - o.drift_reference_t_s);
+  return head + drift_figures_text(o.drift_at_warning);
 }
 
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+
+FreeDriftSettings free_settings(const TwinMonitorConfig& c, const NutModel& model) {
+  FreeDriftSettings s;
+  s.friction_n = 0.5 * (model.sliding_friction_n(1, 0.0) + model.sliding_friction_n(-1, 0.0));
+  s.rated_n = std::isfinite(c.drift_rated_force_n)
+                  ? c.drift_rated_force_n
+                  : c.actuator.safe_force_fraction *
+                        std::min(c.calibration.peak_push_n, -c.calibration.peak_pull_n);
+  s.block_s = c.drift_block_s;
+  s.memory_s = c.drift_free_memory_s;
+  s.reference_s = c.drift_free_reference_s;
+  s.sigmas = c.drift_sigmas;
+  s.min_change = c.drift_min_change;
+  s.sustain_s = c.drift_sustain_s;
+  return s;
+}
 
 /// Linear trends over the look-ahead horizon: θ and F_ext continue as they have been moving.
 class TrendInput final : public InputSource {
@@ -123,74 +168,6 @@ class StickFilter {
   double lo_ = -1, hi_ = 1, dx_ = 0.025;
 };
 
-/// Recursive least squares with exponential forgetting for y = xᵀθ, with an estimate of the
-/// noise variance from the a-priori residuals and of their lag-1 correlation (successive blocks
-/// share slow model errors: the standard error is inflated by (1+ρ)/(1−ρ), the AR(1) factor).
-template <int N>
-class Rls {
- public:
-  void reset(double prior_var) noexcept {
-    for (int i = 0; i < N; ++i) {
-      th_[i] = 0.0;
-      for (int j = 0; j < N; ++j) P_[i][j] = i == j ? prior_var : 0.0;
-    }
-    s2_ = 0, w_ = 0, c1_ = 0, e_prev_ = 0, n_ = 0;
-  }
-  void set(int i, double v) noexcept { th_[i] = v; }
-  /// Moves the origin of a trend: θ_i += d·θ_j (θ_j the slope of θ_i), P = T P Tᵀ.
-  void shift(int i, int j, double d) noexcept {
-    th_[i] += d * th_[j];
-    for (int k = 0; k < N; ++k) P_[i][k] += d * P_[j][k];
-    for (int k = 0; k < N; ++k) P_[k][i] += d * P_[k][j];
-  }
-  /// lambda = 1: no forgetting.
-  void update(const std::array<double, N>& x, double y, double lambda) noexcept {
-    std::array<double, N> Px{};
-    double xPx = 0.0, e = y;
-    for (int i = 0; i < N; ++i) {
-      e -= x[i] * th_[i];
-      for (int j = 0; j < N; ++j) Px[i] += P_[i][j] * x[j];
-    }
-    for (int i = 0; i < N; ++i) xPx += x[i] * Px[i];
-    const double den = lambda + xPx;
-    for (int i = 0; i < N; ++i) th_[i] += Px[i] / den * e;
-    for (int i = 0; i < N; ++i)
-      for (int j = 0; j < N; ++j) P_[i][j] = (P_[i][j] - Px[i] * Px[j] / den) / lambda;
-    // Residual statistics, with the same forgetting (a-priori residual scaled to a-posteriori).
-    const double ea = e * lambda / den;
-    w_ = lambda * w_ + 1.0;
-    s2_ = lambda * s2_ + ea * ea;
-    if (n_ > 0) c1_ = lambda * c1_ + ea * e_prev_;
-    e_prev_ = ea;
-    ++n_;
-  }
-  /// Bounds the covariance of directions the data stopped exciting (forgetting would grow it
-  /// without limit): scales row and column i so that P_ii ≤ cap (P stays positive definite).
-  void cap(double max_var) noexcept {
-    for (int i = 0; i < N; ++i) {
-      if (!(P_[i][i] > max_var)) continue;
-      const double f = std::sqrt(max_var / P_[i][i]);
-      for (int j = 0; j < N; ++j) P_[i][j] *= f, P_[j][i] *= f;
-    }
-  }
-  double theta(int i) const noexcept { return th_[i]; }
-  long count() const noexcept { return n_; }
-  /// Standard error of θ_i (NaN until there are more samples than parameters).
-  double stderr_of(int i) const noexcept {
-    if (n_ <= 2L * N || !(w_ > N)) return std::numeric_limits<double>::quiet_NaN();
-    const double var = s2_ / (w_ - N);
-    const double rho = std::clamp(s2_ > 0 ? c1_ / s2_ : 0.0, 0.0, 0.95);
-    // P holds (Σλ^k x xᵀ)⁻¹; with forgetting the estimate's variance is about var·P.
-    return std::sqrt(std::max(0.0, var * P_[i][i] * (1.0 + rho) / (1.0 - rho)));
-  }
-
- private:
-  std::array<double, N> th_{};
-  std::array<std::array<double, N>, N> P_{};
-  double s2_ = 0, w_ = 0, c1_ = 0, e_prev_ = 0;
-  long n_ = 0;
-};
-
 }  // namespace
 
 struct TwinMonitor::Impl {
@@ -245,11 +222,9 @@ struct TwinMonitor::Impl {
   double ref_t_sum = 0;  // mean time of the reference blocks
   bool ref_frozen = false;
   double ref_g = std::numeric_limits<double>::quiet_NaN(), ref_se = 0, ref_t = 0;
-  double gain_est = std::numeric_limits<double>::quiet_NaN(), gain_se = 0, drift_stat = 0;
-  double cond_since = std::numeric_limits<double>::quiet_NaN();
-  bool drift = false;
-  DriftReason drift_reason = DriftReason::none;
-  double drift_t = 0, drift_g = 0, drift_se = 0;
+  double gain_est = std::numeric_limits<double>::quiet_NaN(), gain_se = 0;
+  // The flag: drift from known-force (free-move) stretches, never from the load cell.
+  FreeMoveDrift free_drift;
   // Health: open-loop intervals in a row whose prediction missed by more than the tolerance.
   int bad_intervals = 0;
 
@@ -262,7 +237,8 @@ struct TwinMonitor::Impl {
         static_vel(1.0 / c.actuator.sample_rate_hz, c.actuator.linear_count_m),
         dt(1.0 / c.actuator.sample_rate_hz),
         q_m(c.actuator.linear_count_m),
-        lead_m(c.actuator.lead_m) {}
+        lead_m(c.actuator.lead_m),
+        free_drift(free_settings(c, model)) {}
 
   double phase_of(double theta, double p) const noexcept { return phase_rad(theta, p, lead_m); }
 
@@ -334,13 +310,58 @@ struct TwinMonitor::Impl {
     excited_s = 0, ref_t_sum = 0;
     ref_frozen = false;
     ref_g = gain_est = std::numeric_limits<double>::quiet_NaN();
-    ref_se = gain_se = drift_stat = 0;
-    cond_since = std::numeric_limits<double>::quiet_NaN();
-    drift = false;
-    drift_reason = DriftReason::none;
+    ref_se = gain_se = 0;
+    free_drift.clear();
   }
 
-  /// One tick of the gain estimator. Force balance of the sliding nut, with the load cell as F_ext:
+  /// A slide the encoder follows: several edges in a row, so velocity and the interpolated
+  /// position are measured, not guessed from one edge (slow creep, stick-slip); the phase well
+  /// inside the stable branch, the nut more than the end zone from either stroke end.
+  bool slide_measured(double t, double rel_phase) const noexcept {
+    const double end_zone =
+        std::isfinite(cfg.drift_end_exclusion_m) ? cfg.drift_end_exclusion_m : lead_m;
+    const double edge = std::min(cfg.calibration.stable_max_rad, -cfg.calibration.stable_min_rad);
+    return mode != FrictionMode::stick && run_edges >= cfg.drift_min_edges &&
+           t - slide_start_t >= cfg.drift_settle_s &&
+           std::abs(rel_phase) <= cfg.drift_phase_fraction * edge &&
+           pos_hat - cfg.actuator.stroke_min_m >= end_zone &&
+           cfg.actuator.stroke_max_m - pos_hat >= end_zone && !step_out;
+  }
+
+  /// The coupling force the model needs for the measured motion with the external force known
+  /// (f_ext_n, load convention): M p̈ − (D0 − u) + F_f(v) − F_ext.
+  double needed_coupling_n(double t, double theta, double u, double f_ext_n) const noexcept {
+    const int dir = static_cast<int>(mode);
+    const double d0 = model.drive_force_n(t, theta, pos_hat, vel, 0.0);
+    return model.mass_kg() * acc - (d0 - u) + dir * model.sliding_friction_n(dir, vel) - f_ext_n;
+  }
+
+  /// One tick of the flag's estimator: a free move (no contact, F_ext = 0), declared or
+  /// recognised. Recognised: not in force control, the screw drives the nut (a hand pushing the
+  /// nut past a held screw is not a move), and the no-load hypothesis fits (the observer's
+  /// external force within the model's friction: a contact beyond that is not a drift).
+  void free_tick(double t, double theta, double rel_phase, double fset_n, bool declared) noexcept {
+    const int dir = static_cast<int>(mode);
+    if (!slide_measured(t, rel_phase) || std::isfinite(fset_n)) {
+      free_drift.skip();
+      return;
+    }
+    const double v_screw = theta_rate * lead_m / (2.0 * kPi);
+    const double u = model.model_coupling_force_n(t, theta, pos_hat, vel);
+    const double y = needed_coupling_n(t, theta, u, 0.0);
+    const bool driven = dir * v_screw > 0 &&
+                        std::abs(v_screw - vel) <= cfg.drift_free_speed_fraction * std::abs(vel);
+    const bool fits = declared || std::abs(u - y) <= model.sliding_friction_n(dir, 0.0);
+    if (!driven || !fits) {
+      free_drift.skip();
+      return;
+    }
+    free_drift.add(t, dt, u, y, dir, vel,
+                   pos_hat - 0.5 * (cfg.actuator.stroke_min_m + cfg.actuator.stroke_max_m));
+  }
+
+  /// One tick of the gain estimator (the load-cell check). Force balance of the sliding nut, with
+  /// the load cell as F_ext:
   ///   M p̈ − (D0 − u) + F_f(v) − F_load = g·u + b + f·sign(v) + k·sign(u)·|F_m'| + c·v + τ·Ḟ_load
   /// u the model's coupling, D0 the model's drive without F_ext (coupling, −C v, additive terms).
   /// g is the coupling gain relative to the model; the nuisance terms take up what a constant
@@ -357,25 +378,14 @@ struct TwinMonitor::Impl {
     const double slope = std::abs(cfg.calibration.periodic.slope_n_per_rad(0.0));
     const double f_count =
         slope * 2.0 * kPi * q_m / lead_m;  // force of one linear count near φ = 0
-    const double end_zone =
-        std::isfinite(cfg.drift_end_exclusion_m) ? cfg.drift_end_exclusion_m : lead_m;
-    const double edge = std::min(cfg.calibration.stable_max_rad, -cfg.calibration.stable_min_rad);
-    // A slide the encoder follows: several edges in a row, so velocity and the interpolated
-    // position are measured, not guessed from one edge (slow creep, stick-slip).
-    const bool rich = dir != 0 && run_edges >= cfg.drift_min_edges &&
-                      t - slide_start_t >= cfg.drift_settle_s && std::isfinite(load_n) &&
+    const bool rich = slide_measured(t, rel_phase) && std::isfinite(load_n) &&
                       std::isfinite(load_rate) &&
-                      std::abs(u) >= cfg.drift_min_force_counts * f_count &&
-                      std::abs(rel_phase) <= cfg.drift_phase_fraction * edge &&
-                      pos_hat - cfg.actuator.stroke_min_m >= end_zone &&
-                      cfg.actuator.stroke_max_m - pos_hat >= end_zone && !step_out;
+                      std::abs(u) >= cfg.drift_min_force_counts * f_count;
     if (!rich) {
       block_n = 0;
       return;
     }
-    const double d0 = model.drive_force_n(t, theta, pos_hat, vel, 0.0);
-    const double y =
-        model.mass_kg() * acc - (d0 - u) + dir * model.sliding_friction_n(dir, vel) - load_n;
+    const double y = needed_coupling_n(t, theta, u, load_n);
     const double slope_here =
         std::abs(model.model_coupling_force_n(t, theta + 1e-4, pos_hat, vel) - u) / 1e-4;
     // The gain as a local linear trend, g + ġ·(t − t_o), t_o moved to the newest block: g is the
@@ -426,28 +436,22 @@ struct TwinMonitor::Impl {
       }
       return;
     }
-    // Like the reference, the current estimate counts only while it can resolve the minimum
-    // change by itself (excitation that leaves g collinear with the nuisance terms cannot).
-    if (!std::isfinite(gain_se) || cfg.drift_sigmas * gain_se > cfg.drift_min_change) {
-      cond_since = std::numeric_limits<double>::quiet_NaN();
-      return;
-    }
-    // Significant (beyond drift_sigmas combined standard errors) and physical (beyond
-    // drift_min_change of the reference), sustained for drift_sustain_s.
-    const double diff = gain_est - ref_g;
-    const double need = std::max(cfg.drift_sigmas * std::hypot(gain_se, ref_se),
-                                 cfg.drift_min_change * std::abs(ref_g));
-    drift_stat = std::abs(diff) / need;
-    if (drift_stat < 1.0) {
-      cond_since = std::numeric_limits<double>::quiet_NaN();
-      return;
-    }
-    if (!std::isfinite(cond_since)) cond_since = t;
-    if (!drift && t - cond_since >= cfg.drift_sustain_s) {
-      drift = true;
-      drift_reason = diff < 0 ? DriftReason::gain_fell : DriftReason::gain_rose;
-      drift_t = t, drift_g = gain_est, drift_se = gain_se;
-    }
+  }
+
+  void drift_outputs(TwinOutputs& o) const noexcept {
+    o.drift_gain_estimate = gain_est;
+    o.drift_gain_stderr = gain_se;
+    o.drift_reference_gain = ref_g;
+    o.drift_reference_stderr = ref_se;
+    o.drift_statistic = free_drift.statistic();
+    o.drift_observability = free_drift.observability();
+    o.drift_known_s = free_drift.known_s();
+    o.drift_now = free_drift.now();
+    o.drift_reference_t_s = free_drift.reference_t();
+    o.drift_warning = free_drift.warning();
+    o.drift_reason = free_drift.reason();
+    if (o.drift_warning)
+      o.drift_warning_t_s = free_drift.warning_t(), o.drift_at_warning = free_drift.at_warning();
   }
 
   TwinOutputs step(const TwinInputs& in) noexcept {
@@ -571,6 +575,7 @@ struct TwinMonitor::Impl {
       margin_from_setpoint = warn && !(worst_only < cfg.step_out_warn_margin_rad);
     }
     gain_tick(t, theta, rel, in.load_force_n, h);
+    free_tick(t, theta, rel, in.force_setpoint_n, in.free_move);
     if (std::isfinite(in.force_setpoint_n)) fset_prev = in.force_setpoint_n;
     theta_prev = theta;
     t_prev = t;
@@ -587,17 +592,7 @@ struct TwinMonitor::Impl {
     o.step_out = step_out;
     o.step_out_warning = warn || step_out;
     o.slips = slips;
-    o.drift_statistic = drift_stat;
-    o.drift_gain_estimate = gain_est;
-    o.drift_gain_stderr = gain_se;
-    o.drift_reference_gain = ref_g;
-    o.drift_reference_stderr = ref_se;
-    o.drift_reference_t_s = ref_t;
-    o.drift_warning = drift;
-    o.drift_reason = drift_reason;
-    if (drift)
-      o.drift_warning_t_s = drift_t, o.drift_warning_gain = drift_g,
-      o.drift_warning_stderr = drift_se;
+    drift_outputs(o);
     o.friction_mode = static_cast<int>(mode);
     o.solver_ok = ok;
     // Health: the twin explains the measurements within their resolution. Its prediction over

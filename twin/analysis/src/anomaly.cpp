@@ -77,6 +77,7 @@ void replay(const Recording& rec, const twin::TwinMonitorConfig& monitor,
         tr.phase_rad[i] = out.phase_rad;
         tr.drift_statistic[i] = out.drift_statistic;
         drift[i] = out.drift_warning;
+        a.drift_observability = static_cast<int>(out.drift_observability);
         warn[i] = out.step_out_warning;
         if (out.slips != slips)
           a.step_outs.push_back({tr.t_s[i], out.slips - slips, tr.nut_pos_m[i], "twin replay"});

@@ -10,6 +10,7 @@
 #include "maglead/controller/force_loop.hpp"
 #include "maglead/controller/ports/hardware.hpp"
 #include "maglead/controller/ports/twin_hook.hpp"
+#include "maglead/controller/reference_move.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/estimator.hpp"
 #include "maglead/physics/force_model.hpp"
@@ -58,6 +59,7 @@ struct ControllerConfig {
   double load_drift_n_per_s = 0.0;     // how fast a pressed load may change on its own (0 passive)
   double phase_tracking_per_s = 50.0;  // force mode: integral gain on the missed phase
   FaultReactions reactions;
+  ReferenceMoveConfig reference_move;  // mode_command 3 ([reference_move] in actuator.toml)
 };
 
 /// Everything a client can read, from one cycle.
@@ -135,6 +137,8 @@ class Controller {
   void run_profile(double dt) noexcept;
   double force_command_rad(double dt) noexcept;
   void publish_observer() noexcept;
+  /// Starts the reference move's next leg (a position target at its speed), if any.
+  bool next_reference_leg() noexcept;
   double position_command_rad(double dt) noexcept;
   void reject(registers::Reject why) noexcept;
   void on_owner_lost() noexcept;
@@ -168,6 +172,7 @@ class Controller {
   double vmax_ = 0.01, amax_ = 0.1;
   double force_set_n_ = 0.0, drive_n_ = 0.0;  // force setpoint; coupling drive commanded
   double phase_track_rad_ = 0.0;              // integral of the phase the coupling missed
+  ReferenceMove ref_move_;  // runs as position legs; the twin is told the nut is free
   double load_force_n_ = std::numeric_limits<double>::quiet_NaN();  // last load-cell sample (twin)
   double settled_s_ = 0.0;
   std::uint16_t command_bits_ = 0;

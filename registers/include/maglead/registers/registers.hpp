@@ -59,7 +59,7 @@ enum CommandBit : std::uint16_t {
   kRejected,
 };
 enum class DriveState : std::uint16_t { disabled = 0, ready = 1, enabled = 2, fault = 3 };
-enum class Mode : std::uint16_t { idle = 0, position = 1, force = 2 };
+enum class Mode : std::uint16_t { idle = 0, position = 1, force = 2, reference_move = 3 };
 enum class Alarm : std::uint16_t {
   none = 0,
   step_out = 1,

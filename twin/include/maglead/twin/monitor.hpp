@@ -23,14 +23,43 @@ struct TwinInputs {
   double force_setpoint_n = 0.0;  // output-force setpoint F_out; NaN if not in force control
   double load_force_n = std::numeric_limits<double>::quiet_NaN();  // load cell (force on the nut
                                                                    // from the load, F_ext); NaN
-                                                                   // without one: no gain estimate
+                                                                   // without one. Only for the
+                                                                   // check gain, never the flag
+  bool free_move = false;  // declared by the PLC or a reference move: no contact, F_ext = 0
 };
 
-/// Why drift_warning is set (README "Digital twin"). Latched with the warning.
+/// Why drift_warning is set (README "Digital twin"). Latched with the warning. Judged only on
+/// stretches with a known external force (free moves), never on the load cell.
 enum class DriftReason : int {
   none = 0,
-  gain_fell = 1,  // the coupling gain fell from its early reference beyond the margin
-  gain_rose = 2,  // … rose
+  gain_fell = 1,      // the coupling gain fell from its reference (gain and friction separated)
+  gain_rose = 2,      // … rose
+  friction_rose = 3,  // the sliding friction rose (separated from the gain)
+  friction_fell = 4,  // … fell
+  error_rose = 5,     // the estimate's error grew: gain fell or friction rose, not separable
+  error_fell = 6,     // … shrank the other way: gain rose or friction fell, not separable
+};
+/// Whether the recording or the run so far lets the drift be judged at all.
+enum class DriftObservability : int {
+  none = 0,       // no stretch with a known external force yet: drift not observable
+  reference = 1,  // known-force stretches seen, the reference is still being formed
+  tracking = 2,   // reference formed: drift is tracked against it
+};
+/// Change of the force estimate's error since the reference, from the known-force stretches:
+/// error = estimate − true output force in the direction of motion (+: the estimate overstates).
+struct DriftFigures {
+  double zero_load_n = std::numeric_limits<double>::quiet_NaN();  // sliding at zero load
+  double zero_load_se_n = 0.0;
+  double rated_n = std::numeric_limits<double>::quiet_NaN();  // at the rated force (separable)
+  double rated_se_n = 0.0;
+  double rated_worst_n = std::numeric_limits<double>::quiet_NaN();  // not separable: all of the
+                                                                    // zero-load change as gain
+  double gain_change = std::numeric_limits<double>::quiet_NaN();    // Δg (relative), separable
+  double gain_change_se = 0.0;
+  double friction_change_n = std::numeric_limits<double>::quiet_NaN();  // ΔF_f, separable
+  double friction_change_se_n = 0.0;
+  double rated_force_n = 0.0;  // the rated force the second figure is given at
+  bool separable = false;      // the moves separate gain from friction (accelerations, speeds)
 };
 /// Why healthy is false (not latched: it follows the measurements).
 enum class HealthReason : int {
@@ -56,20 +85,25 @@ struct TwinOutputs {
   double residual_force_n = 0.0;            // dynamic − static estimate (drift statistic input)
   double phase_rad = 0.0;                   // measured φ, unwrapped
   double step_out_margin_rad = 0.0;         // π/2 − max |φ| over the look-ahead (<0: crossing)
-  // Drift: coupling gain g relative to the model (1 = as calibrated), NaN until estimated.
-  double drift_statistic = 0.0;  // |g − g_ref| / margin (≥ 1, sustained: drift_warning)
+  // Drift flag (known-force stretches only): change / margin (≥ 1, sustained: drift_warning).
+  double drift_statistic = 0.0;
+  DriftObservability drift_observability = DriftObservability::none;
+  double drift_known_s = 0.0;  // known-force (free-move) time used since the reference restarted
+  DriftFigures drift_now{};    // the current change (NaN until tracking)
+  DriftFigures drift_at_warning{};
+  // Load-cell check (only where one is logged; never used by the flag): coupling gain g relative
+  // to the model from strong-force slides, NaN until estimated.
   double drift_gain_estimate = std::numeric_limits<double>::quiet_NaN();   // current g
   double drift_gain_stderr = 0.0;                                          // its standard error
   double drift_reference_gain = std::numeric_limits<double>::quiet_NaN();  // early g (reference)
   double drift_reference_stderr = 0.0;
-  double drift_reference_t_s = 0.0;  // mean time of the reference stretch
-  double drift_warning_t_s = 0.0;    // when the warning was raised, with g and its error then
-  double drift_warning_gain = 0.0, drift_warning_stderr = 0.0;
+  double drift_reference_t_s = 0.0;  // mean time of the flag's reference stretch
+  double drift_warning_t_s = 0.0;    // when the warning was raised
   DriftReason drift_reason = DriftReason::none;
   HealthReason health_reason = HealthReason::none;
   StepOutReason step_out_reason = StepOutReason::none;
   bool healthy = true;            // the twin explains the measurements within their resolution
-  bool drift_warning = false;     // coupling gain moved away from its early value (latched)
+  bool drift_warning = false;     // the estimate's error moved from its reference (latched)
   bool step_out = false;          // φ left the stable branch / nut slipped a lead (latched)
   bool step_out_warning = false;  // look-ahead crosses ±π/2 (not latched)
   int slips = 0;                  // signed number of leads slipped since reset
@@ -107,16 +141,29 @@ struct TwinMonitorConfig {
   double drift_settle_s = 0.010;         // skip this long after the nut breaks loose
   int drift_min_edges = 3;               // … and until the encoder has counted this many edges
   double drift_end_exclusion_m = std::numeric_limits<double>::quiet_NaN();  // NaN: one lead
+  // The flag: free moves (no contact), declared (TwinInputs::free_move) or recognised where the
+  // no-load hypothesis fits: not in force control, the screw driving the nut (nut speed within
+  // this fraction of the screw's), and the observer's external force within the model's
+  // friction (undeclared only). The drift is the change of the estimate's error at zero load
+  // and at the rated force, warned at drift_min_change of the rated force.
+  double drift_free_memory_s = 8.0;        // forgetting time constant, in known-force time
+  double drift_free_reference_s = 1.0;     // known-force time before the reference may form (one
+                                           // reference move's worth), longer until precise
+  double drift_free_speed_fraction = 0.5;  // |v_nut − v_screw| ≤ this × |v_nut|
+  double drift_rated_force_n = std::numeric_limits<double>::quiet_NaN();  // NaN: the safe force
+                                                                          // (actuator × peak)
   // Health: the twin's prediction at the end of an open-loop interval (resync_s) misses the
   // measured position by more than this many linear counts, in this many intervals in a row.
   double healthy_residual_counts = 3.0;
   int healthy_intervals = 3;
 };
 
-/// What an operator reads for a raised drift warning, e.g. "coupling gain fell from 1.00 to 0.94
-/// over 60 s (±0.01)" (the change, from the reference stretch to the warning, with the combined
-/// standard error). Empty without a warning.
+/// What an operator reads for a raised drift warning, e.g. "force estimate error +0.45 ± 0.05 N
+/// at zero load, +1.42 ± 0.11 N at 35.6 N over 40 s: coupling gain fell by 0.031 ± 0.003" (the
+/// change from the reference stretch to the warning, combined standard errors). Empty without.
 std::string drift_message(const TwinOutputs& o);
+/// The same figures for any DriftFigures (twin-check prints the state at the end of a run).
+std::string drift_figures_text(const DriftFigures& f);
 
 /// Loads config/model.toml, calibration.toml and actuator.toml from a config directory.
 TwinMonitorConfig load_monitor_config(const std::string& config_dir);

@@ -52,6 +52,7 @@ struct Anomaly {
   std::vector<StepOut> step_outs;
   std::vector<TimeWindow> drift_windows, step_out_warnings;
   double max_drift_statistic = 0;
+  int drift_observability = 0;  // twin::DriftObservability at the end of the replay
   bool has_load_cell = false, static_estimate_logged = false;
   std::optional<ErrorStats> static_error, twin_error;  // against the load cell
   std::size_t off_branch_samples = 0;

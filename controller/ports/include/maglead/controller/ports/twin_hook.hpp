@@ -13,6 +13,7 @@ struct TwinSample {
   double phase_rad = 0.0, static_force_n = 0.0;
   double force_setpoint_n = 0.0;  // NaN unless in force mode
   double load_force_n = 0.0;      // load cell, force on the nut from the load (NaN without one)
+  bool free_move = false;         // no contact declared (a reference move): F_ext = 0 is known
 };
 
 /// What the twin publishes; zero / false until a twin is attached.
@@ -29,10 +30,18 @@ struct TwinReport {
   // The twin is behind the loop: its input queue overflowed or its latest results belong to a
   // cycle older than the bound its runner was given (status bit twin_lagging).
   bool lagging = false;
-  // Reason codes (twin::DriftReason, HealthReason, StepOutReason) and the coupling gain the drift
-  // warning is about (0 until estimated).
-  std::uint16_t drift_reason = 0, health_reason = 0, step_out_reason = 0;
+  // Reason codes (twin::DriftReason, HealthReason, StepOutReason, DriftObservability).
+  std::uint16_t drift_reason = 0, health_reason = 0, step_out_reason = 0, drift_observability = 0;
+  // The load-cell check of the coupling gain (0 until estimated; never used by the flag).
   double gain = 0.0, gain_stderr = 0.0, gain_reference = 0.0;
+  // The drift flag's figures, from free moves (0 until tracking): change of the force estimate's
+  // error since the reference at zero load and at the rated force (separable: estimated; not:
+  // the worst case, all gain), standard errors, and the gain / friction split where separable.
+  double drift_zero_load_n = 0.0, drift_zero_load_se_n = 0.0;
+  double drift_rated_n = 0.0, drift_rated_se_n = 0.0;
+  double drift_gain_change = 0.0, drift_friction_change_n = 0.0;
+  double drift_known_s = 0.0, drift_statistic = 0.0;
+  bool drift_separable = false;
 };
 
 /// The loop calls step() once per cycle on its own thread, after the measurement and before

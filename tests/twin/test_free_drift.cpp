@@ -1,0 +1,74 @@
+// FreeMoveDrift on synthetic free moves: whether gain and friction are told apart depends on
+// the moves (a coupling force that differs within a direction of motion separates them).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "../../twin/src/free_drift.hpp"
+
+namespace maglead::twin {
+namespace {
+
+struct Drift {
+  double gain_per_min = 0.0, friction_n_per_min = 0.0;
+};
+
+/// 120 s of back-and-forth (4 s period, two speeds) at 1 kHz. with_accelerations: half of each
+/// second needs 6 N more coupling force (as a hard acceleration would); otherwise the force is F_c
+/// always.
+FreeMoveDrift run(const Drift& d, bool with_accelerations) {
+  FreeDriftSettings s;
+  s.friction_n = 7.5;
+  s.rated_n = 36.0;
+  FreeMoveDrift f(s);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  for (int k = 0; k < 120000; ++k) {
+    const double t = k * 1e-3;
+    const int dir = std::sin(2 * M_PI * t / 4.0) >= 0 ? 1 : -1;
+    const double level = 7.5 + (with_accelerations && std::fmod(t, 1.0) < 0.5 ? 6.0 : 0.0);
+    const double y = dir * level;
+    const double g = 1.0 + d.gain_per_min * t / 60.0;
+    const double u = (y + dir * d.friction_n_per_min * t / 60.0) / g + noise(rng);
+    // Speeds and positions vary as on moves (they feed the nuisance terms, not the drift).
+    const double speed = std::fmod(t, 8.0) < 4.0 ? 0.01 : 0.03;
+    f.add(t, 1e-3, u, y, dir, dir * speed, 0.01 * std::cos(2 * M_PI * t / 4.0));
+  }
+  return f;
+}
+
+TEST(FreeMoveDrift, AccelerationsSeparateGainFromFriction) {
+  const FreeMoveDrift gain = run({-0.05, 0.0}, true);
+  ASSERT_TRUE(gain.warning());
+  EXPECT_TRUE(gain.at_warning().separable);
+  EXPECT_EQ(gain.reason(), DriftReason::gain_fell);
+  EXPECT_LT(gain.at_warning().gain_change, -0.02);
+  const FreeMoveDrift friction = run({0.0, 1.0}, true);  // 1.08 N (3 % of 36 N) at 65 s
+  ASSERT_TRUE(friction.warning());
+  EXPECT_TRUE(friction.at_warning().separable);
+  EXPECT_EQ(friction.reason(), DriftReason::friction_rose);
+  EXPECT_GT(friction.at_warning().friction_change_n, 0.5);
+}
+
+TEST(FreeMoveDrift, OneForceLevelCannotSeparateAndSaysSo) {
+  const FreeMoveDrift gain = run({-0.05, 0.0}, false);
+  ASSERT_TRUE(gain.warning());
+  EXPECT_FALSE(gain.at_warning().separable);
+  EXPECT_EQ(gain.reason(), DriftReason::error_rose);
+  EXPECT_TRUE(std::isnan(gain.at_warning().gain_change));
+  // The worst case at the rated force scales the zero-load change by (rated + F_c) / F_c.
+  EXPECT_NEAR(gain.at_warning().rated_worst_n, gain.at_warning().zero_load_n * 43.5 / 7.5, 1e-9);
+}
+
+TEST(FreeMoveDrift, NoDriftNoWarning) {
+  for (bool acc : {false, true}) {
+    const FreeMoveDrift f = run({}, acc);
+    EXPECT_FALSE(f.warning());
+    EXPECT_EQ(f.observability(), DriftObservability::tracking);
+    EXPECT_LT(f.statistic(), 1.0);
+  }
+}
+
+}  // namespace
+}  // namespace maglead::twin
