@@ -163,7 +163,7 @@ TEST(ModbusCore, OutOfRangeWritesChangeNothing) {
   auto words = i32_words(25000);
   for (auto w : i32_words(0)) words.push_back(w);  // velocity limit 0: out of range
   EXPECT_EQ(r.req(write_regs(pos, words)), exception(16, Exception::illegal_data_value));
-  EXPECT_EQ(r.req(write_one(addr("mode_command"), 3)), exception(6, Exception::illegal_data_value));
+  EXPECT_EQ(r.req(write_one(addr("mode_command"), 4)), exception(6, Exception::illegal_data_value));
   EXPECT_EQ(r.req(rd(3, 1000, 20)), before);
 }
 

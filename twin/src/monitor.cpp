@@ -272,7 +272,9 @@ struct TwinMonitor::Impl {
   void reset(double t, double theta, double p) noexcept {
     expected_fext = 0.0;
     count = std::llround(p / q_m);
-    pos_hat = (static_cast<double>(count) + 0.5) * q_m;  // floor quantizer: middle of the cell
+    // The reading itself: the calibration was made with the same encoder, so whatever its zero
+    // convention (floor or nearest count), the reading maps to the phase as it did there.
+    pos_hat = static_cast<double>(count) * q_m;
     edge_t = t, edge_pos = pos_hat, interval = 0.0, edge_dir = 0;
     vel = vel_prev = acc = 0.0;
     static_vel.reset(p);
@@ -465,8 +467,9 @@ struct TwinMonitor::Impl {
     const long long k = std::llround(in.nut_pos_m / q_m);
     if (k != count) {
       const int dir = k > count ? 1 : -1;
-      const double e_pos =
-          dir > 0 ? static_cast<double>(k) * q_m : static_cast<double>(k + 1) * q_m;
+      // At an edge the nut is on the boundary between the two readings: their midpoint, in the
+      // readings' own convention (no floor or rounding assumed).
+      const double e_pos = (static_cast<double>(k) - 0.5 * dir) * q_m;
       const double e_t = t - 0.5 * h;
       const double gap = e_t - edge_t;
       if (dir == edge_dir && mode != FrictionMode::stick && gap > 0) {
@@ -488,13 +491,13 @@ struct TwinMonitor::Impl {
       const double bound = q_m / std::max(since, h);
       if (std::abs(vel) > bound) vel = edge_dir * bound;
       if (since > std::max(cfg.stop_after_intervals * interval, cfg.stop_min_s)) {
-        const double lo = static_cast<double>(count) * q_m, hi = lo + q_m;
+        const double lo = (static_cast<double>(count) - 0.5) * q_m, hi = lo + q_m;
         pos_hat = std::clamp(edge_pos + vel * 0.5 * since, lo, hi);
         enter_stick(t, theta, edge_dir);
       }
     }
     if (mode != FrictionMode::stick) {
-      const double lo = static_cast<double>(count) * q_m, hi = lo + q_m;
+      const double lo = (static_cast<double>(count) - 0.5) * q_m, hi = lo + q_m;
       pos_hat = std::clamp(edge_pos + vel * (t - edge_t), lo, hi);
       // Acceleration from the reconstructed velocity, smoothed over ~10 ms (quantization).
       const double a_raw = (vel - vel_prev) / h;
