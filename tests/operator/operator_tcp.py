@@ -274,7 +274,12 @@ def dropped_connection():
     pid, fd = pty.fork()
     if pid == 0:
         os.execv(MAGLEAD, [MAGLEAD, "watch", "--port", str(srv.port), "--rate", "10"])
-    out = read_pty(fd, 1.0)
+    # Stop the server only once watch has drawn a connected screen: under a sanitizer on a loaded
+    # machine it can take over a second to start, and a watch that never connected exits instead.
+    out = b""
+    end = time.time() + 15
+    while time.time() < end and b"drive" not in out:
+        out += read_pty(fd, 0.1)
     srv.stop()
     end = time.time() + 8
     while time.time() < end and b"RECONNECTING" not in out:
