@@ -65,6 +65,19 @@ TEST(Cli, HandPushStaticEstimateIsInThePapersNeighbourhood) {
   }
   EXPECT_EQ(rows, 30001);
   EXPECT_NEAR(sum_abs / rows, mae, 0.006);
+
+  // The loop's load observer (no load cell) on the same pushes: well below the static estimate
+  // (it knows the stick band) and not behind the twin (it shares its edge tracker and stuck-load
+  // filter). Measured: 1.22 N observer, 1.23 N twin, 2.2 N static.
+  const auto obs = run("estimate --estimator observer --recording " + tmp("hp.csv") + " --plot " +
+                       tmp("hp_obs.png"));
+  const auto twin = run("estimate --estimator twin --recording " + tmp("hp.csv") + " --plot " +
+                        tmp("hp_twin.png"));
+  ASSERT_EQ(obs.exit_code, 0) << obs.out;
+  ASSERT_EQ(twin.exit_code, 0) << twin.out;
+  const double obs_mae = number_after(obs.out, "mean absolute error");
+  EXPECT_LT(obs_mae, 0.7 * mae) << obs.out;
+  EXPECT_LT(obs_mae, number_after(twin.out, "mean absolute error") + 0.05) << obs.out << twin.out;
   std::ifstream png(tmp("hp.png"), std::ios::binary);
   char sig[8] = {};
   png.read(sig, 8);

@@ -11,6 +11,7 @@
 
 #include "free_drift.hpp"
 #include "maglead/physics/estimator.hpp"
+#include "maglead/physics/stick_filter.hpp"
 #include "rls.hpp"
 
 namespace maglead::twin {
@@ -91,81 +92,6 @@ class TrendInput final : public InputSource {
   double t0 = 0, th0 = 0, th_rate = 0, f0 = 0, f_rate = 0;
   double screw_rad(double t) const noexcept override { return th0 + th_rate * (t - t0); }
   double ext_force_n(double t) const noexcept override { return f0 + f_rate * (t - t0); }
-};
-
-/// Posterior of the friction force while the nut sticks. n = D0 + F_ext (everything but friction,
-/// D0 the model's drive without F_ext) must stay inside [−b₋, b₊] or the nut would move. F_ext is a
-/// random walk; the grid holds p(n | stuck so far), shifted by the model's change of D0, diffused
-/// and absorbed at the edges (an absorbed path would have broken loose, which it did not).
-class StickFilter {
- public:
-  static constexpr int kN = 81;
-  /// n0: friction level at entry; NaN: unknown, start from the load prior N(centre, sd²).
-  void start(double lo_n, double hi_n, double n0, double centre_n, double sd_n) noexcept {
-    lo_ = lo_n, hi_ = hi_n;
-    dx_ = (hi_ - lo_) / (kN - 1);
-    w_.fill(0.0);
-    if (!std::isfinite(n0)) {
-      for (int i = 1; i < kN - 1; ++i) {
-        const double z = (lo_ + i * dx_ - centre_n) / sd_n;
-        w_[i] = std::exp(-0.5 * z * z);
-      }
-    } else {
-      const double x = std::clamp((n0 - lo_) / dx_, 1.0, kN - 2.0);
-      const int i = std::min(static_cast<int>(x), kN - 2);
-      const double f = x - i;
-      w_[i] = 1.0 - f;
-      w_[i + 1] += f;
-    }
-    normalise();
-  }
-  /// One tick: n' = c + (n + shift − c)·λ (the model's drive change, and the load relaxing
-  /// towards its expected level, c = D0 + expected F_ext), then diffusion of `variance_n2`.
-  void step(double shift_n, double centre_n, double lambda, double variance_n2) noexcept {
-    if (shift_n != 0.0 || lambda != 1.0) {
-      for (int i = 0; i < kN; ++i) {
-        const double n_new = lo_ + i * dx_;
-        const double n_old = (n_new - centre_n) / lambda + centre_n - shift_n;
-        const double src = (n_old - lo_) / dx_;
-        const int j = static_cast<int>(std::floor(src));
-        const double f = src - j;
-        double v = 0.0;
-        if (j >= 0 && j < kN) v += (1.0 - f) * w_[j];
-        if (j + 1 >= 0 && j + 1 < kN) v += f * w_[j + 1];
-        tmp_[i] = v;
-      }
-      w_ = tmp_;
-    }
-    const double alpha_total = variance_n2 / (2.0 * dx_ * dx_);
-    const int sub = std::max(1, static_cast<int>(std::ceil(alpha_total / 0.4)));
-    const double alpha = alpha_total / sub;
-    for (int k = 0; k < sub; ++k) {
-      tmp_[0] = tmp_[kN - 1] = 0.0;  // absorbing edges
-      for (int i = 1; i < kN - 1; ++i)
-        tmp_[i] = w_[i] + alpha * (w_[i - 1] - 2.0 * w_[i] + w_[i + 1]);
-      w_ = tmp_;
-    }
-    normalise();
-  }
-  double mean() const noexcept {
-    double m = 0.0;
-    for (int i = 0; i < kN; ++i) m += w_[i] * (lo_ + i * dx_);
-    return m;
-  }
-
- private:
-  void normalise() noexcept {
-    double s = 0.0;
-    for (double v : w_) s += v;
-    if (!(s > 1e-300)) {  // everything absorbed (model and data disagree): fall back to flat
-      w_.fill(1.0);
-      w_.front() = w_.back() = 0.0;
-      s = kN - 2;
-    }
-    for (double& v : w_) v /= s;
-  }
-  std::array<double, kN> w_{}, tmp_{};
-  double lo_ = -1, hi_ = 1, dx_ = 0.025;
 };
 
 }  // namespace
@@ -265,9 +191,7 @@ struct TwinMonitor::Impl {
   // Load prior: an Ornstein-Uhlenbeck process around the expected external force (minus the
   // force setpoint in force control, zero otherwise), stationary spread load_sd_n().
   double expected_fext = 0.0;
-  double load_sd_n() const noexcept {
-    return std::sqrt(cfg.load_force_rate_n2_per_s * cfg.load_force_time_constant_s / 2.0);
-  }
+  double load_sd_n() const noexcept { return cfg.load_prior.spread_n(); }
 
   void reset(double t, double theta, double p) noexcept {
     expected_fext = 0.0;
@@ -512,9 +436,8 @@ struct TwinMonitor::Impl {
     if (mode == FrictionMode::stick) {
       const double d0 = model.drive_force_n(t, theta, pos_hat, 0.0, 0.0);
       expected_fext = std::isfinite(in.force_setpoint_n) ? -in.force_setpoint_n : 0.0;
-      const double tau = cfg.load_force_time_constant_s;
-      stick.step(d0 - d0_prev, d0 + expected_fext, tau > 0 ? std::exp(-h / tau) : 1.0,
-                 cfg.load_force_rate_n2_per_s * h);
+      stick.step(d0 - d0_prev, d0 + expected_fext, cfg.load_prior.keep(h),
+                 cfg.load_prior.walk_n2_per_s * h);
       d0_prev = d0;
       n_stick = stick.mean();
     }
