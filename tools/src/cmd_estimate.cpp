@@ -66,12 +66,13 @@ void add_estimate(CLI::App& app) {
       return twin::load_monitor_config(o->config).model;
     };
     if (o->estimator == "observer") {
-      LoadObserverConfig oc;
-      oc.calibration = cal;
-      oc.friction = twin::friction_model(model_file());
-      oc.lead_m = act.lead_m;
-      oc.linear_count_m = act.linear_count_m;
-      LoadForceObserver obs(oc);
+      // The observer the controller runs, with the same [control] settings as `serve`.
+      controller::ControllerConfig c;
+      c.actuator = act;
+      c.calibration = cal;
+      c.friction = twin::friction_model(model_file());
+      load_control_settings(o->config, c);
+      LoadForceObserver obs(controller::observer_config(c));
       // Under force control the load is what the loop presses (passive); otherwise loads come
       // and go and rest at zero.
       const std::vector<double>* fset =
