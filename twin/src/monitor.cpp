@@ -10,6 +10,7 @@
 #include <numbers>
 
 #include "free_drift.hpp"
+#include "maglead/physics/edge_tracker.hpp"
 #include "maglead/physics/estimator.hpp"
 #include "maglead/physics/stick_filter.hpp"
 #include "rls.hpp"
@@ -106,11 +107,8 @@ struct TwinMonitor::Impl {
   TrendInput trend;
   double dt, q_m, lead_m;
 
-  // Encoder reconstruction
-  long long count = 0;
-  double edge_t = 0, edge_pos = 0, interval = 0.0;
-  int edge_dir = 0;
-  int run_edges = 0;  // edges in a row of the current slide
+  // Encoder reconstruction (the load observer's too): position, speed, stop
+  EdgeTracker nut;
   double vel = 0, vel_prev = 0, acc = 0, pos_hat = 0;
   FrictionMode mode = FrictionMode::stick;
   double d0_prev = 0;  // model drive without F_ext at the previous tick (stick filter shift)
@@ -164,6 +162,7 @@ struct TwinMonitor::Impl {
         dt(1.0 / c.actuator.sample_rate_hz),
         q_m(c.actuator.linear_count_m),
         lead_m(c.actuator.lead_m),
+        nut({c.actuator.linear_count_m, c.stop_after_intervals, c.stop_min_s}),
         free_drift(free_settings(c, model)) {}
 
   double phase_of(double theta, double p) const noexcept { return phase_rad(theta, p, lead_m); }
@@ -195,11 +194,10 @@ struct TwinMonitor::Impl {
 
   void reset(double t, double theta, double p) noexcept {
     expected_fext = 0.0;
-    count = std::llround(p / q_m);
     // The reading itself: the calibration was made with the same encoder, so whatever its zero
     // convention (floor or nearest count), the reading maps to the phase as it did there.
-    pos_hat = static_cast<double>(count) * q_m;
-    edge_t = t, edge_pos = pos_hat, interval = 0.0, edge_dir = 0;
+    nut.reset(t, p);
+    pos_hat = nut.position_m();
     vel = vel_prev = acc = 0.0;
     static_vel.reset(p);
     enter_stick(t, theta, 0);
@@ -247,7 +245,7 @@ struct TwinMonitor::Impl {
     const double end_zone =
         std::isfinite(cfg.drift_end_exclusion_m) ? cfg.drift_end_exclusion_m : lead_m;
     const double edge = std::min(cfg.calibration.stable_max_rad, -cfg.calibration.stable_min_rad);
-    return mode != FrictionMode::stick && run_edges >= cfg.drift_min_edges &&
+    return mode != FrictionMode::stick && nut.run_edges() >= cfg.drift_min_edges &&
            t - slide_start_t >= cfg.drift_settle_s &&
            std::abs(rel_phase) <= cfg.drift_phase_fraction * edge &&
            pos_hat - cfg.actuator.stroke_min_m >= end_zone &&
@@ -388,41 +386,17 @@ struct TwinMonitor::Impl {
     ++ticks;
 
     // --- encoder reconstruction: exact position at edges, bounded extrapolation between ---
-    const long long k = std::llround(in.nut_pos_m / q_m);
-    if (k != count) {
-      const int dir = k > count ? 1 : -1;
-      // At an edge the nut is on the boundary between the two readings: their midpoint, in the
-      // readings' own convention (no floor or rounding assumed).
-      const double e_pos = (static_cast<double>(k) - 0.5 * dir) * q_m;
-      const double e_t = t - 0.5 * h;
-      const double gap = e_t - edge_t;
-      if (dir == edge_dir && mode != FrictionMode::stick && gap > 0) {
-        ++run_edges;
-        interval = gap;
-        vel = (e_pos - edge_pos) / gap;
-      } else {
-        // First edge of a motion: the nut broke loose somewhere in the last interval.
-        run_edges = 1;
-        const double since = std::max(h, std::min(gap, cfg.stop_min_s * 4));
-        vel = (e_pos - (dir > 0 ? e_pos - q_m : e_pos + q_m)) / since;
-        interval = since;
-        if (mode == FrictionMode::stick) slide_start_t = t;
-      }
-      edge_t = e_t, edge_pos = e_pos, edge_dir = dir, count = k;
-      mode = dir > 0 ? FrictionMode::slide_pos : FrictionMode::slide_neg;
-    } else if (mode != FrictionMode::stick) {
-      const double since = t - edge_t;
-      const double bound = q_m / std::max(since, h);
-      if (std::abs(vel) > bound) vel = edge_dir * bound;
-      if (since > std::max(cfg.stop_after_intervals * interval, cfg.stop_min_s)) {
-        const double lo = (static_cast<double>(count) - 0.5) * q_m, hi = lo + q_m;
-        pos_hat = std::clamp(edge_pos + vel * 0.5 * since, lo, hi);
-        enter_stick(t, theta, edge_dir);
-      }
+    const int slide_dir = nut.direction();
+    const EdgeEvent ev = nut.update(t, in.nut_pos_m);
+    pos_hat = nut.position_m();
+    vel = nut.velocity_m_s();
+    if (ev == EdgeEvent::started || ev == EdgeEvent::edge) {
+      if (mode == FrictionMode::stick) slide_start_t = t;
+      mode = nut.direction() > 0 ? FrictionMode::slide_pos : FrictionMode::slide_neg;
+    } else if (ev == EdgeEvent::stopped) {
+      enter_stick(t, theta, slide_dir);
     }
     if (mode != FrictionMode::stick) {
-      const double lo = (static_cast<double>(count) - 0.5) * q_m, hi = lo + q_m;
-      pos_hat = std::clamp(edge_pos + vel * (t - edge_t), lo, hi);
       // Acceleration from the reconstructed velocity, smoothed over ~10 ms (quantization).
       const double a_raw = (vel - vel_prev) / h;
       acc += (a_raw - acc) * std::min(1.0, h / 0.010);
