@@ -409,11 +409,21 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
     if (opt.progress) opt.progress(stage, f);
   };
   const auto base = baseline_of(model);
-  const auto o = options_of(opt, base);
+  auto o = options_of(opt, base);
   progress("prepare", 0.0);
   const auto P = actuator::prepare(rec, base, cal, act, o);
   progress("prepare", 1.0);
   auto sel = actuator::select(P, o, [&](double f) { progress("selection", f); });
+  std::optional<Rejected> unseen;
+  if (auto why = actuator::stribeck_unseen_at_rest(P, base, sel, o)) {
+    // Chosen again without it, so the other terms and their errors are fitted without it.
+    for (const auto& c : sel.chosen)
+      if (c.id == "stribeck_friction")
+        unseen = Rejected{c.id,         c.gain_pct, c.t_stat,           std::nullopt,
+                          std::nullopt, *why,       params_of(c.params)};
+    o.exclude.emplace_back("stribeck_friction");
+    sel = actuator::select(P, o, [&](double f) { progress("selection", f); });
+  }
   progress("selection", 1.0);
   const auto bt = actuator::breakaway_test(P, base, sel.chosen);
   const auto stribeck = actuator::stribeck_from_breakaway(P, base, sel, bt, o);
@@ -421,6 +431,7 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
 
   AnalysisResult r;
   r.findings = findings_of(rec, P, sel, stribeck, bt, o);
+  if (unseen) r.findings.not_selected.insert(r.findings.not_selected.begin(), *unseen);
   r.corrected = corrected_model(model, sel.chosen, rec.path);
   if (opt.twin_force_check) {
     r.findings.twin_force_check = check_with_twin(rec, act, cal, model, sel.chosen, r.corrected);
