@@ -163,45 +163,6 @@ double load_cell_noise(const std::vector<double>& load_raw) {
   return robust_sigma(d2) / std::sqrt(6.0);
 }
 
-// Stretches [first, last] where the raw nut count did not change for a while: the nut may be
-// stuck there, its friction anywhere in the break-away band.
-struct Hold {
-  std::size_t first, last;
-};
-
-std::vector<Hold> holds_of(const Signals& s, const Prepared& P) {
-  std::vector<Hold> out;
-  const std::size_t n = s.t.size();
-  const double hold_s = std::max(0.02, 4.0 / P.fs_hz);
-  std::size_t i = 0;
-  while (i < n) {
-    std::size_t j = i;
-    while (j + 1 < n && std::abs(s.pos_raw[j + 1] - s.pos_raw[i]) < 0.5 * P.count_m) ++j;
-    if (s.t[j] - s.t[i] >= hold_s) out.push_back({i, j});
-    i = j + 1;
-  }
-  return out;
-}
-
-// Samples with a stop within the filter's support: a nut that stick-slips in a slow move has a
-// smooth filtered velocity, but its friction between slips is not the kinetic one. A nut sliding
-// at the filtered speed crosses a count in c/|v|; one that stays twice that long on a count
-// stopped in between.
-std::vector<unsigned char> beside_stop(const Signals& s, const Prepared& P,
-                                       const std::vector<Hold>& holds) {
-  const std::size_t n = s.t.size();
-  const auto w = static_cast<std::size_t>(std::ceil(P.fs_hz / P.filter_hz));
-  std::vector<unsigned char> out(n, 0);
-  for (const auto& h : holds) {
-    const double held_s = s.t[h.last] - s.t[h.first];
-    const double v_mid = std::abs(s.v[(h.first + h.last) / 2]);
-    if (v_mid > 0 && held_s < 2.0 * P.count_m / v_mid) continue;
-    for (std::size_t k = h.first > w ? h.first - w : 0; k < std::min(n, h.last + w + 1); ++k)
-      out[k] = 1;
-  }
-  return out;
-}
-
 // Sliding samples: moving in one direction for the whole filter support around the sample,
 // faster than one encoder count per filter time constant (slower, the nut may be stuck and its
 // friction is anywhere in the break-away band), and away from step-outs.
@@ -309,11 +270,18 @@ std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, con
 
 // Stuck episodes (raw nut count unchanged) and the net force on the nut as each one ends.
 std::vector<StuckEpisode> stuck_episodes(const Signals& s, const Prepared& P, const Baseline& base,
-                                         const StateAt& state_at, const std::vector<Hold>& holds) {
+                                         const StateAt& state_at) {
   std::vector<StuckEpisode> out;
-  for (const auto& h : holds)
-    if (h.last + 1 < s.t.size())
-      if (auto e = released_at(s, P, base, state_at, h.first, h.last)) out.push_back(*e);
+  const std::size_t n = s.t.size();
+  const double hold_s = std::max(0.02, 4.0 / P.fs_hz);
+  std::size_t i = 0;
+  while (i < n) {
+    std::size_t j = i;
+    while (j + 1 < n && std::abs(s.pos_raw[j + 1] - s.pos_raw[i]) < 0.5 * P.count_m) ++j;
+    if (s.t[j] - s.t[i] >= hold_s && j + 1 < n)
+      if (auto e = released_at(s, P, base, state_at, i, j)) out.push_back(*e);
+    i = j + 1;
+  }
   return out;
 }
 
@@ -339,9 +307,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.slips = find_slips(t, s.phi_raw);
   P.load_noise_n = load_cell_noise(s.load_raw);
   P.v_min_m_s = P.count_m * P.filter_hz;
-  const auto holds = holds_of(s, P);
   const auto ok = sliding_mask(s, P);
-  const auto stop = beside_stop(s, P, holds);
 
   // Keep every `decim`-th sliding sample: the signals are band-limited to filter_hz, so samples
   // closer than a fifth of its period add no information, only work.
@@ -352,13 +318,12 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   const StateAt state_at{s, cp, act, base, P.t0_s};
   for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(P.decimation)) {
     if (!ok[i]) continue;
-    auto& states = stop[i] ? P.beside_stop_states : P.states;
-    states.push_back(state_at(i));
-    (stop[i] ? P.beside_stop_residual : P.residual).push_back(missing_force(base, states.back()));
+    P.states.push_back(state_at(i));
+    P.residual.push_back(missing_force(base, P.states.back()));
   }
   P.samples = n;
   P.duration_s = t.back() - t.front();
-  P.stuck = stuck_episodes(s, P, base, state_at, holds);
+  P.stuck = stuck_episodes(s, P, base, state_at);
   return P;
 }
 
@@ -798,23 +763,6 @@ std::optional<std::string> stribeck_unseen_at_rest(const Prepared& P, const Base
   return std::string(buf);
 }
 
-namespace {
-
-// The missing force beside the stops after the terms the sliding fit chose: where the friction
-// rises towards rest, so where the Stribeck velocity shows (the selection leaves these samples
-// out, since their friction may also be static).
-std::vector<double> corrected_beside_stops(const Prepared& P, const Selection& sel) {
-  auto r = P.beside_stop_residual;
-  for (const auto& c : sel.chosen) {
-    const auto* e = effects::find(c.id);
-    for (std::size_t i = 0; i < r.size(); ++i)
-      r[i] -= e->force_n(c.params, P.beside_stop_states[i]);
-  }
-  return r;
-}
-
-}  // namespace
-
 // Break-away above the kinetic level in both directions is static friction (Stribeck's law).
 // The release is seen only once the nut has crossed an encoder count: the force read then is
 // late by up to the lag bound (breakaway_test), and the phase it is computed from is known to
@@ -842,18 +790,12 @@ std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseli
   // Without slow sliding the data say nothing about it: then the middle of the scanned range
   // (on a log scale), and the finding says so.
   const auto shapes = e->shapes();
-  const auto beside = corrected_beside_stops(P, sel);
   double best_vs = std::sqrt(shapes.front() * shapes.back()), best_sse = INFINITY, worst_sse = 0;
   for (double vs : shapes) {
     double s = 0, x = 0;
     for (std::size_t i = 0; i < P.states.size(); ++i) {
       e->regressors(vs, P.states[i], &x);
       const double r = sel.final_residual[i] - excess * x;
-      s += r * r;
-    }
-    for (std::size_t i = 0; i < beside.size(); ++i) {
-      e->regressors(vs, P.beside_stop_states[i], &x);
-      const double r = beside[i] - excess * x;
       s += r * r;
     }
     worst_sse = std::max(worst_sse, s);
@@ -892,31 +834,11 @@ double filter_undershoot(const Prepared& P, double duration_s) {
   return top > 0 ? std::max(0.0, -*std::min_element(y.begin(), y.end())) / top : 0.0;
 }
 
-// The corrected residual over time at every sliding sample, beside stops included: a pulse can
-// stop the nut, and the samples around it are then beside a stop.
-struct Series {
-  std::vector<double> t_s, r_n;
-};
-
-Series residual_series(const Prepared& P, const Selection& sel) {
-  const auto beside = corrected_beside_stops(P, sel);
-  std::vector<std::pair<double, double>> all;
-  all.reserve(P.states.size() + beside.size());
-  for (std::size_t i = 0; i < P.states.size(); ++i)
-    all.emplace_back(P.states[i].t_s, sel.final_residual[i]);
-  for (std::size_t i = 0; i < beside.size(); ++i)
-    all.emplace_back(P.beside_stop_states[i].t_s, beside[i]);
-  std::sort(all.begin(), all.end());
-  Series out;
-  for (const auto& [t, r] : all) out.t_s.push_back(t), out.r_n.push_back(r);
-  return out;
-}
-
 // The sliding stretch around sample i: samples no further apart than 1.5 decimated periods.
-std::pair<std::size_t, std::size_t> stretch_of(const Series& x, std::size_t i, double dt) {
+std::pair<std::size_t, std::size_t> stretch_of(const Prepared& P, std::size_t i, double dt) {
   std::size_t a = i, b = i + 1;
-  while (a > 0 && x.t_s[a] - x.t_s[a - 1] < 1.5 * dt) --a;
-  while (b < x.t_s.size() && x.t_s[b] - x.t_s[b - 1] < 1.5 * dt) ++b;
+  while (a > 0 && P.states[a].t_s - P.states[a - 1].t_s < 1.5 * dt) --a;
+  while (b < P.states.size() && P.states[b].t_s - P.states[b - 1].t_s < 1.5 * dt) ++b;
   return {a, b};
 }
 
@@ -926,16 +848,17 @@ struct Flanks {
 };
 
 // The residual beside the run [i, j) within `reach_s`, in the same sliding stretch.
-Flanks flanks_of(const Series& x, std::size_t i, std::size_t j, double peak, double reach_s,
-                 double dt) {
-  const auto [a, b] = stretch_of(x, i, dt);
+Flanks flanks_of(const Prepared& P, const std::vector<double>& r, std::size_t i, std::size_t j,
+                 double peak, double reach_s, double dt) {
+  const auto [a, b] = stretch_of(P, i, dt);
   Flanks out;
   std::vector<double> beside;
   for (std::size_t k = a; k < b; ++k) {
-    const double dist_s = k < i ? x.t_s[i] - x.t_s[k] : (k >= j ? x.t_s[k] - x.t_s[j - 1] : 0.0);
+    const double dist_s = k < i ? P.states[i].t_s - P.states[k].t_s
+                                : (k >= j ? P.states[k].t_s - P.states[j - 1].t_s : 0.0);
     if (dist_s > reach_s) continue;
-    if (k < i || k >= j) beside.push_back(x.r_n[k]);
-    if (x.r_n[k] * peak < 0) out.opposite_n = std::max(out.opposite_n, std::abs(x.r_n[k]));
+    if (k < i || k >= j) beside.push_back(r[k]);
+    if (r[k] * peak < 0) out.opposite_n = std::max(out.opposite_n, std::abs(r[k]));
   }
   if (!beside.empty()) out.level_n = median_of(beside);
   return out;
@@ -952,10 +875,9 @@ Flanks flanks_of(const Series& x, std::size_t i, std::size_t j, double peak, dou
 // at a slightly different time: a delay or play under a force step).
 std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt) {
   std::vector<Pulse> out;
-  if (sel.final_residual.size() < 100) return out;
-  const Series x = residual_series(P, sel);
-  const auto& r = x.r_n;
-  const double sigma = robust_sigma(sel.final_residual);
+  const auto& r = sel.final_residual;
+  if (r.size() < 100) return out;
+  const double sigma = robust_sigma(r);
   const double thr = std::max(opt.pulse_sigmas * sigma, P.count_force_n);
   const double dt = static_cast<double>(P.decimation) / P.fs_hz;
   std::size_t i = 0;
@@ -967,18 +889,19 @@ std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Op
     std::size_t j = i;
     double peak = 0;
     // One pulse: consecutive samples (no gap in time) beyond the threshold.
-    while (j < r.size() && std::abs(r[j]) > thr && (j == i || x.t_s[j] - x.t_s[j - 1] < 1.5 * dt)) {
+    while (j < r.size() && std::abs(r[j]) > thr &&
+           (j == i || P.states[j].t_s - P.states[j - 1].t_s < 1.5 * dt)) {
       if (std::abs(r[j]) > std::abs(peak)) peak = r[j];
       ++j;
     }
-    const double duration = x.t_s[j - 1] - x.t_s[i] + dt;
+    const double duration = P.states[j - 1].t_s - P.states[i].t_s + dt;
     // Shorter than the filter resolves is ringing of a transition, not a force that acted.
     if (duration <= opt.pulse_max_s && duration >= 0.5 / P.filter_hz) {
-      const auto fl = flanks_of(x, i, j, peak, duration + 2.0 / P.filter_hz, dt);
+      const auto fl = flanks_of(P, r, i, j, peak, duration + 2.0 / P.filter_hz, dt);
       const bool stands_out = std::abs(peak - fl.level_n) > thr;
       const bool one_sign =
           fl.opposite_n <= std::max(thr, 2.0 * filter_undershoot(P, duration) * std::abs(peak));
-      if (stands_out && one_sign) out.push_back({x.t_s[i], duration, peak});
+      if (stands_out && one_sign) out.push_back({P.states[i].t_s, duration, peak});
     }
     i = j;
   }

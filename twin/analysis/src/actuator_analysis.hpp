@@ -70,10 +70,6 @@ struct Prepared {
   std::size_t samples = 0;
   std::vector<effects::State> states;  // sliding samples (decimated)
   std::vector<double> residual;        // the baseline's missing force at those samples [N]
-  // Sliding by the filtered speed but with a stop within the filter's support: left out of the
-  // selection, used for the Stribeck velocity.
-  std::vector<effects::State> beside_stop_states;
-  std::vector<double> beside_stop_residual;
   std::vector<SlipEvent> slips;
   std::vector<StuckEpisode> stuck;
 };
