@@ -313,6 +313,10 @@ TEST(StickSlip, ARecordingThatBarelySlidesSaysSo) {
   ASSERT_EQ(r.findings.effects.size(), 1u);
   EXPECT_EQ(r.findings.effects[0].id, "stribeck_friction");
   EXPECT_FALSE(r.findings.effects[0].summary.empty());
+  // The break-away is read late by what rose while the nut crossed its first count: the note
+  // says by how much it was corrected.
+  EXPECT_NE(r.findings.effects[0].note.find("corrected for what rose"), std::string::npos)
+      << r.findings.effects[0].note;
 }
 
 // Each fitted parameter carries its standard error, and the summary prints the value at the

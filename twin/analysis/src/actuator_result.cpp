@@ -279,11 +279,6 @@ EffectFinding stribeck_finding(const actuator::Candidate& stribeck,
   c.standard_errors["breakaway_n"] = 0.5 * std::hypot(bt.pos.se_n, bt.neg.se_n);
   e.standard_errors = params_of(c.standard_errors);
   e.summary = summary_of(c, P);
-  e.note +=
-      "; the force read at release is corrected for what rose while the nut crossed "
-      "its first count (" +
-      fmt(0.5 * (bt.pos.lag_expected_n + bt.neg.lag_expected_n)) + " N, at most " +
-      fmt(std::max(bt.pos.lag_bound_n, bt.neg.lag_bound_n)) + " N)";
   e.improvement_pct = 0.0;
   e.note = stribeck.velocity_determined
                ? "break-away from the net force at release; the Stribeck velocity is the one "
@@ -291,6 +286,11 @@ EffectFinding stribeck_finding(const actuator::Candidate& stribeck,
                : "break-away from the net force at release; the Stribeck velocity is not "
                  "determined (no slow sliding in the recording): the middle of the range "
                  "scanned";
+  e.note +=
+      "; the force read at release is corrected for what rose while the nut crossed "
+      "its first count (" +
+      fmt(0.5 * (bt.pos.lag_expected_n + bt.neg.lag_expected_n)) + " N, at most " +
+      fmt(std::max(bt.pos.lag_bound_n, bt.neg.lag_bound_n)) + " N)";
   return e;
 }
 
