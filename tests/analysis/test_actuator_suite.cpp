@@ -12,7 +12,9 @@
 // actuator at 1 kHz (the sizes the rest of the suite shows are resolved).
 //
 // CI runs a representative subset (each effect once alone per actuator, on a rotating rate and
-// noise, and a chain of pairs); MAGLEAD_FULL_MATRIX=1 runs every combination.
+// noise, and a chain of pairs); MAGLEAD_FULL_MATRIX=1 runs every combination,
+// MAGLEAD_MATRIX_FILTER=ID only the cases with that effect, MAGLEAD_MATRIX_KEEP=1 keeps their
+// recordings (the path is printed).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -163,7 +165,12 @@ Outcome run_case(const Case& c, int index) {
   aopt.twin_force_check = false;  // analysis_twin_round_trip checks it (and costs twin runs)
   const auto r = maglead::analysis::analyze_recording(maglead::read_recording(path), c.setup->model,
                                                       c.setup->cal, act, aopt);
-  std::filesystem::remove(path);
+  // MAGLEAD_MATRIX_KEEP=1 keeps the recordings, to look at one case with `maglead analyze`.
+  const char* keep = std::getenv("MAGLEAD_MATRIX_KEEP");
+  if (keep && std::string(keep) == "1")
+    std::printf("kept %s\n", path.c_str());
+  else
+    std::filesystem::remove(path);
   auto o = judge(r, c.effects);
   std::string truth;
   for (const auto* e : c.effects) truth += (truth.empty() ? "" : " + ") + e->id;
@@ -306,6 +313,10 @@ TEST(StickSlip, ARecordingThatBarelySlidesSaysSo) {
   ASSERT_EQ(r.findings.effects.size(), 1u);
   EXPECT_EQ(r.findings.effects[0].id, "stribeck_friction");
   EXPECT_FALSE(r.findings.effects[0].summary.empty());
+  // The break-away is read late by what rose while the nut crossed its first count: the note
+  // says by how much it was corrected.
+  EXPECT_NE(r.findings.effects[0].note.find("corrected for what rose"), std::string::npos)
+      << r.findings.effects[0].note;
 }
 
 // Each fitted parameter carries its standard error, and the summary prints the value at the

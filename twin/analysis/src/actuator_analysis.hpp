@@ -132,6 +132,14 @@ Selection select(const Prepared& P, const Options& opt,
 std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
                                                  const Selection& sel, const BreakawayTest& bt,
                                                  const Options& opt);
+/// Significance of a break-away above the kinetic level on one side: the median excess beyond the
+/// first-count lag bound and half a count's force, in standard errors (−∞ below 3 releases).
+double breakaway_margin(const BreakawayTest::Side& s);
+/// Why a Stribeck term the sliding fit chose is not named: the recording has releases in both
+/// directions and they show no break-away above the kinetic level beyond what the encoder
+/// resolves. None: the term stands (or none was chosen, or the releases are too few to tell).
+std::optional<std::string> stribeck_unseen_at_rest(const Prepared& P, const Baseline& base,
+                                                   const Selection& sel, const Options& opt);
 std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt);
 BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
                              const std::vector<Candidate>& chosen);

@@ -172,6 +172,234 @@ std::optional<Unexplained> unexplained_of(const actuator::Selection& sel) {
   return u;
 }
 
+actuator::Options options_of(const AnalysisOptions& opt, const actuator::Baseline& base) {
+  actuator::Options o;
+  o.folds = opt.folds;
+  if (opt.filter_hz > 0) o.filter_hz = opt.filter_hz;
+  o.min_gain_pct = opt.min_gain_pct;
+  o.min_t = opt.min_t;
+  for (const auto& t : base.terms) o.exclude.emplace_back(t.effect->id());
+  return o;
+}
+
+// Stribeck's sliding part belongs to the corrected model's error too; a kinetic level the sliding
+// fit already found is in it (and in the residual) once.
+void fold_in_stribeck(actuator::Selection& sel, const actuator::Prepared& P,
+                      const actuator::Candidate& stribeck) {
+  const auto* e = effects::find(stribeck.id);
+  const auto* coulomb = effects::find("coulomb_friction");
+  const effects::Params kinetic{{"coulomb_n", stribeck.params.at("coulomb_n")}};
+  sel.final_sse = 0;
+  for (std::size_t i = 0; i < P.states.size(); ++i) {
+    sel.final_residual[i] -=
+        e->force_n(stribeck.params, P.states[i]) - coulomb->force_n(kinetic, P.states[i]);
+    sel.final_sse += sel.final_residual[i] * sel.final_residual[i];
+  }
+}
+
+Method method_of(const actuator::Prepared& P, const actuator::Options& o) {
+  Method m;
+  m.domain =
+      "force (inverse model: the force the baseline leaves out of the nut's balance, "
+      "from measured motion and load)";
+  m.filter = "4th-order Butterworth at " + fmt(P.filter_hz) + " Hz, zero phase, on every signal";
+  m.decimation = P.decimation;
+  m.folds = o.folds;
+  m.selection =
+      "forward, by held-out error on contiguous time segments; a term must cut the "
+      "held-out mean square error by " +
+      fmt(o.min_gain_pct) + " % with t >= " + fmt(o.min_t) + " over the segments";
+  m.moving_only = "sliding samples only (faster than " + fmt(P.v_min_m_s * 1e3) +
+                  " mm/s, one direction over the filter's support); stuck episodes feed "
+                  "the break-away test";
+  return m;
+}
+
+// RMS and relative error of a sum of squares over the sliding samples used.
+struct ErrorScale {
+  double n_used, measured_ss;
+  double rms(double s) const { return std::sqrt(s / n_used); }
+  double rel(double s) const { return measured_ss > 0 ? 100.0 * std::sqrt(s / measured_ss) : 0.0; }
+};
+
+EffectFinding sliding_finding(const actuator::Candidate& c, const actuator::Prepared& P,
+                              double sse_before, double sse_after, double baseline_heldout_sse,
+                              const ErrorScale& es) {
+  EffectFinding e;
+  e.id = c.id;
+  e.parameters = params_of(c.params);
+  e.evidence.heldout_gain_pct = c.gain_pct;
+  e.evidence.t_stat = c.t_stat;
+  e.evidence.segments_improved =
+      std::to_string(c.segments_improved) + "/" + std::to_string(c.segments);
+  e.evidence.explained_rms_n = es.rms(std::max(0.0, sse_before - sse_after));
+  e.evidence.noise_floor_n = P.load_noise_n;
+  e.evidence.resolution_floor_n = P.floor_n;
+  e.evidence.minimum_n = P.minimum_n;
+  e.standard_errors = params_of(c.standard_errors);
+  e.summary = summary_of(c, P);
+  e.improvement_pct = 100.0 * (sse_before - sse_after) / baseline_heldout_sse;
+  e.where = "sliding samples";
+  if (!c.alternatives.empty()) {
+    for (const auto& a : c.alternatives)
+      e.alternatives.push_back({a.id, params_of(a.params), a.explains_pct, std::nullopt});
+    e.finding = "the data cannot tell these apart here; " + c.id + " is preferred";
+  }
+  return e;
+}
+
+// The terms the sliding fit chose, each with the validation step it adds.
+void add_sliding_findings(Findings& J, const actuator::Selection& sel, const actuator::Prepared& P,
+                          const ErrorScale& es) {
+  J.validation.push_back({"baseline", es.rms(sel.baseline_heldout_sse),
+                          es.rel(sel.baseline_heldout_sse), std::nullopt, std::nullopt});
+  double prev = sel.baseline_heldout_sse;
+  for (std::size_t k = 0; k < sel.chosen.size(); ++k) {
+    const auto& c = sel.chosen[k];
+    J.effects.push_back(
+        sliding_finding(c, P, prev, sel.heldout_sse_after[k], sel.baseline_heldout_sse, es));
+    prev = sel.heldout_sse_after[k];
+    J.validation.push_back({"+ " + c.id, es.rms(prev), es.rel(prev), std::nullopt, std::nullopt});
+  }
+}
+
+EffectFinding stribeck_finding(const actuator::Candidate& stribeck,
+                               const actuator::BreakawayTest& bt, const actuator::Prepared& P) {
+  EffectFinding e;
+  e.id = stribeck.id;
+  e.parameters = params_of(stribeck.params);
+  e.where = "stuck episodes: the nut breaks away above its sliding friction in both directions";
+  e.evidence.t_stat = stribeck.t_stat;
+  e.evidence.segments_improved = std::to_string(stribeck.segments) + " releases";
+  e.evidence.breakaway_excess_pos_n = bt.pos.median_excess_n;
+  e.evidence.breakaway_excess_neg_n = bt.neg.median_excess_n;
+  e.evidence.encoder_count_force_n = bt.pos.count_force_n;
+  // The break-away's error: the two sides' medians averaged.
+  auto c = stribeck;
+  c.standard_errors["breakaway_n"] = 0.5 * std::hypot(bt.pos.se_n, bt.neg.se_n);
+  e.standard_errors = params_of(c.standard_errors);
+  e.summary = summary_of(c, P);
+  e.improvement_pct = 0.0;
+  e.note = stribeck.velocity_determined
+               ? "break-away from the net force at release; the Stribeck velocity is the one "
+                 "the sliding samples prefer"
+               : "break-away from the net force at release; the Stribeck velocity is not "
+                 "determined (no slow sliding in the recording): the middle of the range "
+                 "scanned";
+  e.note +=
+      "; the force read at release is corrected for what rose while the nut crossed "
+      "its first count (" +
+      fmt(0.5 * (bt.pos.lag_expected_n + bt.neg.lag_expected_n)) + " N, at most " +
+      fmt(std::max(bt.pos.lag_bound_n, bt.neg.lag_bound_n)) + " N)";
+  return e;
+}
+
+// Stribeck's law holds the kinetic level: a coulomb_friction finding becomes part of it.
+void add_stribeck(Findings& J, actuator::Selection& sel, const actuator::Candidate& stribeck,
+                  const actuator::BreakawayTest& bt, const actuator::Prepared& P) {
+  std::erase_if(sel.chosen,
+                [](const actuator::Candidate& c) { return c.id == "coulomb_friction"; });
+  for (auto it = J.effects.begin(); it != J.effects.end(); ++it)
+    if (it->id == "coulomb_friction") {
+      J.effects.erase(it);
+      break;
+    }
+  J.effects.push_back(stribeck_finding(stribeck, bt, P));
+  sel.chosen.push_back(stribeck);
+}
+
+void add_step_outs(Findings& J, const actuator::Prepared& P) {
+  for (const auto& s : P.slips) {
+    Event ev;
+    ev.type = "step_out";
+    ev.t_s = s.t_s - P.t0_s;
+    ev.start_s = s.start_s - P.t0_s;
+    ev.leads = s.leads;
+    J.events.push_back(ev);
+  }
+}
+
+void add_pulses(Findings& J, const std::vector<actuator::Pulse>& pulses) {
+  if (pulses.empty()) return;
+  double largest = 0;
+  for (const auto& q : pulses) {
+    Event ev;
+    ev.type = "external_disturbance";
+    ev.t_s = q.t_s;
+    ev.duration_s = q.duration_s;
+    ev.force_n = q.force_n;
+    J.events.push_back(ev);
+    if (std::abs(q.force_n) > std::abs(largest)) largest = q.force_n;
+  }
+  EffectFinding e;
+  e.id = "external_disturbance";
+  set_parameter(e.parameters, "count", static_cast<double>(pulses.size()), true);
+  set_parameter(e.parameters, "force_n", largest);
+  e.where = "isolated force pulses no input explains (see events)";
+  e.evidence.events = pulses.size();
+  J.effects.push_back(e);
+}
+
+void add_step_out_finding(Findings& J, const actuator::Prepared& P) {
+  if (P.slips.empty()) return;
+  EffectFinding e;
+  e.id = "step_out";
+  set_parameter(e.parameters, "count", static_cast<double>(P.slips.size()), true);
+  e.where = "the phase left the stable branch and the nut slipped by whole leads";
+  e.evidence.events = P.slips.size();
+  J.effects.push_back(e);
+}
+
+// A recording that barely slides says so, and what it can still tell (empty: it slides enough).
+std::string sliding_note(const actuator::Prepared& P, const actuator::Selection& sel) {
+  // Sliding samples are counted after decimation; the recording's samples before.
+  const std::size_t sliding = sel.samples_used * static_cast<std::size_t>(P.decimation);
+  if (!sel.too_little_sliding && sliding >= P.samples / 20) return {};
+  return "the nut barely slides (" + std::to_string(sliding) + " sliding samples of " +
+         std::to_string(P.samples) + "): the sliding fit says little; the stuck episodes (" +
+         std::to_string(P.stuck.size()) +
+         " releases) still tell the break-away friction, and events (step-outs, pulses) are "
+         "still found";
+}
+
+// The typed findings of the stages' results.
+Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator::Selection& sel,
+                     const std::optional<actuator::Candidate>& stribeck,
+                     const actuator::BreakawayTest& bt, const actuator::Options& o) {
+  Findings J;
+  J.system = "actuator";
+  J.recording = rec.path;
+  J.samples = P.samples;
+  J.samples_used = sel.samples_used;
+  J.method = method_of(P, o);
+  J.noise_floor_n = P.load_noise_n;
+  const ErrorScale es{std::max<double>(1.0, static_cast<double>(sel.samples_used)),
+                      sel.measured_ss};
+  J.baseline = {es.rms(sel.baseline_sse),         es.rel(sel.baseline_sse),
+                es.rms(sel.baseline_sse),         es.rel(sel.baseline_sse),
+                es.rms(sel.baseline_heldout_sse), std::nullopt};
+  add_sliding_findings(J, sel, P, es);
+  if (stribeck) add_stribeck(J, sel, *stribeck, bt, P);
+  add_step_outs(J, P);
+  add_pulses(J, actuator::find_pulses(P, sel, o));
+  add_step_out_finding(J, P);
+  J.breakaway_test = BreakawayTest{{bt.pos.episodes, bt.pos.median_excess_n, bt.pos.se_n},
+                                   {bt.neg.episodes, bt.neg.median_excess_n, bt.neg.se_n}};
+  J.final_fit = {es.rms(sel.final_sse), es.rel(sel.final_sse), es.rms(sel.final_sse),
+                 es.rel(sel.final_sse), std::nullopt,          std::nullopt};
+  if (!sel.next_best.id.empty())
+    J.not_selected.push_back({sel.next_best.id, sel.next_best.gain_pct, sel.next_best.t_stat,
+                              std::nullopt, std::nullopt, std::nullopt,
+                              params_of(sel.next_best.params)});
+  J.unexplained = unexplained_of(sel);
+  J.sliding_note = sliding_note(P, sel);
+  J.conclusion = sel.chosen.empty()
+                     ? "nothing is missing: no effect explains a significant part of "
+                       "the held-out error"
+                     : std::to_string(sel.chosen.size()) + " effect(s) found";
+  return J;
+}
+
 }  // namespace
 
 AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
@@ -180,194 +408,30 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   auto progress = [&](const std::string& stage, double f) {
     if (opt.progress) opt.progress(stage, f);
   };
-  actuator::Options o;
-  o.folds = opt.folds;
-  if (opt.filter_hz > 0) o.filter_hz = opt.filter_hz;
-  o.min_gain_pct = opt.min_gain_pct;
-  o.min_t = opt.min_t;
   const auto base = baseline_of(model);
-  for (const auto& t : base.terms) o.exclude.emplace_back(t.effect->id());
-
+  auto o = options_of(opt, base);
   progress("prepare", 0.0);
   const auto P = actuator::prepare(rec, base, cal, act, o);
   progress("prepare", 1.0);
   auto sel = actuator::select(P, o, [&](double f) { progress("selection", f); });
+  std::optional<Rejected> unseen;
+  if (auto why = actuator::stribeck_unseen_at_rest(P, base, sel, o)) {
+    // Chosen again without it, so the other terms and their errors are fitted without it.
+    for (const auto& c : sel.chosen)
+      if (c.id == "stribeck_friction")
+        unseen = Rejected{c.id,         c.gain_pct, c.t_stat,           std::nullopt,
+                          std::nullopt, *why,       params_of(c.params)};
+    o.exclude.emplace_back("stribeck_friction");
+    sel = actuator::select(P, o, [&](double f) { progress("selection", f); });
+  }
   progress("selection", 1.0);
   const auto bt = actuator::breakaway_test(P, base, sel.chosen);
   const auto stribeck = actuator::stribeck_from_breakaway(P, base, sel, bt, o);
-  if (stribeck) {
-    // Its sliding part belongs to the corrected model's error too; a kinetic level the sliding
-    // fit already found is in it (and in the residual) once.
-    const auto* e = effects::find(stribeck->id);
-    const auto* coulomb = effects::find("coulomb_friction");
-    const effects::Params kinetic{{"coulomb_n", stribeck->params.at("coulomb_n")}};
-    sel.final_sse = 0;
-    for (std::size_t i = 0; i < P.states.size(); ++i) {
-      sel.final_residual[i] -=
-          e->force_n(stribeck->params, P.states[i]) - coulomb->force_n(kinetic, P.states[i]);
-      sel.final_sse += sel.final_residual[i] * sel.final_residual[i];
-    }
-  }
+  if (stribeck) fold_in_stribeck(sel, P, *stribeck);
 
-  Findings J;
-  J.system = "actuator";
-  J.recording = rec.path;
-  J.samples = P.samples;
-  J.samples_used = sel.samples_used;
-  J.method.domain =
-      "force (inverse model: the force the baseline leaves out of the nut's balance, "
-      "from measured motion and load)";
-  J.method.filter =
-      "4th-order Butterworth at " + fmt(P.filter_hz) + " Hz, zero phase, on every signal";
-  J.method.decimation = P.decimation;
-  J.method.folds = o.folds;
-  J.method.selection =
-      "forward, by held-out error on contiguous time segments; a term must cut the "
-      "held-out mean square error by " +
-      fmt(o.min_gain_pct) + " % with t >= " + fmt(o.min_t) + " over the segments";
-  J.method.moving_only = "sliding samples only (faster than " + fmt(P.v_min_m_s * 1e3) +
-                         " mm/s, one direction over the filter's support); stuck episodes feed "
-                         "the break-away test";
-  J.noise_floor_n = P.load_noise_n;
-  const double n_used = std::max<double>(1.0, static_cast<double>(sel.samples_used));
-  auto rms = [&](double s) { return std::sqrt(s / n_used); };
-  auto rel = [&](double s) {
-    return sel.measured_ss > 0 ? 100.0 * std::sqrt(s / sel.measured_ss) : 0.0;
-  };
-  J.baseline = {rms(sel.baseline_sse), rel(sel.baseline_sse),         rms(sel.baseline_sse),
-                rel(sel.baseline_sse), rms(sel.baseline_heldout_sse), std::nullopt};
-  auto& effects_found = J.effects;
-  auto& validation = J.validation;
-  validation.push_back({"baseline", rms(sel.baseline_heldout_sse), rel(sel.baseline_heldout_sse),
-                        std::nullopt, std::nullopt});
-  double prev = sel.baseline_heldout_sse;
-  for (std::size_t k = 0; k < sel.chosen.size(); ++k) {
-    const auto& c = sel.chosen[k];
-    EffectFinding e;
-    e.id = c.id;
-    e.parameters = params_of(c.params);
-    e.evidence.heldout_gain_pct = c.gain_pct;
-    e.evidence.t_stat = c.t_stat;
-    e.evidence.segments_improved =
-        std::to_string(c.segments_improved) + "/" + std::to_string(c.segments);
-    e.evidence.explained_rms_n = std::sqrt(std::max(0.0, prev - sel.heldout_sse_after[k]) / n_used);
-    e.evidence.noise_floor_n = P.load_noise_n;
-    e.evidence.resolution_floor_n = P.floor_n;
-    e.evidence.minimum_n = P.minimum_n;
-    e.standard_errors = params_of(c.standard_errors);
-    e.summary = summary_of(c, P);
-    e.improvement_pct = 100.0 * (prev - sel.heldout_sse_after[k]) / sel.baseline_heldout_sse;
-    e.where = "sliding samples";
-    if (!c.alternatives.empty()) {
-      for (const auto& a : c.alternatives)
-        e.alternatives.push_back({a.id, params_of(a.params), a.explains_pct, std::nullopt});
-      e.finding = "the data cannot tell these apart here; " + c.id + " is preferred";
-    }
-    prev = sel.heldout_sse_after[k];
-    validation.push_back({"+ " + c.id, rms(prev), rel(prev), std::nullopt, std::nullopt});
-    effects_found.push_back(e);
-  }
-  if (stribeck) {
-    // Stribeck's law holds the kinetic level: a coulomb_friction finding becomes part of it.
-    std::erase_if(sel.chosen,
-                  [](const actuator::Candidate& c) { return c.id == "coulomb_friction"; });
-    for (auto it = effects_found.begin(); it != effects_found.end(); ++it)
-      if (it->id == "coulomb_friction") {
-        effects_found.erase(it);
-        break;
-      }
-    EffectFinding e;
-    e.id = stribeck->id;
-    e.parameters = params_of(stribeck->params);
-    e.where = "stuck episodes: the nut breaks away above its sliding friction in both directions";
-    e.evidence.t_stat = stribeck->t_stat;
-    e.evidence.segments_improved = std::to_string(stribeck->segments) + " releases";
-    e.evidence.breakaway_excess_pos_n = bt.pos.median_excess_n;
-    e.evidence.breakaway_excess_neg_n = bt.neg.median_excess_n;
-    e.evidence.encoder_count_force_n = bt.pos.count_force_n;
-    {
-      // The break-away's error: the two sides' medians averaged.
-      auto c = *stribeck;
-      c.standard_errors["breakaway_n"] = 0.5 * std::hypot(bt.pos.se_n, bt.neg.se_n);
-      e.standard_errors = params_of(c.standard_errors);
-      e.summary = summary_of(c, P);
-    }
-    e.note +=
-        "; the force read at release is corrected for what rose while the nut crossed "
-        "its first count (" +
-        fmt(0.5 * (bt.pos.lag_expected_n + bt.neg.lag_expected_n)) + " N, at most " +
-        fmt(std::max(bt.pos.lag_bound_n, bt.neg.lag_bound_n)) + " N)";
-    e.improvement_pct = 0.0;
-    e.note = stribeck->velocity_determined
-                 ? "break-away from the net force at release; the Stribeck velocity is the one "
-                   "the sliding samples prefer"
-                 : "break-away from the net force at release; the Stribeck velocity is not "
-                   "determined (no slow sliding in the recording): the middle of the range "
-                   "scanned";
-    effects_found.push_back(e);
-    sel.chosen.push_back(*stribeck);
-  }
-  auto& events = J.events;
-  for (const auto& s : P.slips) {
-    Event ev;
-    ev.type = "step_out";
-    ev.t_s = s.t_s - P.t0_s;
-    ev.start_s = s.start_s - P.t0_s;
-    ev.leads = s.leads;
-    events.push_back(ev);
-  }
-  const auto pulses = actuator::find_pulses(P, sel, o);
-  if (!pulses.empty()) {
-    double largest = 0;
-    for (const auto& q : pulses) {
-      Event ev;
-      ev.type = "external_disturbance";
-      ev.t_s = q.t_s;
-      ev.duration_s = q.duration_s;
-      ev.force_n = q.force_n;
-      events.push_back(ev);
-      if (std::abs(q.force_n) > std::abs(largest)) largest = q.force_n;
-    }
-    EffectFinding e;
-    e.id = "external_disturbance";
-    set_parameter(e.parameters, "count", static_cast<double>(pulses.size()), true);
-    set_parameter(e.parameters, "force_n", largest);
-    e.where = "isolated force pulses no input explains (see events)";
-    e.evidence.events = pulses.size();
-    effects_found.push_back(e);
-  }
-  if (!P.slips.empty()) {
-    EffectFinding e;
-    e.id = "step_out";
-    set_parameter(e.parameters, "count", static_cast<double>(P.slips.size()), true);
-    e.where = "the phase left the stable branch and the nut slipped by whole leads";
-    e.evidence.events = P.slips.size();
-    effects_found.push_back(e);
-  }
-  J.breakaway_test = BreakawayTest{{bt.pos.episodes, bt.pos.median_excess_n, bt.pos.se_n},
-                                   {bt.neg.episodes, bt.neg.median_excess_n, bt.neg.se_n}};
-  J.final_fit = {rms(sel.final_sse), rel(sel.final_sse), rms(sel.final_sse),
-                 rel(sel.final_sse), std::nullopt,       std::nullopt};
-  if (!sel.next_best.id.empty())
-    J.not_selected.push_back({sel.next_best.id, sel.next_best.gain_pct, sel.next_best.t_stat,
-                              std::nullopt, std::nullopt, std::nullopt,
-                              params_of(sel.next_best.params)});
-  J.unexplained = unexplained_of(sel);
-  // Sliding samples are counted after decimation; the recording's samples before.
-  const std::size_t sliding = sel.samples_used * static_cast<std::size_t>(P.decimation);
-  if (sel.too_little_sliding || sliding < P.samples / 20)
-    J.sliding_note = "the nut barely slides (" + std::to_string(sliding) + " sliding samples of " +
-                     std::to_string(P.samples) +
-                     "): the sliding fit says little; the stuck episodes (" +
-                     std::to_string(P.stuck.size()) +
-                     " releases) still tell the break-away friction, and events (step-outs, "
-                     "pulses) are still found";
-  J.conclusion = sel.chosen.empty()
-                     ? "nothing is missing: no effect explains a significant part of "
-                       "the held-out error"
-                     : std::to_string(sel.chosen.size()) + " effect(s) found";
   AnalysisResult r;
-  r.findings = std::move(J);
+  r.findings = findings_of(rec, P, sel, stribeck, bt, o);
+  if (unseen) r.findings.not_selected.insert(r.findings.not_selected.begin(), *unseen);
   r.corrected = corrected_model(model, sel.chosen, rec.path);
   if (opt.twin_force_check) {
     r.findings.twin_force_check = check_with_twin(rec, act, cal, model, sel.chosen, r.corrected);
