@@ -65,6 +65,7 @@ inline constexpr int kExitBadInput = 2;
 #define MAGLEAD_COMMAND(order, fn) \
   static const ::maglead::cli::CommandRegistration MAGLEAD_CONCAT(reg_, __LINE__) { order, fn }
 
+#include "maglead/controller/reference_move.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/recording/recording.hpp"
 
@@ -95,4 +96,9 @@ struct ControlSettings {
   double load_drift_n_per_s;
 };
 void load_control_settings(const std::string& config_dir, ControlSettings& settings);
+/// The [reference_move] table of CONFIG/actuator.toml (mode_command 3): the window inside the
+/// actuator's stroke, the two speeds (slow below fast) and the acceleration. Absent keys keep the
+/// values given; a bad value is an error at FILE:LINE:COLUMN and `move` is left unchanged.
+void load_reference_move(const std::string& config_dir, const ActuatorParams& actuator,
+                         controller::ReferenceMoveConfig& move);
 }  // namespace maglead::cli
