@@ -7,7 +7,7 @@ within 30 s of the coupling crossing a 3 % change; without it the flag never ris
 is counted from the start of the run (gain 1), the strictest reading: the flag can only compare
 with its reference, formed a little later. No load cell is read (there is none to read: the
 plant is free and nothing here looks at IR 30).
-Usage: drift_live_integration.py MAGLEAD_BIN CONFIG_DIR"""
+Usage: drift_live_integration.py MAGLEAD_BIN CONFIG_DIR [GAIN_PER_MIN RUN_S] (defaults -0.05 95)"""
 import sys
 import threading
 import time
@@ -22,10 +22,11 @@ ENABLE, EXECUTE = 1, 16
 MODE_POSITION, MODE_REFERENCE = 1, 3
 EXECUTE_DONE = 1 << 1  # command_status bit 1
 ST_FAULT, ST_DRIFT = 1 << 2, 1 << 7
-GAIN_PER_MIN = -0.05
-CROSS_S = 0.03 / -GAIN_PER_MIN * 60.0  # 36 s: the coupling 3 % below its start
+GAIN_PER_MIN = float(sys.argv[3]) if len(sys.argv) > 3 else -0.05
+CROSS_S = 0.03 / -GAIN_PER_MIN * 60.0  # the coupling 3 % below its start (36 s at -5 %/min)
 DEADLINE_S = CROSS_S + 30.0
-RUN_S = 95.0  # wall time per server; the control is judged over all of it
+# Wall time per server; the control is judged over all of it.
+RUN_S = float(sys.argv[4]) if len(sys.argv) > 4 else 95.0
 REFERENCE_EVERY_S = 20.0
 # Ordinary moves a PLC might make: targets across the stroke (config: 0 .. 40 mm) at three speeds.
 MOVES = [(0.008, 0.005), (0.032, 0.020), (0.012, 0.050), (0.030, 0.005), (0.006, 0.050),
@@ -124,7 +125,7 @@ def main():
     drift = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring", "0", "--sim-effect", f"gain_drift={GAIN_PER_MIN}",
                    duration=duration)
     control = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring", "0", duration=duration)
-    plcs = [Plc("gain_drift -5 %/min", drift.port, t0), Plc("control", control.port, t0)]
+    plcs = [Plc(f"gain_drift {100 * GAIN_PER_MIN:+.0f} %/min", drift.port, t0), Plc("control", control.port, t0)]
     threads = [threading.Thread(target=p.run) for p in plcs]
     try:
         for th in threads:
