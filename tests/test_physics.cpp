@@ -10,8 +10,10 @@
 
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/calibration.hpp"
+#include "maglead/physics/edge_tracker.hpp"
 #include "maglead/physics/estimator.hpp"
 #include "maglead/physics/force_model.hpp"
+#include "maglead/physics/stick_filter.hpp"
 
 using namespace maglead;
 constexpr double kPi = std::numbers::pi;
@@ -174,4 +176,80 @@ TEST(CalibrationFile, RoundTripsAndRejectsBadContent) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("lead_m"), std::string::npos);
   }
+}
+
+namespace {
+// A nut at constant speed v from 0, read by an encoder of count q at 1 kHz, `round` or floor;
+// stopped after stop_s. Returns the tracker after each sample through `check`.
+template <class Check>
+void track(double v, double q, bool round, double stop_s, double end_s, Check check) {
+  EdgeTracker tr({q, 2.0, 0.010});
+  const auto read = [&](double p) { return (round ? std::round(p / q) : std::floor(p / q)) * q; };
+  tr.reset(0.0, read(0.3 * q));
+  for (int i = 1; i <= static_cast<int>(end_s * 1000); ++i) {
+    const double t = i * 1e-3;
+    // At rest for 0.1 s after the reset, then off at v (a real start: the break-away).
+    const double p = 0.3 * q + v * std::clamp(t - 0.1, 0.0, stop_s - 0.1);
+    check(t, p, tr.update(t, read(p)), tr);
+  }
+}
+}  // namespace
+
+TEST(EdgeTracker, SpeedAndPositionFromEdgesWhateverTheRounding) {
+  const double q = 2e-5;
+  for (const bool round : {true, false}) {
+    for (const double v : {0.4e-3, 5e-3, -2e-3}) {
+      double worst_pos = 0, worst_vel = 0;
+      track(v, q, round, 10.0, 0.5, [&](double t, double p, EdgeEvent, const EdgeTracker& tr) {
+        if (t < 0.2) return;  // a few edges in
+        // Inside its count the nut is where the tracker says, to a fraction of a count;
+        // floor and rounding differ by half a count in the reading, not in the tracker.
+        const double off = round ? 0.0 : 0.5 * q;
+        worst_pos = std::max(worst_pos, std::abs(tr.position_m() + off - p));
+        worst_vel = std::max(worst_vel, std::abs(tr.velocity_m_s() - v));
+      });
+      EXPECT_LT(worst_pos, 0.5 * q) << "v " << v << " round " << round;
+      // An edge is timed to one 1 ms sample; the speed over one interval to 1 ms in that interval.
+      const double interval_s = q / std::abs(v);
+      EXPECT_LT(worst_vel, std::abs(v) * (1e-3 / interval_s + 0.02)) << "v " << v << " " << round;
+    }
+  }
+}
+
+TEST(EdgeTracker, SeesTheStopWithinTwoEdgeIntervals) {
+  const double q = 2e-5, v = 1e-3;  // an edge every 20 ms
+  double stopped_at = -1;
+  int starts = 0;
+  track(v, q, true, 0.3, 0.6, [&](double t, double, EdgeEvent ev, const EdgeTracker& tr) {
+    if (ev == EdgeEvent::started) ++starts;
+    if (ev == EdgeEvent::stopped) {
+      stopped_at = t;
+      EXPECT_FALSE(tr.moving());
+    }
+  });
+  EXPECT_EQ(starts, 1);
+  ASSERT_GT(stopped_at, 0.3);
+  EXPECT_LT(stopped_at, 0.3 + 3 * q / v);  // the last edge, then two intervals of quiet
+}
+
+TEST(StickFilter, KeepsItsMassInTheBandAndLeavesTheEdgeItStartedAt) {
+  StickFilter f;
+  // A load known at the top of the band, then free to move: paths that would have reached the
+  // edge broke loose (they did not), so the mean moves inward, and stays inside.
+  f.start(-8.0, 8.0, 7.9, 0.0, 1.6);
+  const double m0 = f.mean();
+  EXPECT_NEAR(m0, 7.9, 0.25);
+  double prev = m0;
+  for (int i = 0; i < 500; ++i) {
+    f.step(0.0, 7.9, 1.0, 50.0 * 1e-3);  // no pull, a brisk walk
+    EXPECT_LE(f.mean(), prev + 1e-9);
+    prev = f.mean();
+  }
+  EXPECT_LT(prev, m0 - 2.0);
+  EXPECT_GT(prev, -8.0);
+  // A drive change the friction takes up shifts the whole distribution (no walk, no pull).
+  StickFilter g;
+  g.start(-8.0, 8.0, 0.0, 0.0, 1.6);
+  g.step(2.0, 0.0, 1.0, 0.0);
+  EXPECT_NEAR(g.mean(), 2.0, 0.05);
 }

@@ -18,6 +18,8 @@ constexpr double kStrokeMargin_m = 0.5e-3;  // beyond the stroke by this much is
 constexpr double kMaxTrack_rad = 0.5;       // most the phase tracking may add to a command
 constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b); }
 
+}  // namespace
+
 LoadObserverConfig observer_config(const ControllerConfig& c) {
   LoadObserverConfig o;
   o.calibration = c.calibration;
@@ -28,6 +30,8 @@ LoadObserverConfig observer_config(const ControllerConfig& c) {
   o.load_drift_n_per_s = c.load_drift_n_per_s;
   return o;
 }
+
+namespace {
 
 ForceLoopConfig force_loop_config(const ControllerConfig& c, const LoadForceObserver& obs) {
   ForceLoopConfig f;

@@ -9,22 +9,13 @@ import sys
 import time
 
 import select
-from modbus_common import check, f32_words, finish, rtu_server, watchdog, words_f32
+from modbus_common import check, crc16, f32_words, finish, rtu_server, watchdog, words_f32
 from pymodbus.client import ModbusSerialClient
 from pymodbus.diag_message import ReturnQueryDataRequest
 from pymodbus.mei_message import ReadDeviceInformationRequest
 
 MAGLEAD, CONFIG = sys.argv[1], sys.argv[2]
 UNIT = 3
-
-
-def crc16(data):
-    crc = 0xFFFF
-    for b in data:
-        crc ^= b
-        for _ in range(8):
-            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
-    return struct.pack("<H", crc)
 
 
 def raw(port, frame, wait=0.3, crc=None):

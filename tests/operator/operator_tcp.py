@@ -2,6 +2,7 @@
 on the simulated actuator over Modbus TCP. What they print is checked against raw Modbus reads;
 refusals are checked to send nothing (the server's FC8 message counter does not move).
 Usage: operator_tcp.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
+import contextlib
 import csv
 import json
 import os
@@ -254,7 +255,14 @@ def dropped_connection():
     rec = os.path.join(WORK, "tcp_dropped.csv")
     rec_proc = subprocess.Popen([MAGLEAD, "record", "--port", str(srv.port), "--duration", "20s", "--rate", "50",
                                  "--out", rec], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(1.5)
+    # Drop the controller once rows are on disk (the recorder streams them), not after a fixed
+    # time: under a sanitizer on a loaded machine the recorder takes a while to start.
+    end = time.time() + 15
+    while time.time() < end and rec_proc.poll() is None:
+        with contextlib.suppress(FileNotFoundError), open(rec) as f:
+            if sum(1 for l in f if l[:1].isdigit()) >= 25:
+                break
+        time.sleep(0.1)
     srv.stop()
     try:
         out, err = rec_proc.communicate(timeout=15)
@@ -274,7 +282,12 @@ def dropped_connection():
     pid, fd = pty.fork()
     if pid == 0:
         os.execv(MAGLEAD, [MAGLEAD, "watch", "--port", str(srv.port), "--rate", "10"])
-    out = read_pty(fd, 1.0)
+    # Stop the server only once watch has drawn a connected screen: under a sanitizer on a loaded
+    # machine it can take over a second to start, and a watch that never connected exits instead.
+    out = b""
+    end = time.time() + 15
+    while time.time() < end and b"drive" not in out:
+        out += read_pty(fd, 0.1)
     srv.stop()
     end = time.time() + 8
     while time.time() < end and b"RECONNECTING" not in out:

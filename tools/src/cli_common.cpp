@@ -183,7 +183,7 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
 
 namespace maglead::cli {
 
-void load_control_settings(const std::string& config_dir, ControlSettings& r) {
+void load_control_settings(const std::string& config_dir, controller::ControllerConfig& r) {
   const std::string path = config_file(config_dir, "actuator.toml");
   if (!std::filesystem::exists(path)) return;
   const toml::table root = config::parse_file(path);
@@ -197,9 +197,9 @@ void load_control_settings(const std::string& config_dir, ControlSettings& r) {
     const char* key;
     double* out;
     double lo, hi;
-  } keys[] = {{"force_reached_tolerance_n", &r.force_tolerance_n, 0.0, 100.0},
-              {"in_position_tolerance_m", &r.position_tolerance_m, 0.0, 0.01},
-              {"reached_dwell_s", &r.dwell_s, 0.0, 60.0},
+  } keys[] = {{"force_reached_tolerance_n", &r.force_tol_n, 0.0, 100.0},
+              {"in_position_tolerance_m", &r.in_position_tol_m, 0.0, 0.01},
+              {"reached_dwell_s", &r.settle_s, 0.0, 60.0},
               {"force_damping_n_s_per_m", &r.force_damping_n_s_per_m, 1e-3, 1e5},
               {"breakaway_ramp_n_per_s", &r.breakaway_ramp_n_per_s, 1e-3, 1e5},
               {"observer_model_uncertainty_n", &r.observer_model_uncertainty_n, 0.0, 100.0},

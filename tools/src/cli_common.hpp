@@ -65,7 +65,7 @@ inline constexpr int kExitBadInput = 2;
 #define MAGLEAD_COMMAND(order, fn) \
   static const ::maglead::cli::CommandRegistration MAGLEAD_CONCAT(reg_, __LINE__) { order, fn }
 
-#include "maglead/controller/reference_move.hpp"
+#include "maglead/controller/controller.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/recording/recording.hpp"
 
@@ -82,20 +82,10 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
                                   const std::string& config_dir,
                                   const std::vector<std::string>& required = {});
 
-/// The controller's "reached" judgement from [control] in config/actuator.toml; keys absent from
-/// the file (or no file) keep the values passed in. Errors name FILE:LINE:COLUMN.
-/// The [control] table of CONFIG/actuator.toml: when "reached" holds, and the force loop's
-/// settings (README "Force control"). Absent keys keep the values given.
-struct ControlSettings {
-  double force_tolerance_n;
-  double position_tolerance_m;
-  double dwell_s;
-  double force_damping_n_s_per_m;
-  double breakaway_ramp_n_per_s;
-  double observer_model_uncertainty_n;
-  double load_drift_n_per_s;
-};
-void load_control_settings(const std::string& config_dir, ControlSettings& settings);
+/// The [control] table of CONFIG/actuator.toml into the controller's settings: when "reached"
+/// holds, and the force loop's and the load observer's settings (README "Force control").
+/// Absent keys (or no file) keep the values given. Errors name FILE:LINE:COLUMN.
+void load_control_settings(const std::string& config_dir, controller::ControllerConfig& cfg);
 /// The [reference_move] table of CONFIG/actuator.toml (mode_command 3): the window inside the
 /// actuator's stroke, the two speeds (slow below fast) and the acceleration. Absent keys keep the
 /// values given; a bad value is an error at FILE:LINE:COLUMN and `move` is left unchanged.

@@ -20,8 +20,8 @@ void add_estimate(CLI::App& app) {
                          "Estimate the output force from a recording's angles and positions and "
                          "compare it with the load cell; plot as in the paper's Fig. 11");
   struct Opts {
-    std::string recording, plot, calibration, model, config = default_config_dir(),
-                                                     estimator = "static";
+    std::string recording, plot, out, calibration, model, config = default_config_dir(),
+                                                          estimator = "static";
   };
   auto o = std::make_shared<Opts>();
   cmd->add_option("--recording", o->recording,
@@ -39,6 +39,10 @@ void add_estimate(CLI::App& app) {
                   "model_corrected.toml that maglead analyze wrote")
       ->check(CLI::ExistingFile);
   cmd->add_option("--plot", o->plot, "PNG to write (default: next to the recording)");
+  cmd->add_option("--out", o->out,
+                  "Also write the estimate as a recording (mls-recording/1): t_s, "
+                  "out_force_est_n, out_force_meas_n (the load cell's output force), "
+                  "out_force_err_n; the observer adds its bound out_force_lo_n, out_force_hi_n");
   cmd->add_option("--calibration", o->calibration,
                   "Calibration file (default: CONFIG/calibration.toml)");
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
@@ -56,27 +60,32 @@ void add_estimate(CLI::App& app) {
     if (n < 2) throw RecordingError(o->recording + ": needs at least two samples");
     const double period = (t.back() - t.front()) / static_cast<double>(n - 1);
 
-    std::vector<double> measured(n), estimate(n), error(n);
+    std::vector<double> measured(n), estimate(n), error(n), bound_lo, bound_hi;
     const auto model_file = [&] {
       if (!o->model.empty()) return twin::load_twin_model(o->model);
       return twin::load_monitor_config(o->config).model;
     };
     if (o->estimator == "observer") {
-      LoadObserverConfig oc;
-      oc.calibration = cal;
-      oc.friction = twin::friction_model(model_file());
-      oc.lead_m = act.lead_m;
-      oc.linear_count_m = act.linear_count_m;
-      LoadForceObserver obs(oc);
+      // The observer the controller runs, with the same [control] settings as `serve`.
+      controller::ControllerConfig c;
+      c.actuator = act;
+      c.calibration = cal;
+      c.friction = twin::friction_model(model_file());
+      load_control_settings(o->config, c);
+      LoadForceObserver obs(controller::observer_config(c));
       // Under force control the load is what the loop presses (passive); otherwise loads come
       // and go and rest at zero.
       const std::vector<double>* fset =
           rec.has("force_set_n") ? &rec.column("force_set_n") : nullptr;
+      bound_lo.resize(n);
+      bound_hi.resize(n);
       for (std::size_t i = 0; i < n; ++i) {
         const bool pressed = fset && std::isfinite((*fset)[i]);
-        estimate[i] = obs.update(t[i], phase_rad(screw[i], pos[i], act.lead_m), pos[i],
-                                 pressed ? LoadForceObserver::kPassiveLoad : 0.0)
-                          .force_n;
+        const LoadEstimate& e = obs.update(t[i], phase_rad(screw[i], pos[i], act.lead_m), pos[i],
+                                           pressed ? LoadForceObserver::kPassiveLoad : 0.0);
+        estimate[i] = e.force_n;
+        bound_lo[i] = e.lo_n;
+        bound_hi[i] = e.hi_n;
         measured[i] = -load[i];
         error[i] = estimate[i] - measured[i];
       }
@@ -117,6 +126,21 @@ void add_estimate(CLI::App& app) {
     std::printf("  RMS error            %6.2f N\n", s.rms);
     std::printf("  max absolute error   %6.2f N\n", s.max_abs);
 
+    if (!o->out.empty()) {
+      Recording est;
+      est.set_meta("source",
+                   "maglead estimate --estimator " + o->estimator + " of " + o->recording);
+      est.add_column("t_s", t);
+      est.add_column("out_force_est_n", estimate);
+      est.add_column("out_force_meas_n", measured);
+      est.add_column("out_force_err_n", error);
+      if (!bound_lo.empty()) {
+        est.add_column("out_force_lo_n", bound_lo);
+        est.add_column("out_force_hi_n", bound_hi);
+      }
+      write_recording(o->out, est);
+      std::printf("estimate: %s\n", o->out.c_str());
+    }
     std::string png = o->plot;
     if (png.empty()) {
       std::filesystem::path p(o->recording);

@@ -124,21 +124,7 @@ void add_serve(CLI::App& app) {
         o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration);
     cfg.watchdog_s = net.watchdog_s;
     cfg.reactions = net.reactions;
-    ControlSettings ctl{cfg.force_tol_n,
-                        cfg.in_position_tol_m,
-                        cfg.settle_s,
-                        cfg.force_damping_n_s_per_m,
-                        cfg.breakaway_ramp_n_per_s,
-                        cfg.observer_model_uncertainty_n,
-                        cfg.load_drift_n_per_s};
-    load_control_settings(o->config, ctl);
-    cfg.force_tol_n = ctl.force_tolerance_n;
-    cfg.in_position_tol_m = ctl.position_tolerance_m;
-    cfg.settle_s = ctl.dwell_s;
-    cfg.force_damping_n_s_per_m = ctl.force_damping_n_s_per_m;
-    cfg.breakaway_ramp_n_per_s = ctl.breakaway_ramp_n_per_s;
-    cfg.observer_model_uncertainty_n = ctl.observer_model_uncertainty_n;
-    cfg.load_drift_n_per_s = ctl.load_drift_n_per_s;
+    load_control_settings(o->config, cfg);
     load_reference_move(o->config, cfg.actuator, cfg.reference_move);
     if (!(o->start_pos_m >= cfg.actuator.stroke_min_m &&
           o->start_pos_m <= cfg.actuator.stroke_max_m))

@@ -10,7 +10,9 @@
 #include <numbers>
 
 #include "free_drift.hpp"
+#include "maglead/physics/edge_tracker.hpp"
 #include "maglead/physics/estimator.hpp"
+#include "maglead/physics/stick_filter.hpp"
 #include "rls.hpp"
 
 namespace maglead::twin {
@@ -93,81 +95,6 @@ class TrendInput final : public InputSource {
   double ext_force_n(double t) const noexcept override { return f0 + f_rate * (t - t0); }
 };
 
-/// Posterior of the friction force while the nut sticks. n = D0 + F_ext (everything but friction,
-/// D0 the model's drive without F_ext) must stay inside [−b₋, b₊] or the nut would move. F_ext is a
-/// random walk; the grid holds p(n | stuck so far), shifted by the model's change of D0, diffused
-/// and absorbed at the edges (an absorbed path would have broken loose, which it did not).
-class StickFilter {
- public:
-  static constexpr int kN = 81;
-  /// n0: friction level at entry; NaN: unknown, start from the load prior N(centre, sd²).
-  void start(double lo_n, double hi_n, double n0, double centre_n, double sd_n) noexcept {
-    lo_ = lo_n, hi_ = hi_n;
-    dx_ = (hi_ - lo_) / (kN - 1);
-    w_.fill(0.0);
-    if (!std::isfinite(n0)) {
-      for (int i = 1; i < kN - 1; ++i) {
-        const double z = (lo_ + i * dx_ - centre_n) / sd_n;
-        w_[i] = std::exp(-0.5 * z * z);
-      }
-    } else {
-      const double x = std::clamp((n0 - lo_) / dx_, 1.0, kN - 2.0);
-      const int i = std::min(static_cast<int>(x), kN - 2);
-      const double f = x - i;
-      w_[i] = 1.0 - f;
-      w_[i + 1] += f;
-    }
-    normalise();
-  }
-  /// One tick: n' = c + (n + shift − c)·λ (the model's drive change, and the load relaxing
-  /// towards its expected level, c = D0 + expected F_ext), then diffusion of `variance_n2`.
-  void step(double shift_n, double centre_n, double lambda, double variance_n2) noexcept {
-    if (shift_n != 0.0 || lambda != 1.0) {
-      for (int i = 0; i < kN; ++i) {
-        const double n_new = lo_ + i * dx_;
-        const double n_old = (n_new - centre_n) / lambda + centre_n - shift_n;
-        const double src = (n_old - lo_) / dx_;
-        const int j = static_cast<int>(std::floor(src));
-        const double f = src - j;
-        double v = 0.0;
-        if (j >= 0 && j < kN) v += (1.0 - f) * w_[j];
-        if (j + 1 >= 0 && j + 1 < kN) v += f * w_[j + 1];
-        tmp_[i] = v;
-      }
-      w_ = tmp_;
-    }
-    const double alpha_total = variance_n2 / (2.0 * dx_ * dx_);
-    const int sub = std::max(1, static_cast<int>(std::ceil(alpha_total / 0.4)));
-    const double alpha = alpha_total / sub;
-    for (int k = 0; k < sub; ++k) {
-      tmp_[0] = tmp_[kN - 1] = 0.0;  // absorbing edges
-      for (int i = 1; i < kN - 1; ++i)
-        tmp_[i] = w_[i] + alpha * (w_[i - 1] - 2.0 * w_[i] + w_[i + 1]);
-      w_ = tmp_;
-    }
-    normalise();
-  }
-  double mean() const noexcept {
-    double m = 0.0;
-    for (int i = 0; i < kN; ++i) m += w_[i] * (lo_ + i * dx_);
-    return m;
-  }
-
- private:
-  void normalise() noexcept {
-    double s = 0.0;
-    for (double v : w_) s += v;
-    if (!(s > 1e-300)) {  // everything absorbed (model and data disagree): fall back to flat
-      w_.fill(1.0);
-      w_.front() = w_.back() = 0.0;
-      s = kN - 2;
-    }
-    for (double& v : w_) v /= s;
-  }
-  std::array<double, kN> w_{}, tmp_{};
-  double lo_ = -1, hi_ = 1, dx_ = 0.025;
-};
-
 }  // namespace
 
 struct TwinMonitor::Impl {
@@ -180,11 +107,8 @@ struct TwinMonitor::Impl {
   TrendInput trend;
   double dt, q_m, lead_m;
 
-  // Encoder reconstruction
-  long long count = 0;
-  double edge_t = 0, edge_pos = 0, interval = 0.0;
-  int edge_dir = 0;
-  int run_edges = 0;  // edges in a row of the current slide
+  // Encoder reconstruction (the load observer's too): position, speed, stop
+  EdgeTracker nut;
   double vel = 0, vel_prev = 0, acc = 0, pos_hat = 0;
   FrictionMode mode = FrictionMode::stick;
   double d0_prev = 0;  // model drive without F_ext at the previous tick (stick filter shift)
@@ -239,6 +163,7 @@ struct TwinMonitor::Impl {
         dt(1.0 / c.actuator.sample_rate_hz),
         q_m(c.actuator.linear_count_m),
         lead_m(c.actuator.lead_m),
+        nut({c.actuator.linear_count_m, c.stop_after_intervals, c.stop_min_s}),
         free_drift(free_settings(c, model)) {}
 
   double phase_of(double theta, double p) const noexcept { return phase_rad(theta, p, lead_m); }
@@ -266,17 +191,14 @@ struct TwinMonitor::Impl {
   // Load prior: an Ornstein-Uhlenbeck process around the expected external force (minus the
   // force setpoint in force control, zero otherwise), stationary spread load_sd_n().
   double expected_fext = 0.0;
-  double load_sd_n() const noexcept {
-    return std::sqrt(cfg.load_force_rate_n2_per_s * cfg.load_force_time_constant_s / 2.0);
-  }
+  double load_sd_n() const noexcept { return cfg.load_prior.spread_n(); }
 
   void reset(double t, double theta, double p) noexcept {
     expected_fext = 0.0;
-    count = std::llround(p / q_m);
     // The reading itself: the calibration was made with the same encoder, so whatever its zero
     // convention (floor or nearest count), the reading maps to the phase as it did there.
-    pos_hat = static_cast<double>(count) * q_m;
-    edge_t = t, edge_pos = pos_hat, interval = 0.0, edge_dir = 0;
+    nut.reset(t, p);
+    pos_hat = nut.position_m();
     vel = vel_prev = acc = 0.0;
     static_vel.reset(p);
     enter_stick(t, theta, 0);
@@ -324,7 +246,7 @@ struct TwinMonitor::Impl {
     const double end_zone =
         std::isfinite(cfg.drift_end_exclusion_m) ? cfg.drift_end_exclusion_m : lead_m;
     const double edge = std::min(cfg.calibration.stable_max_rad, -cfg.calibration.stable_min_rad);
-    return mode != FrictionMode::stick && run_edges >= cfg.drift_min_edges &&
+    return mode != FrictionMode::stick && nut.run_edges() >= cfg.drift_min_edges &&
            t - slide_start_t >= cfg.drift_settle_s &&
            std::abs(rel_phase) <= cfg.drift_phase_fraction * edge &&
            pos_hat - cfg.actuator.stroke_min_m >= end_zone &&
@@ -468,41 +390,17 @@ struct TwinMonitor::Impl {
     ++ticks;
 
     // --- encoder reconstruction: exact position at edges, bounded extrapolation between ---
-    const long long k = std::llround(in.nut_pos_m / q_m);
-    if (k != count) {
-      const int dir = k > count ? 1 : -1;
-      // At an edge the nut is on the boundary between the two readings: their midpoint, in the
-      // readings' own convention (no floor or rounding assumed).
-      const double e_pos = (static_cast<double>(k) - 0.5 * dir) * q_m;
-      const double e_t = t - 0.5 * h;
-      const double gap = e_t - edge_t;
-      if (dir == edge_dir && mode != FrictionMode::stick && gap > 0) {
-        ++run_edges;
-        interval = gap;
-        vel = (e_pos - edge_pos) / gap;
-      } else {
-        // First edge of a motion: the nut broke loose somewhere in the last interval.
-        run_edges = 1;
-        const double since = std::max(h, std::min(gap, cfg.stop_min_s * 4));
-        vel = (e_pos - (dir > 0 ? e_pos - q_m : e_pos + q_m)) / since;
-        interval = since;
-        if (mode == FrictionMode::stick) slide_start_t = t;
-      }
-      edge_t = e_t, edge_pos = e_pos, edge_dir = dir, count = k;
-      mode = dir > 0 ? FrictionMode::slide_pos : FrictionMode::slide_neg;
-    } else if (mode != FrictionMode::stick) {
-      const double since = t - edge_t;
-      const double bound = q_m / std::max(since, h);
-      if (std::abs(vel) > bound) vel = edge_dir * bound;
-      if (since > std::max(cfg.stop_after_intervals * interval, cfg.stop_min_s)) {
-        const double lo = (static_cast<double>(count) - 0.5) * q_m, hi = lo + q_m;
-        pos_hat = std::clamp(edge_pos + vel * 0.5 * since, lo, hi);
-        enter_stick(t, theta, edge_dir);
-      }
+    const int slide_dir = nut.direction();
+    const EdgeEvent ev = nut.update(t, in.nut_pos_m);
+    pos_hat = nut.position_m();
+    vel = nut.velocity_m_s();
+    if (ev == EdgeEvent::started || ev == EdgeEvent::edge) {
+      if (mode == FrictionMode::stick) slide_start_t = t;
+      mode = nut.direction() > 0 ? FrictionMode::slide_pos : FrictionMode::slide_neg;
+    } else if (ev == EdgeEvent::stopped) {
+      enter_stick(t, theta, slide_dir);
     }
     if (mode != FrictionMode::stick) {
-      const double lo = (static_cast<double>(count) - 0.5) * q_m, hi = lo + q_m;
-      pos_hat = std::clamp(edge_pos + vel * (t - edge_t), lo, hi);
       // Acceleration from the reconstructed velocity, smoothed over ~10 ms (quantization).
       const double a_raw = (vel - vel_prev) / h;
       acc += (a_raw - acc) * std::min(1.0, h / 0.010);
@@ -516,9 +414,8 @@ struct TwinMonitor::Impl {
     if (mode == FrictionMode::stick) {
       const double d0 = model.drive_force_n(t, theta, pos_hat, 0.0, 0.0);
       expected_fext = std::isfinite(in.force_setpoint_n) ? -in.force_setpoint_n : 0.0;
-      const double tau = cfg.load_force_time_constant_s;
-      stick.step(d0 - d0_prev, d0 + expected_fext, tau > 0 ? std::exp(-h / tau) : 1.0,
-                 cfg.load_force_rate_n2_per_s * h);
+      stick.step(d0 - d0_prev, d0 + expected_fext, cfg.load_prior.keep(h),
+                 cfg.load_prior.walk_n2_per_s * h);
       d0_prev = d0;
       n_stick = stick.mean();
     }

@@ -62,6 +62,9 @@ struct ControllerConfig {
   ReferenceMoveConfig reference_move;  // mode_command 3 ([reference_move] in actuator.toml)
 };
 
+/// The load observer a controller with this configuration runs (also for offline estimates).
+LoadObserverConfig observer_config(const ControllerConfig& c);
+
 /// Everything a client can read, from one cycle.
 struct Snapshot {
   std::uint64_t cycle = 0;

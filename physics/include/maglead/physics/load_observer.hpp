@@ -14,8 +14,10 @@
 #include <cstdint>
 #include <limits>
 
+#include "maglead/physics/edge_tracker.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/physics/friction_model.hpp"
+#include "maglead/physics/stick_filter.hpp"
 
 namespace maglead {
 
@@ -47,9 +49,9 @@ struct LoadObserverConfig {
   double stop_intervals = 2.0;  // no encoder edge for this many edge intervals: stopped …
   double stop_min_s = 0.010;    // … and for at least this long
   // A load that is not held passive (no force control presses it: a hand, a process force)
-  // may change while the nut sticks: the estimate relaxes towards the expected load with this
-  // time constant, and the interval is the whole stick band.
-  double load_relax_s = 1.0;
+  // may change while the nut sticks: the estimate is the mean of the stick filter under this
+  // prior, and the interval is the whole stick band.
+  UnheldLoadPrior unheld_load;
   // How fast a pressed load may change on its own while the nut sticks (a hand, a process that
   // creeps) [N/s]: the interval widens at this rate. 0: a passive load (a spring, a part).
   double load_drift_n_per_s = 0.0;
@@ -77,22 +79,23 @@ class LoadForceObserver {
 
  private:
   void start(double t_s, double nut_pos_m) noexcept;
-  void on_edge(double t_s, double nut_pos_m) noexcept;
   double drive_n(double phase_rad) const noexcept;
-  void slide_sample(double t_s, double phase_rad, double nut_pos_m) noexcept;
+  void slide_sample(double phase_rad, bool at_edge) noexcept;
   void stuck_sample(double t_s, double phase_rad, double expected_load_n) noexcept;
+  void unheld_stuck_sample(double t_s, double band_lo_n, double band_hi_n,
+                           double expected_load_n) noexcept;
 
   LoadObserverConfig cfg_;
   double count_force_n_ = 0.0;
   LoadEstimate est_{};
   bool started_ = false;
-  double last_pos_m_ = 0.0;
   double last_t_s_ = 0.0;
-  double edge_t_s_ = 0.0, edge_pos_m_ = 0.0, interval_s_ = 0.0;
-  double edge_mid_m_ = 0.0;  // where the nut was at the last edge: between the two counts
-  double vel_m_s_ = 0.0;
+  EdgeTracker nut_;            // position and speed from the encoder's edges
   double edge_force_n_ = 0.0;  // the sliding estimate at the last edge
-  bool edge_pending_ = false;  // an edge this sample: store its sliding estimate
+  // An unheld load while stuck: the filter over F_out − drive, and the drive it last saw.
+  StickFilter stick_;
+  bool stick_running_ = false;
+  double stick_drive_n_ = 0.0;
 };
 
 }  // namespace maglead

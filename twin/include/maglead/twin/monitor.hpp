@@ -11,6 +11,7 @@
 
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
+#include "maglead/physics/stick_filter.hpp"
 #include "maglead/twin/hybrid_twin.hpp"
 #include "maglead/twin/model.hpp"
 
@@ -117,11 +118,8 @@ struct TwinMonitorConfig {
   TwinModel model;               // mass, friction, extra terms (config/model.toml)
   IntegratorOptions integrator;  // CVODE settings of the twin (step cap = sample period)
   // Observer. While the nut sticks its friction is unknown within ± break-away, so the external
-  // force needs a prior: a mean-reverting random walk (Ornstein-Uhlenbeck) of this intensity
-  // [N²/s] that relaxes with this time constant towards the expected load (−setpoint in force
-  // control, else zero: loads come and go). time constant 0 = pure random walk.
-  double load_force_rate_n2_per_s = 5.0;
-  double load_force_time_constant_s = 1.0;
+  // force needs a prior (the same the loop's load observer uses for a load nothing holds).
+  UnheldLoadPrior load_prior;
   double stop_after_intervals = 2.0;      // no encoder edge for this many edge intervals: stopped
   double stop_min_s = 0.010;              // … and at least this long
   double resync_s = 0.020;                // twin runs open loop this long, then re-syncs
