@@ -152,6 +152,29 @@ def file_errors():
     rc, _, err = run("serve", "--config", cfg, "--port", "0", "--duration", "1s")
     check(rc == 2 and re.search(r"actuator\.toml:\d+:27: \[control\] unknown key 'force_reached_tolerance'", err)
           is not None, f"unknown [control] key: {err.strip()!r}")
+    # [reference_move]: read by serve (its banner says so), bad values refused at their line.
+    def with_reference_move(name, old, new):
+        cfg = copy_config(name)
+        with open(os.path.join(cfg, "actuator.toml")) as f:
+            lines = f.read().splitlines()
+        at = lines.index(old)
+        lines[at] = new
+        with open(os.path.join(cfg, "actuator.toml"), "w") as f:
+            f.write("\n".join(lines) + "\n")
+        return cfg, at + 1
+    cfg, _ = with_reference_move("cfg_ref_ok", "window_max_m = 0.025", "window_max_m = 0.030")
+    srv = Server(MAGLEAD, cfg, "--port", "0")
+    srv.stop()
+    check(any("reference move (mode_command 3): 15.0 .. 30.0 mm at 10.0 and 40.0 mm/s" in l
+              for l in srv.lines), f"serve reads [reference_move]: {srv.lines}")
+    cfg, line = with_reference_move("cfg_ref_out", "window_max_m = 0.025", "window_max_m = 0.045")
+    rc, _, err = run("serve", "--config", cfg, "--port", "0", "--duration", "1s")
+    check(rc == 2 and f"actuator.toml:{line}:16: [reference_move] window_max_m must be a position "
+          "within the stroke 0 .. 0.04 m" in err, f"window outside the stroke refused: {err.strip()!r}")
+    cfg, line = with_reference_move("cfg_ref_speeds", "fast_m_s = 0.040", "fast_m_s = 0.005")
+    rc, _, err = run("serve", "--config", cfg, "--port", "0", "--duration", "1s")
+    check(rc == 2 and f"actuator.toml:{line}:12: [reference_move] fast_m_s must be above slow_m_s"
+          in err, f"fast not above slow refused: {err.strip()!r}")
 
 
 def against_a_server():

@@ -48,8 +48,8 @@ def watchdog(seconds):
 class Server:
     """`maglead serve` as a child process; the port is read from its first lines."""
 
-    def __init__(self, maglead, config, *args):
-        self.proc = subprocess.Popen([maglead, "serve", "--config", config, "--duration", "120s", *args],
+    def __init__(self, maglead, config, *args, duration="120s"):
+        self.proc = subprocess.Popen([maglead, "serve", "--config", config, "--duration", duration, *args],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.port = None
         self.lines = []

@@ -147,6 +147,16 @@ TEST(TwinMonitor, CouplingLossFlaggedFromFreeMovesWithoutLoadCell) {
   EXPECT_TRUE(std::isnan(r.last.drift_gain_estimate));  // no load cell, no check gain
 }
 
+TEST(TwinMonitor, FastCouplingLossFlaggedWithoutLoadCell) {
+  // −20 %/min for 40 s (not flagged before: the fast change inflated the standard errors and the
+  // estimate was then not judged at all). Within 30 s of the gain crossing 3 % below its value at
+  // the reference.
+  const MonitorRun r = run_recording("position-moves", 40.0, 4, -0.20, {}, false);
+  const double g_ref = 1.0 - 0.20 * r.at_drift.drift_reference_t_s / 60.0;
+  expect_in_time(r, 60.0 * (1.0 - 0.97 * g_ref) / 0.20, "gain -20 %/min");
+  EXPECT_GT(r.at_drift.drift_at_warning.zero_load_n, 0.0);
+}
+
 TEST(TwinMonitor, FrictionRiseFlaggedFromFreeMovesWithoutLoadCell) {
   // +1 N/min: 2 N over the two minutes (the plant's coulomb_drift_n_per_min). Warned within 30 s
   // of the rise crossing 1 N after the reference.

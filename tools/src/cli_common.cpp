@@ -213,6 +213,44 @@ void load_control_settings(const std::string& config_dir, controller::Controller
   }
 }
 
+void load_reference_move(const std::string& config_dir, const ActuatorParams& actuator,
+                         controller::ReferenceMoveConfig& move) {
+  const std::string path = config_file(config_dir, "actuator.toml");
+  if (!std::filesystem::exists(path)) return;
+  const toml::table root = config::parse_file(path);
+  const toml::table* t = config::section(path, root, "reference_move");
+  if (!t) return;
+  const char* label = "[reference_move]";
+  config::check_keys(path, *t, label,
+                     {"window_min_m", "window_max_m", "slow_m_s", "fast_m_s", "accel_m_s2"});
+  controller::ReferenceMoveConfig r = move;  // `move` changes only when every value is good
+  char stroke[96];
+  std::snprintf(stroke, sizeof stroke, "a position within the stroke %g .. %g m",
+                actuator.stroke_min_m, actuator.stroke_max_m);
+  const auto in_stroke = [&](double v) {
+    return v >= actuator.stroke_min_m && v <= actuator.stroke_max_m;
+  };
+  config::read_number(path, *t, label, "window_min_m", r.window_min_m, in_stroke, stroke);
+  config::read_number(path, *t, label, "window_max_m", r.window_max_m, in_stroke, stroke);
+  // The ranges a PLC may write to velocity_limit and accel_limit (registers 1016, 1018).
+  const auto speed = [](double v) { return v >= 1e-5 && v <= 0.1; };
+  config::read_number(path, *t, label, "slow_m_s", r.slow_m_s, speed, "a number in 1e-05 .. 0.1");
+  config::read_number(path, *t, label, "fast_m_s", r.fast_m_s, speed, "a number in 1e-05 .. 0.1");
+  config::read_number(
+      path, *t, label, "accel_m_s2", r.accel_m_s2, [](double v) { return v >= 1e-4 && v <= 5.0; },
+      "a number in 0.0001 .. 5");
+  // Two speeds and a window with room: otherwise the move cannot separate what it is for.
+  const auto pair_error = [&](const char* key, const char* what, double other) {
+    char text[160];
+    std::snprintf(text, sizeof text, "%s %s must be above %s (%g)", label, key, what, other);
+    config::fail(path, t->get(key) ? t->get(key) : static_cast<const toml::node*>(t), text);
+  };
+  if (!(r.window_max_m > r.window_min_m))
+    pair_error("window_max_m", "window_min_m", r.window_min_m);
+  if (!(r.fast_m_s > r.slow_m_s)) pair_error("fast_m_s", "slow_m_s", r.slow_m_s);
+  move = r;
+}
+
 void apply_plant_effects(const std::string& option, const std::vector<std::string>& words,
                          PlantEffects& effects) {
   for (const auto& e : words) {

@@ -86,4 +86,9 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
 /// holds, and the force loop's and the load observer's settings (README "Force control").
 /// Absent keys (or no file) keep the values given. Errors name FILE:LINE:COLUMN.
 void load_control_settings(const std::string& config_dir, controller::ControllerConfig& cfg);
+/// The [reference_move] table of CONFIG/actuator.toml (mode_command 3): the window inside the
+/// actuator's stroke, the two speeds (slow below fast) and the acceleration. Absent keys keep the
+/// values given; a bad value is an error at FILE:LINE:COLUMN and `move` is left unchanged.
+void load_reference_move(const std::string& config_dir, const ActuatorParams& actuator,
+                         controller::ReferenceMoveConfig& move);
 }  // namespace maglead::cli

@@ -125,6 +125,7 @@ void add_serve(CLI::App& app) {
     cfg.watchdog_s = net.watchdog_s;
     cfg.reactions = net.reactions;
     load_control_settings(o->config, cfg);
+    load_reference_move(o->config, cfg.actuator, cfg.reference_move);
     if (!(o->start_pos_m >= cfg.actuator.stroke_min_m &&
           o->start_pos_m <= cfg.actuator.stroke_max_m))
       throw CLI::ValidationError("--sim-start", "must lie within the stroke");
@@ -165,6 +166,12 @@ void add_serve(CLI::App& app) {
         sc.model_path.empty() ? "[actuator]" : sc.model_path.c_str(), cfg.friction.coulomb_pos_n,
         cfg.friction.coulomb_neg_n, cfg.friction.breakaway_pos_n, cfg.friction.breakaway_neg_n,
         o->sim_effects.empty() ? "" : "; the simulated plant differs (--sim-effect)");
+    const auto& rm = cfg.reference_move;
+    std::printf(
+        "maglead serve: reference move (mode_command 3): %.1f .. %.1f mm at %.1f and %.1f mm/s, "
+        "%.2f m/s^2 ([reference_move])\n",
+        rm.window_min_m * 1e3, rm.window_max_m * 1e3, rm.slow_m_s * 1e3, rm.fast_m_s * 1e3,
+        rm.accel_m_s2);
     if (service.tcp_port() >= 0)
       std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(),
                   service.tcp_port(), net.tcp.unit_id, net.read_only ? ", read-only" : "");

@@ -113,11 +113,11 @@ void FreeMoveDrift::evaluate(double t) noexcept {
     f.rated_worst_n = f.zero_load_n * k;
   }
   now_ = f;
-  // Compared only while the current estimate resolves the change by itself: separable, the
-  // minimum at zero load and at the rated force; not, the minimum as if all of it were gain.
-  const double resolution =
-      f.separable ? std::max(f.zero_load_se_n, f.rated_se_n) : f.zero_load_se_n * k;
-  if (!std::isfinite(resolution) || s_.sigmas * resolution > m) {
+  // Judged on significance and size together: a change counts when it is both beyond sigmas
+  // standard errors and beyond the minimum worth a warning. An estimate too imprecise to resolve
+  // the minimum is still judged (its own margin is the larger one): a fast drift inflates the
+  // standard errors while it runs, and refusing to judge then would hide exactly that drift.
+  if (!std::isfinite(f.zero_load_se_n) || (f.separable && !std::isfinite(f.rated_se_n))) {
     cond_since_ = kNaN;
     return;
   }

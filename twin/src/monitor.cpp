@@ -117,6 +117,7 @@ struct TwinMonitor::Impl {
   double fext_hat = 0;   // load convention, along +p
   double fext_rate = 0;  // N/s, smoothed, for the look-ahead
   double theta_prev = 0, theta_rate = 0;
+  double nut_rate = 0;  // the nut's velocity through the screw rate's filter (driven test)
   double fset_prev = std::numeric_limits<double>::quiet_NaN(), fset_rate = 0;
   double t_prev = 0;
   bool started = false;
@@ -202,7 +203,7 @@ struct TwinMonitor::Impl {
     static_vel.reset(p);
     enter_stick(t, theta, 0);
     fext_hat = stick.mean() - d0_prev;
-    fext_rate = theta_rate = fset_rate = 0.0;
+    fext_rate = theta_rate = nut_rate = fset_rate = 0.0;
     theta_prev = theta;
     fset_prev = std::numeric_limits<double>::quiet_NaN();
     t_prev = t;
@@ -273,8 +274,11 @@ struct TwinMonitor::Impl {
     const double v_screw = theta_rate * lead_m / (2.0 * kPi);
     const double u = model.model_coupling_force_n(t, theta, pos_hat, vel);
     const double y = needed_coupling_n(t, theta, u, 0.0);
-    const bool driven = dir * v_screw > 0 &&
-                        std::abs(v_screw - vel) <= cfg.drift_free_speed_fraction * std::abs(vel);
+    // Screw and nut speeds through the same 20 ms filter: under a position loop the nut rides
+    // its magnetic spring in a limit cycle around the screw (edge-to-edge speeds of half and
+    // twice the screw's), which is still a driven move; a hand pushing past a held screw is not.
+    const bool driven = dir * v_screw > 0 && std::abs(v_screw - nut_rate) <=
+                                                 cfg.drift_free_speed_fraction * std::abs(nut_rate);
     const bool fits = declared || std::abs(u - y) <= model.sliding_friction_n(dir, 0.0);
     if (!driven || !fits) {
       free_drift.skip();
@@ -420,6 +424,7 @@ struct TwinMonitor::Impl {
     fext_rate += (rate_raw - fext_rate) * std::min(1.0, h / 0.050);
     const double th_rate_raw = (theta - theta_prev) / h;
     theta_rate += (th_rate_raw - theta_rate) * std::min(1.0, h / 0.020);
+    nut_rate += (vel - nut_rate) * std::min(1.0, h / 0.020);
     if (std::isfinite(in.force_setpoint_n) && std::isfinite(fset_prev))
       fset_rate += ((in.force_setpoint_n - fset_prev) / h - fset_rate) * std::min(1.0, h / 0.050);
     else

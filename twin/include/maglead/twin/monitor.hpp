@@ -147,7 +147,7 @@ struct TwinMonitorConfig {
   double drift_free_memory_s = 8.0;        // forgetting time constant, in known-force time
   double drift_free_reference_s = 1.0;     // known-force time before the reference may form (one
                                            // reference move's worth), longer until precise
-  double drift_free_speed_fraction = 0.5;  // |v_nut − v_screw| ≤ this × |v_nut|
+  double drift_free_speed_fraction = 0.5;  // over 20 ms: |v_nut − v_screw| ≤ this × |v_nut|
   double drift_rated_force_n = std::numeric_limits<double>::quiet_NaN();  // NaN: the safe force
                                                                           // (actuator × peak)
   // Health: the twin's prediction at the end of an open-loop interval (resync_s) misses the

@@ -1,0 +1,164 @@
+"""The drift flag live (issue 23): two `maglead serve` at once, one whose simulated coupling loses
+5 %/min (--sim-effect gain_drift=-0.05), one without the effect. A PLC-style client per server
+(pymodbus, the registers a PLC would use) makes ordinary position moves at 5, 20 and 50 mm/s and
+a reference move (mode_command 3) every 20 s, polling the block FC4 0+94 between commands.
+Asserts: with the effect the drift flag (discrete input 7 in status_word, reason IR 56) rises
+within 30 s of the coupling crossing a 3 % change; without it the flag never rises. The crossing
+is counted from the start of the run (gain 1), the strictest reading: the flag can only compare
+with its reference, formed a little later. No load cell is read (there is none to read: the
+plant is free and nothing here looks at IR 30).
+Usage: drift_live_integration.py MAGLEAD_BIN CONFIG_DIR [GAIN_PER_MIN RUN_S] (defaults -0.05 95)"""
+import sys
+import threading
+import time
+
+from modbus_common import Server, check, f32_words, finish, watchdog, words_f32
+from pymodbus.client import ModbusTcpClient
+
+MAGLEAD, CONFIG = sys.argv[1], sys.argv[2]
+UNIT = 1
+CW, MODE, POS_F32, VEL_F32, ACC_F32 = 1000, 1001, 1014, 1016, 1018
+ENABLE, EXECUTE = 1, 16
+MODE_POSITION, MODE_REFERENCE = 1, 3
+EXECUTE_DONE = 1 << 1  # command_status bit 1
+ST_FAULT, ST_DRIFT = 1 << 2, 1 << 7
+GAIN_PER_MIN = float(sys.argv[3]) if len(sys.argv) > 3 else -0.05
+CROSS_S = 0.03 / -GAIN_PER_MIN * 60.0  # the coupling 3 % below its start (36 s at -5 %/min)
+DEADLINE_S = CROSS_S + 30.0
+# Wall time per server; the control is judged over all of it.
+RUN_S = float(sys.argv[4]) if len(sys.argv) > 4 else 95.0
+REFERENCE_EVERY_S = 20.0
+# Ordinary moves a PLC might make: targets across the stroke (config: 0 .. 40 mm) at three speeds.
+MOVES = [(0.008, 0.005), (0.032, 0.020), (0.012, 0.050), (0.030, 0.005), (0.006, 0.050),
+         (0.026, 0.020)]
+
+
+class Plc:
+    """One PLC on one connection: commands, and the poll block between them."""
+
+    def __init__(self, name, port, t0):
+        self.name, self.t0 = name, t0
+        self.c = ModbusTcpClient("127.0.0.1", port=port, timeout=2)
+        self.samples = []  # (t since the server started, status, reason, regs 76..93)
+        self.errors = []
+
+    def now(self):
+        return time.time() - self.t0
+
+    def poll(self):
+        rr = self.c.read_input_registers(0, 94, slave=UNIT)
+        if rr.isError():
+            self.errors.append(f"poll at {self.now():.1f} s: {rr}")
+            return None
+        r = rr.registers
+        self.samples.append((self.now(), r[10], r[56], r[76:94]))
+        return r
+
+    def execute(self, mode, timeout_s=15.0):
+        """Stages the mode and gives an execute edge; polls until the drive reports it done."""
+        self.c.write_register(MODE, mode, slave=UNIT)
+        self.c.write_register(CW, ENABLE | EXECUTE, slave=UNIT)
+        self.c.write_register(CW, ENABLE, slave=UNIT)
+        end = time.time() + timeout_s
+        while time.time() < end:
+            time.sleep(0.05)
+            r = self.poll()
+            if r is not None and r[15] & EXECUTE_DONE:
+                return True
+        self.errors.append(f"mode {mode} not done within {timeout_s} s at {self.now():.1f} s")
+        return False
+
+    def run(self):
+        try:
+            self._run()
+        except Exception as e:  # reported as a failed check, not a silent thread death
+            self.errors.append(f"client raised {e!r}")
+
+    def _run(self):
+        if not self.c.connect():
+            self.errors.append("no connection")
+            return
+        while self.now() < 3.0:  # the drive synchronises, then is ready
+            r = self.poll()
+            if r is not None and r[13] == 1:
+                break
+            time.sleep(0.05)
+        self.c.write_register(CW, ENABLE, slave=UNIT)
+        self.c.write_registers(ACC_F32, f32_words(0.5), slave=UNIT)
+        next_reference, i = 2.0, 0
+        while self.now() < RUN_S:
+            if self.now() >= next_reference:
+                self.execute(MODE_REFERENCE)
+                next_reference += REFERENCE_EVERY_S
+                continue
+            target, speed = MOVES[i % len(MOVES)]
+            i += 1
+            self.c.write_registers(POS_F32, f32_words(target), slave=UNIT)
+            self.c.write_registers(VEL_F32, f32_words(speed), slave=UNIT)
+            self.execute(MODE_POSITION)
+            for _ in range(4):  # a short dwell at the target, still polling
+                time.sleep(0.05)
+                self.poll()
+        self.c.close()
+
+    def first_flag(self):
+        return next((s for s in self.samples if s[1] & ST_DRIFT), None)
+
+
+def figures(regs):
+    """IR 76..93: observability, separable, then float32 pairs from 78."""
+    f = lambda a: words_f32(regs[a - 76:a - 74])
+    rated = (f"{f(82):+.2f} ± {f(84):.2f} N" if regs[1] else f"{f(82):+.2f} N (worst case: all gain)")
+    return (f"observability {regs[0]}, separable {regs[1]}, error {f(78):+.2f} ± {f(80):.2f} N at "
+            f"zero load, {rated} at the rated force, statistic {f(92):.2f}, {f(90):.1f} s of free "
+            "moves")
+
+
+def max_statistic(plc):
+    return max((words_f32(s[3][16:18]) for s in plc.samples), default=0.0)
+
+
+def main():
+    watchdog(170)
+    duration = f"{RUN_S + 10:.0f}s"
+    t0 = time.time()  # before the loop starts: plant times below are upper bounds (strict)
+    drift = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring", "0", "--sim-effect", f"gain_drift={GAIN_PER_MIN}",
+                   duration=duration)
+    control = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring", "0", duration=duration)
+    plcs = [Plc(f"gain_drift {100 * GAIN_PER_MIN:+.0f} %/min", drift.port, t0), Plc("control", control.port, t0)]
+    threads = [threading.Thread(target=p.run) for p in plcs]
+    try:
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join()
+    finally:
+        drift.stop()
+        control.stop()
+    for p in plcs:
+        check(not p.errors, f"{p.name}: the PLC's commands and polls went through {p.errors[:3]}")
+        check(len(p.samples) > 500 and p.samples[-1][0] >= RUN_S - 1,
+              f"{p.name}: polled to the end ({len(p.samples)} polls, last at "
+              f"{p.samples[-1][0] if p.samples else 0:.1f} s)")
+        check(not any(s[1] & ST_FAULT for s in p.samples), f"{p.name}: no fault")
+        last = p.samples[-1]
+        print(f"{p.name}: at {last[0]:.1f} s {figures(last[3])}", flush=True)
+    drifting, clean = plcs
+    flag = drifting.first_flag()
+    if flag:
+        print(f"{drifting.name}: 3 % crossed at {CROSS_S:.1f} s, flagged at {flag[0]:.1f} s "
+              f"({flag[0] - CROSS_S:+.1f} s), reason {flag[2]}; {figures(flag[3])}", flush=True)
+    check(flag is not None and flag[0] <= DEADLINE_S,
+          f"{drifting.name}: flagged by {DEADLINE_S:.0f} s (30 s after the 3 % crossing)")
+    check(flag is not None and flag[2] in (1, 5), "the reason says the coupling fell (1) or the "
+          f"error rose, not separable (5): {flag[2] if flag else None}")
+    print(f"{clean.name}: drift statistic at most {max_statistic(clean):.2f} (1 or more for 2 s "
+          "raises the flag)", flush=True)
+    check(clean.first_flag() is None, f"{clean.name}: never flagged ({clean.first_flag()})")
+    check(clean.samples[-1][3][0] == 2,
+          f"{clean.name}: the flag really compared (observability 2 at the end)")
+    finish()
+
+
+if __name__ == "__main__":
+    main()
