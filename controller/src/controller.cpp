@@ -376,9 +376,9 @@ double Controller::force_command_rad(double dt) noexcept {
 }
 
 void Controller::publish_observer() noexcept {
-  s_.load_force_est_n = load_.force_n;
-  s_.load_force_lo_n = load_.lo_n;
-  s_.load_force_hi_n = load_.hi_n;
+  s_.observer_force_n = load_.force_n;
+  s_.observer_force_lo_n = load_.lo_n;
+  s_.observer_force_hi_n = load_.hi_n;
   s_.observer_basis = static_cast<std::uint16_t>(load_.basis);
   s_.force_loop_state = static_cast<std::uint16_t>(force_loop_.state());
   s_.force_reached_reason = static_cast<std::uint16_t>(force_loop_.reason(load_));
@@ -424,7 +424,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     s_.nut_vel_m_s = velocity_.update(pos);
     s_.force_est_n = estimator_.output_force_n(s_.phase_rad, s_.nut_vel_m_s);
     s_.load_cell_force_n = std::isnan(sample.load_force_n) ? 0.0 : -sample.load_force_n;
-    load_force_n_ = sample.load_force_n;  // for the twin's checks and the register only
+    load_cell_reading_n_ = sample.load_force_n;  // the twin's load-cell check only, never its flag
     // Under force control the load is what the loop presses; else loads come and go.
     load_ = observer_.update(now_s, s_.phase_rad, s_.nut_pos_m,
                              mode_ == Mode::force ? LoadForceObserver::kPassiveLoad : 0.0);
@@ -446,7 +446,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
         s_.phase_rad,
         s_.force_est_n,
         mode_ == Mode::force ? force_set_n_ : std::numeric_limits<double>::quiet_NaN(),
-        load_force_n_,
+        load_cell_reading_n_,
         ref_move_.active() && mode_ == Mode::position};
     twin_->step(in, tw);
   }

@@ -212,8 +212,8 @@ TEST(Controller, ForceReachedMeansWithinTheToleranceForTheWholeDwell) {
   double within_since = -1.0, first_set = -1.0;
   int violations = 0, cycles_set = 0;
   rig.run(2.0, [&](const Snapshot& s) {
-    const bool within = s.load_force_lo_n >= 12.0 - cfg.force_tol_n &&
-                        s.load_force_hi_n <= 12.0 + cfg.force_tol_n && s.observer_basis != 1 &&
+    const bool within = s.observer_force_lo_n >= 12.0 - cfg.force_tol_n &&
+                        s.observer_force_hi_n <= 12.0 + cfg.force_tol_n && s.observer_basis != 1 &&
                         s.active_mode == 2;
     if (!within)
       within_since = -1.0;

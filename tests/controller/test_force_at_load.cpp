@@ -155,8 +155,8 @@ Result run_sequence(const LoadCase& lc, const PlantEffects& fx, const FrictionMo
       const double load = rig.load_out_n();
       if (trace)
         std::fprintf(trace, "%.3f,%.1f,%.3f,%.3f,%.3f,%.3f,%u,%.5f,%.6f,%.4f\n", s.t_s, sp, load,
-                     s.load_force_est_n, s.load_force_lo_n, s.load_force_hi_n, s.force_loop_state,
-                     s.nut_vel_m_s, s.nut_pos_m, s.phase_rad);
+                     s.observer_force_n, s.observer_force_lo_n, s.observer_force_hi_n,
+                     s.force_loop_state, s.nut_vel_m_s, s.nut_pos_m, s.phase_rad);
       const bool reached = (s.status_word >> reg::kForceReached) & 1u;
       if (reached && std::abs(load - sp) > tol) ++r.reached_while_off;
       const double in = std::abs(load - sp) <= 1.5;
@@ -170,8 +170,8 @@ Result run_sequence(const LoadCase& lc, const PlantEffects& fx, const FrictionMo
     std::printf(
         "  %-10s set %6.1f N  load %7.2f N  error %5.2f N  observer %7.2f [%.2f, %.2f] N"
         "  state %u  reason %u\n",
-        lc.name, sp, mean_load, err, end.load_force_est_n, end.load_force_lo_n, end.load_force_hi_n,
-        end.force_loop_state, end.force_reached_reason);
+        lc.name, sp, mean_load, err, end.observer_force_n, end.observer_force_lo_n,
+        end.observer_force_hi_n, end.force_loop_state, end.force_reached_reason);
     sum += err;
     r.max_abs_n = std::max(r.max_abs_n, err);
     if (std::abs(sp - prev - 10.0) < 0.5 || std::abs(sp - 10.0) < 1e-9)
@@ -219,7 +219,7 @@ TEST(ForceAtLoad, TheLoadCellIsNotRead) {
     for (double sp : {10.0, -5.0, 15.0}) {
       rig.force(sp);
       rig.run(1.0, [&](const Snapshot& s) {
-        tr.estimates.push_back(s.load_force_est_n);
+        tr.estimates.push_back(s.observer_force_n);
         tr.status.push_back(s.status_word);
       });
     }

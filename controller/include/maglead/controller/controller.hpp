@@ -72,7 +72,7 @@ struct Snapshot {
   double nut_pos_m = 0.0, nut_vel_m_s = 0.0, screw_angle_rad = 0.0, phase_rad = 0.0;
   double force_est_n = 0.0, load_cell_force_n = 0.0;  // paper eq. 6; load cell (checking only)
   // The load observer: output force at the load and the interval consistent with what it saw.
-  double load_force_est_n = 0.0, load_force_lo_n = 0.0, load_force_hi_n = 0.0;
+  double observer_force_n = 0.0, observer_force_lo_n = 0.0, observer_force_hi_n = 0.0;
   std::uint16_t observer_basis = 0, force_loop_state = 0, force_reached_reason = 1;
   double profile_pos_m = 0.0, active_force_setpoint_n = 0.0, active_target_pos_m = 0.0;
   double period_s = 0.0, late_max_s = 0.0;
@@ -176,7 +176,8 @@ class Controller {
   double force_set_n_ = 0.0, drive_n_ = 0.0;  // force setpoint; coupling drive commanded
   double phase_track_rad_ = 0.0;              // integral of the phase the coupling missed
   ReferenceMove ref_move_;  // runs as position legs; the twin is told the nut is free
-  double load_force_n_ = std::numeric_limits<double>::quiet_NaN();  // last load-cell sample (twin)
+  double load_cell_reading_n_ =
+      std::numeric_limits<double>::quiet_NaN();  // last load-cell sample (twin)
   double settled_s_ = 0.0;
   std::uint16_t command_bits_ = 0;
   // Fault reaction in progress (fault state only).

@@ -37,8 +37,6 @@ class EdgeTracker {
   double velocity_m_s() const noexcept { return moving() ? vel_m_s_ : 0.0; }
   double position_m() const noexcept { return pos_m_; }  // best estimate, inside the count
   int run_edges() const noexcept { return run_edges_; }  // edges in a row of this motion
-  double last_edge_t_s() const noexcept { return edge_t_s_; }
-  const EdgeTrackerConfig& config() const noexcept { return cfg_; }
 
  private:
   double cell_lo_m() const noexcept;
