@@ -233,23 +233,55 @@ TEST(EdgeTracker, SeesTheStopWithinTwoEdgeIntervals) {
 }
 
 TEST(StickFilter, KeepsItsMassInTheBandAndLeavesTheEdgeItStartedAt) {
+  // A load that is always acting: a brisk walk, no pull.
+  const UnheldLoadPrior walk{.walk_n2_per_s = 50.0, .relax_s = 0.0, .absent_s = 0.0};
   StickFilter f;
   // A load known at the top of the band, then free to move: paths that would have reached the
-  // edge broke loose (they did not), so the mean moves inward, and stays inside.
-  f.start(-8.0, 8.0, 7.9, 0.0, 1.6);
-  const double m0 = f.mean();
+  // edge broke loose (they did not), so the estimate moves inward, and stays inside.
+  f.start(-8.0, 8.0, 7.9, 0.3, 0.0, walk);
+  const double m0 = f.estimate();
   EXPECT_NEAR(m0, 7.9, 0.25);
   double prev = m0;
   for (int i = 0; i < 500; ++i) {
-    f.step(0.0, 7.9, 1.0, 50.0 * 1e-3);  // no pull, a brisk walk
-    EXPECT_LE(f.mean(), prev + 1e-9);
-    prev = f.mean();
+    f.step(0.0, 7.9, walk, 1e-3);
+    EXPECT_LE(f.estimate(), prev + 1e-9);
+    prev = f.estimate();
   }
   EXPECT_LT(prev, m0 - 2.0);
   EXPECT_GT(prev, -8.0);
+  EXPECT_EQ(f.absent_probability(), 0.0);
   // A drive change the friction takes up shifts the whole distribution (no walk, no pull).
   StickFilter g;
-  g.start(-8.0, 8.0, 0.0, 0.0, 1.6);
-  g.step(2.0, 0.0, 1.0, 0.0);
+  g.start(-8.0, 8.0, 0.0, 0.3, 0.0, walk);
+  g.step(2.0, 0.0, {.walk_n2_per_s = 1e-12, .relax_s = 0.0, .absent_s = 0.0}, 1e-3);
+  EXPECT_NEAR(g.estimate(), 2.0, 0.05);
   EXPECT_NEAR(g.mean(), 2.0, 0.05);
+}
+
+TEST(StickFilter, ALoadThatStoppedAtRestStaysAtRestUntilTheBandRulesItOut) {
+  const UnheldLoadPrior hand{};  // comes and goes
+  // The slide left the load near where loads rest (0), just inside the band's top edge: most
+  // likely nothing acts, and the estimate stays at rest while the walk alone would push it
+  // inward (away from the edge the nut did not break loose at).
+  StickFilter f;
+  f.start(-15.0, 0.5, 0.2, 0.3, 0.0, hand);
+  EXPECT_GT(f.absent_probability(), 0.5);
+  for (int i = 0; i < 500; ++i) f.step(0.0, 0.0, hand, 1e-3);
+  EXPECT_NEAR(f.estimate(), 0.0, 0.05);
+  StickFilter w;
+  const UnheldLoadPrior walk{.absent_s = 0.0};
+  w.start(-15.0, 0.5, 0.2, 0.3, 0.0, walk);
+  for (int i = 0; i < 500; ++i) w.step(0.0, 0.0, walk, 1e-3);
+  EXPECT_LT(w.estimate(), -0.5);
+  // The drive falls by 1 N: in the filter's frame (load − drive) everything shifts up by 1 N and
+  // rest lies outside the band: a load at rest would have broken the nut loose, so something
+  // acts, and the estimate stays inside the band.
+  f.step(1.0, 1.0, hand, 1e-3);
+  EXPECT_EQ(f.absent_probability(), 0.0);
+  EXPECT_LT(f.estimate(), 0.5);
+  // A load stopped far from rest (a push held) is acting, whatever the prior's share.
+  StickFilter p;
+  p.start(-30.0, -14.0, -29.0, 0.3, 0.0, hand);
+  EXPECT_EQ(p.absent_probability(), 0.0);
+  EXPECT_NEAR(p.estimate(), -29.0, 0.25);
 }

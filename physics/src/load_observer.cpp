@@ -17,7 +17,7 @@ LoadForceObserver::LoadForceObserver(const LoadObserverConfig& config)
     throw std::invalid_argument(
         "load observer: friction levels must be finite, non-negative, break-away >= kinetic");
   if (!(cfg_.lead_m > 0) || !(cfg_.model_uncertainty_n >= 0) || !(cfg_.load_drift_n_per_s >= 0) ||
-      !(cfg_.unheld_load.relax_s >= 0) || !(cfg_.unheld_load.walk_n2_per_s > 0))
+      !cfg_.unheld_load.valid())
     throw std::invalid_argument(
         "load observer: lead, uncertainty, drift and load prior must be positive");
   const double count_phase_rad = 2.0 * std::numbers::pi * cfg_.linear_count_m / cfg_.lead_m;
@@ -91,17 +91,16 @@ void LoadForceObserver::unheld_stuck_sample(double t_s, double band_lo_n, double
     // Right after a slide the load is known (the force at the last edge); after start-up it is not.
     const double x0 = est_.basis == ObserverBasis::stuck ? est_.force_n - drive
                                                          : std::numeric_limits<double>::quiet_NaN();
-    stick_.start(band_lo_n - drive, band_hi_n - drive, x0, expected_load_n - drive,
-                 prior.spread_n());
+    stick_.start(band_lo_n - drive, band_hi_n - drive, x0, sliding_half_width_n(),
+                 expected_load_n - drive, prior);
     stick_running_ = true;
   } else {
     const double dt = std::max(0.0, t_s - last_t_s_);
-    stick_.step(stick_drive_n_ - drive, expected_load_n - drive, prior.keep(dt),
-                prior.walk_n2_per_s * dt);
+    stick_.step(stick_drive_n_ - drive, expected_load_n - drive, prior, dt);
   }
   stick_drive_n_ = drive;
   est_.lo_n = band_lo_n, est_.hi_n = band_hi_n;
-  est_.force_n = drive + stick_.mean();
+  est_.force_n = drive + stick_.estimate();
 }
 
 const LoadEstimate& LoadForceObserver::update(double t_s, double phase_rad, double nut_pos_m,

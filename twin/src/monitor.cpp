@@ -185,16 +185,23 @@ struct TwinMonitor::Impl {
     // Leaving a slide, friction was at its sliding level: that is where n starts.
     const double n0 = from_dir == 0 ? std::numeric_limits<double>::quiet_NaN()
                                     : from_dir * model.sliding_friction_n(from_dir, 0.0);
-    stick.start(-model.breakaway_n(-1), model.breakaway_n(1), n0, d0 + expected_fext, load_sd_n());
+    stick.start(-model.breakaway_n(-1), model.breakaway_n(1), n0, cfg.stop_force_sd_n,
+                d0 + expected_fext, load_prior());
   }
 
-  // Load prior: an Ornstein-Uhlenbeck process around the expected external force (minus the
-  // force setpoint in force control, zero otherwise), stationary spread load_sd_n().
+  // Where a load nothing holds rests: minus the force setpoint in force control, zero otherwise.
+  // Only a load nothing presses comes and goes; one the force loop presses acts all the time.
   double expected_fext = 0.0;
-  double load_sd_n() const noexcept { return cfg.load_prior.spread_n(); }
+  bool force_control = false;
+  UnheldLoadPrior load_prior() const noexcept {
+    UnheldLoadPrior p = cfg.load_prior;
+    if (force_control) p.absent_s = 0.0;
+    return p;
+  }
 
   void reset(double t, double theta, double p) noexcept {
     expected_fext = 0.0;
+    force_control = false;
     // The reading itself: the calibration was made with the same encoder, so whatever its zero
     // convention (floor or nearest count), the reading maps to the phase as it did there.
     nut.reset(t, p);
@@ -202,7 +209,7 @@ struct TwinMonitor::Impl {
     vel = vel_prev = acc = 0.0;
     static_vel.reset(p);
     enter_stick(t, theta, 0);
-    fext_hat = stick.mean() - d0_prev;
+    fext_hat = stick.estimate() - d0_prev;
     fext_rate = theta_rate = nut_rate = fset_rate = 0.0;
     theta_prev = theta;
     fset_prev = std::numeric_limits<double>::quiet_NaN();
@@ -413,11 +420,11 @@ struct TwinMonitor::Impl {
     double n_stick = 0.0;
     if (mode == FrictionMode::stick) {
       const double d0 = model.drive_force_n(t, theta, pos_hat, 0.0, 0.0);
-      expected_fext = std::isfinite(in.force_setpoint_n) ? -in.force_setpoint_n : 0.0;
-      stick.step(d0 - d0_prev, d0 + expected_fext, cfg.load_prior.keep(h),
-                 cfg.load_prior.walk_n2_per_s * h);
+      force_control = std::isfinite(in.force_setpoint_n);
+      expected_fext = force_control ? -in.force_setpoint_n : 0.0;
+      stick.step(d0 - d0_prev, d0 + expected_fext, load_prior(), h);
       d0_prev = d0;
-      n_stick = stick.mean();
+      n_stick = stick.estimate();
     }
     const double fext_new = ext_force(mode, t, theta, pos_hat, vel, acc, n_stick);
     const double rate_raw = (fext_new - fext_hat) / h;
