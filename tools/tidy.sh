@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # clang-tidy-14 with the root .clang-tidy over the project's sources, from the compile commands of
-# build/ (the release preset; configured here if missing). Every finding is an error. The fuzz
-# targets are not in build/ (they need clang's -fsanitize=fuzzer) and are not checked.
+# build-tidy/: the release preset configured (not built) without unity batches, so every source
+# is its own entry (the release build compiles the command line's files in batches). Every
+# finding is an error. The fuzz targets need clang's -fsanitize=fuzzer and are not checked.
 #   tools/tidy.sh              every source of the project (2 jobs, or MAGLEAD_TIDY_JOBS)
 #   tools/tidy.sh --since REV  the sources changed since REV; a changed header brings in every
 #                              source of its top-level module (a quick check before a push)
@@ -9,7 +10,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
-[ -f build/compile_commands.json ] || cmake --preset release >/dev/null
+cmake --preset release -B build-tidy -DMAGLEAD_UNITY_TOOLS=OFF >/dev/null
 if [ "${1:-}" = --since ]; then
   filters=()
   while read -r f; do
@@ -31,11 +32,11 @@ else
 fi
 start=$(date +%s)
 # -w: the compiler's own warnings are the build's business (gcc's flags, -Werror); tidy checks only.
-if ! run-clang-tidy -clang-tidy-binary "$(command -v clang-tidy-14)" -p build \
-    -j "${MAGLEAD_TIDY_JOBS:-2}" -quiet -extra-arg=-w "${filters[@]}" >build/tidy.log 2>&1; then
-  sed 's/\x1b\[[0-9;]*m//g' build/tidy.log | grep -E '(warning|error):' | sed "s|^$root/||" |
-    sort -u >&2 || cat build/tidy.log >&2
-  echo "tidy: FAILED after $(($(date +%s) - start)) s (full log: build/tidy.log)" >&2
+if ! run-clang-tidy -clang-tidy-binary "$(command -v clang-tidy-14)" -p build-tidy \
+    -j "${MAGLEAD_TIDY_JOBS:-2}" -quiet -extra-arg=-w "${filters[@]}" >build-tidy/tidy.log 2>&1; then
+  sed 's/\x1b\[[0-9;]*m//g' build-tidy/tidy.log | grep -E '(warning|error):' | sed "s|^$root/||" |
+    sort -u >&2 || cat build-tidy/tidy.log >&2
+  echo "tidy: FAILED after $(($(date +%s) - start)) s (full log: build-tidy/tidy.log)" >&2
   exit 1
 fi
 echo "tidy: clean ($(($(date +%s) - start)) s)"

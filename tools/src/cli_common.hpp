@@ -63,7 +63,7 @@ inline constexpr int kExitBadInput = 2;
 #define MAGLEAD_CONCAT2(a, b) a##b
 #define MAGLEAD_CONCAT(a, b) MAGLEAD_CONCAT2(a, b)
 #define MAGLEAD_COMMAND(order, fn) \
-  static const ::maglead::cli::CommandRegistration MAGLEAD_CONCAT(reg_, __LINE__) { order, fn }
+  static const ::maglead::cli::CommandRegistration MAGLEAD_CONCAT(reg_, __COUNTER__) { order, fn }
 
 #include "maglead/controller/controller.hpp"
 #include "maglead/physics/actuator.hpp"
