@@ -14,6 +14,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "candidates.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "statistics.hpp"
 
@@ -339,12 +340,6 @@ using stats::sse;
 using stats::t_statistic;
 using stats::total;
 
-struct Column {
-  const effects::Effect* effect;
-  double shape;
-  int index;  // within the effect's columns
-};
-
 Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) {
   const auto m = static_cast<Eigen::Index>(cols.size());
   Grams g(static_cast<std::size_t>(folds), m);
@@ -422,39 +417,6 @@ void note_implausible(Selection& out, const Grams& g, const std::vector<double>&
 
 // ------------------------------------------------------------------------------- select
 namespace {
-
-struct Variant {
-  const effects::Effect* effect;
-  double shape;
-  std::vector<int> idx;  // its columns in the Grams
-};
-
-// Every candidate column once, grouped by effect and shape.
-struct Candidates {
-  std::vector<Column> cols;
-  std::vector<Variant> variants;
-};
-
-Candidates candidate_columns(const Options& opt) {
-  Candidates out;
-  for (const effects::Effect* e : effects::library()) {
-    if (!e->selectable() || e->columns() == 0) continue;
-    bool in_base = false;
-    for (const auto& id : opt.exclude) in_base |= id == e->id();
-    if (in_base) continue;
-    auto shapes = e->shapes();
-    if (shapes.empty()) shapes.push_back(0.0);
-    for (double sh : shapes) {
-      Variant v{e, sh, {}};
-      for (int k = 0; k < e->columns(); ++k) {
-        v.idx.push_back(static_cast<int>(out.cols.size()));
-        out.cols.push_back({e, sh, k});
-      }
-      out.variants.push_back(v);
-    }
-  }
-  return out;
-}
 
 // The forward selection's state: the terms taken so far and their held-out errors.
 struct Search {
@@ -659,7 +621,7 @@ void finish(const Search& s, Selection& out) {
 Selection select(const Prepared& P, const Options& opt,
                  const std::function<void(double)>& progress) {
   Selection out;
-  const Candidates cand = candidate_columns(opt);
+  const Candidates cand = candidate_columns(Form::nut, opt.exclude);
   const int folds = std::max(4, opt.folds);
   const Grams g = accumulate(P, cand.cols, folds);
   Search s{P, opt, g, cand, P.states.empty() ? State{} : P.states.front(), 0, folds, {}, {}, {}};

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "candidates.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "maglead/effects/effect.hpp"
@@ -28,51 +29,10 @@ using stats::robust_sigma;
 using stats::sse;
 
 // ---------------------------------------------------------------- columns from the effect units
-// A column of the axis fit: one of an effect unit's axis columns at one shape value. The drive
-// supplies what the effects take from the moving part, so a column is the unit's regressor with
-// its sign turned and its coefficient is the unit's own (effects::Effect::axis_parameters).
-struct Column {
-  const effects::Effect* effect;
-  double shape;
-  int index;  // within the unit's axis columns
-};
-
-// One effect at one shape value: its columns' positions in the Gram matrices.
-struct Variant {
-  const effects::Effect* effect;
-  double shape;
-  std::vector<int> idx;
-};
-
-// Every column once, grouped by effect and shape: the effect library as a force-driven axis
-// sees it (units that need the magnetic coupling or the load cell are left out).
-struct Candidates {
-  std::vector<Column> cols;
-  std::vector<Variant> variants;
-  const Variant* of(const effects::Effect* e) const {
-    for (const auto& v : variants)
-      if (v.effect == e) return &v;
-    return nullptr;
-  }
-};
-
-Candidates axis_candidates() {
-  Candidates out;
-  for (const effects::Effect* e : effects::library()) {
-    if (!e->on_axis() || e->axis_columns() == 0) continue;
-    auto shapes = e->shapes();
-    if (shapes.empty()) shapes.push_back(0.0);
-    for (double sh : shapes) {
-      Variant v{e, sh, {}};
-      for (int k = 0; k < e->axis_columns(); ++k) {
-        v.idx.push_back(static_cast<int>(out.cols.size()));
-        out.cols.push_back({e, sh, k});
-      }
-      out.variants.push_back(v);
-    }
-  }
-  return out;
-}
+// A column of the axis fit is one of an effect unit's axis columns at one shape value
+// (candidates.hpp). The drive supplies what the effects take from the moving part, so a column
+// is the unit's regressor with its sign turned and its coefficient is the unit's own
+// (effects::Effect::axis_parameters).
 
 // The model file's own totals (mass, viscous and Coulomb friction): the effect whose one
 // parameter is that total states it (mass_error: nut_mass_kg, ...).
@@ -592,7 +552,7 @@ struct AxisRun {
   Grams g;
   double yy_total = 0, n_total = 0;
   AxisRun(const Recording& r, const ModelFile& m, const AnalysisOptions& o)
-      : rec(r), model(m), opt(o), cand(axis_candidates()) {}
+      : rec(r), model(m), opt(o), cand(candidate_columns(Form::axis, {})) {}
   void progress(const std::string& stage, double f) const {
     if (opt.progress) opt.progress(stage, f);
   }
