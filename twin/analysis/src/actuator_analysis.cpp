@@ -441,12 +441,6 @@ struct Trial {
   effects::Params params;
 };
 
-std::vector<int> with(const std::vector<int>& current, const std::vector<int>& more) {
-  std::vector<int> idx = current;
-  idx.insert(idx.end(), more.begin(), more.end());
-  return idx;
-}
-
 // The effect's shape with the least held-out error among those with plausible parameters; an
 // implausible fit is noted in `out`.
 Trial best_variant(const Search& s, const effects::Effect* e, Selection& out) {
@@ -522,13 +516,7 @@ std::vector<Alternative> alternatives_of(const Search& s, const Trial& it) {
   const Eigen::VectorXd w = full_new.theta.tail(static_cast<Eigen::Index>(it.var->idx.size()));
   for (const auto* e : effects::library()) {
     if (e == it.var->effect || std::find(s.used.begin(), s.used.end(), e) != s.used.end()) continue;
-    double best_r2 = 0;
-    const Variant* best_v = nullptr;
-    for (const auto& var : s.cand.variants) {
-      if (var.effect != e) continue;
-      const double r2 = partial_r2(s.g, s.current, it.var->idx, w, var.idx);
-      if (r2 > best_r2) best_r2 = r2, best_v = &var;
-    }
+    const auto [best_v, best_r2] = best_reproducing(s.g, s.cand, e, s.current, it.var->idx, w);
     if (!best_v || best_r2 < s.opt.alternative_r2) continue;
     const Fit fa = solve(s.g, with(s.current, best_v->idx), -1);
     const auto pa =

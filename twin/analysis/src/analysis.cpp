@@ -652,12 +652,6 @@ struct Selected {
   double base_heldout = 0;
 };
 
-std::vector<int> with(const std::vector<int>& current, const std::vector<int>& more) {
-  std::vector<int> idx = current;
-  idx.insert(idx.end(), more.begin(), more.end());
-  return idx;
-}
-
 ValidationStep validation_step(const AxisRun& run, const std::string& name, const Score& sc,
                                const std::vector<int>& idx) {
   const Fit f = fit_all(run.g, idx);
@@ -784,13 +778,7 @@ std::vector<Alternative> alternatives_of(const AxisRun& run, const std::set<std:
   std::vector<Alternative> out;
   for (const effects::Effect* e : effects::library()) {
     if (e == tr.var->effect || !usable(e, used)) continue;
-    double best_r2 = 0;
-    const Variant* best_var = nullptr;
-    for (const auto& var : run.cand.variants) {
-      if (var.effect != e) continue;
-      const double r2 = partial_r2(g, current, tr.idx, w, var.idx);
-      if (r2 > best_r2) best_r2 = r2, best_var = &var;
-    }
+    const auto [best_var, best_r2] = best_reproducing(g, run.cand, e, current, tr.idx, w);
     if (best_r2 <= 0.9) continue;
     const std::vector<int> cols = new_columns(g, *best_var, current);
     const Fit fa = fit_all(g, with(current, cols));

@@ -31,4 +31,25 @@ Candidates candidate_columns(Form form, const std::vector<std::string>& exclude)
   return out;
 }
 
+std::vector<int> with(const std::vector<int>& current, const std::vector<int>& more) {
+  std::vector<int> idx = current;
+  idx.insert(idx.end(), more.begin(), more.end());
+  return idx;
+}
+
+std::pair<const Variant*, double> best_reproducing(const stats::Grams& g, const Candidates& cand,
+                                                   const effects::Effect* e,
+                                                   const std::vector<int>& current,
+                                                   const std::vector<int>& idx,
+                                                   const Eigen::VectorXd& w) {
+  double best_r2 = 0;
+  const Variant* best = nullptr;
+  for (const auto& var : cand.variants) {
+    if (var.effect != e) continue;
+    const double r2 = stats::partial_r2(g, current, idx, w, var.idx);
+    if (r2 > best_r2) best_r2 = r2, best = &var;
+  }
+  return {best, best_r2};
+}
+
 }  // namespace maglead::analysis

@@ -1,10 +1,13 @@
 #pragma once
 // The candidate columns both analyses fit (internal to twin/analysis): every effect unit's
 // columns once, grouped by effect and shape value, in the library's order.
+#include <Eigen/Dense>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "maglead/effects/effect.hpp"
+#include "statistics.hpp"
 
 namespace maglead::analysis {
 
@@ -36,5 +39,17 @@ struct Candidates {
 /// Every selectable unit with columns in `form` (on an axis: only laws that exist there), but
 /// those whose ids `exclude` lists.
 Candidates candidate_columns(Form form, const std::vector<std::string>& exclude);
+
+/// Gram positions `current` followed by `more`.
+std::vector<int> with(const std::vector<int>& current, const std::vector<int>& more);
+
+/// The variant of effect `e` that best reproduces the contribution `w` of columns `idx` beyond
+/// `current` (identifiability: the data cannot tell the two apart), and that share (partial
+/// R²); nullptr and 0 when no variant reproduces any of it.
+std::pair<const Variant*, double> best_reproducing(const stats::Grams& g, const Candidates& cand,
+                                                   const effects::Effect* e,
+                                                   const std::vector<int>& current,
+                                                   const std::vector<int>& idx,
+                                                   const Eigen::VectorXd& w);
 
 }  // namespace maglead::analysis
