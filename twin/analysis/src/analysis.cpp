@@ -385,7 +385,12 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   s.stroke_max_m = *std::max_element(s.p.begin(), s.p.end());
   s.y = P.y_raw;
   fixed_force(s, model);
-  decimate_signals(P, opt.decimation > 0 ? opt.decimation : bandwidth_decimation(P));
+  // Slow smooth motion has a narrow bandwidth: every held-out segment keeps 100 samples still.
+  const auto keep =
+      static_cast<int>(s.size() / (100 * static_cast<std::size_t>(std::max(3, opt.folds))));
+  decimate_signals(P, opt.decimation > 0
+                          ? opt.decimation
+                          : std::clamp(bandwidth_decimation(P), 1, std::max(1, keep)));
   return P;
 }
 
