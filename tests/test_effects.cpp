@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -31,33 +32,56 @@ State random_state(std::mt19937& rng) {
   return s;
 }
 
-TEST(Effects, RegressorsAreTheLawLinearInTheFittedCoefficients) {
-  std::mt19937 rng(3);
+// One of a unit's two fitted forms: the nut's (the actuator) or a force-driven axis's.
+struct Form {
+  int (Effect::*columns)() const;
+  void (Effect::*regressors)(double, const State&, double*) const;
+  std::optional<Params> (Effect::*parameters)(double, const double*, const State&) const;
+};
+constexpr Form kNut{&Effect::columns, &Effect::regressors, &Effect::parameters};
+constexpr Form kAxis{&Effect::axis_columns, &Effect::axis_regressors, &Effect::axis_parameters};
+
+void expect_law_linear(const Effect& e, const Form& form, std::mt19937& rng) {
   std::uniform_real_distribution<double> u(0.05, 0.3);  // positive: sign-constrained units
-  for (const Effect* e : library()) {
-    if (e->columns() == 0) continue;
-    auto shapes = e->shapes();
-    if (shapes.empty()) shapes.push_back(0.0);
-    for (double shape : shapes) {
-      std::vector<double> c(static_cast<std::size_t>(e->columns()));
-      for (double& x : c) x = u(rng);
-      const State model = random_state(rng);
-      const auto p = e->parameters(shape, c.data(), model);
-      ASSERT_TRUE(p.has_value()) << e->id();
-      for (int k = 0; k < 20; ++k) {
-        State s = random_state(rng);
-        s.coulomb_n = model.coulomb_n;
-        s.viscous_n_s_per_m = model.viscous_n_s_per_m;
-        s.nut_mass_kg = model.nut_mass_kg;
-        std::vector<double> x(c.size());
-        e->regressors(shape, s, x.data());
-        double lin = 0;
-        for (std::size_t j = 0; j < c.size(); ++j) lin += c[j] * x[j];
-        EXPECT_NEAR(e->force_n(*p, s), lin, 1e-9 * (1 + std::abs(lin)))
-            << e->id() << " shape " << shape;
-      }
+  auto shapes = e.shapes();
+  if (shapes.empty()) shapes.push_back(0.0);
+  for (double shape : shapes) {
+    std::vector<double> c(static_cast<std::size_t>((e.*form.columns)()));
+    for (double& x : c) x = u(rng);
+    const State model = random_state(rng);
+    const auto p = (e.*form.parameters)(shape, c.data(), model);
+    ASSERT_TRUE(p.has_value()) << e.id();
+    for (int k = 0; k < 20; ++k) {
+      State s = random_state(rng);
+      s.coulomb_n = model.coulomb_n;
+      s.viscous_n_s_per_m = model.viscous_n_s_per_m;
+      s.nut_mass_kg = model.nut_mass_kg;
+      std::vector<double> x(c.size());
+      (e.*form.regressors)(shape, s, x.data());
+      double lin = 0;
+      for (std::size_t j = 0; j < c.size(); ++j) lin += c[j] * x[j];
+      EXPECT_NEAR(e.force_n(*p, s), lin, 1e-9 * (1 + std::abs(lin)))
+          << e.id() << " shape " << shape;
     }
   }
+}
+
+TEST(Effects, RegressorsAreTheLawLinearInTheFittedCoefficients) {
+  std::mt19937 rng(3);
+  for (const Effect* e : library())
+    if (e->columns() > 0) expect_law_linear(*e, kNut, rng);
+}
+
+// The axis form is the same law (force_n), fitted in the columns a drive's force resolves.
+TEST(Effects, AxisRegressorsAreTheSameLaw) {
+  std::mt19937 rng(4);
+  int on_axis = 0;
+  for (const Effect* e : library())
+    if (e->on_axis() && e->axis_columns() > 0) expect_law_linear(*e, kAxis, rng), ++on_axis;
+  EXPECT_GE(on_axis, 7);  // friction (four laws), offset, spring, mass, position ripple
+  EXPECT_EQ(find("asymmetric_friction")->axis_columns(), 4);
+  EXPECT_FALSE(find("coupling_gain_error")->on_axis());
+  EXPECT_FALSE(find("load_cell_delay")->on_axis());
 }
 
 TEST(Effects, IdsAndParameterNamesAreTheDocumentedOnes) {

@@ -17,6 +17,7 @@ struct AngleRipple final : Effect {
     return param(p, "relative_amplitude", 0.0) *
            std::sin(s.theta_rad + param(p, "phase_rad", 0.0)) * s.coupling_n;
   }
+  bool on_axis() const override { return false; }  // a law of the magnetic coupling
   int columns() const override { return 2; }
   void regressors(double, const State& s, double* x) const override {
     x[0] = s.coupling_n * std::sin(s.theta_rad);  // a cos(psi)

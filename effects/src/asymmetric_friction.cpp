@@ -38,6 +38,19 @@ struct Asymmetric final : Effect {
   std::optional<Params> parameters(double, const double* c, const State& m) const override {
     return Params{{"coulomb_pos_n", m.coulomb_n + c[0]}, {"coulomb_neg_n", m.coulomb_n + c[1]}};
   }
+  // A drive's force sees the viscous slope of each direction as well as its level.
+  int axis_columns() const override { return 4; }
+  void axis_regressors(double, const State& s, double* x) const override {
+    regressors(0.0, s, x);
+    x[2] = s.v_m_s > 0 ? -s.v_m_s : 0.0;
+    x[3] = s.v_m_s < 0 ? -s.v_m_s : 0.0;
+  }
+  std::optional<Params> axis_parameters(double, const double* c, const State& m) const override {
+    return Params{{"coulomb_pos_n", m.coulomb_n + c[0]},
+                  {"coulomb_neg_n", m.coulomb_n + c[1]},
+                  {"viscous_pos_n_s_per_m", m.viscous_n_s_per_m + c[2]},
+                  {"viscous_neg_n_s_per_m", m.viscous_n_s_per_m + c[3]}};
+  }
 };
 }  // namespace
 const Effect& asymmetric_friction() {

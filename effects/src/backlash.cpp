@@ -19,6 +19,7 @@ struct Backlash final : Effect {
   double force_n(const Params& p, const State& s) const override {
     return -0.5 * param(p, "backlash_rad", 0.0) * sgn(s.coupling_n) * s.coupling_slope_n_per_rad;
   }
+  bool on_axis() const override { return false; }  // a law of the magnetic coupling
   int columns() const override { return 1; }
   void regressors(double, const State& s, double* x) const override {
     x[0] = -sgn(s.coupling_n) * s.coupling_slope_n_per_rad;

@@ -12,6 +12,7 @@ struct GainError final : Effect {
   double force_n(const Params& p, const State& s) const override {
     return (param(p, "gain", 1.0) - 1.0) * s.coupling_n;
   }
+  bool on_axis() const override { return false; }  // a law of the magnetic coupling
   int columns() const override { return 1; }
   void regressors(double, const State& s, double* x) const override { x[0] = s.coupling_n; }
   std::optional<Params> parameters(double, const double* c, const State&) const override {

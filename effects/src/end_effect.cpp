@@ -25,6 +25,7 @@ struct EndEffect final : Effect {
   std::vector<double> shapes() const override {
     return {2e-3, 3e-3, 4e-3, 5e-3, 6e-3, 8e-3, 10e-3};
   }
+  bool on_axis() const override { return false; }  // a law of the magnetic coupling
   int columns() const override { return 1; }
   void regressors(double z, const State& s, double* x) const override {
     x[0] = -smooth(z, s) * s.coupling_n;

@@ -14,6 +14,7 @@ struct GainDrift final : Effect {
   double force_n(const Params& p, const State& s) const override {
     return param(p, "gain_change_per_min", 0.0) * s.t_s / 60.0 * s.coupling_n;
   }
+  bool on_axis() const override { return false; }  // a law of the magnetic coupling
   int columns() const override { return 1; }
   void regressors(double, const State& s, double* x) const override {
     x[0] = s.coupling_n * s.t_s / 60.0;

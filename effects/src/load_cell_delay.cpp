@@ -13,6 +13,7 @@ struct LoadCellDelay final : Effect {
   double force_n(const Params& p, const State& s) const override {
     return param(p, "delay_s", 0.0) * s.load_rate_n_s;
   }
+  bool on_axis() const override { return false; }  // a law of the load cell
   int columns() const override { return 1; }
   void regressors(double, const State& s, double* x) const override { x[0] = s.load_rate_n_s; }
   std::optional<Params> parameters(double, const double* c, const State&) const override {

@@ -14,6 +14,7 @@ struct SensorDelay final : Effect {
   double force_n(const Params& p, const State& s) const override {
     return param(p, "delay_s", 0.0) * s.coupling_slope_n_per_rad * s.phi_rate_rad_s;
   }
+  bool on_axis() const override { return false; }  // a law of the magnetic coupling
   int columns() const override { return 1; }
   void regressors(double, const State& s, double* x) const override {
     x[0] = s.coupling_slope_n_per_rad * s.phi_rate_rad_s;

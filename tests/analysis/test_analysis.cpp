@@ -596,6 +596,52 @@ TEST(Emps, FindsCoulombOffsetThenDirectionDependentFriction) {
   std::filesystem::remove(corrected);
 }
 
+// A generated force-driven axis (a drive pushing a carriage against mass, friction and a return
+// spring, the force logged with noise): the axis path names the spring the effect unit states,
+// in the unit's parameter names, from the units' axis columns (the same law the twin runs).
+TEST(Axis, GeneratedSpringIsNamedWithTheUnitsParameters) {
+  constexpr double kMass_kg = 10.0, kViscous = 50.0, kCoulomb_n = 5.0;
+  constexpr double kStiffness = 200.0, kRest_m = 0.02;
+  maglead::Recording rec;
+  rec.path = "generated axis";
+  std::vector<double> t, pos, force;
+  std::srand(7);
+  for (int i = 0; i < 30000; ++i) {
+    const double ts = i * 1e-3, w1 = 2 * M_PI * 0.2, w2 = 2 * M_PI * 0.7;
+    const double p = 0.1 * std::sin(w1 * ts) + 0.03 * std::sin(w2 * ts + 1.0);
+    const double v = 0.1 * w1 * std::cos(w1 * ts) + 0.03 * w2 * std::cos(w2 * ts + 1.0);
+    const double a = -0.1 * w1 * w1 * std::sin(w1 * ts) - 0.03 * w2 * w2 * std::sin(w2 * ts + 1.0);
+    const double noise = 0.2 * (std::rand() / static_cast<double>(RAND_MAX) - 0.5);
+    t.push_back(ts);
+    pos.push_back(p);
+    force.push_back(kMass_kg * a + kViscous * v + kCoulomb_n * (v > 0 ? 1 : -1) +
+                    kStiffness * (p - kRest_m) + noise);
+  }
+  rec.names = {"t_s", "pos_m", "drive_force_n"};
+  rec.columns = {t, pos, force};
+  maglead::analysis::ModelFile model;
+  model.system = "axis";
+  model.fit = {"nut_mass_kg", "viscous_n_s_per_m", "coulomb_n"};
+  const auto r = maglead::analysis::analyze_recording(rec, model, maglead::paper_calibration(),
+                                                      maglead::ActuatorParams{}, {});
+  ASSERT_EQ(r.findings.effects.size(), 1u) << named_as(r);
+  const auto& e = r.findings.effects[0];
+  EXPECT_EQ(e.id, "spring");
+  EXPECT_NEAR(parameter_value(e.parameters, "stiffness_n_per_m", NAN), kStiffness,
+              0.02 * kStiffness);
+  EXPECT_NEAR(parameter_value(e.parameters, "rest_position_m", NAN), kRest_m, 2e-3);
+  const auto& base = r.findings.final_fit.fitted_parameters.value();
+  EXPECT_NEAR(parameter_value(base, "nut_mass_kg", NAN), kMass_kg, 0.05 * kMass_kg);
+  EXPECT_NEAR(parameter_value(base, "coulomb_n", NAN), kCoulomb_n, 0.3);
+  // The corrected model holds the spring as a term and the fitted totals as values: analysed
+  // with it, nothing is missing.
+  ASSERT_NE(r.corrected.find("spring"), nullptr);
+  EXPECT_NEAR(r.corrected.nut_mass_kg, kMass_kg, 0.05 * kMass_kg);
+  const auto again = maglead::analysis::analyze_recording(
+      rec, r.corrected, maglead::paper_calibration(), maglead::ActuatorParams{}, {});
+  EXPECT_TRUE(again.findings.effects.empty()) << named_as(again);
+}
+
 TEST(Signal, ButterworthPassesLowAndStopsHighFrequencies) {
   std::vector<double> lo(4000), hi(4000);
   for (std::size_t i = 0; i < lo.size(); ++i) {

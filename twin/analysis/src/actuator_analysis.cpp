@@ -14,6 +14,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "candidates.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "statistics.hpp"
 
@@ -339,12 +340,6 @@ using stats::sse;
 using stats::t_statistic;
 using stats::total;
 
-struct Column {
-  const effects::Effect* effect;
-  double shape;
-  int index;  // within the effect's columns
-};
-
 Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) {
   const auto m = static_cast<Eigen::Index>(cols.size());
   Grams g(static_cast<std::size_t>(folds), m);
@@ -423,39 +418,6 @@ void note_implausible(Selection& out, const Grams& g, const std::vector<double>&
 // ------------------------------------------------------------------------------- select
 namespace {
 
-struct Variant {
-  const effects::Effect* effect;
-  double shape;
-  std::vector<int> idx;  // its columns in the Grams
-};
-
-// Every candidate column once, grouped by effect and shape.
-struct Candidates {
-  std::vector<Column> cols;
-  std::vector<Variant> variants;
-};
-
-Candidates candidate_columns(const Options& opt) {
-  Candidates out;
-  for (const effects::Effect* e : effects::library()) {
-    if (!e->selectable() || e->columns() == 0) continue;
-    bool in_base = false;
-    for (const auto& id : opt.exclude) in_base |= id == e->id();
-    if (in_base) continue;
-    auto shapes = e->shapes();
-    if (shapes.empty()) shapes.push_back(0.0);
-    for (double sh : shapes) {
-      Variant v{e, sh, {}};
-      for (int k = 0; k < e->columns(); ++k) {
-        v.idx.push_back(static_cast<int>(out.cols.size()));
-        out.cols.push_back({e, sh, k});
-      }
-      out.variants.push_back(v);
-    }
-  }
-  return out;
-}
-
 // The forward selection's state: the terms taken so far and their held-out errors.
 struct Search {
   const Prepared& P;
@@ -478,12 +440,6 @@ struct Trial {
   int improved = 0;
   effects::Params params;
 };
-
-std::vector<int> with(const std::vector<int>& current, const std::vector<int>& more) {
-  std::vector<int> idx = current;
-  idx.insert(idx.end(), more.begin(), more.end());
-  return idx;
-}
 
 // The effect's shape with the least held-out error among those with plausible parameters; an
 // implausible fit is noted in `out`.
@@ -560,13 +516,7 @@ std::vector<Alternative> alternatives_of(const Search& s, const Trial& it) {
   const Eigen::VectorXd w = full_new.theta.tail(static_cast<Eigen::Index>(it.var->idx.size()));
   for (const auto* e : effects::library()) {
     if (e == it.var->effect || std::find(s.used.begin(), s.used.end(), e) != s.used.end()) continue;
-    double best_r2 = 0;
-    const Variant* best_v = nullptr;
-    for (const auto& var : s.cand.variants) {
-      if (var.effect != e) continue;
-      const double r2 = partial_r2(s.g, s.current, it.var->idx, w, var.idx);
-      if (r2 > best_r2) best_r2 = r2, best_v = &var;
-    }
+    const auto [best_v, best_r2] = best_reproducing(s.g, s.cand, e, s.current, it.var->idx, w);
     if (!best_v || best_r2 < s.opt.alternative_r2) continue;
     const Fit fa = solve(s.g, with(s.current, best_v->idx), -1);
     const auto pa =
@@ -659,7 +609,7 @@ void finish(const Search& s, Selection& out) {
 Selection select(const Prepared& P, const Options& opt,
                  const std::function<void(double)>& progress) {
   Selection out;
-  const Candidates cand = candidate_columns(opt);
+  const Candidates cand = candidate_columns(Form::nut, opt.exclude);
   const int folds = std::max(4, opt.folds);
   const Grams g = accumulate(P, cand.cols, folds);
   Search s{P, opt, g, cand, P.states.empty() ? State{} : P.states.front(), 0, folds, {}, {}, {}};

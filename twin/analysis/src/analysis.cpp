@@ -1,187 +1,98 @@
-// The analysis works on the inverse model: the measured force is predicted from measured motion,
-// y = y_fixed(baseline) + Σ θ_j x_j, linear in every candidate parameter once its nonlinear
-// shape parameter (a period, a distance, a velocity scale) is fixed. So one pass over the data
-// accumulates a Gram matrix per time segment, and every fit and held-out score of the forward
-// selection is a small solve on sums of those matrices, whatever the recording's length.
+// The analysis of a force-driven axis works on the inverse model: the measured drive force is
+// predicted from measured motion, y = y_fixed(baseline) + Σ θ_j x_j, with the columns x_j and
+// the parameters from θ given by the effect units (effects/, their axis form), linear in every
+// coefficient once the unit's shape value (a period, a velocity scale) is fixed. So one pass over
+// the data accumulates a Gram matrix per time segment, and every fit and held-out score of the
+// forward selection is a small solve on sums of those matrices, whatever the recording's length.
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <numbers>
 #include <numeric>
 #include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 
+#include "candidates.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/signal.hpp"
+#include "maglead/effects/effect.hpp"
 #include "statistics.hpp"
 
 namespace maglead::analysis {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 using stats::Fit;
 using stats::partial_r2;
 using stats::robust_sigma;
 using stats::sse;
 
-// ---------------------------------------------------------------- columns and candidates
-enum Col : int {
-  kAcc,
-  kVel,
-  kSign,
-  kAbsV,
-  kMoving,
-  kStrib0,
-  kStrib1,
-  kStrib2,
-  kStrib3,
-  kStrib4,
-  kStrib5,
-  kOne,
-  kSpring,
-  kDrift,
-  kSinTh,
-  kCosTh,
-  kSinP,
-  kCosP,
-  kEnd0,
-  kEnd1,
-  kEnd2,
-  kEnd3,
-  kEnd4,
-  kEnd5,
-  kBacklash,
-  kDelay,
-  kBurst,
-  kGain,
-  kLead,
-  kNumCols
-};
-constexpr double kStribeckVel_m_s[6] = {0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3, 16e-3};
-constexpr double kEndDist_m[6] = {1e-3, 2e-3, 3e-3, 4e-3, 6e-3, 8e-3};
+// ---------------------------------------------------------------- columns from the effect units
+// A column of the axis fit is one of an effect unit's axis columns at one shape value
+// (candidates.hpp). The drive supplies what the effects take from the moving part, so a column
+// is the unit's regressor with its sign turned and its coefficient is the unit's own
+// (effects::Effect::axis_parameters).
 
-struct Candidate {
-  std::string id;
-  std::vector<std::vector<int>> variants;
-  bool actuator_only = false;
-  bool selectable = true;  // false: only named as an alternative (identifiability)
-};
-
-std::vector<Candidate> candidate_library() {
-  std::vector<Candidate> c = {
-      {"coulomb_friction", {{kSign}}},
-      {"viscous_friction", {{kVel}}},
-      {"asymmetric_friction", {{kAbsV, kMoving}}},
-      {"stribeck_friction", {}},
-      {"offset", {{kOne}}},
-      {"spring", {{kSpring}}},
-      {"mass_error", {{kAcc}}},
-      {"gain_drift", {{kDrift}}, true},
-      {"angle_ripple", {{kSinTh, kCosTh}}, true},
-      {"position_ripple", {{kSinP, kCosP}}},
-      {"end_effect", {}, true},
-      {"backlash", {{kBacklash}}, true},
-      {"sensor_delay", {{kDelay}}, true},
-      {"external_disturbance", {{kBurst}}},
-      {"coupling_gain_error", {{kGain}}, true, false},
-      {"lead_error", {{kLead}}, true, false},
-  };
-  for (auto& k : c) {
-    if (k.id == "stribeck_friction")
-      for (int i = 0; i < 6; ++i) k.variants.push_back({kStrib0 + i});
-    if (k.id == "end_effect")
-      for (int i = 0; i < 6; ++i) k.variants.push_back({kEnd0 + i});
-  }
-  return c;
+// The model file's own totals (mass, viscous and Coulomb friction): the effect whose one
+// parameter is that total states it (mass_error: nut_mass_kg, ...).
+double* total_field(effects::State& s, const std::string& name) {
+  if (name == "nut_mass_kg") return &s.nut_mass_kg;
+  if (name == "viscous_n_s_per_m") return &s.viscous_n_s_per_m;
+  if (name == "coulomb_n") return &s.coulomb_n;
+  return nullptr;
+}
+double* total_field(ModelFile& m, const std::string& name) {
+  if (name == "nut_mass_kg") return &m.nut_mass_kg;
+  if (name == "viscous_n_s_per_m") return &m.viscous_n_s_per_m;
+  if (name == "coulomb_n") return &m.coulomb_n;
+  return nullptr;
+}
+// The total an effect's one parameter is, or empty (a term of its own in the model file).
+std::string total_of(const effects::Effect& e) {
+  const auto p = e.params();
+  effects::State probe;
+  return p.size() == 1 && total_field(probe, p[0].name) ? p[0].name : std::string();
+}
+const effects::Effect* effect_of_total(const std::string& name) {
+  for (const effects::Effect* e : effects::library())
+    if (e->on_axis() && total_of(*e) == name) return e;
+  return nullptr;
 }
 
 // ---------------------------------------------------------------- signals
 struct Signals {
   std::vector<double> t, p, v, a, y, y_fixed;
-  // actuator only
-  std::vector<double> theta, phi, fs, fs_slope, play, to_end, burst;
   std::vector<unsigned char> valid;
-  double lead_m = 0.006, mid_m = 0.0, pos_period_m = 0.005, moving_speed = 0.0;
-  bool actuator = false;
+  double stroke_min_m = 0.0, stroke_max_m = 0.0;
   std::size_t size() const { return t.size(); }
+  effects::State state(std::size_t i) const {
+    effects::State s;
+    s.t_s = t[i];
+    s.p_m = p[i];
+    s.v_m_s = v[i];
+    s.a_m_s2 = a[i];
+    s.stroke_min_m = stroke_min_m;
+    s.stroke_max_m = stroke_max_m;
+    return s;
+  }
+  double mid_m() const { return 0.5 * (stroke_min_m + stroke_max_m); }
 };
 
-double sgn(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : 0.0); }
+double sgn(double x) { return effects::sgn(x); }
 
-void fill_row(const Signals& s, std::size_t i, const std::vector<int>& cols, double* row) {
-  const double v = s.v[i];
+// The columns `cols` at sample i (a unit with several columns is asked once per run of them).
+void fill_row(const Signals& s, std::size_t i, const std::vector<Column>& cols, double* row) {
+  const effects::State st = s.state(i);
+  double buf[8];
+  const Column* last = nullptr;
   for (std::size_t j = 0; j < cols.size(); ++j) {
-    const int c = cols[j];
-    double x = 0.0;
-    switch (c) {
-      case kAcc:
-        x = s.a[i];
-        break;
-      case kVel:
-        x = v;
-        break;
-      case kSign:
-        x = sgn(v);
-        break;
-      case kAbsV:
-        x = std::abs(v);
-        break;
-      case kMoving:
-        x = std::abs(v) > s.moving_speed ? 1.0 : 0.0;
-        break;
-      case kOne:
-        x = 1.0;
-        break;
-      case kSpring:
-        x = s.p[i] - s.mid_m;
-        break;
-      case kSinP:
-        x = std::sin(2 * kPi * s.p[i] / s.pos_period_m);
-        break;
-      case kCosP:
-        x = std::cos(2 * kPi * s.p[i] / s.pos_period_m);
-        break;
-      case kBurst:
-        x = s.burst.empty() ? 0.0 : s.burst[i];
-        break;
-      default:
-        if (c >= kStrib0 && c <= kStrib5) {
-          const double r = v / kStribeckVel_m_s[c - kStrib0];
-          x = sgn(v) * std::exp(-r * r);
-          break;
-        }
-        if (!s.actuator) break;
-        switch (c) {
-          case kDrift:
-            x = s.fs[i] * s.t[i] / 60.0;
-            break;
-          case kSinTh:
-            x = std::sin(s.theta[i]);
-            break;
-          case kCosTh:
-            x = std::cos(s.theta[i]);
-            break;
-          case kBacklash:
-            x = -0.5 * s.play[i] * s.fs_slope[i];
-            break;
-          case kDelay:
-            x = -s.fs_slope[i] * 2 * kPi * v / s.lead_m;
-            break;
-          case kGain:
-            x = s.fs[i];
-            break;
-          case kLead:
-            x = s.fs_slope[i] * 2 * kPi * s.p[i] / (s.lead_m * s.lead_m);
-            break;
-          default:
-            if (c >= kEnd0 && c <= kEnd5)
-              x = s.fs[i] * std::clamp(1.0 - s.to_end[i] / kEndDist_m[c - kEnd0], 0.0, 1.0);
-        }
+    const Column& c = cols[j];
+    if (!last || last->effect != c.effect || last->shape != c.shape) {
+      c.effect->axis_regressors(c.shape, st, buf);
+      last = &c;
     }
-    row[j] = x;
+    row[j] = -buf[c.index];
   }
 }
 
@@ -194,17 +105,19 @@ double median_step(const std::vector<double>& t) {
 }
 
 // ---------------------------------------------------------------- Gram per segment
-// The shared per-segment normal equations, with the column kinds in matrix order.
+// The shared per-segment normal equations, with the columns in matrix order.
 struct Grams : stats::Grams {
-  std::vector<int> cols;
-  int index(int col) const {
-    for (std::size_t j = 0; j < cols.size(); ++j)
-      if (cols[j] == col) return static_cast<int>(j);
-    return -1;
-  }
+  std::vector<Column> cols;
 };
 
-Grams accumulate(const Signals& s, const std::vector<int>& cols, int folds,
+std::vector<Column> columns_at(const Grams& g, const std::vector<int>& idx) {
+  std::vector<Column> cols;
+  cols.reserve(idx.size());
+  for (int k : idx) cols.push_back(g.cols[static_cast<std::size_t>(k)]);
+  return cols;
+}
+
+Grams accumulate(const Signals& s, const std::vector<Column>& cols, int folds,
                  const std::function<void(double)>& progress) {
   const auto m = static_cast<Eigen::Index>(cols.size());
   Grams g{stats::Grams(static_cast<std::size_t>(folds), m), cols};
@@ -336,21 +249,14 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
 
 // ---------------------------------------------------------------- preparation
 struct Prepared {
-  Signals full;  // every sample (actuator: analysis rate too)
-  Signals id;    // identification rate (axis: decimated); same as full when not decimated
+  Signals full;  // every sample
+  Signals id;    // identification rate (decimated); same as full when not decimated
   bool decimated = false;
-  Eigen::MatrixXd id_columns;  // axis, decimated: parallel-filtered columns (n × kNumCols)
+  Eigen::MatrixXd id_columns;  // decimated: parallel-filtered columns (n × columns)
   int decimation = 1;
   double fs_hz = 0, filter_hz = 0, noise_floor_n = 0, bandwidth_hz = 0;
-  std::vector<double> y_raw;                  // full-rate measured force, unfiltered
-  std::vector<std::pair<double, int>> slips;  // step-outs: time, leads
+  std::vector<double> y_raw;  // full-rate measured force, unfiltered
 };
-
-std::vector<int> all_columns() {
-  std::vector<int> c(kNumCols);
-  std::iota(c.begin(), c.end(), 0);
-  return c;
-}
 
 }  // namespace
 
@@ -366,72 +272,44 @@ ModelFile actuator_model_from_config(const ActuatorParams& act) {
 
 namespace {
 
-// The baseline's fixed force at every sample of a force-driven axis: the known dynamics plus
-// every term the model file switches on, in the effect library's names (totals for mass and
-// friction). Forces on the moving part along +p (offset, spring, ripple) are what the drive force
-// does not have to supply: they subtract.
-struct FixedTerms {
-  const ModelTerm *st = nullptr, *sp = nullptr, *pr = nullptr;
-  double mass = 0, visc = 0, coul = 0;  // fixed values (0: fitted instead)
-  double coul_pos = 0, coul_neg = 0, visc_pos = 0, visc_neg = 0;
-  double strib_c = 0, strib_n = 0, strib_v = 1.0, offset = 0;
-  double spring_k = 0, spring_c = 0, pr_n = 0, pr_per = 1.0, pr_ph = 0;
+// The model file's totals as a state: what its terms' laws are differences from. A total the
+// analysis fits (fit = [...]) is zero here: the fit supplies all of it.
+effects::State model_totals(const ModelFile& model) {
+  effects::State s;
+  s.nut_mass_kg = model.fit.count("nut_mass_kg") ? 0.0 : model.nut_mass_kg;
+  s.viscous_n_s_per_m = model.fit.count("viscous_n_s_per_m") ? 0.0 : model.viscous_n_s_per_m;
+  s.coulomb_n = model.fit.count("coulomb_n") ? 0.0 : model.coulomb_n;
+  return s;
+}
 
-  double force(const Signals& s, std::size_t i) const {
-    const double v = s.v[i];
-    double y = mass * s.a[i] + visc * v + (v > 0 ? visc_pos : visc_neg) * v;
-    double fc = (st ? strib_c : coul) + (v > 0 ? coul_pos : v < 0 ? coul_neg : 0.0);
-    if (st) {
-      const double r = v / strib_v;
-      fc += strib_n * std::exp(-r * r);
-    }
-    y += sgn(v) * fc;
-    double other = offset;
-    if (sp) other -= spring_k * (s.p[i] - spring_c);
-    if (pr) other += pr_n * std::sin(2 * kPi * s.p[i] / pr_per + pr_ph);
-    return y - other;
-  }
-};
-
-FixedTerms fixed_terms(const ModelFile& model, double mid_m) {
-  auto term_value = [&](const char* id, const char* key, double fallback) {
-    const auto* term = model.find(id);
-    return term ? term->get(key, fallback) : fallback;
+// The baseline's fixed force at every sample of a force-driven axis: the drive supplies the
+// known dynamics M a + C v + F_c sign(v) and whatever every term of the model file takes from
+// the moving part (the units' laws, the same the twin runs). A term whose total is fitted here
+// is left to the fit.
+void fixed_force(Signals& s, const ModelFile& model) {
+  struct Term {
+    const effects::Effect* effect;
+    effects::Params params;
   };
-  FixedTerms f;
-  f.st = model.find("stribeck_friction");
-  f.sp = model.find("spring");
-  f.pr = model.find("position_ripple");
-  const auto* as = model.find("asymmetric_friction");
-  if (!model.fit.count("nut_mass_kg"))
-    f.mass = term_value("mass_error", "nut_mass_kg", model.nut_mass_kg);
-  if (!model.fit.count("viscous_n_s_per_m"))
-    f.visc = term_value("viscous_friction", "viscous_n_s_per_m", model.viscous_n_s_per_m);
-  if (!model.fit.count("coulomb_n"))
-    f.coul = term_value("coulomb_friction", "coulomb_n", model.coulomb_n);
-  // Direction-dependent friction: its levels replace the symmetric ones in their direction.
-  if (as) {
-    f.coul_pos = as->get("coulomb_pos_n", f.coul) - f.coul;
-    f.coul_neg = as->get("coulomb_neg_n", f.coul) - f.coul;
-    f.visc_pos = as->get("viscous_pos_n_s_per_m", f.visc) - f.visc;
-    f.visc_neg = as->get("viscous_neg_n_s_per_m", f.visc) - f.visc;
+  std::vector<Term> terms;
+  for (const auto& t : model.terms) {
+    const auto* e = effects::find(t.id);
+    if (!t.enabled || !e) continue;
+    if (const auto total = total_of(*e); !total.empty() && model.fit.count(total)) continue;
+    terms.push_back({e, effects::Params(t.parameters.begin(), t.parameters.end())});
   }
-  if (f.st) {
-    f.strib_c = f.st->get("coulomb_n", f.coul);
-    f.strib_n = f.st->get("breakaway_n", f.strib_c) - f.strib_c;
-    f.strib_v = f.st->get("stribeck_velocity_m_s", 2e-3);
+  const effects::State totals = model_totals(model);
+  s.y_fixed.resize(s.size());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    effects::State st = s.state(i);
+    st.nut_mass_kg = totals.nut_mass_kg;
+    st.viscous_n_s_per_m = totals.viscous_n_s_per_m;
+    st.coulomb_n = totals.coulomb_n;
+    double y =
+        st.nut_mass_kg * st.a_m_s2 + st.viscous_n_s_per_m * st.v_m_s + st.coulomb_n * sgn(st.v_m_s);
+    for (const auto& t : terms) y -= t.effect->force_n(t.params, st);
+    s.y_fixed[i] = y;
   }
-  f.offset = term_value("offset", "offset_n", 0.0);
-  if (f.sp) {
-    f.spring_k = f.sp->get("stiffness_n_per_m", 0.0);
-    f.spring_c = f.sp->get("rest_position_m", mid_m);
-  }
-  if (f.pr) {
-    f.pr_n = f.pr->get("amplitude_n", 0.0);
-    f.pr_per = f.pr->get("period_m", 5e-3);
-    f.pr_ph = f.pr->get("phase_rad", 0.0);
-  }
-  return f;
 }
 
 // A noise floor from the force's sample-to-sample roughness (white noise: var(Δ²y) = 6σ²).
@@ -469,9 +347,8 @@ void decimate_signals(Prepared& P, int nd) {
   P.decimated = true;
   Signals& d = P.id;
   d = Signals{};
-  d.lead_m = s.lead_m;
-  d.mid_m = s.mid_m;
-  d.moving_speed = s.moving_speed;
+  d.stroke_min_m = s.stroke_min_m;
+  d.stroke_max_m = s.stroke_max_m;
   for (std::size_t i = 0; i < s.size(); i += static_cast<std::size_t>(nd)) d.t.push_back(s.t[i]);
   d.p = decimate(s.p, nd, P.fs_hz);
   d.v = decimate(s.v, nd, P.fs_hz);
@@ -503,39 +380,38 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   P.y_raw = rec.column("drive_force_n");
   P.noise_floor_n = noise_floor(P.y_raw);
   s.valid.assign(s.size(), 1);
-  s.mid_m =
-      0.5 * (*std::min_element(s.p.begin(), s.p.end()) + *std::max_element(s.p.begin(), s.p.end()));
-  const FixedTerms fixed = fixed_terms(model, s.mid_m);
+  // The travel the recording covers stands for the stroke (the spring's mid-stroke).
+  s.stroke_min_m = *std::min_element(s.p.begin(), s.p.end());
+  s.stroke_max_m = *std::max_element(s.p.begin(), s.p.end());
   s.y = P.y_raw;
-  s.y_fixed.resize(s.size());
-  for (std::size_t i = 0; i < s.size(); ++i) s.y_fixed[i] = fixed.force(s, i);
-  s.moving_speed = 0.0;
-  decimate_signals(P, opt.decimation > 0 ? opt.decimation : bandwidth_decimation(P));
+  fixed_force(s, model);
+  // Slow smooth motion has a narrow bandwidth: every held-out segment keeps 100 samples still.
+  const auto keep =
+      static_cast<int>(s.size() / (100 * static_cast<std::size_t>(std::max(3, opt.folds))));
+  decimate_signals(P, opt.decimation > 0
+                          ? opt.decimation
+                          : std::clamp(bandwidth_decimation(P), 1, std::max(1, keep)));
   return P;
 }
 
 // Columns of the decimated axis data are filtered and decimated one by one (parallel
 // filtering, as the benchmark does), so a nonlinear column like sign(q̇) is low-passed too.
-void decimate_columns(Prepared& P, const std::vector<int>& cols) {
+void decimate_columns(Prepared& P, const std::vector<Column>& cols) {
   const std::size_t n = P.full.size(), nd_n = P.id.size();
   P.id_columns.resize(static_cast<Eigen::Index>(nd_n), static_cast<Eigen::Index>(cols.size()));
   std::vector<double> col(n);
-  double row[kNumCols];
   for (std::size_t j = 0; j < cols.size(); ++j) {
-    const std::vector<int> one{cols[j]};
-    for (std::size_t i = 0; i < n; ++i) {
-      fill_row(P.full, i, one, row);
-      col[i] = row[0];
-    }
+    const std::vector<Column> one{cols[j]};
+    for (std::size_t i = 0; i < n; ++i) fill_row(P.full, i, one, &col[i]);
     const auto d = decimate(col, P.decimation, P.fs_hz);
     for (std::size_t i = 0; i < nd_n; ++i)
       P.id_columns(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = d[i];
   }
 }
 
-Grams accumulate_matrix(const Prepared& P, int folds) {
+Grams accumulate_matrix(const Prepared& P, const std::vector<Column>& cols, int folds) {
   Grams g;
-  g.cols = all_columns();
+  g.cols = cols;
   const Signals& s = P.id;
   const std::size_t n = s.size();
   for (int f = 0; f < folds; ++f) {
@@ -556,8 +432,7 @@ Grams accumulate_matrix(const Prepared& P, int folds) {
 
 // Prediction of the fitted extra columns at every sample of `s` (streaming; no matrix).
 std::vector<double> predict(const Signals& s, const Grams& g, const Fit& fit) {
-  std::vector<int> cols;
-  for (int k : fit.idx) cols.push_back(g.cols[k]);
+  const std::vector<Column> cols = columns_at(g, fit.idx);
   std::vector<double> out(s.size()), row(cols.size());
   for (std::size_t i = 0; i < s.size(); ++i) {
     fill_row(s, i, cols, row.data());
@@ -569,7 +444,7 @@ std::vector<double> predict(const Signals& s, const Grams& g, const Fit& fit) {
   return out;
 }
 
-std::vector<double> predict_decimated(const Prepared& P, const Grams& g, const Fit& fit) {
+std::vector<double> predict_decimated(const Prepared& P, const Fit& fit) {
   std::vector<double> out(P.id.size());
   for (std::size_t i = 0; i < out.size(); ++i) {
     double y = P.id.y_fixed[i];
@@ -577,7 +452,6 @@ std::vector<double> predict_decimated(const Prepared& P, const Grams& g, const F
       y += fit.theta[j] * P.id_columns(static_cast<Eigen::Index>(i), fit.idx[j]);
     out[i] = y;
   }
-  (void)g;
   return out;
 }
 
@@ -604,154 +478,26 @@ Errors errors(const std::vector<double>& y, const std::vector<double>& yhat,
 struct Params {
   Parameters values;
   bool plausible = true;
-  std::string why;
 };
 
-Params physical(const std::string& id, const std::vector<int>& cols, const Eigen::VectorXd& c,
-                const Signals& s, const ModelFile& model, const Fit& full, const Grams& g) {
+// The unit's parameters from the fitted coefficients of its columns `idx` (a column left out,
+// because the model already spans it, counts zero), judged by the unit's plausible ranges.
+Params unit_params(const Grams& g, const Variant& var, const std::vector<int>& idx,
+                   const Eigen::VectorXd& theta, const effects::State& totals) {
+  std::vector<double> c(static_cast<std::size_t>(var.effect->axis_columns()), 0.0);
+  for (std::size_t j = 0; j < idx.size(); ++j)
+    c[static_cast<std::size_t>(g.cols[static_cast<std::size_t>(idx[j])].index)] =
+        theta[static_cast<Eigen::Index>(j)];
   Params p;
-  const bool act = s.actuator;
-  auto coef = [&](int col) {
-    for (std::size_t j = 0; j < cols.size(); ++j)
-      if (cols[j] == col) return c[static_cast<Eigen::Index>(j)];
-    return 0.0;
-  };
-  // Value of a baseline quantity: the model file's, or the fitted one when it was unknown.
-  auto base = [&](const char* key, int col) {
-    if (!model.fit.count(key))
-      return key == std::string("nut_mass_kg")         ? model.nut_mass_kg
-             : key == std::string("viscous_n_s_per_m") ? model.viscous_n_s_per_m
-                                                       : model.coulomb_n;
-    const int k = g.index(col);
-    for (std::size_t j = 0; j < full.idx.size(); ++j)
-      if (full.idx[j] == k) return full.theta[static_cast<Eigen::Index>(j)];
-    return 0.0;
-  };
-  if (id == "coulomb_friction") {
-    const double d = coef(kSign);
-    set_parameter(p.values, "coulomb_n", base("coulomb_n", kSign) + d);
-    p.plausible = parameter_value(p.values, "coulomb_n") >= 0;
-  } else if (id == "viscous_friction") {
-    const double d = coef(kVel);
-    const double b = base("viscous_n_s_per_m", kVel);
-    set_parameter(p.values, "viscous_n_s_per_m", b + d);
-    p.plausible = b + d >= 0;
-  } else if (id == "asymmetric_friction") {
-    const double dv = coef(kAbsV), dc = coef(kMoving);
-    auto in_full = [&](int col) {
-      for (std::size_t j = 0; j < full.idx.size(); ++j)
-        if (g.cols[static_cast<std::size_t>(full.idx[j])] == col)
-          return full.theta[static_cast<Eigen::Index>(j)];
-      return 0.0;
-    };
-    // The same fit written as the benchmark's direction-dependent model (no separate offset).
-    const double fc =
-        base("coulomb_n", kSign) + (model.fit.count("coulomb_n") ? 0.0 : in_full(kSign));
-    const double fv = base("viscous_n_s_per_m", kVel) +
-                      (model.fit.count("viscous_n_s_per_m") ? 0.0 : in_full(kVel));
-    const double off = in_full(kOne) + dc;  // constant force in the measured-force domain
-    set_parameter(p.values, "coulomb_pos_n", fc + off);
-    set_parameter(p.values, "coulomb_neg_n", fc - off);
-    set_parameter(p.values, "viscous_pos_n_s_per_m", fv + dv);
-    set_parameter(p.values, "viscous_neg_n_s_per_m", fv - dv);
-  } else if (id == "stribeck_friction") {
-    for (int k = 0; k < 6; ++k)
-      if (!cols.empty() && cols[0] == kStrib0 + k) {
-        set_parameter(p.values, "stribeck_n", coef(kStrib0 + k));
-        set_parameter(p.values, "stribeck_velocity_m_s", kStribeckVel_m_s[k]);
-      }
-    p.plausible = parameter_value(p.values, "stribeck_n") > 0;
-  } else if (id == "offset") {
-    // A force on the moving part along +p: the load cell does not see it (actuator) and the drive
-    // need not supply it (axis), so both measured forces fall by it.
-    set_parameter(p.values, "offset_n", -coef(kOne));
-    (void)act;
-  } else if (id == "spring") {
-    set_parameter(p.values, "spring_n_per_m", coef(kSpring));
-    set_parameter(p.values, "free_position_m", s.mid_m);
-  } else if (id == "mass_error") {
-    const double b = base("nut_mass_kg", kAcc);
-    set_parameter(p.values, "nut_mass_kg", b + coef(kAcc));
-    // A known mass wrong by more than five times itself is not a mass error but something else.
-    p.plausible =
-        b + coef(kAcc) > 0 && (model.fit.count("nut_mass_kg") || std::abs(coef(kAcc)) <= 5 * b);
-  } else if (id == "gain_drift") {
-    set_parameter(p.values, "gain_drift_per_min", coef(kDrift));
-    p.plausible = std::abs(coef(kDrift)) < 1.0;
-  } else if (id == "angle_ripple" || id == "position_ripple") {
-    const bool ang = id == "angle_ripple";
-    const double a = -coef(ang ? kSinTh : kSinP), b = -coef(ang ? kCosTh : kCosP);
-    set_parameter(p.values, "amplitude_n", std::hypot(a, b));
-    set_parameter(p.values, "phase_rad", std::atan2(b, a));
-    if (!ang) set_parameter(p.values, "period_m", s.pos_period_m);
-  } else if (id == "end_effect") {
-    for (int k = 0; k < 6; ++k)
-      if (!cols.empty() && cols[0] == kEnd0 + k) {
-        set_parameter(p.values, "depth", -coef(kEnd0 + k));
-        set_parameter(p.values, "distance_m", kEndDist_m[k]);
-      }
-    const double d = parameter_value(p.values, "depth");
-    p.plausible = d > 0 && d <= 1.0;
-  } else if (id == "backlash") {
-    set_parameter(p.values, "backlash_rad", coef(kBacklash));
-    p.plausible = coef(kBacklash) > 0 && coef(kBacklash) < 0.5;
-  } else if (id == "sensor_delay") {
-    set_parameter(p.values, "delay_s", coef(kDelay));
-    p.plausible = coef(kDelay) > 0 && coef(kDelay) < 0.05;
-  } else if (id == "external_disturbance") {
-    set_parameter(p.values, "amplitude_n", coef(kBurst));
-    p.plausible = coef(kBurst) > 0;
-  } else if (id == "coupling_gain_error") {
-    set_parameter(p.values, "gain_change", coef(kGain));
-  } else if (id == "lead_error") {
-    set_parameter(p.values, "lead_change_m", coef(kLead));
-  }
-  if (!p.plausible) p.why = "implausible sign or size";
+  const auto prm = var.effect->axis_parameters(var.shape, c.data(), totals);
+  p.plausible = prm.has_value() && effects::plausible(*var.effect, *prm);
+  if (prm)
+    for (const auto& [name, v] : *prm) set_parameter(p.values, name, v);
   return p;
 }
 
-std::string where_text(const std::string& id, const Parameters& v, const Signals& s,
-                       const std::vector<std::pair<double, double>>& bursts) {
-  std::ostringstream o;
-  o.precision(3);
-  if (id == "coulomb_friction")
-    o << "a step at every velocity reversal, constant while moving";
-  else if (id == "viscous_friction")
-    o << "grows in proportion to speed";
-  else if (id == "asymmetric_friction")
-    o << "differs between the two directions of motion";
-  else if (id == "stribeck_friction")
-    o << "at low speed, below about " << parameter_value(v, "stribeck_velocity_m_s") * 1e3
-      << " mm/s, after break-away";
-  else if (id == "offset")
-    o << "everywhere, the same in both directions";
-  else if (id == "spring")
-    o << "grows with distance from mid-stroke (" << s.mid_m * 1e3 << " mm)";
-  else if (id == "mass_error")
-    o << "during accelerations";
-  else if (id == "gain_drift")
-    o << "grows over time, in proportion to the coupling force";
-  else if (id == "angle_ripple")
-    o << "once per screw turn (screw angle mod 2π)";
-  else if (id == "position_ripple")
-    o << "every " << s.pos_period_m * 1e3 << " mm of nut travel";
-  else if (id == "end_effect")
-    o << "within " << parameter_value(v, "distance_m") * 1e3 << " mm of the stroke ends";
-  else if (id == "backlash")
-    o << "after each reversal of the screw, in proportion to the coupling stiffness";
-  else if (id == "sensor_delay")
-    o << "in proportion to nut speed times coupling stiffness";
-  else if (id == "external_disturbance") {
-    o << bursts.size() << " isolated pulses at t =";
-    for (std::size_t i = 0; i < std::min<std::size_t>(bursts.size(), 8); ++i)
-      o << (i ? ", " : " ") << bursts[i].first << " s";
-    if (bursts.size() > 8) o << " …";
-  }
-  return o.str();
-}
-
-std::vector<std::pair<double, double>> find_bursts(Signals& s, const std::vector<double>& r0,
-                                                   double fs_hz, double filter_hz) {
+std::vector<std::pair<double, double>> find_bursts(const Signals& s, const std::vector<double>& r0,
+                                                   double fs_hz) {
   // Moving average over 50 ms; isolated excursions far beyond the robust spread, shorter than
   // 0.3 s, are pulses (a longer one is a different misfit, not a disturbance).
   const std::size_t n = s.size();
@@ -774,7 +520,6 @@ std::vector<std::pair<double, double>> find_bursts(Signals& s, const std::vector
     if (s.valid[i]) sample.push_back(m[i]);
   const double sig = robust_sigma(sample);
   std::vector<std::pair<double, double>> out;
-  s.burst.assign(n, 0.0);
   if (!(sig > 0)) return out;
   const double thr = 8.0 * sig;
   for (std::size_t i = 0; i < n;) {
@@ -790,55 +535,10 @@ std::vector<std::pair<double, double>> find_bursts(Signals& s, const std::vector
     }
     std::size_t i0 = i;
     while (i0 > 0 && std::abs(m[i0 - 1]) > 0.5 * thr) --i0;
-    if (static_cast<double>(j - i0) / fs_hz < 0.3) {
-      out.emplace_back(s.t[i0], peak);
-      // The pulse itself: where the smoothed residual is above half its peak (full width at
-      // half maximum of a smoothed rectangle is the rectangle).
-      for (std::size_t k = i0; k < j; ++k)
-        if (std::abs(m[k]) >= 0.5 * std::abs(peak)) s.burst[k] = sgn(peak);  // coefficient: size
-    }
+    if (static_cast<double>(j - i0) / fs_hz < 0.3) out.emplace_back(s.t[i0], peak);
     i = j + 1;
   }
-  // The measured force was low-passed: so is the pulse column (parallel filtering).
-  if (filter_hz > 0 && !out.empty()) s.burst = filtfilt_butter4(s.burst, filter_hz, fs_hz);
   return out;
-}
-
-// Dominant period of the residual against nut position (binned, weighted sine fits).
-double scan_position_period(const Signals& s, const std::vector<double>& r0, double* amp) {
-  double lo = 1e9, hi = -1e9;
-  for (std::size_t i = 0; i < s.size(); ++i)
-    if (s.valid[i]) {
-      lo = std::min(lo, s.p[i]);
-      hi = std::max(hi, s.p[i]);
-    }
-  *amp = 0.0;
-  if (!(hi - lo > 2e-3)) return 0.005;
-  const int nb = std::clamp(static_cast<int>((hi - lo) / 50e-6), 20, 4000);
-  const auto b = bin(s.p, r0, s.valid, lo, hi, nb);
-  double best = 0.0, best_p = 0.005;
-  for (double per = 1e-3; per <= std::min(20e-3, 0.5 * (hi - lo)); per *= 1.005) {
-    // With a straight line beside the sine, so a spring-like trend does not pose as a period.
-    Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
-    Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
-    for (int k = 0; k < nb; ++k) {
-      if (b.count[k] < 1) continue;
-      const double w = std::sqrt(b.count[k]);  // damp bins with many samples a little
-      const Eigen::Vector4d x(1.0, (b.centre[k] - 0.5 * (lo + hi)) / (hi - lo),
-                              std::sin(2 * kPi * b.centre[k] / per),
-                              std::cos(2 * kPi * b.centre[k] / per));
-      a += w * x * x.transpose();
-      rhs += w * x * b.mean[k];
-    }
-    const Eigen::Vector4d c = a.ldlt().solve(rhs);
-    const double amp_k = std::hypot(c[2], c[3]);
-    if (amp_k > best) {
-      best = amp_k;
-      best_p = per;
-    }
-  }
-  *amp = best;
-  return best_p;
 }
 
 // ---------------------------------------------------------------- the axis analysis, in stages
@@ -850,76 +550,66 @@ struct AxisRun {
   Prepared P;
   Signals* S = nullptr;  // P.id when decimated, else P.full (no copy: an hour is 3.6 M samples)
   int folds = 3;
-  std::vector<int> base_cols;         // baseline terms whose values are unknown (fit = true)
+  Candidates cand;                    // every column the units give an axis
+  std::vector<int> base_cols;         // baseline totals whose values are unknown (fit = [...])
   std::set<std::string> in_baseline;  // effects the model has already: not candidates again
   std::vector<std::pair<double, double>> bursts;
   Grams g;
   double yy_total = 0, n_total = 0;
   AxisRun(const Recording& r, const ModelFile& m, const AnalysisOptions& o)
-      : rec(r), model(m), opt(o) {}
+      : rec(r), model(m), opt(o), cand(candidate_columns(Form::axis, {})) {}
   void progress(const std::string& stage, double f) const {
     if (opt.progress) opt.progress(stage, f);
   }
 };
 
+// A total the model file leaves to the fit is the column of the unit that states it.
 void baseline_columns(AxisRun& run) {
-  const auto& fit = run.model.fit;
-  if (fit.count("nut_mass_kg")) run.base_cols.push_back(kAcc), run.in_baseline.insert("mass_error");
-  if (fit.count("viscous_n_s_per_m"))
-    run.base_cols.push_back(kVel), run.in_baseline.insert("viscous_friction");
-  if (fit.count("coulomb_n"))
-    run.base_cols.push_back(kSign), run.in_baseline.insert("coulomb_friction");
+  for (const auto& total : run.model.fit) {
+    const effects::Effect* e = effect_of_total(total);
+    const Variant* v = e ? run.cand.of(e) : nullptr;
+    if (!v) throw std::invalid_argument("model: no effect states the total '" + total + "'");
+    run.base_cols.insert(run.base_cols.end(), v->idx.begin(), v->idx.end());
+    run.in_baseline.insert(std::string(e->id()));
+  }
   // Terms the model already has are not candidates again (their values are taken as given).
   for (const auto& t : run.model.terms)
     if (t.enabled) run.in_baseline.insert(t.id);
 }
 
-std::vector<int> indices(const Grams& g, const std::vector<int>& cols) {
-  std::vector<int> idx;
-  idx.reserve(cols.size());
-  for (int c : cols) idx.push_back(g.index(c));
-  return idx;
+std::vector<double> predict_any(const AxisRun& run, const Fit& fit) {
+  return run.P.decimated ? predict_decimated(run.P, fit) : predict(*run.S, run.g, fit);
 }
 
-std::vector<double> predict_any(const AxisRun& run, const Grams& g, const Fit& fit) {
-  return run.P.decimated ? predict_decimated(run.P, g, fit) : predict(*run.S, g, fit);
-}
-
-// The baseline fit alone first: its residual is where the detectors look (the position ripple's
-// period, isolated pulses); both become columns of the selection.
-void locate_structure(AxisRun& run) {
-  Signals& S = *run.S;
-  std::vector<double> r0(S.size()), r_scan(S.size());
-  // The friction terms every drive has (Coulomb, offset, direction-dependent) dwarf a position
-  // ripple in the baseline residual: the ripple's period is looked for once they are out.
-  std::vector<int> rich = run.base_cols;
-  for (int c : {kSign, kOne, kAbsV, kMoving, kVel})
-    if (std::find(rich.begin(), rich.end(), c) == rich.end()) rich.push_back(c);
-  Grams gb;
-  if (run.P.decimated) {
-    decimate_columns(run.P, all_columns());
-    gb = accumulate_matrix(run.P, run.folds);
-  } else {
-    gb = accumulate(S, rich, run.folds, [&](double f) { run.progress("baseline", f); });
+// The totals the fitted parameters are differences from: the model file's, the fitted ones
+// where the file leaves them to the fit, and a total found by the selection (Coulomb friction
+// found on an axis), as the units that state them give them; `except`'s own is left out (its
+// parameter is that total).
+effects::State fitted_totals(const AxisRun& run, const Fit& fit,
+                             const effects::Effect* except = nullptr) {
+  effects::State s = model_totals(run.model);
+  s.stroke_min_m = run.S->stroke_min_m;
+  s.stroke_max_m = run.S->stroke_max_m;
+  for (std::size_t j = 0; j < fit.idx.size(); ++j) {
+    const Column& c = run.g.cols[static_cast<std::size_t>(fit.idx[j])];
+    const std::string total = total_of(*c.effect);
+    if (total.empty() || c.effect == except) continue;
+    const double coef = fit.theta[static_cast<Eigen::Index>(j)];
+    if (const auto p = c.effect->axis_parameters(c.shape, &coef, s))
+      *total_field(s, total) = p->at(total);
   }
-  const auto yb = predict_any(run, gb, fit_all(gb, indices(gb, run.base_cols)));
-  const auto yr = predict_any(run, gb, fit_all(gb, indices(gb, rich)));
-  for (std::size_t i = 0; i < S.size(); ++i) r0[i] = S.y[i] - yb[i], r_scan[i] = S.y[i] - yr[i];
-  double pos_amp = 0;
-  S.pos_period_m = scan_position_period(S, r_scan, &pos_amp);
-  run.P.full.pos_period_m = S.pos_period_m;
-  run.bursts = find_bursts(S, r0, run.P.fs_hz / run.P.decimation, 0.0);
-  if (run.P.decimated) {
-    run.P.full.burst.assign(run.P.full.size(), 0.0);
-    decimate_columns(run.P, all_columns());  // now with the period and the bursts
-  }
+  return s;
 }
 
-// One pass: per-segment Grams of every column.
+// One pass: per-segment Grams of every column (decimated: each column filtered first).
 void accumulate_all(AxisRun& run) {
-  run.g = run.P.decimated ? accumulate_matrix(run.P, run.folds)
-                          : accumulate(*run.S, all_columns(), run.folds,
-                                       [&](double f) { run.progress("gram", f); });
+  if (run.P.decimated) {
+    decimate_columns(run.P, run.cand.cols);
+    run.g = accumulate_matrix(run.P, run.cand.cols, run.folds);
+  } else {
+    run.g =
+        accumulate(*run.S, run.cand.cols, run.folds, [&](double f) { run.progress("gram", f); });
+  }
   for (std::size_t f = 0; f < run.g.folds(); ++f) {
     run.yy_total += run.g.yy[f];
     run.n_total += static_cast<double>(run.g.n[f]);
@@ -929,24 +619,34 @@ void accumulate_all(AxisRun& run) {
                                 ": fewer than 100 usable samples (the axis hardly moves)");
 }
 
+// Isolated pulses in the baseline fit's residual: events (a force no input explains).
+void locate_pulses(AxisRun& run) {
+  const Signals& S = *run.S;
+  const auto yb = predict_any(run, fit_all(run.g, run.base_cols));
+  std::vector<double> r0(S.size());
+  for (std::size_t i = 0; i < S.size(); ++i) r0[i] = S.y[i] - yb[i];
+  run.bursts = find_bursts(S, r0, run.P.fs_hz / run.P.decimation);
+}
+
 // ---------------------------------------------------------------- forward selection
 struct Chosen {
-  std::string id;
-  std::vector<int> cols;  // kinds
+  const Variant* var;
+  std::vector<int> idx;  // its columns in the fit (those the model did not span already)
   double gain_pct, t_stat, improvement_pct;
   int folds_improved;
   std::vector<Alternative> alternatives;
   std::string note;
   double explained_n = 0, worst = 0;
+  std::string id() const { return std::string(var->effect->id()); }
 };
 
 struct Trial {
-  std::string id;
-  std::vector<int> cols;
+  const Variant* var = nullptr;
+  std::vector<int> idx;
   Score sc;
   double gain = 0, t = 0, worst = 0;  // worst: the worst segment's relative gain [%]
   int improved = 0;
-  std::size_t ncols = 0;
+  std::string id() const { return std::string(var->effect->id()); }
 };
 
 struct Selected {
@@ -967,29 +667,37 @@ ValidationStep validation_step(const AxisRun& run, const std::string& name, cons
                         100.0 * std::sqrt(in / run.yy_total)};
 }
 
-// The candidate's best plausible variant by held-out error (nothing if none is plausible).
-std::optional<Trial> best_variant(const AxisRun& run, const Candidate& cand,
+// A variant's columns the data can tell from the model and from each other: a column the rest
+// already spans (the constant part of direction-dependent friction once an offset is in) adds
+// nothing and is left out.
+std::vector<int> new_columns(const Grams& g, const Variant& var, const std::vector<int>& current) {
+  std::vector<int> kept;
+  for (int c : var.idx) {
+    const auto others = with(current, kept);
+    if (others.empty() || partial_r2(g, {}, {c}, Eigen::VectorXd::Ones(1), others) < 0.999)
+      kept.push_back(c);
+  }
+  return kept;
+}
+
+// The effect's best plausible variant by held-out error (nothing if none is plausible).
+std::optional<Trial> best_variant(const AxisRun& run, const effects::Effect* e,
                                   const std::vector<int>& current) {
   const Grams& g = run.g;
   Trial best;
   best.sc.total = INFINITY;
-  for (const auto& var_all : cand.variants) {
-    // Columns the model already spans (the constant part of direction-dependent friction
-    // once an offset is in) add nothing the data can tell apart: leave them out.
-    std::vector<int> var;
-    for (int c : var_all)
-      if (current.empty() ||
-          partial_r2(g, {}, {g.index(c)}, Eigen::VectorXd::Ones(1), current) < 0.999)
-        var.push_back(c);
-    if (var.empty()) continue;
-    std::vector<int> idx = current;
-    for (int c : var) idx.push_back(g.index(c));
+  for (const auto& var : run.cand.variants) {
+    if (var.effect != e) continue;
+    const std::vector<int> cols = new_columns(g, var, current);
+    if (cols.empty()) continue;
+    const auto idx = with(current, cols);
     Score sc = heldout(g, idx);
     const Fit f = fit_all(g, idx);
-    Eigen::VectorXd cv = f.theta.tail(static_cast<Eigen::Index>(var.size()));
-    const Params pp = physical(cand.id, var, cv, *run.S, run.model, f, g);
+    const Params pp =
+        unit_params(g, var, cols, f.theta.tail(static_cast<Eigen::Index>(cols.size())),
+                    fitted_totals(run, f, e));
     if (!pp.plausible) continue;  // a term must make physical sense to explain anything
-    if (sc.total < best.sc.total) best = Trial{cand.id, var, sc, 0, 0, 0, 0, var.size()};
+    if (sc.total < best.sc.total) best = Trial{&var, cols, sc, 0, 0, 0, 0};
   }
   if (!std::isfinite(best.sc.total)) return std::nullopt;
   return best;
@@ -1009,14 +717,18 @@ void score_trial(Trial& t, const Score& cur) {
   t.gain = 100.0 * (cur.total - t.sc.total) / cur.total;
 }
 
-std::vector<Trial> trials_of(const AxisRun& run, const std::vector<Candidate>& library,
-                             const std::set<std::string>& used, const std::vector<int>& current,
-                             const Score& cur) {
+// A candidate: an axis law the selection may take and has not taken yet.
+bool usable(const effects::Effect* e, const std::set<std::string>& used) {
+  return e->on_axis() && e->selectable() && e->axis_columns() > 0 &&
+         !used.count(std::string(e->id()));
+}
+
+std::vector<Trial> trials_of(const AxisRun& run, const std::set<std::string>& used,
+                             const std::vector<int>& current, const Score& cur) {
   std::vector<Trial> trials;
-  for (const auto& cand : library) {
-    if (!cand.selectable || used.count(cand.id) || cand.actuator_only) continue;
-    if (cand.id == "external_disturbance" && run.bursts.size() < 2) continue;
-    auto best = best_variant(run, cand, current);
+  for (const effects::Effect* e : effects::library()) {
+    if (!usable(e, used)) continue;
+    auto best = best_variant(run, e, current);
     if (!best) continue;
     score_trial(*best, cur);
     trials.push_back(std::move(*best));
@@ -1034,9 +746,9 @@ double explained_n(const AxisRun& run, const Score& cur, const Trial& tr) {
 
 // Significant: a real share of the held-out error, consistent over the segments, and larger
 // than the force sensor's own noise per sample (below that a "term" only fits the small
-// structure every model leaves: quantization, filter edges). A localized effect (pulses)
-// improves only the segments where it occurs: a large total gain that makes no segment worse
-// counts as consistent too.
+// structure every model leaves: quantization, filter edges). A localized effect improves only
+// the segments where it occurs: a large total gain that makes no segment worse counts as
+// consistent too.
 bool significant(const AxisRun& run, const Score& cur, const Trial& tr) {
   const auto& opt = run.opt;
   const bool consistent =
@@ -1052,81 +764,76 @@ std::size_t parsimony_pick(const AxisRun& run, const std::vector<Trial>& trials,
   const Grams& g = run.g;
   for (std::size_t k = 1; k < trials.size(); ++k) {
     const auto& a = trials[k];
-    if (!significant(run, cur, a) || a.ncols >= trials[0].ncols || a.gain < 0.5 * trials[0].gain)
+    if (!significant(run, cur, a) || a.idx.size() >= trials[0].idx.size() ||
+        a.gain < 0.5 * trials[0].gain)
       continue;
-    const std::vector<int> aidx = indices(g, a.cols);
-    std::vector<int> with = current;
-    with.insert(with.end(), aidx.begin(), aidx.end());
-    const Eigen::VectorXd wa = fit_all(g, with).theta.tail(static_cast<Eigen::Index>(aidx.size()));
-    if (partial_r2(g, current, aidx, wa, indices(g, trials[0].cols)) > 0.98) return k;
+    const Eigen::VectorXd wa =
+        fit_all(g, with(current, a.idx)).theta.tail(static_cast<Eigen::Index>(a.idx.size()));
+    if (partial_r2(g, current, a.idx, wa, trials[0].idx) > 0.98) return k;
   }
   return 0;
 }
 
 // Identifiability: other candidates reproducing the chosen term's contribution are named with it.
-std::vector<Alternative> alternatives_of(const AxisRun& run, const std::vector<Candidate>& library,
-                                         const std::set<std::string>& used, const Trial& tr,
-                                         const std::vector<int>& current) {
+std::vector<Alternative> alternatives_of(const AxisRun& run, const std::set<std::string>& used,
+                                         const Trial& tr, const std::vector<int>& current) {
   const Grams& g = run.g;
-  std::vector<int> idx = current;
-  const std::vector<int> tidx = indices(g, tr.cols);
-  idx.insert(idx.end(), tidx.begin(), tidx.end());
-  const Eigen::VectorXd w = fit_all(g, idx).theta.tail(static_cast<Eigen::Index>(tr.cols.size()));
+  const Eigen::VectorXd w =
+      fit_all(g, with(current, tr.idx)).theta.tail(static_cast<Eigen::Index>(tr.idx.size()));
   std::vector<Alternative> out;
-  for (const auto& cand : library) {
-    if (cand.id == tr.id || cand.actuator_only || used.count(cand.id)) continue;
-    double best_r2 = 0;
-    std::vector<int> best_var;
-    for (const auto& var : cand.variants) {
-      const double r2 = partial_r2(g, current, tidx, w, indices(g, var));
-      if (r2 > best_r2) best_r2 = r2, best_var = var;
-    }
+  for (const effects::Effect* e : effects::library()) {
+    if (e == tr.var->effect || !usable(e, used)) continue;
+    const auto [best_var, best_r2] = best_reproducing(g, run.cand, e, current, tr.idx, w);
     if (best_r2 <= 0.9) continue;
-    std::vector<int> aidx = current;
-    for (int c : best_var) aidx.push_back(g.index(c));
-    const Fit fa = fit_all(g, aidx);
+    const std::vector<int> cols = new_columns(g, *best_var, current);
+    const Fit fa = fit_all(g, with(current, cols));
     const Params pa =
-        physical(cand.id, best_var, fa.theta.tail(static_cast<Eigen::Index>(best_var.size())),
-                 *run.S, run.model, fa, g);
-    out.push_back({cand.id, pa.values, 100.0 * best_r2, pa.plausible});
+        unit_params(g, *best_var, cols, fa.theta.tail(static_cast<Eigen::Index>(cols.size())),
+                    fitted_totals(run, fa, e));
+    out.push_back({std::string(e->id()), pa.values, 100.0 * best_r2, pa.plausible});
   }
   return out;
 }
 
+// The chosen trial with what it explains, its alternatives and the model it leaves.
+Chosen take(const AxisRun& run, Selected& sel, const std::vector<Trial>& trials, std::size_t pick,
+            const std::set<std::string>& used, Score& cur) {
+  const Trial& tr = trials[pick];
+  Chosen ch{tr.var,  tr.idx, tr.gain, tr.t, 0, tr.improved, {}, "", explained_n(run, cur, tr),
+            tr.worst};
+  ch.alternatives = alternatives_of(run, used, tr, sel.current);
+  sel.current.insert(sel.current.end(), tr.idx.begin(), tr.idx.end());
+  const Score next = heldout(run.g, sel.current);
+  ch.improvement_pct = 100.0 * (1.0 - std::sqrt(next.total / cur.total));
+  if (pick != 0)
+    ch.note =
+        "chosen before '" + trials[0].id() + "', which contains it: the simpler explanation first";
+  cur = next;
+  sel.validation.push_back(validation_step(run, "+ " + tr.id(), cur, sel.current));
+  return ch;
+}
+
 Selected select_terms(const AxisRun& run) {
-  const auto library = candidate_library();
   Selected sel;
-  sel.current = indices(run.g, run.base_cols);
+  sel.current = run.base_cols;
   Score cur = heldout(run.g, sel.current);
   sel.base_heldout = cur.total;
   sel.validation.push_back(validation_step(run, "baseline", cur, sel.current));
   std::set<std::string> used(run.in_baseline.begin(), run.in_baseline.end());
   for (int step = 0; step < run.opt.max_terms; ++step) {
     run.progress("selection", static_cast<double>(step) / run.opt.max_terms);
-    const auto trials = trials_of(run, library, used, sel.current, cur);
+    const auto trials = trials_of(run, used, sel.current, cur);
     if (trials.empty()) break;
     if (!significant(run, cur, trials.front())) {
       const auto& tb = trials.front();
-      sel.rejected.push_back({tb.id, tb.gain, tb.t, tb.worst, explained_n(run, cur, tb),
+      sel.rejected.push_back({tb.id(), tb.gain, tb.t, tb.worst, explained_n(run, cur, tb),
                               "best remaining candidate, below the significance threshold",
                               std::nullopt});
       break;
     }
     const std::size_t pick = parsimony_pick(run, trials, sel.current, cur);
-    const Trial& tr = trials[pick];
-    Chosen ch{tr.id,   tr.cols, tr.gain, tr.t, 0, tr.improved, {}, "", explained_n(run, cur, tr),
-              tr.worst};
-    ch.alternatives = alternatives_of(run, library, used, tr, sel.current);
-    for (int c : tr.cols) sel.current.push_back(run.g.index(c));
-    const Score next = heldout(run.g, sel.current);
-    ch.improvement_pct = 100.0 * (1.0 - std::sqrt(next.total / cur.total));
-    if (pick != 0)
-      ch.note =
-          "chosen before '" + trials[0].id + "', which contains it: the simpler explanation first";
-    sel.chosen.push_back(ch);
-    used.insert(tr.id);
-    cur = next;
-    sel.validation.push_back(validation_step(run, "+ " + tr.id, cur, sel.current));
+    sel.chosen.push_back(take(run, sel, trials, pick, used, cur));
+    used.insert(trials[pick].id());
   }
   run.progress("selection", 1.0);
   return sel;
@@ -1144,9 +851,9 @@ Predictions predictions(AxisRun& run, const Selected& sel) {
   const Grams& g = run.g;
   Signals& S = *run.S;
   p.final_fit = fit_all(g, sel.current);
-  p.base_fit = fit_all(g, indices(g, run.base_cols));
-  p.yb = predict_any(run, g, p.base_fit);
-  p.yf = predict_any(run, g, p.final_fit);
+  p.base_fit = fit_all(g, run.base_cols);
+  p.yb = predict_any(run, p.base_fit);
+  p.yf = predict_any(run, p.final_fit);
   p.eb = errors(S.y, p.yb, S.valid);
   p.ef = errors(S.y, p.yf, S.valid);
   // Full rate: raw force against the model evaluated on every sample (undecimated).
@@ -1181,28 +888,19 @@ void describe_method(Findings& J, const AxisRun& run) {
   J.noise_floor_n = run.P.noise_floor_n;
 }
 
-// The baseline's unknown values (fit = true) as the fit gives them.
+// The baseline's unknown totals (fit = [...]) as the fit gives them.
 Parameters fitted_base(const AxisRun& run, const Fit& fit) {
+  effects::State s = fitted_totals(run, fit);
   Parameters b;
-  for (const int c : run.base_cols) {
-    double v = 0;
-    for (std::size_t k = 0; k < fit.idx.size(); ++k)
-      if (fit.idx[k] == run.g.index(c)) v = fit.theta[static_cast<Eigen::Index>(k)];
-    set_parameter(b,
-                  c == kAcc    ? "nut_mass_kg"
-                  : c == kVel  ? "viscous_n_s_per_m"
-                  : c == kSign ? "coulomb_n"
-                               : "offset_n",
-                  v);
-  }
+  for (const auto& total : run.model.fit) set_parameter(b, total, *total_field(s, total));
   return b;
 }
 
 EffectFinding finding_of(const AxisRun& run, const Chosen& ch, const Params& pp) {
   EffectFinding e;
-  e.id = ch.id;
+  e.id = ch.id();
   e.parameters = pp.values;
-  e.where = where_text(ch.id, pp.values, *run.S, run.bursts);
+  e.where = "all samples; the missing force follows " + std::string(ch.var->effect->law());
   e.evidence.heldout_gain_pct = ch.gain_pct;
   e.evidence.t_stat = ch.t_stat;
   e.evidence.segments_improved =
@@ -1215,7 +913,7 @@ EffectFinding finding_of(const AxisRun& run, const Chosen& ch, const Params& pp)
   e.identifiable = ch.alternatives.empty();
   if (!ch.alternatives.empty()) {
     e.alternatives = ch.alternatives;
-    std::string names = ch.id;
+    std::string names = e.id;
     for (const auto& a : ch.alternatives) names += " or " + a.id;
     e.finding = "one combined finding: the data cannot tell " + names + " apart";
   }
@@ -1238,10 +936,10 @@ void fill_findings(Findings& J, const AxisRun& run, const Selected& sel, const P
   std::size_t off = run.base_cols.size();
   for (const auto& ch : sel.chosen) {
     const Eigen::VectorXd c = p.final_fit.theta.segment(static_cast<Eigen::Index>(off),
-                                                        static_cast<Eigen::Index>(ch.cols.size()));
-    off += ch.cols.size();
-    J.effects.push_back(
-        finding_of(run, ch, physical(ch.id, ch.cols, c, *run.S, run.model, p.final_fit, run.g)));
+                                                        static_cast<Eigen::Index>(ch.idx.size()));
+    off += ch.idx.size();
+    const effects::State totals = fitted_totals(run, p.final_fit, ch.var->effect);
+    J.effects.push_back(finding_of(run, ch, unit_params(run.g, *ch.var, ch.idx, c, totals)));
   }
   J.nothing_missing = sel.chosen.empty();
   J.conclusion =
@@ -1432,7 +1130,7 @@ Onsets reversals(const Signals& S) {
   Onsets rev;
   double last_dir = 0;
   for (std::size_t i = 0; i < S.size(); ++i) {
-    const double d = std::abs(S.v[i]) > std::max(S.moving_speed, 1e-6) ? sgn(S.v[i]) : 0.0;
+    const double d = std::abs(S.v[i]) > 1e-6 ? sgn(S.v[i]) : 0.0;
     if (d != 0 && last_dir != 0 && d != last_dir) rev.emplace_back(i, d);
     if (d != 0) last_dir = d;
   }
@@ -1523,62 +1221,32 @@ std::string term_note(const EffectFinding& e) {
   return note.str();
 }
 
-// One finding into the model: baseline values or a term in the model file's form.
-void apply_finding(ModelFile& M, const EffectFinding& e, bool& has_asym) {
-  const std::string& id = e.id;
-  auto val = [&](const char* k) { return parameter_value(e.parameters, k); };
-  auto add = [&](const std::vector<std::pair<std::string, double>>& kv) {
-    auto& t = M.term(id);
-    t.enabled = true;
-    t.note = term_note(e);
-    for (const auto& [k, v] : kv) t.set(k, v);
-  };
-  if (id == "mass_error")
-    M.nut_mass_kg = val("nut_mass_kg");
-  else if (id == "coulomb_friction")
-    M.coulomb_n = val("coulomb_n");
-  else if (id == "viscous_friction")
-    M.viscous_n_s_per_m = val("viscous_n_s_per_m");
-  else if (id == "asymmetric_friction") {
-    // The benchmark's direction-dependent form: it already holds any constant force, so a
-    // separate offset finding is not written beside it.
-    add({{"coulomb_pos_n", val("coulomb_pos_n")},
-         {"coulomb_neg_n", val("coulomb_neg_n")},
-         {"viscous_pos_n_s_per_m", val("viscous_pos_n_s_per_m")},
-         {"viscous_neg_n_s_per_m", val("viscous_neg_n_s_per_m")}});
-    std::erase_if(M.terms, [](const ModelTerm& t) { return t.id == "offset"; });
-    has_asym = true;
-  } else if (id == "offset" && !has_asym)
-    add({{"offset_n", val("offset_n")}});
-  else if (id == "stribeck_friction")
-    add({{"breakaway_n", M.coulomb_n + val("stribeck_n")},
-         {"coulomb_n", M.coulomb_n},
-         {"stribeck_velocity_m_s", val("stribeck_velocity_m_s")}});
-  else if (id == "spring")
-    add({{"stiffness_n_per_m", val("spring_n_per_m")},
-         {"rest_position_m", val("free_position_m")}});
-  else if (id == "position_ripple")
-    add({{"amplitude_n", val("amplitude_n")},
-         {"period_m", val("period_m")},
-         {"phase_rad", val("phase_rad")}});
+// One finding into the model, in the unit's file form: a total the model file holds itself
+// (mass, viscous or Coulomb friction) becomes that value, any other effect a term with the
+// unit's parameters.
+void apply_finding(ModelFile& M, const EffectFinding& e) {
+  const effects::Effect* unit = effects::find(e.id);
+  if (const auto total = unit ? total_of(*unit) : std::string(); !total.empty()) {
+    *total_field(M, total) = parameter_value(e.parameters, total);
+    return;
+  }
+  auto& t = M.term(e.id);
+  t.enabled = true;
+  t.note = term_note(e);
+  for (const auto& p : e.parameters) t.set(p.name, p.value);
 }
 
 ModelFile corrected_model(const AxisRun& run, const Findings& J, const Fit& final_fit) {
   ModelFile M = run.model;
   M.fit.clear();  // the corrected model is a model: every value fixed, as fitted here
-  for (const auto& [name, value, is_count] : fitted_base(run, final_fit)) {
-    if (name == "nut_mass_kg") M.nut_mass_kg = value;
-    if (name == "viscous_n_s_per_m") M.viscous_n_s_per_m = value;
-    if (name == "coulomb_n") M.coulomb_n = value;
-  }
-  bool has_asym = false;
-  for (const auto& e : J.effects) apply_finding(M, e, has_asym);
+  for (const auto& p : fitted_base(run, final_fit)) *total_field(M, p.name) = p.value;
+  for (const auto& e : J.effects) apply_finding(M, e);
   M.source = (run.model.source.empty() ? std::string("baseline") : run.model.source) +
              "; corrected by maglead analyze from " + run.rec.path;
   return M;
 }
 
-// A force-driven axis (EMPS): prepare → locate → select → findings, maps, corrected model.
+// A force-driven axis (EMPS): prepare → columns → select → findings, maps, corrected model.
 AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
                             const AnalysisOptions& opt) {
   AxisRun run(rec, model, opt);
@@ -1588,8 +1256,8 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   run.folds = std::max(3, opt.folds);
   run.progress("prepare", 1.0);
   baseline_columns(run);
-  locate_structure(run);
   accumulate_all(run);
+  locate_pulses(run);
   const Selected sel = select_terms(run);
   const Predictions p = predictions(run, sel);
   AnalysisResult R;

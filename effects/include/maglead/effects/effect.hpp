@@ -71,6 +71,21 @@ class Effect {
   virtual bool friction() const { return false; }
   /// False for effects the analysis only names as an alternative (identifiability).
   virtual bool selectable() const { return true; }
+
+  // ---- the same law on a force-driven axis (a drive's force from measured motion, EMPS-like):
+  // no magnetic coupling and no load cell, but every sample, sliding or slow, is in the fit.
+  /// False where the law needs the coupling, the screw angle or the load cell.
+  virtual bool on_axis() const { return true; }
+  /// The axis fits the law in these columns: by default the nut's, a unit overrides them where
+  /// the drive's force resolves more of its law (viscous friction per direction).
+  virtual int axis_columns() const { return columns(); }
+  virtual void axis_regressors(double shape, const State& s, double* x) const {
+    regressors(shape, s, x);
+  }
+  virtual std::optional<Params> axis_parameters(double shape, const double* c,
+                                                const State& model) const {
+    return parameters(shape, c, model);
+  }
 };
 
 /// Every effect, in the order the analysis prefers among explanations it cannot tell apart.
