@@ -232,6 +232,7 @@ TEST_P(NoDriftControl, NoWarningOnMoves) {
       << drift_message(r.at_drift) << " at " << r.first_drift_s;
   if (c.compared) {
     EXPECT_EQ(r.last.drift_observability, DriftObservability::tracking) << "nothing compared";
+    EXPECT_TRUE(std::isfinite(r.last.drift_now.zero_load_n)) << "no figures: nothing judged";
   } else {
     EXPECT_NE(r.last.drift_observability, DriftObservability::tracking) << "now compared: update";
   }
