@@ -189,7 +189,11 @@ void FreeMoveDrift::update_block(double t) noexcept {
       }
       base_.freeze(ref_theta_);
     }
+    return;
   }
+  // Judged every block on the passes completed so far, so that the sustain time is measured in
+  // time, not in pass ends (a pass may last seconds).
+  evaluate(t);
 }
 
 /// A pass ends (the condition changed or the known-force stretch ended): before the reference
