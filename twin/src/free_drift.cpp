@@ -79,7 +79,9 @@ ConditionBaselines::Estimate ConditionBaselines::estimate(double known_s,
                                                           double memory_s) const noexcept {
   // Until three pass-to-pass differences are measured the scatter is unknown: the change is
   // given without its standard error.
-  return pooled(known_s, memory_s, diffs_ >= 3 ? diff2_ / diffs_ : 0.0);
+  Estimate e = pooled(known_s, memory_s, diffs_ >= 3 ? diff2_ / diffs_ : 0.0);
+  e.scatter_measured = diffs_ >= 3 && diff2_ > 0;
+  return e;
 }
 
 /// DerSimonian–Laird: conditions weighted by 1 / (their variance + the between-condition one).
@@ -248,7 +250,10 @@ void FreeMoveDrift::evaluate(double t) noexcept {
   // standard errors and beyond the minimum worth a warning. An estimate too imprecise to resolve
   // the minimum is still judged (its own margin is the larger one): a fast drift inflates the
   // standard errors while it runs, and refusing to judge then would hide exactly that drift.
-  if (!std::isfinite(f.zero_load_n) || !std::isfinite(f.zero_load_se_n) ||
+  // Not judged before the scatter between passes of one condition is measured: the blocks'
+  // scatter alone misses how much passes differ (live, the first passes' baselines made the
+  // largest no-drift statistics).
+  if (!e.scatter_measured || !std::isfinite(f.zero_load_n) || !std::isfinite(f.zero_load_se_n) ||
       (f.separable && !std::isfinite(f.rated_se_n))) {
     cond_since_ = kNaN;
     return;

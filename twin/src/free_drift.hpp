@@ -38,6 +38,7 @@ class ConditionBaselines {
     double change_n = std::numeric_limits<double>::quiet_NaN();  // along the motion, zero load
     double se_n = std::numeric_limits<double>::quiet_NaN();
     int conditions = 0;
+    bool scatter_measured = false;  // three pass-to-pass differences seen: se_n means something
   };
   void clear() noexcept;
   /// A pass before the reference residual can be formed: its means go into the baseline sums.
