@@ -33,12 +33,12 @@ void ConditionBaselines::clear() noexcept {
 }
 
 /// Octaves of speed (factor-2 wide, so no speed scale of one actuator is built in), per direction.
-int ConditionBaselines::cell_of(int dir, double speed_m_per_s) noexcept {
+int ConditionBaselines::cell_of(int dir, double speed_m_per_s, bool declared) noexcept {
   const double v = std::abs(speed_m_per_s);
   const int oct =
       v > 0 ? std::clamp(static_cast<int>(std::floor(std::log2(v))) + kOctaves - 4, 0, kOctaves - 1)
             : 0;
-  return (dir > 0 ? kOctaves : 0) + oct;
+  return (declared ? 2 * kOctaves : 0) + (dir > 0 ? kOctaves : 0) + oct;
 }
 
 void ConditionBaselines::add_reference(int cell, const std::array<double, 5>& x_mean,
@@ -57,7 +57,7 @@ void ConditionBaselines::freeze(const std::array<double, 5>& theta) noexcept {
 
 void ConditionBaselines::add(int cell, double r, double known_s, double memory_s) noexcept {
   Cell& c = cells_[cell];
-  const double dir = cell >= kOctaves ? 1.0 : -1.0;
+  const double dir = dir_of(cell);
   // The change common to all conditions since this one's last pass is taken out of the
   // successive difference: a drift is not scatter.
   const double common = pooled(known_s, memory_s, 0.0).change_n;
@@ -89,13 +89,13 @@ ConditionBaselines::Estimate ConditionBaselines::estimate(double known_s,
 /// alone (the mean is the same for any common scale) and no standard error is given.
 ConditionBaselines::Estimate ConditionBaselines::pooled(double known_s, double memory_s,
                                                         double s2) const noexcept {
-  std::array<double, 2 * kOctaves> d{}, v{};
+  std::array<double, kCells> d{}, v{};
   int k = 0;
-  for (int i = 0; i < 2 * kOctaves; ++i) {
+  for (int i = 0; i < kCells; ++i) {
     const Cell& c = cells_[i];
     // Seen within the memory: a condition last met long ago says what the drift was then.
     if (c.w <= 0 || known_s - c.at_s > memory_s) continue;
-    d[k] = (i >= kOctaves ? 1.0 : -1.0) * (c.sum / c.w - c.ref_r);
+    d[k] = dir_of(i) * (c.sum / c.w - c.ref_r);
     v[k] = (s2 > 0 ? s2 : 1.0) * (1.0 / c.ref_n + c.w2 / (c.w * c.w));
     ++k;
   }
@@ -140,8 +140,8 @@ DriftObservability FreeMoveDrift::observability() const noexcept {
 /// (an offset, a constant load: c), a viscous mismatch (a dashpot load: γ v) and a force along
 /// the stroke (a spring, a cable chain: κ p) are nuisance terms; what stays constant is taken up
 /// by the reference. Averaged in blocks of block_s.
-void FreeMoveDrift::add(double t, double dt, double u, double y, int dir, double vel,
-                        double pos_m) noexcept {
+void FreeMoveDrift::add(double t, double dt, double u, double y, int dir, double vel, double pos_m,
+                        bool declared) noexcept {
   if (block_n_ == 0) {
     block_x_.fill(0.0);
     block_z_ = block_t_ = block_dt_ = 0.0;
@@ -152,6 +152,7 @@ void FreeMoveDrift::add(double t, double dt, double u, double y, int dir, double
   block_z_ += u - y;
   block_t_ += t;
   block_dt_ += dt;
+  block_declared_ = declared;
   ++block_n_;
   if (block_dt_ + 0.5 * dt >= s_.block_s) update_block(t);
 }
@@ -167,7 +168,8 @@ void FreeMoveDrift::update_block(double t) noexcept {
   const double z = block_z_ / n, tm = block_t_ / n, span = block_dt_;
   block_n_ = 0;
   known_s_ += span;
-  const int cell = ConditionBaselines::cell_of(block_x_[1] > 0 ? 1 : -1, block_x_[3] / 100.0);
+  const int cell =
+      ConditionBaselines::cell_of(block_x_[1] > 0 ? 1 : -1, block_x_[3] / 100.0, block_declared_);
   if (pass_n_ > 0 && cell != pass_cell_) end_pass(t);
   if (pass_n_ == 0) pass_x_.fill(0.0), pass_z_ = pass_s_ = 0.0, pass_cell_ = cell;
   for (int i = 0; i < kP; ++i) pass_x_[i] += block_x_[i];

@@ -33,7 +33,8 @@ struct FreeDriftSettings {
 /// between conditions widens the error bar instead of moving the estimate.
 class ConditionBaselines {
  public:
-  static constexpr int kOctaves = 24;  // speed octaves 2^-20 .. 2^3 m/s, both directions
+  static constexpr int kOctaves = 24;          // speed octaves 2^-20 .. 2^3 m/s
+  static constexpr int kCells = 4 * kOctaves;  // × direction × declared (a reference move) or not
   struct Estimate {
     double change_n = std::numeric_limits<double>::quiet_NaN();  // along the motion, zero load
     double se_n = std::numeric_limits<double>::quiet_NaN();
@@ -49,7 +50,7 @@ class ConditionBaselines {
   void add(int cell, double r, double known_s, double memory_s) noexcept;
   /// Random-effects mean of the change over the conditions seen within the memory.
   Estimate estimate(double known_s, double memory_s) const noexcept;
-  static int cell_of(int dir, double speed_m_per_s) noexcept;
+  static int cell_of(int dir, double speed_m_per_s, bool declared) noexcept;
 
  private:
   Estimate pooled(double known_s, double memory_s, double s2) const noexcept;
@@ -60,7 +61,8 @@ class ConditionBaselines {
     bool has_last = false;
     double sum = 0, w = 0, w2 = 0, at_s = 0;  // forgotten sums of the passes since the reference
   };
-  std::array<Cell, 2 * kOctaves> cells_{};
+  static double dir_of(int cell) noexcept { return cell % (2 * kOctaves) >= kOctaves ? 1 : -1; }
+  std::array<Cell, kCells> cells_{};
   double diff2_ = 0;  // Σ (r − r_previous)² / 2 over successive passes of one condition
   int diffs_ = 0;
 };
@@ -74,7 +76,10 @@ class FreeMoveDrift {
   void skip(double t) noexcept;
   /// One tick of a known-force stretch: u the model's coupling force at the measured phase, y the
   /// coupling force the model needs for the measured motion with the known external force.
-  void add(double t, double dt, double u, double y, int dir, double vel, double pos_m) noexcept;
+  /// declared: the caller says the stretch is free (a reference move): its passes are a
+  /// condition of their own, identical by construction from one reference move to the next.
+  void add(double t, double dt, double u, double y, int dir, double vel, double pos_m,
+           bool declared = false) noexcept;
 
   DriftObservability observability() const noexcept;
   const DriftFigures& now() const noexcept { return now_; }
@@ -104,6 +109,7 @@ class FreeMoveDrift {
   std::array<Vec, kP> ref_cov_{};
   double block_z_ = 0, block_t_ = 0, block_dt_ = 0;
   int block_n_ = 0;
+  bool block_declared_ = false;
   double known_s_ = 0, ref_t_sum_ = 0, ref_t_ = 0, warn_t_ = 0;
   bool ref_frozen_ = false, warn_ = false;
   double stat_ = 0, cond_since_ = std::numeric_limits<double>::quiet_NaN();

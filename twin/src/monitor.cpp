@@ -285,7 +285,8 @@ struct TwinMonitor::Impl {
       return;
     }
     free_drift.add(t, dt, u, y, dir, vel,
-                   pos_hat - 0.5 * (cfg.actuator.stroke_min_m + cfg.actuator.stroke_max_m));
+                   pos_hat - 0.5 * (cfg.actuator.stroke_min_m + cfg.actuator.stroke_max_m),
+                   declared);
   }
 
   /// One tick of the gain estimator (the load-cell check). Force balance of the sliding nut, with
