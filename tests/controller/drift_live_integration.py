@@ -8,6 +8,7 @@ is counted from the start of the run (gain 1), the strictest reading: the flag c
 with its reference, formed a little later. No load cell is read (there is none to read: the
 plant is free and nothing here looks at IR 30).
 Usage: drift_live_integration.py MAGLEAD_BIN CONFIG_DIR [GAIN_PER_MIN RUN_S] (defaults -0.05 95)"""
+import os
 import sys
 import threading
 import time
@@ -118,6 +119,17 @@ def max_statistic(plc):
     return max((words_f32(s[3][16:18]) for s in plc.samples), default=0.0)
 
 
+def write_trace(path, plcs):
+    """The drift registers of every poll, for a look at the statistic over a run."""
+    with open(path, "w") as out:
+        out.write("plc,t_s,status,reason,observability,zero_load_n,zero_load_se_n,known_s,statistic\n")
+        for p in plcs:
+            for t, status, reason, regs in p.samples:
+                f = lambda a: words_f32(regs[a - 76:a - 74])
+                out.write(f"{p.name},{t:.3f},{status},{reason},{regs[0]},{f(78):.5f},{f(80):.5f},"
+                          f"{f(90):.2f},{f(92):.4f}\n")
+
+
 def main():
     watchdog(170)
     duration = f"{RUN_S + 10:.0f}s"
@@ -135,6 +147,8 @@ def main():
     finally:
         drift.stop()
         control.stop()
+    if os.environ.get("MAGLEAD_DRIFT_TRACE"):
+        write_trace(os.environ["MAGLEAD_DRIFT_TRACE"], plcs)
     for p in plcs:
         check(not p.errors, f"{p.name}: the PLC's commands and polls went through {p.errors[:3]}")
         check(len(p.samples) > 500 and p.samples[-1][0] >= RUN_S - 1,

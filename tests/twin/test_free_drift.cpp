@@ -70,5 +70,45 @@ TEST(FreeMoveDrift, NoDriftNoWarning) {
   }
 }
 
+/// 120 s of 1 s passes, direction alternating, at three speeds whose model error differs and
+/// not in proportion to the speed (as the estimator's error under a limit cycle): +0.2 N along
+/// the motion at 10 and 40 mm/s, -0.2 N at 20 mm/s. The first 10 s are at 10 mm/s only, then
+/// the mix shifts to mostly 20 mm/s, then mostly 40 mm/s: a reference fitted on one mix and a
+/// memory filled with another differ by 0.4 N with no physical change.
+FreeMoveDrift run_changing_mix(double gain_per_min) {
+  FreeDriftSettings s;
+  s.friction_n = 7.5;
+  s.rated_n = 36.0;
+  FreeMoveDrift f(s);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.3), pass_effect(0.0, 0.02);
+  constexpr double kSpeed[3] = {0.01, 0.02, 0.04}, kError[3] = {0.2, -0.2, 0.2};
+  constexpr int kMix[2][4] = {{1, 1, 1, 2}, {2, 2, 2, 0}};  // speed of each pass, by half
+  double effect = 0.0;
+  for (int k = 0; k < 120000; ++k) {
+    const double t = k * 1e-3;
+    const int pass = k / 1000, dir = pass % 2 == 0 ? 1 : -1;
+    const int speed = t < 10.0 ? 0 : kMix[t < 60.0 ? 0 : 1][pass % 4];
+    if (k % 1000 == 0) effect = pass_effect(rng);
+    const double y = dir * 7.5;
+    const double g = 1.0 + gain_per_min * t / 60.0;
+    const double u = y / g + dir * (kError[speed] + effect) + noise(rng);
+    f.add(t, 1e-3, u, y, dir, dir * kSpeed[speed], 0.01 * std::cos(2 * M_PI * t / 4.0));
+  }
+  return f;
+}
+
+TEST(FreeMoveDrift, ConditionsAreComparedLikeWithLike) {
+  const FreeMoveDrift control = run_changing_mix(0.0);
+  EXPECT_FALSE(control.warning()) << "statistic " << control.statistic() << ", change "
+                                  << control.now().zero_load_n << " N";
+  EXPECT_EQ(control.observability(), DriftObservability::tracking);
+  EXPECT_NEAR(control.now().zero_load_n, 0.0, 0.05);
+  const FreeMoveDrift drift = run_changing_mix(-0.05);  // 3 % (0.23 N at zero load) at 36 s
+  ASSERT_TRUE(drift.warning());
+  EXPECT_GT(drift.at_warning().zero_load_n, 0.0);
+  EXPECT_LE(drift.warning_t(), 66.0);
+}
+
 }  // namespace
 }  // namespace maglead::twin

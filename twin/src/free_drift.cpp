@@ -1,5 +1,7 @@
 #include "free_drift.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace maglead::twin {
@@ -16,11 +18,107 @@ double quad(const std::array<double, N>& w, Cov cov) {
       v += w[i] * w[j] * cov(static_cast<int>(i), static_cast<int>(j));
   return v;
 }
+template <std::size_t N>
+double dot(const std::array<double, N>& a, const std::array<double, N>& b) {
+  double v = 0.0;
+  for (std::size_t i = 0; i < N; ++i) v += a[i] * b[i];
+  return v;
+}
 }  // namespace
+
+void ConditionBaselines::clear() noexcept {
+  cells_.fill(Cell{});
+  diff2_ = 0;
+  diffs_ = 0;
+}
+
+/// Octaves of speed (factor-2 wide, so no speed scale of one actuator is built in), per direction.
+int ConditionBaselines::cell_of(int dir, double speed_m_per_s, bool declared) noexcept {
+  const double v = std::abs(speed_m_per_s);
+  const int oct =
+      v > 0 ? std::clamp(static_cast<int>(std::floor(std::log2(v))) + kOctaves - 4, 0, kOctaves - 1)
+            : 0;
+  return (declared ? 2 * kOctaves : 0) + (dir > 0 ? kOctaves : 0) + oct;
+}
+
+void ConditionBaselines::add_reference(int cell, const std::array<double, 5>& x_mean,
+                                       double z_mean) noexcept {
+  Cell& c = cells_[cell];
+  for (std::size_t i = 0; i < x_mean.size(); ++i) c.ref_x[i] += x_mean[i];
+  c.ref_z += z_mean;
+  ++c.ref_n;
+}
+
+void ConditionBaselines::freeze(const std::array<double, 5>& theta) noexcept {
+  for (Cell& c : cells_) {
+    if (c.ref_n > 0) c.ref_r = (c.ref_z - dot(c.ref_x, theta)) / c.ref_n;
+  }
+}
+
+void ConditionBaselines::add(int cell, double r, double known_s, double memory_s) noexcept {
+  Cell& c = cells_[cell];
+  const double dir = dir_of(cell);
+  // The change common to all conditions since this one's last pass is taken out of the
+  // successive difference: a drift is not scatter.
+  const double common = pooled(known_s, memory_s, 0.0).change_n;
+  const double now = std::isfinite(common) ? common : 0.0;
+  if (c.has_last) {
+    const double d = dir * (r - c.last_r) - (now - c.last_common);
+    diff2_ += 0.5 * d * d, ++diffs_;
+  }
+  c.last_r = r, c.last_common = now, c.has_last = true;
+  if (c.ref_n == 0) {  // a condition first seen after the reference: its first pass is its baseline
+    c.ref_r = r, c.ref_n = 1;
+    return;
+  }
+  const double f = std::exp(-(known_s - c.at_s) / memory_s);
+  c.sum = f * c.sum + r, c.w = f * c.w + 1.0, c.w2 = f * f * c.w2 + 1.0, c.at_s = known_s;
+}
+
+ConditionBaselines::Estimate ConditionBaselines::estimate(double known_s,
+                                                          double memory_s) const noexcept {
+  // Until three pass-to-pass differences are measured the scatter is unknown: the change is
+  // given without its standard error.
+  Estimate e = pooled(known_s, memory_s, diffs_ >= 3 ? diff2_ / diffs_ : 0.0);
+  e.scatter_measured = diffs_ >= 3 && diff2_ > 0;
+  return e;
+}
+
+/// DerSimonian–Laird: conditions weighted by 1 / (their variance + the between-condition one).
+/// s2 is the scatter of one pass; with s2 = 0 the conditions are weighted by their pass counts
+/// alone (the mean is the same for any common scale) and no standard error is given.
+ConditionBaselines::Estimate ConditionBaselines::pooled(double known_s, double memory_s,
+                                                        double s2) const noexcept {
+  std::array<double, kCells> d{}, v{};
+  int k = 0;
+  for (int i = 0; i < kCells; ++i) {
+    const Cell& c = cells_[i];
+    // Seen within the memory: a condition last met long ago says what the drift was then.
+    if (c.w <= 0 || known_s - c.at_s > memory_s) continue;
+    d[k] = dir_of(i) * (c.sum / c.w - c.ref_r);
+    v[k] = (s2 > 0 ? s2 : 1.0) * (1.0 / c.ref_n + c.w2 / (c.w * c.w));
+    ++k;
+  }
+  Estimate e;
+  if (k == 0) return e;
+  double sw = 0, sw2 = 0, swd = 0;
+  for (int i = 0; i < k; ++i) sw += 1 / v[i], sw2 += 1 / (v[i] * v[i]), swd += d[i] / v[i];
+  double q = 0;
+  for (int i = 0; i < k; ++i) q += (d[i] - swd / sw) * (d[i] - swd / sw) / v[i];
+  const double tau2 = k > 1 && s2 > 0 ? std::max(0.0, (q - (k - 1)) / (sw - sw2 / sw)) : 0.0;
+  double w = 0, wd = 0;
+  for (int i = 0; i < k; ++i) w += 1 / (v[i] + tau2), wd += d[i] / (v[i] + tau2);
+  e.change_n = wd / w, e.conditions = k;
+  if (s2 > 0) e.se_n = std::sqrt(1 / w);
+  return e;
+}
 
 void FreeMoveDrift::clear() noexcept {
   cur_.reset(1e4);
   ref_.reset(1e4);
+  base_.clear();
+  pass_n_ = 0;
+  pass_cell_ = -1;
   block_n_ = 0;
   known_s_ = ref_t_sum_ = ref_t_ = warn_t_ = 0;
   ref_frozen_ = warn_ = false;
@@ -42,8 +140,8 @@ DriftObservability FreeMoveDrift::observability() const noexcept {
 /// (an offset, a constant load: c), a viscous mismatch (a dashpot load: γ v) and a force along
 /// the stroke (a spring, a cable chain: κ p) are nuisance terms; what stays constant is taken up
 /// by the reference. Averaged in blocks of block_s.
-void FreeMoveDrift::add(double t, double dt, double u, double y, int dir, double vel,
-                        double pos_m) noexcept {
+void FreeMoveDrift::add(double t, double dt, double u, double y, int dir, double vel, double pos_m,
+                        bool declared) noexcept {
   if (block_n_ == 0) {
     block_x_.fill(0.0);
     block_z_ = block_t_ = block_dt_ = 0.0;
@@ -54,8 +152,14 @@ void FreeMoveDrift::add(double t, double dt, double u, double y, int dir, double
   block_z_ += u - y;
   block_t_ += t;
   block_dt_ += dt;
+  block_declared_ = declared;
   ++block_n_;
   if (block_dt_ + 0.5 * dt >= s_.block_s) update_block(t);
+}
+
+void FreeMoveDrift::skip(double t) noexcept {
+  block_n_ = 0;
+  if (pass_n_ > 0) end_pass(t);
 }
 
 void FreeMoveDrift::update_block(double t) noexcept {
@@ -64,6 +168,12 @@ void FreeMoveDrift::update_block(double t) noexcept {
   const double z = block_z_ / n, tm = block_t_ / n, span = block_dt_;
   block_n_ = 0;
   known_s_ += span;
+  const int cell =
+      ConditionBaselines::cell_of(block_x_[1] > 0 ? 1 : -1, block_x_[3] / 100.0, block_declared_);
+  if (pass_n_ > 0 && cell != pass_cell_) end_pass(t);
+  if (pass_n_ == 0) pass_x_.fill(0.0), pass_z_ = pass_s_ = 0.0, pass_cell_ = cell;
+  for (int i = 0; i < kP; ++i) pass_x_[i] += block_x_[i];
+  pass_z_ += z, pass_s_ += span, ++pass_n_;
   cur_.update(block_x_, z, std::exp(-span / s_.memory_s));
   cur_.cap(1e4);
   if (!ref_frozen_) {
@@ -81,9 +191,29 @@ void FreeMoveDrift::update_block(double t) noexcept {
         ref_theta_[i] = ref_.theta(i);
         for (int j = 0; j < kP; ++j) ref_cov_[i][j] = ref_.cov(i, j);
       }
+      base_.freeze(ref_theta_);
     }
     return;
   }
+  // Judged every block on the passes completed so far, so that the sustain time is measured in
+  // time, not in pass ends (a pass may last seconds).
+  evaluate(t);
+}
+
+/// A pass ends (the condition changed or the known-force stretch ended): before the reference
+/// it adds to its condition's baseline, after it its residual against the reference model is
+/// compared with that baseline.
+void FreeMoveDrift::end_pass(double t) noexcept {
+  const int n = pass_n_;
+  pass_n_ = 0;
+  if (pass_s_ < s_.min_pass_s) return;
+  for (double& v : pass_x_) v /= n;
+  const double z = pass_z_ / n;
+  if (!ref_frozen_) {
+    base_.add_reference(pass_cell_, pass_x_, z);
+    return;
+  }
+  base_.add(pass_cell_, z - dot(pass_x_, ref_theta_), known_s_, s_.memory_s);
   evaluate(t);
 }
 
@@ -95,12 +225,17 @@ void FreeMoveDrift::evaluate(double t) noexcept {
     return d;
   };
   const double fr = s_.rated_n + s_.friction_n, k = rated_factor(), m = min_error_n();
-  const Vec w0{s_.friction_n, 1.0, 0.0, 0.0, 0.0}, wr{fr, 1.0, 0.0, 0.0};
+  const Vec wr{fr, 1.0, 0.0, 0.0};
   const Vec wg{1.0, 0.0, 0.0, 0.0, 0.0}, wf{0.0, 1.0, 0.0, 0.0, 0.0};
   DriftFigures f;
   f.rated_force_n = s_.rated_n;
-  f.zero_load_n = change(w0);
-  f.zero_load_se_n = std::sqrt(quad(w0, cov));
+  const ConditionBaselines::Estimate e = base_.estimate(known_s_, s_.memory_s);
+  f.zero_load_n = e.change_n;
+  // The regression's standard error (the blocks' scatter, AR(1)-inflated) is a lower bound: the
+  // scatter between passes can only add to it, and it is there before passes repeat.
+  const Vec w0{s_.friction_n, 1.0, 0.0, 0.0, 0.0};
+  const double se_blocks = std::sqrt(quad(w0, cov));
+  f.zero_load_se_n = std::isfinite(e.se_n) ? std::max(e.se_n, se_blocks) : se_blocks;
   const double se_g = std::sqrt(quad(wg, cov));
   // Separable: the data resolve a gain change of min_change by themselves (accelerations and
   // speeds that make the coupling force differ within a direction of motion).
@@ -117,7 +252,11 @@ void FreeMoveDrift::evaluate(double t) noexcept {
   // standard errors and beyond the minimum worth a warning. An estimate too imprecise to resolve
   // the minimum is still judged (its own margin is the larger one): a fast drift inflates the
   // standard errors while it runs, and refusing to judge then would hide exactly that drift.
-  if (!std::isfinite(f.zero_load_se_n) || (f.separable && !std::isfinite(f.rated_se_n))) {
+  // Not judged before the scatter between passes of one condition is measured: the blocks'
+  // scatter alone misses how much passes differ (live, the first passes' baselines made the
+  // largest no-drift statistics).
+  if (!e.scatter_measured || !std::isfinite(f.zero_load_n) || !std::isfinite(f.zero_load_se_n) ||
+      (f.separable && !std::isfinite(f.rated_se_n))) {
     cond_since_ = kNaN;
     return;
   }

@@ -20,17 +20,66 @@ struct FreeDriftSettings {
   double sigmas = 4.0;
   double min_change = 0.03;  // of the rated force: the smallest error change worth a warning
   double sustain_s = 2.0;
+  double min_pass_s = 0.1;  // a shorter pass in one condition is a transition, not a condition held
+};
+
+/// Like with like: the residual of each pass (a run of blocks in one condition: direction of
+/// motion and speed octave) is compared with the baseline of its own condition, not with a
+/// reference fitted on another mix of speeds. The estimator's model error under the position
+/// loop's limit cycle depends on the condition, so a reference formed on one mix and a memory
+/// filled with another would differ with no physical change. The standard error comes from the
+/// scatter between passes of the same condition (successive differences, so a drift does not
+/// count as scatter) and the conditions are pooled as random effects: a mismatch that differs
+/// between conditions widens the error bar instead of moving the estimate.
+class ConditionBaselines {
+ public:
+  static constexpr int kOctaves = 24;          // speed octaves 2^-20 .. 2^3 m/s
+  static constexpr int kCells = 4 * kOctaves;  // × direction × declared (a reference move) or not
+  struct Estimate {
+    double change_n = std::numeric_limits<double>::quiet_NaN();  // along the motion, zero load
+    double se_n = std::numeric_limits<double>::quiet_NaN();
+    int conditions = 0;
+    bool scatter_measured = false;  // three pass-to-pass differences seen: se_n means something
+  };
+  void clear() noexcept;
+  /// A pass before the reference residual can be formed: its means go into the baseline sums.
+  void add_reference(int cell, const std::array<double, 5>& x_mean, double z_mean) noexcept;
+  /// The reference model is fixed: baselines become mean residuals of the reference passes.
+  void freeze(const std::array<double, 5>& theta) noexcept;
+  /// A pass after the reference: residual r of the pass, at known-force time known_s.
+  void add(int cell, double r, double known_s, double memory_s) noexcept;
+  /// Random-effects mean of the change over the conditions seen within the memory.
+  Estimate estimate(double known_s, double memory_s) const noexcept;
+  static int cell_of(int dir, double speed_m_per_s, bool declared) noexcept;
+
+ private:
+  Estimate pooled(double known_s, double memory_s, double s2) const noexcept;
+  struct Cell {
+    std::array<double, 5> ref_x{};
+    double ref_z = 0, ref_r = 0, last_r = 0, last_common = 0;
+    int ref_n = 0;
+    bool has_last = false;
+    double sum = 0, w = 0, w2 = 0, at_s = 0;  // forgotten sums of the passes since the reference
+  };
+  static double dir_of(int cell) noexcept { return cell % (2 * kOctaves) >= kOctaves ? 1 : -1; }
+  std::array<Cell, kCells> cells_{};
+  double diff2_ = 0;  // Σ (r − r_previous)² / 2 over successive passes of one condition
+  int diffs_ = 0;
 };
 
 class FreeMoveDrift {
  public:
   explicit FreeMoveDrift(const FreeDriftSettings& s) : s_(s) { clear(); }
   void clear() noexcept;
-  /// A tick outside a known-force stretch: the running block is dropped.
-  void skip() noexcept { block_n_ = 0; }
+  /// A tick outside a known-force stretch at time t: the running block is dropped, the running
+  /// pass ends.
+  void skip(double t) noexcept;
   /// One tick of a known-force stretch: u the model's coupling force at the measured phase, y the
   /// coupling force the model needs for the measured motion with the known external force.
-  void add(double t, double dt, double u, double y, int dir, double vel, double pos_m) noexcept;
+  /// declared: the caller says the stretch is free (a reference move): its passes are a
+  /// condition of their own, identical by construction from one reference move to the next.
+  void add(double t, double dt, double u, double y, int dir, double vel, double pos_m,
+           bool declared = false) noexcept;
 
   DriftObservability observability() const noexcept;
   const DriftFigures& now() const noexcept { return now_; }
@@ -46,16 +95,21 @@ class FreeMoveDrift {
   static constexpr int kP = 5;  // α = 1 − g, friction change β; nuisance: bias, viscous, spring
   using Vec = std::array<double, kP>;
   void update_block(double t) noexcept;
+  void end_pass(double t) noexcept;
   void evaluate(double t) noexcept;
   double rated_factor() const noexcept { return (s_.rated_n + s_.friction_n) / s_.friction_n; }
   double min_error_n() const noexcept { return s_.min_change * s_.rated_n; }
 
   FreeDriftSettings s_;
   Rls<kP> cur_, ref_;
-  Vec block_x_{}, ref_theta_{};
+  ConditionBaselines base_;
+  Vec block_x_{}, ref_theta_{}, pass_x_{};
+  double pass_z_ = 0, pass_s_ = 0;
+  int pass_n_ = 0, pass_cell_ = -1;
   std::array<Vec, kP> ref_cov_{};
   double block_z_ = 0, block_t_ = 0, block_dt_ = 0;
   int block_n_ = 0;
+  bool block_declared_ = false;
   double known_s_ = 0, ref_t_sum_ = 0, ref_t_ = 0, warn_t_ = 0;
   bool ref_frozen_ = false, warn_ = false;
   double stat_ = 0, cond_since_ = std::numeric_limits<double>::quiet_NaN();

@@ -275,7 +275,7 @@ struct TwinMonitor::Impl {
   void free_tick(double t, double theta, double rel_phase, double fset_n, bool declared) noexcept {
     const int dir = static_cast<int>(mode);
     if (!slide_measured(t, rel_phase) || std::isfinite(fset_n)) {
-      free_drift.skip();
+      free_drift.skip(t);
       return;
     }
     const double v_screw = theta_rate * lead_m / (2.0 * kPi);
@@ -288,11 +288,12 @@ struct TwinMonitor::Impl {
                                                  cfg.drift_free_speed_fraction * std::abs(nut_rate);
     const bool fits = declared || std::abs(u - y) <= model.sliding_friction_n(dir, 0.0);
     if (!driven || !fits) {
-      free_drift.skip();
+      free_drift.skip(t);
       return;
     }
     free_drift.add(t, dt, u, y, dir, vel,
-                   pos_hat - 0.5 * (cfg.actuator.stroke_min_m + cfg.actuator.stroke_max_m));
+                   pos_hat - 0.5 * (cfg.actuator.stroke_min_m + cfg.actuator.stroke_max_m),
+                   declared);
   }
 
   /// One tick of the gain estimator (the load-cell check). Force balance of the sliding nut, with
