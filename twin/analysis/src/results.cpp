@@ -21,17 +21,22 @@ void set_parameter(Parameters& p, const std::string& name, double value, bool is
     p.push_back({name, value, is_count});
 }
 
-std::string with_error(const std::string& name, double value, double standard_error) {
+std::string value_with_error(double value, double standard_error) {
   const double se = standard_error;
-  char buf[96];
-  if (!(se > 1e-9 * std::abs(value)) || !std::isfinite(se)) {
-    std::snprintf(buf, sizeof buf, "%s %.4g", name.c_str(), value);
-    return buf;
-  }
+  // A value on a scanned grid (the same in every segment's fit), or not fitted.
+  if (!(se > 1e-9 * std::abs(value)) || !std::isfinite(se)) return "";
   int digits = -static_cast<int>(std::floor(std::log10(se)));
   if (se * std::pow(10.0, digits) < 2.0) ++digits;
   digits = std::clamp(digits, 0, 12);
-  std::snprintf(buf, sizeof buf, "%s %.*f ± %.*f", name.c_str(), digits, value, digits, se);
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%.*f ± %.*f", digits, value, digits, se);
+  return buf;
+}
+
+std::string with_error(const std::string& name, double value, double standard_error) {
+  if (auto v = value_with_error(value, standard_error); !v.empty()) return name + " " + v;
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%s %.4g", name.c_str(), value);
   return buf;
 }
 

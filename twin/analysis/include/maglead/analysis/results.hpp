@@ -27,6 +27,8 @@ void set_parameter(Parameters& p, const std::string& name, double value, bool is
 /// when that digit is 1), the value to the same decimal place; `name value` (4 significant
 /// digits) when there is no error (not fitted, or a value on a scanned grid).
 std::string with_error(const std::string& name, double value, double standard_error);
+/// The same without the name ("0.94 ± 0.01"); empty when there is no error.
+std::string value_with_error(double value, double standard_error);
 /// Every value with its error (`standard_errors` by name; missing: none), in the values' order:
 /// "coulomb_n 20.56 ± 0.05, offset_n 0.008 ± 0.004".
 std::string summary_text(const Parameters& values, const Parameters& standard_errors);
