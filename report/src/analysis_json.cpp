@@ -66,6 +66,8 @@ Json errors_json(const FitErrors& e) {
           {{"rms", e.full_rate_rms_n}, {"relative_error_pct", e.full_rate_relative_error_pct}}}};
   put(j, "heldout_rms", e.heldout_rms_n);
   if (e.fitted_parameters) j["fitted_parameters"] = parameters_json(*e.fitted_parameters);
+  if (!e.standard_errors.empty()) j["standard_errors"] = parameters_json(e.standard_errors);
+  if (!e.summary.empty()) j["summary"] = e.summary;
   return j;
 }
 

@@ -32,14 +32,16 @@ figcaption{color:#444;font-size:.92em;margin-bottom:4px}
 
 using Status = AnalysisOutcome::Status;
 
-// One line per parameter, by name (as analysis.json has them).
-std::string parameters_html(const std::string& id, const analysis::Parameters& params) {
+// One line per parameter, by name (as analysis.json has them), with its standard error if any.
+std::string parameters_html(const std::string& id, const analysis::Parameters& params,
+                            const analysis::Parameters& errors = {}) {
   std::vector<const analysis::Parameter*> sorted;
   for (const auto& p : params) sorted.push_back(&p);
   std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->name < b->name; });
   std::string h;
   for (const auto* p : sorted)
-    h += (h.empty() ? "" : "<br>") + parameter_html(id, p->name, p->value);
+    h += (h.empty() ? "" : "<br>") +
+         parameter_html(id, p->name, p->value, analysis::parameter_value(errors, p->name, 0.0));
   return h;
 }
 
@@ -55,8 +57,8 @@ std::string evidence_text(const analysis::EffectFinding& e) {
 std::string effect_row(const analysis::EffectFinding& e) {
   std::string h = "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" +
                   escape_html(e.id) + "</code></td><td>" + escape_html(effect_law(e.id)) +
-                  "</td><td>" + parameters_html(e.id, e.parameters) + "</td><td>" +
-                  escape_html(e.where);
+                  "</td><td>" + parameters_html(e.id, e.parameters, e.standard_errors) +
+                  "</td><td>" + escape_html(e.where);
   if (!e.finding.empty()) h += "<br>" + escape_html(e.finding);
   if (const auto ev = evidence_text(e); !ev.empty()) h += "<br>" + escape_html(ev);
   for (const auto& alt : e.alternatives)
@@ -154,7 +156,14 @@ std::string physics_section(const AnalysisOutcome& o, int number) {
 
 std::string fit_part(const AnalysisOutcome& o) {
   if (o.status != Status::done) return "";
-  return fit_table(o.result->findings) + fit_chart(*o.result);
+  const auto& fitted = o.result->findings.final_fit;
+  std::string totals;
+  if (!fitted.summary.empty())
+    totals = "<p>The model's own values as fitted: " +
+             parameters_html("", fitted.fitted_parameters.value_or(analysis::Parameters{}),
+                             fitted.standard_errors) +
+             "</p>\n";
+  return fit_table(o.result->findings) + totals + fit_chart(*o.result);
 }
 
 std::string analysis_events(const AnalysisOutcome& o) {

@@ -2,6 +2,7 @@
 
 #include <array>
 
+#include "maglead/analysis/results.hpp"
 #include "maglead/effects/effect.hpp"
 #include "maglead/report/html.hpp"
 
@@ -59,9 +60,13 @@ std::string effect_law(const std::string& id) {
   return e ? std::string(e->law()) : std::string();
 }
 
-std::string parameter_html(const std::string& effect_id, const std::string& name, double value) {
+std::string parameter_html(const std::string& effect_id, const std::string& name, double value,
+                           double standard_error) {
   const std::string unit = unit_of(name), meaning = meaning_of(effect_id, name);
-  std::string h = "<code>" + escape_html(name) + "</code> = " + number(value, 3);
+  std::string shown = analysis::value_with_error(value, standard_error);
+  if (shown.empty()) shown = number(value, 3);
+  if (shown.front() == '-') shown.replace(0, 1, "−");
+  std::string h = "<code>" + escape_html(name) + "</code> = " + escape_html(shown);
   if (!unit.empty()) h += " " + escape_html(unit);
   if (!meaning.empty()) h += " <span class=\"meaning\">(" + escape_html(meaning) + ")</span>";
   return h;

@@ -10,6 +10,8 @@ std::string effect_title(const std::string& id);
 /// The effect's law (one line), empty for an id the library does not know.
 std::string effect_law(const std::string& id);
 /// "gain_change_per_min = −0.201 1/min (rate r of the relative coupling gain)", HTML-escaped.
-std::string parameter_html(const std::string& effect_id, const std::string& name, double value);
+/// With a standard error: "coulomb_n = 20.56 ± 0.18 N (…)", at the digits the error allows.
+std::string parameter_html(const std::string& effect_id, const std::string& name, double value,
+                           double standard_error = 0.0);
 
 }  // namespace maglead::report

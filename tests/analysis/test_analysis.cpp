@@ -27,6 +27,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <numbers>
+#include <sstream>
 #include <string>
 
 #include "../test_tmp.hpp"
@@ -596,6 +597,70 @@ TEST(Emps, FindsCoulombOffsetThenDirectionDependentFriction) {
   std::filesystem::remove(corrected);
 }
 
+// Digits after the decimal point of a printed number ("0.0016" → 4, "241" → 0).
+int decimals(const std::string& number) {
+  const auto dot = number.find('.');
+  return dot == std::string::npos ? 0 : static_cast<int>(number.size() - dot - 1);
+}
+
+// Every parameter with an error is printed in `summary` as "name value ± error": the error to at
+// most two significant digits, the value to the error's decimal place, both the numbers rounded.
+void expect_printed_at_its_digits(const std::string& summary, const Parameters& values,
+                                  const Parameters& errors) {
+  for (const auto& p : values) {
+    const double se = parameter_value(errors, p.name, NAN);
+    ASSERT_TRUE(std::isfinite(se)) << p.name << " has no standard error";
+    if (!(se > 1e-9 * std::abs(p.value))) continue;  // a grid value: printed without one
+    const auto at = summary.find(p.name + " ");
+    ASSERT_NE(at, std::string::npos) << p.name << " not in '" << summary << "'";
+    std::istringstream in(summary.substr(at + p.name.size() + 1));
+    std::string value, pm, error;
+    in >> value >> pm >> error;
+    if (!error.empty() && error.back() == ',') error.pop_back();
+    ASSERT_EQ(pm, "±") << summary;
+    EXPECT_EQ(decimals(value), decimals(error)) << summary;
+    std::string significant = error;
+    std::erase(significant, '.');
+    significant.erase(0, significant.find_first_not_of('0'));
+    EXPECT_LE(significant.size(), 2u) << p.name << ": error " << error << " in " << summary;
+    const double unit = std::pow(10.0, -decimals(error));
+    EXPECT_NEAR(std::stod(value), p.value, 0.5 * unit + 1e-12) << summary;
+    EXPECT_NEAR(std::stod(error), se, 0.5 * unit + 1e-12) << summary;
+  }
+}
+
+// Every fitted parameter of the EMPS axis (the baseline's totals and each finding's) carries a
+// finite positive standard error from the held-out segments, and is printed at the digits it
+// allows, in analysis.json's summary as `maglead analyze` prints it.
+TEST(Emps, EveryParameterHasAStandardErrorAndItsDigits) {
+  const auto rec = maglead::read_recording(MAGLEAD_EMPS_CSV);
+  const auto model =
+      maglead::analysis::load_model(std::string(MAGLEAD_CONFIG_DIR) + "/emps_baseline.toml");
+  const auto r = maglead::analysis::analyze_recording(rec, model, maglead::paper_calibration(),
+                                                      maglead::ActuatorParams{}, {});
+  ASSERT_GE(r.findings.effects.size(), 3u) << named_as(r);
+  std::vector<std::pair<std::string, const EffectFinding*>> all;
+  for (const auto* fit : {&r.findings.baseline, &r.findings.final_fit}) {
+    const auto& values = fit->fitted_parameters.value();
+    ASSERT_EQ(values.size(), 2u);  // mass and viscous friction: emps_baseline.toml fits them
+    for (const auto& p : values) {
+      const double se = parameter_value(fit->standard_errors, p.name, NAN);
+      EXPECT_TRUE(std::isfinite(se) && se > 0) << p.name << " ± " << se;
+    }
+    expect_printed_at_its_digits(fit->summary, values, fit->standard_errors);
+    std::printf("fitted: %s\n", fit->summary.c_str());
+  }
+  for (const auto& e : r.findings.effects) {
+    for (const auto& p : e.parameters) {
+      if (p.name == "period_m") continue;  // position_ripple's period: a grid value, no error
+      const double se = parameter_value(e.standard_errors, p.name, NAN);
+      EXPECT_TRUE(std::isfinite(se) && se > 0) << e.id << " " << p.name << " ± " << se;
+    }
+    expect_printed_at_its_digits(e.summary, e.parameters, e.standard_errors);
+    std::printf("%s: %s\n", e.id.c_str(), e.summary.c_str());
+  }
+}
+
 // A generated force-driven axis (a drive pushing a carriage against mass, friction and a return
 // spring, the force logged with noise): the axis path names the spring the effect unit states,
 // in the unit's parameter names, from the units' axis columns (the same law the twin runs).
@@ -630,6 +695,14 @@ TEST(Axis, GeneratedSpringIsNamedWithTheUnitsParameters) {
   EXPECT_NEAR(parameter_value(e.parameters, "stiffness_n_per_m", NAN), kStiffness,
               0.02 * kStiffness);
   EXPECT_NEAR(parameter_value(e.parameters, "rest_position_m", NAN), kRest_m, 2e-3);
+  // The standard error from the held-out segments is honest: the truth lies within 3 of them.
+  const double k_se = parameter_value(e.standard_errors, "stiffness_n_per_m", NAN);
+  EXPECT_TRUE(std::isfinite(k_se) && k_se > 0) << k_se;
+  EXPECT_LE(std::abs(parameter_value(e.parameters, "stiffness_n_per_m", NAN) - kStiffness),
+            3 * k_se)
+      << e.summary;
+  std::printf("generated spring: %s (true stiffness %g N/m, rest %g m)\n", e.summary.c_str(),
+              kStiffness, kRest_m);
   const auto& base = r.findings.final_fit.fitted_parameters.value();
   EXPECT_NEAR(parameter_value(base, "nut_mass_kg", NAN), kMass_kg, 0.05 * kMass_kg);
   EXPECT_NEAR(parameter_value(base, "coulomb_n", NAN), kCoulomb_n, 0.3);

@@ -112,5 +112,17 @@ TEST(EffectText, EveryLibraryParameterHasItsUnit) {
   EXPECT_EQ(effect_title("stribeck_friction"), "stribeck friction");
 }
 
+// A parameter with its standard error is shown at the digits the error allows, as analyze prints
+// it; a grid value (no error) as before.
+TEST(EffectText, ParameterWithItsStandardErrorAtItsDigits) {
+  EXPECT_NE(
+      parameter_html("spring", "stiffness_n_per_m", 199.98962, 0.013).find("= 199.990 ± 0.013 N/m"),
+      std::string::npos);
+  EXPECT_NE(parameter_html("angle_ripple", "phase_rad", -1.20213, 0.0143).find("= −1.202 ± 0.014"),
+            std::string::npos);
+  EXPECT_NE(parameter_html("position_ripple", "period_m", 0.0025, 1e-18).find("= 0.0025 m"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace maglead::report

@@ -107,6 +107,7 @@ void add_analyze(CLI::App& app) {
         std::printf("; %s left out (it raised the error)", d.c_str());
       std::printf("\n");
     }
+    if (!J.final_fit.summary.empty()) std::printf("fitted     %s\n", J.final_fit.summary.c_str());
     std::printf("final      RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
                 J.final_fit.rms_n, J.final_fit.relative_error_pct,
                 J.final_fit.full_rate_relative_error_pct);

@@ -362,30 +362,17 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
   return g;
 }
 
-// Standard error of a chosen term's parameters from the held-out segments: the fit without
-// each segment in turn (a jackknife over contiguous time, so slow drifts and correlated noise
-// count as they would in a new recording), (K−1)/K times the sum of squared deviations.
+// Standard error of a chosen term's parameters from the held-out segments: a jackknife over the
+// fits without each segment in turn.
 effects::Params jackknife_se(const Grams& g, const std::vector<int>& idx, Eigen::Index off,
                              const Candidate& c, const State& model) {
   const auto* e = effects::find(c.id);
   const auto k = static_cast<Eigen::Index>(e->columns());
-  std::map<std::string, std::vector<double>, std::less<>> values;
-  for (std::size_t f = 0; f < g.xx.size(); ++f) {
-    if (g.n[f] == 0) continue;
-    const Fit fit = solve(g, idx, static_cast<int>(f));
+  std::vector<effects::Params> values;
+  for (const Fit& fit : stats::leave_one_out(g, idx))
     if (auto prm = e->parameters(c.shape, fit.theta.segment(off, k).data(), model))
-      for (const auto& [name, v] : *prm) values[name].push_back(v);
-  }
-  effects::Params se;
-  for (const auto& [name, v] : values) {
-    if (v.size() < 2) continue;
-    const double mean = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
-    double ss = 0;
-    for (double x : v) ss += (x - mean) * (x - mean);
-    const auto kk = static_cast<double>(v.size());
-    se[name] = std::sqrt((kk - 1) / kk * ss);
-  }
-  return se;
+      values.push_back(*prm);
+  return stats::jackknife_se(values);
 }
 
 // Keeps the implausible fit that removes the most held-out error, and where the error it

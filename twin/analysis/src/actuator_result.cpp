@@ -125,29 +125,8 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
   return out;
 }
 
-// A value at the digits its standard error allows: the error to one significant digit (two when
-// that digit is 1), the value to the same decimal place.
-std::string with_error(const std::string& name, double v, double se) {
-  char buf[96];
-  // A value on a scanned grid (the same in every segment's fit), or not fitted.
-  if (!(se > 1e-9 * std::abs(v)) || !std::isfinite(se)) {
-    std::snprintf(buf, sizeof buf, "%s %.4g", name.c_str(), v);
-    return buf;
-  }
-  int digits = -static_cast<int>(std::floor(std::log10(se)));
-  if (se * std::pow(10.0, digits) < 2.0) ++digits;
-  digits = std::clamp(digits, 0, 12);
-  std::snprintf(buf, sizeof buf, "%s %.*f ± %.*f", name.c_str(), digits, v, digits, se);
-  return buf;
-}
-
 std::string summary_of(const actuator::Candidate& c, const actuator::Prepared& P) {
-  std::string s;
-  for (const auto& [name, v] : c.params) {
-    const auto it = c.standard_errors.find(name);
-    s += (s.empty() ? "" : ", ") +
-         with_error(name, v, it == c.standard_errors.end() ? 0.0 : it->second);
-  }
+  const std::string s = summary_text(params_of(c.params), params_of(c.standard_errors));
   char buf[128];
   std::snprintf(buf, sizeof buf, " (floor %.3f N resolved, minimum %.3f N)", P.floor_n,
                 P.minimum_n);
@@ -375,9 +354,14 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   J.noise_floor_n = P.load_noise_n;
   const ErrorScale es{std::max<double>(1.0, static_cast<double>(sel.samples_used)),
                       sel.measured_ss};
-  J.baseline = {es.rms(sel.baseline_sse),         es.rel(sel.baseline_sse),
-                es.rms(sel.baseline_sse),         es.rel(sel.baseline_sse),
-                es.rms(sel.baseline_heldout_sse), std::nullopt};
+  J.baseline = {es.rms(sel.baseline_sse),
+                es.rel(sel.baseline_sse),
+                es.rms(sel.baseline_sse),
+                es.rel(sel.baseline_sse),
+                es.rms(sel.baseline_heldout_sse),
+                std::nullopt,
+                {},
+                {}};
   add_sliding_findings(J, sel, P, es);
   if (stribeck) add_stribeck(J, sel, *stribeck, bt, P);
   add_step_outs(J, P);
@@ -385,8 +369,14 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   add_step_out_finding(J, P);
   J.breakaway_test = BreakawayTest{{bt.pos.episodes, bt.pos.median_excess_n, bt.pos.se_n},
                                    {bt.neg.episodes, bt.neg.median_excess_n, bt.neg.se_n}};
-  J.final_fit = {es.rms(sel.final_sse), es.rel(sel.final_sse), es.rms(sel.final_sse),
-                 es.rel(sel.final_sse), std::nullopt,          std::nullopt};
+  J.final_fit = {es.rms(sel.final_sse),
+                 es.rel(sel.final_sse),
+                 es.rms(sel.final_sse),
+                 es.rel(sel.final_sse),
+                 std::nullopt,
+                 std::nullopt,
+                 {},
+                 {}};
   if (!sel.next_best.id.empty())
     J.not_selected.push_back({sel.next_best.id, sel.next_best.gain_pct, sel.next_best.t_stat,
                               std::nullopt, std::nullopt, std::nullopt,

@@ -921,6 +921,53 @@ EffectFinding finding_of(const AxisRun& run, const Chosen& ch, const Params& pp)
   return e;
 }
 
+stats::Named named(const Parameters& p) {
+  stats::Named out;
+  for (const auto& q : p) out[q.name] = q.value;
+  return out;
+}
+
+// Every fitted parameter of the model at one fit: the baseline's fitted totals, then each chosen
+// term's, as the findings report them.
+std::vector<stats::Named> model_parameters(const AxisRun& run, const std::vector<Chosen>& chosen,
+                                           const Fit& fit) {
+  std::vector<stats::Named> out{named(fitted_base(run, fit))};
+  auto off = static_cast<Eigen::Index>(run.base_cols.size());
+  for (const auto& ch : chosen) {
+    const auto n = static_cast<Eigen::Index>(ch.idx.size());
+    const effects::State totals = fitted_totals(run, fit, ch.var->effect);
+    out.push_back(
+        named(unit_params(run.g, *ch.var, ch.idx, fit.theta.segment(off, n), totals).values));
+    off += n;
+  }
+  return out;
+}
+
+// Their standard errors from the held-out segments (the model with columns `idx` fitted without
+// each segment in turn: a jackknife, as on the actuator), in the same order.
+std::vector<Parameters> model_standard_errors(const AxisRun& run, const std::vector<Chosen>& chosen,
+                                              const std::vector<int>& idx) {
+  std::vector<std::vector<stats::Named>> per_term(chosen.size() + 1);
+  for (const Fit& f : stats::leave_one_out(run.g, idx)) {
+    auto prm = model_parameters(run, chosen, f);
+    for (std::size_t k = 0; k < prm.size(); ++k) per_term[k].push_back(std::move(prm[k]));
+  }
+  std::vector<Parameters> out;
+  for (const auto& values : per_term) {
+    Parameters se;
+    for (const auto& [name, v] : stats::jackknife_se(values)) set_parameter(se, name, v);
+    out.push_back(std::move(se));
+  }
+  return out;
+}
+
+// The fitted totals' standard errors and their printed form (none when nothing is fitted).
+void add_errors(FitErrors& e, const Parameters& standard_errors) {
+  if (!e.fitted_parameters || e.fitted_parameters->empty()) return;
+  e.standard_errors = standard_errors;
+  e.summary = summary_text(*e.fitted_parameters, standard_errors);
+}
+
 void fill_findings(Findings& J, const AxisRun& run, const Selected& sel, const Predictions& p) {
   J.recording = run.rec.path;
   J.system = run.model.system;
@@ -932,7 +979,9 @@ void fill_findings(Findings& J, const AxisRun& run, const Selected& sel, const P
                 p.eb_full.rms,
                 p.eb_full.rel_pct,
                 std::sqrt(sel.base_heldout / run.n_total),
-                fitted_base(run, p.base_fit)};
+                fitted_base(run, p.base_fit),
+                {},
+                {}};
   std::size_t off = run.base_cols.size();
   for (const auto& ch : sel.chosen) {
     const Eigen::VectorXd c = p.final_fit.theta.segment(static_cast<Eigen::Index>(off),
@@ -941,14 +990,27 @@ void fill_findings(Findings& J, const AxisRun& run, const Selected& sel, const P
     const effects::State totals = fitted_totals(run, p.final_fit, ch.var->effect);
     J.effects.push_back(finding_of(run, ch, unit_params(run.g, *ch.var, ch.idx, c, totals)));
   }
+  const auto se = model_standard_errors(run, sel.chosen, sel.current);
+  for (std::size_t k = 0; k < J.effects.size(); ++k) {
+    J.effects[k].standard_errors = se[k + 1];
+    J.effects[k].summary = summary_text(J.effects[k].parameters, se[k + 1]);
+  }
   J.nothing_missing = sel.chosen.empty();
   J.conclusion =
       sel.chosen.empty()
           ? "nothing is missing: no candidate effect lowers the held-out error significantly"
           : std::to_string(sel.chosen.size()) + " effect(s) found";
   J.not_selected = sel.rejected;
-  J.final_fit = {p.ef.rms,          p.ef.rel_pct, p.ef_full.rms,
-                 p.ef_full.rel_pct, std::nullopt, fitted_base(run, p.final_fit)};
+  J.final_fit = {p.ef.rms,
+                 p.ef.rel_pct,
+                 p.ef_full.rms,
+                 p.ef_full.rel_pct,
+                 std::nullopt,
+                 fitted_base(run, p.final_fit),
+                 {},
+                 {}};
+  add_errors(J.baseline, model_standard_errors(run, {}, run.base_cols).front());
+  add_errors(J.final_fit, se.front());
   J.validation = sel.validation;
   for (const auto& [ts, amp] : run.bursts) {
     Event ev;

@@ -1,7 +1,9 @@
-// Look-up and update of named parameter values (maglead/analysis/results.hpp).
+// Look-up, update and printing of named parameter values (maglead/analysis/results.hpp).
 #include "maglead/analysis/results.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 
 namespace maglead::analysis {
 
@@ -17,6 +19,33 @@ void set_parameter(Parameters& p, const std::string& name, double value, bool is
     *it = {name, value, is_count};
   else
     p.push_back({name, value, is_count});
+}
+
+std::string value_with_error(double value, double standard_error) {
+  const double se = standard_error;
+  // A value on a scanned grid (the same in every segment's fit), or not fitted.
+  if (!(se > 1e-9 * std::abs(value)) || !std::isfinite(se)) return "";
+  int digits = -static_cast<int>(std::floor(std::log10(se)));
+  if (se * std::pow(10.0, digits) < 2.0) ++digits;
+  digits = std::clamp(digits, 0, 12);
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%.*f ± %.*f", digits, value, digits, se);
+  return buf;
+}
+
+std::string with_error(const std::string& name, double value, double standard_error) {
+  if (auto v = value_with_error(value, standard_error); !v.empty()) return name + " " + v;
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%s %.4g", name.c_str(), value);
+  return buf;
+}
+
+std::string summary_text(const Parameters& values, const Parameters& standard_errors) {
+  std::string s;
+  for (const auto& p : values)
+    s += (s.empty() ? "" : ", ") +
+         with_error(p.name, p.value, parameter_value(standard_errors, p.name, 0.0));
+  return s;
 }
 
 }  // namespace maglead::analysis

@@ -147,4 +147,29 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   return std::clamp(bz.dot(lb.solve(bz)) / zz, 0.0, 1.0);
 }
 
+std::vector<Fit> leave_one_out(const Grams& g, const std::vector<int>& idx) {
+  std::vector<Fit> fits;
+  for (std::size_t f = 0; f < g.folds(); ++f)
+    if (g.n[f] > 0) fits.push_back(solve(g, idx, static_cast<int>(f)));
+  return fits;
+}
+
+// Over contiguous time segments, so slow drifts and correlated noise count as they would in a
+// new recording (a per-sample formula would take them for independent noise).
+Named jackknife_se(const std::vector<Named>& leave_one_out_values) {
+  std::map<std::string, std::vector<double>, std::less<>> values;
+  for (const auto& fit : leave_one_out_values)
+    for (const auto& [name, v] : fit) values[name].push_back(v);
+  Named se;
+  for (const auto& [name, v] : values) {
+    if (v.size() < 2) continue;
+    const auto k = static_cast<double>(v.size());
+    const double mean = std::accumulate(v.begin(), v.end(), 0.0) / k;
+    double ss = 0;
+    for (double x : v) ss += (x - mean) * (x - mean);
+    se[name] = std::sqrt((k - 1) / k * ss);
+  }
+  return se;
+}
+
 }  // namespace maglead::analysis::stats

@@ -3,6 +3,8 @@
 // normal equations, least squares on the segments, held-out errors and partial R².
 #include <Eigen/Dense>
 #include <cstddef>
+#include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -54,6 +56,13 @@ Fit solve(const Grams& g, const std::vector<int>& idx, int skip_fold = -1);
 double sse(const Grams& g, const Fit& fit, std::size_t f);
 /// Held-out error per segment: fit on the others, score on this one.
 std::vector<double> heldout(const Grams& g, const std::vector<int>& idx);
+/// The fit without each segment in turn (a segment without samples is skipped).
+std::vector<Fit> leave_one_out(const Grams& g, const std::vector<int>& idx);
+/// Named values (parameters by name), as the effect units give them.
+using Named = std::map<std::string, double, std::less<>>;
+/// Jackknife standard errors from named values in each leave-one-out fit: √((K−1)/K Σ(x − x̄)²)
+/// over the K fits that give the name (fewer than two: no error).
+Named jackknife_se(const std::vector<Named>& leave_one_out_values);
 /// Share of `a`'s fitted contribution wa (beyond `base`) that columns `b` reproduce.
 double partial_r2(const Grams& g, const std::vector<int>& base, const std::vector<int>& a,
                   const Eigen::VectorXd& wa, const std::vector<int>& b);

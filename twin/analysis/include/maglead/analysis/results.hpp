@@ -23,6 +23,16 @@ double parameter_value(const Parameters& p, const std::string& name, double fall
 /// Sets `name` to `value` (replacing a value already there).
 void set_parameter(Parameters& p, const std::string& name, double value, bool is_count = false);
 
+/// `name value ± error` at the digits the error allows: the error to one significant digit (two
+/// when that digit is 1), the value to the same decimal place; `name value` (4 significant
+/// digits) when there is no error (not fitted, or a value on a scanned grid).
+std::string with_error(const std::string& name, double value, double standard_error);
+/// The same without the name ("0.94 ± 0.01"); empty when there is no error.
+std::string value_with_error(double value, double standard_error);
+/// Every value with its error (`standard_errors` by name; missing: none), in the values' order:
+/// "coulomb_n 20.56 ± 0.05, offset_n 0.008 ± 0.004".
+std::string summary_text(const Parameters& values, const Parameters& standard_errors);
+
 /// Why an effect was named: its held-out statistics (sliding fits) or its events.
 struct Evidence {
   std::optional<double> heldout_gain_pct;        // reduction of the held-out mean square error [%]
@@ -122,6 +132,8 @@ struct FitErrors {
   double full_rate_relative_error_pct = 0.0;
   std::optional<double> heldout_rms_n;
   std::optional<Parameters> fitted_parameters;  // the baseline's terms as fitted (axis)
+  Parameters standard_errors;  // of the fitted parameters, from the held-out segments
+  std::string summary;         // those at the digits the errors allow; empty: not written
 };
 
 /// How the analysis ran, in words and numbers.
