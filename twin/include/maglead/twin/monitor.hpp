@@ -11,6 +11,7 @@
 
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
+#include "maglead/physics/load_observer.hpp"
 #include "maglead/physics/stick_filter.hpp"
 #include "maglead/twin/hybrid_twin.hpp"
 #include "maglead/twin/model.hpp"
@@ -120,12 +121,14 @@ struct TwinMonitorConfig {
   // Observer. While the nut sticks its friction is unknown within ± break-away, so the external
   // force needs a prior (the same the loop's load observer uses for a load nothing holds).
   UnheldLoadPrior load_prior;
-  double stop_force_sd_n = 0.3;       // how well a slide's end pins the load (the model's error)
-  double stop_after_intervals = 2.0;  // no encoder edge for this many edge intervals: stopped
-  double stop_min_s = 0.010;          // … and at least this long
-  double resync_s = 0.020;            // twin runs open loop this long, then re-syncs
-  double lookahead_s = 0.050;         // step-out warning horizon
-  int lookahead_every_ticks = 10;     // look-ahead cadence (its cost is ~horizon/cap steps)
+  // How well a slide's end pins the load: the model's force error while sliding, the same figure
+  // the loop's load observer uses (one default, not two copies of 0.3 N).
+  double stop_force_sd_n = LoadObserverConfig{}.model_uncertainty_n;
+  double stop_after_intervals = 2.0;      // no encoder edge for this many edge intervals: stopped
+  double stop_min_s = 0.010;              // … and at least this long
+  double resync_s = 0.020;                // twin runs open loop this long, then re-syncs
+  double lookahead_s = 0.050;             // step-out warning horizon
+  int lookahead_every_ticks = 10;         // look-ahead cadence (its cost is ~horizon/cap steps)
   double step_out_warn_margin_rad = 0.0;  // warn when look-ahead |φ| exceeds the edge − this
   // Drift detector: recursive least squares of the coupling gain g with nuisance terms, on
   // excitation-rich ticks only (monitor.cpp gain_tick; README "Digital twin").
