@@ -7,7 +7,7 @@
 namespace maglead {
 
 EdgeTracker::EdgeTracker(const EdgeTrackerConfig& config) : cfg_(config) {
-  if (!(cfg_.count_m > 0) || !(cfg_.stop_intervals > 0) || !(cfg_.stop_min_s > 0))
+  if (!(cfg_.count_m > 0) || !(cfg_.stop.intervals > 0) || !(cfg_.stop.min_s > 0))
     throw std::invalid_argument("edge tracker: count and stop times must be positive");
 }
 
@@ -37,7 +37,7 @@ void EdgeTracker::on_edge(double t_s, double h_s, long long count) noexcept {
   } else {
     // First edge of a motion: the nut broke loose somewhere in the last interval.
     run_edges_ = 1;
-    const double since = std::max(h_s, std::min(gap, cfg_.stop_min_s * 4));
+    const double since = std::max(h_s, std::min(gap, cfg_.stop.min_s * 4));
     vel_m_s_ = dir * q / since;
     interval_s_ = since;
   }
@@ -58,7 +58,7 @@ EdgeEvent EdgeTracker::update(double t_s, double reading_m) noexcept {
     // No edge yet: the speed cannot exceed one count over the time since the last.
     const double bound = cfg_.count_m / std::max(since, h);
     if (std::abs(vel_m_s_) > bound) vel_m_s_ = edge_dir_ * bound;
-    if (since > std::max(cfg_.stop_intervals * interval_s_, cfg_.stop_min_s)) {
+    if (since > std::max(cfg_.stop.intervals * interval_s_, cfg_.stop.min_s)) {
       pos_m_ =
           std::clamp(edge_pos_m_ + vel_m_s_ * 0.5 * since, cell_lo_m(), cell_lo_m() + cfg_.count_m);
       dir_ = 0;

@@ -12,7 +12,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 }  // namespace
 
 LoadForceObserver::LoadForceObserver(const LoadObserverConfig& config)
-    : cfg_(config), nut_({config.linear_count_m, config.stop_intervals, config.stop_min_s}) {
+    : cfg_(config), nut_({config.linear_count_m, config.stop}) {
   if (!cfg_.friction.valid())
     throw std::invalid_argument(
         "load observer: friction levels must be finite, non-negative, break-away >= kinetic");

@@ -115,12 +115,6 @@ double StickFilter::estimate() const noexcept {
   return absent_pending ? centre_ : hi_;
 }
 
-double StickFilter::mean() const noexcept {
-  double m = absent_w_ * centre_;
-  for (int i = 0; i < kPoints; ++i) m += w_[i] * (lo_ + i * dx_);
-  return m;
-}
-
 void StickFilter::normalise() noexcept {
   double s = absent_w_;
   for (double v : w_) s += v;

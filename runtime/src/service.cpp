@@ -128,6 +128,7 @@ Service::Service(const ServiceConfig& config)
     twin::TwinMonitorConfig tc = twin::load_monitor_config(cfg_.twin_config_dir);
     tc.actuator = cfg_.controller.actuator;  // the twin sees the same actuator and calibration
     tc.calibration = cfg_.controller.calibration;
+    tc.stop_force_sd_n = cfg_.controller.observer_model_uncertainty_n;
     if (!cfg_.model_path.empty()) tc.model = twin::load_twin_model(cfg_.model_path);
     tc.integrator.max_step_s = 1.0 / cfg_.controller.actuator.sample_rate_hz;
     twin_ = std::make_unique<TwinRunner>(tc, cfg_.twin_options);

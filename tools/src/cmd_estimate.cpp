@@ -65,13 +65,14 @@ void add_estimate(CLI::App& app) {
       if (!o->model.empty()) return twin::load_twin_model(o->model);
       return twin::load_monitor_config(o->config).model;
     };
+    // The same [control] settings as `serve`.
+    controller::ControllerConfig c;
+    c.actuator = act;
+    c.calibration = cal;
+    load_control_settings(o->config, c);
     if (o->estimator == "observer") {
-      // The observer the controller runs, with the same [control] settings as `serve`.
-      controller::ControllerConfig c;
-      c.actuator = act;
-      c.calibration = cal;
+      // The observer the controller runs.
       c.friction = twin::friction_model(model_file());
-      load_control_settings(o->config, c);
       LoadForceObserver obs(controller::observer_config(c));
       // Under force control the load is what the loop presses (passive); otherwise loads come
       // and go and rest at zero.
@@ -97,6 +98,7 @@ void add_estimate(CLI::App& app) {
       tc.integrator.max_step_s = 1.0 / tc.actuator.sample_rate_hz;
       tc.calibration = cal;
       tc.model = model_file();
+      tc.stop_force_sd_n = c.observer_model_uncertainty_n;
       twin::TwinMonitor mon(tc);
       mon.reset(t[0], screw[0], pos[0]);
       const double nan = std::numeric_limits<double>::quiet_NaN();

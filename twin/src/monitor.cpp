@@ -163,7 +163,7 @@ struct TwinMonitor::Impl {
         dt(1.0 / c.actuator.sample_rate_hz),
         q_m(c.actuator.linear_count_m),
         lead_m(c.actuator.lead_m),
-        nut({c.actuator.linear_count_m, c.stop_after_intervals, c.stop_min_s}),
+        nut({c.actuator.linear_count_m, c.stop}),
         free_drift(free_settings(c, model)) {}
 
   double phase_of(double theta, double p) const noexcept { return phase_rad(theta, p, lead_m); }

@@ -10,10 +10,16 @@
 
 namespace maglead {
 
+/// When a nut that was moving counts as stopped: the one rule the loop's observer and the twin
+/// share.
+struct StopRule {
+  double intervals = 2;  // no edge for this many edge intervals: stopped …
+  double min_s = 0.010;  // … and for at least this long
+};
+
 struct EdgeTrackerConfig {
-  double count_m = 2.16e-5;   // one linear-encoder count
-  double stop_intervals = 2;  // no edge for this many edge intervals: stopped …
-  double stop_min_s = 0.010;  // … and for at least this long
+  double count_m = 2.16e-5;  // one linear-encoder count
+  StopRule stop;
 };
 
 enum class EdgeEvent : std::uint8_t {

@@ -46,8 +46,7 @@ struct LoadObserverConfig {
   // The model's force error while sliding (friction level, mass, calibration) [N]: the
   // half-width of the interval a slide leaves, beside half a count's force.
   double model_uncertainty_n = 0.3;
-  double stop_intervals = 2.0;  // no encoder edge for this many edge intervals: stopped …
-  double stop_min_s = 0.010;    // … and for at least this long
+  StopRule stop;  // when the nut counts as stopped
   // A load that is not held passive (no force control presses it: a hand, a process force)
   // may change while the nut sticks: the estimate is the mean of the stick filter under this
   // prior, and the interval is the whole stick band.

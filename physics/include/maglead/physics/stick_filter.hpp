@@ -62,7 +62,6 @@ class StickFilter {
   void step(double shift_n, double centre_n, const UnheldLoadPrior& prior, double dt_s) noexcept;
   /// The median of n: the estimate.
   double estimate() const noexcept;
-  double mean() const noexcept;
   /// Probability that the load is absent (resting at the centre).
   double absent_probability() const noexcept { return absent_w_; }
   double lo_n() const noexcept { return lo_; }

@@ -122,10 +122,10 @@ struct TwinMonitorConfig {
   // force needs a prior (the same the loop's load observer uses for a load nothing holds).
   UnheldLoadPrior load_prior;
   // How well a slide's end pins the load: the model's force error while sliding, the same figure
-  // the loop's load observer uses (one default, not two copies of 0.3 N).
+  // the loop's load observer uses (serve and estimate pass [control]
+  // observer_model_uncertainty_n; one default, not two copies of 0.3 N).
   double stop_force_sd_n = LoadObserverConfig{}.model_uncertainty_n;
-  double stop_after_intervals = 2.0;      // no encoder edge for this many edge intervals: stopped
-  double stop_min_s = 0.010;              // … and at least this long
+  StopRule stop;                          // when the nut counts as stopped (as the observer)
   double resync_s = 0.020;                // twin runs open loop this long, then re-syncs
   double lookahead_s = 0.050;             // step-out warning horizon
   int lookahead_every_ticks = 10;         // look-ahead cadence (its cost is ~horizon/cap steps)
