@@ -188,6 +188,9 @@ std::string events_section(const Anomaly& a, const AnalysisOutcome& o) {
   else if (a.drift_windows.empty() && a.drift_observability == 1)
     h << "<p>Drift not observable yet: too few known-force stretches (free moves, a passive load "
          "revisited) to form the reference.</p>\n";
+  else if (a.drift_windows.empty() && a.max_drift_statistic == 0.0)
+    h << "<p>Drift not judged yet: the known-force stretches were compared with their reference, "
+         "too few to measure how much they scatter.</p>\n";
   else if (a.drift_windows.empty())
     h << "<p>Drift warnings: none (the statistic reached " << number(a.max_drift_statistic)
       << " of 1).</p>\n";
