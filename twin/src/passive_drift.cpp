@@ -243,7 +243,7 @@ PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare) const noexcept {
 void PassiveLoadDrift::add_window(const Fit& f) noexcept {
   disp_gain_.add(f.gain, f.var_gain);
   gain_.add(fc_s_, s_.memory_s, f.gain, f.var_gain);
-  if (f.has_step) {
+  if (f.has_step && f.var_step > 0) {
     disp_step_.add(f.step, f.var_step);
     step_.add(fc_s_, s_.memory_s, f.step, f.var_step);
   }
