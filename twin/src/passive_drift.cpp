@@ -185,57 +185,72 @@ double PassiveLoadDrift::reference_at(double p, int dir) const noexcept {
 /// off the line. Before the reference the stiffness must also be resolved (a load to compare).
 PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare) const noexcept {
   Fit f;
-  const auto valid = [&](const Block& b) { return !compare || std::isfinite(b.ref); };
-  int n_pos = 0, n_all = 0;
-  double p_mean = 0;
-  for (int i = 0; i < n_blocks_; ++i) {
-    if (!valid(blocks_[i])) continue;
-    ++n_all, n_pos += blocks_[i].dir > 0 ? 1 : 0, p_mean += blocks_[i].p;
-  }
-  f.has_step = n_pos >= kP && n_all - n_pos >= kP;
-  const int only = f.has_step ? 0 : (2 * n_pos >= n_all ? 1 : -1);
-  const auto used = [&](const Block& b) { return valid(b) && (only == 0 || b.dir == only); };
-  const int params = f.has_step ? kP : kP - 1;
-  const int m = f.has_step ? n_all : (only > 0 ? n_pos : n_all - n_pos);
-  if (m < 2 * params) return f;
-  p_mean /= n_all;
-  const auto row = [&](const Block& b, double& y) -> Vec {
-    y = compare ? b.f - b.ref : b.f;
-    return {1.0, compare ? b.ref : b.p - p_mean, f.has_step ? static_cast<double>(b.dir) : 0.0};
-  };
+  const Design d = design(compare);
+  f.has_step = d.has_step;
+  if (d.m < 2 * d.params()) return f;
   std::array<Vec, kP> a{}, inv{};
   Vec rhs{}, th{};
   for (int i = 0; i < n_blocks_; ++i) {
-    if (!used(blocks_[i])) continue;
+    if (!d.used(blocks_[i])) continue;
     double y = 0;
-    const Vec x = row(blocks_[i], y);
+    const Vec x = d.row(blocks_[i], y);
     for (int r = 0; r < kP; ++r) {
       rhs[r] += x[r] * y;
       for (int c = 0; c < kP; ++c) a[r][c] += x[r] * x[c];
     }
   }
-  if (!f.has_step) a[2][2] = 1.0;  // the step's column is empty: θ₂ = 0, decoupled
+  if (!d.has_step) a[2][2] = 1.0;  // the step's column is empty: θ₂ = 0, decoupled
   if (!solve_normal(a, rhs, th, inv)) return f;
+  double rss = 0;
+  for (int i = 0; i < n_blocks_; ++i) {
+    if (d.used(blocks_[i])) rss += std::pow(residual(d, th, blocks_[i]), 2);
+  }
+  const double var = rss / (d.m - d.params());
+  f.gain = th[1], f.step = th[2], f.var_gain = var * inv[1][1], f.var_step = var * inv[2][2];
+  f.ok = f.var_gain > 0 && (compare || std::abs(f.gain) > s_.sigmas * std::sqrt(f.var_gain)) &&
+         parts_on_line(d, th, std::sqrt(var));
+  return f;
+}
+
+/// The blocks a fit uses: before the reference all, after it those where the reference went;
+/// of one direction only where the other has too few to resolve the step.
+PassiveLoadDrift::Design PassiveLoadDrift::design(bool compare) const noexcept {
+  Design d;
+  d.compare = compare;
+  int n_pos = 0, n_all = 0;
+  for (int i = 0; i < n_blocks_; ++i) {
+    if (compare && !std::isfinite(blocks_[i].ref)) continue;
+    ++n_all, n_pos += blocks_[i].dir > 0 ? 1 : 0, d.p_mean += blocks_[i].p;
+  }
+  d.has_step = n_pos >= kP && n_all - n_pos >= kP;
+  d.only = d.has_step ? 0 : (2 * n_pos >= n_all ? 1 : -1);
+  d.m = d.has_step ? n_all : (d.only > 0 ? n_pos : n_all - n_pos);
+  if (n_all > 0) d.p_mean /= n_all;
+  return d;
+}
+
+double PassiveLoadDrift::residual(const Design& d, const Vec& th, const Block& b) noexcept {
+  double y = 0;
+  const Vec x = d.row(b, y);
+  return y - th[0] * x[0] - th[1] * x[1] - th[2] * x[2];
+}
+
+/// The passive-load test: the mean residual of each direction in each half of the window (by
+/// time) within sigmas of its standard error (sd/√n, the blocks taken as independent).
+bool PassiveLoadDrift::parts_on_line(const Design& d, const Vec& th, double sd) const noexcept {
   std::array<double, 4> sum{};
   std::array<int, 4> cnt{};
-  double rss = 0;
   const double t_mid = 0.5 * (blocks_[0].t + blocks_[n_blocks_ - 1].t);
   for (int i = 0; i < n_blocks_; ++i) {
-    if (!used(blocks_[i])) continue;
-    double y = 0;
-    const Vec x = row(blocks_[i], y);
-    const double e = y - th[0] * x[0] - th[1] * x[1] - th[2] * x[2];
+    if (!d.used(blocks_[i])) continue;
     const int g = (blocks_[i].dir > 0 ? 2 : 0) + (blocks_[i].t >= t_mid ? 1 : 0);
-    rss += e * e, sum[g] += e, ++cnt[g];
+    sum[g] += residual(d, th, blocks_[i]), ++cnt[g];
   }
-  const double var = rss / (m - params), sd = std::sqrt(var);
-  f.gain = th[1], f.step = th[2], f.var_gain = var * inv[1][1], f.var_step = var * inv[2][2];
-  f.ok = f.var_gain > 0 && (compare || std::abs(f.gain) > s_.sigmas * std::sqrt(f.var_gain));
   for (int g = 0; g < 4; ++g) {
     if (cnt[g] > 0 && std::abs(sum[g] / cnt[g]) > s_.sigmas * sd / std::sqrt(double(cnt[g])))
-      f.ok = false;
+      return false;
   }
-  return f;
+  return true;
 }
 
 /// One window compared with the reference, into means weighted by forgetting (force-control

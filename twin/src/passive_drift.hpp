@@ -108,7 +108,24 @@ class PassiveLoadDrift {
   };
   void close_block() noexcept;
   void close_window() noexcept;
+  /// Which blocks a fit uses and its regressors.
+  struct Design {
+    bool compare = false, has_step = false;
+    int only = 0, m = 0;  // only: the one direction used (0: both); m: the blocks used
+    double p_mean = 0;
+    int params() const noexcept { return has_step ? kP : kP - 1; }
+    bool used(const Block& b) const noexcept {
+      return (!compare || std::isfinite(b.ref)) && (only == 0 || b.dir == only);
+    }
+    Vec row(const Block& b, double& y) const noexcept {
+      y = compare ? b.f - b.ref : b.f;
+      return {1.0, compare ? b.ref : b.p - p_mean, has_step ? static_cast<double>(b.dir) : 0.0};
+    }
+  };
+  Design design(bool compare) const noexcept;
   Fit fit(bool compare) const noexcept;
+  static double residual(const Design& d, const Vec& th, const Block& b) noexcept;
+  bool parts_on_line(const Design& d, const Vec& th, double sd) const noexcept;
   int bin_of(double p) const noexcept;
   void map_window() noexcept;
   void reference_window(const Fit& cmp, double span_s) noexcept;
