@@ -184,9 +184,13 @@ std::string events_section(const Anomaly& a, const AnalysisOutcome& o) {
       << " s.</p>\n";
   if (a.drift_windows.empty() && a.drift_observability == 0)
     h << "<p>Drift not observable: no stretch with a known external force (the flag judges free "
-         "moves only and never reads the load cell).</p>\n";
+         "moves and a passive load the force loop revisits, and never reads the load cell).</p>\n";
   else if (a.drift_windows.empty() && a.drift_observability == 1)
-    h << "<p>Drift not observable yet: too few free moves to form the reference.</p>\n";
+    h << "<p>Drift not observable yet: too few known-force stretches (free moves, a passive load "
+         "revisited) to form the reference.</p>\n";
+  else if (a.drift_windows.empty() && a.max_drift_statistic == 0.0)
+    h << "<p>Drift not judged yet: the known-force stretches were compared with their reference, "
+         "too few to measure how much they scatter.</p>\n";
   else if (a.drift_windows.empty())
     h << "<p>Drift warnings: none (the statistic reached " << number(a.max_drift_statistic)
       << " of 1).</p>\n";

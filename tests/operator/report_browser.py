@@ -124,10 +124,12 @@ def main():
 
     drift, page, out_dir = make_report("drift", "--scenario", "force-steps", "--duration", "30s", "--seed", "4",
                                        "--effect", "gain_drift=-0.2")
-    # Force steps have no free move: the twin's drift flag says "not observable" (it never reads
-    # the load cell); the analysis still finds and names the drift from the load cell.
+    # 30 s of force steps: the spring is a passive load the flag compares with its map, but too
+    # few windows follow the map to measure their scatter, so the flag does not judge (it never
+    # reads the load cell) and the page says so; the analysis still finds and names the drift
+    # from the load cell.
     check(drift["drift_windows"] == [] and drift["step_outs"] == [], f"drift windows {drift['drift_windows']}")
-    check("Drift not observable: no stretch with a known external force" in visible_text(page),
+    check("Drift not judged yet" in visible_text(page) or "Drift not observable" in visible_text(page),
           "drift: the page says the flag could not judge this recording")
     effects = [e["id"] for e in drift["analysis"].get("effects", [])]
     check(drift["analysis"]["status"] == "done" and "gain_drift" in effects, f"the analysis names the drift {effects}")

@@ -174,17 +174,39 @@ TEST(TwinMonitor, FrictionRiseFlaggedFromFreeMovesWithoutLoadCell) {
   EXPECT_LT(o.drift_at_warning.zero_load_n, true_change + 4 * o.drift_at_warning.zero_load_se_n);
 }
 
-TEST(TwinMonitor, ForceControlLeavesDriftNotObservable) {
-  // Force steps against a spring: no stretch has a known external force, so the flag says "not
-  // observable" and stays off even with a real drift; the load-cell check still sees the gain.
-  const MonitorRun r = run_recording("force-steps", 100.0, 5, -0.05);
-  std::printf("force-steps with gain -5 %%/min: observability %d, check gain %.3f (ref %.3f)\n",
-              static_cast<int>(r.last.drift_observability), r.last.drift_gain_estimate,
-              r.last.drift_reference_gain);
-  EXPECT_FALSE(std::isfinite(r.first_drift_s));
-  EXPECT_EQ(r.last.drift_observability, DriftObservability::none);
-  ASSERT_TRUE(std::isfinite(r.last.drift_gain_estimate));
-  EXPECT_LT(r.last.drift_gain_estimate - r.last.drift_reference_gain, -0.03);
+// Force control against a spring: no free move, but the spring is a passive load the loop
+// revisits (the same force at the same position), so the flag maps the force estimate over
+// position and compares later visits with the map (twin/src/passive_drift.cpp). 120 s of
+// force-steps (steps, ramps, a 0.2-2 Hz sweep) losing 5 %/min: flagged within 30 s of the gain
+// crossing 3 % below its value at the reference, named as gain (the load's range of forces tells
+// gain from friction).
+TEST(TwinMonitor, ForceStepsDriftFlaggedFromAPassiveLoadWithoutLoadCell) {
+  const MonitorRun r = run_recording("force-steps", 120.0, 5, -0.05, {}, false);
+  const double g_ref = 1.0 - 0.05 * r.at_drift.drift_reference_t_s / 60.0;
+  expect_in_time(r, 60.0 * (1.0 - 0.97 * g_ref) / 0.05, "force-steps, gain -5 %/min");
+  const auto& f = r.at_drift.drift_at_warning;
+  EXPECT_TRUE(f.separable);
+  EXPECT_EQ(r.at_drift.drift_reason, DriftReason::gain_fell);
+  EXPECT_LT(f.gain_change, -0.01);
+  EXPECT_GT(f.rated_n, 0.0);  // a weaker coupling: the estimate overstates
+  // The same verdict with the load cell fed: Replay.EveryTickOnceAndTheFlagIgnoresTheLoadCell
+  // (force steps too, tick by tick).
+}
+
+// The controls: the same force-steps without drift are compared (the map forms and later
+// windows are judged against it) and not warned; a hand pushing the nut past a held screw is no
+// passive load pressed by the loop: not observable, no warning.
+TEST(TwinMonitor, ForceStepsAndHandPushesWithoutDriftRaiseNoDriftWarning) {
+  const MonitorRun steps = run_recording("force-steps", 120.0, 5, 0.0, {}, false);
+  std::printf("force-steps 120 s, no drift: statistic max %.2f; at the end %s\n",
+              steps.max_drift_statistic, drift_figures_text(steps.last.drift_now).c_str());
+  EXPECT_FALSE(std::isfinite(steps.first_drift_s))
+      << drift_message(steps.at_drift) << " at " << steps.first_drift_s;
+  EXPECT_EQ(steps.last.drift_observability, DriftObservability::tracking) << "nothing compared";
+  EXPECT_GT(steps.max_drift_statistic, 0.0) << "never judged";
+  const MonitorRun hand = run_recording("hand-push", 60.0, 3, 0.0, {}, false);
+  EXPECT_FALSE(std::isfinite(hand.first_drift_s)) << drift_message(hand.at_drift);
+  EXPECT_EQ(hand.last.drift_observability, DriftObservability::none);
 }
 
 // Every effect of docs/effects.md that is not a drift (of the size found on the bench), on the

@@ -27,12 +27,14 @@ void print_drift(const twin::TwinOutputs& last, const twin::TwinOutputs& at_drif
       return;
     case DriftObservability::reference:
       std::printf(
-          "  drift not observable yet: %.1f s of free moves, too few to form the reference\n",
+          "  drift not observable yet: %.1f s of known-force stretches (free moves, a passive "
+          "load revisited), no reference formed from them\n",
           last.drift_known_s);
       return;
     case DriftObservability::tracking:
       std::printf(
-          "  drift warning: none (%.1f s of free moves, reference at t = %.1f s; at the end %s; "
+          "  drift warning: none (%.1f s of known-force stretches, reference at t = %.1f s; at the "
+          "end %s; "
           "max statistic %.2f of the margin)\n",
           last.drift_known_s, last.drift_reference_t_s,
           twin::drift_figures_text(last.drift_now).c_str(), max_stat);

@@ -126,6 +126,7 @@ void FreeMoveDrift::clear() noexcept {
   cond_since_ = kNaN;
   reason_ = DriftReason::none;
   now_ = at_warn_ = DriftFigures{};
+  passive_ = PassiveEstimate{};
 }
 
 DriftObservability FreeMoveDrift::observability() const noexcept {
@@ -217,18 +218,35 @@ void FreeMoveDrift::end_pass(double t) noexcept {
   evaluate(t);
 }
 
+void FreeMoveDrift::passive(double t, const PassiveEstimate& e) noexcept {
+  passive_ = e;
+  evaluate(t);
+}
+
 void FreeMoveDrift::evaluate(double t) noexcept {
+  DriftFigures f;
+  f.rated_force_n = s_.rated_n;
+  const bool free_judged = ref_frozen_ && free_figures(f);
+  const bool judged = pool_passive(f, free_judged) || free_judged;
+  if (ref_frozen_ || judged || std::isfinite(passive_.zero_load_n)) now_ = f;
+  if (!judged) {
+    cond_since_ = kNaN;
+    return;
+  }
+  judge(t, f);
+}
+
+/// The free moves' figures; false while they cannot be judged yet.
+bool FreeMoveDrift::free_figures(DriftFigures& f) const noexcept {
   const auto cov = [&](int i, int j) { return cur_.cov(i, j) + ref_cov_[i][j]; };
   const auto change = [&](const Vec& w) {
     double d = 0.0;
     for (int i = 0; i < kP; ++i) d += w[i] * (cur_.theta(i) - ref_theta_[i]);
     return d;
   };
-  const double fr = s_.rated_n + s_.friction_n, k = rated_factor(), m = min_error_n();
+  const double fr = s_.rated_n + s_.friction_n;
   const Vec wr{fr, 1.0, 0.0, 0.0};
   const Vec wg{1.0, 0.0, 0.0, 0.0, 0.0}, wf{0.0, 1.0, 0.0, 0.0, 0.0};
-  DriftFigures f;
-  f.rated_force_n = s_.rated_n;
   const ConditionBaselines::Estimate e = base_.estimate(known_s_, s_.memory_s);
   f.zero_load_n = e.change_n;
   // The regression's standard error (the blocks' scatter, AR(1)-inflated) is a lower bound: the
@@ -245,21 +263,44 @@ void FreeMoveDrift::evaluate(double t) noexcept {
     f.gain_change = -change(wg), f.gain_change_se = se_g;
     f.friction_change_n = change(wf), f.friction_change_se_n = std::sqrt(quad(wf, cov));
   } else {
-    f.rated_worst_n = f.zero_load_n * k;
+    f.rated_worst_n = f.zero_load_n * rated_factor();
   }
-  now_ = f;
-  // Judged on significance and size together: a change counts when it is both beyond sigmas
-  // standard errors and beyond the minimum worth a warning. An estimate too imprecise to resolve
-  // the minimum is still judged (its own margin is the larger one): a fast drift inflates the
-  // standard errors while it runs, and refusing to judge then would hide exactly that drift.
   // Not judged before the scatter between passes of one condition is measured: the blocks'
   // scatter alone misses how much passes differ (live, the first passes' baselines made the
   // largest no-drift statistics).
-  if (!e.scatter_measured || !std::isfinite(f.zero_load_n) || !std::isfinite(f.zero_load_se_n) ||
-      (f.separable && !std::isfinite(f.rated_se_n))) {
-    cond_since_ = kNaN;
-    return;
+  return e.scatter_measured && std::isfinite(f.zero_load_n) && std::isfinite(f.zero_load_se_n) &&
+         (!f.separable || std::isfinite(f.rated_se_n));
+}
+
+/// A passive load revisited resolves the gain by itself (its range of forces at the same places),
+/// so the figures become separable: the zero-load change pooled by inverse variance with the free
+/// moves' (where they are judged), the rated-force change and the gain from the load.
+bool FreeMoveDrift::pool_passive(DriftFigures& f, bool free_judged) const noexcept {
+  const PassiveEstimate& p = passive_;
+  if (!std::isfinite(p.zero_load_n) || !std::isfinite(p.rated_se_n)) return false;
+  if (!p.scatter_measured && free_judged) return false;  // the free moves' judged figures stand
+  double z = p.zero_load_n, se = p.zero_load_se_n;
+  if (free_judged) {
+    const double wa = 1 / (f.zero_load_se_n * f.zero_load_se_n), wb = 1 / (se * se);
+    z = (wa * f.zero_load_n + wb * z) / (wa + wb), se = std::sqrt(1 / (wa + wb));
   }
+  f.zero_load_n = z, f.zero_load_se_n = se;
+  f.separable = true;
+  f.rated_n = p.rated_n, f.rated_se_n = p.rated_se_n;
+  f.rated_worst_n = kNaN;
+  f.gain_change = p.gain_change, f.gain_change_se = p.gain_change_se;
+  // Δ0 = α·F_c + β with α ≈ −Δg: what is left of the zero-load change is friction.
+  f.friction_change_n = z + p.gain_change * s_.friction_n;
+  f.friction_change_se_n = std::hypot(se, p.gain_change_se * s_.friction_n);
+  return p.scatter_measured;  // shown before, judged once its scatter is measured
+}
+
+/// Judged on significance and size together: a change counts when it is both beyond sigmas
+/// standard errors and beyond the minimum worth a warning. An estimate too imprecise to resolve
+/// the minimum is still judged (its own margin is the larger one): a fast drift inflates the
+/// standard errors while it runs, and refusing to judge then would hide exactly that drift.
+void FreeMoveDrift::judge(double t, const DriftFigures& f) noexcept {
+  const double fr = s_.rated_n + s_.friction_n, k = rated_factor(), m = min_error_n();
   const auto ratio = [&](double d, double se, double floor) {
     return std::abs(d) / std::max(s_.sigmas * se, floor);
   };

@@ -7,18 +7,13 @@
 #include <limits>
 
 #include "maglead/twin/monitor.hpp"
+#include "passive_drift.hpp"
 #include "rls.hpp"
 
 namespace maglead::twin {
 
-struct FreeDriftSettings {
-  double friction_n = 0.0;  // the model's sliding friction: the coupling force of a free slide
-  double rated_n = 0.0;     // rated output force: where the second error figure is given
-  double block_s = 0.020;   // ticks averaged into one least-squares sample
-  double memory_s = 8.0;    // forgetting time constant, in known-force time
+struct FreeDriftSettings : DriftScale {
   double reference_s = 5.0;
-  double sigmas = 4.0;
-  double min_change = 0.03;  // of the rated force: the smallest error change worth a warning
   double sustain_s = 2.0;
   double min_pass_s = 0.1;  // a shorter pass in one condition is a transition, not a condition held
 };
@@ -81,6 +76,10 @@ class FreeMoveDrift {
   void add(double t, double dt, double u, double y, int dir, double vel, double pos_m,
            bool declared = false) noexcept;
 
+  /// New evidence from a passive load revisited in force control (PassiveLoadDrift) at time t:
+  /// pooled with the free moves' and judged with them.
+  void passive(double t, const PassiveEstimate& e) noexcept;
+
   DriftObservability observability() const noexcept;
   const DriftFigures& now() const noexcept { return now_; }
   const DriftFigures& at_warning() const noexcept { return at_warn_; }
@@ -97,6 +96,9 @@ class FreeMoveDrift {
   void update_block(double t) noexcept;
   void end_pass(double t) noexcept;
   void evaluate(double t) noexcept;
+  bool free_figures(DriftFigures& f) const noexcept;
+  bool pool_passive(DriftFigures& f, bool free_judged) const noexcept;
+  void judge(double t, const DriftFigures& f) noexcept;
   double rated_factor() const noexcept { return (s_.rated_n + s_.friction_n) / s_.friction_n; }
   double min_error_n() const noexcept { return s_.min_change * s_.rated_n; }
 
@@ -115,6 +117,7 @@ class FreeMoveDrift {
   double stat_ = 0, cond_since_ = std::numeric_limits<double>::quiet_NaN();
   DriftReason reason_ = DriftReason::none;
   DriftFigures now_{}, at_warn_{};
+  PassiveEstimate passive_{};
 };
 
 }  // namespace maglead::twin

@@ -87,6 +87,18 @@ FreeDriftSettings free_settings(const TwinMonitorConfig& c, const NutModel& mode
   return s;
 }
 
+PassiveDriftSettings passive_settings(const TwinMonitorConfig& c, const FreeDriftSettings& f) {
+  PassiveDriftSettings s;
+  static_cast<DriftScale&>(s) = f;
+  s.window_s = c.drift_passive_window_s;
+  s.reference_s = c.drift_passive_reference_s;
+  s.stroke_min_m = c.actuator.stroke_min_m;
+  s.stroke_max_m = c.actuator.stroke_max_m;
+  s.bin_m = c.drift_passive_bin_counts * c.actuator.linear_count_m;
+  s.max_accel_force_n = c.stop_force_sd_n;
+  return s;
+}
+
 /// Linear trends over the look-ahead horizon: θ and F_ext continue as they have been moving.
 class TrendInput final : public InputSource {
  public:
@@ -150,6 +162,9 @@ struct TwinMonitor::Impl {
   double gain_est = std::numeric_limits<double>::quiet_NaN(), gain_se = 0;
   // The flag: drift from known-force (free-move) stretches, never from the load cell.
   FreeMoveDrift free_drift;
+  // … and from a passive load the force loop presses, revisited (no load cell either).
+  PassiveLoadDrift passive_drift;
+  double passive_judged_t = -std::numeric_limits<double>::infinity();
   // Health: open-loop intervals in a row whose prediction missed by more than the tolerance.
   int bad_intervals = 0;
 
@@ -164,7 +179,8 @@ struct TwinMonitor::Impl {
         q_m(c.actuator.linear_count_m),
         lead_m(c.actuator.lead_m),
         nut({c.actuator.linear_count_m, c.stop}),
-        free_drift(free_settings(c, model)) {}
+        free_drift(free_settings(c, model)),
+        passive_drift(passive_settings(c, free_settings(c, model))) {}
 
   double phase_of(double theta, double p) const noexcept { return phase_rad(theta, p, lead_m); }
 
@@ -244,6 +260,8 @@ struct TwinMonitor::Impl {
     ref_g = gain_est = std::numeric_limits<double>::quiet_NaN();
     ref_se = gain_se = 0;
     free_drift.clear();
+    passive_drift.clear();
+    passive_judged_t = -std::numeric_limits<double>::infinity();
   }
 
   /// A slide the encoder follows: several edges in a row, so velocity and the interpolated
@@ -268,26 +286,60 @@ struct TwinMonitor::Impl {
     return model.mass_kg() * acc - (d0 - u) + dir * model.sliding_friction_n(dir, vel) - f_ext_n;
   }
 
+  /// Screw and nut speeds through the same 20 ms filter: under a position loop the nut rides its
+  /// magnetic spring in a limit cycle around the screw (edge-to-edge speeds of half and twice the
+  /// screw's), which is still a driven move; a hand pushing past a held screw is not.
+  bool driven() const noexcept {
+    const double v_screw = theta_rate * lead_m / (2.0 * kPi);
+    return static_cast<int>(mode) * v_screw > 0 &&
+           std::abs(v_screw - nut_rate) <= cfg.drift_free_speed_fraction * std::abs(nut_rate);
+  }
+
+  /// One force-control tick for the passive-load evidence: a slide the encoder follows, driven by
+  /// the screw (a load that pushes the nut past the screw is not pressed by it), gives the
+  /// model's external-force estimate at the measured position.
+  void passive_tick(double t, double theta, bool force, bool measured) noexcept {
+    if (!force) {
+      passive_drift.end_stretch();
+    } else {
+      passive_slide(t, theta, measured);
+    }
+    // Judged again every block while its evidence stands, as free moves are (their estimate
+    // changes at pass ends): a warning's sustain is measured in time, not in windows.
+    const bool due = std::isfinite(passive_drift.estimate().zero_load_n) &&
+                     t - passive_judged_t >= cfg.drift_block_s;
+    if (passive_drift.updated() || due) {
+      free_drift.passive(t, passive_drift.estimate());
+      passive_judged_t = t;
+    }
+  }
+  void passive_slide(double t, double theta, bool measured) noexcept {
+    const int dir = static_cast<int>(mode);
+    const bool slide = measured && driven();
+    double fhat = 0.0;
+    if (slide) {
+      const double u = model.model_coupling_force_n(t, theta, pos_hat, vel);
+      fhat = needed_coupling_n(t, theta, u, 0.0) - u;
+    }
+    passive_drift.tick(t, dt, slide, fhat, dir, pos_hat, model.mass_kg() * acc);
+  }
+
   /// One tick of the flag's estimator: a free move (no contact, F_ext = 0), declared or
   /// recognised. Recognised: not in force control, the screw drives the nut (a hand pushing the
   /// nut past a held screw is not a move), and the no-load hypothesis fits (the observer's
   /// external force within the model's friction: a contact beyond that is not a drift).
   void free_tick(double t, double theta, double rel_phase, double fset_n, bool declared) noexcept {
     const int dir = static_cast<int>(mode);
-    if (!slide_measured(t, rel_phase) || std::isfinite(fset_n)) {
+    const bool force = std::isfinite(fset_n), measured = slide_measured(t, rel_phase);
+    passive_tick(t, theta, force, measured);
+    if (!measured || force) {
       free_drift.skip(t);
       return;
     }
-    const double v_screw = theta_rate * lead_m / (2.0 * kPi);
     const double u = model.model_coupling_force_n(t, theta, pos_hat, vel);
     const double y = needed_coupling_n(t, theta, u, 0.0);
-    // Screw and nut speeds through the same 20 ms filter: under a position loop the nut rides
-    // its magnetic spring in a limit cycle around the screw (edge-to-edge speeds of half and
-    // twice the screw's), which is still a driven move; a hand pushing past a held screw is not.
-    const bool driven = dir * v_screw > 0 && std::abs(v_screw - nut_rate) <=
-                                                 cfg.drift_free_speed_fraction * std::abs(nut_rate);
     const bool fits = declared || std::abs(u - y) <= model.sliding_friction_n(dir, 0.0);
-    if (!driven || !fits) {
+    if (!driven() || !fits) {
       free_drift.skip(t);
       return;
     }
@@ -381,9 +433,17 @@ struct TwinMonitor::Impl {
     o.drift_reference_stderr = ref_se;
     o.drift_statistic = free_drift.statistic();
     o.drift_observability = free_drift.observability();
-    o.drift_known_s = free_drift.known_s();
+    if (passive_drift.tracking())
+      o.drift_observability = DriftObservability::tracking;
+    else if ((passive_drift.seen() || passive_drift.reference()) &&
+             o.drift_observability == DriftObservability::none)
+      o.drift_observability = DriftObservability::reference;
+    o.drift_known_s = free_drift.known_s() + passive_drift.used_s();
     o.drift_now = free_drift.now();
-    o.drift_reference_t_s = free_drift.reference_t();
+    o.drift_reference_t_s =
+        free_drift.observability() == DriftObservability::tracking || !passive_drift.tracking()
+            ? free_drift.reference_t()
+            : passive_drift.reference_t();
     o.drift_warning = free_drift.warning();
     o.drift_reason = free_drift.reason();
     if (o.drift_warning)

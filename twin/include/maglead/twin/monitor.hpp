@@ -154,6 +154,12 @@ struct TwinMonitorConfig {
   double drift_free_speed_fraction = 0.5;  // over 20 ms: |v_nut − v_screw| ≤ this × |v_nut|
   double drift_rated_force_n = std::numeric_limits<double>::quiet_NaN();  // NaN: the safe force
                                                                           // (actuator × peak)
+  // … and in force control, from the load the loop presses where it is passive (the same force
+  // at the same nut position; twin/src/passive_drift.hpp): the first windows of force-control
+  // time map the estimate over position, later ones are compared with the map where they go.
+  double drift_passive_window_s = 2.0;     // force-control time per window
+  double drift_passive_reference_s = 4.0;  // accepted windows' time that forms the map
+  double drift_passive_bin_counts = 4.0;   // the map's cells, in linear counts
   // Health: the twin's prediction at the end of an open-loop interval (resync_s) misses the
   // measured position by more than this many linear counts, in this many intervals in a row.
   double healthy_residual_counts = 3.0;

@@ -1,0 +1,288 @@
+#include "passive_drift.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace maglead::twin {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// Solves the normal equations A θ = b by Cholesky (A symmetric); inv receives A⁻¹. False when A
+/// is not positive definite (a regressor the window does not excite).
+template <std::size_t N>
+bool solve_normal(std::array<std::array<double, N>, N> a, const std::array<double, N>& b,
+                  std::array<double, N>& theta, std::array<std::array<double, N>, N>& inv) {
+  for (std::size_t j = 0; j < N; ++j) {  // A = L Lᵀ, L stored in the lower triangle of a
+    for (std::size_t k = 0; k < j; ++k) a[j][j] -= a[j][k] * a[j][k];
+    if (!(a[j][j] > 1e-12)) return false;
+    a[j][j] = std::sqrt(a[j][j]);
+    for (std::size_t i = j + 1; i < N; ++i) {
+      for (std::size_t k = 0; k < j; ++k) a[i][j] -= a[i][k] * a[j][k];
+      a[i][j] /= a[j][j];
+    }
+  }
+  const auto solve = [&](std::array<double, N> x) {  // L Lᵀ x = rhs
+    for (std::size_t i = 0; i < N; ++i) {
+      for (std::size_t k = 0; k < i; ++k) x[i] -= a[i][k] * x[k];
+      x[i] /= a[i][i];
+    }
+    for (std::size_t i = N; i-- > 0;) {
+      for (std::size_t k = i + 1; k < N; ++k) x[i] -= a[k][i] * x[k];
+      x[i] /= a[i][i];
+    }
+    return x;
+  };
+  theta = solve(b);
+  for (std::size_t c = 0; c < N; ++c) {
+    std::array<double, N> e{};
+    e[c] = 1.0;
+    const std::array<double, N> col = solve(e);
+    for (std::size_t r = 0; r < N; ++r) inv[r][c] = col[r];
+  }
+  return true;
+}
+
+}  // namespace
+
+PassiveLoadDrift::PassiveLoadDrift(const PassiveDriftSettings& s) : s_(s) {
+  // The map covers the stroke: cells no finer than the stroke over the cells there are.
+  s_.bin_m = std::max(s_.bin_m, (s_.stroke_max_m - s_.stroke_min_m) / kBins);
+  clear();
+}
+
+void PassiveLoadDrift::clear() noexcept {
+  n_blocks_ = 0;
+  map_.fill(Cell{});
+  win_s_ = slide_s_ = 0;
+  b_n_ = 0;
+  ref_s_ = ref_t_sum_ = ref_t_ = 0;
+  ref_n_ = 0;
+  ref_frozen_ = seen_ = updated_ = false;
+  disp_gain_ = disp_step_ = Dispersion{};
+  gain_ = step_ = Mean{};
+  fc_s_ = used_s_ = 0;
+  est_ = PassiveEstimate{};
+}
+
+void PassiveLoadDrift::tick(double t, double dt, bool slide, double fhat_n, int dir, double pos_m,
+                            double accel_force_n) noexcept {
+  updated_ = false;
+  if (win_s_ == 0) win_t0_ = t;
+  win_s_ += dt;
+  if (ref_frozen_) fc_s_ += dt;
+  if (!slide || (b_n_ > 0 && dir != b_dir_)) close_block();
+  if (slide) {
+    if (b_n_ == 0) b_t_ = b_p_ = b_f_ = b_s_ = b_a_ = 0, b_dir_ = dir;
+    b_t_ += t, b_p_ += pos_m, b_f_ += fhat_n, b_s_ += dt, b_a_ += accel_force_n, ++b_n_;
+    if (b_s_ + 0.5 * dt >= s_.block_s) close_block();
+  }
+  if (win_s_ >= s_.window_s) close_window();
+}
+
+/// A block cut short by a stop keeps its ticks if it is at least half a block long: in force
+/// control against a stiff load the slides are short, and they are where the load shows.
+void PassiveLoadDrift::close_block() noexcept {
+  const int n = b_n_;
+  b_n_ = 0;
+  if (n == 0 || b_s_ < 0.5 * s_.block_s || n_blocks_ >= kMaxBlocks) return;
+  if (std::abs(b_a_ / n) > s_.max_accel_force_n) return;
+  const double p = b_p_ / n;
+  blocks_[n_blocks_++] = {b_t_ / n, p, b_f_ / n, ref_n_ > 0 ? reference_at(p, b_dir_) : kNaN,
+                          b_dir_};
+  slide_s_ += b_s_;
+  seen_ = true;
+}
+
+void PassiveLoadDrift::end_stretch() noexcept {
+  updated_ = false;
+  close_block();
+  if (n_blocks_ > 0) close_window();
+  win_s_ = 0;
+}
+
+/// Before the reference is complete an accepted window's blocks go into the map; after it, the
+/// window is compared with the map where it revisits mapped positions, and positions the map
+/// does not hold yet are mapped from their first accepted visit (as a condition first met after
+/// a reference takes its first pass as its baseline).
+void PassiveLoadDrift::close_window() noexcept {
+  const double span_s = win_s_, slide_s = slide_s_;
+  const Fit own = fit(false), cmp = fit(true);
+  win_s_ = slide_s_ = 0;
+  if (own.ok || cmp.ok) used_s_ += slide_s;
+  if (!ref_frozen_) {
+    if (own.ok) reference_window(cmp, span_s);
+  } else if (own.ok || cmp.ok) {
+    map_window();
+    if (cmp.ok) add_window(cmp);
+  }
+  n_blocks_ = 0;
+}
+
+/// The map must predict later visits, in both directions, before it is the reference: once it
+/// holds reference_s of windows, the next window that revisits it in both directions checks it,
+/// with the margin a warning needs (beyond sigmas standard errors and beyond the minimum change,
+/// at zero load and at the rated force): a map whose own check would warn is no reference. A map
+/// that fails (a load that changed on its own, a motion unlike the one mapped) is dropped and
+/// mapping starts again from the failing window.
+void PassiveLoadDrift::reference_window(const Fit& cmp, double span_s) noexcept {
+  const bool ready = ref_s_ >= s_.reference_s && ref_n_ >= 2;
+  if (ready && cmp.ok && cmp.has_step) {
+    const double m = s_.min_change * s_.rated_n;
+    const bool agrees = std::abs(cmp.gain) * s_.rated_n <=
+                            std::max(s_.sigmas * std::sqrt(cmp.var_gain) * s_.rated_n, m) &&
+                        std::abs(cmp.step) <= std::max(s_.sigmas * std::sqrt(cmp.var_step), m);
+    if (!agrees) {
+      map_.fill(Cell{});
+      ref_s_ = ref_t_sum_ = 0, ref_n_ = 0;
+      for (int i = 0; i < n_blocks_; ++i) blocks_[i].ref = kNaN;
+    }
+    ref_frozen_ = agrees;
+  }
+  map_window();
+  ref_s_ += span_s, ref_t_sum_ += win_t0_ + 0.5 * span_s, ++ref_n_;
+  if (ref_frozen_) ref_t_ = ref_t_sum_ / ref_n_;
+}
+
+int PassiveLoadDrift::bin_of(double p) const noexcept {
+  return std::clamp(static_cast<int>(std::floor((p - s_.stroke_min_m) / s_.bin_m)), 0, kBins - 1);
+}
+
+void PassiveLoadDrift::map_window() noexcept {
+  for (int i = 0; i < n_blocks_; ++i) {
+    const Block& b = blocks_[i];
+    if (std::isfinite(b.ref)) continue;  // compared, not mapped again
+    Cell& c = map_[(b.dir > 0 ? kBins : 0) + bin_of(b.p)];
+    c.sum_p += b.p, c.sum_f += b.f, ++c.n;
+  }
+}
+
+/// The reference's F̂ at p in direction dir: interpolated between the nearest mapped cells on
+/// either side within two cells (NaN where the reference did not go).
+double PassiveLoadDrift::reference_at(double p, int dir) const noexcept {
+  const int b = bin_of(p), off = dir > 0 ? kBins : 0;
+  double p_lo = -1e9, f_lo = kNaN, p_hi = 1e9, f_hi = kNaN;
+  for (int k = std::max(0, b - 2); k <= std::min(kBins - 1, b + 2); ++k) {
+    const Cell& c = map_[off + k];
+    if (c.n == 0) continue;
+    const double pc = c.sum_p / c.n, fc = c.sum_f / c.n;
+    if (pc <= p && pc > p_lo) p_lo = pc, f_lo = fc;
+    if (pc >= p && pc < p_hi) p_hi = pc, f_hi = fc;
+  }
+  if (std::isnan(f_lo) || std::isnan(f_hi)) return kNaN;
+  if (p_hi - p_lo <= 0) return f_lo;
+  return f_lo + (f_hi - f_lo) * (p - p_lo) / (p_hi - p_lo);
+}
+
+/// Least squares over the window's blocks of y = c + θ₁·q + θ₂·dir, with
+///   before the reference: y = F̂, q = p − p̄ (the load's apparent stiffness);
+///   after it: y = F̂ − F̂_ref, q = F̂_ref on blocks where the reference went (θ₁ = α, θ₂ = −Δ₀).
+/// A window that moved in one direction only (a ramp, a step) gives θ₁ alone, from its main
+/// direction's blocks. Accepted where the data support a passive load: the fit predicts the
+/// mean of each direction in each half of the window (by time) within sigmas of its standard
+/// error (sd/√n); a load that changes on its own — a hand, an anchor that moves — leaves a part
+/// off the line. Before the reference the stiffness must also be resolved (a load to compare).
+PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare) const noexcept {
+  Fit f;
+  const Design d = design(compare);
+  f.has_step = d.has_step;
+  if (d.m < 2 * d.params()) return f;
+  std::array<Vec, kP> a{}, inv{};
+  Vec rhs{}, th{};
+  for (int i = 0; i < n_blocks_; ++i) {
+    if (!d.used(blocks_[i])) continue;
+    double y = 0;
+    const Vec x = d.row(blocks_[i], y);
+    for (int r = 0; r < kP; ++r) {
+      rhs[r] += x[r] * y;
+      for (int c = 0; c < kP; ++c) a[r][c] += x[r] * x[c];
+    }
+  }
+  if (!d.has_step) a[2][2] = 1.0;  // the step's column is empty: θ₂ = 0, decoupled
+  if (!solve_normal(a, rhs, th, inv)) return f;
+  double rss = 0;
+  for (int i = 0; i < n_blocks_; ++i) {
+    if (d.used(blocks_[i])) rss += std::pow(residual(d, th, blocks_[i]), 2);
+  }
+  const double var = rss / (d.m - d.params());
+  f.gain = th[1], f.step = th[2], f.var_gain = var * inv[1][1], f.var_step = var * inv[2][2];
+  f.ok = f.var_gain > 0 && (compare || std::abs(f.gain) > s_.sigmas * std::sqrt(f.var_gain)) &&
+         parts_on_line(d, th, std::sqrt(var));
+  return f;
+}
+
+/// The blocks a fit uses: before the reference all, after it those where the reference went;
+/// of one direction only where the other has too few to resolve the step.
+PassiveLoadDrift::Design PassiveLoadDrift::design(bool compare) const noexcept {
+  Design d;
+  d.compare = compare;
+  int n_pos = 0, n_all = 0;
+  for (int i = 0; i < n_blocks_; ++i) {
+    if (compare && !std::isfinite(blocks_[i].ref)) continue;
+    ++n_all, n_pos += blocks_[i].dir > 0 ? 1 : 0, d.p_mean += blocks_[i].p;
+  }
+  d.has_step = n_pos >= kP && n_all - n_pos >= kP;
+  d.only = d.has_step ? 0 : (2 * n_pos >= n_all ? 1 : -1);
+  d.m = d.has_step ? n_all : (d.only > 0 ? n_pos : n_all - n_pos);
+  if (n_all > 0) d.p_mean /= n_all;
+  return d;
+}
+
+double PassiveLoadDrift::residual(const Design& d, const Vec& th, const Block& b) noexcept {
+  double y = 0;
+  const Vec x = d.row(b, y);
+  return y - th[0] * x[0] - th[1] * x[1] - th[2] * x[2];
+}
+
+/// The passive-load test: the mean residual of each direction in each half of the window (by
+/// time) within sigmas of its standard error (sd/√n, the blocks taken as independent).
+bool PassiveLoadDrift::parts_on_line(const Design& d, const Vec& th, double sd) const noexcept {
+  std::array<double, 4> sum{};
+  std::array<int, 4> cnt{};
+  const double t_mid = 0.5 * (blocks_[0].t + blocks_[n_blocks_ - 1].t);
+  for (int i = 0; i < n_blocks_; ++i) {
+    if (!d.used(blocks_[i])) continue;
+    const int g = (blocks_[i].dir > 0 ? 2 : 0) + (blocks_[i].t >= t_mid ? 1 : 0);
+    sum[g] += residual(d, th, blocks_[i]), ++cnt[g];
+  }
+  for (int g = 0; g < 4; ++g) {
+    if (cnt[g] > 0 && std::abs(sum[g] / cnt[g]) > s_.sigmas * sd / std::sqrt(double(cnt[g])))
+      return false;
+  }
+  return true;
+}
+
+/// One window compared with the reference, into means weighted by forgetting (force-control
+/// time) and by the window's own variance (a window of a few slides counts less than a sweep).
+void PassiveLoadDrift::add_window(const Fit& f) noexcept {
+  disp_gain_.add(f.gain, f.var_gain);
+  gain_.add(fc_s_, s_.memory_s, f.gain, f.var_gain);
+  if (f.has_step && f.var_step > 0) {
+    disp_step_.add(f.step, f.var_step);
+    step_.add(fc_s_, s_.memory_s, f.step, f.var_step);
+  }
+  evaluate();
+  updated_ = true;
+}
+
+/// The change since the reference: α = g_ref / g − 1 ≈ −Δg, Δ₀ the estimate's error at zero
+/// load (α·F_c + ΔF_f), and at the rated force α·F_r + Δ₀. Variances: the weighted means',
+/// scaled by the dispersion between successive windows where it exceeds one (windows that
+/// differ more than their least squares say).
+void PassiveLoadDrift::evaluate() noexcept {
+  if (!(step_.w > 0)) return;  // no zero-load figure yet
+  const double var_a = disp_gain_.factor() * gain_.var();
+  const double var_0 = disp_step_.factor() * step_.var();
+  const double alpha = gain_.mean(), fr = s_.rated_n;
+  PassiveEstimate e;
+  e.zero_load_n = -step_.mean(), e.zero_load_se_n = std::sqrt(var_0);
+  e.rated_n = alpha * fr + e.zero_load_n;
+  e.rated_se_n = std::sqrt(fr * fr * var_a + var_0);
+  e.gain_change = 1.0 / (1.0 + alpha) - 1.0;
+  e.gain_change_se = std::sqrt(var_a) / (1.0 + alpha);
+  e.scatter_measured = disp_gain_.n >= 3 && disp_step_.n >= 3;
+  est_ = e;
+}
+
+}  // namespace maglead::twin
