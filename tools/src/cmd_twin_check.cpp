@@ -32,10 +32,11 @@ void print_drift(const twin::TwinOutputs& last, const twin::TwinOutputs& at_drif
           last.drift_known_s);
       return;
     case DriftObservability::tracking:
+      // Compared but never judged (too few differences to measure the scatter): not a "none".
+      std::printf("  %s", max_stat > 0.0 ? "drift warning: none" : "drift not judged yet");
       std::printf(
-          "  drift warning: none (%.1f s of known-force stretches, reference at t = %.1f s; at the "
-          "end %s; "
-          "max statistic %.2f of the margin)\n",
+          " (%.1f s of known-force stretches, reference at t = %.1f s; at the end %s; max "
+          "statistic %.2f of the margin)\n",
           last.drift_known_s, last.drift_reference_t_s,
           twin::drift_figures_text(last.drift_now).c_str(), max_stat);
       return;
