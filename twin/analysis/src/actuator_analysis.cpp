@@ -164,6 +164,27 @@ double load_cell_noise(const std::vector<double>& load_raw) {
   return robust_sigma(d2) / std::sqrt(6.0);
 }
 
+// Stops the filter hides: a raw count held for longer than twice the time the filtered speed
+// needs to cross one count means the nut stood still (or nearly) in between, as in stick-slip,
+// where it sticks and jumps several times within one filter period. Each stop, widened by the
+// filter's support either side (the samples whose filtered values it reaches), as times since t0.
+std::vector<Prepared::Window> hidden_stops(const Signals& s, const Prepared& P) {
+  std::vector<Prepared::Window> out;
+  const std::size_t n = s.t.size();
+  const double reach_s = std::ceil(P.fs_hz / P.filter_hz) / P.fs_hz;
+  std::size_t i = 0;
+  while (i < n) {
+    std::size_t j = i;
+    while (j + 1 < n && std::abs(s.pos_raw[j + 1] - s.pos_raw[i]) < 0.5 * P.count_m) ++j;
+    // The count was held at least from sample i to sample j (sampling adds, never removes).
+    const double held_s = s.t[j] - s.t[i];
+    if (std::abs(s.v[(i + j) / 2]) * held_s > 2.0 * P.count_m)
+      out.push_back({s.t[i] - P.t0_s - reach_s, s.t[j] - P.t0_s + reach_s});
+    i = j + 1;
+  }
+  return out;
+}
+
 // Sliding samples: moving in one direction for the whole filter support around the sample,
 // faster than one encoder count per filter time constant (slower, the nut may be stuck and its
 // friction is anywhere in the break-away band), and away from step-outs.
@@ -325,7 +346,23 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.samples = n;
   P.duration_s = t.back() - t.front();
   P.stuck = stuck_episodes(s, P, base, state_at);
+  P.stops = hidden_stops(s, P);
   return P;
+}
+
+Prepared without_stops(const Prepared& P) {
+  Prepared out = P;
+  out.states.clear();
+  out.residual.clear();
+  auto w = P.stops.begin();
+  for (std::size_t i = 0; i < P.states.size(); ++i) {
+    const double t = P.states[i].t_s;
+    while (w != P.stops.end() && w->to_s < t) ++w;
+    if (w != P.stops.end() && w->from_s <= t) continue;
+    out.states.push_back(P.states[i]);
+    out.residual.push_back(P.residual[i]);
+  }
+  return out;
 }
 
 // ------------------------------------------------------------------------------- fitting
@@ -602,14 +639,15 @@ Selection select(const Prepared& P, const Options& opt,
   Search s{P, opt, g, cand, P.states.empty() ? State{} : P.states.front(), 0, folds, {}, {}, {}};
   for (auto c : g.n) s.n_used += c;
   out.samples_used = s.n_used;
+  out.baseline_sse = out.final_sse = total(g.rr);
+  out.measured_ss = total(g.yy);
+  out.final_residual = P.residual;  // nothing fitted yet: what the baseline leaves
   if (s.n_used < 50) {
     out.too_little_sliding = true;
     return out;
   }
   s.cur_ho = heldout(g, s.current);
   out.baseline_heldout_sse = total(s.cur_ho);
-  out.baseline_sse = total(g.rr);
-  out.measured_ss = total(g.yy);
   for (int step = 0; step < opt.max_terms; ++step) {
     if (progress) progress(static_cast<double>(step) / opt.max_terms);
     const auto trials = trials_of(s, out);
@@ -700,6 +738,48 @@ std::optional<std::string> stribeck_unseen_at_rest(const Prepared& P, const Base
   return std::string(buf);
 }
 
+namespace {
+
+struct StribeckVelocity {
+  double value = 0, low = 0, high = 0;  // the estimate and the scanned values the data allow
+  bool determined = false;
+};
+
+// The Stribeck velocity: the one whose low-speed friction rise best fits the sliding residual.
+// Every scanned value within 1 % of the worst fit's error of the best one fits as well (without
+// slow sliding, every value: all predict nothing there). The velocity is determined when one
+// value stands alone; otherwise the middle (on a log scale) of those the data allow, and the
+// finding says so.
+StribeckVelocity stribeck_velocity(const Prepared& P, const Selection& sel,
+                                   const effects::Effect& e, double excess_n) {
+  const auto shapes = e.shapes();
+  std::vector<double> sse;
+  for (double vs : shapes) {
+    double s = 0, x = 0;
+    for (std::size_t i = 0; i < P.states.size(); ++i) {
+      e.regressors(vs, P.states[i], &x);
+      const double r = sel.final_residual[i] - excess_n * x;
+      s += r * r;
+    }
+    sse.push_back(s);
+  }
+  const double best = *std::min_element(sse.begin(), sse.end());
+  const double worst = *std::max_element(sse.begin(), sse.end());
+  StribeckVelocity out{0, INFINITY, 0, false};
+  int allowed = 0;
+  for (std::size_t k = 0; k < shapes.size(); ++k) {
+    if (sse[k] - best > 0.01 * worst) continue;
+    ++allowed;
+    out.low = std::min(out.low, shapes[k]);
+    out.high = std::max(out.high, shapes[k]);
+  }
+  out.determined = allowed == 1;
+  out.value = std::sqrt(out.low * out.high);
+  return out;
+}
+
+}  // namespace
+
 // Break-away above the kinetic level in both directions is static friction (Stribeck's law).
 // The release is seen only once the nut has crossed an encoder count: the force read then is
 // late by up to the lag bound (breakaway_test), and the phase it is computed from is known to
@@ -723,30 +803,15 @@ std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseli
   const auto* e = effects::find("stribeck_friction");
   State model = P.states.empty() ? State{} : P.states.front();
   model.coulomb_n = kinetic_n;
-  // The Stribeck velocity: the one whose low-speed friction rise best fits the sliding residual.
-  // Without slow sliding the data say nothing about it: then the middle of the scanned range
-  // (on a log scale), and the finding says so.
-  const auto shapes = e->shapes();
-  double best_vs = std::sqrt(shapes.front() * shapes.back()), best_sse = INFINITY, worst_sse = 0;
-  for (double vs : shapes) {
-    double s = 0, x = 0;
-    for (std::size_t i = 0; i < P.states.size(); ++i) {
-      e->regressors(vs, P.states[i], &x);
-      const double r = sel.final_residual[i] - excess * x;
-      s += r * r;
-    }
-    worst_sse = std::max(worst_sse, s);
-    if (s < best_sse) best_sse = s, best_vs = vs;
-  }
-  const bool determined = worst_sse - best_sse > 0.01 * worst_sse;
-  if (!determined) best_vs = std::sqrt(shapes.front() * shapes.back());
+  const auto vs = stribeck_velocity(P, sel, *e, excess);
   Candidate c;
   c.id = "stribeck_friction";
-  c.shape = best_vs;
+  c.shape = vs.value;
   const double coef = excess;
-  c.params = *e->parameters(best_vs, &coef, model);
+  c.params = *e->parameters(vs.value, &coef, model);
   c.t_stat = std::min(t_pos, t_neg);
-  c.velocity_determined = determined;
+  c.velocity_determined = vs.determined;
+  c.velocity_range_m_s = {vs.low, vs.high};
   c.segments = static_cast<int>(bt.pos.episodes + bt.neg.episodes);
   return c;
 }

@@ -4,6 +4,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "maglead/effects/effect.hpp"
@@ -72,6 +73,10 @@ struct Prepared {
   std::vector<double> residual;        // the baseline's missing force at those samples [N]
   std::vector<SlipEvent> slips;
   std::vector<StuckEpisode> stuck;
+  struct Window {
+    double from_s, to_s;  // since t0_s
+  };
+  std::vector<Window> stops;  // stops the filtered speed hides, widened by the filter's support
 };
 
 struct Alternative {
@@ -87,8 +92,10 @@ struct Candidate {
   int segments_improved = 0, segments = 0;
   std::vector<Alternative> alternatives;
   double shape = 0;
-  effects::Params standard_errors{};  // jackknife over the held-out segments' fits
-  bool velocity_determined = true;    // Stribeck: did slow sliding pin down v_s?
+  effects::Params standard_errors{};               // jackknife over the held-out segments' fits
+  bool velocity_determined = true;                 // Stribeck: did slow sliding pin down v_s?
+  std::pair<double, double> velocity_range_m_s{};  // Stribeck: the v_s the sliding data allow
+  std::size_t stops_left_out = 0;  // Stribeck: hidden stops the sliding fit left out
 };
 
 /// The best fit the selection could not take because its parameters lie outside the effect's
@@ -127,6 +134,8 @@ struct BreakawayTest {
 
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
                  const ActuatorParams& act, const Options& opt);
+/// The same recording without the sliding samples a hidden stop reaches (Prepared::stops).
+Prepared without_stops(const Prepared& P);
 Selection select(const Prepared& P, const Options& opt,
                  const std::function<void(double)>& progress);
 std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,

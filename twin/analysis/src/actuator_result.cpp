@@ -259,17 +259,24 @@ EffectFinding stribeck_finding(const actuator::Candidate& stribeck,
   e.standard_errors = params_of(c.standard_errors);
   e.summary = summary_of(c, P);
   e.improvement_pct = 0.0;
+  const auto [vs_low, vs_high] = stribeck.velocity_range_m_s;
   e.note = stribeck.velocity_determined
                ? "break-away from the net force at release; the Stribeck velocity is the one "
                  "the sliding samples prefer"
                : "break-away from the net force at release; the Stribeck velocity is not "
-                 "determined (no slow sliding in the recording): the middle of the range "
-                 "scanned";
+                 "determined (the sliding samples fit every value from " +
+                     fmt(vs_low) + " to " + fmt(vs_high) +
+                     " m/s alike: too little slow sliding): the middle of those";
   e.note +=
       "; the force read at release is corrected for what rose while the nut crossed "
       "its first count (" +
       fmt(0.5 * (bt.pos.lag_expected_n + bt.neg.lag_expected_n)) + " N, at most " +
       fmt(std::max(bt.pos.lag_bound_n, bt.neg.lag_bound_n)) + " N)";
+  if (stribeck.stops_left_out > 0)
+    e.note += "; the sliding fit leaves out the samples within the filter's reach of " +
+              std::to_string(stribeck.stops_left_out) +
+              " stops its filtered speed hides (stick-slip: no friction law of the speed holds "
+              "at a speed that averages stuck and slipping motion)";
   return e;
 }
 
@@ -390,41 +397,76 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   return J;
 }
 
+struct Progress {
+  const AnalysisOptions& opt;
+  void operator()(const std::string& stage, double f) const {
+    if (opt.progress) opt.progress(stage, f);
+  }
+};
+
+struct SlidingFit {
+  actuator::Selection fit;
+  std::optional<Rejected> unseen;  // a Stribeck term the releases do not confirm
+};
+
+// The forward selection on the sliding samples; a Stribeck term it takes that the releases do
+// not show is rejected (and stays out of `o`), and the others are chosen again without it.
+SlidingFit sliding_fit(const actuator::Prepared& P, const actuator::Baseline& base,
+                       actuator::Options& o, const Progress& progress) {
+  SlidingFit out;
+  const auto report = [&](double f) { progress("selection", f); };
+  out.fit = actuator::select(P, o, report);
+  if (auto why = actuator::stribeck_unseen_at_rest(P, base, out.fit, o)) {
+    for (const auto& c : out.fit.chosen)
+      if (c.id == "stribeck_friction")
+        out.unseen = Rejected{c.id,         c.gain_pct, c.t_stat,           std::nullopt,
+                              std::nullopt, *why,       params_of(c.params)};
+    o.exclude.emplace_back("stribeck_friction");
+    out.fit = actuator::select(P, o, report);
+  }
+  return out;
+}
+
 }  // namespace
 
 AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
                                 const ForceCalibration& cal, const ActuatorParams& act,
                                 const AnalysisOptions& opt) {
-  auto progress = [&](const std::string& stage, double f) {
-    if (opt.progress) opt.progress(stage, f);
-  };
+  const Progress progress{opt};
   const auto base = baseline_of(model);
   auto o = options_of(opt, base);
   progress("prepare", 0.0);
-  const auto P = actuator::prepare(rec, base, cal, act, o);
+  auto P = actuator::prepare(rec, base, cal, act, o);
   progress("prepare", 1.0);
-  auto sel = actuator::select(P, o, [&](double f) { progress("selection", f); });
-  std::optional<Rejected> unseen;
-  if (auto why = actuator::stribeck_unseen_at_rest(P, base, sel, o)) {
-    // Chosen again without it, so the other terms and their errors are fitted without it.
-    for (const auto& c : sel.chosen)
-      if (c.id == "stribeck_friction")
-        unseen = Rejected{c.id,         c.gain_pct, c.t_stat,           std::nullopt,
-                          std::nullopt, *why,       params_of(c.params)};
-    o.exclude.emplace_back("stribeck_friction");
-    sel = actuator::select(P, o, [&](double f) { progress("selection", f); });
+  auto sel = sliding_fit(P, base, o, progress);
+  auto bt = actuator::breakaway_test(P, base, sel.fit.chosen);
+  auto stribeck = actuator::stribeck_from_breakaway(P, base, sel.fit, bt, o);
+  // Break-away friction: a release is a jump (the friction drops from F_s to F_c at once), many
+  // within one filter period where the nut stick-slips, and the filtered speed averages stuck and
+  // slipping motion, where no friction law of the speed holds (the slips' accelerations would
+  // read as mass). The sliding fit is made again without the samples those stops reach, kept if
+  // the break-away test on it still names the hump. Without a hump a release is gentle and those
+  // samples stay: a pulse that stalls the nut is seen there.
+  if (auto P2 = stribeck ? actuator::without_stops(P) : actuator::Prepared{};
+      stribeck && P2.states.size() < P.states.size()) {
+    auto o2 = o;
+    auto sel2 = sliding_fit(P2, base, o2, progress);
+    const auto bt2 = actuator::breakaway_test(P2, base, sel2.fit.chosen);
+    if (auto s2 = actuator::stribeck_from_breakaway(P2, base, sel2.fit, bt2, o2)) {
+      P = std::move(P2), sel = std::move(sel2), bt = bt2, stribeck = s2, o = std::move(o2);
+      stribeck->stops_left_out = P.stops.size();
+    }
   }
   progress("selection", 1.0);
-  const auto bt = actuator::breakaway_test(P, base, sel.chosen);
-  const auto stribeck = actuator::stribeck_from_breakaway(P, base, sel, bt, o);
-  if (stribeck) fold_in_stribeck(sel, P, *stribeck);
+  if (stribeck) fold_in_stribeck(sel.fit, P, *stribeck);
 
   AnalysisResult r;
-  r.findings = findings_of(rec, P, sel, stribeck, bt, o);
-  if (unseen) r.findings.not_selected.insert(r.findings.not_selected.begin(), *unseen);
-  r.corrected = corrected_model(model, sel.chosen, rec.path);
+  r.findings = findings_of(rec, P, sel.fit, stribeck, bt, o);
+  if (sel.unseen) r.findings.not_selected.insert(r.findings.not_selected.begin(), *sel.unseen);
+  r.corrected = corrected_model(model, sel.fit.chosen, rec.path);
   if (opt.twin_force_check) {
-    r.findings.twin_force_check = check_with_twin(rec, act, cal, model, sel.chosen, r.corrected);
+    r.findings.twin_force_check =
+        check_with_twin(rec, act, cal, model, sel.fit.chosen, r.corrected);
     for (auto& e : r.findings.effects)
       for (const auto& d : r.findings.twin_force_check->dropped)
         if (e.id == d)
@@ -432,7 +474,7 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
                     "left out of model_corrected.toml: with it the twin's force estimate was "
                     "further from the load cell";
   }
-  r.fit_over_time = fit_over_time(P, sel);
+  r.fit_over_time = fit_over_time(P, sel.fit);
   return r;
 }
 
