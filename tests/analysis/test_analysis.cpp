@@ -30,6 +30,7 @@
 #include <sstream>
 #include <string>
 
+#include "../../twin/analysis/src/actuator_twin_force.hpp"
 #include "../test_tmp.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/signal.hpp"
@@ -792,3 +793,30 @@ TEST(BadInput, MissingColumnNamesFileAndColumn) {
 }
 
 }  // namespace
+
+TEST(TwinCheck, ScoresTheWholeRecordingOrWindowsSpreadOverIt) {
+  using maglead::analysis::actuator::scoring_windows;
+  // Up to the budget: every sample, one window.
+  const auto whole = scoring_windows(60000, 65536, 8);
+  ASSERT_EQ(whole.size(), 1u);
+  EXPECT_EQ(whole[0].begin, 0u);
+  EXPECT_EQ(whole[0].end, 60000u);
+  // An hour at 1 kHz: eight windows from the start to the end, equally long and equally spaced,
+  // the budget in all.
+  const std::size_t n = 3600000;
+  const auto w = scoring_windows(n, 65536, 8);
+  ASSERT_EQ(w.size(), 8u);
+  EXPECT_EQ(w.front().begin, 0u);
+  EXPECT_EQ(w.back().end, n);
+  std::size_t total = 0;
+  for (std::size_t k = 0; k < w.size(); ++k) {
+    EXPECT_EQ(w[k].end - w[k].begin, 65536u / 8);
+    total += w[k].end - w[k].begin;
+    if (k > 0) {
+      EXPECT_GE(w[k].begin, w[k - 1].end);  // no sample scored twice
+      const auto gap = w[k].begin - w[k - 1].begin, first = w[1].begin - w[0].begin;
+      EXPECT_LE(gap > first ? gap - first : first - gap, 1u);
+    }
+  }
+  EXPECT_LE(total, 65536u);
+}
