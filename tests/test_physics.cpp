@@ -167,6 +167,18 @@ TEST(CalibrationFile, RoundTripsAndRejectsBadContent) {
     EXPECT_NE(std::string(e.what()).find("polynomial_coeffs_ascending"), std::string::npos);
   }
   {
+    // Found by fuzz_config: finite coefficients whose curve overflows at the branch's edge.
+    std::ofstream bad(path);
+    bad << "[calibration]\npolynomial_coeffs_ascending = [-4.28, -47.6, 1e308, 8.51, -8.209]\n"
+        << "periodic_mean_n = 0\nperiodic_cos_n = [1.0]\nperiodic_sin_n = [1.0]\n";
+  }
+  try {
+    load_calibration(path);
+    FAIL() << "accepted a curve whose peak overflows";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a finite number"), std::string::npos);
+  }
+  {
     std::ofstream bad(path);
     bad << "[actuator]\nlead_m = -1\n";
   }

@@ -158,6 +158,10 @@ ForceCalibration load_calibration(const std::string& path) {
     config::fail(
         path, t->get("polynomial_coeffs_ascending"),
         "[calibration] curve has no stable branch around phi = 0 (force must fall with phase)");
+  // Finite coefficients can still overflow at the branch's edge (a coefficient of 1e308).
+  if (!std::isfinite(cal.peak_push_n) || !std::isfinite(cal.peak_pull_n))
+    config::fail(path, t->get("polynomial_coeffs_ascending"),
+                 "[calibration] curve's peak force on its stable branch is not a finite number");
   return cal;
 }
 

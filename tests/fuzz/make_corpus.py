@@ -121,6 +121,14 @@ def config_seeds():
         b'fit = ["coulomb_n"]\n[[term]]\nid = "offset"\nnote = "a note"\noffset_n = -3.5\n'
         b'[[term]]\nid = "offset"\nenabled = false\noffset_n = 1\n')
     seeds["network_allow"] = bytes([2]) + b'[tcp]\nport = 0\nallow = ["10.0.0.0/8", "127.0.0.1"]\n'
+    # Found by the fuzzer: finite coefficients whose curve overflows at the stable branch's edge.
+    seeds["calibration_peak_overflow"] = bytes([1]) + (
+        b'[calibration]\n'
+        b'source = "paper eq. 7"\n'
+        b'polynomial_coeffs_ascending = [-4.28, -47.6,1e308, 8.51, -8.209, -0.306]\n'
+        b'periodic_mean_n = -0.2889549456\n'
+        b'periodic_cos_n = [-3.227697857, -1.028128596, 0.2828951553]\n'
+        b'periodic_sin_n = [-44.04634468, -2.912053278, 0.9283163344]\n')
     return seeds
 
 
