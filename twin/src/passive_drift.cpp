@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Cholesky>
+
 namespace maglead::twin {
 
 namespace {
@@ -10,36 +12,28 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// Solves the normal equations A θ = b by Cholesky (A symmetric); inv receives A⁻¹. False when A
-/// is not positive definite (a regressor the window does not excite).
+/// is not positive definite (a regressor the window does not excite: a pivot of L at or below
+/// 1e-6). Fixed-size Eigen: no allocation.
 template <std::size_t N>
-bool solve_normal(std::array<std::array<double, N>, N> a, const std::array<double, N>& b,
+bool solve_normal(const std::array<std::array<double, N>, N>& a, const std::array<double, N>& b,
                   std::array<double, N>& theta, std::array<std::array<double, N>, N>& inv) {
-  for (std::size_t j = 0; j < N; ++j) {  // A = L Lᵀ, L stored in the lower triangle of a
-    for (std::size_t k = 0; k < j; ++k) a[j][j] -= a[j][k] * a[j][k];
-    if (!(a[j][j] > 1e-12)) return false;
-    a[j][j] = std::sqrt(a[j][j]);
-    for (std::size_t i = j + 1; i < N; ++i) {
-      for (std::size_t k = 0; k < j; ++k) a[i][j] -= a[i][k] * a[j][k];
-      a[i][j] /= a[j][j];
-    }
+  constexpr int n = static_cast<int>(N);
+  Eigen::Matrix<double, n, n> m;
+  Eigen::Matrix<double, n, 1> rhs;
+  for (int i = 0; i < n; ++i) {
+    rhs(i) = b[static_cast<std::size_t>(i)];
+    for (int j = 0; j < n; ++j)
+      m(i, j) = a[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
   }
-  const auto solve = [&](std::array<double, N> x) {  // L Lᵀ x = rhs
-    for (std::size_t i = 0; i < N; ++i) {
-      for (std::size_t k = 0; k < i; ++k) x[i] -= a[i][k] * x[k];
-      x[i] /= a[i][i];
-    }
-    for (std::size_t i = N; i-- > 0;) {
-      for (std::size_t k = i + 1; k < N; ++k) x[i] -= a[k][i] * x[k];
-      x[i] /= a[i][i];
-    }
-    return x;
-  };
-  theta = solve(b);
-  for (std::size_t c = 0; c < N; ++c) {
-    std::array<double, N> e{};
-    e[c] = 1.0;
-    const std::array<double, N> col = solve(e);
-    for (std::size_t r = 0; r < N; ++r) inv[r][c] = col[r];
+  const Eigen::LLT<Eigen::Matrix<double, n, n>> llt(m);
+  if (llt.info() != Eigen::Success || !(llt.matrixL().toDenseMatrix().diagonal().minCoeff() > 1e-6))
+    return false;
+  const Eigen::Matrix<double, n, 1> x = llt.solve(rhs);
+  const Eigen::Matrix<double, n, n> mi = llt.solve(Eigen::Matrix<double, n, n>::Identity());
+  for (int i = 0; i < n; ++i) {
+    theta[static_cast<std::size_t>(i)] = x(i);
+    for (int j = 0; j < n; ++j)
+      inv[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = mi(i, j);
   }
   return true;
 }
