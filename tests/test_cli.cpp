@@ -68,7 +68,7 @@ TEST(Cli, HandPushStaticEstimateIsInThePapersNeighbourhood) {
 
   // The loop's load observer (no load cell) on the same pushes: well below the static estimate
   // (it knows the stick band) and not behind the twin (it shares its edge tracker and stuck-load
-  // filter). Measured: 1.22 N observer, 1.23 N twin, 2.2 N static.
+  // filter). Measured: 1.09 N observer, 1.20 N twin, 2.2 N static.
   const auto obs = run("estimate --estimator observer --recording " + tmp("hp.csv") + " --plot " +
                        tmp("hp_obs.png"));
   const auto twin = run("estimate --estimator twin --recording " + tmp("hp.csv") + " --plot " +
@@ -82,6 +82,18 @@ TEST(Cli, HandPushStaticEstimateIsInThePapersNeighbourhood) {
   char sig[8] = {};
   png.read(sig, 8);
   EXPECT_EQ(std::string(sig + 1, 3), "PNG");
+}
+
+// Issue 22's bar: the observer within 1.0 N of the load cell on average on the hand-push run
+// of seed 11 (measured 0.98 N; 1.01 N with the load prior's earlier 2 s / 2 s come-and-go).
+TEST(Cli, HandPushObserverWithinOneNewtonOnSeedEleven) {
+  const auto sim =
+      run("simulate --scenario hand-push --duration 30s --seed 11 --out " + tmp("hp11.csv"));
+  ASSERT_EQ(sim.exit_code, 0) << sim.out;
+  const auto obs = run("estimate --estimator observer --recording " + tmp("hp11.csv") + " --plot " +
+                       tmp("hp11.png"));
+  ASSERT_EQ(obs.exit_code, 0) << obs.out;
+  EXPECT_LE(number_after(obs.out, "mean absolute error"), 1.0) << obs.out;
 }
 
 TEST(Cli, CalibrationOnStaticRunPicksOrderFiveAndWritesALoadableFile) {
