@@ -136,187 +136,236 @@ void TcpServer::stop() {
   if (thread_.joinable()) thread_.join();
 }
 
-void TcpServer::run() {
+// The network thread's state: the open connections and what it does with them. Lives on the
+// network thread's stack, so nothing here is shared with the loop (it talks to core_ only).
+struct TcpServer::Loop {
+  explicit Loop(TcpServer& s) : server(s) {}
+  TcpServer& server;
   std::unordered_map<int, std::unique_ptr<Conn>> conns;
   std::uint16_t next_id = 1;
   std::uint64_t activity_count = 0;
-  const auto drop = [&](Conn& c) {
-    epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, c.fd, nullptr);
-    close(c.fd);
-    core_.client_closed(c.id);
-    conns.erase(c.fd);
-    connections_.store(conns.size());
-  };
-  const auto flush = [&](Conn& c) -> bool {  // false: connection must go
-    while (!c.out.empty()) {
-      const ssize_t n = send(c.fd, c.out.data(), c.out.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-      if (n > 0) {
-        c.out.erase(0, static_cast<std::size_t>(n));
-      } else if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-        break;
-      } else if (n < 0 && errno == EINTR) {
-        continue;
-      } else {
-        return false;
-      }
-    }
-    if (c.read_closed && c.out.empty()) return false;  // every answer is out: close
-    epoll_event ev{};
-    ev.events = (c.read_closed ? 0u : static_cast<std::uint32_t>(EPOLLIN | EPOLLRDHUP)) |
-                (c.out.empty() ? 0u : static_cast<std::uint32_t>(EPOLLOUT));
-    ev.data.fd = c.fd;
-    epoll_ctl(epoll_fd_, EPOLL_CTL_MOD, c.fd, &ev);
-    return c.out.size() <= kMaxPendingOut;
-  };
-  // Frames every complete ADU in the buffer; false: the stream is broken, close it.
-  const auto serve = [&](Conn& c, double now) -> bool {
-    std::size_t off = 0;
-    std::uint8_t resp[kMaxTcpAdu];
-    for (;;) {
-      const TcpFrame f = frame_tcp(c.in + off, c.in_len - off);
-      if (f.status == FrameStatus::error) return false;
-      if (f.status == FrameStatus::need_more) break;
-      std::size_t n = 0;
-      if (f.unit_id == options_.unit_id || f.unit_id == 0xFF) {
-        n = core_.handle(ClientInfo{c.id, c.ipv4, false}, f.pdu, f.pdu_size, resp + kMbapSize);
-      } else {
-        n = ModbusCore::exception(f.pdu[0], Exception::gateway_target_failed, resp + kMbapSize);
-      }
-      if (n > 0) {
-        std::memcpy(resp, c.in + off, 4);  // transaction id, protocol id
-        resp[4] = static_cast<std::uint8_t>((n + 1) >> 8);
-        resp[5] = static_cast<std::uint8_t>((n + 1) & 0xFF);
-        resp[6] = f.unit_id;
-        c.out.append(reinterpret_cast<const char*>(resp), kMbapSize + n);
-      }
-      off += f.size;
-    }
-    if (off > 0) {
-      std::memmove(c.in, c.in + off, c.in_len - off);
-      c.in_len -= off;
-    }
-    c.frame_started_s =
-        c.in_len > 0 ? (off > 0 || c.frame_started_s == 0.0 ? now : c.frame_started_s) : 0.0;
-    return true;
-  };
 
+  void run();
+  void drop(Conn& c);
+  bool flush(Conn& c);
+  bool serve(Conn& c, double now);
+  void accept_all(double now);
+  bool allowed(std::uint32_t ip) const;
+  bool make_room();
+  std::uint16_t free_id();
+  bool read(Conn& c, double now);
+  void on_event(const epoll_event& ev, double now);
+  void expire(double now);
+  void close_all();
+};
+
+void TcpServer::run() { Loop(*this).run(); }
+
+void TcpServer::Loop::run() {
   epoll_event events[64];
-  while (running_.load(std::memory_order_relaxed)) {
-    const int n = epoll_wait(epoll_fd_, events, 64, 50);
+  while (server.running_.load(std::memory_order_relaxed)) {
+    const int n = epoll_wait(server.epoll_fd_, events, 64, 50);
     const double now = mono_s();
-    for (int i = 0; i < n; ++i) {
-      const int fd = events[i].data.fd;
-      if (fd == wake_fd_) continue;
-      if (fd == listen_fd_) {
-        for (;;) {
-          sockaddr_in peer{};
-          socklen_t pl = sizeof peer;
-          const int cfd = accept4(listen_fd_, reinterpret_cast<sockaddr*>(&peer), &pl,
-                                  SOCK_NONBLOCK | SOCK_CLOEXEC);
-          if (cfd < 0) break;
-          const std::uint32_t ip = ntohl(peer.sin_addr.s_addr);
-          bool allowed = allow_.empty();
-          for (const auto& [net, mask] : allow_) allowed = allowed || (ip & mask) == net;
-          if (!allowed) {
-            close(cfd);  // refused: not on the allow-list
-            continue;
-          }
-          if (conns.size() >= static_cast<std::size_t>(options_.max_connections)) {
-            // At the cap, the connection idle longest makes room (never the owner's, nor one
-            // with a request or a reply under way): idle connections cannot lock the PLC out.
-            Conn* oldest = nullptr;
-            const std::uint16_t owner = core_.owner();
-            for (auto& [f, other] : conns) {
-              if (other->id == owner || other->in_len > 0 || !other->out.empty() ||
-                  other->read_closed)
-                continue;
-              if (!oldest || other->activity_order < oldest->activity_order) oldest = other.get();
-            }
-            if (!oldest) {
-              close(cfd);  // refused: every connection is busy
-              continue;
-            }
-            drop(*oldest);
-          }
-          const int one = 1;
-          setsockopt(cfd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-          setsockopt(cfd, SOL_SOCKET, SO_SNDBUF, &kSendBuffer, sizeof kSendBuffer);
-          auto c = std::make_unique<Conn>();
-          c->fd = cfd;
-          c->ipv4 = ip;
-          c->last_activity_s = now;
-          c->activity_order = ++activity_count;
-          do {  // connection numbers stay unique among open connections
-            c->id = next_id;
-            next_id = static_cast<std::uint16_t>(next_id >= 0xFFFE ? 1 : next_id + 1);
-          } while ([&] {
-            for (const auto& [f, other] : conns)
-              if (other->id == c->id) return true;
-            return false;
-          }());
-          epoll_event ev{};
-          ev.events = EPOLLIN | EPOLLRDHUP;
-          ev.data.fd = cfd;
-          epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, cfd, &ev);
-          conns.emplace(cfd, std::move(c));
-          connections_.store(conns.size());
-        }
-        continue;
-      }
-      auto it = conns.find(fd);
-      if (it == conns.end()) continue;
-      Conn& c = *it->second;
-      bool ok = true;
-      if ((events[i].events & (EPOLLIN | EPOLLRDHUP)) && !c.read_closed) {
-        for (int reads = 0; reads < kReadsPerWake; ++reads) {
-          const ssize_t r = recv(c.fd, c.in + c.in_len, sizeof c.in - c.in_len, 0);
-          if (r > 0) {
-            c.in_len += static_cast<std::size_t>(r);
-            c.last_activity_s = now;
-            c.activity_order = ++activity_count;
-            if (!serve(c, now)) {
-              ok = false;
-              break;
-            }
-            if (c.out.size() > kMaxPendingOut) break;
-          } else if (r == 0) {
-            // The peer shut down its sending side (or closed): every complete request read
-            // has been answered into c.out; send that, then close. An incomplete frame is
-            // dropped: it can never complete.
-            c.read_closed = true;
-            c.in_len = 0;
-            break;
-          } else {
-            if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) ok = false;
-            if (errno != EINTR) break;
-          }
-        }
-      }
-      if (ok && (events[i].events & EPOLLERR)) ok = false;
-      // Both directions gone: nobody can read a reply.
-      if (ok && (events[i].events & EPOLLHUP) && !(events[i].events & EPOLLIN)) ok = false;
-      if (ok) ok = flush(c);
-      if (!ok) drop(c);
-    }
-    // Deadlines: a frame left incomplete, or a connection idle too long, is closed.
-    std::vector<Conn*> expired;
-    for (auto& [fd, c] : conns) {
-      const bool frame_stalled =
-          c->in_len > 0 && now - c->frame_started_s > options_.frame_timeout_s;
-      const bool idle =
-          options_.idle_timeout_s > 0 && now - c->last_activity_s > options_.idle_timeout_s;
-      const bool half_closed =
-          c->read_closed && now - c->last_activity_s > options_.frame_timeout_s;
-      if (frame_stalled || idle || half_closed) expired.push_back(c.get());
-    }
-    for (Conn* c : expired) drop(*c);
+    for (int i = 0; i < n; ++i) on_event(events[i], now);
+    expire(now);
   }
+  close_all();
+}
+
+void TcpServer::Loop::drop(Conn& c) {
+  epoll_ctl(server.epoll_fd_, EPOLL_CTL_DEL, c.fd, nullptr);
+  close(c.fd);
+  server.core_.client_closed(c.id);
+  conns.erase(c.fd);
+  server.connections_.store(conns.size());
+}
+
+// Sends what waits; false: the connection must go.
+bool TcpServer::Loop::flush(Conn& c) {
+  while (!c.out.empty()) {
+    const ssize_t n = send(c.fd, c.out.data(), c.out.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n > 0) {
+      c.out.erase(0, static_cast<std::size_t>(n));
+    } else if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+      break;
+    } else if (n < 0 && errno == EINTR) {
+      continue;
+    } else {
+      return false;
+    }
+  }
+  if (c.read_closed && c.out.empty()) return false;  // every answer is out: close
+  epoll_event ev{};
+  ev.events = (c.read_closed ? 0u : static_cast<std::uint32_t>(EPOLLIN | EPOLLRDHUP)) |
+              (c.out.empty() ? 0u : static_cast<std::uint32_t>(EPOLLOUT));
+  ev.data.fd = c.fd;
+  epoll_ctl(server.epoll_fd_, EPOLL_CTL_MOD, c.fd, &ev);
+  return c.out.size() <= kMaxPendingOut;
+}
+
+// Frames every complete ADU in the buffer; false: the stream is broken, close it.
+bool TcpServer::Loop::serve(Conn& c, double now) {
+  std::size_t off = 0;
+  std::uint8_t resp[kMaxTcpAdu];
+  for (;;) {
+    const TcpFrame f = frame_tcp(c.in + off, c.in_len - off);
+    if (f.status == FrameStatus::error) return false;
+    if (f.status == FrameStatus::need_more) break;
+    std::size_t n = 0;
+    if (f.unit_id == server.options_.unit_id || f.unit_id == 0xFF) {
+      n = server.core_.handle(ClientInfo{c.id, c.ipv4, false}, f.pdu, f.pdu_size, resp + kMbapSize);
+    } else {
+      n = ModbusCore::exception(f.pdu[0], Exception::gateway_target_failed, resp + kMbapSize);
+    }
+    if (n > 0) {
+      std::memcpy(resp, c.in + off, 4);  // transaction id, protocol id
+      resp[4] = static_cast<std::uint8_t>((n + 1) >> 8);
+      resp[5] = static_cast<std::uint8_t>((n + 1) & 0xFF);
+      resp[6] = f.unit_id;
+      c.out.append(reinterpret_cast<const char*>(resp), kMbapSize + n);
+    }
+    off += f.size;
+  }
+  if (off > 0) {
+    std::memmove(c.in, c.in + off, c.in_len - off);
+    c.in_len -= off;
+  }
+  c.frame_started_s =
+      c.in_len > 0 ? (off > 0 || c.frame_started_s == 0.0 ? now : c.frame_started_s) : 0.0;
+  return true;
+}
+
+bool TcpServer::Loop::allowed(std::uint32_t ip) const {
+  bool ok = server.allow_.empty();
+  for (const auto& [net, mask] : server.allow_) ok = ok || (ip & mask) == net;
+  return ok;
+}
+
+// At the cap, the connection idle longest makes room (never the owner's, nor one with a request
+// or a reply under way): idle connections cannot lock the PLC out. False: every one is busy.
+bool TcpServer::Loop::make_room() {
+  Conn* oldest = nullptr;
+  const std::uint16_t owner = server.core_.owner();
+  for (auto& [f, other] : conns) {
+    if (other->id == owner || other->in_len > 0 || !other->out.empty() || other->read_closed)
+      continue;
+    if (!oldest || other->activity_order < oldest->activity_order) oldest = other.get();
+  }
+  if (!oldest) return false;
+  drop(*oldest);
+  return true;
+}
+
+// Connection numbers stay unique among open connections.
+std::uint16_t TcpServer::Loop::free_id() {
+  const auto taken = [&](std::uint16_t id) {
+    for (const auto& [f, other] : conns)
+      if (other->id == id) return true;
+    return false;
+  };
+  std::uint16_t id = 0;
+  do {
+    id = next_id;
+    next_id = static_cast<std::uint16_t>(next_id >= 0xFFFE ? 1 : next_id + 1);
+  } while (taken(id));
+  return id;
+}
+
+void TcpServer::Loop::accept_all(double now) {
+  for (;;) {
+    sockaddr_in peer{};
+    socklen_t pl = sizeof peer;
+    const int cfd = accept4(server.listen_fd_, reinterpret_cast<sockaddr*>(&peer), &pl,
+                            SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (cfd < 0) break;
+    const std::uint32_t ip = ntohl(peer.sin_addr.s_addr);
+    const bool at_cap = conns.size() >= static_cast<std::size_t>(server.options_.max_connections);
+    if (!allowed(ip) || (at_cap && !make_room())) {
+      close(cfd);  // refused: not on the allow-list, or every connection is busy
+      continue;
+    }
+    const int one = 1;
+    setsockopt(cfd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    setsockopt(cfd, SOL_SOCKET, SO_SNDBUF, &kSendBuffer, sizeof kSendBuffer);
+    auto c = std::make_unique<Conn>();
+    c->fd = cfd;
+    c->ipv4 = ip;
+    c->last_activity_s = now;
+    c->activity_order = ++activity_count;
+    c->id = free_id();
+    epoll_event ev{};
+    ev.events = EPOLLIN | EPOLLRDHUP;
+    ev.data.fd = cfd;
+    epoll_ctl(server.epoll_fd_, EPOLL_CTL_ADD, cfd, &ev);
+    conns.emplace(cfd, std::move(c));
+    server.connections_.store(conns.size());
+  }
+}
+
+// Reads what came (a few times at most) and answers it; false: the connection must go.
+bool TcpServer::Loop::read(Conn& c, double now) {
+  for (int reads = 0; reads < kReadsPerWake; ++reads) {
+    const ssize_t r = recv(c.fd, c.in + c.in_len, sizeof c.in - c.in_len, 0);
+    if (r > 0) {
+      c.in_len += static_cast<std::size_t>(r);
+      c.last_activity_s = now;
+      c.activity_order = ++activity_count;
+      if (!serve(c, now)) return false;
+      if (c.out.size() > kMaxPendingOut) return true;
+    } else if (r == 0) {
+      // The peer shut down its sending side (or closed): every complete request read has been
+      // answered into c.out; send that, then close. An incomplete frame is dropped: it can
+      // never complete.
+      c.read_closed = true;
+      c.in_len = 0;
+      return true;
+    } else {
+      if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) return false;
+      if (errno != EINTR) return true;
+    }
+  }
+  return true;
+}
+
+void TcpServer::Loop::on_event(const epoll_event& ev, double now) {
+  const int fd = ev.data.fd;
+  if (fd == server.wake_fd_) return;
+  if (fd == server.listen_fd_) {
+    accept_all(now);
+    return;
+  }
+  auto it = conns.find(fd);
+  if (it == conns.end()) return;
+  Conn& c = *it->second;
+  bool ok = true;
+  if ((ev.events & (EPOLLIN | EPOLLRDHUP)) && !c.read_closed) ok = read(c, now);
+  if (ok && (ev.events & EPOLLERR)) ok = false;
+  // Both directions gone: nobody can read a reply.
+  if (ok && (ev.events & EPOLLHUP) && !(ev.events & EPOLLIN)) ok = false;
+  if (ok) ok = flush(c);
+  if (!ok) drop(c);
+}
+
+// Deadlines: a frame left incomplete, or a connection idle too long, is closed.
+void TcpServer::Loop::expire(double now) {
+  const TcpOptions& o = server.options_;
+  std::vector<Conn*> expired;
+  for (auto& [fd, c] : conns) {
+    const bool frame_stalled = c->in_len > 0 && now - c->frame_started_s > o.frame_timeout_s;
+    const bool idle = o.idle_timeout_s > 0 && now - c->last_activity_s > o.idle_timeout_s;
+    const bool half_closed = c->read_closed && now - c->last_activity_s > o.frame_timeout_s;
+    if (frame_stalled || idle || half_closed) expired.push_back(c.get());
+  }
+  for (Conn* c : expired) drop(*c);
+}
+
+void TcpServer::Loop::close_all() {
   for (auto& [fd, c] : conns) {
     close(fd);
-    core_.client_closed(c->id);
+    server.core_.client_closed(c->id);
   }
   conns.clear();
-  connections_.store(0);
+  server.connections_.store(0);
 }
 
 }  // namespace maglead::modbus

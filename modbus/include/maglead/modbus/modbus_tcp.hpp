@@ -43,6 +43,7 @@ class TcpServer {
 
  private:
   struct Conn;
+  struct Loop;  // the network thread's connections and their handling
   void run();
   ModbusCore& core_;
   TcpOptions options_;
