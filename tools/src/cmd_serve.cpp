@@ -17,22 +17,194 @@ namespace {
 volatile std::sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
 
+struct ServeOptions {
+  std::string config = default_config_dir(), network, calibration, duration, model;
+  std::vector<std::string> sim_effects;
+  std::string bind, allow_csv, rtu_device, rtu_parity;
+  int port = -1, unit = -1, max_connections = -1, rtu_baud = -1, rtu_unit = -1, rtu_stop_bits = -1,
+      rtu_data_bits = -1;
+  double frame_timeout_s = -1, idle_timeout_s = -1, watchdog_ms = -1;
+  std::vector<std::string> allow;
+  bool read_only = false, no_tcp = false, rs485 = false, no_twin = false;
+  std::uint64_t seed = 1;
+  double spring_n_per_m = 2000.0, spring_anchor_m = 0.02, start_pos_m = 0.02;
+};
+
+void add_network_options(CLI::App* cmd, ServeOptions& o) {
+  auto* g = cmd->add_option_group("Modbus TCP (defaults from network.toml)");
+  g->add_option("--bind", o.bind, "Bind address (default 127.0.0.1)");
+  g->add_option("--port", o.port, "TCP port (default 1502; 0 = any free port, printed)")
+      ->check(CLI::Range(0, 65535));
+  g->add_option("--unit", o.unit, "Unit id answered over TCP (255 is answered too)")
+      ->check(CLI::Range(0, 255));
+  g->add_option("--max-connections", o.max_connections, "Connection cap")
+      ->check(CLI::Range(1, 1024));
+  g->add_option("--frame-timeout", o.frame_timeout_s, "Seconds a started request may take")
+      ->check(CLI::Range(0.001, 3600.0));
+  g->add_option("--idle-timeout", o.idle_timeout_s,
+                "Close idle connections after this many seconds (0 never)")
+      ->check(CLI::Range(0.0, 1e7));
+  g->add_option("--allow", o.allow, "Allowed client IPv4 address or a.b.c.d/len (repeatable)");
+  g->add_flag("--no-tcp", o.no_tcp, "Do not serve TCP");
+  auto* r = cmd->add_option_group("Modbus RTU (defaults from network.toml)");
+  r->add_option("--rtu-device", o.rtu_device, "Serial device; enables RTU");
+  r->add_option("--rtu-baud", o.rtu_baud, "Baud rate (default 19200)")
+      ->check(CLI::Range(50, 4000000));
+  r->add_option("--rtu-parity", o.rtu_parity, "Parity N, E or O (default E)")
+      ->check(CLI::IsMember({"N", "E", "O"}));
+  r->add_option("--rtu-data-bits", o.rtu_data_bits, "Data bits (default 8)")
+      ->check(CLI::Range(7, 8));
+  r->add_option("--rtu-stop-bits", o.rtu_stop_bits, "Stop bits (default 1)")
+      ->check(CLI::Range(1, 2));
+  r->add_option("--rtu-unit", o.rtu_unit, "RTU unit id (default 1)")->check(CLI::Range(1, 247));
+  r->add_flag("--rtu-rs485", o.rs485, "Switch the line to RS-485 mode");
+}
+
+void add_sim_options(CLI::App* cmd, ServeOptions& o) {
+  auto* s = cmd->add_option_group("Simulated actuator");
+  s->add_option("--sim-seed", o.seed, "Random seed of the simulated plant")->capture_default_str();
+  s->add_option("--sim-spring", o.spring_n_per_m, "Load: spring rate to a wall [N/m], 0 = free nut")
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
+  s->add_option("--sim-spring-anchor", o.spring_anchor_m, "Load: spring free length position [m]")
+      ->capture_default_str();
+  s->add_option("--sim-start", o.start_pos_m, "Nut position at start [m]")->capture_default_str();
+  std::string effects_help =
+      "Where the simulated plant differs from the model, NAME=VALUE as simulate --effect "
+      "(repeatable):";
+  for (const auto& [name, help] : plant_effect_help()) effects_help += "\n  " + name + "  " + help;
+  s->add_option("--sim-effect", o.sim_effects, effects_help);
+}
+
+/// network.toml (when there is one), then the options that override it.
+modbus::NetworkConfig network_config(const ServeOptions& o) {
+  const std::string net_path =
+      o.network.empty() ? config_file(o.config, "network.toml") : o.network;
+  modbus::NetworkConfig net;
+  if (!o.network.empty() || std::filesystem::exists(net_path))
+    net = modbus::load_network_config(net_path);
+  if (!o.bind.empty()) net.tcp.bind_address = o.bind;
+  if (o.port >= 0) net.tcp.port = o.port;
+  if (o.unit >= 0) net.tcp.unit_id = static_cast<std::uint8_t>(o.unit);
+  if (o.max_connections > 0) net.tcp.max_connections = o.max_connections;
+  if (o.frame_timeout_s > 0) net.tcp.frame_timeout_s = o.frame_timeout_s;
+  if (o.idle_timeout_s >= 0) net.tcp.idle_timeout_s = o.idle_timeout_s;
+  if (!o.allow.empty()) net.tcp.allow = o.allow;
+  if (o.no_tcp) net.tcp_enabled = false;
+  if (!o.rtu_device.empty()) net.rtu.device = o.rtu_device;
+  if (o.rtu_baud > 0) net.rtu.baud = o.rtu_baud;
+  if (!o.rtu_parity.empty()) net.rtu.parity = o.rtu_parity[0];
+  if (o.rtu_data_bits > 0) net.rtu.data_bits = o.rtu_data_bits;
+  if (o.rtu_stop_bits > 0) net.rtu.stop_bits = o.rtu_stop_bits;
+  if (o.rtu_unit > 0) net.rtu.unit_id = static_cast<std::uint8_t>(o.rtu_unit);
+  if (o.rs485) net.rtu.rs485 = true;
+  if (o.read_only) net.read_only = true;
+  if (o.watchdog_ms >= 0) net.watchdog_s = o.watchdog_ms * 1e-3;
+  if (!net.tcp_enabled && net.rtu.device.empty())
+    throw CLI::ValidationError("serve", "nothing to serve: TCP is off and no RTU device is given");
+  return net;
+}
+
+/// What the service runs: the configuration folder, the model file and the simulated plant.
+runtime::ServiceConfig service_config(const ServeOptions& o, const modbus::NetworkConfig& net) {
+  runtime::ServiceConfig sc;
+  auto& cfg = sc.controller;
+  cfg.actuator = load_actuator_or_default(o.config);
+  cfg.calibration = load_calibration(
+      o.calibration.empty() ? config_file(o.config, "calibration.toml") : o.calibration);
+  cfg.watchdog_s = net.watchdog_s;
+  cfg.reactions = net.reactions;
+  load_control_settings(o.config, cfg);
+  load_reference_move(o.config, cfg.actuator, cfg.reference_move);
+  if (!(o.start_pos_m >= cfg.actuator.stroke_min_m && o.start_pos_m <= cfg.actuator.stroke_max_m))
+    throw CLI::ValidationError("--sim-start", "must lie within the stroke");
+  const std::string model_path = o.model.empty() ? config_file(o.config, "model.toml") : o.model;
+  if (std::filesystem::exists(model_path)) {
+    const twin::TwinModel model = twin::load_twin_model(model_path);
+    cfg.friction = twin::friction_model(model);
+    sc.model_path = model_path;
+  } else {
+    cfg.friction = friction_from_actuator(cfg.actuator);
+  }
+  sc.backend.simulated = {o.seed, o.spring_n_per_m, o.spring_anchor_m, o.start_pos_m, {}};
+  apply_plant_effects("--sim-effect", o.sim_effects, sc.backend.simulated.effects);
+  sc.twin = !o.no_twin;
+  sc.twin_config_dir = o.config;
+  sc.network = net;
+  return sc;
+}
+
+void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
+                  runtime::Service& service) {
+  const auto& cfg = sc.controller;
+  const auto& net = sc.network;
+  if (!service.refused().empty())
+    std::printf("maglead serve: realtime \"try\": not granted: %s\n", service.refused().c_str());
+  std::printf(
+      "maglead serve: control loop %.0f Hz on the simulated actuator (%s), %s, %s\n",
+      cfg.actuator.sample_rate_hz,
+      o.spring_n_per_m > 0
+          ? ("spring " + std::to_string(static_cast<int>(o.spring_n_per_m)) + " N/m").c_str()
+          : "free nut",
+      service.loop().realtime() ? "SCHED_FIFO" : "normal scheduling",
+      service.twin() ? "digital twin running on its own thread" : "no twin");
+  std::printf("maglead serve: configuration from %s\n",
+              std::filesystem::absolute(o.config).lexically_normal().string().c_str());
+  std::printf(
+      "maglead serve: friction model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N "
+      "(+p/-p)%s\n",
+      sc.model_path.empty() ? "[actuator]" : sc.model_path.c_str(), cfg.friction.coulomb_pos_n,
+      cfg.friction.coulomb_neg_n, cfg.friction.breakaway_pos_n, cfg.friction.breakaway_neg_n,
+      o.sim_effects.empty() ? "" : "; the simulated plant differs (--sim-effect)");
+  const auto& rm = cfg.reference_move;
+  std::printf(
+      "maglead serve: reference move (mode_command 3): %.1f .. %.1f mm at %.1f and %.1f mm/s, "
+      "%.2f m/s^2 ([reference_move])\n",
+      rm.window_min_m * 1e3, rm.window_max_m * 1e3, rm.slow_m_s * 1e3, rm.fast_m_s * 1e3,
+      rm.accel_m_s2);
+  if (service.tcp_port() >= 0)
+    std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(),
+                service.tcp_port(), net.tcp.unit_id, net.read_only ? ", read-only" : "");
+  if (!net.rtu.device.empty())
+    std::printf("maglead serve: Modbus RTU on %s, %d %d%c%d, unit %d%s\n", net.rtu.device.c_str(),
+                net.rtu.baud, net.rtu.data_bits, net.rtu.parity, net.rtu.stop_bits, net.rtu.unit_id,
+                net.read_only ? ", read-only" : "");
+  std::fflush(stdout);
+}
+
+/// Until Ctrl-C (or SIGTERM), or for duration_s when it is positive.
+void wait_for_stop(double duration_s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  while (!g_stop) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (duration_s > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= duration_s)
+      break;
+  }
+}
+
+void run_serve(const ServeOptions& o) {
+  const modbus::NetworkConfig net = network_config(o);
+  const double duration_s = o.duration.empty() ? 0.0 : parse_duration_s(o.duration);
+  const runtime::ServiceConfig sc = service_config(o, net);
+  runtime::Service service(sc);  // "require" makes start() throw
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  service.start();
+  print_banner(o, sc, service);
+  wait_for_stop(duration_s);
+  service.stop();
+  const auto snap = service.controller().snapshot();
+  std::printf(
+      "maglead serve: stopped after %llu cycles, %llu overruns, latest start %.0f us late\n",
+      static_cast<unsigned long long>(snap.cycle),
+      static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
+}
+
 void add_serve(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "serve", "Run the controller on the simulated actuator and serve it over Modbus TCP/RTU");
-  struct Opts {
-    std::string config = default_config_dir(), network, calibration, duration, model;
-    std::vector<std::string> sim_effects;
-    std::string bind, allow_csv, rtu_device, rtu_parity;
-    int port = -1, unit = -1, max_connections = -1, rtu_baud = -1, rtu_unit = -1,
-        rtu_stop_bits = -1, rtu_data_bits = -1;
-    double frame_timeout_s = -1, idle_timeout_s = -1, watchdog_ms = -1;
-    std::vector<std::string> allow;
-    bool read_only = false, no_tcp = false, rs485 = false, no_twin = false;
-    std::uint64_t seed = 1;
-    double spring_n_per_m = 2000.0, spring_anchor_m = 0.02, start_pos_m = 0.02;
-  };
-  auto o = std::make_shared<Opts>();
+  auto o = std::make_shared<ServeOptions>();
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
   cmd->add_option("--network", o->network, "Network configuration (default: CONFIG/network.toml)");
   cmd->add_option("--calibration", o->calibration,
@@ -43,158 +215,13 @@ void add_serve(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--duration", o->duration,
                   "Stop after this long (e.g. 30s); default: until Ctrl-C");
-  auto* g = cmd->add_option_group("Modbus TCP (defaults from network.toml)");
-  g->add_option("--bind", o->bind, "Bind address (default 127.0.0.1)");
-  g->add_option("--port", o->port, "TCP port (default 1502; 0 = any free port, printed)")
-      ->check(CLI::Range(0, 65535));
-  g->add_option("--unit", o->unit, "Unit id answered over TCP (255 is answered too)")
-      ->check(CLI::Range(0, 255));
-  g->add_option("--max-connections", o->max_connections, "Connection cap")
-      ->check(CLI::Range(1, 1024));
-  g->add_option("--frame-timeout", o->frame_timeout_s, "Seconds a started request may take")
-      ->check(CLI::Range(0.001, 3600.0));
-  g->add_option("--idle-timeout", o->idle_timeout_s,
-                "Close idle connections after this many seconds (0 never)")
-      ->check(CLI::Range(0.0, 1e7));
-  g->add_option("--allow", o->allow, "Allowed client IPv4 address or a.b.c.d/len (repeatable)");
-  g->add_flag("--no-tcp", o->no_tcp, "Do not serve TCP");
-  auto* r = cmd->add_option_group("Modbus RTU (defaults from network.toml)");
-  r->add_option("--rtu-device", o->rtu_device, "Serial device; enables RTU");
-  r->add_option("--rtu-baud", o->rtu_baud, "Baud rate (default 19200)")
-      ->check(CLI::Range(50, 4000000));
-  r->add_option("--rtu-parity", o->rtu_parity, "Parity N, E or O (default E)")
-      ->check(CLI::IsMember({"N", "E", "O"}));
-  r->add_option("--rtu-data-bits", o->rtu_data_bits, "Data bits (default 8)")
-      ->check(CLI::Range(7, 8));
-  r->add_option("--rtu-stop-bits", o->rtu_stop_bits, "Stop bits (default 1)")
-      ->check(CLI::Range(1, 2));
-  r->add_option("--rtu-unit", o->rtu_unit, "RTU unit id (default 1)")->check(CLI::Range(1, 247));
-  r->add_flag("--rtu-rs485", o->rs485, "Switch the line to RS-485 mode");
+  add_network_options(cmd, *o);
   cmd->add_flag("--read-only", o->read_only, "Refuse every write (exception 01)");
   cmd->add_flag("--no-twin", o->no_twin, "Run without the digital twin (its registers read 0)");
   cmd->add_option("--watchdog", o->watchdog_ms, "Communication watchdog at start [ms], 0 = off")
       ->check(CLI::Range(0.0, 60000.0));
-  auto* s = cmd->add_option_group("Simulated actuator");
-  s->add_option("--sim-seed", o->seed, "Random seed of the simulated plant")->capture_default_str();
-  s->add_option("--sim-spring", o->spring_n_per_m,
-                "Load: spring rate to a wall [N/m], 0 = free nut")
-      ->check(CLI::Range(0.0, 1e6))
-      ->capture_default_str();
-  s->add_option("--sim-spring-anchor", o->spring_anchor_m, "Load: spring free length position [m]")
-      ->capture_default_str();
-  s->add_option("--sim-start", o->start_pos_m, "Nut position at start [m]")->capture_default_str();
-  std::string effects_help =
-      "Where the simulated plant differs from the model, NAME=VALUE as simulate --effect "
-      "(repeatable):";
-  for (const auto& [name, help] : plant_effect_help()) effects_help += "\n  " + name + "  " + help;
-  s->add_option("--sim-effect", o->sim_effects, effects_help);
-
-  cmd->callback([o] {
-    const std::string net_path =
-        o->network.empty() ? config_file(o->config, "network.toml") : o->network;
-    modbus::NetworkConfig net;
-    if (!o->network.empty() || std::filesystem::exists(net_path))
-      net = modbus::load_network_config(net_path);
-    if (!o->bind.empty()) net.tcp.bind_address = o->bind;
-    if (o->port >= 0) net.tcp.port = o->port;
-    if (o->unit >= 0) net.tcp.unit_id = static_cast<std::uint8_t>(o->unit);
-    if (o->max_connections > 0) net.tcp.max_connections = o->max_connections;
-    if (o->frame_timeout_s > 0) net.tcp.frame_timeout_s = o->frame_timeout_s;
-    if (o->idle_timeout_s >= 0) net.tcp.idle_timeout_s = o->idle_timeout_s;
-    if (!o->allow.empty()) net.tcp.allow = o->allow;
-    if (o->no_tcp) net.tcp_enabled = false;
-    if (!o->rtu_device.empty()) net.rtu.device = o->rtu_device;
-    if (o->rtu_baud > 0) net.rtu.baud = o->rtu_baud;
-    if (!o->rtu_parity.empty()) net.rtu.parity = o->rtu_parity[0];
-    if (o->rtu_data_bits > 0) net.rtu.data_bits = o->rtu_data_bits;
-    if (o->rtu_stop_bits > 0) net.rtu.stop_bits = o->rtu_stop_bits;
-    if (o->rtu_unit > 0) net.rtu.unit_id = static_cast<std::uint8_t>(o->rtu_unit);
-    if (o->rs485) net.rtu.rs485 = true;
-    if (o->read_only) net.read_only = true;
-    if (o->watchdog_ms >= 0) net.watchdog_s = o->watchdog_ms * 1e-3;
-    if (!net.tcp_enabled && net.rtu.device.empty())
-      throw CLI::ValidationError("serve",
-                                 "nothing to serve: TCP is off and no RTU device is given");
-    const double duration_s = o->duration.empty() ? 0.0 : parse_duration_s(o->duration);
-
-    runtime::ServiceConfig sc;
-    auto& cfg = sc.controller;
-    cfg.actuator = load_actuator_or_default(o->config);
-    cfg.calibration = load_calibration(
-        o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration);
-    cfg.watchdog_s = net.watchdog_s;
-    cfg.reactions = net.reactions;
-    load_control_settings(o->config, cfg);
-    load_reference_move(o->config, cfg.actuator, cfg.reference_move);
-    if (!(o->start_pos_m >= cfg.actuator.stroke_min_m &&
-          o->start_pos_m <= cfg.actuator.stroke_max_m))
-      throw CLI::ValidationError("--sim-start", "must lie within the stroke");
-    const std::string model_path =
-        o->model.empty() ? config_file(o->config, "model.toml") : o->model;
-    if (std::filesystem::exists(model_path)) {
-      const twin::TwinModel model = twin::load_twin_model(model_path);
-      cfg.friction = twin::friction_model(model);
-      sc.model_path = model_path;
-    } else {
-      cfg.friction = friction_from_actuator(cfg.actuator);
-    }
-    sc.backend.simulated = {o->seed, o->spring_n_per_m, o->spring_anchor_m, o->start_pos_m, {}};
-    apply_plant_effects("--sim-effect", o->sim_effects, sc.backend.simulated.effects);
-    sc.twin = !o->no_twin;
-    sc.twin_config_dir = o->config;
-    sc.network = net;
-    runtime::Service service(sc);  // "require" makes start() throw
-
-    std::signal(SIGINT, on_signal);
-    std::signal(SIGTERM, on_signal);
-    service.start();
-    if (!service.refused().empty())
-      std::printf("maglead serve: realtime \"try\": not granted: %s\n", service.refused().c_str());
-    std::printf(
-        "maglead serve: control loop %.0f Hz on the simulated actuator (%s), %s, %s\n",
-        cfg.actuator.sample_rate_hz,
-        o->spring_n_per_m > 0
-            ? ("spring " + std::to_string(static_cast<int>(o->spring_n_per_m)) + " N/m").c_str()
-            : "free nut",
-        service.loop().realtime() ? "SCHED_FIFO" : "normal scheduling",
-        service.twin() ? "digital twin running on its own thread" : "no twin");
-    std::printf("maglead serve: configuration from %s\n",
-                std::filesystem::absolute(o->config).lexically_normal().string().c_str());
-    std::printf(
-        "maglead serve: friction model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N "
-        "(+p/-p)%s\n",
-        sc.model_path.empty() ? "[actuator]" : sc.model_path.c_str(), cfg.friction.coulomb_pos_n,
-        cfg.friction.coulomb_neg_n, cfg.friction.breakaway_pos_n, cfg.friction.breakaway_neg_n,
-        o->sim_effects.empty() ? "" : "; the simulated plant differs (--sim-effect)");
-    const auto& rm = cfg.reference_move;
-    std::printf(
-        "maglead serve: reference move (mode_command 3): %.1f .. %.1f mm at %.1f and %.1f mm/s, "
-        "%.2f m/s^2 ([reference_move])\n",
-        rm.window_min_m * 1e3, rm.window_max_m * 1e3, rm.slow_m_s * 1e3, rm.fast_m_s * 1e3,
-        rm.accel_m_s2);
-    if (service.tcp_port() >= 0)
-      std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(),
-                  service.tcp_port(), net.tcp.unit_id, net.read_only ? ", read-only" : "");
-    if (!net.rtu.device.empty())
-      std::printf("maglead serve: Modbus RTU on %s, %d %d%c%d, unit %d%s\n", net.rtu.device.c_str(),
-                  net.rtu.baud, net.rtu.data_bits, net.rtu.parity, net.rtu.stop_bits,
-                  net.rtu.unit_id, net.read_only ? ", read-only" : "");
-    std::fflush(stdout);
-    const auto t0 = std::chrono::steady_clock::now();
-    while (!g_stop) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      if (duration_s > 0 &&
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >=
-              duration_s)
-        break;
-    }
-    service.stop();
-    const auto snap = service.controller().snapshot();
-    std::printf(
-        "maglead serve: stopped after %llu cycles, %llu overruns, latest start %.0f us late\n",
-        static_cast<unsigned long long>(snap.cycle),
-        static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
-  });
+  add_sim_options(cmd, *o);
+  cmd->callback([o] { run_serve(*o); });
 }
 
 MAGLEAD_COMMAND(70, add_serve);
