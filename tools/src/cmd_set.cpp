@@ -2,6 +2,7 @@
 // (staged setpoint, mode_command, execute edge, ack/done handshake). Every value is checked as
 // the server checks it, before anything is sent.
 #include <cstdio>
+#include <optional>
 
 #include "operator_cli.hpp"
 
@@ -40,6 +41,125 @@ constexpr const char* kHoldHelp =
     "runs its "
     "owner-loss fault reaction (force released, position held)";
 
+struct SetOptions {
+  std::string what, value, speed, accel;
+};
+
+/// A drive command, checked and ready to send: the mode the execute edge applies, its setpoints.
+struct Planned {
+  reg::Mode mode = reg::Mode::idle;
+  std::vector<std::pair<std::string, double>> setpoints;
+  std::string summary;
+};
+
+void refuse_locally_if(const std::optional<std::string>& why) {
+  if (why) throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
+}
+
+const std::string& value_of(const SetOptions& o) {
+  if (o.value.empty())
+    throw ClientError(Kind::refused_locally, "'set " + o.what + "' needs a value");
+  return o.value;
+}
+
+Planned plan_force(const SetOptions& o, const CommandFlags& f) {
+  const double force_n = op::parse_quantity(value_of(o), "N");
+  refuse_locally_if(op::check_force(load_limits(f.config, f.calibration), force_n));
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "force %.3f N", force_n);
+  return {reg::Mode::force, {{"force_setpoint_mn", force_n}}, buf};
+}
+
+Planned plan_position(const SetOptions& o, const CommandFlags& f) {
+  const double pos_m = op::parse_quantity(value_of(o), "m");
+  refuse_locally_if(op::check_position(load_limits(f.config, f.calibration), pos_m));
+  Planned p{reg::Mode::position, {{"position_setpoint_um", pos_m}}, {}};
+  if (!o.speed.empty())
+    p.setpoints.emplace_back("velocity_limit_um_s", op::parse_quantity(o.speed, "m/s"));
+  if (!o.accel.empty())
+    p.setpoints.emplace_back("accel_limit_um_s2", op::parse_quantity(o.accel, "m/s^2"));
+  for (const auto& [name, v] : p.setpoints)
+    refuse_locally_if(op::check_register(*reg::find(name), v));
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "position %.3f mm", pos_m * 1e3);
+  p.summary = buf;
+  return p;
+}
+
+/// A plain register write (limits, watchdog …): checked, written, no execute edge.
+void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
+  const std::string& text = value_of(o);
+  const auto* r = reg::find(o.what);
+  if (!r)
+    throw ClientError(Kind::refused_locally, "no register or setpoint named '" + o.what + "'");
+  if (r->table != reg::Table::holding_register || r->access != reg::Access::read_write ||
+      r->name == "control_word")
+    throw ClientError(Kind::refused_locally, "'" + o.what +
+                                                 "' is not a writable setting (use enable, "
+                                                 "disable, reset or set force/position)");
+  const double v = op::parse_quantity(text, r->unit);
+  refuse_locally_if(op::check_register(*r, v));
+  if (r->name.starts_with("force_setpoint"))
+    refuse_locally_if(op::check_force(load_limits(f.config, f.calibration), v));
+  if (r->name.starts_with("position_setpoint"))
+    refuse_locally_if(op::check_position(load_limits(f.config, f.calibration), v));
+  op::Client client(endpoint_of(conn));
+  client.check_identity();
+  client.write({{std::string(r->name), v}});
+  std::printf("%s = %.9g %s written\n", std::string(r->name).c_str(), v,
+              std::string(r->unit).c_str());
+}
+
+/// Sends the command. The controller's own limit refusing it (exception 03 on the staged
+/// setpoint, or a reject reason) is said with the value and the limit as this machine's
+/// configuration has it, and where.
+op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags& f) {
+  try {
+    return op::execute(client, p.mode, p.setpoints, f.options());
+  } catch (const ClientError& e) {
+    const std::string msg = e.what();
+    const bool limit = e.kind() == Kind::exception ? msg.find("exception 03") != std::string::npos
+                       : e.kind() == Kind::rejected
+                           ? (msg.find("force_beyond_safe_limit") != std::string::npos ||
+                              msg.find("target_outside_stroke") != std::string::npos)
+                           : false;
+    if (!limit || p.mode == reg::Mode::idle) throw;
+    const auto l = load_limits(f.config, f.calibration);
+    throw ClientError(e.kind(), p.summary + " refused by the controller (" + msg +
+                                    "); the controller applies its own configuration, which this "
+                                    "machine's copy puts at " +
+                                    (p.mode == reg::Mode::force ? op::force_limit_text(l)
+                                                                : op::position_limit_text(l)));
+  }
+}
+
+void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
+  // All checks happen before the connection is even opened.
+  Planned p{reg::Mode::idle, {}, "idle (stop and hold)"};
+  if (o.what == "force") {
+    p = plan_force(o, f);
+  } else if (o.what == "position") {
+    p = plan_position(o, f);
+  } else if (o.what != "idle") {
+    write_setting(o, f, conn);
+    return;
+  }
+  op::Client client(endpoint_of(conn));
+  client.check_identity();
+  const double hold_s = f.hold.empty() ? 0.0 : parse_duration_s(f.hold);
+  const op::CommandResult res = send(client, p, f);
+  if (res.done)
+    std::printf("%s: done (%s) after %.2f s\n", p.summary.c_str(),
+                p.mode == reg::Mode::force ? "force reached" : "in position", res.elapsed_s);
+  else
+    std::printf("%s: acknowledged by the controller\n", p.summary.c_str());
+  if (hold_s > 0) {
+    std::fflush(stdout);
+    op::hold(client, hold_s, f.options());
+    std::printf("held for %.1f s; control ends now (owner-loss fault reaction)\n", hold_s);
+  }
+}
+
 void add_set(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "set",
@@ -47,10 +167,7 @@ void add_set(CLI::App& app) {
       "'set NAME VALUE' for a writable holding register (e.g. watchdog_ms 0.5s)");
   auto conn = add_connection_options(cmd);
   auto f = std::make_shared<CommandFlags>();
-  struct Opts {
-    std::string what, value, speed, accel;
-  };
-  auto o = std::make_shared<Opts>();
+  auto o = std::make_shared<SetOptions>();
   cmd->add_option("what", o->what, "force, position, idle, or a register name")->required();
   cmd->add_option("value", o->value, "Value with optional unit: 12.5, 12.5N, 20mm, 0.02m");
   cmd->add_option("--speed", o->speed, "Position moves: speed limit (e.g. 5mm/s)");
@@ -60,110 +177,7 @@ void add_set(CLI::App& app) {
   cmd->add_flag("--no-claim", f->no_claim,
                 "Do not take control (by default: clear an owner_lost fault and enable when nobody "
                 "owns the drive)");
-  cmd->callback([o, f, conn] {
-    run_operator("set", [&] {
-      const auto need_value = [&] {
-        if (o->value.empty())
-          throw ClientError(Kind::refused_locally, "'set " + o->what + "' needs a value");
-      };
-      // All checks happen here, before the connection is even opened.
-      reg::Mode mode = reg::Mode::idle;
-      std::vector<std::pair<std::string, double>> setpoints;
-      std::string summary;
-      char buf[160];
-      if (o->what == "force") {
-        need_value();
-        const double force_n = op::parse_quantity(o->value, "N");
-        if (auto why = op::check_force(load_limits(f->config, f->calibration), force_n))
-          throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
-        mode = reg::Mode::force;
-        setpoints.emplace_back("force_setpoint_mn", force_n);
-        std::snprintf(buf, sizeof buf, "force %.3f N", force_n);
-        summary = buf;
-      } else if (o->what == "position") {
-        need_value();
-        const double pos_m = op::parse_quantity(o->value, "m");
-        if (auto why = op::check_position(load_limits(f->config, f->calibration), pos_m))
-          throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
-        mode = reg::Mode::position;
-        setpoints.emplace_back("position_setpoint_um", pos_m);
-        if (!o->speed.empty())
-          setpoints.emplace_back("velocity_limit_um_s", op::parse_quantity(o->speed, "m/s"));
-        if (!o->accel.empty())
-          setpoints.emplace_back("accel_limit_um_s2", op::parse_quantity(o->accel, "m/s^2"));
-        for (const auto& [name, v] : setpoints)
-          if (auto why = op::check_register(*reg::find(name), v))
-            throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
-        std::snprintf(buf, sizeof buf, "position %.3f mm", pos_m * 1e3);
-        summary = buf;
-      } else if (o->what == "idle") {
-        summary = "idle (stop and hold)";
-      } else {
-        // A plain register write (limits, watchdog …): checked, written, no execute edge.
-        need_value();
-        const auto* r = reg::find(o->what);
-        if (!r)
-          throw ClientError(Kind::refused_locally,
-                            "no register or setpoint named '" + o->what + "'");
-        if (r->table != reg::Table::holding_register || r->access != reg::Access::read_write ||
-            r->name == "control_word")
-          throw ClientError(Kind::refused_locally, "'" + o->what +
-                                                       "' is not a writable setting (use enable, "
-                                                       "disable, reset or set force/position)");
-        const double v = r->unit.empty() ? op::parse_quantity(o->value, "")
-                                         : op::parse_quantity(o->value, r->unit);
-        if (auto why = op::check_register(*r, v))
-          throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
-        if (r->name.starts_with("force_setpoint"))
-          if (auto why = op::check_force(load_limits(f->config, f->calibration), v))
-            throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
-        if (r->name.starts_with("position_setpoint"))
-          if (auto why = op::check_position(load_limits(f->config, f->calibration), v))
-            throw ClientError(Kind::refused_locally, "refused, nothing sent: " + *why);
-        op::Client client(endpoint_of(*conn));
-        client.check_identity();
-        client.write({{std::string(r->name), v}});
-        std::printf("%s = %.9g %s written\n", std::string(r->name).c_str(), v,
-                    std::string(r->unit).c_str());
-        return;
-      }
-      op::Client client(endpoint_of(*conn));
-      client.check_identity();
-      const double hold_s = f->hold.empty() ? 0.0 : parse_duration_s(f->hold);
-      op::CommandResult res;
-      try {
-        res = op::execute(client, mode, setpoints, f->options());
-      } catch (const ClientError& e) {
-        // The controller's own limit refused it (exception 03 on the staged setpoint, or a reject
-        // reason): say the value and the limit as this machine's configuration has it, and where.
-        const std::string msg = e.what();
-        const bool limit = e.kind() == Kind::exception
-                               ? msg.find("exception 03") != std::string::npos
-                           : e.kind() == Kind::rejected
-                               ? (msg.find("force_beyond_safe_limit") != std::string::npos ||
-                                  msg.find("target_outside_stroke") != std::string::npos)
-                               : false;
-        if (!limit || mode == reg::Mode::idle) throw;
-        const auto l = load_limits(f->config, f->calibration);
-        throw ClientError(
-            e.kind(),
-            summary + " refused by the controller (" + msg +
-                "); the controller applies "
-                "its own configuration, which this machine's copy puts at " +
-                (mode == reg::Mode::force ? op::force_limit_text(l) : op::position_limit_text(l)));
-      }
-      if (res.done)
-        std::printf("%s: done (%s) after %.2f s\n", summary.c_str(),
-                    mode == reg::Mode::force ? "force reached" : "in position", res.elapsed_s);
-      else
-        std::printf("%s: acknowledged by the controller\n", summary.c_str());
-      if (hold_s > 0) {
-        std::fflush(stdout);
-        op::hold(client, hold_s, f->options());
-        std::printf("held for %.1f s; control ends now (owner-loss fault reaction)\n", hold_s);
-      }
-    });
-  });
+  cmd->callback([o, f, conn] { run_operator("set", [&] { run_set(*o, *f, *conn); }); });
 }
 
 /// A command that connects, checks the identity and runs one step of the drive's state machine.
