@@ -290,6 +290,147 @@ std::string plain_line(const View& view) {
   return s + " status=" + (bits.empty() ? "none" : bits);
 }
 
+struct WatchOptions {
+  double rate_hz = 10.0;
+  int count = 0;
+  std::string window = "30s";
+  bool once = false;
+};
+
+/// Draws the view at the top left, every row cleared to its end; no newline after the last row:
+/// nothing scrolls.
+void draw_full_screen(const View& view, const std::deque<Sample>& samples, double window_s) {
+  bool reverse = false;
+  const auto lines = render(view, samples, window_s, screen_size(), &reverse);
+  std::string s = "\x1b[H";
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    if (i == 0) s += reverse ? "\x1b[7m" : "\x1b[1m";
+    s += lines[i];
+    if (i == 0) s += "\x1b[0m";
+    s += "\x1b[K";
+    if (i + 1 < lines.size()) s += "\n";
+  }
+  s += "\x1b[J";
+  std::fputs(s.c_str(), stdout);
+  std::fflush(stdout);
+}
+
+void print_plain(const std::string& line) {
+  std::printf("%s\n", line.c_str());
+  std::fflush(stdout);
+}
+
+/// One watch session: the connection (made again when the controller comes back), the view and
+/// the trend's samples.
+class Watcher {
+ public:
+  Watcher(const WatchOptions& o, const op::Endpoint& ep, std::unique_ptr<op::Client> client,
+          bool full_screen)
+      : o_(o),
+        ep_(ep),
+        client_(std::move(client)),
+        full_screen_(full_screen),
+        window_s_(parse_duration_s(o.window)) {
+    view_.endpoint = ep.describe();
+  }
+
+  /// Until q, Ctrl-C, --count or --once; the read error that ends --once, if one did.
+  std::optional<op::ClientError> run() {
+    std::optional<Terminal> term;
+    if (full_screen_) term.emplace();
+    while (!g_quit) {
+      view_.now_s = now_s();
+      if (!client_) reconnect();
+      if (client_ && !poll() && o_.once) return error_;
+      if (full_screen_)
+        draw_full_screen(view_, samples_, window_s_);
+      else if (view_.connected)
+        print_plain(plain_line(view_));
+      ++frames_;
+      if (o_.once || (o_.count > 0 && frames_ >= o_.count)) break;
+      if (wait_for_quit(view_.connected ? 1.0 / o_.rate_hz : 0.5)) break;
+    }
+    return std::nullopt;
+  }
+
+  int frames() const { return frames_; }
+  int reconnects() const { return reconnects_; }
+  const View& view() const { return view_; }
+
+ private:
+  double now_s() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
+
+  void reconnect() {
+    try {
+      client_ = std::make_unique<op::Client>(ep_);
+      client_->check_identity();
+      view_.connected = true;
+      ++reconnects_;
+      if (!full_screen_) {
+        std::printf("t_s=%.2f reconnected to %s\n", now_s(), view_.endpoint.c_str());
+        std::fflush(stdout);
+      }
+    } catch (const op::ClientError& e) {
+      client_.reset();
+      view_.problem = e.what();
+    }
+  }
+
+  /// Reads the tables into the view and the trend; false (error_ set) when the read failed.
+  bool poll() {
+    try {
+      view_.v = client_->read_tables({reg::Table::input_register, reg::Table::holding_register});
+      const op::Values& v = *view_.v;
+      const bool force_mode = v.at("active_mode") == static_cast<double>(reg::Mode::force);
+      samples_.push_back({view_.now_s, force_mode ? v.at("active_force_setpoint_mn") : kNaN,
+                          v.at("load_force_est_mn"), v.at("load_cell_force_mn")});
+      while (!samples_.empty() && samples_.front().t_s < view_.now_s - window_s_)
+        samples_.pop_front();
+      return true;
+    } catch (const op::ClientError& e) {
+      error_ = e;
+      if (o_.once) return false;
+      client_.reset();
+      view_.connected = false;
+      view_.down_since_s = view_.now_s;
+      view_.problem = e.what();
+      if (!full_screen_) print_plain(plain_line(view_));
+      return false;
+    }
+  }
+
+  const WatchOptions& o_;
+  op::Endpoint ep_;
+  std::unique_ptr<op::Client> client_;
+  bool full_screen_;
+  double window_s_;
+  Clock::time_point t0_ = Clock::now();
+  std::deque<Sample> samples_;
+  View view_;
+  int frames_ = 0, reconnects_ = 0;
+  std::optional<op::ClientError> error_;
+};
+
+void run_watch(const WatchOptions& o, const ConnectionOptions& conn) {
+  parse_duration_s(o.window);  // a bad window is refused before anything is opened
+  const op::Endpoint ep = endpoint_of(conn);
+  // Connect before taking the screen: a wrong address stays visible as one line, exit 3.
+  auto client = std::make_unique<op::Client>(ep);
+  client->check_identity();
+  const bool full_screen = !o.once && isatty(STDOUT_FILENO) != 0;
+  g_quit = 0;
+  std::signal(SIGINT, on_quit);
+  std::signal(SIGTERM, on_quit);
+  Watcher w(o, ep, std::move(client), full_screen);
+  const auto error = w.run();
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+  if (error) throw *error;
+  if (full_screen)
+    std::printf("maglead watch: %d refreshes from %s, %d reconnect%s\n", w.frames(),
+                w.view().endpoint.c_str(), w.reconnects(), w.reconnects() == 1 ? "" : "s");
+}
+
 void add_watch(CLI::App& app) {
   auto* cmd = app.add_subcommand("watch",
                                  "Live view of a controller: state, status bits, values and a "
@@ -298,13 +439,7 @@ void add_watch(CLI::App& app) {
                                  "plain lines when stdout is not "
                                  "a terminal (q or Ctrl-C quits)");
   auto conn = add_connection_options(cmd);
-  struct Opts {
-    double rate_hz = 10.0;
-    int count = 0;
-    std::string window = "30s";
-    bool once = false;
-  };
-  auto o = std::make_shared<Opts>();
+  auto o = std::make_shared<WatchOptions>();
   cmd->add_option("--rate", o->rate_hz, "Refreshes per second")
       ->check(CLI::Range(0.5, 50.0))
       ->capture_default_str();
@@ -314,101 +449,7 @@ void add_watch(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--once", o->once,
                 "Print one plain line and exit (exit 3 when the controller cannot be read)");
-  cmd->callback([o, conn] {
-    run_operator("watch", [&] {
-      const double window_s = parse_duration_s(o->window);
-      const op::Endpoint ep = endpoint_of(*conn);
-      // Connect before taking the screen: a wrong address stays visible as one line, exit 3.
-      auto client = std::make_unique<op::Client>(ep);
-      client->check_identity();
-      const bool full_screen = !o->once && isatty(STDOUT_FILENO) != 0;
-      g_quit = 0;
-      std::signal(SIGINT, on_quit);
-      std::signal(SIGTERM, on_quit);
-      const auto t0 = Clock::now();
-      const auto now = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
-      std::deque<Sample> samples;
-      View view;
-      view.endpoint = ep.describe();
-      int frames = 0, reconnects = 0;
-      std::optional<op::ClientError> error;
-      {
-        std::optional<Terminal> term;
-        if (full_screen) term.emplace();
-        while (!g_quit) {
-          view.now_s = now();
-          if (!client) {
-            try {
-              client = std::make_unique<op::Client>(ep);
-              client->check_identity();
-              view.connected = true;
-              ++reconnects;
-              if (!full_screen) {
-                std::printf("t_s=%.2f reconnected to %s\n", now(), view.endpoint.c_str());
-                std::fflush(stdout);
-              }
-            } catch (const op::ClientError& e) {
-              client.reset();
-              view.problem = e.what();
-            }
-          }
-          if (client) {
-            try {
-              view.v =
-                  client->read_tables({reg::Table::input_register, reg::Table::holding_register});
-              const op::Values& v = *view.v;
-              const bool force_mode = v.at("active_mode") == static_cast<double>(reg::Mode::force);
-              samples.push_back({view.now_s, force_mode ? v.at("active_force_setpoint_mn") : kNaN,
-                                 v.at("load_force_est_mn"), v.at("load_cell_force_mn")});
-              while (!samples.empty() && samples.front().t_s < view.now_s - window_s)
-                samples.pop_front();
-            } catch (const op::ClientError& e) {
-              if (o->once) {
-                error = e;
-                break;
-              }
-              client.reset();
-              view.connected = false;
-              view.down_since_s = view.now_s;
-              view.problem = e.what();
-              if (!full_screen) {
-                std::printf("%s\n", plain_line(view).c_str());
-                std::fflush(stdout);
-              }
-            }
-          }
-          if (full_screen) {
-            bool reverse = false;
-            const auto lines = render(view, samples, window_s, screen_size(), &reverse);
-            std::string s = "\x1b[H";
-            for (std::size_t i = 0; i < lines.size(); ++i) {
-              if (i == 0) s += reverse ? "\x1b[7m" : "\x1b[1m";
-              s += lines[i];
-              if (i == 0) s += "\x1b[0m";
-              s += "\x1b[K";
-              if (i + 1 < lines.size())
-                s += "\n";  // no newline after the last row: nothing scrolls
-            }
-            s += "\x1b[J";
-            std::fputs(s.c_str(), stdout);
-            std::fflush(stdout);
-          } else if (view.connected) {
-            std::printf("%s\n", plain_line(view).c_str());
-            std::fflush(stdout);
-          }
-          ++frames;
-          if (o->once || (o->count > 0 && frames >= o->count)) break;
-          if (wait_for_quit(view.connected ? 1.0 / o->rate_hz : 0.5)) break;
-        }
-      }
-      std::signal(SIGINT, SIG_DFL);
-      std::signal(SIGTERM, SIG_DFL);
-      if (error) throw *error;
-      if (full_screen)
-        std::printf("maglead watch: %d refreshes from %s, %d reconnect%s\n", frames,
-                    view.endpoint.c_str(), reconnects, reconnects == 1 ? "" : "s");
-    });
-  });
+  cmd->callback([o, conn] { run_operator("watch", [&] { run_watch(*o, *conn); }); });
 }
 
 MAGLEAD_COMMAND(85, add_watch);
