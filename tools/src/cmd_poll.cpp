@@ -60,17 +60,124 @@ std::string json_literal(const reg::Register& r, double si, std::uint32_t raw_wo
   return op::si_text(r, si);
 }
 
+struct PollOptions {
+  bool json = false, csv = false, raw = false, all = false;
+  std::vector<std::string> names;
+};
+
+/// The registers --names asks for, each by its register or SI name; an unknown name is refused
+/// (with the closest known one) before anything is sent.
+std::vector<const reg::Register*> wanted_registers(const std::vector<std::string>& names) {
+  std::vector<const reg::Register*> wanted;
+  for (const auto& n : names) {
+    const auto* r = op::find_by_any_name(n);
+    if (!r) {
+      std::vector<std::string> all;
+      for (const auto& x : reg::table())
+        all.push_back(std::string(x.name)), all.push_back(op::si_name(x));
+      const std::string guess = closest_match(n, all);
+      throw op::ClientError(op::ClientError::Kind::refused_locally,
+                            "no register named '" + n + "'" +
+                                (guess.empty() ? "" : "; did you mean '" + guess + "'?"));
+    }
+    wanted.push_back(r);
+  }
+  return wanted;
+}
+
+/// Indices into v of what is shown: --names order if given, else the table's.
+std::vector<std::size_t> shown_indices(const op::Values& v,
+                                       const std::vector<const reg::Register*>& wanted, bool all) {
+  std::vector<std::size_t> shown;
+  if (!wanted.empty()) {
+    for (const auto* w : wanted)
+      for (std::size_t i = 0; i < v.regs.size(); ++i)
+        if (v.regs[i] == w) shown.push_back(i);
+    return shown;
+  }
+  for (std::size_t i = 0; i < v.regs.size(); ++i) {
+    const auto& r = *v.regs[i];
+    if (!all && (r.type == reg::Type::f32 || r.name.starts_with("word_order_probe"))) continue;
+    shown.push_back(i);
+  }
+  return shown;
+}
+
+/// What is printed: SI values under SI names (nut_pos_m), raw integers under the register names
+/// (nut_pos_um).
+struct Shown {
+  const op::Values& v;
+  std::vector<std::size_t> idx;
+  bool raw;
+  std::string name(std::size_t i) const {
+    return raw ? std::string(v.regs[i]->name) : op::si_name(*v.regs[i]);
+  }
+  std::string text(std::size_t i) const {
+    return raw ? std::to_string(v.raw[i]) : op::si_text(*v.regs[i], v.si[i]);
+  }
+  std::string unit(std::size_t i) const { return raw ? "raw" : std::string(v.regs[i]->unit); }
+};
+
+void print_json(const Shown& s, const op::Client& client) {
+  // "values" is written by hand (json_literal) and put in place of a marker after dump().
+  static const std::string kMarker = "\"values\": \"@values@\"";
+  std::string vals = s.idx.empty() ? "\"values\": {}" : "\"values\": {";
+  nlohmann::ordered_json j, units = nlohmann::ordered_json::object();
+  for (auto i : s.idx) {
+    vals += std::string(vals.back() == '{' ? "" : ",") + "\n    " +
+            nlohmann::json(s.name(i)).dump() + ": " +
+            json_literal(*s.v.regs[i], s.v.si[i], s.v.raw[i], s.raw);
+    units[s.name(i)] = s.unit(i);
+  }
+  if (!s.idx.empty()) vals += "\n  }";
+  const op::Values& v = s.v;
+  j["controller"] = client.endpoint().describe();
+  j["values"] = "@values@";
+  j["units"] = units;
+  j["status_bits"] = op::status_bits(static_cast<std::uint16_t>(v.at("status_word")));
+  j["drive_state"] = op::code_name(reg::drive_states(), v.at("drive_state"));
+  j["alarm"] = {{"code", v.at("alarm_code")},
+                {"name", op::code_name(reg::alarm_codes(), v.at("alarm_code"))},
+                {"meaning", op::code_meaning(reg::alarm_codes(), v.at("alarm_code"))}};
+  std::string text = j.dump(2);
+  text.replace(text.find(kMarker), kMarker.size(), vals);
+  std::printf("%s\n", text.c_str());
+}
+
+void print_csv(const Shown& s) {
+  std::printf("name,value,unit\n");
+  for (auto i : s.idx)
+    std::printf("%s,%s,%s\n", s.name(i).c_str(), s.text(i).c_str(), s.unit(i).c_str());
+}
+
+void print_table(const Shown& s, const op::Client& client) {
+  std::printf("%s\n", client.endpoint().describe().c_str());
+  for (auto i : s.idx)
+    std::printf("  %-28s %16s %-6s %s\n", s.name(i).c_str(), s.text(i).c_str(), s.unit(i).c_str(),
+                meaning(*s.v.regs[i], s.v.si[i]).c_str());
+}
+
+void run_poll(const PollOptions& o, const ConnectionOptions& conn) {
+  const auto wanted = wanted_registers(o.names);
+  op::Client client(endpoint_of(conn));
+  client.check_identity();
+  const auto v = client.read_tables({reg::Table::input_register, reg::Table::holding_register});
+  const Shown s{v, shown_indices(v, wanted, o.all), o.raw};
+  if (o.json)
+    print_json(s, client);
+  else if (o.csv)
+    print_csv(s);
+  else
+    print_table(s, client);
+}
+
 void add_poll(CLI::App& app) {
   auto* cmd =
       app.add_subcommand("poll",
                          "Read a maglead controller's registers once (Modbus TCP or RTU) and "
                          "print them by name in SI units");
   auto conn = add_connection_options(cmd);
-  struct Opts {
-    bool json = false, csv = false, raw = false, all = false;
-    std::vector<std::string> names;
-  };
-  auto o = std::make_shared<Opts>();
+  auto o = std::make_shared<PollOptions>();
   auto* fmt = cmd->add_option_group("Output format");
   fmt->add_flag(
       "--json", o->json,
@@ -87,86 +194,7 @@ void add_poll(CLI::App& app) {
                   "Only these registers: register names from 'maglead registers' or their SI names "
                   "(nut_pos_um or nut_pos_m)")
       ->delimiter(',');
-  cmd->callback([o, conn] {
-    run_operator("poll", [&] {
-      std::vector<const reg::Register*> wanted;
-      for (const auto& n : o->names) {
-        const auto* r = op::find_by_any_name(n);
-        if (!r) {
-          std::vector<std::string> all;
-          for (const auto& x : reg::table())
-            all.push_back(std::string(x.name)), all.push_back(op::si_name(x));
-          const std::string guess = closest_match(n, all);
-          throw op::ClientError(op::ClientError::Kind::refused_locally,
-                                "no register named '" + n + "'" +
-                                    (guess.empty() ? "" : "; did you mean '" + guess + "'?"));
-        }
-        wanted.push_back(r);
-      }
-      op::Client client(endpoint_of(*conn));
-      client.check_identity();
-      const auto v = client.read_tables({reg::Table::input_register, reg::Table::holding_register});
-      std::vector<std::size_t> shown;  // --names order if given, else the table's
-      if (!wanted.empty()) {
-        for (const auto* w : wanted)
-          for (std::size_t i = 0; i < v.regs.size(); ++i)
-            if (v.regs[i] == w) shown.push_back(i);
-      } else {
-        for (std::size_t i = 0; i < v.regs.size(); ++i) {
-          const auto& r = *v.regs[i];
-          if (!o->all && (r.type == reg::Type::f32 || r.name.starts_with("word_order_probe")))
-            continue;
-          shown.push_back(i);
-        }
-      }
-      // SI values go under SI names (nut_pos_m), raw integers under the register names
-      // (nut_pos_um).
-      const auto name_of = [&](std::size_t i) {
-        return o->raw ? std::string(v.regs[i]->name) : op::si_name(*v.regs[i]);
-      };
-      const auto text_of = [&](std::size_t i) {
-        return o->raw ? std::to_string(v.raw[i]) : op::si_text(*v.regs[i], v.si[i]);
-      };
-      if (o->json) {
-        // "values" is written by hand (json_literal) and put in place of a marker after dump().
-        static const std::string kMarker = "\"values\": \"@values@\"";
-        std::string vals = shown.empty() ? "\"values\": {}" : "\"values\": {";
-        nlohmann::ordered_json j, units = nlohmann::ordered_json::object();
-        for (auto i : shown) {
-          const auto& r = *v.regs[i];
-          vals += std::string(vals.back() == '{' ? "" : ",") + "\n    " +
-                  nlohmann::json(name_of(i)).dump() + ": " +
-                  json_literal(r, v.si[i], v.raw[i], o->raw);
-          units[name_of(i)] = o->raw ? "raw" : std::string(r.unit);
-        }
-        if (!shown.empty()) vals += "\n  }";
-        j["controller"] = client.endpoint().describe();
-        j["values"] = "@values@";
-        j["units"] = units;
-        const auto sw = static_cast<std::uint16_t>(v.at("status_word"));
-        j["status_bits"] = op::status_bits(sw);
-        j["drive_state"] = op::code_name(reg::drive_states(), v.at("drive_state"));
-        j["alarm"] = {{"code", v.at("alarm_code")},
-                      {"name", op::code_name(reg::alarm_codes(), v.at("alarm_code"))},
-                      {"meaning", op::code_meaning(reg::alarm_codes(), v.at("alarm_code"))}};
-        std::string text = j.dump(2);
-        text.replace(text.find(kMarker), kMarker.size(), vals);
-        std::printf("%s\n", text.c_str());
-      } else if (o->csv) {
-        std::printf("name,value,unit\n");
-        for (auto i : shown)
-          std::printf("%s,%s,%s\n", name_of(i).c_str(), text_of(i).c_str(),
-                      o->raw ? "raw" : std::string(v.regs[i]->unit).c_str());
-      } else {
-        std::printf("%s\n", client.endpoint().describe().c_str());
-        for (auto i : shown) {
-          const auto& r = *v.regs[i];
-          std::printf("  %-28s %16s %-6s %s\n", name_of(i).c_str(), text_of(i).c_str(),
-                      o->raw ? "raw" : std::string(r.unit).c_str(), meaning(r, v.si[i]).c_str());
-        }
-      }
-    });
-  });
+  cmd->callback([o, conn] { run_operator("poll", [&] { run_poll(*o, *conn); }); });
 }
 
 MAGLEAD_COMMAND(80, add_poll);
