@@ -98,109 +98,127 @@ PandasRead pandas_read_csv(const std::string& path) {
   return r;
 }
 
+struct BenchAnalyzeOptions {
+  std::string recording, out, config = default_config_dir();
+  bool quick = false;
+};
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point a) {
+  return std::chrono::duration<double>(Clock::now() - a).count();
+}
+
+/// The default recording: position moves with a spring, a position ripple and an offset
+/// concealed, an hour (two minutes with --quick).
+std::string generate_recording(const BenchAnalyzeOptions& o, const ActuatorParams& act,
+                               const std::filesystem::path& dir) {
+  const std::string path = (dir / (o.quick ? "bench_2min.csv" : "bench_1h.csv")).string();
+  ScenarioOptions opt;
+  opt.scenario = "position-moves";
+  opt.duration_s = o.quick ? 120.0 : 3600.0;
+  opt.seed = 11;
+  opt.plant.actuator = act;
+  set_plant_effect(opt.plant.effects, "spring", 300.0);
+  set_plant_effect(opt.plant.effects, "position_ripple", 1.0);
+  set_plant_effect(opt.plant.effects, "offset", 1.0);
+  Progress progress("generate");
+  opt.progress = [&](double f) { progress(f); };
+  const auto t0 = Clock::now();
+  run_scenario(opt, path);
+  progress.done();
+  std::printf("generated %s (%.0f s simulated) in %.1f s (not part of the analysis)\n",
+              path.c_str(), opt.duration_s, seconds_since(t0));
+  return path;
+}
+
+struct ReadTime {
+  double wall_s = 0, cpu_s = 0;
+  std::size_t rows = 0;
+};
+
+/// After the analysis, so that neither disturbs the other's figures.
+void compare_with_pandas(const std::string& path, const ReadTime& ours) {
+  std::printf("\n  reading the CSV, same file, same run (page cache warm for both):\n");
+  std::printf("    %-28s %7.2f s wall %7.2f s CPU\n", "maglead read_recording", ours.wall_s,
+              ours.cpu_s);
+  std::fflush(stdout);
+  const PandasRead pd = pandas_read_csv(path);
+  if (!pd.wall_s) {
+    std::printf(
+        "    pandas read_csv: reference unavailable (%s); install python3-pandas: "
+        "bash tools/setup.sh\n",
+        pd.why_not.c_str());
+    return;
+  }
+  const std::string label = "pandas " + pd.version + " read_csv";
+  std::printf("    %-28s %7.2f s wall %7.2f s CPU   (%s, comment='#')\n", label.c_str(), *pd.wall_s,
+              *pd.cpu_s, pd.python.c_str());
+  std::printf("    %-28s %7.2f        %7.2f         (target <= 1: %s)\n", "maglead / pandas",
+              ours.wall_s / *pd.wall_s, ours.cpu_s / *pd.cpu_s,
+              ours.wall_s <= *pd.wall_s ? "met" : "missed");
+  if (pd.rows != ours.rows)
+    std::printf("    ** pandas read %zu rows, maglead %zu **\n", pd.rows, ours.rows);
+}
+
+void run_bench_analyze(const BenchAnalyzeOptions& o) {
+  const auto tmp = std::filesystem::temp_directory_path() / "maglead_bench_analyze";
+  std::filesystem::create_directories(tmp);
+  const ActuatorParams act = load_actuator_or_default(o.config);
+  const std::string path = o.recording.empty() ? generate_recording(o, act, tmp) : o.recording;
+  const std::string out = o.out.empty() ? (tmp / "out").string() : o.out;
+  const std::string model_path = config_file(o.config, "model.toml");
+  const bool has_model = std::filesystem::exists(model_path);
+  if (has_model) twin::check_model_format(model_path);
+  const auto model =
+      has_model ? analysis::load_model(model_path) : analysis::actuator_model_from_config(act);
+  const auto cal = load_calibration(config_file(o.config, "calibration.toml"));
+
+  warm_page_cache(path);
+  const auto t_all = Clock::now();
+  const double c_read0 = thread_cpu_s();
+  const Recording rec = read_recording(path);
+  const ReadTime read{seconds_since(t_all), thread_cpu_s() - c_read0, rec.rows()};
+  analysis::AnalysisOptions aopt;
+  std::string last;
+  aopt.progress = [&](const std::string& stage, double) {
+    if (stage != last) note("  " + stage + " (" + std::to_string(seconds_since(t_all)) + " s)");
+    last = stage;
+  };
+  auto t0 = Clock::now();
+  const auto result = analysis::analyze_recording(rec, model, cal, act, aopt);
+  const double t_an = seconds_since(t0);
+  t0 = Clock::now();
+  report::write_analysis_outputs(result, out);
+  const double t_out = seconds_since(t0), total = seconds_since(t_all);
+  const auto& J = result.findings;
+  std::printf("maglead bench analyze: %zu samples (%.0f s at 1 kHz)\n", rec.rows(),
+              static_cast<double>(rec.rows()) / 1000.0);
+  std::printf(
+      "  read recording   %7.2f s\n  analysis         %7.2f s\n  report + plots   %7.2f s\n",
+      read.wall_s, t_an, t_out);
+  std::printf("  total            %7.2f s   (target <= 5 s for one hour)\n", total);
+  std::printf("  peak memory      %7.0f MB (max resident set size)\n", peak_rss_mb());
+  std::printf("  found:");
+  for (const auto& e : J.effects) std::printf(" %s", e.id.c_str());
+  std::printf("%s\n  held-out RMS %.4f N -> %.4f N; report in %s\n",
+              J.effects.empty() ? " nothing" : "", J.validation.front().heldout_rms_n,
+              J.validation.back().heldout_rms_n, out.c_str());
+  compare_with_pandas(path, read);
+}
+
 void add_bench_analyze(CLI::App& app) {
   auto* cmd = bench_command(app)->add_subcommand(
       "analyze",
       "Time maglead analyze on a one-hour 1 kHz recording (aim: at most 5 s), with "
       "peak memory, and the CSV read beside pandas' read_csv of the same file");
-  struct Opts {
-    std::string recording, out, config = default_config_dir();
-    bool quick = false;
-  };
-  auto o = std::make_shared<Opts>();
+  auto o = std::make_shared<BenchAnalyzeOptions>();
   cmd->add_option("--recording", o->recording,
                   "Recording to analyse (default: generate position-moves with a spring, a "
                   "position ripple and an offset concealed)");
   cmd->add_flag("--quick", o->quick, "Two simulated minutes instead of an hour (CI)");
   cmd->add_option("--out", o->out, "Output directory (default: a temporary one)");
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
-  cmd->callback([o] {
-    using Clock = std::chrono::steady_clock;
-    auto secs = [](Clock::time_point a) {
-      return std::chrono::duration<double>(Clock::now() - a).count();
-    };
-    const auto tmp = std::filesystem::temp_directory_path() / "maglead_bench_analyze";
-    std::filesystem::create_directories(tmp);
-    const ActuatorParams act = load_actuator_or_default(o->config);
-    std::string path = o->recording;
-    if (path.empty()) {
-      path = (tmp / (o->quick ? "bench_2min.csv" : "bench_1h.csv")).string();
-      ScenarioOptions opt;
-      opt.scenario = "position-moves";
-      opt.duration_s = o->quick ? 120.0 : 3600.0;
-      opt.seed = 11;
-      opt.plant.actuator = act;
-      set_plant_effect(opt.plant.effects, "spring", 300.0);
-      set_plant_effect(opt.plant.effects, "position_ripple", 1.0);
-      set_plant_effect(opt.plant.effects, "offset", 1.0);
-      Progress progress("generate");
-      opt.progress = [&](double f) { progress(f); };
-      const auto t0 = Clock::now();
-      run_scenario(opt, path);
-      progress.done();
-      std::printf("generated %s (%.0f s simulated) in %.1f s (not part of the analysis)\n",
-                  path.c_str(), opt.duration_s, secs(t0));
-    }
-    const std::string out = o->out.empty() ? (tmp / "out").string() : o->out;
-    const bool has_model = std::filesystem::exists(config_file(o->config, "model.toml"));
-    if (has_model) twin::check_model_format(config_file(o->config, "model.toml"));
-    const auto model = has_model ? analysis::load_model(config_file(o->config, "model.toml"))
-                                 : analysis::actuator_model_from_config(act);
-    const auto cal = load_calibration(config_file(o->config, "calibration.toml"));
-
-    warm_page_cache(path);
-    const auto t_all = Clock::now();
-    auto t0 = Clock::now();
-    const double c_read0 = thread_cpu_s();
-    const Recording rec = read_recording(path);
-    const double t_read = secs(t0), c_read = thread_cpu_s() - c_read0;
-    analysis::AnalysisOptions aopt;
-    std::string last;
-    aopt.progress = [&](const std::string& stage, double) {
-      if (stage != last) note("  " + stage + " (" + std::to_string(secs(t_all)) + " s)");
-      last = stage;
-    };
-    t0 = Clock::now();
-    const auto result = analysis::analyze_recording(rec, model, cal, act, aopt);
-    const double t_an = secs(t0);
-    t0 = Clock::now();
-    report::write_analysis_outputs(result, out);
-    const double t_out = secs(t0);
-    const double total = secs(t_all);
-    const auto& J = result.findings;
-    std::printf("maglead bench analyze: %zu samples (%.0f s at 1 kHz)\n", rec.rows(),
-                static_cast<double>(rec.rows()) / 1000.0);
-    std::printf(
-        "  read recording   %7.2f s\n  analysis         %7.2f s\n  report + plots   %7.2f s\n",
-        t_read, t_an, t_out);
-    std::printf("  total            %7.2f s   (target <= 5 s for one hour)\n", total);
-    std::printf("  peak memory      %7.0f MB (max resident set size)\n", peak_rss_mb());
-    std::printf("  found:");
-    for (const auto& e : J.effects) std::printf(" %s", e.id.c_str());
-    std::printf("%s\n  held-out RMS %.4f N -> %.4f N; report in %s\n",
-                J.effects.empty() ? " nothing" : "", J.validation.front().heldout_rms_n,
-                J.validation.back().heldout_rms_n, out.c_str());
-
-    // After the analysis, so that neither disturbs the other's figures.
-    std::printf("\n  reading the CSV, same file, same run (page cache warm for both):\n");
-    std::printf("    %-28s %7.2f s wall %7.2f s CPU\n", "maglead read_recording", t_read, c_read);
-    std::fflush(stdout);
-    const PandasRead pd = pandas_read_csv(path);
-    if (!pd.wall_s) {
-      std::printf(
-          "    pandas read_csv: reference unavailable (%s); install python3-pandas: "
-          "bash tools/setup.sh\n",
-          pd.why_not.c_str());
-      return;
-    }
-    const std::string label = "pandas " + pd.version + " read_csv";
-    std::printf("    %-28s %7.2f s wall %7.2f s CPU   (%s, comment='#')\n", label.c_str(),
-                *pd.wall_s, *pd.cpu_s, pd.python.c_str());
-    std::printf("    %-28s %7.2f        %7.2f         (target <= 1: %s)\n", "maglead / pandas",
-                t_read / *pd.wall_s, c_read / *pd.cpu_s, t_read <= *pd.wall_s ? "met" : "missed");
-    if (pd.rows != rec.rows())
-      std::printf("    ** pandas read %zu rows, maglead %zu **\n", pd.rows, rec.rows());
-  });
+  cmd->callback([o] { run_bench_analyze(*o); });
 }
 
 MAGLEAD_COMMAND(95, add_bench_analyze);
