@@ -57,6 +57,117 @@ void print_load_cell_check(const twin::TwinOutputs& last) {
       std::hypot(last.drift_gain_stderr, last.drift_reference_stderr));
 }
 
+struct TwinCheckOptions {
+  std::string recording, config = default_config_dir(), model, trace;
+  bool no_load_cell = false;
+};
+
+/// What the run of the monitor flagged and when, and its errors against a logged load cell.
+struct CheckSummary {
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  double t_drift = kNaN, t_warn = kNaN, t_step = kNaN, max_res_m = 0, drift_stat = 0;
+  double err_dyn_n = 0, err_static_n = 0;
+  std::size_t healthy = 0, counted = 0;
+  twin::TwinOutputs last{}, at_drift{};
+
+  void add(double t, const twin::TwinOutputs& out, double load_n) {
+    if (out.drift_warning && std::isnan(t_drift)) t_drift = t, at_drift = out;
+    if (out.step_out_warning && std::isnan(t_warn)) t_warn = t;
+    if (out.step_out && std::isnan(t_step)) t_step = t;
+    max_res_m = std::max(max_res_m, std::abs(out.residual_pos_m));
+    healthy += out.healthy;
+    last = out;
+    drift_stat = std::max(drift_stat, out.drift_statistic);
+    if (std::isfinite(load_n)) {
+      err_dyn_n += std::abs(out.dynamic_output_force_est_n + load_n);
+      err_static_n += std::abs(out.static_output_force_est_n + load_n);
+      ++counted;
+    }
+  }
+};
+
+/// --trace: the monitor's outputs every 10 ms.
+class Trace {
+ public:
+  explicit Trace(const std::string& path) {
+    if (path.empty()) return;
+    f_ = std::fopen(path.c_str(), "w");
+    if (!f_) throw std::runtime_error("cannot write " + path);
+    std::fprintf(f_,
+                 "t_s,zero_load_error_n,zero_load_stderr_n,drift_statistic,drift_observability,"
+                 "drift_warning,drift_reason,check_gain,check_gain_stderr,healthy,health_reason,"
+                 "residual_pos_m,step_out_warning,step_out_reason\n");
+  }
+  ~Trace() {
+    if (f_) std::fclose(f_);
+  }
+  Trace(const Trace&) = delete;
+  Trace& operator=(const Trace&) = delete;
+  void write(std::size_t i, double t, const twin::TwinOutputs& out) {
+    if (!f_ || i % 10 != 0) return;
+    std::fprintf(f_, "%.3f,%.4f,%.4f,%.3f,%d,%d,%d,%.5f,%.5f,%d,%d,%.3e,%d,%d\n", t,
+                 out.drift_now.zero_load_n, out.drift_now.zero_load_se_n, out.drift_statistic,
+                 static_cast<int>(out.drift_observability), out.drift_warning,
+                 static_cast<int>(out.drift_reason), out.drift_gain_estimate, out.drift_gain_stderr,
+                 out.healthy, static_cast<int>(out.health_reason), out.residual_pos_m,
+                 out.step_out_warning, static_cast<int>(out.step_out_reason));
+  }
+
+ private:
+  std::FILE* f_ = nullptr;
+};
+
+void print_step_out(const CheckSummary& c) {
+  if (std::isnan(c.t_warn) && std::isnan(c.t_step)) {
+    std::printf("  step-out: none, no warning\n");
+    return;
+  }
+  if (!std::isnan(c.t_warn)) std::printf("  step-out warning: at t = %.3f s\n", c.t_warn);
+  if (std::isnan(c.t_step)) return;
+  const std::string lead =
+      !std::isnan(c.t_warn) && c.t_warn < c.t_step
+          ? ", warned " + std::to_string(std::lround((c.t_step - c.t_warn) * 1e3)) + " ms before"
+          : ", not warned before";
+  std::printf("  step-out: flagged at t = %.3f s%s\n", c.t_step, lead.c_str());
+}
+
+void run_twin_check(const TwinCheckOptions& o) {
+  twin::TwinMonitorConfig tc = twin::load_monitor_config(o.config);
+  if (!o.model.empty()) tc.model = twin::load_twin_model(o.model);
+  const Recording rec =
+      read_actuator_recording(o.recording, tc.actuator, o.config, {"t_s", "nut_pos_m"});
+  const auto& t = rec.column("t_s");
+  const auto optional = [&](const char* name) {
+    return rec.has(name) ? std::span<const double>(rec.column(name)) : std::span<const double>();
+  };
+  const bool has_load = rec.has("load_force_n") && !o.no_load_cell;
+  const auto load = has_load ? optional("load_force_n") : std::span<const double>();
+  CheckSummary c;
+  Trace trace(o.trace);
+  const auto t0 = std::chrono::steady_clock::now();
+  twin::replay_monitor(
+      tc,
+      {t, screw_angle_of(rec, tc.actuator), rec.column("nut_pos_m"), optional("force_set_n"), load},
+      [&](std::size_t i, const twin::TwinOutputs& out) {
+        trace.write(i, t[i], out);
+        c.add(t[i], out, has_load ? load[i] : CheckSummary::kNaN);
+      });
+  const double wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const std::size_t n = t.size();
+  std::printf("twin check of %s: %.1f s, %zu ticks (%.0f x real time)\n", o.recording.c_str(),
+              t.back() - t.front(), n, (t.back() - t.front()) / wall_s);
+  if (c.counted)
+    std::printf("  force MAE against load cell: twin %.2f N, static %.2f N\n",
+                c.err_dyn_n / static_cast<double>(c.counted),
+                c.err_static_n / static_cast<double>(c.counted));
+  std::printf("  position residual: max %.1f um; healthy %.1f %% of ticks\n", c.max_res_m * 1e6,
+              100.0 * static_cast<double>(c.healthy) / static_cast<double>(n));
+  print_drift(c.last, c.at_drift, c.t_drift, c.drift_stat);
+  if (has_load) print_load_cell_check(c.last);
+  print_step_out(c);
+}
+
 void add_twin_check(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "twin-check",
@@ -64,11 +175,7 @@ void add_twin_check(CLI::App& app) {
       "does: drift warning (the force estimate's error from free moves, without a load "
       "cell), health, step-out warning and flag; where a load cell is logged, the force "
       "error and a coupling-gain check against it");
-  struct Opts {
-    std::string recording, config = default_config_dir(), model, trace;
-    bool no_load_cell = false;
-  };
-  auto o = std::make_shared<Opts>();
+  auto o = std::make_shared<TwinCheckOptions>();
   cmd->add_option("--recording", o->recording,
                   "mls-recording/1 with t_s, screw or motor angle, nut_pos_m")
       ->required();
@@ -80,84 +187,7 @@ void add_twin_check(CLI::App& app) {
       "statistic, flags and reason codes)");
   cmd->add_flag("--no-load-cell", o->no_load_cell,
                 "Ignore a logged load_force_n column (the flag never reads it; this shows it)");
-  cmd->callback([o] {
-    twin::TwinMonitorConfig tc = twin::load_monitor_config(o->config);
-    if (!o->model.empty()) tc.model = twin::load_twin_model(o->model);
-    const Recording rec =
-        read_actuator_recording(o->recording, tc.actuator, o->config, {"t_s", "nut_pos_m"});
-    const auto screw = screw_angle_of(rec, tc.actuator);
-    const auto& t = rec.column("t_s");
-    const std::size_t n = t.size();
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    const bool has_load = rec.has("load_force_n") && !o->no_load_cell;
-    const auto optional = [&](const char* name) {
-      return rec.has(name) ? std::span<const double>(rec.column(name)) : std::span<const double>();
-    };
-    const auto load = has_load ? optional("load_force_n") : std::span<const double>();
-    double t_drift = nan, t_warn = nan, t_step = nan, max_res = 0, err_dyn = 0, err_static = 0;
-    std::size_t healthy = 0, counted = 0;
-    double drift_stat = 0.0;
-    twin::TwinOutputs last{}, at_drift{};
-    std::FILE* trace = o->trace.empty() ? nullptr : std::fopen(o->trace.c_str(), "w");
-    if (!o->trace.empty() && !trace) throw std::runtime_error("cannot write " + o->trace);
-    if (trace)
-      std::fprintf(trace,
-                   "t_s,zero_load_error_n,zero_load_stderr_n,drift_statistic,drift_observability,"
-                   "drift_warning,drift_reason,check_gain,check_gain_stderr,healthy,health_reason,"
-                   "residual_pos_m,step_out_warning,step_out_reason\n");
-    const auto t0 = std::chrono::steady_clock::now();
-    twin::replay_monitor(tc, {t, screw, rec.column("nut_pos_m"), optional("force_set_n"), load},
-                         [&](std::size_t i, const twin::TwinOutputs& out) {
-                           if (out.drift_warning && std::isnan(t_drift))
-                             t_drift = t[i], at_drift = out;
-                           if (out.step_out_warning && std::isnan(t_warn)) t_warn = t[i];
-                           if (out.step_out && std::isnan(t_step)) t_step = t[i];
-                           max_res = std::max(max_res, std::abs(out.residual_pos_m));
-                           healthy += out.healthy;
-                           last = out;
-                           if (trace && i % 10 == 0)
-                             std::fprintf(
-                                 trace, "%.3f,%.4f,%.4f,%.3f,%d,%d,%d,%.5f,%.5f,%d,%d,%.3e,%d,%d\n",
-                                 t[i], out.drift_now.zero_load_n, out.drift_now.zero_load_se_n,
-                                 out.drift_statistic, static_cast<int>(out.drift_observability),
-                                 out.drift_warning, static_cast<int>(out.drift_reason),
-                                 out.drift_gain_estimate, out.drift_gain_stderr, out.healthy,
-                                 static_cast<int>(out.health_reason), out.residual_pos_m,
-                                 out.step_out_warning, static_cast<int>(out.step_out_reason));
-                           drift_stat = std::max(drift_stat, out.drift_statistic);
-                           if (has_load && std::isfinite(load[i])) {
-                             err_dyn += std::abs(out.dynamic_output_force_est_n + load[i]);
-                             err_static += std::abs(out.static_output_force_est_n + load[i]);
-                             ++counted;
-                           }
-                         });
-    if (trace) std::fclose(trace);
-    const double wall_s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::printf("twin check of %s: %.1f s, %zu ticks (%.0f x real time)\n", o->recording.c_str(),
-                t.back() - t.front(), n, (t.back() - t.front()) / wall_s);
-    if (counted)
-      std::printf("  force MAE against load cell: twin %.2f N, static %.2f N\n",
-                  err_dyn / static_cast<double>(counted),
-                  err_static / static_cast<double>(counted));
-    std::printf("  position residual: max %.1f um; healthy %.1f %% of ticks\n", max_res * 1e6,
-                100.0 * static_cast<double>(healthy) / static_cast<double>(n));
-    print_drift(last, at_drift, t_drift, drift_stat);
-    if (has_load) print_load_cell_check(last);
-    if (std::isnan(t_warn) && std::isnan(t_step))
-      std::printf("  step-out: none, no warning\n");
-    else {
-      if (!std::isnan(t_warn)) std::printf("  step-out warning: at t = %.3f s\n", t_warn);
-      if (!std::isnan(t_step))
-        std::printf("  step-out: flagged at t = %.3f s%s\n", t_step,
-                    !std::isnan(t_warn) && t_warn < t_step
-                        ? (", warned " +
-                           std::to_string(static_cast<int>(std::lround((t_step - t_warn) * 1e3))) +
-                           " ms before")
-                              .c_str()
-                        : ", not warned before");
-    }
-  });
+  cmd->callback([o] { run_twin_check(*o); });
 }
 
 MAGLEAD_COMMAND(45, add_twin_check);
