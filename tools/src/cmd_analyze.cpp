@@ -13,17 +13,111 @@
 namespace maglead::cli {
 namespace {
 
+struct AnalyzeOptions {
+  std::string recording, model, out, calibration, config = default_config_dir();
+  analysis::AnalysisOptions a;
+};
+
+/// The baseline model's path: --model, else CONFIG/model.toml when there is one, else empty
+/// (the model then comes from CONFIG/actuator.toml).
+std::string baseline_path(const AnalyzeOptions& o) {
+  if (!o.model.empty()) return o.model;
+  const std::string p = config_file(o.config, "model.toml");
+  return std::filesystem::exists(p) ? p : std::string();
+}
+
+/// One progress bar per stage of the analysis, the last one closed by done().
+class StageProgress {
+ public:
+  void operator()(const std::string& stage, double f) {
+    if (stage != stage_) {
+      if (bar_) bar_->done();
+      bar_ = std::make_unique<Progress>("analyze: " + stage);
+      stage_ = stage;
+    }
+    (*bar_)(f);
+  }
+  void done() {
+    if (bar_) bar_->done();
+  }
+
+ private:
+  std::string stage_;
+  std::unique_ptr<Progress> bar_;
+};
+
+void print_findings(const analysis::Findings& J) {
+  int k = 1;
+  for (const auto& e : J.effects) {
+    std::printf("%d. %-22s %s\n", k++, e.id.c_str(),
+                e.summary.empty() ? report::parameters_json(e.parameters).dump().c_str()
+                                  : e.summary.c_str());
+    if (e.evidence.heldout_gain_pct)
+      std::printf("     held-out gain %.2f %% (t = %.1f, %s segments), improvement %.2f %%\n",
+                  *e.evidence.heldout_gain_pct, e.evidence.t_stat.value_or(NAN),
+                  e.evidence.segments_improved.value_or("?").c_str(), e.improvement_pct);
+    if (!e.finding.empty()) std::printf("     %s\n", e.finding.c_str());
+  }
+  if (J.effects.empty()) std::printf("%s\n", J.conclusion.c_str());
+  if (J.unexplained)
+    std::printf("%s\n  where: %s\n  check: %s\n", J.unexplained->message.c_str(),
+                J.unexplained->where.c_str(), J.unexplained->check.c_str());
+  if (!J.sliding_note.empty()) std::printf("note: %s\n", J.sliding_note.c_str());
+  if (const auto& c = J.twin_force_check; c && c->available) {
+    std::printf("twin force error %.2f → %.2f N (mean absolute, against the load cell)",
+                c->baseline_mae_n, c->corrected_mae_n);
+    for (const auto& d : c->dropped) std::printf("; %s left out (it raised the error)", d.c_str());
+    std::printf("\n");
+  }
+}
+
+void print_result(const AnalyzeOptions& o, const std::string& model_path,
+                  const analysis::AnalysisResult& result) {
+  const auto& J = result.findings;
+  std::printf("recording %s (%s), baseline %s\n", o.recording.c_str(), J.system.c_str(),
+              model_path.empty() ? "config/actuator.toml" : model_path.c_str());
+  std::printf("baseline   RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
+              J.baseline.rms_n, J.baseline.relative_error_pct,
+              J.baseline.full_rate_relative_error_pct);
+  for (const auto& w : result.where) std::printf("  where: %s\n", w.c_str());
+  print_findings(J);
+  if (!J.final_fit.summary.empty()) std::printf("fitted     %s\n", J.final_fit.summary.c_str());
+  std::printf("final      RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
+              J.final_fit.rms_n, J.final_fit.relative_error_pct,
+              J.final_fit.full_rate_relative_error_pct);
+  std::printf("held-out:");
+  for (const auto& v : J.validation) std::printf("  %s %.4g N", v.model.c_str(), v.heldout_rms_n);
+  std::printf("\nwrote %s/index.html, analysis.json, model_corrected.toml\n", o.out.c_str());
+}
+
+void run_analyze(AnalyzeOptions o) {
+  const ActuatorParams act = load_actuator_or_default(o.config);
+  const std::string model_path = baseline_path(o);
+  if (!model_path.empty()) twin::check_model_format(model_path);  // the analysis reader does not
+  const analysis::ModelFile model = model_path.empty() ? analysis::actuator_model_from_config(act)
+                                                       : analysis::load_model(model_path);
+  const ForceCalibration cal =
+      model.system != "actuator"
+          ? paper_calibration()
+          : load_calibration(o.calibration.empty() ? config_file(o.config, "calibration.toml")
+                                                   : o.calibration);
+  note("reading " + o.recording);
+  const Recording rec = read_actuator_recording(o.recording, act, o.config);
+  StageProgress progress;
+  o.a.progress = [&](const std::string& stage, double f) { progress(stage, f); };
+  const auto result = analysis::analyze_recording(rec, model, cal, act, o.a);
+  progress.done();
+  report::write_analysis_outputs(result, o.out);
+  print_result(o, model_path, result);
+}
+
 void add_analyze(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "analyze",
       "Compare a baseline model with a recording, locate the misfit, explain it by named "
       "physical effects chosen on held-out data; write the report page index.html (the analysis "
       "part of `maglead report`'s page), analysis.json and the corrected model");
-  struct Opts {
-    std::string recording, model, out, calibration, config = default_config_dir();
-    analysis::AnalysisOptions a;
-  };
-  auto o = std::make_shared<Opts>();
+  auto o = std::make_shared<AnalyzeOptions>();
   cmd->add_option("--recording", o->recording,
                   "mls-recording/1: actuator (t_s, screw or motor angle, nut_pos_m, "
                   "load_force_n) or force-driven axis (t_s, pos_m, drive_force_n)")
@@ -46,75 +140,7 @@ void add_analyze(CLI::App& app) {
                 "Skip the twin's force estimate with the corrected model (it runs the twin over "
                 "the recording two or more times)");
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
-  cmd->callback([o] {
-    const ActuatorParams act = load_actuator_or_default(o->config);
-    analysis::ModelFile model;
-    std::string model_path = o->model;
-    if (model_path.empty() && std::filesystem::exists(config_file(o->config, "model.toml")))
-      model_path = config_file(o->config, "model.toml");
-    if (!model_path.empty())
-      twin::check_model_format(model_path);  // the analysis reader does not check it
-    model = model_path.empty() ? analysis::actuator_model_from_config(act)
-                               : analysis::load_model(model_path);
-    ForceCalibration cal = paper_calibration();
-    if (model.system == "actuator")
-      cal = load_calibration(o->calibration.empty() ? config_file(o->config, "calibration.toml")
-                                                    : o->calibration);
-    note("reading " + o->recording);
-    const Recording rec = read_actuator_recording(o->recording, act, o->config);
-    std::string last_stage;
-    Progress* bar = nullptr;
-    std::unique_ptr<Progress> holder;
-    o->a.progress = [&](const std::string& stage, double f) {
-      if (stage != last_stage) {
-        if (bar) bar->done();
-        holder = std::make_unique<Progress>("analyze: " + stage);
-        bar = holder.get();
-        last_stage = stage;
-      }
-      (*bar)(f);
-    };
-    const auto result = analysis::analyze_recording(rec, model, cal, act, o->a);
-    if (bar) bar->done();
-    report::write_analysis_outputs(result, o->out);
-    const auto& J = result.findings;
-    std::printf("recording %s (%s), baseline %s\n", o->recording.c_str(), J.system.c_str(),
-                model_path.empty() ? "config/actuator.toml" : model_path.c_str());
-    std::printf("baseline   RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
-                J.baseline.rms_n, J.baseline.relative_error_pct,
-                J.baseline.full_rate_relative_error_pct);
-    for (const auto& w : result.where) std::printf("  where: %s\n", w.c_str());
-    int k = 1;
-    for (const auto& e : J.effects) {
-      std::printf("%d. %-22s %s\n", k++, e.id.c_str(),
-                  e.summary.empty() ? report::parameters_json(e.parameters).dump().c_str()
-                                    : e.summary.c_str());
-      if (e.evidence.heldout_gain_pct)
-        std::printf("     held-out gain %.2f %% (t = %.1f, %s segments), improvement %.2f %%\n",
-                    *e.evidence.heldout_gain_pct, e.evidence.t_stat.value_or(NAN),
-                    e.evidence.segments_improved.value_or("?").c_str(), e.improvement_pct);
-      if (!e.finding.empty()) std::printf("     %s\n", e.finding.c_str());
-    }
-    if (J.effects.empty()) std::printf("%s\n", J.conclusion.c_str());
-    if (J.unexplained)
-      std::printf("%s\n  where: %s\n  check: %s\n", J.unexplained->message.c_str(),
-                  J.unexplained->where.c_str(), J.unexplained->check.c_str());
-    if (!J.sliding_note.empty()) std::printf("note: %s\n", J.sliding_note.c_str());
-    if (const auto& c = J.twin_force_check; c && c->available) {
-      std::printf("twin force error %.2f → %.2f N (mean absolute, against the load cell)",
-                  c->baseline_mae_n, c->corrected_mae_n);
-      for (const auto& d : c->dropped)
-        std::printf("; %s left out (it raised the error)", d.c_str());
-      std::printf("\n");
-    }
-    if (!J.final_fit.summary.empty()) std::printf("fitted     %s\n", J.final_fit.summary.c_str());
-    std::printf("final      RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
-                J.final_fit.rms_n, J.final_fit.relative_error_pct,
-                J.final_fit.full_rate_relative_error_pct);
-    std::printf("held-out:");
-    for (const auto& v : J.validation) std::printf("  %s %.4g N", v.model.c_str(), v.heldout_rms_n);
-    std::printf("\nwrote %s/index.html, analysis.json, model_corrected.toml\n", o->out.c_str());
-  });
+  cmd->callback([o] { run_analyze(*o); });
 }
 
 MAGLEAD_COMMAND(60, add_analyze);
