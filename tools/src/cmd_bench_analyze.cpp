@@ -112,7 +112,7 @@ double seconds_since(Clock::time_point a) {
 /// concealed, an hour (two minutes with --quick).
 std::string generate_recording(const BenchAnalyzeOptions& o, const ActuatorParams& act,
                                const std::filesystem::path& dir) {
-  const std::string path = (dir / (o.quick ? "bench_2min.csv" : "bench_1h.csv")).string();
+  std::string path = (dir / (o.quick ? "bench_2min.csv" : "bench_1h.csv")).string();
   ScenarioOptions opt;
   opt.scenario = "position-moves";
   opt.duration_s = o.quick ? 120.0 : 3600.0;
