@@ -43,7 +43,7 @@ struct PassiveEstimate {
   double zero_load_n = kNaN, zero_load_se_n = kNaN;  // along the motion, at zero load
   double rated_n = kNaN, rated_se_n = kNaN;          // along the motion, at the rated force
   double gain_change = kNaN, gain_change_se = kNaN;  // Δg relative to the reference
-  bool scatter_measured = false;  // three window-to-window differences of each seen
+  bool scatter_measured = false;  // three window-to-window differences seen (gain and step)
 };
 
 class PassiveLoadDrift {
@@ -78,7 +78,9 @@ class PassiveLoadDrift {
     int dir;
   };
   struct Fit {
-    double gain = 0, step = 0, var_gain = 0, var_step = 0;  // the slope and the step
+    double offset = 0, gain = 0, step = 0, var_gain = 0, var_step = 0;  // c, slope, step
+    double var_res = 0;                                                 // the residuals' variance
+    int m = 0;                                                          // the blocks used
     bool ok = false, has_step = false;  // both directions in the window: the step is resolved
   };
   struct Cell {
@@ -105,12 +107,17 @@ class PassiveLoadDrift {
       last = x, last_v = v, has_last = true;
     }
     double factor() const noexcept { return n > 0 ? std::max(1.0, sum / n) : 1.0; }
+    Dispersion pooled(const Dispersion& o) const noexcept {
+      Dispersion d;
+      d.sum = sum + o.sum, d.n = n + o.n;
+      return d;
+    }
   };
   void close_block() noexcept;
   void close_window() noexcept;
   /// Which blocks a fit uses and its regressors.
   struct Design {
-    bool compare = false, has_step = false;
+    bool compare = false, has_step = false, shifted = false;  // shifted: c = 0, a shift instead
     int only = 0, m = 0;  // only: the one direction used (0: both); m: the blocks used
     double p_mean = 0;
     int params() const noexcept { return has_step ? kP : kP - 1; }
@@ -124,10 +131,12 @@ class PassiveLoadDrift {
   };
   Design design(bool compare) const noexcept;
   Fit fit(bool compare) const noexcept;
+  Fit compare_window() noexcept;
+  void set_refs() noexcept;
   static double residual(const Design& d, const Vec& th, const Block& b) noexcept;
   bool parts_on_line(const Design& d, const Vec& th, double sd) const noexcept;
   int bin_of(double p) const noexcept;
-  void map_window() noexcept;
+  void map_window(const Fit& cmp) noexcept;
   void reference_window(const Fit& cmp, double span_s) noexcept;
   double reference_at(double p, int dir) const noexcept;
   void add_window(const Fit& f) noexcept;
@@ -142,7 +151,9 @@ class PassiveLoadDrift {
   int b_n_ = 0, b_dir_ = 0;
   double ref_s_ = 0, ref_t_sum_ = 0, ref_t_ = 0;
   int ref_n_ = 0;
-  bool ref_frozen_ = false, seen_ = false, updated_ = false;
+  bool ref_frozen_ = false, seen_ = false, updated_ = false, in_stretch_ = false;
+  double shift_m_ = 0;  // the window's position shift from the map's frame (a moved anchor)
+  int stretch_ = 0, map_stretch_ = 0;  // force-control stretches ended; the one the map began in
   Dispersion disp_gain_, disp_step_;
   Mean gain_, step_;
   double fc_s_ = 0;  // force-control time since the reference
