@@ -327,16 +327,11 @@ void PassiveLoadDrift::add_window(const Fit& f) noexcept {
 /// The change since the reference: α = g_ref / g − 1 ≈ −Δg, Δ₀ the estimate's error at zero
 /// load (α·F_c + ΔF_f), and at the rated force α·F_r + Δ₀. Variances: the weighted means',
 /// scaled by the dispersion between successive windows where it exceeds one (windows that
-/// differ more than their least squares say). Judged once three differences are measured: the
-/// gain's and the step's together, since one window fit gives both (the step only where the
-/// window went both ways, which short force-control stretches between hand segments seldom do).
+/// differ more than their least squares say).
 void PassiveLoadDrift::evaluate() noexcept {
   if (!(step_.w > 0)) return;  // no zero-load figure yet
-  // How much windows differ beyond their least squares is a property of the window fits, which
-  // give the gain and the step together: it is measured once, from the differences of both.
-  const Dispersion both = disp_gain_.pooled(disp_step_);
-  const double var_a = both.factor() * gain_.var();
-  const double var_0 = both.factor() * step_.var();
+  const double var_a = disp_gain_.factor() * gain_.var();
+  const double var_0 = disp_step_.factor() * step_.var();
   const double alpha = gain_.mean(), fr = s_.rated_n;
   PassiveEstimate e;
   e.zero_load_n = -step_.mean(), e.zero_load_se_n = std::sqrt(var_0);
@@ -344,7 +339,7 @@ void PassiveLoadDrift::evaluate() noexcept {
   e.rated_se_n = std::sqrt(fr * fr * var_a + var_0);
   e.gain_change = 1.0 / (1.0 + alpha) - 1.0;
   e.gain_change_se = std::sqrt(var_a) / (1.0 + alpha);
-  e.scatter_measured = both.n >= 3;
+  e.scatter_measured = disp_gain_.n >= 3 && disp_step_.n >= 3;
   est_ = e;
 }
 

@@ -43,7 +43,7 @@ struct PassiveEstimate {
   double zero_load_n = kNaN, zero_load_se_n = kNaN;  // along the motion, at zero load
   double rated_n = kNaN, rated_se_n = kNaN;          // along the motion, at the rated force
   double gain_change = kNaN, gain_change_se = kNaN;  // Δg relative to the reference
-  bool scatter_measured = false;  // three window-to-window differences seen (gain and step)
+  bool scatter_measured = false;  // three window-to-window differences of each seen
 };
 
 class PassiveLoadDrift {
@@ -107,11 +107,6 @@ class PassiveLoadDrift {
       last = x, last_v = v, has_last = true;
     }
     double factor() const noexcept { return n > 0 ? std::max(1.0, sum / n) : 1.0; }
-    Dispersion pooled(const Dispersion& o) const noexcept {
-      Dispersion d;
-      d.sum = sum + o.sum, d.n = n + o.n;
-      return d;
-    }
   };
   void close_block() noexcept;
   void close_window() noexcept;
