@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -21,6 +22,9 @@ const std::vector<ScenarioInfo>& scenario_list() {
       {"force-steps",
        "force control against a spring load: setpoint steps, ramps and a sine sweep"},
       {"position-moves", "moves across the stroke at 5, 20 and 50 mm/s with a light load"},
+      {"mixed",
+       "alternating: force control against a spring (8 s of steps, ramps, sweep), then hand "
+       "pushes with the screw held (9 s); the spring re-engages where the hand left the nut"},
   };
   return list;
 }
@@ -63,10 +67,11 @@ struct HandProfile {
       if (coin(rng) < 0.75) sign = -sign;
     }
   }
-  double force_n(double t) const {
+  /// until_s: pushes that would not end by then are not made (a hand segment that ends).
+  double force_n(double t, double until_s = std::numeric_limits<double>::infinity()) const {
     for (std::size_t i = 0; i < start_s.size(); ++i) {
       const double tau = (t - start_s[i]) / length_s[i];
-      if (tau >= 0.0 && tau < 1.0) {
+      if (tau >= 0.0 && tau < 1.0 && start_s[i] + length_s[i] <= until_s) {
         const double s = std::sin(std::numbers::pi * tau);
         return peak_n[i] * s * s;
       }
@@ -135,6 +140,39 @@ struct MoveProfile {
   }
 };
 
+/// A hand pushing the nut through a compliant rod with the screw held at screw_rad: the rod's far
+/// end where the nut would balance the hand's force, plus the rod's compression. The hand's
+/// profile starts at t0_s and makes only pushes that end within until_s of it.
+LoadSetting hand_load(const HandProfile& hand, const PeriodicForceModel& coupling, double screw_rad,
+                      double lead_m, double t, double t0_s = 0.0,
+                      double until_s = std::numeric_limits<double>::infinity()) {
+  constexpr double k_hand = 1500.0, c_hand = 10.0;
+  auto anchor = [&](double tt) {
+    const double f = hand.force_n(tt - t0_s, until_s);
+    const double phi = balancing_phase_rad(coupling, f);
+    return (screw_rad - phi) * lead_m / (2 * std::numbers::pi) + f / k_hand;
+  };
+  LoadSetting load;
+  load.kind = LoadSetting::Kind::compliant;
+  load.stiffness_n_per_m = k_hand;
+  load.damping_n_s_per_m = c_hand;
+  load.anchor_pos_m = anchor(t);
+  load.anchor_vel_m_s = (anchor(t + 1e-3) - load.anchor_pos_m) / 1e-3;
+  return load;
+}
+
+/// The mixed scenario's schedule: force-control segments and hand segments in turn.
+struct MixedSchedule {
+  static constexpr double kForce_s = 8.0, kHand_s = 9.0;
+  double period_s() const { return kForce_s + kHand_s; }
+  double start_s(double t) const { return std::floor(t / period_s()) * period_s(); }
+  bool force(double t) const { return t - start_s(t) < kForce_s; }
+  double hand_t0_s(double t) const { return start_s(t) + kForce_s; }
+  /// Every other force segment runs its profile mirrored: the nut, left where each segment
+  /// ends, does not walk to a stroke end over a long run.
+  double sign(double t) const { return std::fmod(std::floor(t / period_s()), 2.0) == 0 ? 1 : -1; }
+};
+
 }  // namespace
 
 ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_path) {
@@ -154,7 +192,13 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
   SimulatedActuator plant(opt.plant, opt.seed * 7919 + 17, kMidStroke_m);
   const double screw0 = rest_angle_rad(kMidStroke_m, L);
   const auto& S = opt.scenario;
-  const bool force_mode = S == "force-steps", move_mode = S == "position-moves";
+  const bool mixed = S == "mixed";
+  const bool force_mode = S == "force-steps" || mixed, move_mode = S == "position-moves";
+  const MixedSchedule schedule;
+  // The mixed scenario's state: the spring's anchor (where the nut was when force control began)
+  // and the screw angle held during a hand segment.
+  double spring_anchor_m = kMidStroke_m, screw_hold = screw0, last_screw_cmd = screw0;
+  bool was_force = true;
 
   HandProfile hand(opt.duration_s, rng);
   MoveProfile moves(opt.duration_s);
@@ -197,22 +241,17 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
                              sweep_amp_m * triangle(t / sweep_period_s)) /
                             1e-4;
     } else if (S == "hand-push") {
-      constexpr double k_hand = 1500.0, c_hand = 10.0;
-      auto anchor = [&](double tt) {
-        const double f = hand.force_n(tt);
-        const double phi = balancing_phase_rad(opt.plant.coupling, f);
-        return (screw0 - phi) * L / (2 * std::numbers::pi) + f / k_hand;
-      };
-      load.kind = LoadSetting::Kind::compliant;
-      load.stiffness_n_per_m = k_hand;
-      load.damping_n_s_per_m = c_hand;
-      load.anchor_pos_m = anchor(t);
-      load.anchor_vel_m_s = (anchor(t + 1e-3) - load.anchor_pos_m) / 1e-3;
+      load = hand_load(hand, opt.plant.coupling, screw0, L, t);
+    } else if (mixed && !schedule.force(t)) {
+      if (was_force) screw_hold = last_screw_cmd;
+      load = hand_load(hand, opt.plant.coupling, screw_hold, L, t, schedule.hand_t0_s(t),
+                       MixedSchedule::kHand_s);
     } else if (force_mode) {
+      if (mixed && !was_force) spring_anchor_m = plant.truth().nut_pos_m;
       load.kind = LoadSetting::Kind::spring_to_wall;
       load.stiffness_n_per_m = 3000.0;
       load.damping_n_s_per_m = 5.0;
-      load.anchor_pos_m = kMidStroke_m;
+      load.anchor_pos_m = mixed ? spring_anchor_m : kMidStroke_m;
     } else {
       load.kind = LoadSetting::Kind::constant;
       load.force_n = -2.0;
@@ -229,7 +268,15 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
     const double est = estimator.output_force_n(phi, vel);
 
     double screw_cmd = screw0, force_set = 0.0, pos_set = 0.0;
-    if (force_mode) {
+    if (mixed && !schedule.force(t)) {
+      force_set = std::numeric_limits<double>::quiet_NaN();  // no force control: logged empty
+      screw_cmd = screw_hold;
+    } else if (mixed) {
+      force_set =
+          schedule.sign(t) * force_setpoint_n(t - schedule.start_s(t), MixedSchedule::kForce_s);
+      const auto inv = phase_for_output_force(opt.estimator_calibration, force_set, 0.9);
+      screw_cmd = rest_angle_rad(pos, L) + inv.phase_rad;
+    } else if (force_mode) {
       force_set = force_setpoint_n(t, opt.duration_s);
       const auto inv = phase_for_output_force(opt.estimator_calibration, force_set, 0.9);
       screw_cmd = rest_angle_rad(pos, L) + inv.phase_rad;
@@ -238,6 +285,8 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
       screw_cmd = rest_angle_rad(pos_set, L);
     }
     plant.write_motor_angle(screw_cmd * act.gear_ratio);
+    last_screw_cmd = screw_cmd;
+    was_force = !mixed || schedule.force(t);
 
     std::size_t c = 0;
     row[c++] = static_cast<double>(k) / fs;  // 0.026, where k * dt is 0.026000000000000002

@@ -53,7 +53,9 @@ void PassiveLoadDrift::clear() noexcept {
   b_n_ = 0;
   ref_s_ = ref_t_sum_ = ref_t_ = 0;
   ref_n_ = 0;
-  ref_frozen_ = seen_ = updated_ = false;
+  ref_frozen_ = seen_ = updated_ = in_stretch_ = false;
+  stretch_ = map_stretch_ = 0;
+  shift_m_ = 0;
   disp_gain_ = disp_step_ = Dispersion{};
   gain_ = step_ = Mean{};
   fc_s_ = used_s_ = 0;
@@ -63,6 +65,7 @@ void PassiveLoadDrift::clear() noexcept {
 void PassiveLoadDrift::tick(double t, double dt, bool slide, double fhat_n, int dir, double pos_m,
                             double accel_force_n) noexcept {
   updated_ = false;
+  in_stretch_ = true;
   if (win_s_ == 0) win_t0_ = t;
   win_s_ += dt;
   if (ref_frozen_) fc_s_ += dt;
@@ -94,24 +97,63 @@ void PassiveLoadDrift::end_stretch() noexcept {
   close_block();
   if (n_blocks_ > 0) close_window();
   win_s_ = 0;
+  if (in_stretch_) ++stretch_, in_stretch_ = false;
 }
 
 /// Before the reference is complete an accepted window's blocks go into the map; after it, the
 /// window is compared with the map where it revisits mapped positions, and positions the map
-/// does not hold yet are mapped from their first accepted visit (as a condition first met after
-/// a reference takes its first pass as its baseline).
+/// does not hold yet are mapped from their first compared visit, in the map's frame (as a
+/// condition first met after a reference takes its first pass as its baseline).
 void PassiveLoadDrift::close_window() noexcept {
   const double span_s = win_s_, slide_s = slide_s_;
-  const Fit own = fit(false), cmp = fit(true);
+  const Fit own = fit(false), cmp = compare_window();
   win_s_ = slide_s_ = 0;
   if (own.ok || cmp.ok) used_s_ += slide_s;
   if (!ref_frozen_) {
     if (own.ok) reference_window(cmp, span_s);
-  } else if (own.ok || cmp.ok) {
-    map_window();
-    if (cmp.ok) add_window(cmp);
+  } else if (cmp.ok) {
+    map_window(cmp);
+    add_window(cmp);
   }
   n_blocks_ = 0;
+}
+
+/// The window compared with the map. Within the stretch the map began in, at the same positions.
+/// A later stretch may press the load with its anchor moved (a hand segment in between): the
+/// same force, and so the same phase and the same model error, then lies at another position.
+/// The window is compared at the shift of position that fits it best (least residual variance of
+/// a comparison that passes the passive-load test and uses at least half of the window's
+/// blocks), searched in map cells over a quarter of the stroke either way; at no shift it is
+/// the comparison at the same positions. The shift is the moved anchor, so it stands for the
+/// window's own offset c: on a linear load a shift and an offset are the same, and both free would
+/// leave the shift undetermined (the least variance picked among equals, its variance too low).
+PassiveLoadDrift::Fit PassiveLoadDrift::compare_window() noexcept {
+  shift_m_ = 0;
+  if (ref_n_ == 0 || stretch_ == map_stretch_) return fit(true);
+  const int reach = static_cast<int>(0.25 * (s_.stroke_max_m - s_.stroke_min_m) / s_.bin_m);
+  Fit best;
+  double best_shift = 0;
+  const auto scan = [&](double from_m, double step_m, int steps) {
+    for (int k = 0; k <= steps; ++k) {
+      shift_m_ = from_m + k * step_m;
+      set_refs();
+      const Fit f = fit(true);
+      if (f.ok && 2 * f.m >= n_blocks_ && (!best.ok || f.var_res < best.var_res))
+        best = f, best_shift = shift_m_;
+    }
+  };
+  scan(-reach * s_.bin_m, s_.bin_m, 2 * reach);
+  // Then to a tenth of a cell around the best (the map interpolates between cells): a cell of a
+  // stiff load is a force step of its own.
+  if (best.ok) scan(best_shift - s_.bin_m, 0.1 * s_.bin_m, 20);
+  shift_m_ = best_shift;
+  set_refs();
+  return best;
+}
+
+void PassiveLoadDrift::set_refs() noexcept {
+  for (int i = 0; i < n_blocks_; ++i)
+    blocks_[i].ref = reference_at(blocks_[i].p - shift_m_, blocks_[i].dir);
 }
 
 /// The map must predict later visits, in both directions, before it is the reference: once it
@@ -134,7 +176,16 @@ void PassiveLoadDrift::reference_window(const Fit& cmp, double span_s) noexcept 
     }
     ref_frozen_ = agrees;
   }
-  map_window();
+  // A window of a later stretch than the map's first (the anchor may have moved in between) is
+  // mapped only in the map's frame: its own offset and step taken out, not its gain (that is
+  // what the check checks); one that cannot be compared is not mapped.
+  Fit frame{};
+  if (ref_n_ > 0 && stretch_ != map_stretch_) {
+    if (!cmp.ok) return;
+    frame = cmp, frame.gain = 0;
+  }
+  if (ref_n_ == 0) map_stretch_ = stretch_;
+  map_window(frame);
   ref_s_ += span_s, ref_t_sum_ += win_t0_ + 0.5 * span_s, ++ref_n_;
   if (ref_frozen_) ref_t_ = ref_t_sum_ / ref_n_;
 }
@@ -143,12 +194,18 @@ int PassiveLoadDrift::bin_of(double p) const noexcept {
   return std::clamp(static_cast<int>(std::floor((p - s_.stroke_min_m) / s_.bin_m)), 0, kBins - 1);
 }
 
-void PassiveLoadDrift::map_window() noexcept {
+/// Maps the window's blocks that the map does not hold yet. cmp: the window's comparison with the
+/// reference (none while the reference forms): its offset, gain and step are taken out first, so
+/// every cell is in the reference's frame. A load whose anchor moved between stretches (a hand
+/// segment in between) would otherwise leave cells of two anchors side by side, and a later
+/// window spanning both would read the jump between them as a gain.
+void PassiveLoadDrift::map_window(const Fit& cmp) noexcept {
   for (int i = 0; i < n_blocks_; ++i) {
     const Block& b = blocks_[i];
     if (std::isfinite(b.ref)) continue;  // compared, not mapped again
-    Cell& c = map_[(b.dir > 0 ? kBins : 0) + bin_of(b.p)];
-    c.sum_p += b.p, c.sum_f += b.f, ++c.n;
+    Cell& c = map_[(b.dir > 0 ? kBins : 0) + bin_of(b.p - shift_m_)];
+    c.sum_p += b.p - shift_m_, c.sum_f += (b.f - cmp.offset - cmp.step * b.dir) / (1.0 + cmp.gain),
+        ++c.n;
   }
 }
 
@@ -194,13 +251,19 @@ PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare) const noexcept {
     }
   }
   if (!d.has_step) a[2][2] = 1.0;  // the step's column is empty: θ₂ = 0, decoupled
+  if (d.shifted) {  // the shift of position stands for the offset (see compare_window): c = 0
+    a[0] = Vec{1.0, 0.0, 0.0}, rhs[0] = 0.0;
+    a[1][0] = a[2][0] = 0.0;
+  }
   if (!solve_normal(a, rhs, th, inv)) return f;
   double rss = 0;
   for (int i = 0; i < n_blocks_; ++i) {
     if (d.used(blocks_[i])) rss += std::pow(residual(d, th, blocks_[i]), 2);
   }
   const double var = rss / (d.m - d.params());
-  f.gain = th[1], f.step = th[2], f.var_gain = var * inv[1][1], f.var_step = var * inv[2][2];
+  f.var_res = var, f.m = d.m;
+  f.offset = th[0], f.gain = th[1], f.step = th[2], f.var_gain = var * inv[1][1],
+  f.var_step = var * inv[2][2];
   f.ok = f.var_gain > 0 && (compare || std::abs(f.gain) > s_.sigmas * std::sqrt(f.var_gain)) &&
          parts_on_line(d, th, std::sqrt(var));
   return f;
@@ -211,6 +274,7 @@ PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare) const noexcept {
 PassiveLoadDrift::Design PassiveLoadDrift::design(bool compare) const noexcept {
   Design d;
   d.compare = compare;
+  d.shifted = compare && ref_n_ > 0 && stretch_ != map_stretch_;
   int n_pos = 0, n_all = 0;
   for (int i = 0; i < n_blocks_; ++i) {
     if (compare && !std::isfinite(blocks_[i].ref)) continue;

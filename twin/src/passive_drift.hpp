@@ -78,7 +78,9 @@ class PassiveLoadDrift {
     int dir;
   };
   struct Fit {
-    double gain = 0, step = 0, var_gain = 0, var_step = 0;  // the slope and the step
+    double offset = 0, gain = 0, step = 0, var_gain = 0, var_step = 0;  // c, slope, step
+    double var_res = 0;                                                 // the residuals' variance
+    int m = 0;                                                          // the blocks used
     bool ok = false, has_step = false;  // both directions in the window: the step is resolved
   };
   struct Cell {
@@ -110,7 +112,7 @@ class PassiveLoadDrift {
   void close_window() noexcept;
   /// Which blocks a fit uses and its regressors.
   struct Design {
-    bool compare = false, has_step = false;
+    bool compare = false, has_step = false, shifted = false;  // shifted: c = 0, a shift instead
     int only = 0, m = 0;  // only: the one direction used (0: both); m: the blocks used
     double p_mean = 0;
     int params() const noexcept { return has_step ? kP : kP - 1; }
@@ -124,10 +126,12 @@ class PassiveLoadDrift {
   };
   Design design(bool compare) const noexcept;
   Fit fit(bool compare) const noexcept;
+  Fit compare_window() noexcept;
+  void set_refs() noexcept;
   static double residual(const Design& d, const Vec& th, const Block& b) noexcept;
   bool parts_on_line(const Design& d, const Vec& th, double sd) const noexcept;
   int bin_of(double p) const noexcept;
-  void map_window() noexcept;
+  void map_window(const Fit& cmp) noexcept;
   void reference_window(const Fit& cmp, double span_s) noexcept;
   double reference_at(double p, int dir) const noexcept;
   void add_window(const Fit& f) noexcept;
@@ -142,7 +146,9 @@ class PassiveLoadDrift {
   int b_n_ = 0, b_dir_ = 0;
   double ref_s_ = 0, ref_t_sum_ = 0, ref_t_ = 0;
   int ref_n_ = 0;
-  bool ref_frozen_ = false, seen_ = false, updated_ = false;
+  bool ref_frozen_ = false, seen_ = false, updated_ = false, in_stretch_ = false;
+  double shift_m_ = 0;  // the window's position shift from the map's frame (a moved anchor)
+  int stretch_ = 0, map_stretch_ = 0;  // force-control stretches ended; the one the map began in
   Dispersion disp_gain_, disp_step_;
   Mean gain_, step_;
   double fc_s_ = 0;  // force-control time since the reference
