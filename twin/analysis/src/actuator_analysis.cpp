@@ -13,6 +13,7 @@
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
+#include <tuple>
 
 #include "candidates.hpp"
 #include "maglead/analysis/signal.hpp"
@@ -162,6 +163,19 @@ double load_cell_noise(const std::vector<double>& load_raw) {
   for (std::size_t i = 1; i + 1 < load_raw.size(); ++i)
     d2.push_back(load_raw[i + 1] - 2 * load_raw[i] + load_raw[i - 1]);
   return robust_sigma(d2) / std::sqrt(6.0);
+}
+
+// The standard deviation of white load-cell noise after the filter, and of its rate (the
+// filter's and the derivative's impulse response, summed in squares).
+std::pair<double, double> filtered_noise(const Prepared& P) {
+  const auto half = static_cast<std::size_t>(8.0 * std::ceil(P.fs_hz / P.filter_hz));
+  std::vector<double> x(2 * half + 1, 0.0);
+  x[half] = 1.0;
+  const auto h = filtfilt_butter4(x, P.filter_hz, P.fs_hz);
+  const auto d = central_diff(h, 1.0 / P.fs_hz);
+  double hh = 0, dd = 0;
+  for (std::size_t k = 0; k < h.size(); ++k) hh += h[k] * h[k], dd += d[k] * d[k];
+  return {P.load_noise_n * std::sqrt(hh), P.load_noise_n * std::sqrt(dd)};
 }
 
 // Stops the filter hides: a raw count held for longer than twice the time the filtered speed
@@ -328,6 +342,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   const Signals s = filtered_signals(rec, act, P);
   P.slips = find_slips(t, s.phi_raw);
   P.load_noise_n = load_cell_noise(s.load_raw);
+  std::tie(P.load_filtered_noise_n, P.load_rate_noise_n_s) = filtered_noise(P);
   P.v_min_m_s = P.count_m * P.filter_hz;
   const auto ok = sliding_mask(s, P);
 
@@ -377,6 +392,33 @@ using stats::sse;
 using stats::t_statistic;
 using stats::total;
 
+// Per column, the sum of squares of the load-cell noise it carries: each column's change when
+// the filtered load and its rate move by their noise's standard deviation (the columns are linear
+// in them, as the effect units' regressors are), on up to 2000 samples spread over the sliding
+// ones, scaled to all of them. Zero for columns made from motion alone.
+Eigen::VectorXd column_noise(const Prepared& P, const std::vector<Column>& cols) {
+  const auto m = static_cast<Eigen::Index>(cols.size());
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(m);
+  const std::size_t n = P.states.size(), step = std::max<std::size_t>(1, n / 2000);
+  std::size_t used = 0;
+  double x0[8], x1[8], x2[8];
+  for (std::size_t i = 0; i < n; i += step, ++used) {
+    State load = P.states[i], rate = P.states[i];
+    load.load_n += P.load_filtered_noise_n;
+    rate.load_rate_n_s += P.load_rate_noise_n_s;
+    for (Eigen::Index j = 0; j < m;) {
+      const auto& c = cols[static_cast<std::size_t>(j)];
+      c.effect->regressors(c.shape, P.states[i], x0);
+      c.effect->regressors(c.shape, load, x1);
+      c.effect->regressors(c.shape, rate, x2);
+      for (int q = 0; q < c.effect->columns(); ++q, ++j)
+        out[j] += (x1[q] - x0[q]) * (x1[q] - x0[q]) + (x2[q] - x0[q]) * (x2[q] - x0[q]);
+    }
+  }
+  return used > 0 ? Eigen::VectorXd(out * (static_cast<double>(n) / static_cast<double>(used)))
+                  : out;
+}
+
 Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) {
   const auto m = static_cast<Eigen::Index>(cols.size());
   Grams g(static_cast<std::size_t>(folds), m);
@@ -396,6 +438,7 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
     g.add_row(f, x, P.residual[i], s.load_n);
   }
   g.symmetrize();
+  g.noise_ss = column_noise(P, cols);
   return g;
 }
 
