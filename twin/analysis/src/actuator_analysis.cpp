@@ -225,6 +225,30 @@ std::vector<unsigned char> sliding_mask(const Signals& s, const Prepared& P) {
   return ok;
 }
 
+// Per sample, the run of the raw count advancing by the same number of counts every sample for
+// longer than the filter's support (−1: none): the count rate is locked to the sample clock (a
+// steady move at a whole number of counts per sample), so the rounding error drifts by less
+// than a count across the support and the filter cannot average it.
+std::vector<int> locked_runs(const Signals& s, const Prepared& P) {
+  const std::size_t n = s.t.size();
+  const auto w = static_cast<std::size_t>(std::ceil(P.fs_hz / P.filter_hz));
+  std::vector<int> out(n, -1);
+  const auto step = [&](std::size_t i) {
+    return std::lround((s.pos_raw[i + 1] - s.pos_raw[i]) / P.count_m);
+  };
+  int runs = 0;
+  std::size_t i = 0;
+  while (i + 1 < n) {
+    std::size_t j = i + 1;
+    while (j + 1 < n && step(j) == step(i)) ++j;
+    if (j - i > w)
+      std::fill(out.begin() + static_cast<std::ptrdiff_t>(i),
+                out.begin() + static_cast<std::ptrdiff_t>(j + 1), runs++);
+    i = j;
+  }
+  return out;
+}
+
 // What a finding must exceed: the force of one count, what the recording resolves and the
 // stated minimum.
 void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
@@ -236,6 +260,17 @@ void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
   P.floor_n = kept * std::hypot(P.count_force_n / std::sqrt(12.0), P.load_noise_n);
   P.minimum_n =
       opt.min_effect_of_peak * std::max(std::abs(cal.peak_push_n), std::abs(cal.peak_pull_n));
+}
+
+// Where the count is locked the rounding error is one unknown value per run, kept whole by the
+// filter, and repeated moves lock alike, so it need not average out: it may hold the force off
+// by up to half a count's force there, as a constant over each run.
+void set_locked_floor(Prepared& P) {
+  std::size_t locked = 0;
+  for (int r : P.locked_run) locked += r >= 0;
+  P.locked_share =
+      P.states.empty() ? 0.0 : static_cast<double>(locked) / static_cast<double>(P.states.size());
+  P.locked_floor_n = std::hypot(P.floor_n, std::sqrt(P.locked_share) * 0.5 * P.count_force_n);
 }
 
 // The effect library's view of one filtered sample.
@@ -353,11 +388,14 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   set_floors(P, cp, cal, act, opt);
   P.t0_s = t.front();
   const StateAt state_at{s, cp, act, base, P.t0_s};
+  const auto runs = locked_runs(s, P);
   for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(P.decimation)) {
     if (!ok[i]) continue;
     P.states.push_back(state_at(i));
     P.residual.push_back(missing_force(base, P.states.back()));
+    P.locked_run.push_back(runs[i]);
   }
+  set_locked_floor(P);
   P.samples = n;
   P.duration_s = t.back() - t.front();
   P.stuck = stuck_episodes(s, P, base, state_at);
@@ -369,6 +407,7 @@ Prepared without_stops(const Prepared& P) {
   Prepared out = P;
   out.states.clear();
   out.residual.clear();
+  out.locked_run.clear();
   auto w = P.stops.begin();
   for (std::size_t i = 0; i < P.states.size(); ++i) {
     const double t = P.states[i].t_s;
@@ -376,7 +415,9 @@ Prepared without_stops(const Prepared& P) {
     if (w != P.stops.end() && w->from_s <= t) continue;
     out.states.push_back(P.states[i]);
     out.residual.push_back(P.residual[i]);
+    out.locked_run.push_back(P.locked_run[i]);
   }
+  set_locked_floor(out);
   return out;
 }
 
@@ -608,6 +649,45 @@ std::vector<Trial> trials_of(const Search& s, Selection& out) {
   return trials;
 }
 
+// RMS of the trial's fitted contribution less its mean over each locked run: the part of it a
+// locked count's rounding (a constant per run) cannot make.
+double beyond_locked_rounding(const Search& s, const Trial& it) {
+  const Fit full = solve(s.g, with(s.current, it.var->idx), -1);
+  const auto k = static_cast<Eigen::Index>(it.var->idx.size());
+  const Eigen::VectorXd w = full.theta.tail(k);
+  const auto& P = s.P;
+  std::vector<double> z(P.states.size());
+  std::map<int, std::pair<double, std::size_t>> run_sum;
+  double x[8];
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    it.var->effect->regressors(it.var->shape, P.states[i], x);
+    z[i] = Eigen::Map<const Eigen::VectorXd>(x, k).dot(w);
+    if (P.locked_run[i] >= 0) {
+      auto& [sum, cnt] = run_sum[P.locked_run[i]];
+      sum += z[i], ++cnt;
+    }
+  }
+  double ss = 0;
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    const auto r = P.locked_run[i];
+    const double d =
+        r >= 0 ? z[i] - run_sum[r].first / static_cast<double>(run_sum[r].second) : z[i];
+    ss += d * d;
+  }
+  return z.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(z.size()));
+}
+
+// A force the recording resolves and a user would act on: beyond the stated minimum and the
+// floor; where the count is locked, beyond what its rounding may hold (Prepared::locked_floor_n)
+// unless the term varies within the locked runs by more than the floor.
+bool resolved(const Search& s, const Trial& it, double explained_n) {
+  const double floor_n = std::max(s.P.floor_n, s.P.minimum_n);
+  if (explained_n < floor_n) return false;
+  if (s.P.locked_share == 0 || explained_n >= std::max(s.P.locked_floor_n, s.P.minimum_n))
+    return true;
+  return beyond_locked_rounding(s, it) >= floor_n;
+}
+
 // Takes the preferred trial as the next term, or (not significant) records it as the best one
 // rejected. Returns whether the selection goes on.
 bool take_or_stop(Search& s, const Trial& it, Selection& out) {
@@ -617,7 +697,7 @@ bool take_or_stop(Search& s, const Trial& it, Selection& out) {
   const double explained_n =
       std::sqrt(std::max(0.0, total(s.cur_ho) - total(it.ho)) / static_cast<double>(s.n_used));
   const bool significant =
-      it.gain >= s.opt.min_gain_pct && it.t >= s.opt.min_t && explained_n >= floor_n;
+      it.gain >= s.opt.min_gain_pct && it.t >= s.opt.min_t && resolved(s, it, explained_n);
   Candidate c{
       std::string(it.var->effect->id()), it.params, it.gain, it.t, it.improved, s.folds, {}};
   if (!significant) {
