@@ -225,26 +225,34 @@ std::vector<unsigned char> sliding_mask(const Signals& s, const Prepared& P) {
   return ok;
 }
 
-// Per sample, the run of the raw count advancing by the same number of counts every sample for
-// longer than the filter's support (−1: none): the count rate is locked to the sample clock (a
-// steady move at a whole number of counts per sample), so the rounding error drifts by less
-// than a count across the support and the filter cannot average it.
-std::vector<int> locked_runs(const Signals& s, const Prepared& P) {
+// Per sample, the run in which the raw count's advance per sample repeats with a short period q
+// for longer than the filter's support (−1: none), and each run's q: the count rate is locked to
+// the sample clock (a steady move at q samples per whole number of counts). The rounding error
+// then repeats every q samples: the filter removes its ripple but keeps its mean, which the
+// phase of the move sets anywhere within half a count over q. Periods whose mean the white
+// rounding floor already covers (c / 2q below the filtered c / √12) are not looked for.
+LockedRuns locked_runs(const Signals& s, const Prepared& P) {
   const std::size_t n = s.t.size();
   const auto w = static_cast<std::size_t>(std::ceil(P.fs_hz / P.filter_hz));
-  std::vector<int> out(n, -1);
-  const auto step = [&](std::size_t i) {
-    return std::lround((s.pos_raw[i + 1] - s.pos_raw[i]) / P.count_m);
-  };
-  int runs = 0;
-  std::size_t i = 0;
-  while (i + 1 < n) {
-    std::size_t j = i + 1;
-    while (j + 1 < n && step(j) == step(i)) ++j;
-    if (j - i > w)
-      std::fill(out.begin() + static_cast<std::ptrdiff_t>(i),
-                out.begin() + static_cast<std::ptrdiff_t>(j + 1), runs++);
-    i = j;
+  const double kept = std::sqrt(std::min(1.0, 2.0 * P.filter_hz / P.fs_hz));
+  const auto q_max = static_cast<std::size_t>(std::floor(0.5 * std::sqrt(12.0) / kept));
+  LockedRuns out{std::vector<int>(n, -1), {}};
+  std::vector<long> step(n > 0 ? n - 1 : 0);
+  for (std::size_t i = 0; i + 1 < n; ++i)
+    step[i] = std::lround((s.pos_raw[i + 1] - s.pos_raw[i]) / P.count_m);
+  for (std::size_t q = 1; q <= q_max; ++q) {
+    std::size_t i = q;
+    while (i < step.size()) {
+      std::size_t j = i;
+      while (j < step.size() && step[j] == step[j - q]) ++j;
+      if (j - i > w) {
+        const auto id = static_cast<int>(out.period.size());
+        out.period.push_back(static_cast<int>(q));
+        for (std::size_t k = i - q; k <= j && k < n; ++k)
+          if (out.run[k] < 0) out.run[k] = id;
+      }
+      i = j + 1;
+    }
   }
   return out;
 }
@@ -262,15 +270,21 @@ void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
       opt.min_effect_of_peak * std::max(std::abs(cal.peak_push_n), std::abs(cal.peak_pull_n));
 }
 
-// Where the count is locked the rounding error is one unknown value per run, kept whole by the
-// filter, and repeated moves lock alike, so it need not average out: it may hold the force off
-// by up to half a count's force there, as a constant over each run.
+// Where the count is locked the rounding error's mean is one unknown value per run, kept whole by
+// the filter, and repeated moves lock alike, so it need not average out: it may hold the force
+// off by up to half a count's force over the run's period, as a constant over each run.
 void set_locked_floor(Prepared& P) {
   std::size_t locked = 0;
-  for (int r : P.locked_run) locked += r >= 0;
-  P.locked_share =
-      P.states.empty() ? 0.0 : static_cast<double>(locked) / static_cast<double>(P.states.size());
-  P.locked_floor_n = std::hypot(P.floor_n, std::sqrt(P.locked_share) * 0.5 * P.count_force_n);
+  double held2 = 0;  // mean square of the most each sample's locked rounding may hold
+  for (int r : P.locked_run) {
+    if (r < 0) continue;
+    ++locked;
+    const double q = P.locked_period[static_cast<std::size_t>(r)];
+    held2 += std::pow(0.5 * P.count_force_n / q, 2);
+  }
+  const auto n = static_cast<double>(std::max<std::size_t>(1, P.states.size()));
+  P.locked_share = static_cast<double>(locked) / n;
+  P.locked_floor_n = std::hypot(P.floor_n, std::sqrt(held2 / n));
 }
 
 // The effect library's view of one filtered sample.
@@ -393,8 +407,9 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
     if (!ok[i]) continue;
     P.states.push_back(state_at(i));
     P.residual.push_back(missing_force(base, P.states.back()));
-    P.locked_run.push_back(runs[i]);
+    P.locked_run.push_back(runs.run[i]);
   }
+  P.locked_period = runs.period;
   set_locked_floor(P);
   P.samples = n;
   P.duration_s = t.back() - t.front();

@@ -60,6 +60,11 @@ struct StuckEpisode {
   effects::State state;
 };
 
+/// Per recording sample, its locked-count run (−1: none), and per run its period in samples.
+struct LockedRuns {
+  std::vector<int> run, period;
+};
+
 struct Prepared {
   double fs_hz = 0, filter_hz = 0, lead_m = 0, count_m = 0, v_min_m_s = 0, t0_s = 0;
   double duration_s = 0, load_noise_n = 0;
@@ -75,6 +80,7 @@ struct Prepared {
   std::vector<effects::State> states;  // sliding samples (decimated)
   std::vector<double> residual;        // the baseline's missing force at those samples [N]
   std::vector<int> locked_run;  // at those samples, the locked-count run they lie in (−1: none)
+  std::vector<int> locked_period;  // per run, the samples its count pattern repeats after
   std::vector<SlipEvent> slips;
   std::vector<StuckEpisode> stuck;
   struct Window {
