@@ -589,7 +589,12 @@ TEST(GeneratedSuite, ControlStepOutHandNamesNothing) {
   expect_nothing(analyze(run_.rec), "hand (no overload)");
 }
 
-TEST(Emps, FindsCoulombOffsetThenDirectionDependentFriction) {
+// The forward selection takes Coulomb friction, an offset (the published symmetric model, 4.08 %)
+// and direction-dependent friction (3.11 %); once that is in, its levels per direction span
+// the first two, which add nothing taken last: the backward check drops them (the offset was
+// kept at 0.01 ± 0.16 N before it) and the same model is stated by direction-dependent friction
+// alone, at the same error.
+TEST(Emps, DirectionDependentFrictionSpansTheCoulombAndOffsetTakenFirst) {
   const std::string path = MAGLEAD_EMPS_CSV;
   // The recording is part of the repository (data/emps/): missing, it is a failure, not a skip.
   ASSERT_TRUE(std::filesystem::exists(path)) << "EMPS recording not found at " << path;
@@ -599,14 +604,24 @@ TEST(Emps, FindsCoulombOffsetThenDirectionDependentFriction) {
   const auto r = maglead::analysis::analyze_recording(rec, model, maglead::paper_calibration(),
                                                       maglead::ActuatorParams{}, {});
   const auto& e = r.findings.effects;
-  ASSERT_GE(e.size(), 3u) << named_as(r);
-  EXPECT_EQ(e[0].id, "coulomb_friction");
-  EXPECT_EQ(e[1].id, "offset");
-  EXPECT_EQ(e[2].id, "asymmetric_friction");
-  for (const auto& f : e)  // every term is named physics of the effect library
+  ASSERT_GE(e.size(), 1u) << named_as(r);
+  EXPECT_EQ(e[0].id, "asymmetric_friction");
+  for (const auto& f : e) {  // every term is named physics of the effect library
     EXPECT_NE(maglead::effects::find(f.id), nullptr) << f.id;
+    EXPECT_NE(f.id, "offset");
+    EXPECT_NE(f.id, "coulomb_friction");
+  }
   const auto& v = r.findings.validation;
   ASSERT_GE(v.size(), 4u);
+  EXPECT_EQ(v[1].model, "+ coulomb_friction");
+  EXPECT_EQ(v[2].model, "+ offset");
+  EXPECT_EQ(v[3].model, "+ asymmetric_friction");
+  int dropped = 0;
+  for (const auto& n : r.findings.not_selected)
+    if ((n.id == "offset" || n.id == "coulomb_friction") &&
+        n.reason.value_or("").find("backward check") != std::string::npos)
+      ++dropped;
+  EXPECT_EQ(dropped, 2);
   const double sym = v[2].fitted_relative_error_pct.value_or(NAN),
                asym = v[3].fitted_relative_error_pct.value_or(NAN);
   std::printf(
@@ -618,10 +633,11 @@ TEST(Emps, FindsCoulombOffsetThenDirectionDependentFriction) {
   EXPECT_LT(sym, 4.2);
   EXPECT_LE(asym, 3.11);
   EXPECT_LE(r.findings.final_fit.relative_error_pct, 3.11);
-  // Physically plausible values, close to the benchmark's.
-  EXPECT_NEAR(parameter_value(e[0].parameters, "coulomb_n", NAN), 20.4, 1.0);
-  EXPECT_NEAR(parameter_value(e[2].parameters, "viscous_pos_n_s_per_m", NAN), 166.7, 10.0);
-  EXPECT_NEAR(parameter_value(e[2].parameters, "viscous_neg_n_s_per_m", NAN), 240.4, 10.0);
+  // Physically plausible values, close to the benchmark's direction-dependent model.
+  EXPECT_NEAR(parameter_value(e[0].parameters, "coulomb_pos_n", NAN), 20.14, 1.0);
+  EXPECT_NEAR(parameter_value(e[0].parameters, "coulomb_neg_n", NAN), 20.63, 1.0);
+  EXPECT_NEAR(parameter_value(e[0].parameters, "viscous_pos_n_s_per_m", NAN), 166.7, 10.0);
+  EXPECT_NEAR(parameter_value(e[0].parameters, "viscous_neg_n_s_per_m", NAN), 240.4, 10.0);
 
   // The corrected model is the model: analysed again with it, the same recording gives the
   // reported final error (the same model on the same samples: equal up to rounding) and nothing
@@ -681,7 +697,7 @@ TEST(Emps, EveryParameterHasAStandardErrorAndItsDigits) {
       maglead::analysis::load_model(std::string(MAGLEAD_CONFIG_DIR) + "/emps_baseline.toml");
   const auto r = maglead::analysis::analyze_recording(rec, model, maglead::paper_calibration(),
                                                       maglead::ActuatorParams{}, {});
-  ASSERT_GE(r.findings.effects.size(), 3u) << named_as(r);
+  ASSERT_GE(r.findings.effects.size(), 2u) << named_as(r);
   std::vector<std::pair<std::string, const EffectFinding*>> all;
   for (const auto* fit : {&r.findings.baseline, &r.findings.final_fit}) {
     const auto& values = fit->fitted_parameters.value();

@@ -154,7 +154,7 @@ def main():
     emps = os.path.join(os.path.dirname(os.path.abspath(CONFIG)), "data", "emps", "emps_estimation.csv")
     found, page, out_dir = make_analyze_page("emps", emps, "--model", os.path.join(CONFIG, "emps_baseline.toml"))
     text = visible_text(page)
-    check(found["effects"][0]["id"] == "coulomb_friction" and "asymmetric friction" in text
+    check(found["effects"][0]["id"] == "asymmetric_friction" and "asymmetric friction" in text
           and "held-out gain" in text, "analyze EMPS: the friction it finds, with its evidence")
     check(page.count("data:image/png;base64,") >= 4, "analyze EMPS: the residual maps are in the page")
     in_browser("analyze emps", page, out_dir, min_charts=1)

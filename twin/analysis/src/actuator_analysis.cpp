@@ -13,6 +13,7 @@
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
+#include <tuple>
 
 #include "candidates.hpp"
 #include "maglead/analysis/signal.hpp"
@@ -164,6 +165,19 @@ double load_cell_noise(const std::vector<double>& load_raw) {
   return robust_sigma(d2) / std::sqrt(6.0);
 }
 
+// The standard deviation of white load-cell noise after the filter, and of its rate (the
+// filter's and the derivative's impulse response, summed in squares).
+std::pair<double, double> filtered_noise(const Prepared& P) {
+  const auto half = static_cast<std::size_t>(8.0 * std::ceil(P.fs_hz / P.filter_hz));
+  std::vector<double> x(2 * half + 1, 0.0);
+  x[half] = 1.0;
+  const auto h = filtfilt_butter4(x, P.filter_hz, P.fs_hz);
+  const auto d = central_diff(h, 1.0 / P.fs_hz);
+  double hh = 0, dd = 0;
+  for (std::size_t k = 0; k < h.size(); ++k) hh += h[k] * h[k], dd += d[k] * d[k];
+  return {P.load_noise_n * std::sqrt(hh), P.load_noise_n * std::sqrt(dd)};
+}
+
 // Stops the filter hides: a raw count held for longer than twice the time the filtered speed
 // needs to cross one count means the nut stood still (or nearly) in between, as in stick-slip,
 // where it sticks and jumps several times within one filter period. Each stop, widened by the
@@ -211,6 +225,38 @@ std::vector<unsigned char> sliding_mask(const Signals& s, const Prepared& P) {
   return ok;
 }
 
+// Per sample, the run in which the raw count's advance per sample repeats with a short period q
+// for longer than the filter's support (−1: none), and each run's q: the count rate is locked to
+// the sample clock (a steady move at q samples per whole number of counts). The rounding error
+// then repeats every q samples: the filter removes its ripple but keeps its mean, which the
+// phase of the move sets anywhere within half a count over q. Periods whose mean the white
+// rounding floor already covers (c / 2q below the filtered c / √12) are not looked for.
+LockedRuns locked_runs(const Signals& s, const Prepared& P) {
+  const std::size_t n = s.t.size();
+  const auto w = static_cast<std::size_t>(std::ceil(P.fs_hz / P.filter_hz));
+  const double kept = std::sqrt(std::min(1.0, 2.0 * P.filter_hz / P.fs_hz));
+  const auto q_max = static_cast<std::size_t>(std::floor(0.5 * std::sqrt(12.0) / kept));
+  LockedRuns out{std::vector<int>(n, -1), {}};
+  std::vector<long> step(n > 0 ? n - 1 : 0);
+  for (std::size_t i = 0; i + 1 < n; ++i)
+    step[i] = std::lround((s.pos_raw[i + 1] - s.pos_raw[i]) / P.count_m);
+  for (std::size_t q = 1; q <= q_max; ++q) {
+    std::size_t i = q;
+    while (i < step.size()) {
+      std::size_t j = i;
+      while (j < step.size() && step[j] == step[j - q]) ++j;
+      if (j - i > w) {
+        const auto id = static_cast<int>(out.period.size());
+        out.period.push_back(static_cast<int>(q));
+        for (std::size_t k = i - q; k <= j && k < n; ++k)
+          if (out.run[k] < 0) out.run[k] = id;
+      }
+      i = j + 1;
+    }
+  }
+  return out;
+}
+
 // What a finding must exceed: the force of one count, what the recording resolves and the
 // stated minimum.
 void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
@@ -222,6 +268,23 @@ void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
   P.floor_n = kept * std::hypot(P.count_force_n / std::sqrt(12.0), P.load_noise_n);
   P.minimum_n =
       opt.min_effect_of_peak * std::max(std::abs(cal.peak_push_n), std::abs(cal.peak_pull_n));
+}
+
+// Where the count is locked the rounding error's mean is one unknown value per run, kept whole by
+// the filter, and repeated moves lock alike, so it need not average out: it may hold the force
+// off by up to half a count's force over the run's period, as a constant over each run.
+void set_locked_floor(Prepared& P) {
+  std::size_t locked = 0;
+  double held2 = 0;  // mean square of the most each sample's locked rounding may hold
+  for (int r : P.locked_run) {
+    if (r < 0) continue;
+    ++locked;
+    const double q = P.locked_period[static_cast<std::size_t>(r)];
+    held2 += std::pow(0.5 * P.count_force_n / q, 2);
+  }
+  const auto n = static_cast<double>(std::max<std::size_t>(1, P.states.size()));
+  P.locked_share = static_cast<double>(locked) / n;
+  P.locked_floor_n = std::hypot(P.floor_n, std::sqrt(held2 / n));
 }
 
 // The effect library's view of one filtered sample.
@@ -328,6 +391,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   const Signals s = filtered_signals(rec, act, P);
   P.slips = find_slips(t, s.phi_raw);
   P.load_noise_n = load_cell_noise(s.load_raw);
+  std::tie(P.load_filtered_noise_n, P.load_rate_noise_n_s) = filtered_noise(P);
   P.v_min_m_s = P.count_m * P.filter_hz;
   const auto ok = sliding_mask(s, P);
 
@@ -338,11 +402,15 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   set_floors(P, cp, cal, act, opt);
   P.t0_s = t.front();
   const StateAt state_at{s, cp, act, base, P.t0_s};
+  const auto runs = locked_runs(s, P);
   for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(P.decimation)) {
     if (!ok[i]) continue;
     P.states.push_back(state_at(i));
     P.residual.push_back(missing_force(base, P.states.back()));
+    P.locked_run.push_back(runs.run[i]);
   }
+  P.locked_period = runs.period;
+  set_locked_floor(P);
   P.samples = n;
   P.duration_s = t.back() - t.front();
   P.stuck = stuck_episodes(s, P, base, state_at);
@@ -354,6 +422,7 @@ Prepared without_stops(const Prepared& P) {
   Prepared out = P;
   out.states.clear();
   out.residual.clear();
+  out.locked_run.clear();
   auto w = P.stops.begin();
   for (std::size_t i = 0; i < P.states.size(); ++i) {
     const double t = P.states[i].t_s;
@@ -361,7 +430,9 @@ Prepared without_stops(const Prepared& P) {
     if (w != P.stops.end() && w->from_s <= t) continue;
     out.states.push_back(P.states[i]);
     out.residual.push_back(P.residual[i]);
+    out.locked_run.push_back(P.locked_run[i]);
   }
+  set_locked_floor(out);
   return out;
 }
 
@@ -376,6 +447,33 @@ using stats::solve;
 using stats::sse;
 using stats::t_statistic;
 using stats::total;
+
+// Per column, the sum of squares of the load-cell noise it carries: each column's change when
+// the filtered load and its rate move by their noise's standard deviation (the columns are linear
+// in them, as the effect units' regressors are), on up to 2000 samples spread over the sliding
+// ones, scaled to all of them. Zero for columns made from motion alone.
+Eigen::VectorXd column_noise(const Prepared& P, const std::vector<Column>& cols) {
+  const auto m = static_cast<Eigen::Index>(cols.size());
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(m);
+  const std::size_t n = P.states.size(), step = std::max<std::size_t>(1, n / 2000);
+  std::size_t used = 0;
+  double x0[8], x1[8], x2[8];
+  for (std::size_t i = 0; i < n; i += step, ++used) {
+    State load = P.states[i], rate = P.states[i];
+    load.load_n += P.load_filtered_noise_n;
+    rate.load_rate_n_s += P.load_rate_noise_n_s;
+    for (Eigen::Index j = 0; j < m;) {
+      const auto& c = cols[static_cast<std::size_t>(j)];
+      c.effect->regressors(c.shape, P.states[i], x0);
+      c.effect->regressors(c.shape, load, x1);
+      c.effect->regressors(c.shape, rate, x2);
+      for (int q = 0; q < c.effect->columns(); ++q, ++j)
+        out[j] += (x1[q] - x0[q]) * (x1[q] - x0[q]) + (x2[q] - x0[q]) * (x2[q] - x0[q]);
+    }
+  }
+  return used > 0 ? Eigen::VectorXd(out * (static_cast<double>(n) / static_cast<double>(used)))
+                  : out;
+}
 
 Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) {
   const auto m = static_cast<Eigen::Index>(cols.size());
@@ -396,6 +494,7 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
     g.add_row(f, x, P.residual[i], s.load_n);
   }
   g.symmetrize();
+  g.noise_ss = column_noise(P, cols);
   return g;
 }
 
@@ -565,6 +664,45 @@ std::vector<Trial> trials_of(const Search& s, Selection& out) {
   return trials;
 }
 
+// RMS of the trial's fitted contribution less its mean over each locked run: the part of it a
+// locked count's rounding (a constant per run) cannot make.
+double beyond_locked_rounding(const Search& s, const Trial& it) {
+  const Fit full = solve(s.g, with(s.current, it.var->idx), -1);
+  const auto k = static_cast<Eigen::Index>(it.var->idx.size());
+  const Eigen::VectorXd w = full.theta.tail(k);
+  const auto& P = s.P;
+  std::vector<double> z(P.states.size());
+  std::map<int, std::pair<double, std::size_t>> run_sum;
+  double x[8];
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    it.var->effect->regressors(it.var->shape, P.states[i], x);
+    z[i] = Eigen::Map<const Eigen::VectorXd>(x, k).dot(w);
+    if (P.locked_run[i] >= 0) {
+      auto& [sum, cnt] = run_sum[P.locked_run[i]];
+      sum += z[i], ++cnt;
+    }
+  }
+  double ss = 0;
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    const auto r = P.locked_run[i];
+    const double d =
+        r >= 0 ? z[i] - run_sum[r].first / static_cast<double>(run_sum[r].second) : z[i];
+    ss += d * d;
+  }
+  return z.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(z.size()));
+}
+
+// A force the recording resolves and a user would act on: beyond the stated minimum and the
+// floor; where the count is locked, beyond what its rounding may hold (Prepared::locked_floor_n)
+// unless the term varies within the locked runs by more than the floor.
+bool resolved(const Search& s, const Trial& it, double explained_n) {
+  const double floor_n = std::max(s.P.floor_n, s.P.minimum_n);
+  if (explained_n < floor_n) return false;
+  if (s.P.locked_share == 0 || explained_n >= std::max(s.P.locked_floor_n, s.P.minimum_n))
+    return true;
+  return beyond_locked_rounding(s, it) >= floor_n;
+}
+
 // Takes the preferred trial as the next term, or (not significant) records it as the best one
 // rejected. Returns whether the selection goes on.
 bool take_or_stop(Search& s, const Trial& it, Selection& out) {
@@ -574,7 +712,7 @@ bool take_or_stop(Search& s, const Trial& it, Selection& out) {
   const double explained_n =
       std::sqrt(std::max(0.0, total(s.cur_ho) - total(it.ho)) / static_cast<double>(s.n_used));
   const bool significant =
-      it.gain >= s.opt.min_gain_pct && it.t >= s.opt.min_t && explained_n >= floor_n;
+      it.gain >= s.opt.min_gain_pct && it.t >= s.opt.min_t && resolved(s, it, explained_n);
   Candidate c{
       std::string(it.var->effect->id()), it.params, it.gain, it.t, it.improved, s.folds, {}};
   if (!significant) {

@@ -60,17 +60,27 @@ struct StuckEpisode {
   effects::State state;
 };
 
+/// Per recording sample, its locked-count run (−1: none), and per run its period in samples.
+struct LockedRuns {
+  std::vector<int> run, period;
+};
+
 struct Prepared {
   double fs_hz = 0, filter_hz = 0, lead_m = 0, count_m = 0, v_min_m_s = 0, t0_s = 0;
   double duration_s = 0, load_noise_n = 0;
-  double count_force_n = 0;  // coupling force of one linear encoder count at φ = 0
-  double floor_n = 0;        // RMS force the recording resolves: one count's rounding and the
-                             // load-cell noise, both after the filter
-  double minimum_n = 0;      // the stated minimum (Options::min_effect_of_peak × peak force)
+  double load_filtered_noise_n = 0, load_rate_noise_n_s = 0;  // that noise after the filter
+  double count_force_n = 0;   // coupling force of one linear encoder count at φ = 0
+  double floor_n = 0;         // RMS force the recording resolves: one count's rounding and the
+                              // load-cell noise, both after the filter
+  double minimum_n = 0;       // the stated minimum (Options::min_effect_of_peak × peak force)
+  double locked_share = 0;    // sliding samples whose count rate is locked to the sample clock
+  double locked_floor_n = 0;  // floor_n with what a locked count's rounding may hold there
   int decimation = 1;
   std::size_t samples = 0;
   std::vector<effects::State> states;  // sliding samples (decimated)
   std::vector<double> residual;        // the baseline's missing force at those samples [N]
+  std::vector<int> locked_run;  // at those samples, the locked-count run they lie in (−1: none)
+  std::vector<int> locked_period;  // per run, the samples its count pattern repeats after
   std::vector<SlipEvent> slips;
   std::vector<StuckEpisode> stuck;
   struct Window {

@@ -127,9 +127,15 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
 
 std::string summary_of(const actuator::Candidate& c, const actuator::Prepared& P) {
   const std::string s = summary_text(params_of(c.params), params_of(c.standard_errors));
-  char buf[128];
-  std::snprintf(buf, sizeof buf, " (floor %.3f N resolved, minimum %.3f N)", P.floor_n,
-                P.minimum_n);
+  char buf[224];
+  if (P.locked_share > 0)
+    std::snprintf(buf, sizeof buf,
+                  " (floor %.3f N resolved, %.3f N where the count is locked to the sample clock "
+                  "(%.0f %% of the sliding samples), minimum %.3f N)",
+                  P.floor_n, P.locked_floor_n, 100.0 * P.locked_share, P.minimum_n);
+  else
+    std::snprintf(buf, sizeof buf, " (floor %.3f N resolved, minimum %.3f N)", P.floor_n,
+                  P.minimum_n);
   return s + buf;
 }
 

@@ -126,6 +126,12 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   for (const auto& xx : g.xx)
     for (Eigen::Index r = 0; r < m; ++r)
       for (Eigen::Index c = 0; c < m; ++c) S(r, c) += xx(all[r], all[c]);
+  // Noise independent of the signal adds its sum of squares to its own column's and, in
+  // expectation, nothing to the cross terms. A column whose sum of squares the noise would
+  // exhaust carries no signal to correct.
+  if (g.noise_ss.size() > 0)
+    for (Eigen::Index r = 0; r < m; ++r)
+      if (const double e = g.noise_ss[all[r]]; e > 0 && e < S(r, r)) S(r, r) -= e;
   const auto nb = static_cast<Eigen::Index>(base.size()), na = static_cast<Eigen::Index>(a.size()),
              nn = static_cast<Eigen::Index>(b.size());
   // Residualise on `base`, then ask how much of z = X_a wa the span of X_b explains.

@@ -29,6 +29,9 @@ struct Grams {
   std::vector<Eigen::VectorXd> xr;
   std::vector<double> rr, yy;  // residual and measured force, sums of squares
   std::vector<std::size_t> n;
+  /// Per column, the sum of squares over every sample of the noise it carries from a noisy
+  /// measurement (the load cell through the filter); empty or zero: a noise-free column.
+  Eigen::VectorXd noise_ss;
 
   Grams() = default;
   Grams(std::size_t folds, Eigen::Index columns);
@@ -63,7 +66,9 @@ using Named = std::map<std::string, double, std::less<>>;
 /// Jackknife standard errors from named values in each leave-one-out fit: √((K−1)/K Σ(x − x̄)²)
 /// over the K fits that give the name (fewer than two: no error).
 Named jackknife_se(const std::vector<Named>& leave_one_out_values);
-/// Share of `a`'s fitted contribution wa (beyond `base`) that columns `b` reproduce.
+/// Share of `a`'s fitted contribution wa (beyond `base`) that columns `b` reproduce, between
+/// the columns' noise-free parts (Grams::noise_ss taken off their sums of squares): a column
+/// made from a noisy measurement reproduces a law no worse for the noise it carries.
 double partial_r2(const Grams& g, const std::vector<int>& base, const std::vector<int>& a,
                   const Eigen::VectorXd& wa, const std::vector<int>& b);
 
