@@ -173,9 +173,144 @@ struct MixedSchedule {
   double sign(double t) const { return std::fmod(std::floor(t / period_s()), 2.0) == 0 ? 1 : -1; }
 };
 
-}  // namespace
+/// One run of a scenario: the plant, what loads it and what commands its screw, sample by sample.
+class ScenarioRun {
+ public:
+  explicit ScenarioRun(const ScenarioOptions& opt)
+      : opt_(opt),
+        act_(opt.plant.actuator),
+        rng_(opt.seed),
+        plant_(opt.plant, opt.seed * 7919 + 17, kMidStroke_m),
+        screw0_(rest_angle_rad(kMidStroke_m, act_.lead_m)),
+        mixed_(opt.scenario == "mixed"),
+        force_mode_(opt.scenario == "force-steps" || mixed_),
+        move_mode_(opt.scenario == "position-moves"),
+        hand_(opt.duration_s, rng_),
+        moves_(opt.duration_s),
+        estimator_(opt.estimator_calibration, act_.coulomb_n, 1e-5),
+        velocity_(1.0 / act_.sample_rate_hz, act_.linear_count_m) {
+    // Sweep amplitude reaching |φ| ≈ 1.5 rad; whole cycles at about 0.5 mm/s.
+    const double cycles = std::max(1.0, std::round(opt.duration_s * 0.5e-3 / (4 * kSweepAmp_m)));
+    sweep_period_s_ = opt.duration_s / cycles;
+  }
 
-ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_path) {
+  std::vector<std::string> column_names() const {
+    std::vector<std::string> names = {"t_s",       "motor_angle_rad", "screw_angle_rad",
+                                      "nut_pos_m", "load_force_n",    "out_force_est_n"};
+    if (force_mode_) names.emplace_back("force_set_n");
+    if (move_mode_) names.emplace_back("pos_set_m");
+    return names;
+  }
+
+  /// Sample k: load the plant, read it, command the screw; the row in column_names()' order.
+  std::size_t step(std::size_t k, double* row) {
+    const double t = static_cast<double>(k) * (1.0 / act_.sample_rate_hz);
+    plant_.set_load(load_at(t));
+    plant_.read_sensors(t, s_);
+    const double motor = motor_angle_rad_from_counts(s_.motor_counts, act_);
+    const double screw = screw_angle_rad_from_motor_rad(motor, act_);
+    const double pos = nut_pos_m_from_counts(s_.linear_counts, act_);
+    const double vel = k == 0 ? (velocity_.reset(pos), 0.0) : velocity_.update(pos);
+    const double est = estimator_.output_force_n(phase_rad(screw, pos, act_.lead_m), vel);
+    const Command cmd = command_at(t, pos);
+    plant_.write_motor_angle(cmd.screw_rad * act_.gear_ratio);
+    last_screw_cmd_ = cmd.screw_rad;
+    was_force_ = !mixed_ || schedule_.force(t);
+    std::size_t c = 0;
+    row[c++] = static_cast<double>(k) / act_.sample_rate_hz;  // 0.026, not 0.026000000000000002
+    row[c++] = motor;
+    row[c++] = screw;
+    row[c++] = pos;
+    row[c++] = s_.load_force_n;
+    row[c++] = est;
+    if (force_mode_) row[c++] = cmd.force_set_n;
+    if (move_mode_) row[c++] = cmd.pos_set_m;
+    return c;
+  }
+
+  ScenarioSummary summary(std::size_t samples) const {
+    ScenarioSummary summary{samples, plant_.truth().slips, {}};
+    for (double t : plant_.disturbance_times_s())
+      if (t < opt_.duration_s) summary.disturbance_times_s.push_back(t);
+    return summary;
+  }
+
+ private:
+  static constexpr double kSweepAmp_m = 1.55e-3;
+  struct Command {
+    double screw_rad, force_set_n = 0.0, pos_set_m = 0.0;
+  };
+
+  LoadSetting load_at(double t) {
+    const auto& S = opt_.scenario;
+    LoadSetting load;
+    if (S == "static-calibration") {
+      load.kind = LoadSetting::Kind::compliant;
+      load.stiffness_n_per_m = 5e5;
+      load.damping_n_s_per_m = 300;
+      load.anchor_pos_m = kMidStroke_m + kSweepAmp_m * triangle(t / sweep_period_s_);
+      load.anchor_vel_m_s = (kSweepAmp_m * triangle((t + 1e-4) / sweep_period_s_) -
+                             kSweepAmp_m * triangle(t / sweep_period_s_)) /
+                            1e-4;
+    } else if (S == "hand-push") {
+      load = hand_load(hand_, opt_.plant.coupling, screw0_, act_.lead_m, t);
+    } else if (mixed_ && !schedule_.force(t)) {
+      if (was_force_) screw_hold_ = last_screw_cmd_;
+      load = hand_load(hand_, opt_.plant.coupling, screw_hold_, act_.lead_m, t,
+                       schedule_.hand_t0_s(t), MixedSchedule::kHand_s);
+    } else if (force_mode_) {
+      // The mixed scenario's spring is anchored where the nut was when force control began.
+      if (mixed_ && !was_force_) spring_anchor_m_ = plant_.truth().nut_pos_m;
+      load.kind = LoadSetting::Kind::spring_to_wall;
+      load.stiffness_n_per_m = 3000.0;
+      load.damping_n_s_per_m = 5.0;
+      load.anchor_pos_m = mixed_ ? spring_anchor_m_ : kMidStroke_m;
+    } else {
+      load.kind = LoadSetting::Kind::constant;
+      load.force_n = -2.0;
+      load.damping_n_s_per_m = 10.0;
+    }
+    return load;
+  }
+
+  Command command_at(double t, double pos_m) const {
+    const double L = act_.lead_m;
+    if (mixed_ && !schedule_.force(t))  // no force control: the setpoint logged empty
+      return {screw_hold_, std::numeric_limits<double>::quiet_NaN()};
+    if (force_mode_) {
+      const double set = mixed_ ? schedule_.sign(t) * force_setpoint_n(t - schedule_.start_s(t),
+                                                                       MixedSchedule::kForce_s)
+                                : force_setpoint_n(t, opt_.duration_s);
+      const auto inv = phase_for_output_force(opt_.estimator_calibration, set, 0.9);
+      return {rest_angle_rad(pos_m, L) + inv.phase_rad, set};
+    }
+    if (move_mode_) {
+      const double set = moves_.pos_m(t);
+      return {rest_angle_rad(set, L), 0.0, set};
+    }
+    return {screw0_};
+  }
+
+  const ScenarioOptions& opt_;
+  const ActuatorParams& act_;
+  std::mt19937_64 rng_;
+  SimulatedActuator plant_;
+  const double screw0_;
+  const bool mixed_, force_mode_, move_mode_;
+  const MixedSchedule schedule_{};
+  HandProfile hand_;
+  MoveProfile moves_;
+  StaticForceEstimator estimator_;
+  EncoderVelocityEstimator velocity_;
+  double sweep_period_s_ = 1.0;
+  // The mixed scenario's state: the spring's anchor and the screw angle held during a hand
+  // segment.
+  double spring_anchor_m_ = kMidStroke_m, screw_hold_ = screw0_, last_screw_cmd_ = screw0_;
+  bool was_force_ = true;
+  SensorSample s_;
+};
+
+void check_options(const ScenarioOptions& opt) {
   const auto& list = scenario_list();
   if (std::none_of(list.begin(), list.end(), [&](auto& s) { return s.name == opt.scenario; })) {
     std::string known;
@@ -184,120 +319,30 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
   }
   if (!(opt.duration_s > 0.0) || opt.duration_s > 24 * 3600.0)
     throw std::invalid_argument("duration must be between 0 and 24 h");
+}
 
+}  // namespace
+
+ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_path) {
+  check_options(opt);
   const auto& act = opt.plant.actuator;
-  const double fs = act.sample_rate_hz, dt = 1.0 / fs;
-  const double L = act.lead_m;
-  std::mt19937_64 rng(opt.seed);
-  SimulatedActuator plant(opt.plant, opt.seed * 7919 + 17, kMidStroke_m);
-  const double screw0 = rest_angle_rad(kMidStroke_m, L);
-  const auto& S = opt.scenario;
-  const bool mixed = S == "mixed";
-  const bool force_mode = S == "force-steps" || mixed, move_mode = S == "position-moves";
-  const MixedSchedule schedule;
-  // The mixed scenario's state: the spring's anchor (where the nut was when force control began)
-  // and the screw angle held during a hand segment.
-  double spring_anchor_m = kMidStroke_m, screw_hold = screw0, last_screw_cmd = screw0;
-  bool was_force = true;
-
-  HandProfile hand(opt.duration_s, rng);
-  MoveProfile moves(opt.duration_s);
-  // Sweep amplitude reaching |φ| ≈ 1.5 rad; whole cycles at about 0.5 mm/s.
-  const double sweep_amp_m = 1.55e-3;
-  const double cycles = std::max(1.0, std::round(opt.duration_s * 0.5e-3 / (4 * sweep_amp_m)));
-  const double sweep_period_s = opt.duration_s / cycles;
-
-  std::vector<std::pair<std::string, std::string>> meta = {
+  const double fs = act.sample_rate_hz;
+  ScenarioRun run(opt);
+  const std::vector<std::pair<std::string, std::string>> meta = {
       {"sample_rate_hz", std::to_string(fs)},
       {"source", "maglead simulate"},
       {"system", "simulated magnetic lead-screw actuator"},
-      {"scenario", S},
+      {"scenario", opt.scenario},
       {"seed", std::to_string(opt.seed)},
-      {"lead_m", std::to_string(L)},
+      {"lead_m", std::to_string(act.lead_m)},
       {"gear_ratio", std::to_string(act.gear_ratio)},
   };
-  std::vector<std::string> names = {"t_s",       "motor_angle_rad", "screw_angle_rad",
-                                    "nut_pos_m", "load_force_n",    "out_force_est_n"};
-  if (force_mode) names.push_back("force_set_n");
-  if (move_mode) names.push_back("pos_set_m");
-  RecordingWriter writer(out_path, meta, names, WriteMode::whole);  // appears when complete
-
-  StaticForceEstimator estimator(opt.estimator_calibration, act.coulomb_n, 1e-5);
-  EncoderVelocityEstimator velocity(dt, act.linear_count_m);
+  RecordingWriter writer(out_path, meta, run.column_names(), WriteMode::whole);  // whole or none
   const auto n = static_cast<std::size_t>(std::llround(opt.duration_s * fs)) + 1;
   double row[8];
-  SensorSample s;
   std::size_t next_progress = 0;
   for (std::size_t k = 0; k < n; ++k) {
-    const double t = static_cast<double>(k) * dt;
-    // Loads for this period.
-    LoadSetting load;
-    if (S == "static-calibration") {
-      load.kind = LoadSetting::Kind::compliant;
-      load.stiffness_n_per_m = 5e5;
-      load.damping_n_s_per_m = 300;
-      load.anchor_pos_m = kMidStroke_m + sweep_amp_m * triangle(t / sweep_period_s);
-      load.anchor_vel_m_s = (sweep_amp_m * triangle((t + 1e-4) / sweep_period_s) -
-                             sweep_amp_m * triangle(t / sweep_period_s)) /
-                            1e-4;
-    } else if (S == "hand-push") {
-      load = hand_load(hand, opt.plant.coupling, screw0, L, t);
-    } else if (mixed && !schedule.force(t)) {
-      if (was_force) screw_hold = last_screw_cmd;
-      load = hand_load(hand, opt.plant.coupling, screw_hold, L, t, schedule.hand_t0_s(t),
-                       MixedSchedule::kHand_s);
-    } else if (force_mode) {
-      if (mixed && !was_force) spring_anchor_m = plant.truth().nut_pos_m;
-      load.kind = LoadSetting::Kind::spring_to_wall;
-      load.stiffness_n_per_m = 3000.0;
-      load.damping_n_s_per_m = 5.0;
-      load.anchor_pos_m = mixed ? spring_anchor_m : kMidStroke_m;
-    } else {
-      load.kind = LoadSetting::Kind::constant;
-      load.force_n = -2.0;
-      load.damping_n_s_per_m = 10.0;
-    }
-    plant.set_load(load);
-    plant.read_sensors(t, s);
-
-    const double motor = motor_angle_rad_from_counts(s.motor_counts, act);
-    const double screw = screw_angle_rad_from_motor_rad(motor, act);
-    const double pos = nut_pos_m_from_counts(s.linear_counts, act);
-    const double vel = k == 0 ? (velocity.reset(pos), 0.0) : velocity.update(pos);
-    const double phi = phase_rad(screw, pos, L);
-    const double est = estimator.output_force_n(phi, vel);
-
-    double screw_cmd = screw0, force_set = 0.0, pos_set = 0.0;
-    if (mixed && !schedule.force(t)) {
-      force_set = std::numeric_limits<double>::quiet_NaN();  // no force control: logged empty
-      screw_cmd = screw_hold;
-    } else if (mixed) {
-      force_set =
-          schedule.sign(t) * force_setpoint_n(t - schedule.start_s(t), MixedSchedule::kForce_s);
-      const auto inv = phase_for_output_force(opt.estimator_calibration, force_set, 0.9);
-      screw_cmd = rest_angle_rad(pos, L) + inv.phase_rad;
-    } else if (force_mode) {
-      force_set = force_setpoint_n(t, opt.duration_s);
-      const auto inv = phase_for_output_force(opt.estimator_calibration, force_set, 0.9);
-      screw_cmd = rest_angle_rad(pos, L) + inv.phase_rad;
-    } else if (move_mode) {
-      pos_set = moves.pos_m(t);
-      screw_cmd = rest_angle_rad(pos_set, L);
-    }
-    plant.write_motor_angle(screw_cmd * act.gear_ratio);
-    last_screw_cmd = screw_cmd;
-    was_force = !mixed || schedule.force(t);
-
-    std::size_t c = 0;
-    row[c++] = static_cast<double>(k) / fs;  // 0.026, where k * dt is 0.026000000000000002
-    row[c++] = motor;
-    row[c++] = screw;
-    row[c++] = pos;
-    row[c++] = s.load_force_n;
-    row[c++] = est;
-    if (force_mode) row[c++] = force_set;
-    if (move_mode) row[c++] = pos_set;
-    writer.write_row(row, c);
+    writer.write_row(row, run.step(k, row));
     if (opt.progress && k >= next_progress) {
       opt.progress(static_cast<double>(k) / static_cast<double>(n));
       next_progress += n / 100 + 1;
@@ -305,10 +350,7 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
   }
   writer.close();
   if (opt.progress) opt.progress(1.0);
-  ScenarioSummary summary{n, plant.truth().slips, {}};
-  for (double t : plant.disturbance_times_s())
-    if (t < opt.duration_s) summary.disturbance_times_s.push_back(t);
-  return summary;
+  return run.summary(n);
 }
 
 }  // namespace maglead
