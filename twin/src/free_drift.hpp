@@ -65,6 +65,7 @@ class ConditionBaselines {
 class FreeMoveDrift {
  public:
   explicit FreeMoveDrift(const FreeDriftSettings& s) : s_(s) { clear(); }
+  const FreeDriftSettings& settings() const noexcept { return s_; }
   void clear() noexcept;
   /// A tick outside a known-force stretch at time t: the running block is dropped, the running
   /// pass ends.

@@ -180,7 +180,7 @@ struct TwinMonitor::Impl {
         lead_m(c.actuator.lead_m),
         nut({c.actuator.linear_count_m, c.stop}),
         free_drift(free_settings(c, model)),
-        passive_drift(passive_settings(c, free_settings(c, model))) {}
+        passive_drift(passive_settings(c, free_drift.settings())) {}
 
   double phase_of(double theta, double p) const noexcept { return phase_rad(theta, p, lead_m); }
 
@@ -295,6 +295,14 @@ struct TwinMonitor::Impl {
            std::abs(v_screw - nut_rate) <= cfg.drift_free_speed_fraction * std::abs(nut_rate);
   }
 
+  /// The drift flag's evidence this tick: a passive load pressed in force control, or a free
+  /// move outside it.
+  void drift_tick(double t, double theta, double rel_phase, double fset_n, bool declared) noexcept {
+    const bool force = std::isfinite(fset_n), measured = slide_measured(t, rel_phase);
+    passive_tick(t, theta, force, measured);
+    free_tick(t, theta, force, measured, declared);
+  }
+
   /// One force-control tick for the passive-load evidence: a slide the encoder follows, driven by
   /// the screw (a load that pushes the nut past the screw is not pressed by it), gives the
   /// model's external-force estimate at the measured position.
@@ -328,10 +336,8 @@ struct TwinMonitor::Impl {
   /// recognised. Recognised: not in force control, the screw drives the nut (a hand pushing the
   /// nut past a held screw is not a move), and the no-load hypothesis fits (the observer's
   /// external force within the model's friction: a contact beyond that is not a drift).
-  void free_tick(double t, double theta, double rel_phase, double fset_n, bool declared) noexcept {
+  void free_tick(double t, double theta, bool force, bool measured, bool declared) noexcept {
     const int dir = static_cast<int>(mode);
-    const bool force = std::isfinite(fset_n), measured = slide_measured(t, rel_phase);
-    passive_tick(t, theta, force, measured);
     if (!measured || force) {
       free_drift.skip(t);
       return;
@@ -548,7 +554,7 @@ struct TwinMonitor::Impl {
       margin_from_setpoint = warn && !(worst_only < cfg.step_out_warn_margin_rad);
     }
     gain_tick(t, theta, rel, in.load_force_n, h);
-    free_tick(t, theta, rel, in.force_setpoint_n, in.free_move);
+    drift_tick(t, theta, rel, in.force_setpoint_n, in.free_move);
     if (std::isfinite(in.force_setpoint_n)) fset_prev = in.force_setpoint_n;
     theta_prev = theta;
     t_prev = t;
