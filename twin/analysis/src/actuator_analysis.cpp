@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <map>
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
@@ -672,21 +671,19 @@ double beyond_locked_rounding(const Search& s, const Trial& it) {
   const Eigen::VectorXd w = full.theta.tail(k);
   const auto& P = s.P;
   std::vector<double> z(P.states.size());
-  std::map<int, std::pair<double, std::size_t>> run_sum;
+  std::vector<double> run_sum(P.locked_period.size(), 0.0), run_n(P.locked_period.size(), 0.0);
   double x[8];
   for (std::size_t i = 0; i < z.size(); ++i) {
     it.var->effect->regressors(it.var->shape, P.states[i], x);
     z[i] = Eigen::Map<const Eigen::VectorXd>(x, k).dot(w);
-    if (P.locked_run[i] >= 0) {
-      auto& [sum, cnt] = run_sum[P.locked_run[i]];
-      sum += z[i], ++cnt;
-    }
+    if (const int r = P.locked_run[i]; r >= 0)
+      run_sum[static_cast<std::size_t>(r)] += z[i], run_n[static_cast<std::size_t>(r)] += 1.0;
   }
   double ss = 0;
   for (std::size_t i = 0; i < z.size(); ++i) {
-    const auto r = P.locked_run[i];
-    const double d =
-        r >= 0 ? z[i] - run_sum[r].first / static_cast<double>(run_sum[r].second) : z[i];
+    const int r = P.locked_run[i];
+    const auto ri = static_cast<std::size_t>(r);
+    const double d = r >= 0 ? z[i] - run_sum[ri] / run_n[ri] : z[i];
     ss += d * d;
   }
   return z.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(z.size()));
