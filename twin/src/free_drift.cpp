@@ -55,7 +55,8 @@ void ConditionBaselines::freeze(const std::array<double, 5>& theta) noexcept {
   }
 }
 
-void ConditionBaselines::add(int cell, double r, double known_s, double memory_s) noexcept {
+void ConditionBaselines::add(int cell, double r, double level_n, double known_s,
+                             double memory_s) noexcept {
   Cell& c = cells_[cell];
   const double dir = dir_of(cell);
   // The change common to all conditions since this one's last pass is taken out of the
@@ -72,7 +73,8 @@ void ConditionBaselines::add(int cell, double r, double known_s, double memory_s
     return;
   }
   const double f = std::exp(-(known_s - c.at_s) / memory_s);
-  c.sum = f * c.sum + r, c.w = f * c.w + 1.0, c.w2 = f * f * c.w2 + 1.0, c.at_s = known_s;
+  c.sum = f * c.sum + r, c.lev = f * c.lev + level_n;
+  c.w = f * c.w + 1.0, c.w2 = f * f * c.w2 + 1.0, c.at_s = known_s;
 }
 
 ConditionBaselines::Estimate ConditionBaselines::estimate(double known_s,
@@ -84,21 +86,30 @@ ConditionBaselines::Estimate ConditionBaselines::estimate(double known_s,
   return e;
 }
 
+ConditionBaselines::Changes ConditionBaselines::changes(double known_s, double memory_s,
+                                                        double s2) const noexcept {
+  Changes c;
+  for (int i = 0; i < kCells; ++i) {
+    const Cell& x = cells_[i];
+    // Seen within the memory: a condition last met long ago says what the drift was then.
+    if (x.w <= 0 || known_s - x.at_s > memory_s) continue;
+    c.d[c.k] = dir_of(i) * (x.sum / x.w - x.ref_r);
+    c.v[c.k] = (s2 > 0 ? s2 : 1.0) * (1.0 / x.ref_n + x.w2 / (x.w * x.w));
+    c.level[c.k] = x.lev / x.w;
+    ++c.k;
+  }
+  return c;
+}
+
 /// DerSimonian–Laird: conditions weighted by 1 / (their variance + the between-condition one).
 /// s2 is the scatter of one pass; with s2 = 0 the conditions are weighted by their pass counts
 /// alone (the mean is the same for any common scale) and no standard error is given.
 ConditionBaselines::Estimate ConditionBaselines::pooled(double known_s, double memory_s,
                                                         double s2) const noexcept {
-  std::array<double, kCells> d{}, v{};
-  int k = 0;
-  for (int i = 0; i < kCells; ++i) {
-    const Cell& c = cells_[i];
-    // Seen within the memory: a condition last met long ago says what the drift was then.
-    if (c.w <= 0 || known_s - c.at_s > memory_s) continue;
-    d[k] = dir_of(i) * (c.sum / c.w - c.ref_r);
-    v[k] = (s2 > 0 ? s2 : 1.0) * (1.0 / c.ref_n + c.w2 / (c.w * c.w));
-    ++k;
-  }
+  const Changes c = changes(known_s, memory_s, s2);
+  const auto& d = c.d;
+  const auto& v = c.v;
+  const int k = c.k;
   Estimate e;
   if (k == 0) return e;
   double sw = 0, sw2 = 0, swd = 0;
@@ -111,6 +122,64 @@ ConditionBaselines::Estimate ConditionBaselines::pooled(double known_s, double m
   e.change_n = wd / w, e.conditions = k;
   if (s2 > 0) e.se_n = std::sqrt(1 / w);
   return e;
+}
+
+namespace {
+/// Weighted least squares of d on (level, 1) with weights 1 / (v + tau2): the normal matrix's
+/// inverse (the covariance of α, β for known variances) and the weighted residual sum.
+struct LineFit {
+  double alpha = 0, beta = 0, inv00 = 0, inv01 = 0, inv11 = 0, q = 0, trace = 0, mean_level = 0;
+  bool ok = false;
+};
+template <class C>
+LineFit fit_line(const C& c, double tau2) {
+  double a00 = 0, a01 = 0, a11 = 0, b0 = 0, b1 = 0;
+  for (int i = 0; i < c.k; ++i) {
+    const double w = 1 / (c.v[i] + tau2), l = c.level[i];
+    a00 += w * l * l, a01 += w * l, a11 += w, b0 += w * l * c.d[i], b1 += w * c.d[i];
+  }
+  LineFit f;
+  const double det = a00 * a11 - a01 * a01;
+  // Levels that hardly differ leave the slope undetermined: no fit, not a huge error bar.
+  if (!(det > 1e-9 * a00 * a11)) return f;
+  f.inv00 = a11 / det, f.inv01 = -a01 / det, f.inv11 = a00 / det, f.mean_level = a01 / a11;
+  f.alpha = f.inv00 * b0 + f.inv01 * b1, f.beta = f.inv01 * b0 + f.inv11 * b1;
+  for (int i = 0; i < c.k; ++i) {
+    const double w = 1 / (c.v[i] + tau2), l = c.level[i], e = c.d[i] - f.alpha * l - f.beta;
+    f.q += w * e * e;
+    // tr((XᵀWX)⁻¹ XᵀW²X): what the fit takes out of Σw (DerSimonian–Laird for a regression).
+    f.trace += w * w * (f.inv00 * l * l + 2 * f.inv01 * l + f.inv11);
+  }
+  f.ok = true;
+  return f;
+}
+}  // namespace
+
+/// The random-effects meta-regression (DerSimonian–Laird's moment estimate of the
+/// between-condition variance around the line): a mismatch between conditions that the levels do
+/// not explain widens the error bars instead of moving the line.
+ConditionBaselines::Levels ConditionBaselines::levels(double known_s,
+                                                      double memory_s) const noexcept {
+  Levels out;
+  if (diffs_ < 3 || !(diff2_ > 0)) return out;
+  const Changes c = changes(known_s, memory_s, diff2_ / diffs_);
+  if (c.k < 3) return out;  // a line through two conditions leaves nothing to check it by
+  const LineFit f0 = fit_line(c, 0.0);
+  if (!f0.ok) return out;
+  double sw = 0;
+  for (int i = 0; i < c.k; ++i) sw += 1 / c.v[i];
+  const double tau2 = std::max(0.0, (f0.q - (c.k - 2)) / (sw - f0.trace));
+  const LineFit f = fit_line(c, tau2);
+  if (!f.ok) return out;
+  out.alpha = f.alpha, out.beta = f.beta;
+  out.var_alpha = f.inv00, out.var_beta = f.inv11, out.cov = f.inv01;
+  out.mean_level_n = f.mean_level;
+  out.valid = true;
+  return out;
+}
+
+double ConditionBaselines::Levels::se_at(double level) const noexcept {
+  return std::sqrt(std::max(0.0, level * level * var_alpha + 2 * level * cov + var_beta));
 }
 
 void FreeMoveDrift::clear() noexcept {
@@ -214,7 +283,10 @@ void FreeMoveDrift::end_pass(double t) noexcept {
     base_.add_reference(pass_cell_, pass_x_, z);
     return;
   }
-  base_.add(pass_cell_, z - dot(pass_x_, ref_theta_), known_s_, s_.memory_s);
+  // The coupling force along the motion, u = y + (u − y): an offset load makes it differ
+  // between the directions, which is what lets the levels separate gain from friction.
+  const double level = (pass_x_[1] > 0 ? 1.0 : -1.0) * (pass_x_[0] + z);
+  base_.add(pass_cell_, z - dot(pass_x_, ref_theta_), level, known_s_, s_.memory_s);
   evaluate(t);
 }
 
@@ -262,7 +334,7 @@ bool FreeMoveDrift::free_figures(DriftFigures& f) const noexcept {
     f.rated_n = change(wr), f.rated_se_n = std::sqrt(quad(wr, cov));
     f.gain_change = -change(wg), f.gain_change_se = se_g;
     f.friction_change_n = change(wf), f.friction_change_se_n = std::sqrt(quad(wf, cov));
-  } else {
+  } else if (!level_figures(f)) {
     f.rated_worst_n = f.zero_load_n * rated_factor();
   }
   // Not judged before the scatter between passes of one condition is measured: the blocks'
@@ -270,6 +342,32 @@ bool FreeMoveDrift::free_figures(DriftFigures& f) const noexcept {
   // largest no-drift statistics).
   return e.scatter_measured && std::isfinite(f.zero_load_n) && std::isfinite(f.zero_load_se_n) &&
          (!f.separable || std::isfinite(f.rated_se_n));
+}
+
+/// The conditions' changes regressed on their coupling-force levels (an offset load, speeds):
+/// a change that differs between levels (a gain change under an offset load: the directions'
+/// forces F_c ∓ c) is explained by the line instead of widening the error bar as between-condition
+/// scatter. Its standard errors come from the passes' own scatter, not from the blocks'
+/// regression, whose viscous nuisance is collinear with the direction where the two directions
+/// run at different speeds. The line separates gain from friction when the data resolve its slope
+/// to min_change by their own standard errors; then the zero-load figure is the line at the
+/// model's friction (a free slide's coupling force) and the rated-force figures come from it too.
+/// False: not separable.
+bool FreeMoveDrift::level_figures(DriftFigures& f) const noexcept {
+  const ConditionBaselines::Levels l = base_.levels(known_s_, s_.memory_s);
+  if (!l.valid) return false;
+  // Not separable: the change at the conditions' own mean level (where the line is known best;
+  // no extrapolation on a slope the data do not resolve), as the pooled mean is.
+  f.zero_load_n = l.at(l.mean_level_n), f.zero_load_se_n = l.se_at(l.mean_level_n);
+  const double se_g = std::sqrt(l.var_alpha);
+  if (!(s_.sigmas * se_g <= s_.min_change)) return false;
+  const double f0 = s_.friction_n, fr = s_.rated_n + s_.friction_n;
+  f.separable = true;
+  f.zero_load_n = l.at(f0), f.zero_load_se_n = l.se_at(f0);
+  f.rated_n = l.at(fr), f.rated_se_n = l.se_at(fr);
+  f.gain_change = -l.alpha, f.gain_change_se = se_g;
+  f.friction_change_n = l.beta, f.friction_change_se_n = std::sqrt(l.var_beta);
+  return true;
 }
 
 /// A passive load revisited resolves the gain by itself (its range of forces at the same places),
