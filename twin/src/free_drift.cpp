@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 
+#include <Eigen/LU>
+
 namespace maglead::twin {
 
 namespace {
@@ -96,6 +98,7 @@ ConditionBaselines::Changes ConditionBaselines::changes(double known_s, double m
     c.d[c.k] = dir_of(i) * (x.sum / x.w - x.ref_r);
     c.v[c.k] = (s2 > 0 ? s2 : 1.0) * (1.0 / x.ref_n + x.w2 / (x.w * x.w));
     c.level[c.k] = x.lev / x.w;
+    c.dir[c.k] = dir_of(i);
     ++c.k;
   }
   return c;
@@ -125,61 +128,78 @@ ConditionBaselines::Estimate ConditionBaselines::pooled(double known_s, double m
 }
 
 namespace {
-/// Weighted least squares of d on (level, 1) with weights 1 / (v + tau2): the normal matrix's
-/// inverse (the covariance of α, β for known variances) and the weighted residual sum.
-struct LineFit {
-  double alpha = 0, beta = 0, inv00 = 0, inv01 = 0, inv11 = 0, q = 0, trace = 0, mean_level = 0;
+template <int P>
+struct Fit {
+  Eigen::Matrix<double, P, 1> theta;
+  Eigen::Matrix<double, P, P> cov;  // (XᵀWX)⁻¹: the covariance of θ for the given variances
+  double sw = 0, swd = 0;           // Σw and Σw·d with the final weights
   bool ok = false;
 };
-template <class C>
-LineFit fit_line(const C& c, double tau2) {
-  double a00 = 0, a01 = 0, a11 = 0, b0 = 0, b1 = 0;
+
+/// Random-effects weighted least squares of the conditions' changes on P columns x(i): the
+/// between-condition variance around the fit by DerSimonian–Laird's moments,
+/// τ² = (Q − (k − P)) / (Σw − tr((XᵀWX)⁻¹ XᵀW²X)), then the fit with weights 1 / (v + τ²).
+template <int P, class Changes, class Columns>
+Fit<P> random_effects_fit(const Changes& c, Columns x) {
+  using Mat = Eigen::Matrix<double, P, P>;
+  using Col = Eigen::Matrix<double, P, 1>;
+  const auto solve = [&](double tau2, Fit<P>& f) {
+    Mat a = Mat::Zero();
+    Col b = Col::Zero();
+    f.sw = f.swd = 0;
+    for (int i = 0; i < c.k; ++i) {
+      const Col xi = x(i);
+      const double w = 1 / (c.v[i] + tau2);
+      a += w * xi * xi.transpose(), b += w * c.d[i] * xi;
+      f.sw += w, f.swd += w * c.d[i];
+    }
+    Eigen::FullPivLU<Mat> lu(a);
+    lu.setThreshold(1e-10);  // columns that hardly differ: no fit rather than a huge error bar
+    if (!lu.isInvertible()) return false;
+    f.cov = lu.inverse(), f.theta = f.cov * b;
+    return true;
+  };
+  Fit<P> f;
+  if (c.k <= P || !solve(0.0, f)) return f;
+  double q = 0, sw = 0, trace = 0;
   for (int i = 0; i < c.k; ++i) {
-    const double w = 1 / (c.v[i] + tau2), l = c.level[i];
-    a00 += w * l * l, a01 += w * l, a11 += w, b0 += w * l * c.d[i], b1 += w * c.d[i];
+    const Col xi = x(i);
+    const double w = 1 / c.v[i], e = c.d[i] - xi.dot(f.theta);
+    q += w * e * e, sw += w, trace += w * w * xi.dot(f.cov * xi);
   }
-  LineFit f;
-  const double det = a00 * a11 - a01 * a01;
-  // Levels that hardly differ leave the slope undetermined: no fit, not a huge error bar.
-  if (!(det > 1e-9 * a00 * a11)) return f;
-  f.inv00 = a11 / det, f.inv01 = -a01 / det, f.inv11 = a00 / det, f.mean_level = a01 / a11;
-  f.alpha = f.inv00 * b0 + f.inv01 * b1, f.beta = f.inv01 * b0 + f.inv11 * b1;
-  for (int i = 0; i < c.k; ++i) {
-    const double w = 1 / (c.v[i] + tau2), l = c.level[i], e = c.d[i] - f.alpha * l - f.beta;
-    f.q += w * e * e;
-    // tr((XᵀWX)⁻¹ XᵀW²X): what the fit takes out of Σw (DerSimonian–Laird for a regression).
-    f.trace += w * w * (f.inv00 * l * l + 2 * f.inv01 * l + f.inv11);
-  }
-  f.ok = true;
+  const double tau2 = std::max(0.0, (q - (c.k - P)) / (sw - trace));
+  f.ok = solve(tau2, f);
   return f;
 }
 }  // namespace
 
-/// The random-effects meta-regression (DerSimonian–Laird's moment estimate of the
-/// between-condition variance around the line): a mismatch between conditions that the levels do
-/// not explain widens the error bars instead of moving the line.
+/// Two fits. The changes on the levels (d = α·L + β): at the conditions' weighted mean level
+/// this is their weighted mean, as pooled, but a change that follows the levels (a gain change
+/// under an offset load, F_c ∓ c) is explained by the line instead of counting as scatter between
+/// conditions. And the slope with a term of the direction's own (d = α·L + β + γ·dir): only
+/// levels that differ within a direction determine it, so a load put on (±γ) is never read as a
+/// gain change. A mismatch that a fit does not explain widens its error bars (τ²).
 ConditionBaselines::Levels ConditionBaselines::levels(double known_s,
                                                       double memory_s) const noexcept {
   Levels out;
   if (diffs_ < 3 || !(diff2_ > 0)) return out;
   const Changes c = changes(known_s, memory_s, diff2_ / diffs_);
-  if (c.k < 3) return out;  // a line through two conditions leaves nothing to check it by
-  const LineFit f0 = fit_line(c, 0.0);
-  if (!f0.ok) return out;
-  double sw = 0;
-  for (int i = 0; i < c.k; ++i) sw += 1 / c.v[i];
-  const double tau2 = std::max(0.0, (f0.q - (c.k - 2)) / (sw - f0.trace));
-  const LineFit f = fit_line(c, tau2);
-  if (!f.ok) return out;
-  out.alpha = f.alpha, out.beta = f.beta;
-  out.var_alpha = f.inv00, out.var_beta = f.inv11, out.cov = f.inv01;
-  out.mean_level_n = f.mean_level;
-  out.valid = true;
+  const auto line =
+      random_effects_fit<2>(c, [&](int i) { return Eigen::Vector2d(c.level[i], 1.0); });
+  if (!line.ok) return out;  // too few conditions, or levels that hardly differ
+  // At the weighted mean level the line's value is Σw·d / Σw (its residuals sum to zero).
+  out.mean_n = line.swd / line.sw, out.mean_se_n = std::sqrt(1 / line.sw);
+  const auto lev =
+      random_effects_fit<3>(c, [&](int i) { return Eigen::Vector3d(c.level[i], 1.0, c.dir[i]); });
+  if (!lev.ok) return out;
+  out.alpha = lev.theta(0), out.alpha_se = std::sqrt(lev.cov(0, 0));
+  out.beta = lev.theta(1), out.var_beta = lev.cov(1, 1), out.cov_ab = lev.cov(0, 1);
   return out;
 }
 
-double ConditionBaselines::Levels::se_at(double level) const noexcept {
-  return std::sqrt(std::max(0.0, level * level * var_alpha + 2 * level * cov + var_beta));
+double ConditionBaselines::Levels::se_at(double level_n) const noexcept {
+  return std::sqrt(
+      std::max(0.0, level_n * level_n * alpha_se * alpha_se + 2 * level_n * cov_ab + var_beta));
 }
 
 void FreeMoveDrift::clear() noexcept {
@@ -344,28 +364,23 @@ bool FreeMoveDrift::free_figures(DriftFigures& f) const noexcept {
          (!f.separable || std::isfinite(f.rated_se_n));
 }
 
-/// The conditions' changes regressed on their coupling-force levels (an offset load, speeds):
-/// a change that differs between levels (a gain change under an offset load: the directions'
-/// forces F_c ∓ c) is explained by the line instead of widening the error bar as between-condition
-/// scatter. Its standard errors come from the passes' own scatter, not from the blocks'
-/// regression, whose viscous nuisance is collinear with the direction where the two directions
-/// run at different speeds. The line separates gain from friction when the data resolve its slope
-/// to min_change by their own standard errors; then the zero-load figure is the line at the
-/// model's friction (a free slide's coupling force) and the rated-force figures come from it too.
-/// False: not separable.
+/// The conditions' changes against their levels (ConditionBaselines::levels): the zero-load
+/// figure is the line at the conditions' mean level, its standard error from the passes' own
+/// scatter around the line, not from the blocks' regression, whose viscous nuisance is collinear
+/// with the direction where the two directions run at different speeds. Where levels within a
+/// direction resolve the slope to min_change at the flag's significance, gain and friction are
+/// separated (figures at F_c and at the rated force, the load term left out). False: not
+/// separable.
 bool FreeMoveDrift::level_figures(DriftFigures& f) const noexcept {
   const ConditionBaselines::Levels l = base_.levels(known_s_, s_.memory_s);
-  if (!l.valid) return false;
-  // Not separable: the change at the conditions' own mean level (where the line is known best;
-  // no extrapolation on a slope the data do not resolve), as the pooled mean is.
-  f.zero_load_n = l.at(l.mean_level_n), f.zero_load_se_n = l.se_at(l.mean_level_n);
-  const double se_g = std::sqrt(l.var_alpha);
-  if (!(s_.sigmas * se_g <= s_.min_change)) return false;
+  if (!std::isfinite(l.mean_n)) return false;
+  f.zero_load_n = l.mean_n, f.zero_load_se_n = l.mean_se_n;
+  if (!(s_.sigmas * l.alpha_se <= s_.min_change)) return false;
   const double f0 = s_.friction_n, fr = s_.rated_n + s_.friction_n;
   f.separable = true;
   f.zero_load_n = l.at(f0), f.zero_load_se_n = l.se_at(f0);
   f.rated_n = l.at(fr), f.rated_se_n = l.se_at(fr);
-  f.gain_change = -l.alpha, f.gain_change_se = se_g;
+  f.gain_change = -l.alpha, f.gain_change_se = l.alpha_se;
   f.friction_change_n = l.beta, f.friction_change_se_n = std::sqrt(l.var_beta);
   return true;
 }

@@ -36,17 +36,22 @@ class ConditionBaselines {
     int conditions = 0;
     bool scatter_measured = false;  // three pass-to-pass differences seen: se_n means something
   };
-  /// The conditions' changes against their own coupling-force levels L: d = α·L + β. A gain
-  /// change scales each level (slope α ≈ −Δg), a friction change adds the same to each
-  /// (intercept β). Valid only where the scatter between passes is measured.
+  /// The conditions' changes d (along the motion) against their coupling-force levels L and
+  /// their direction: d = α·L + β + γ·dir. A gain change scales each level (α ≈ −Δg), a friction
+  /// change adds the same to each (β), and a change of a direction-independent load (a payload
+  /// put on, a cable) adds +γ one way and −γ the other. Under an offset load the levels differ by
+  /// direction, so the directions' contrast alone cannot tell a gain change from a load change:
+  /// only levels that differ within a direction (speeds, accelerations) resolve α.
   struct Levels {
-    double alpha = std::numeric_limits<double>::quiet_NaN(), beta = alpha;
-    double var_alpha = alpha, var_beta = alpha, cov = alpha;
-    double mean_level_n = alpha;  // the conditions' weighted mean level: where the line is best
-    bool valid = false;
-    /// The change at coupling-force level L and its standard error.
-    double at(double level) const noexcept { return alpha * level + beta; }
-    double se_at(double level) const noexcept;
+    static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    /// The change at the conditions' mean level, from d = α·L + β: the zero-load figure when α
+    /// is not resolved. NaN until the levels determine that line.
+    double mean_n = kNaN, mean_se_n = kNaN;
+    double alpha = kNaN, alpha_se = kNaN;  // the slope, where the levels within a direction differ
+    /// The change at coupling-force level L without the load term (γ = 0) and its standard error.
+    double at(double level_n) const noexcept { return alpha * level_n + beta; }
+    double se_at(double level_n) const noexcept;
+    double beta = kNaN, var_beta = kNaN, cov_ab = kNaN;
   };
   void clear() noexcept;
   /// A pass before the reference residual can be formed: its means go into the baseline sums.
@@ -58,7 +63,8 @@ class ConditionBaselines {
   void add(int cell, double r, double level_n, double known_s, double memory_s) noexcept;
   /// Random-effects mean of the change over the conditions seen within the memory.
   Estimate estimate(double known_s, double memory_s) const noexcept;
-  /// Random-effects regression of the conditions' changes on their levels (within the memory).
+  /// Random-effects regressions of the conditions' changes on direction and level (within the
+  /// memory); NaN figures until the scatter between passes is measured.
   Levels levels(double known_s, double memory_s) const noexcept;
 
   static int cell_of(int dir, double speed_m_per_s, bool declared) noexcept;
@@ -66,7 +72,7 @@ class ConditionBaselines {
  private:
   Estimate pooled(double known_s, double memory_s, double s2) const noexcept;
   struct Changes {
-    std::array<double, kCells> d{}, v{}, level{};
+    std::array<double, kCells> d{}, v{}, level{}, dir{};
     int k = 0;
   };
   /// Each condition seen within the memory: its change d along the motion, the variance of d in
