@@ -167,7 +167,8 @@ Fit<P> random_effects_fit(const Changes& c, Columns x) {
     const double w = 1 / c.v[i], e = c.d[i] - xi.dot(f.theta);
     q += w * e * e, sw += w, trace += w * w * xi.dot(f.cov * xi);
   }
-  const double tau2 = std::max(0.0, (q - (c.k - P)) / (sw - trace));
+  // Σw − tr(…) is positive with more conditions than columns; guarded all the same.
+  const double tau2 = sw > trace ? std::max(0.0, (q - (c.k - P)) / (sw - trace)) : 0.0;
   f.ok = solve(tau2, f);
   return f;
 }
