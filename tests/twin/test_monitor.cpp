@@ -174,6 +174,29 @@ TEST(TwinMonitor, FrictionRiseFlaggedFromFreeMovesWithoutLoadCell) {
   EXPECT_LT(o.drift_at_warning.zero_load_n, true_change + 4 * o.drift_at_warning.zero_load_se_n);
 }
 
+// A payload on a vertical axis: offset 2.5 N along +p on the moves (with the scenario's own 2 N
+// load, the coupling force differs by ~5 N between the directions). A gain loss of 7 % over the
+// 63 s is flagged within 30 s of crossing 3 % and not named friction; a friction rise of 2 N/min
+// under the same offset is flagged and not named gain.
+TEST(TwinMonitor, OffsetLoadGainLossAndFrictionRiseWithoutLoadCell) {
+  PlantEffects e;
+  e.offset_n = 2.5;
+  const MonitorRun gain = run_recording("position-moves", 63.0, 4, -0.0667, e, false);
+  const double g_ref = 1.0 - 0.0667 * gain.at_drift.drift_reference_t_s / 60.0;
+  expect_in_time(gain, 60.0 * (1.0 - 0.97 * g_ref) / 0.0667, "offset 2.5 N, gain -6.67 %/min");
+  EXPECT_TRUE(gain.at_drift.drift_reason == DriftReason::gain_fell ||
+              gain.at_drift.drift_reason == DriftReason::error_rose);
+  EXPECT_GT(gain.at_drift.drift_at_warning.zero_load_n, 0.0);
+  e.coulomb_drift_n_per_min = 2.0;
+  const MonitorRun friction = run_recording("position-moves", 63.0, 4, 0.0, e, false);
+  std::printf("offset 2.5 N, friction +2 N/min: warning at %.1f s, %s [reason %d]\n",
+              friction.first_drift_s, drift_message(friction.at_drift).c_str(),
+              static_cast<int>(friction.at_drift.drift_reason));
+  ASSERT_TRUE(std::isfinite(friction.first_drift_s));
+  EXPECT_NE(friction.at_drift.drift_reason, DriftReason::gain_fell);
+  EXPECT_NE(friction.at_drift.drift_reason, DriftReason::gain_rose);
+}
+
 // Force control against a spring: no free move, but the spring is a passive load the loop
 // revisits (the same force at the same position), so the flag maps the force estimate over
 // position and compares later visits with the map (twin/src/passive_drift.cpp). 120 s of

@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 
+#include <Eigen/LU>
+
 namespace maglead::twin {
 
 namespace {
@@ -55,7 +57,8 @@ void ConditionBaselines::freeze(const std::array<double, 5>& theta) noexcept {
   }
 }
 
-void ConditionBaselines::add(int cell, double r, double known_s, double memory_s) noexcept {
+void ConditionBaselines::add(int cell, double r, double level_n, double known_s,
+                             double memory_s) noexcept {
   Cell& c = cells_[cell];
   const double dir = dir_of(cell);
   // The change common to all conditions since this one's last pass is taken out of the
@@ -72,7 +75,8 @@ void ConditionBaselines::add(int cell, double r, double known_s, double memory_s
     return;
   }
   const double f = std::exp(-(known_s - c.at_s) / memory_s);
-  c.sum = f * c.sum + r, c.w = f * c.w + 1.0, c.w2 = f * f * c.w2 + 1.0, c.at_s = known_s;
+  c.sum = f * c.sum + r, c.lev = f * c.lev + level_n;
+  c.w = f * c.w + 1.0, c.w2 = f * f * c.w2 + 1.0, c.at_s = known_s;
 }
 
 ConditionBaselines::Estimate ConditionBaselines::estimate(double known_s,
@@ -84,21 +88,31 @@ ConditionBaselines::Estimate ConditionBaselines::estimate(double known_s,
   return e;
 }
 
+ConditionBaselines::Changes ConditionBaselines::changes(double known_s, double memory_s,
+                                                        double s2) const noexcept {
+  Changes c;
+  for (int i = 0; i < kCells; ++i) {
+    const Cell& x = cells_[i];
+    // Seen within the memory: a condition last met long ago says what the drift was then.
+    if (x.w <= 0 || known_s - x.at_s > memory_s) continue;
+    c.d[c.k] = dir_of(i) * (x.sum / x.w - x.ref_r);
+    c.v[c.k] = (s2 > 0 ? s2 : 1.0) * (1.0 / x.ref_n + x.w2 / (x.w * x.w));
+    c.level[c.k] = x.lev / x.w;
+    c.dir[c.k] = dir_of(i);
+    ++c.k;
+  }
+  return c;
+}
+
 /// DerSimonian–Laird: conditions weighted by 1 / (their variance + the between-condition one).
 /// s2 is the scatter of one pass; with s2 = 0 the conditions are weighted by their pass counts
 /// alone (the mean is the same for any common scale) and no standard error is given.
 ConditionBaselines::Estimate ConditionBaselines::pooled(double known_s, double memory_s,
                                                         double s2) const noexcept {
-  std::array<double, kCells> d{}, v{};
-  int k = 0;
-  for (int i = 0; i < kCells; ++i) {
-    const Cell& c = cells_[i];
-    // Seen within the memory: a condition last met long ago says what the drift was then.
-    if (c.w <= 0 || known_s - c.at_s > memory_s) continue;
-    d[k] = dir_of(i) * (c.sum / c.w - c.ref_r);
-    v[k] = (s2 > 0 ? s2 : 1.0) * (1.0 / c.ref_n + c.w2 / (c.w * c.w));
-    ++k;
-  }
+  const Changes c = changes(known_s, memory_s, s2);
+  const auto& d = c.d;
+  const auto& v = c.v;
+  const int k = c.k;
   Estimate e;
   if (k == 0) return e;
   double sw = 0, sw2 = 0, swd = 0;
@@ -111,6 +125,82 @@ ConditionBaselines::Estimate ConditionBaselines::pooled(double known_s, double m
   e.change_n = wd / w, e.conditions = k;
   if (s2 > 0) e.se_n = std::sqrt(1 / w);
   return e;
+}
+
+namespace {
+template <int P>
+struct Fit {
+  Eigen::Matrix<double, P, 1> theta;
+  Eigen::Matrix<double, P, P> cov;  // (XᵀWX)⁻¹: the covariance of θ for the given variances
+  double sw = 0, swd = 0;           // Σw and Σw·d with the final weights
+  bool ok = false;
+};
+
+/// Random-effects weighted least squares of the conditions' changes on P columns x(i): the
+/// between-condition variance around the fit by DerSimonian–Laird's moments,
+/// τ² = (Q − (k − P)) / (Σw − tr((XᵀWX)⁻¹ XᵀW²X)), then the fit with weights 1 / (v + τ²).
+template <int P, class Changes, class Columns>
+Fit<P> random_effects_fit(const Changes& c, Columns x) {
+  using Mat = Eigen::Matrix<double, P, P>;
+  using Col = Eigen::Matrix<double, P, 1>;
+  const auto solve = [&](double tau2, Fit<P>& f) {
+    Mat a = Mat::Zero();
+    Col b = Col::Zero();
+    f.sw = f.swd = 0;
+    for (int i = 0; i < c.k; ++i) {
+      const Col xi = x(i);
+      const double w = 1 / (c.v[i] + tau2);
+      a += w * xi * xi.transpose(), b += w * c.d[i] * xi;
+      f.sw += w, f.swd += w * c.d[i];
+    }
+    Eigen::FullPivLU<Mat> lu(a);
+    lu.setThreshold(1e-10);  // columns that hardly differ: no fit rather than a huge error bar
+    if (!lu.isInvertible()) return false;
+    f.cov = lu.inverse(), f.theta = f.cov * b;
+    return true;
+  };
+  Fit<P> f;
+  if (c.k <= P || !solve(0.0, f)) return f;
+  double q = 0, sw = 0, trace = 0;
+  for (int i = 0; i < c.k; ++i) {
+    const Col xi = x(i);
+    const double w = 1 / c.v[i], e = c.d[i] - xi.dot(f.theta);
+    q += w * e * e, sw += w, trace += w * w * xi.dot(f.cov * xi);
+  }
+  // Σw − tr(…) is positive with more conditions than columns; guarded all the same.
+  const double tau2 = sw > trace ? std::max(0.0, (q - (c.k - P)) / (sw - trace)) : 0.0;
+  f.ok = solve(tau2, f);
+  return f;
+}
+}  // namespace
+
+/// Two fits. The changes on the levels (d = α·L + β): at the conditions' weighted mean level
+/// this is their weighted mean, as pooled, but a change that follows the levels (a gain change
+/// under an offset load, F_c ∓ c) is explained by the line instead of counting as scatter between
+/// conditions. And the slope with a term of the direction's own (d = α·L + β + γ·dir): only
+/// levels that differ within a direction determine it, so a load put on (±γ) is never read as a
+/// gain change. A mismatch that a fit does not explain widens its error bars (τ²).
+ConditionBaselines::Levels ConditionBaselines::levels(double known_s,
+                                                      double memory_s) const noexcept {
+  Levels out;
+  if (diffs_ < 3 || !(diff2_ > 0)) return out;
+  const Changes c = changes(known_s, memory_s, diff2_ / diffs_);
+  const auto line =
+      random_effects_fit<2>(c, [&](int i) { return Eigen::Vector2d(c.level[i], 1.0); });
+  if (!line.ok) return out;  // too few conditions, or levels that hardly differ
+  // At the weighted mean level the line's value is Σw·d / Σw (its residuals sum to zero).
+  out.mean_n = line.swd / line.sw, out.mean_se_n = std::sqrt(1 / line.sw);
+  const auto lev =
+      random_effects_fit<3>(c, [&](int i) { return Eigen::Vector3d(c.level[i], 1.0, c.dir[i]); });
+  if (!lev.ok) return out;
+  out.alpha = lev.theta(0), out.alpha_se = std::sqrt(lev.cov(0, 0));
+  out.beta = lev.theta(1), out.var_beta = lev.cov(1, 1), out.cov_ab = lev.cov(0, 1);
+  return out;
+}
+
+double ConditionBaselines::Levels::se_at(double level_n) const noexcept {
+  return std::sqrt(
+      std::max(0.0, level_n * level_n * alpha_se * alpha_se + 2 * level_n * cov_ab + var_beta));
 }
 
 void FreeMoveDrift::clear() noexcept {
@@ -214,7 +304,10 @@ void FreeMoveDrift::end_pass(double t) noexcept {
     base_.add_reference(pass_cell_, pass_x_, z);
     return;
   }
-  base_.add(pass_cell_, z - dot(pass_x_, ref_theta_), known_s_, s_.memory_s);
+  // The coupling force along the motion, u = y + (u − y): an offset load makes it differ
+  // between the directions, which is what lets the levels separate gain from friction.
+  const double level = (pass_x_[1] > 0 ? 1.0 : -1.0) * (pass_x_[0] + z);
+  base_.add(pass_cell_, z - dot(pass_x_, ref_theta_), level, known_s_, s_.memory_s);
   evaluate(t);
 }
 
@@ -262,7 +355,7 @@ bool FreeMoveDrift::free_figures(DriftFigures& f) const noexcept {
     f.rated_n = change(wr), f.rated_se_n = std::sqrt(quad(wr, cov));
     f.gain_change = -change(wg), f.gain_change_se = se_g;
     f.friction_change_n = change(wf), f.friction_change_se_n = std::sqrt(quad(wf, cov));
-  } else {
+  } else if (!level_figures(f)) {
     f.rated_worst_n = f.zero_load_n * rated_factor();
   }
   // Not judged before the scatter between passes of one condition is measured: the blocks'
@@ -270,6 +363,27 @@ bool FreeMoveDrift::free_figures(DriftFigures& f) const noexcept {
   // largest no-drift statistics).
   return e.scatter_measured && std::isfinite(f.zero_load_n) && std::isfinite(f.zero_load_se_n) &&
          (!f.separable || std::isfinite(f.rated_se_n));
+}
+
+/// The conditions' changes against their levels (ConditionBaselines::levels): the zero-load
+/// figure is the line at the conditions' mean level, its standard error from the passes' own
+/// scatter around the line, not from the blocks' regression, whose viscous nuisance is collinear
+/// with the direction where the two directions run at different speeds. Where levels within a
+/// direction resolve the slope to min_change at the flag's significance, gain and friction are
+/// separated (figures at F_c and at the rated force, the load term left out). False: not
+/// separable.
+bool FreeMoveDrift::level_figures(DriftFigures& f) const noexcept {
+  const ConditionBaselines::Levels l = base_.levels(known_s_, s_.memory_s);
+  if (!std::isfinite(l.mean_n)) return false;
+  f.zero_load_n = l.mean_n, f.zero_load_se_n = l.mean_se_n;
+  if (!(s_.sigmas * l.alpha_se <= s_.min_change)) return false;
+  const double f0 = s_.friction_n, fr = s_.rated_n + s_.friction_n;
+  f.separable = true;
+  f.zero_load_n = l.at(f0), f.zero_load_se_n = l.se_at(f0);
+  f.rated_n = l.at(fr), f.rated_se_n = l.se_at(fr);
+  f.gain_change = -l.alpha, f.gain_change_se = l.alpha_se;
+  f.friction_change_n = l.beta, f.friction_change_se_n = std::sqrt(l.var_beta);
+  return true;
 }
 
 /// A passive load revisited resolves the gain by itself (its range of forces at the same places),

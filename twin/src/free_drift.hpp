@@ -36,25 +36,55 @@ class ConditionBaselines {
     int conditions = 0;
     bool scatter_measured = false;  // three pass-to-pass differences seen: se_n means something
   };
+  /// The conditions' changes d (along the motion) against their coupling-force levels L and
+  /// their direction: d = α·L + β + γ·dir. A gain change scales each level (α ≈ −Δg), a friction
+  /// change adds the same to each (β), and a change of a direction-independent load (a payload
+  /// put on, a cable) adds +γ one way and −γ the other. Under an offset load the levels differ by
+  /// direction, so the directions' contrast alone cannot tell a gain change from a load change:
+  /// only levels that differ within a direction (speeds, accelerations) resolve α.
+  struct Levels {
+    static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    /// The change at the conditions' mean level, from d = α·L + β: the zero-load figure when α
+    /// is not resolved. NaN until the levels determine that line.
+    double mean_n = kNaN, mean_se_n = kNaN;
+    double alpha = kNaN, alpha_se = kNaN;  // the slope, where the levels within a direction differ
+    /// The change at coupling-force level L without the load term (γ = 0) and its standard error.
+    double at(double level_n) const noexcept { return alpha * level_n + beta; }
+    double se_at(double level_n) const noexcept;
+    double beta = kNaN, var_beta = kNaN, cov_ab = kNaN;
+  };
   void clear() noexcept;
   /// A pass before the reference residual can be formed: its means go into the baseline sums.
   void add_reference(int cell, const std::array<double, 5>& x_mean, double z_mean) noexcept;
   /// The reference model is fixed: baselines become mean residuals of the reference passes.
   void freeze(const std::array<double, 5>& theta) noexcept;
   /// A pass after the reference: residual r of the pass, at known-force time known_s.
-  void add(int cell, double r, double known_s, double memory_s) noexcept;
+  /// level: the pass's mean coupling force along the motion (the model's, at the measured phase).
+  void add(int cell, double r, double level_n, double known_s, double memory_s) noexcept;
   /// Random-effects mean of the change over the conditions seen within the memory.
   Estimate estimate(double known_s, double memory_s) const noexcept;
+  /// Random-effects regressions of the conditions' changes on direction and level (within the
+  /// memory); NaN figures until the scatter between passes is measured.
+  Levels levels(double known_s, double memory_s) const noexcept;
+
   static int cell_of(int dir, double speed_m_per_s, bool declared) noexcept;
 
  private:
   Estimate pooled(double known_s, double memory_s, double s2) const noexcept;
+  struct Changes {
+    std::array<double, kCells> d{}, v{}, level{}, dir{};
+    int k = 0;
+  };
+  /// Each condition seen within the memory: its change d along the motion, the variance of d in
+  /// units of one pass's scatter s2 (or 1 with s2 = 0), its mean level.
+  Changes changes(double known_s, double memory_s, double s2) const noexcept;
   struct Cell {
     std::array<double, 5> ref_x{};
     double ref_z = 0, ref_r = 0, last_r = 0, last_common = 0;
     int ref_n = 0;
     bool has_last = false;
-    double sum = 0, w = 0, w2 = 0, at_s = 0;  // forgotten sums of the passes since the reference
+    double sum = 0, lev = 0, w = 0, w2 = 0, at_s = 0;  // forgotten sums of the passes since
+                                                       // the reference (residual, level)
   };
   static double dir_of(int cell) noexcept { return cell % (2 * kOctaves) >= kOctaves ? 1 : -1; }
   std::array<Cell, kCells> cells_{};
@@ -98,6 +128,7 @@ class FreeMoveDrift {
   void end_pass(double t) noexcept;
   void evaluate(double t) noexcept;
   bool free_figures(DriftFigures& f) const noexcept;
+  bool level_figures(DriftFigures& f) const noexcept;
   bool pool_passive(DriftFigures& f, bool free_judged) const noexcept;
   void judge(double t, const DriftFigures& f) noexcept;
   double rated_factor() const noexcept { return (s_.rated_n + s_.friction_n) / s_.friction_n; }
