@@ -565,8 +565,10 @@ TEST(PlantLaws, EffectKeysUseTheSpecsIdsAndCheckTheirRanges) {
   EXPECT_THROW(set_plant_effect(e, "end_effect.max_reduction", 2.0), std::invalid_argument);
   EXPECT_THROW(set_plant_effect(e, "backlash", -0.1), std::invalid_argument);
   EXPECT_THROW(set_plant_effect(e, "angle_ripple.amplitude", 0.1), std::invalid_argument);
-  // Every plant id is an id of the spec's library.
+  // Every plant id is an id of the spec's library, but friction_drift: a plant condition for the
+  // drift flag (a friction rising in time), which the analysis's vocabulary does not have.
   for (const auto& [key, help] : plant_effect_help()) {
+    if (key == "friction_drift") continue;
     const std::string id = key.substr(0, key.find('.'));
     EXPECT_NE(effects::find(id), nullptr) << key;
     if (key.find('.') != std::string::npos) {

@@ -1,5 +1,6 @@
 // The plant's --effect keys: the ids of docs/effects.md, each with the value of its
-// main parameter, and ID.PARAMETER keys (the spec's parameter names) for the shape parameters.
+// main parameter, and ID.PARAMETER keys (the spec's parameter names) for the shape parameters;
+// and friction_drift, a condition of the plant only.
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -66,6 +67,11 @@ constexpr EffectEntry kEffects[] = {
      "s  the linear and motor encoder readings lag the true position and angle (delay_s)"},
     {"external_disturbance", &PlantEffects::external_disturbance_n, -kInf, kInf,
      "N  50 ms force pulses on the nut at random times (force_n)"},
+    // Not an id of docs/effects.md (the analysis does not look for it): a plant condition for
+    // the twin's drift flag, which issue 23 asks to show live for "a friction change" too.
+    {"friction_drift", &PlantEffects::coulomb_drift_n_per_min, -kInf, kInf,
+     "N/min  kinetic and break-away friction F_c + value·t/60, t from the start (wear, "
+     "temperature; for the twin's drift flag, not an effect the analysis names)"},
 };
 
 }  // namespace

@@ -39,8 +39,8 @@ struct PlantEffects {
   double sensor_delay_s = 0.0;              // delay_s: linear and motor encoder readings lag
   double load_cell_delay_s = 0.0;           // delay_s: the load-cell reading lags
   double external_disturbance_n = 0.0;      // force_n of 50 ms pulses at random times
-  // Not an effect of the library (no --effect key): a friction that rises in time (wear,
-  // temperature), F_c + coulomb_friction_n + this·t/60, for the twin's drift tests.
+  // Not an effect of the library (the --effect key friction_drift, N/min): a friction that
+  // rises in time (wear, temperature), F_c + coulomb_friction_n + this·t/60, for the drift flag.
   double coulomb_drift_n_per_min = 0.0;
 };
 
