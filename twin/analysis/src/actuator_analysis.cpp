@@ -566,19 +566,12 @@ bool NutRules::resolved(const selection::Trial& tr, double explained_n) const {
 }
 
 selection::Settings settings_of(const Options& opt) {
-  selection::Settings st;
-  st.max_terms = opt.max_terms;
-  st.min_gain_pct = opt.min_gain_pct;
-  st.min_t = opt.min_t;
-  st.acting_share = opt.acting_share;
-  st.t_of_removed = true;
-  st.localized = false;
-  st.parsimony = opt.parsimony;
-  st.nested_r2 = 0;
-  st.alternative_r2 = opt.alternative_r2;
-  st.leave_out_spanned = false;
-  st.backward = false;
-  return st;
+  return {.max_terms = opt.max_terms,
+          .min_gain_pct = opt.min_gain_pct,
+          .min_t = opt.min_t,
+          .acting_share = opt.acting_share,
+          .parsimony = opt.parsimony,
+          .leave_out_spanned = false};
 }
 
 Candidate candidate_of(const selection::Trial& tr, int folds) {
@@ -595,8 +588,14 @@ void take_terms(const selection::Outcome& o, int folds, Selection& out) {
       if (a.plausible)
         c.alternatives.push_back({std::string(a.var->effect->id()), *a.params, 100.0 * a.r2});
     out.chosen.push_back(std::move(c));
+    out.heldout_sse_before.push_back(term.before);
     out.heldout_sse_after.push_back(term.after);
   }
+  for (const auto& st : o.steps)
+    out.steps.emplace_back(std::string(1, st.sign) + " " + std::string(st.effect->id()),
+                           total(st.ho));
+  for (const auto& [tr, explained] : o.dropped)
+    out.dropped.push_back(selection::dropped_of(tr, explained));
 }
 
 // The implausible fit that would remove most error, and where the error it leaves is largest
@@ -652,6 +651,8 @@ void finish(const Prepared& P, const Grams& g, const Candidates& cand, const Sta
 }
 
 }  // namespace
+
+std::string selection_rule(const Options& opt) { return selection::describe(settings_of(opt)); }
 
 Selection select(const Prepared& P, const Options& opt,
                  const std::function<void(double)>& progress) {

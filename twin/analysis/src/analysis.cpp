@@ -685,24 +685,16 @@ class AxisRules : public selection::Rules {
   const AxisRun& run_;
 };
 
-// A localized effect improves only the segments where it occurs: a large total gain that makes
-// no segment worse counts as consistent too. A simpler candidate lying (almost) inside the best
-// one's span with at least half its gain goes first. A column the model already spans (the
-// constant part of direction-dependent friction once an offset is in) is left out.
+// No segment filter (a drive force acts everywhere); a simpler candidate with at least half the
+// best one's gain goes first; a column the model already spans (the constant part of
+// direction-dependent friction once an offset is in) is left out.
 selection::Settings settings_of(const AnalysisOptions& opt) {
-  selection::Settings st;
-  st.max_terms = opt.max_terms;
-  st.min_gain_pct = opt.min_gain_pct;
-  st.min_t = opt.min_t;
-  st.acting_share = 0;
-  st.t_of_removed = false;
-  st.localized = true;
-  st.parsimony = 0.5;
-  st.nested_r2 = 0.98;
-  st.alternative_r2 = 0.9;
-  st.leave_out_spanned = true;
-  st.backward = true;
-  return st;
+  return {.max_terms = opt.max_terms,
+          .min_gain_pct = opt.min_gain_pct,
+          .min_t = opt.min_t,
+          .acting_share = 0,
+          .parsimony = 0.5,
+          .leave_out_spanned = true};
 }
 
 Chosen chosen_of(const selection::Term& term) {
@@ -724,16 +716,6 @@ Chosen chosen_of(const selection::Term& term) {
     ch.note = "chosen before '" + std::string(term.over->id()) +
               "', which contains it: the simpler explanation first";
   return ch;
-}
-
-Rejected dropped_of(const selection::Trial& tr, double explained) {
-  char why[160];
-  std::snprintf(why, sizeof why,
-                "dropped by the backward check: with the other terms in, it adds a held-out "
-                "gain of %.2f %% at t = %.2f",
-                tr.gain, tr.t);
-  return Rejected{
-      std::string(tr.var->effect->id()), tr.gain, tr.t, tr.worst, explained, why, std::nullopt};
 }
 
 // The validation: the baseline, then each term taken (+) or dropped by the backward check (−).
@@ -759,11 +741,12 @@ Selected select_terms(const AxisRun& run) {
   sel.base_heldout = stats::total(o.start_ho);
   sel.validation = validation_of(run, o);
   for (const auto& term : o.terms) sel.chosen.push_back(chosen_of(term));
-  if (const auto& tb = o.stopped_at)
+  if (o.stopped_at)
     sel.rejected.push_back(
-        {std::string(tb->var->effect->id()), tb->gain, tb->t, tb->worst, o.stopped_explained_n,
-         "best remaining candidate, below the significance threshold", std::nullopt});
-  for (const auto& [tr, explained] : o.dropped) sel.rejected.push_back(dropped_of(tr, explained));
+        selection::rejected_of(*o.stopped_at, o.stopped_explained_n,
+                               "best remaining candidate, below the significance threshold"));
+  for (const auto& [tr, explained] : o.dropped)
+    sel.rejected.push_back(selection::dropped_of(tr, explained));
   return sel;
 }
 
@@ -806,12 +789,8 @@ void describe_method(Findings& J, const AxisRun& run) {
   J.method.decimation = run.P.decimation;
   J.method.identification_bandwidth_hz = run.P.bandwidth_hz;
   J.method.folds = run.folds;
-  J.method.selection =
-      "forward, by held-out error on contiguous time segments; a term must cut the "
-      "held-out mean square error by >= " +
-      fmt(run.opt.min_gain_pct) + " % with t >= " + fmt(run.opt.min_t) +
-      " over the segments (or >= 10x that gain with no segment worse), and explain "
-      "more RMS than the force noise floor";
+  J.method.selection = selection::describe(settings_of(run.opt)) +
+                       ", and explain more RMS than the force noise floor";
   J.method.moving_only = "all samples";
   J.noise_floor_n = run.P.noise_floor_n;
 }

@@ -4,13 +4,23 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
+#include <sstream>
 
 namespace maglead::analysis::selection {
 namespace {
 
 using stats::Fit;
 using stats::total;
+
+// A simpler trial lying this much inside the best one's span is the same explanation, nested.
+constexpr double kNestedR2 = 0.98;
+// Another effect reproducing this share of a taken term's contribution is named beside it.
+constexpr double kAlternativeR2 = 0.95;
+// An effect that improves only the segments where it occurs is consistent when its total gain
+// is this many times the minimum and no segment gets worse by more than 1 %.
+constexpr double kLocalized = 10.0;
 
 // The search's state: the model so far and its held-out error.
 struct Search {
@@ -87,8 +97,8 @@ bool acts_in(const Search& s, const Trial& tr, std::size_t f, double err) {
 
 // Consistency over the segments where the term acts (elsewhere it predicts nothing and tells
 // nothing, as a drift early in a recording): t of the relative gain per segment (so an effect
-// that grows counts in early segments too) and, with Settings::t_of_removed, of the error removed
-// (segments weighed by what is at stake); the worst segment and the total gain.
+// that grows counts in early segments too) or of the error removed (segments weighed by what is at
+// stake), the larger; the worst segment and the total gain.
 void score(const Search& s, Trial& tr, const std::vector<double>& cur) {
   std::vector<double> d, rel;
   tr.improved = 0;
@@ -98,8 +108,7 @@ void score(const Search& s, Trial& tr, const std::vector<double>& cur) {
     rel.push_back(d.back() / cur[f]);
     tr.improved += d.back() > 0;
   }
-  tr.t = stats::t_statistic(rel);
-  if (s.st.t_of_removed) tr.t = std::max(tr.t, stats::t_statistic(d));
+  tr.t = std::max(stats::t_statistic(rel), stats::t_statistic(d));
   tr.worst = rel.empty() ? 0.0 : 100.0 * *std::min_element(rel.begin(), rel.end());
   tr.gain = 100.0 * (total(cur) - total(tr.ho)) / total(cur);
 }
@@ -110,12 +119,10 @@ double explained_n(const Search& s, const std::vector<double>& cur, const Trial&
 }
 
 // Significant: a real share of the held-out error, consistent over the segments, and a force the
-// recording resolves. With Settings::localized, an effect that improves only the segments where
-// it occurs counts as consistent when its total gain is large and no segment gets worse.
+// recording resolves (Rules::resolved); a localized effect (kLocalized) counts as consistent.
 bool significant(const Search& s, const std::vector<double>& cur, const Trial& tr) {
   const bool consistent =
-      tr.t >= s.st.min_t ||
-      (s.st.localized && tr.gain >= 10.0 * s.st.min_gain_pct && tr.worst > -1.0);
+      tr.t >= s.st.min_t || (tr.gain >= kLocalized * s.st.min_gain_pct && tr.worst > -1.0);
   return tr.gain >= s.st.min_gain_pct && consistent &&
          s.rules.resolved(tr, explained_n(s, cur, tr));
 }
@@ -133,24 +140,19 @@ std::vector<Trial> trials_of(const Search& s, Outcome& out) {
   return trials;
 }
 
-// The trial the rule names next given the best one: a simpler trial (fewer columns) reaching
-// Settings::parsimony of the best gain, and with Settings::nested_r2 lying inside the best's
-// span, goes first (the data cannot prefer the richer one; it is tested next); the one with the
-// largest gain among those. If the simpler one is not significant, neither is what the richer
-// one adds to it: the search stops.
+// The trial the rule names next, starting from the best one: a simpler trial (fewer columns)
+// reaching Settings::parsimony of its gain and lying inside its span (kNestedR2) goes first (the
+// data cannot prefer the richer one; it is tested next), in the library's order (simpler
+// effects first), and so on down. If the simpler one is not significant, neither is what the
+// richer one adds to it: the search stops.
 std::size_t preferred(const Search& s, const std::vector<Trial>& trials, std::size_t best) {
-  const Trial& b = trials[best];
-  std::optional<std::size_t> pick;
+  std::size_t pick = best;
   for (std::size_t k = 0; k < trials.size(); ++k) {
-    const Trial& a = trials[k];
-    if (k == best || a.idx.size() >= b.idx.size() || a.gain < s.st.parsimony * b.gain) continue;
-    if (pick && trials[*pick].gain >= a.gain) continue;
-    if (s.st.nested_r2 > 0 &&
-        stats::partial_r2(s.g, s.current, a.idx, a.w, b.idx) <= s.st.nested_r2)
-      continue;
-    pick = k;
+    const Trial &a = trials[k], &p = trials[pick];
+    if (a.idx.size() >= p.idx.size() || a.gain < s.st.parsimony * p.gain) continue;
+    if (stats::partial_r2(s.g, s.current, a.idx, a.w, p.idx) > kNestedR2) pick = k;
   }
-  return pick.value_or(best);
+  return pick;
 }
 
 // Identifiability: other effects whose columns reproduce the taken term's contribution.
@@ -159,7 +161,7 @@ std::vector<Alternative> alternatives_of(const Search& s, const Trial& tr) {
   for (const auto* e : effects::library()) {
     if (e == tr.var->effect || s.taken(e)) continue;
     const auto [var, r2] = best_reproducing(s.g, s.cand, e, s.current, tr.idx, tr.w);
-    if (!var || r2 < s.st.alternative_r2) continue;
+    if (!var || r2 < kAlternativeR2) continue;
     const auto cols = columns_of(s, *var, s.current);
     const auto prm = s.rules.parameters(*var, cols, stats::solve(s.g, with(s.current, cols), -1));
     out.push_back({var, prm, r2, prm && effects::plausible(*e, *prm)});
@@ -201,8 +203,11 @@ struct Weakest {
   double explained_n;
 };
 
-// The term the others, their columns restored, leave least to add, if it no longer passes the
-// selection's own test once they are all in (the held-out t and gain it adds last).
+// The term the others, their columns restored, leave least to add, if what it adds last is no
+// longer a real share of the held-out error or a force the recording resolves. Consistency over
+// the segments is not asked again: taken last beside a term it is collinear with (a coupling
+// gain error beside a gain drift), a term that removes most of the error can still have a
+// segment where the pair trade places, and the forward test already asked it.
 std::optional<Weakest> weakest_term(const Search& s, const std::vector<int>& start,
                                     const std::vector<Term>& terms) {
   std::optional<Weakest> out;
@@ -218,8 +223,9 @@ std::optional<Weakest> weakest_term(const Search& s, const std::vector<int>& sta
     others.erase(others.begin() + static_cast<std::ptrdiff_t>(k));
     const auto without = stats::heldout(s.g, rebuild(s, start, others));
     score(s, tr, without);
-    if (significant(s, without, tr) || (out && out->trial.t <= tr.t)) continue;
     const double expl = explained_n(s, without, tr);
+    const bool adds = tr.gain >= s.st.min_gain_pct && s.rules.resolved(tr, expl);
+    if (adds || (out && out->trial.t <= tr.t)) continue;  // the least consistent goes first
     out = Weakest{k, std::move(tr), expl};
   }
   return out;
@@ -227,8 +233,8 @@ std::optional<Weakest> weakest_term(const Search& s, const std::vector<int>& sta
 
 // Backward check: a term taken early may be explained by those taken after it (an offset once
 // direction-dependent friction is in, whose own constant columns were left out while the offset
-// spanned them). Each term is tested again as if added last; the weakest that fails the forward
-// test is dropped, the others' columns restored, and the check repeats.
+// spanned them). Each term is tested again as if added last; the weakest that adds too little is
+// dropped, the others' columns restored, and the check repeats.
 void backward_check(Search& s, const std::vector<int>& start, Outcome& out) {
   while (auto weak = weakest_term(s, start, out.terms)) {
     out.terms.erase(out.terms.begin() + static_cast<std::ptrdiff_t>(weak->k));
@@ -240,6 +246,34 @@ void backward_check(Search& s, const std::vector<int>& start, Outcome& out) {
 }
 
 }  // namespace
+
+Rejected rejected_of(const Trial& tr, double explained_n, std::string reason) {
+  return Rejected{std::string(tr.var->effect->id()),
+                  tr.gain,
+                  tr.t,
+                  tr.worst,
+                  explained_n,
+                  std::move(reason),
+                  std::nullopt};
+}
+
+Rejected dropped_of(const Trial& tr, double explained_n) {
+  char why[160];
+  std::snprintf(why, sizeof why,
+                "dropped by the backward check: with the other terms in, it adds a held-out "
+                "gain of %.2f %% at t = %.2f",
+                tr.gain, tr.t);
+  return rejected_of(tr, explained_n, why);
+}
+
+std::string describe(const Settings& st) {
+  std::ostringstream o;
+  o << "forward, by held-out error on contiguous time segments; a term must cut the held-out "
+       "mean square error by >= "
+    << st.min_gain_pct << " % with t >= " << st.min_t << " over the segments (or >= " << kLocalized
+    << "x that gain with no segment worse)";
+  return o.str();
+}
 
 Outcome select(const stats::Grams& g, const Candidates& cand, const Rules& rules,
                const Settings& st, const std::vector<int>& start,
@@ -265,7 +299,7 @@ Outcome select(const stats::Grams& g, const Candidates& cand, const Rules& rules
     }
     take(s, out, trials, pick, best);
   }
-  if (st.backward) backward_check(s, start, out);
+  backward_check(s, start, out);
   out.current = s.current;
   out.ho = s.cur_ho;
   return out;

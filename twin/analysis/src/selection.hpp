@@ -7,9 +7,11 @@
 #include <cstddef>
 #include <functional>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "candidates.hpp"
+#include "maglead/analysis/results.hpp"
 #include "maglead/effects/effect.hpp"
 #include "statistics.hpp"
 
@@ -47,14 +49,8 @@ struct Settings {
   // Segments where the term's fitted contribution carries less than this share of the error are
   // not counted (it predicts nothing there); 0: every segment counts.
   double acting_share = 0;
-  bool t_of_removed = false;  // consistency also from the error removed per segment, not only
-                              // the relative gain (an effect that grows, as a drift)
-  bool localized = false;  // a gain of 10× the minimum that makes no segment worse is consistent
-  double parsimony = 0.5;  // a simpler significant term reaching this share of the best gain …
-  double nested_r2 = 0;    // … and lying this much inside its span (0: not asked) goes first
-  double alternative_r2 = 0.95;    // another effect reproducing this much is named beside it
+  double parsimony = 0.5;          // a simpler term reaching this share of the best gain goes first
   bool leave_out_spanned = false;  // a variant's columns the model already spans are left out
-  bool backward = true;            // the backward check after the forward selection
 };
 
 /// Another effect that reproduces a taken term's contribution.
@@ -98,6 +94,14 @@ struct Outcome {
   std::vector<std::pair<Trial, double>> dropped;  // by the backward check, with explained_n
   std::optional<ImplausibleFit> implausible;
 };
+
+/// A trial as a term not selected, with the RMS force it explains and why.
+Rejected rejected_of(const Trial& tr, double explained_n, std::string reason);
+/// A term the backward check dropped, with what it adds last.
+Rejected dropped_of(const Trial& tr, double explained_n);
+
+/// The rule in words, for the report's method.
+std::string describe(const Settings& st);
 
 /// Runs the selection on `g` from the model with columns `start`; effects in `excluded` are not
 /// candidates. `progress` (may be empty) gets the share of the terms tried.
