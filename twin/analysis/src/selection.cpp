@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <numeric>
 #include <sstream>
 
 namespace maglead::analysis::selection {
@@ -14,7 +13,7 @@ namespace {
 using stats::Fit;
 using stats::total;
 
-// A simpler trial lying this much inside the best one's span is the same explanation, nested.
+// A simpler trial lying this much inside a richer one's span is the same explanation, nested.
 constexpr double kNestedR2 = 0.98;
 // Another effect reproducing this share of a taken term's contribution is named beside it.
 constexpr double kAlternativeR2 = 0.95;

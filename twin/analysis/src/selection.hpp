@@ -8,6 +8,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "candidates.hpp"
@@ -89,7 +90,7 @@ struct Outcome {
   std::vector<double> start_ho, ho;
   std::vector<Term> terms;  // the terms kept, in the order taken
   std::vector<Step> steps;
-  std::optional<Trial> stopped_at;  // the best remaining trial, below the threshold
+  std::optional<Trial> stopped_at;  // the trial the rule named next, below the threshold
   double stopped_explained_n = 0;
   std::vector<std::pair<Trial, double>> dropped;  // by the backward check, with explained_n
   std::optional<ImplausibleFit> implausible;
