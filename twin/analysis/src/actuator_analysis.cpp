@@ -16,6 +16,7 @@
 
 #include "candidates.hpp"
 #include "maglead/analysis/signal.hpp"
+#include "selection.hpp"
 #include "statistics.hpp"
 
 namespace maglead::analysis::actuator {
@@ -440,11 +441,8 @@ namespace {
 
 using stats::Fit;
 using stats::Grams;
-using stats::heldout;
-using stats::partial_r2;
 using stats::solve;
 using stats::sse;
-using stats::t_statistic;
 using stats::total;
 
 // Per column, the sum of squares of the load-cell noise it carries: each column's change when
@@ -510,178 +508,46 @@ effects::Params jackknife_se(const Grams& g, const std::vector<int>& idx, Eigen:
   return stats::jackknife_se(values);
 }
 
-// Keeps the implausible fit that removes the most held-out error, and where the error it
-// leaves is largest (the segment a user should look at first).
-void note_implausible(Selection& out, const Grams& g, const std::vector<double>& cur_ho,
-                      const std::vector<double>& ho, const effects::Effect& e,
-                      const effects::Params& prm, const Prepared& P, std::size_t n_used) {
-  const double before = total(cur_ho), after = total(ho);
-  if (!(before > 0) || after >= before) return;
-  const double gain = 100.0 * (before - after) / before;
-  if (out.implausible && out.implausible->gain_pct >= gain) return;
-  Implausible imp{std::string(e.id()),
-                  prm,
-                  gain,
-                  0.0,
-                  std::sqrt((before - after) / static_cast<double>(n_used)),
-                  0.0,
-                  0.0};
-  std::size_t worst = 0;
-  for (std::size_t f = 0; f < ho.size(); ++f)
-    if (ho[f] > ho[worst]) worst = f;
-  const double seg = P.duration_s / static_cast<double>(g.xx.size());
-  imp.worst_t0_s = P.t0_s + seg * static_cast<double>(worst);
-  imp.worst_t1_s = imp.worst_t0_s + seg;
-  out.implausible = imp;
-}
-
 }  // namespace
 
 // ------------------------------------------------------------------------------- select
 namespace {
 
-// The forward selection's state: the terms taken so far and their held-out errors.
-struct Search {
-  const Prepared& P;
-  const Options& opt;
-  const Grams& g;
-  const Candidates& cand;
-  State model;
-  std::size_t n_used = 0;
-  int folds = 0;
-  std::vector<int> current;
-  std::vector<double> cur_ho;
-  std::vector<const effects::Effect*> used;
+// The nut's balance as the selection's rules: the units' parameters at the first sliding state,
+// and a force must exceed the recording's floors (Prepared::floor_n, locked_floor_n, minimum_n).
+class NutRules : public selection::Rules {
+ public:
+  NutRules(const Prepared& P, State model) : P_(P), model_(model) {}
+  std::optional<effects::Params> parameters(const Variant& var, const std::vector<int>& cols,
+                                            const Fit& fit) const override {
+    const auto k = static_cast<Eigen::Index>(cols.size());
+    return var.effect->parameters(var.shape, fit.theta.tail(k).data(), model_);
+  }
+  bool resolved(const selection::Trial& tr, double explained_n) const override;
+  const State& model() const { return model_; }
+
+ private:
+  const Prepared& P_;
+  State model_;
+  double beyond_locked_rounding(const selection::Trial& tr) const;
 };
-
-// One effect tried as the next term (its best shape).
-struct Trial {
-  const Variant* var = nullptr;
-  std::vector<double> ho;
-  double gain = 0, t = 0;
-  int improved = 0;
-  effects::Params params;
-};
-
-// The effect's shape with the least held-out error among those with plausible parameters; an
-// implausible fit is noted in `out`.
-Trial best_variant(const Search& s, const effects::Effect* e, Selection& out) {
-  Trial best;
-  double best_sse = INFINITY;
-  for (const auto& var : s.cand.variants) {
-    if (var.effect != e) continue;
-    const auto idx = with(s.current, var.idx);
-    const Fit full = solve(s.g, idx, -1);
-    const auto prm = e->parameters(
-        var.shape, full.theta.tail(static_cast<Eigen::Index>(var.idx.size())).data(), s.model);
-    if (!prm) continue;
-    auto ho = heldout(s.g, idx);
-    const double sum = total(ho);
-    if (!effects::plausible(*e, *prm)) {
-      note_implausible(out, s.g, s.cur_ho, ho, *e, *prm, s.P, s.n_used);
-      continue;
-    }
-    if (sum < best_sse) {
-      best_sse = sum;
-      best.var = &var;
-      best.ho = std::move(ho);
-      best.params = *prm;
-    }
-  }
-  return best;
-}
-
-// Consistency over the segments where the term acts (its fitted contribution carries at least a
-// tenth of the segment's error; elsewhere it predicts nothing and tells nothing, as a drift
-// early in a recording): t statistic of the error each one removes, and the held-out gain.
-void score(const Search& s, Trial& tr) {
-  const Fit full = solve(s.g, with(s.current, tr.var->idx), -1);
-  const auto k = static_cast<Eigen::Index>(tr.var->idx.size());
-  const Eigen::VectorXd w = full.theta.tail(k);
-  std::vector<double> d, rel;
-  for (std::size_t f = 0; f < s.cur_ho.size(); ++f) {
-    if (!(s.cur_ho[f] > 0)) continue;
-    Eigen::MatrixXd xx(k, k);
-    for (Eigen::Index r = 0; r < k; ++r)
-      for (Eigen::Index c = 0; c < k; ++c)
-        xx(r, c) = s.g.xx[f](tr.var->idx[static_cast<std::size_t>(r)],
-                             tr.var->idx[static_cast<std::size_t>(c)]);
-    if (w.dot(xx * w) < s.opt.acting_share * s.cur_ho[f]) continue;
-    d.push_back(s.cur_ho[f] - tr.ho[f]);
-    rel.push_back(d.back() / s.cur_ho[f]);
-    tr.improved += d.back() > 0;
-  }
-  // Relative gains weigh every segment alike (an effect spread over the recording); the error
-  // removed weighs segments by what is at stake (an effect that grows, as a drift). Either must
-  // be consistent.
-  tr.t = std::max(t_statistic(d), t_statistic(rel));
-  tr.gain = 100.0 * (total(s.cur_ho) - total(tr.ho)) / total(s.cur_ho);
-}
-
-// The trial with the largest gain; but an explanation with fewer parameters that achieves nearly
-// all of its reduction (the data cannot prefer the richer one) is named instead; the richer one
-// then appears as its alternative.
-const Trial& preferred(const std::vector<Trial>& trials, const Options& opt) {
-  auto it = std::max_element(trials.begin(), trials.end(),
-                             [](const Trial& a, const Trial& b) { return a.gain < b.gain; });
-  for (auto jt = trials.begin(); jt != trials.end(); ++jt) {
-    const bool fewer = jt->var->idx.size() < it->var->idx.size();
-    if (fewer && jt->gain >= opt.parsimony * it->gain) it = jt;
-  }
-  return *it;
-}
-
-// Other effects whose columns reproduce the chosen term's contribution.
-std::vector<Alternative> alternatives_of(const Search& s, const Trial& it) {
-  std::vector<Alternative> out;
-  const Fit full_new = solve(s.g, with(s.current, it.var->idx), -1);
-  const Eigen::VectorXd w = full_new.theta.tail(static_cast<Eigen::Index>(it.var->idx.size()));
-  for (const auto* e : effects::library()) {
-    if (e == it.var->effect || std::find(s.used.begin(), s.used.end(), e) != s.used.end()) continue;
-    const auto [best_v, best_r2] = best_reproducing(s.g, s.cand, e, s.current, it.var->idx, w);
-    if (!best_v || best_r2 < s.opt.alternative_r2) continue;
-    const Fit fa = solve(s.g, with(s.current, best_v->idx), -1);
-    const auto pa =
-        e->parameters(best_v->shape,
-                      fa.theta.tail(static_cast<Eigen::Index>(best_v->idx.size())).data(), s.model);
-    if (!pa || !effects::plausible(*e, *pa)) continue;
-    out.push_back({std::string(e->id()), *pa, 100.0 * best_r2});
-  }
-  return out;
-}
-
-// Every effect not taken yet, each at its best shape and scored.
-std::vector<Trial> trials_of(const Search& s, Selection& out) {
-  std::vector<Trial> trials;
-  for (const auto* e : effects::library()) {
-    if (std::find(s.used.begin(), s.used.end(), e) != s.used.end()) continue;
-    Trial best = best_variant(s, e, out);
-    if (!best.var) continue;
-    score(s, best);
-    trials.push_back(std::move(best));
-  }
-  return trials;
-}
 
 // RMS of the trial's fitted contribution less its mean over each locked run: the part of it a
 // locked count's rounding (a constant per run) cannot make.
-double beyond_locked_rounding(const Search& s, const Trial& it) {
-  const Fit full = solve(s.g, with(s.current, it.var->idx), -1);
-  const auto k = static_cast<Eigen::Index>(it.var->idx.size());
-  const Eigen::VectorXd w = full.theta.tail(k);
-  const auto& P = s.P;
-  std::vector<double> z(P.states.size());
-  std::vector<double> run_sum(P.locked_period.size(), 0.0), run_n(P.locked_period.size(), 0.0);
+double NutRules::beyond_locked_rounding(const selection::Trial& tr) const {
+  const auto k = static_cast<Eigen::Index>(tr.idx.size());
+  std::vector<double> z(P_.states.size());
+  std::vector<double> run_sum(P_.locked_period.size(), 0.0), run_n(P_.locked_period.size(), 0.0);
   double x[8];
   for (std::size_t i = 0; i < z.size(); ++i) {
-    it.var->effect->regressors(it.var->shape, P.states[i], x);
-    z[i] = Eigen::Map<const Eigen::VectorXd>(x, k).dot(w);
-    if (const int r = P.locked_run[i]; r >= 0)
+    tr.var->effect->regressors(tr.var->shape, P_.states[i], x);
+    z[i] = Eigen::Map<const Eigen::VectorXd>(x, k).dot(tr.w);
+    if (const int r = P_.locked_run[i]; r >= 0)
       run_sum[static_cast<std::size_t>(r)] += z[i], run_n[static_cast<std::size_t>(r)] += 1.0;
   }
   double ss = 0;
   for (std::size_t i = 0; i < z.size(); ++i) {
-    const int r = P.locked_run[i];
+    const int r = P_.locked_run[i];
     const auto ri = static_cast<std::size_t>(r);
     const double d = r >= 0 ? z[i] - run_sum[ri] / run_n[ri] : z[i];
     ss += d * d;
@@ -692,61 +558,82 @@ double beyond_locked_rounding(const Search& s, const Trial& it) {
 // A force the recording resolves and a user would act on: beyond the stated minimum and the
 // floor; where the count is locked, beyond what its rounding may hold (Prepared::locked_floor_n)
 // unless the term varies within the locked runs by more than the floor.
-bool resolved(const Search& s, const Trial& it, double explained_n) {
-  const double floor_n = std::max(s.P.floor_n, s.P.minimum_n);
+bool NutRules::resolved(const selection::Trial& tr, double explained_n) const {
+  const double floor_n = std::max(P_.floor_n, P_.minimum_n);
   if (explained_n < floor_n) return false;
-  if (s.P.locked_share == 0 || explained_n >= std::max(s.P.locked_floor_n, s.P.minimum_n))
-    return true;
-  return beyond_locked_rounding(s, it) >= floor_n;
+  if (P_.locked_share == 0 || explained_n >= std::max(P_.locked_floor_n, P_.minimum_n)) return true;
+  return beyond_locked_rounding(tr) >= floor_n;
 }
 
-// Takes the preferred trial as the next term, or (not significant) records it as the best one
-// rejected. Returns whether the selection goes on.
-bool take_or_stop(Search& s, const Trial& it, Selection& out) {
-  const auto floor_n = std::max(s.P.floor_n, s.P.minimum_n);
-  // Significant: a real share of the held-out error, consistent over the segments, and a force
-  // the recording resolves and a user would act on.
-  const double explained_n =
-      std::sqrt(std::max(0.0, total(s.cur_ho) - total(it.ho)) / static_cast<double>(s.n_used));
-  const bool significant =
-      it.gain >= s.opt.min_gain_pct && it.t >= s.opt.min_t && resolved(s, it, explained_n);
-  Candidate c{
-      std::string(it.var->effect->id()), it.params, it.gain, it.t, it.improved, s.folds, {}};
-  if (!significant) {
-    // What a plausible term could not explain may still be an implausible fit's: reported only
-    // when it would have stood out (its gain beyond what was left untaken).
-    if (out.implausible &&
-        (out.implausible->gain_pct < s.opt.min_gain_pct || out.implausible->explained_n < floor_n))
-      out.implausible.reset();
-    out.next_best = std::move(c);
-    return false;
+selection::Settings settings_of(const Options& opt) {
+  return {.max_terms = opt.max_terms,
+          .min_gain_pct = opt.min_gain_pct,
+          .min_t = opt.min_t,
+          .acting_share = opt.acting_share,
+          .parsimony = opt.parsimony,
+          .leave_out_spanned = false};
+}
+
+Candidate candidate_of(const selection::Trial& tr, int folds) {
+  return Candidate{
+      std::string(tr.var->effect->id()), tr.params, tr.gain, tr.t, tr.improved, folds, {}};
+}
+
+// The taken terms as candidates, with their plausible alternatives.
+void take_terms(const selection::Outcome& o, int folds, Selection& out) {
+  for (const auto& term : o.terms) {
+    Candidate c = candidate_of(term.trial, folds);
+    c.shape = term.trial.var->shape;
+    for (const auto& a : term.alternatives)
+      if (a.plausible)
+        c.alternatives.push_back({std::string(a.var->effect->id()), *a.params, 100.0 * a.r2});
+    out.chosen.push_back(std::move(c));
+    out.heldout_sse_before.push_back(term.before);
+    out.heldout_sse_after.push_back(term.after);
   }
-  c.shape = it.var->shape;
-  c.alternatives = alternatives_of(s, it);
-  out.implausible.reset();  // judged against what the next step leaves
-  s.current.insert(s.current.end(), it.var->idx.begin(), it.var->idx.end());
-  s.used.push_back(it.var->effect);
-  s.cur_ho = it.ho;
-  out.chosen.push_back(std::move(c));
-  out.heldout_sse_after.push_back(total(s.cur_ho));
-  return true;
+  for (const auto& st : o.steps)
+    out.steps.emplace_back(std::string(1, st.sign) + " " + std::string(st.effect->id()),
+                           total(st.ho));
+  for (const auto& [tr, explained] : o.dropped)
+    out.dropped.push_back(selection::dropped_of(tr, explained));
+}
+
+// The implausible fit that would remove most error, and where the error it leaves is largest
+// (the segment a user should look at first); after a stop, only if it would have stood out (its
+// gain and force beyond what was left untaken).
+void note_implausible(const selection::Outcome& o, const Prepared& P, const Options& opt,
+                      double n_used, Selection& out) {
+  if (!o.implausible) return;
+  const auto& f = *o.implausible;
+  const double before = total(f.cur_ho), after = total(f.ho);
+  const double gain = 100.0 * (before - after) / before;
+  const double explained_n = std::sqrt((before - after) / n_used);
+  if (o.stopped_at && (gain < opt.min_gain_pct || explained_n < std::max(P.floor_n, P.minimum_n)))
+    return;
+  const auto worst =
+      static_cast<std::size_t>(std::max_element(f.ho.begin(), f.ho.end()) - f.ho.begin());
+  const double seg = P.duration_s / static_cast<double>(f.ho.size());
+  const double t0 = P.t0_s + seg * static_cast<double>(worst);
+  out.implausible =
+      Implausible{std::string(f.var->effect->id()), f.params, gain, 0.0, explained_n, t0, t0 + seg};
 }
 
 // Final fit on everything: the corrected residual, the parameters and their standard errors.
-void finish(const Search& s, Selection& out) {
-  const Fit final_fit = solve(s.g, s.current, -1);
+void finish(const Prepared& P, const Grams& g, const Candidates& cand, const State& model,
+            const std::vector<int>& current, Selection& out) {
+  const Fit final_fit = solve(g, current, -1);
   out.final_sse = 0;
-  for (std::size_t f = 0; f < s.g.xx.size(); ++f) out.final_sse += sse(s.g, final_fit, f);
-  out.final_residual = s.P.residual;
+  for (std::size_t f = 0; f < g.xx.size(); ++f) out.final_sse += sse(g, final_fit, f);
+  out.final_residual = P.residual;
   std::vector<Column> used_cols;
-  used_cols.reserve(s.current.size());
-  for (int k : s.current) used_cols.push_back(s.cand.cols[static_cast<std::size_t>(k)]);
+  used_cols.reserve(current.size());
+  for (int k : current) used_cols.push_back(cand.cols[static_cast<std::size_t>(k)]);
   double buf[8];
-  for (std::size_t i = 0; i < s.P.states.size(); ++i) {
+  for (std::size_t i = 0; i < P.states.size(); ++i) {
     std::size_t j = 0;
     while (j < used_cols.size()) {
       const auto& c = used_cols[j];
-      c.effect->regressors(c.shape, s.P.states[i], buf);
+      c.effect->regressors(c.shape, P.states[i], buf);
       for (int q = 0; q < c.effect->columns(); ++q, ++j)
         out.final_residual[i] -= final_fit.theta[static_cast<Eigen::Index>(j)] * buf[q];
     }
@@ -756,14 +643,16 @@ void finish(const Search& s, Selection& out) {
     const auto* e = effects::find(c.id);
     const auto k = static_cast<Eigen::Index>(e->columns());
     if (auto prm = e->parameters(
-            c.shape, final_fit.theta.segment(static_cast<Eigen::Index>(off), k).data(), s.model))
+            c.shape, final_fit.theta.segment(static_cast<Eigen::Index>(off), k).data(), model))
       c.params = *prm;
-    c.standard_errors = jackknife_se(s.g, s.current, static_cast<Eigen::Index>(off), c, s.model);
+    c.standard_errors = jackknife_se(g, current, static_cast<Eigen::Index>(off), c, model);
     off += static_cast<std::size_t>(k);
   }
 }
 
 }  // namespace
+
+std::string selection_rule(const Options& opt) { return selection::describe(settings_of(opt)); }
 
 Selection select(const Prepared& P, const Options& opt,
                  const std::function<void(double)>& progress) {
@@ -771,24 +660,23 @@ Selection select(const Prepared& P, const Options& opt,
   const Candidates cand = candidate_columns(Form::nut, opt.exclude);
   const int folds = std::max(4, opt.folds);
   const Grams g = accumulate(P, cand.cols, folds);
-  Search s{P, opt, g, cand, P.states.empty() ? State{} : P.states.front(), 0, folds, {}, {}, {}};
-  for (auto c : g.n) s.n_used += c;
-  out.samples_used = s.n_used;
+  std::size_t n_used = 0;
+  for (auto c : g.n) n_used += c;
+  out.samples_used = n_used;
   out.baseline_sse = out.final_sse = total(g.rr);
   out.measured_ss = total(g.yy);
   out.final_residual = P.residual;  // nothing fitted yet: what the baseline leaves
-  if (s.n_used < 50) {
+  if (n_used < 50) {
     out.too_little_sliding = true;
     return out;
   }
-  s.cur_ho = heldout(g, s.current);
-  out.baseline_heldout_sse = total(s.cur_ho);
-  for (int step = 0; step < opt.max_terms; ++step) {
-    if (progress) progress(static_cast<double>(step) / opt.max_terms);
-    const auto trials = trials_of(s, out);
-    if (trials.empty() || !take_or_stop(s, preferred(trials, opt), out)) break;
-  }
-  finish(s, out);
+  const NutRules rules(P, P.states.empty() ? State{} : P.states.front());
+  const auto o = selection::select(g, cand, rules, settings_of(opt), {}, {}, progress);
+  out.baseline_heldout_sse = total(o.start_ho);
+  take_terms(o, folds, out);
+  if (o.stopped_at) out.next_best = candidate_of(*o.stopped_at, folds);
+  note_implausible(o, P, opt, static_cast<double>(n_used), out);
+  finish(P, g, cand, rules.model(), o.current, out);
   return out;
 }
 

@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "maglead/analysis/results.hpp"
 #include "maglead/effects/effect.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
@@ -39,7 +40,6 @@ struct Options {
   // about a thousandth of its range; a force change below that nobody would act on).
   double min_effect_of_peak = 1e-3;
   double parsimony = 0.99;        // a simpler term reaching this share of the best gain wins
-  double alternative_r2 = 0.95;   // another effect reproducing this much is named beside it
   double breakaway_sigmas = 3.0;  // break-away excess significance (standard errors)
   int max_terms = 6;
   double pulse_sigmas = 8.0;         // a disturbance pulse stands this far out of the residual …
@@ -120,8 +120,13 @@ struct Implausible {
 struct Selection {
   std::vector<Candidate> chosen;
   std::optional<Implausible> implausible;
-  std::vector<double> heldout_sse_after;  // after each chosen term
-  Candidate next_best;                    // the best rejected one (id empty if none)
+  // Per chosen term, the held-out error before and after it was taken.
+  std::vector<double> heldout_sse_before, heldout_sse_after;
+  // The validation: each term taken (+ id) or dropped by the backward check (- id), and the
+  // held-out error of the model it leaves.
+  std::vector<std::pair<std::string, double>> steps;
+  std::vector<Rejected> dropped;  // by the backward check
+  Candidate next_best;            // the best rejected one (id empty if none)
   double baseline_sse = 0, baseline_heldout_sse = 0, final_sse = 0, measured_ss = 0;
   std::vector<double> final_residual;  // at Prepared::states, after every chosen term
   std::size_t samples_used = 0;
@@ -146,6 +151,8 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
                  const ActuatorParams& act, const Options& opt);
 /// The same recording without the sliding samples a hidden stop reaches (Prepared::stops).
 Prepared without_stops(const Prepared& P);
+/// The forward selection's rule in words (the report's method).
+std::string selection_rule(const Options& opt);
 Selection select(const Prepared& P, const Options& opt,
                  const std::function<void(double)>& progress);
 std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,

@@ -190,10 +190,7 @@ Method method_of(const actuator::Prepared& P, const actuator::Options& o) {
   m.filter = "4th-order Butterworth at " + fmt(P.filter_hz) + " Hz, zero phase, on every signal";
   m.decimation = P.decimation;
   m.folds = o.folds;
-  m.selection =
-      "forward, by held-out error on contiguous time segments; a term must cut the "
-      "held-out mean square error by " +
-      fmt(o.min_gain_pct) + " % with t >= " + fmt(o.min_t) + " over the segments";
+  m.selection = actuator::selection_rule(o);
   m.moving_only = "sliding samples only (faster than " + fmt(P.v_min_m_s * 1e3) +
                   " mm/s, one direction over the filter's support); stuck episodes feed "
                   "the break-away test";
@@ -233,19 +230,16 @@ EffectFinding sliding_finding(const actuator::Candidate& c, const actuator::Prep
   return e;
 }
 
-// The terms the sliding fit chose, each with the validation step it adds.
+// The terms the sliding fit chose, and the validation: each term taken or dropped.
 void add_sliding_findings(Findings& J, const actuator::Selection& sel, const actuator::Prepared& P,
                           const ErrorScale& es) {
   J.validation.push_back({"baseline", es.rms(sel.baseline_heldout_sse),
                           es.rel(sel.baseline_heldout_sse), std::nullopt, std::nullopt});
-  double prev = sel.baseline_heldout_sse;
-  for (std::size_t k = 0; k < sel.chosen.size(); ++k) {
-    const auto& c = sel.chosen[k];
-    J.effects.push_back(
-        sliding_finding(c, P, prev, sel.heldout_sse_after[k], sel.baseline_heldout_sse, es));
-    prev = sel.heldout_sse_after[k];
-    J.validation.push_back({"+ " + c.id, es.rms(prev), es.rel(prev), std::nullopt, std::nullopt});
-  }
+  for (std::size_t k = 0; k < sel.chosen.size(); ++k)
+    J.effects.push_back(sliding_finding(sel.chosen[k], P, sel.heldout_sse_before[k],
+                                        sel.heldout_sse_after[k], sel.baseline_heldout_sse, es));
+  for (const auto& [model, sse] : sel.steps)
+    J.validation.push_back({model, es.rms(sse), es.rel(sse), std::nullopt, std::nullopt});
 }
 
 EffectFinding stribeck_finding(const actuator::Candidate& stribeck,
@@ -394,6 +388,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
     J.not_selected.push_back({sel.next_best.id, sel.next_best.gain_pct, sel.next_best.t_stat,
                               std::nullopt, std::nullopt, std::nullopt,
                               params_of(sel.next_best.params)});
+  J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);
   J.conclusion = sel.chosen.empty()

@@ -20,6 +20,7 @@
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "maglead/effects/effect.hpp"
+#include "selection.hpp"
 #include "statistics.hpp"
 
 namespace maglead::analysis {
@@ -152,12 +153,6 @@ struct Score {
   std::vector<double> heldout_sse;  // per fold
   double total = 0.0;
 };
-
-Score heldout(const Grams& g, const std::vector<int>& idx) {
-  Score s{stats::heldout(g, idx), 0.0};
-  s.total = stats::total(s.heldout_sse);
-  return s;
-}
 
 Fit fit_all(const Grams& g, const std::vector<int>& idx) { return stats::solve(g, idx); }
 
@@ -483,19 +478,30 @@ struct Params {
 };
 
 // The unit's parameters from the fitted coefficients of its columns `idx` (a column left out,
-// because the model already spans it, counts zero), judged by the unit's plausible ranges.
-Params unit_params(const Grams& g, const Variant& var, const std::vector<int>& idx,
-                   const Eigen::VectorXd& theta, const effects::State& totals) {
+// because the model already spans it, counts zero); none where the unit gives no value.
+std::optional<effects::Params> axis_params(const Grams& g, const Variant& var,
+                                           const std::vector<int>& idx,
+                                           const Eigen::VectorXd& theta,
+                                           const effects::State& totals) {
   std::vector<double> c(static_cast<std::size_t>(var.effect->axis_columns()), 0.0);
   for (std::size_t j = 0; j < idx.size(); ++j)
     c[static_cast<std::size_t>(g.cols[static_cast<std::size_t>(idx[j])].index)] =
         theta[static_cast<Eigen::Index>(j)];
-  Params p;
-  const auto prm = var.effect->axis_parameters(var.shape, c.data(), totals);
-  p.plausible = prm.has_value() && effects::plausible(*var.effect, *prm);
+  return var.effect->axis_parameters(var.shape, c.data(), totals);
+}
+
+Parameters values_of(const std::optional<effects::Params>& prm) {
+  Parameters values;
   if (prm)
-    for (const auto& [name, v] : *prm) set_parameter(p.values, name, v);
-  return p;
+    for (const auto& [name, v] : *prm) set_parameter(values, name, v);
+  return values;
+}
+
+// The same judged by the unit's plausible ranges.
+Params unit_params(const Grams& g, const Variant& var, const std::vector<int>& idx,
+                   const Eigen::VectorXd& theta, const effects::State& totals) {
+  const auto prm = axis_params(g, var, idx, theta, totals);
+  return {values_of(prm), prm.has_value() && effects::plausible(*var.effect, *prm)};
 }
 
 std::vector<std::pair<double, double>> find_bursts(const Signals& s, const std::vector<double>& r0,
@@ -642,15 +648,6 @@ struct Chosen {
   std::string id() const { return std::string(var->effect->id()); }
 };
 
-struct Trial {
-  const Variant* var = nullptr;
-  std::vector<int> idx;
-  Score sc;
-  double gain = 0, t = 0, worst = 0;  // worst: the worst segment's relative gain [%]
-  int improved = 0;
-  std::string id() const { return std::string(var->effect->id()); }
-};
-
 struct Selected {
   std::vector<int> current;  // Gram positions of the baseline and every chosen column
   std::vector<Chosen> chosen;
@@ -669,226 +666,87 @@ ValidationStep validation_step(const AxisRun& run, const std::string& name, cons
                         100.0 * std::sqrt(in / run.yy_total)};
 }
 
-// A variant's columns the data can tell from the model and from each other: a column the rest
-// already spans (the constant part of direction-dependent friction once an offset is in) adds
-// nothing and is left out.
-std::vector<int> new_columns(const Grams& g, const Variant& var, const std::vector<int>& current) {
-  std::vector<int> kept;
-  for (int c : var.idx) {
-    const auto others = with(current, kept);
-    if (others.empty() || partial_r2(g, {}, {c}, Eigen::VectorXd::Ones(1), others) < 0.999)
-      kept.push_back(c);
+// The axis's rules for the one selection: the units' axis parameters beside the fitted totals,
+// and a force larger than the force sensor's own noise per sample (below that a "term" only fits
+// the small structure every model leaves: quantization, filter edges).
+class AxisRules : public selection::Rules {
+ public:
+  explicit AxisRules(const AxisRun& run) : run_(run) {}
+  std::optional<effects::Params> parameters(const Variant& var, const std::vector<int>& cols,
+                                            const Fit& fit) const override {
+    const auto k = static_cast<Eigen::Index>(cols.size());
+    return axis_params(run_.g, var, cols, fit.theta.tail(k), fitted_totals(run_, fit, var.effect));
   }
-  return kept;
-}
-
-// The effect's best plausible variant by held-out error (nothing if none is plausible).
-std::optional<Trial> best_variant(const AxisRun& run, const effects::Effect* e,
-                                  const std::vector<int>& current) {
-  const Grams& g = run.g;
-  Trial best;
-  best.sc.total = INFINITY;
-  for (const auto& var : run.cand.variants) {
-    if (var.effect != e) continue;
-    const std::vector<int> cols = new_columns(g, var, current);
-    if (cols.empty()) continue;
-    const auto idx = with(current, cols);
-    Score sc = heldout(g, idx);
-    const Fit f = fit_all(g, idx);
-    const Params pp =
-        unit_params(g, var, cols, f.theta.tail(static_cast<Eigen::Index>(cols.size())),
-                    fitted_totals(run, f, e));
-    if (!pp.plausible) continue;  // a term must make physical sense to explain anything
-    if (sc.total < best.sc.total) best = Trial{&var, cols, sc, 0, 0, 0, 0};
+  bool resolved(const selection::Trial& /*tr*/, double explained_n) const override {
+    return explained_n >= run_.P.noise_floor_n;
   }
-  if (!std::isfinite(best.sc.total)) return std::nullopt;
-  return best;
+
+ private:
+  const AxisRun& run_;
+};
+
+// No segment filter (a drive force acts everywhere); a simpler candidate with at least half the
+// best one's gain goes first; a column the model already spans (the constant part of
+// direction-dependent friction once an offset is in) is left out.
+selection::Settings settings_of(const AnalysisOptions& opt) {
+  return {.max_terms = opt.max_terms,
+          .min_gain_pct = opt.min_gain_pct,
+          .min_t = opt.min_t,
+          .acting_share = 0,
+          .parsimony = 0.5,
+          .leave_out_spanned = true};
 }
 
-// Consistency over the segments: t statistic of the per-segment relative gains (relative, so an
-// effect that grows over time counts in early segments too), the worst segment, the total gain.
-void score_trial(Trial& t, const Score& cur) {
-  std::vector<double> d;
-  for (std::size_t f = 0; f < cur.heldout_sse.size(); ++f) {
-    if (!(cur.heldout_sse[f] > 0)) continue;
-    d.push_back((cur.heldout_sse[f] - t.sc.heldout_sse[f]) / cur.heldout_sse[f]);
-    if (d.back() > 0) ++t.improved;
-  }
-  t.t = stats::t_statistic(d);
-  t.worst = d.empty() ? 0.0 : 100.0 * *std::min_element(d.begin(), d.end());
-  t.gain = 100.0 * (cur.total - t.sc.total) / cur.total;
-}
-
-// A candidate: an axis law the selection may take and has not taken yet.
-bool usable(const effects::Effect* e, const std::set<std::string>& used) {
-  return e->on_axis() && e->selectable() && e->axis_columns() > 0 &&
-         !used.count(std::string(e->id()));
-}
-
-std::vector<Trial> trials_of(const AxisRun& run, const std::set<std::string>& used,
-                             const std::vector<int>& current, const Score& cur) {
-  std::vector<Trial> trials;
-  for (const effects::Effect* e : effects::library()) {
-    if (!usable(e, used)) continue;
-    auto best = best_variant(run, e, current);
-    if (!best) continue;
-    score_trial(*best, cur);
-    trials.push_back(std::move(*best));
-  }
-  // Best (lowest held-out error) first.
-  std::sort(trials.begin(), trials.end(),
-            [](const Trial& a, const Trial& b) { return a.sc.total < b.sc.total; });
-  return trials;
-}
-
-// Root-mean-square force a trial explains on top of the current model.
-double explained_n(const AxisRun& run, const Score& cur, const Trial& tr) {
-  return std::sqrt(std::max(0.0, cur.total - tr.sc.total) / run.n_total);
-}
-
-// Significant: a real share of the held-out error, consistent over the segments, and larger
-// than the force sensor's own noise per sample (below that a "term" only fits the small
-// structure every model leaves: quantization, filter edges). A localized effect improves only
-// the segments where it occurs: a large total gain that makes no segment worse counts as
-// consistent too.
-bool significant(const AxisRun& run, const Score& cur, const Trial& tr) {
-  const auto& opt = run.opt;
-  const bool consistent =
-      tr.t >= opt.min_t || (tr.gain >= 10.0 * opt.min_gain_pct && tr.worst > -1.0);
-  return tr.gain >= opt.min_gain_pct && consistent &&
-         explained_n(run, cur, tr) >= run.P.noise_floor_n;
-}
-
-// Parsimony among nested alternatives: a simpler candidate that lies (almost) inside the best
-// one's span and brings at least half its gain goes first; the rest is tested next.
-std::size_t parsimony_pick(const AxisRun& run, const std::vector<Trial>& trials,
-                           const std::vector<int>& current, const Score& cur) {
-  const Grams& g = run.g;
-  for (std::size_t k = 1; k < trials.size(); ++k) {
-    const auto& a = trials[k];
-    if (!significant(run, cur, a) || a.idx.size() >= trials[0].idx.size() ||
-        a.gain < 0.5 * trials[0].gain)
-      continue;
-    const Eigen::VectorXd wa =
-        fit_all(g, with(current, a.idx)).theta.tail(static_cast<Eigen::Index>(a.idx.size()));
-    if (partial_r2(g, current, a.idx, wa, trials[0].idx) > 0.98) return k;
-  }
-  return 0;
-}
-
-// Identifiability: other candidates reproducing the chosen term's contribution are named with it.
-std::vector<Alternative> alternatives_of(const AxisRun& run, const std::set<std::string>& used,
-                                         const Trial& tr, const std::vector<int>& current) {
-  const Grams& g = run.g;
-  const Eigen::VectorXd w =
-      fit_all(g, with(current, tr.idx)).theta.tail(static_cast<Eigen::Index>(tr.idx.size()));
-  std::vector<Alternative> out;
-  for (const effects::Effect* e : effects::library()) {
-    if (e == tr.var->effect || !usable(e, used)) continue;
-    const auto [best_var, best_r2] = best_reproducing(g, run.cand, e, current, tr.idx, w);
-    if (best_r2 <= 0.9) continue;
-    const std::vector<int> cols = new_columns(g, *best_var, current);
-    const Fit fa = fit_all(g, with(current, cols));
-    const Params pa =
-        unit_params(g, *best_var, cols, fa.theta.tail(static_cast<Eigen::Index>(cols.size())),
-                    fitted_totals(run, fa, e));
-    out.push_back({std::string(e->id()), pa.values, 100.0 * best_r2, pa.plausible});
-  }
-  return out;
-}
-
-// The chosen trial with what it explains, its alternatives and the model it leaves.
-Chosen take(const AxisRun& run, Selected& sel, const std::vector<Trial>& trials, std::size_t pick,
-            const std::set<std::string>& used, Score& cur) {
-  const Trial& tr = trials[pick];
-  Chosen ch{tr.var,  tr.idx, tr.gain, tr.t, 0, tr.improved, {}, "", explained_n(run, cur, tr),
+Chosen chosen_of(const selection::Term& term) {
+  const auto& tr = term.trial;
+  Chosen ch{tr.var,
+            tr.idx,
+            tr.gain,
+            tr.t,
+            100.0 * (1.0 - std::sqrt(term.after / term.before)),
+            tr.improved,
+            {},
+            "",
+            term.explained_n,
             tr.worst};
-  ch.alternatives = alternatives_of(run, used, tr, sel.current);
-  sel.current.insert(sel.current.end(), tr.idx.begin(), tr.idx.end());
-  const Score next = heldout(run.g, sel.current);
-  ch.improvement_pct = 100.0 * (1.0 - std::sqrt(next.total / cur.total));
-  if (pick != 0)
-    ch.note =
-        "chosen before '" + trials[0].id() + "', which contains it: the simpler explanation first";
-  cur = next;
-  sel.validation.push_back(validation_step(run, "+ " + tr.id(), cur, sel.current));
+  for (const auto& a : term.alternatives)
+    ch.alternatives.push_back(
+        {std::string(a.var->effect->id()), values_of(a.params), 100.0 * a.r2, a.plausible});
+  if (term.over)
+    ch.note = "chosen before '" + std::string(term.over->id()) +
+              "', which contains it: the simpler explanation first";
   return ch;
 }
 
-// The chosen terms' columns again, in order, each without what the model before it spans.
-std::vector<int> rebuild_columns(const AxisRun& run, std::vector<Chosen>& chosen) {
-  std::vector<int> current = run.base_cols;
-  for (auto& ch : chosen) {
-    ch.idx = new_columns(run.g, *ch.var, current);
-    current.insert(current.end(), ch.idx.begin(), ch.idx.end());
-  }
-  return current;
-}
-
-// The chosen term the others, their columns restored, leave least to add, if it no longer passes
-// the selection's own test once they are all in (the held-out t and gain it adds last).
-std::optional<std::pair<std::size_t, Rejected>> weakest_term(const AxisRun& run,
-                                                             const Selected& sel,
-                                                             const Score& cur) {
-  std::optional<std::pair<std::size_t, Rejected>> out;
-  for (std::size_t k = 0; k < sel.chosen.size(); ++k) {
-    auto others = sel.chosen;
-    others.erase(others.begin() + static_cast<std::ptrdiff_t>(k));
-    const Score without = heldout(run.g, rebuild_columns(run, others));
-    Trial tr{sel.chosen[k].var, sel.chosen[k].idx, cur, 0, 0, 0, 0};
-    score_trial(tr, without);
-    if (significant(run, without, tr) || (out && out->second.t_stat <= tr.t)) continue;
-    char why[160];
-    std::snprintf(why, sizeof why,
-                  "dropped by the backward check: with the other terms in, it adds a held-out "
-                  "gain of %.2f %% at t = %.2f",
-                  tr.gain, tr.t);
-    out = {k, Rejected{tr.id(), tr.gain, tr.t, tr.worst, explained_n(run, without, tr), why,
-                       std::nullopt}};
-  }
+// The validation: the baseline, then each term taken (+) or dropped by the backward check (−).
+std::vector<ValidationStep> validation_of(const AxisRun& run, const selection::Outcome& o) {
+  std::vector<ValidationStep> out{
+      validation_step(run, "baseline", {o.start_ho, stats::total(o.start_ho)}, run.base_cols)};
+  for (const auto& st : o.steps)
+    out.push_back(validation_step(run, std::string(1, st.sign) + " " + std::string(st.effect->id()),
+                                  {st.ho, stats::total(st.ho)}, st.current));
   return out;
 }
 
-// Backward check: a term taken early may be explained by those taken after it (an offset once
-// direction-dependent friction is in, whose own constant columns were left out while the offset
-// spanned them). Each term is tested again as if added last; the weakest that fails the forward
-// test is dropped, the others' columns restored, and the check repeats. Each drop is a step of
-// the validation.
-void backward_check(const AxisRun& run, Selected& sel) {
-  Score cur = heldout(run.g, sel.current);
-  while (auto weak = weakest_term(run, sel, cur)) {
-    sel.chosen.erase(sel.chosen.begin() + static_cast<std::ptrdiff_t>(weak->first));
-    sel.current = rebuild_columns(run, sel.chosen);
-    cur = heldout(run.g, sel.current);
-    sel.validation.push_back(validation_step(run, "- " + weak->second.id, cur, sel.current));
-    sel.rejected.push_back(std::move(weak->second));
-  }
-}
-
 Selected select_terms(const AxisRun& run) {
-  Selected sel;
-  sel.current = run.base_cols;
-  Score cur = heldout(run.g, sel.current);
-  sel.base_heldout = cur.total;
-  sel.validation.push_back(validation_step(run, "baseline", cur, sel.current));
-  std::set<std::string> used(run.in_baseline.begin(), run.in_baseline.end());
-  for (int step = 0; step < run.opt.max_terms; ++step) {
-    run.progress("selection", static_cast<double>(step) / run.opt.max_terms);
-    const auto trials = trials_of(run, used, sel.current, cur);
-    if (trials.empty()) break;
-    if (!significant(run, cur, trials.front())) {
-      const auto& tb = trials.front();
-      sel.rejected.push_back({tb.id(), tb.gain, tb.t, tb.worst, explained_n(run, cur, tb),
-                              "best remaining candidate, below the significance threshold",
-                              std::nullopt});
-      break;
-    }
-    const std::size_t pick = parsimony_pick(run, trials, sel.current, cur);
-    sel.chosen.push_back(take(run, sel, trials, pick, used, cur));
-    used.insert(trials[pick].id());
-  }
-  backward_check(run, sel);
+  std::vector<const effects::Effect*> in_baseline;
+  for (const auto* e : effects::library())
+    if (run.in_baseline.count(std::string(e->id()))) in_baseline.push_back(e);
+  const AxisRules rules(run);
+  const auto o = selection::select(run.g, run.cand, rules, settings_of(run.opt), run.base_cols,
+                                   in_baseline, [&](double f) { run.progress("selection", f); });
   run.progress("selection", 1.0);
+  Selected sel;
+  sel.current = o.current;
+  sel.base_heldout = stats::total(o.start_ho);
+  sel.validation = validation_of(run, o);
+  for (const auto& term : o.terms) sel.chosen.push_back(chosen_of(term));
+  if (o.stopped_at)
+    sel.rejected.push_back(
+        selection::rejected_of(*o.stopped_at, o.stopped_explained_n,
+                               "best remaining candidate, below the significance threshold"));
+  for (const auto& [tr, explained] : o.dropped)
+    sel.rejected.push_back(selection::dropped_of(tr, explained));
   return sel;
 }
 
@@ -931,12 +789,8 @@ void describe_method(Findings& J, const AxisRun& run) {
   J.method.decimation = run.P.decimation;
   J.method.identification_bandwidth_hz = run.P.bandwidth_hz;
   J.method.folds = run.folds;
-  J.method.selection =
-      "forward, by held-out error on contiguous time segments; a term must cut the "
-      "held-out mean square error by >= " +
-      fmt(run.opt.min_gain_pct) + " % with t >= " + fmt(run.opt.min_t) +
-      " over the segments (or >= 10x that gain with no segment worse), and explain "
-      "more RMS than the force noise floor";
+  J.method.selection = selection::describe(settings_of(run.opt)) +
+                       ", and explain more RMS than the force noise floor";
   J.method.moving_only = "all samples";
   J.noise_floor_n = run.P.noise_floor_n;
 }

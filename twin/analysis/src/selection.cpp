@@ -1,0 +1,307 @@
+// The one forward selection of the analysis (see selection.hpp): held-out segments decide, the
+// effect units give the columns and parameters, and Rules/Settings say what differs.
+#include "selection.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace maglead::analysis::selection {
+namespace {
+
+using stats::Fit;
+using stats::total;
+
+// A simpler trial lying this much inside a richer one's span is the same explanation, nested.
+constexpr double kNestedR2 = 0.98;
+// Another effect reproducing this share of a taken term's contribution is named beside it.
+constexpr double kAlternativeR2 = 0.95;
+// An effect that improves only the segments where it occurs is consistent when its total gain
+// is this many times the minimum and no segment gets worse by more than 1 %.
+constexpr double kLocalized = 10.0;
+
+// The search's state: the model so far and its held-out error.
+struct Search {
+  const stats::Grams& g;
+  const Candidates& cand;
+  const Rules& rules;
+  const Settings& st;
+  double n_used = 0;
+  std::vector<int> current;
+  std::vector<double> cur_ho;
+  std::vector<const effects::Effect*> used;
+  bool taken(const effects::Effect* e) const {
+    return std::find(used.begin(), used.end(), e) != used.end();
+  }
+};
+
+// A variant's columns beyond `current`; with Settings::leave_out_spanned, without those the
+// model already spans (the constant part of direction-dependent friction once an offset is in):
+// they add nothing the data can tell.
+std::vector<int> columns_of(const Search& s, const Variant& var, const std::vector<int>& current) {
+  if (!s.st.leave_out_spanned) return var.idx;
+  std::vector<int> kept;
+  for (int c : var.idx) {
+    const auto others = with(current, kept);
+    if (others.empty() || stats::partial_r2(s.g, {}, {c}, Eigen::VectorXd::Ones(1), others) < 0.999)
+      kept.push_back(c);
+  }
+  return kept;
+}
+
+// Keeps the implausible fit that removes the most held-out error in this step.
+void note_implausible(const Search& s, Outcome& out, const Variant& var, const effects::Params& prm,
+                      std::vector<double> ho) {
+  const double after = total(ho);
+  if (!(after < total(s.cur_ho))) return;
+  if (out.implausible && total(out.implausible->ho) <= after) return;
+  out.implausible = ImplausibleFit{&var, prm, std::move(ho), s.cur_ho};
+}
+
+// The effect's variant with the least held-out error among those with plausible parameters.
+std::optional<Trial> best_variant(const Search& s, const effects::Effect* e, Outcome& out) {
+  std::optional<Trial> best;
+  for (const auto& var : s.cand.variants) {
+    if (var.effect != e) continue;
+    std::vector<int> cols = columns_of(s, var, s.current);
+    if (cols.empty()) continue;
+    const auto idx = with(s.current, cols);
+    const Fit full = stats::solve(s.g, idx, -1);
+    const auto prm = s.rules.parameters(var, cols, full);
+    if (!prm) continue;
+    auto ho = stats::heldout(s.g, idx);
+    if (!effects::plausible(*e, *prm)) {  // a term must make physical sense to explain anything
+      note_implausible(s, out, var, *prm, std::move(ho));
+      continue;
+    }
+    if (best && total(ho) >= total(best->ho)) continue;
+    const auto k = static_cast<Eigen::Index>(cols.size());
+    best = Trial{&var, std::move(cols), full.theta.tail(k), std::move(ho), 0, 0, 0, 0, *prm};
+  }
+  return best;
+}
+
+// Whether the trial's fitted contribution carries Settings::acting_share of segment f's error.
+bool acts_in(const Search& s, const Trial& tr, std::size_t f, double err) {
+  if (s.st.acting_share == 0) return true;
+  const auto k = static_cast<Eigen::Index>(tr.idx.size());
+  Eigen::MatrixXd xx(k, k);
+  for (Eigen::Index r = 0; r < k; ++r)
+    for (Eigen::Index c = 0; c < k; ++c)
+      xx(r, c) =
+          s.g.xx[f](tr.idx[static_cast<std::size_t>(r)], tr.idx[static_cast<std::size_t>(c)]);
+  return tr.w.dot(xx * tr.w) >= s.st.acting_share * err;
+}
+
+// Consistency over the segments where the term acts (elsewhere it predicts nothing and tells
+// nothing, as a drift early in a recording): t of the relative gain per segment (so an effect
+// that grows counts in early segments too) or of the error removed (segments weighed by what is at
+// stake), the larger; the worst segment and the total gain.
+void score(const Search& s, Trial& tr, const std::vector<double>& cur) {
+  std::vector<double> d, rel;
+  tr.improved = 0;
+  for (std::size_t f = 0; f < cur.size(); ++f) {
+    if (!(cur[f] > 0) || !acts_in(s, tr, f, cur[f])) continue;
+    d.push_back(cur[f] - tr.ho[f]);
+    rel.push_back(d.back() / cur[f]);
+    tr.improved += d.back() > 0;
+  }
+  tr.t = std::max(stats::t_statistic(rel), stats::t_statistic(d));
+  tr.worst = rel.empty() ? 0.0 : 100.0 * *std::min_element(rel.begin(), rel.end());
+  tr.gain = 100.0 * (total(cur) - total(tr.ho)) / total(cur);
+}
+
+// Root-mean-square force a trial explains on top of the model with held-out error `cur`.
+double explained_n(const Search& s, const std::vector<double>& cur, const Trial& tr) {
+  return std::sqrt(std::max(0.0, total(cur) - total(tr.ho)) / s.n_used);
+}
+
+// Significant: a real share of the held-out error, consistent over the segments, and a force the
+// recording resolves (Rules::resolved); a localized effect (kLocalized) counts as consistent.
+bool significant(const Search& s, const std::vector<double>& cur, const Trial& tr) {
+  const bool consistent =
+      tr.t >= s.st.min_t || (tr.gain >= kLocalized * s.st.min_gain_pct && tr.worst > -1.0);
+  return tr.gain >= s.st.min_gain_pct && consistent &&
+         s.rules.resolved(tr, explained_n(s, cur, tr));
+}
+
+// Every effect not taken yet, each at its best variant and scored.
+std::vector<Trial> trials_of(const Search& s, Outcome& out) {
+  std::vector<Trial> trials;
+  for (const auto* e : effects::library()) {
+    if (s.taken(e)) continue;
+    auto best = best_variant(s, e, out);
+    if (!best) continue;
+    score(s, *best, s.cur_ho);
+    trials.push_back(std::move(*best));
+  }
+  return trials;
+}
+
+// The trial the rule names next, starting from the best one: a simpler trial (fewer columns)
+// reaching Settings::parsimony of its gain and lying inside its span (kNestedR2) goes first (the
+// data cannot prefer the richer one; it is tested next), in the library's order (simpler
+// effects first), and so on down. If the simpler one is not significant, neither is what the
+// richer one adds to it: the search stops.
+std::size_t preferred(const Search& s, const std::vector<Trial>& trials, std::size_t best) {
+  std::size_t pick = best;
+  for (std::size_t k = 0; k < trials.size(); ++k) {
+    const Trial &a = trials[k], &p = trials[pick];
+    if (a.idx.size() >= p.idx.size() || a.gain < s.st.parsimony * p.gain) continue;
+    if (stats::partial_r2(s.g, s.current, a.idx, a.w, p.idx) > kNestedR2) pick = k;
+  }
+  return pick;
+}
+
+// Identifiability: other effects whose columns reproduce the taken term's contribution.
+std::vector<Alternative> alternatives_of(const Search& s, const Trial& tr) {
+  std::vector<Alternative> out;
+  for (const auto* e : effects::library()) {
+    if (e == tr.var->effect || s.taken(e)) continue;
+    const auto [var, r2] = best_reproducing(s.g, s.cand, e, s.current, tr.idx, tr.w);
+    if (!var || r2 < kAlternativeR2) continue;
+    const auto cols = columns_of(s, *var, s.current);
+    const auto prm = s.rules.parameters(*var, cols, stats::solve(s.g, with(s.current, cols), -1));
+    out.push_back({var, prm, r2, prm && effects::plausible(*e, *prm)});
+  }
+  return out;
+}
+
+// Takes trials[pick] as the next term (preferred to trials[best] if they differ).
+void take(Search& s, Outcome& out, const std::vector<Trial>& trials, std::size_t pick,
+          std::size_t best) {
+  const Trial& tr = trials[pick];
+  Term term{tr,
+            explained_n(s, s.cur_ho, tr),
+            total(s.cur_ho),
+            total(tr.ho),
+            pick != best ? trials[best].var->effect : nullptr,
+            alternatives_of(s, tr)};
+  s.current.insert(s.current.end(), tr.idx.begin(), tr.idx.end());
+  s.used.push_back(tr.var->effect);
+  s.cur_ho = tr.ho;
+  out.terms.push_back(std::move(term));
+  out.steps.push_back({'+', tr.var->effect, s.current, s.cur_ho});
+  out.implausible.reset();  // judged against what the next step leaves
+}
+
+// The terms' columns again, in order, each without what the model before it spans.
+std::vector<int> rebuild(const Search& s, const std::vector<int>& start, std::vector<Term>& terms) {
+  std::vector<int> current = start;
+  for (auto& t : terms) {
+    t.trial.idx = columns_of(s, *t.trial.var, current);
+    current.insert(current.end(), t.trial.idx.begin(), t.trial.idx.end());
+  }
+  return current;
+}
+
+struct Weakest {
+  std::size_t k;
+  Trial trial;
+  double explained_n;
+};
+
+// The term the others, their columns restored, leave least to add, if what it adds last is no
+// longer a real share of the held-out error or a force the recording resolves. Consistency over
+// the segments is not asked again: taken last beside a term it is collinear with (a coupling
+// gain error beside a gain drift), a term that removes most of the error can still have a
+// segment where the pair trade places, and the forward test already asked it.
+std::optional<Weakest> weakest_term(const Search& s, const std::vector<int>& start,
+                                    const std::vector<Term>& terms) {
+  std::optional<Weakest> out;
+  const Fit all = stats::solve(s.g, s.current, -1);
+  auto off = static_cast<Eigen::Index>(start.size());
+  for (std::size_t k = 0; k < terms.size(); ++k) {
+    Trial tr = terms[k].trial;
+    const auto n = static_cast<Eigen::Index>(tr.idx.size());
+    tr.w = all.theta.segment(off, n);
+    off += n;
+    tr.ho = s.cur_ho;
+    auto others = terms;
+    others.erase(others.begin() + static_cast<std::ptrdiff_t>(k));
+    const auto without = stats::heldout(s.g, rebuild(s, start, others));
+    score(s, tr, without);
+    const double expl = explained_n(s, without, tr);
+    const bool adds = tr.gain >= s.st.min_gain_pct && s.rules.resolved(tr, expl);
+    if (adds || (out && out->trial.t <= tr.t)) continue;  // the least consistent goes first
+    out = Weakest{k, std::move(tr), expl};
+  }
+  return out;
+}
+
+// Backward check: a term taken early may be explained by those taken after it (an offset once
+// direction-dependent friction is in, whose own constant columns were left out while the offset
+// spanned them). Each term is tested again as if added last; the weakest that adds too little is
+// dropped, the others' columns restored, and the check repeats.
+void backward_check(Search& s, const std::vector<int>& start, Outcome& out) {
+  while (auto weak = weakest_term(s, start, out.terms)) {
+    out.terms.erase(out.terms.begin() + static_cast<std::ptrdiff_t>(weak->k));
+    s.current = rebuild(s, start, out.terms);
+    s.cur_ho = stats::heldout(s.g, s.current);
+    out.steps.push_back({'-', weak->trial.var->effect, s.current, s.cur_ho});
+    out.dropped.emplace_back(std::move(weak->trial), weak->explained_n);
+  }
+}
+
+}  // namespace
+
+Rejected rejected_of(const Trial& tr, double explained_n, std::string reason) {
+  return Rejected{std::string(tr.var->effect->id()),
+                  tr.gain,
+                  tr.t,
+                  tr.worst,
+                  explained_n,
+                  std::move(reason),
+                  std::nullopt};
+}
+
+Rejected dropped_of(const Trial& tr, double explained_n) {
+  char why[160];
+  std::snprintf(why, sizeof why,
+                "dropped by the backward check: with the other terms in, it adds a held-out "
+                "gain of %.2f %% at t = %.2f",
+                tr.gain, tr.t);
+  return rejected_of(tr, explained_n, why);
+}
+
+std::string describe(const Settings& st) {
+  std::ostringstream o;
+  o << "forward, by held-out error on contiguous time segments; a term must cut the held-out "
+       "mean square error by >= "
+    << st.min_gain_pct << " % with t >= " << st.min_t << " over the segments (or >= " << kLocalized
+    << "x that gain with no segment worse)";
+  return o.str();
+}
+
+Outcome select(const stats::Grams& g, const Candidates& cand, const Rules& rules,
+               const Settings& st, const std::vector<int>& start,
+               const std::vector<const effects::Effect*>& excluded,
+               const std::function<void(double)>& progress) {
+  Search s{g, cand, rules, st, 0, start, stats::heldout(g, start), excluded};
+  for (auto c : g.n) s.n_used += static_cast<double>(c);
+  Outcome out;
+  out.start_ho = s.cur_ho;
+  for (int step = 0; step < st.max_terms; ++step) {
+    if (progress) progress(static_cast<double>(step) / st.max_terms);
+    const auto trials = trials_of(s, out);
+    if (trials.empty()) break;
+    const auto best = static_cast<std::size_t>(
+        std::min_element(trials.begin(), trials.end(),
+                         [](const Trial& a, const Trial& b) { return total(a.ho) < total(b.ho); }) -
+        trials.begin());
+    const std::size_t pick = preferred(s, trials, best);
+    if (!significant(s, s.cur_ho, trials[pick])) {
+      out.stopped_at = trials[pick];
+      out.stopped_explained_n = explained_n(s, s.cur_ho, trials[pick]);
+      break;
+    }
+    take(s, out, trials, pick, best);
+  }
+  backward_check(s, start, out);
+  out.current = s.current;
+  out.ho = s.cur_ho;
+  return out;
+}
+
+}  // namespace maglead::analysis::selection

@@ -1,0 +1,114 @@
+#pragma once
+// The one forward selection both analyses run (internal to twin/analysis): every remaining
+// candidate effect's best variant scored on held-out time segments, the next term picked by the
+// rule, taken or the search stopped, then a backward check. What differs between an axis and an
+// actuator is only what `Rules` and `Settings` say.
+#include <Eigen/Dense>
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "candidates.hpp"
+#include "maglead/analysis/results.hpp"
+#include "maglead/effects/effect.hpp"
+#include "statistics.hpp"
+
+namespace maglead::analysis::selection {
+
+/// One effect tried as the next term, at its best variant.
+struct Trial {
+  const Variant* var = nullptr;
+  std::vector<int> idx;    // its columns in the fit (after those already in)
+  Eigen::VectorXd w;       // their coefficients in the fit with them
+  std::vector<double> ho;  // held-out error per segment with it
+  double gain = 0, t = 0;  // held-out gain [%] and its consistency over the segments
+  double worst = 0;        // the worst counted segment's relative gain [%]
+  int improved = 0;        // segments it improves
+  effects::Params params;
+};
+
+/// What an axis and an actuator decide differently (the rest is Settings).
+class Rules {
+ public:
+  virtual ~Rules() = default;
+  /// The variant's physical parameters from `fit`, the model with its columns `cols` last;
+  /// none: the unit gives no value there.
+  virtual std::optional<effects::Params> parameters(const Variant& var,
+                                                    const std::vector<int>& cols,
+                                                    const stats::Fit& fit) const = 0;
+  /// Whether the RMS force a trial explains is one the recording resolves and a user acts on.
+  virtual bool resolved(const Trial& tr, double explained_n) const = 0;
+};
+
+struct Settings {
+  int max_terms = 6;
+  double min_gain_pct = 1.0;  // held-out error a term must remove …
+  double min_t = 3.0;         // … consistently over the segments
+  // Segments where the term's fitted contribution carries less than this share of the error are
+  // not counted (it predicts nothing there); 0: every segment counts.
+  double acting_share = 0;
+  double parsimony = 0.5;          // a simpler term reaching this share of the best gain goes first
+  bool leave_out_spanned = false;  // a variant's columns the model already spans are left out
+};
+
+/// Another effect that reproduces a taken term's contribution.
+struct Alternative {
+  const Variant* var;
+  std::optional<effects::Params> params;
+  double r2;
+  bool plausible;
+};
+
+struct Term {
+  Trial trial;  // as taken; trial.idx: its columns in the final model
+  double explained_n = 0;
+  double before = 0, after = 0;           // total held-out error before and after it was taken
+  const effects::Effect* over = nullptr;  // the richer best trial it was preferred to, if any
+  std::vector<Alternative> alternatives;
+};
+
+/// A step of the validation: a term taken (+) or dropped (−) and the model it leaves.
+struct Step {
+  char sign;
+  const effects::Effect* effect;
+  std::vector<int> current;
+  std::vector<double> ho;
+};
+
+/// The implausible fit that would remove most held-out error in the last step tried.
+struct ImplausibleFit {
+  const Variant* var;
+  effects::Params params;
+  std::vector<double> ho, cur_ho;
+};
+
+struct Outcome {
+  std::vector<int> current;  // the final model's columns: the start's, then each term's
+  std::vector<double> start_ho, ho;
+  std::vector<Term> terms;  // the terms kept, in the order taken
+  std::vector<Step> steps;
+  std::optional<Trial> stopped_at;  // the trial the rule named next, below the threshold
+  double stopped_explained_n = 0;
+  std::vector<std::pair<Trial, double>> dropped;  // by the backward check, with explained_n
+  std::optional<ImplausibleFit> implausible;
+};
+
+/// A trial as a term not selected, with the RMS force it explains and why.
+Rejected rejected_of(const Trial& tr, double explained_n, std::string reason);
+/// A term the backward check dropped, with what it adds last.
+Rejected dropped_of(const Trial& tr, double explained_n);
+
+/// The rule in words, for the report's method.
+std::string describe(const Settings& st);
+
+/// Runs the selection on `g` from the model with columns `start`; effects in `excluded` are not
+/// candidates. `progress` (may be empty) gets the share of the terms tried.
+Outcome select(const stats::Grams& g, const Candidates& cand, const Rules& rules,
+               const Settings& st, const std::vector<int>& start,
+               const std::vector<const effects::Effect*>& excluded,
+               const std::function<void(double)>& progress);
+
+}  // namespace maglead::analysis::selection
