@@ -57,7 +57,7 @@ void PassiveLoadDrift::clear() noexcept {
   stretch_ = map_stretch_ = 0;
   shift_m_ = 0;
   disp_gain_ = disp_step_ = Dispersion{};
-  gain_ = step_ = Pool{};
+  gain_ = step_ = Mean{};
   fc_s_ = used_s_ = 0;
   est_ = PassiveEstimate{};
 }
@@ -318,26 +318,26 @@ bool PassiveLoadDrift::parts_on_line(const Design& d, const Vec& th, double sd) 
 /// time) and by the window's own variance (a window of a few slides counts less than a sweep).
 void PassiveLoadDrift::add_window(const Fit& f) noexcept {
   disp_gain_.add(f.gain, f.var_gain);
-  gain_.add(fc_s_, f.gain, f.var_gain);
+  gain_.add(fc_s_, s_.memory_s, f.gain, f.var_gain);
   if (f.has_step && f.var_step > 0) {
     disp_step_.add(f.step, f.var_step);
-    step_.add(fc_s_, f.step, f.var_step);
+    step_.add(fc_s_, s_.memory_s, f.step, f.var_step);
   }
   evaluate();
   updated_ = true;
 }
 
 /// The change since the reference: α = g_ref / g − 1 ≈ −Δg, Δ₀ the estimate's error at zero
-/// load (α·F_c + ΔF_f), and at the rated force α·F_r + Δ₀. Means and variances pooled as random
-/// effects (Pool): windows that differ more than their least squares say widen the error bar
-/// and weigh alike, instead of the most confident one setting the mean.
+/// load (α·F_c + ΔF_f), and at the rated force α·F_r + Δ₀. Variances: the weighted means',
+/// scaled by the dispersion between successive windows where it exceeds one (windows that
+/// differ more than their least squares say).
 void PassiveLoadDrift::evaluate() noexcept {
-  if (step_.n == 0) return;  // no zero-load figure yet
-  const auto [alpha, var_a] = gain_.mean_var(fc_s_, s_.memory_s, disp_gain_.tau2());
-  const auto [step, var_0] = step_.mean_var(fc_s_, s_.memory_s, disp_step_.tau2());
-  const double fr = s_.rated_n;
+  if (!(step_.w > 0)) return;  // no zero-load figure yet
+  const double var_a = disp_gain_.factor() * gain_.var();
+  const double var_0 = disp_step_.factor() * step_.var();
+  const double alpha = gain_.mean(), fr = s_.rated_n;
   PassiveEstimate e;
-  e.zero_load_n = -step, e.zero_load_se_n = std::sqrt(var_0);
+  e.zero_load_n = -step_.mean(), e.zero_load_se_n = std::sqrt(var_0);
   e.rated_n = alpha * fr + e.zero_load_n;
   e.rated_se_n = std::sqrt(fr * fr * var_a + var_0);
   e.gain_change = 1.0 / (1.0 + alpha) - 1.0;

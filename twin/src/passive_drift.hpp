@@ -87,40 +87,26 @@ class PassiveLoadDrift {
     double sum_p = 0, sum_f = 0;
     int n = 0;
   };
-  /// The windows' values, forgotten in force-control time and pooled as random effects: each
-  /// weighted by 1/(v + τ²), τ² the spread between windows beyond their own variances. A window
-  /// whose least squares claim more than its comparison holds (a few blocks compared at a fitted
-  /// shift) then counts as one window, not as all of them.
-  struct Pool {
-    static constexpr int kMax = 64;  // 128 s of force control: the oldest weigh e^(−16)
-    std::array<std::array<double, 3>, kMax> w{};  // at (force-control time), x, v
-    int n = 0, next = 0;
-    void add(double at_s, double x, double v) noexcept {
-      w[static_cast<std::size_t>(next)] = {at_s, x, v};
-      next = (next + 1) % kMax, n = std::min(n + 1, kMax);
+  /// Forgotten means weighted by inverse variance: Σ w, Σ w·x, Σ f²/v.
+  struct Mean {
+    double w = 0, wx = 0, f2v = 0, at_s = 0;
+    void add(double now_s, double memory_s, double x, double v) noexcept {
+      const double fg = std::exp(-(now_s - at_s) / memory_s);
+      w = fg * w + 1 / v, wx = fg * wx + x / v, f2v = fg * fg * f2v + 1 / v, at_s = now_s;
     }
-    /// Weighted mean and its variance at now_s.
-    std::array<double, 2> mean_var(double now_s, double memory_s, double tau2) const noexcept {
-      double sw = 0, swx = 0, sf2v = 0;
-      for (int i = 0; i < n; ++i) {
-        const auto& [at, x, v] = w[static_cast<std::size_t>(i)];
-        const double fg = std::exp(-(now_s - at) / memory_s), u = v + tau2;
-        sw += fg / u, swx += fg * x / u, sf2v += fg * fg / u;
-      }
-      return {swx / sw, sf2v / (sw * sw)};
-    }
+    double mean() const noexcept { return wx / w; }
+    double var() const noexcept { return f2v / (w * w); }
   };
-  /// Successive differences beyond their own variances: τ² = mean of (Δ² − v − v') / 2, at
-  /// least 0 (a drift adds its increment, small over one window).
+  /// Successive differences in units of their own variances: Σ Δ² / (v + v').
   struct Dispersion {
-    double last = 0, last_v = 0, excess = 0;
+    double last = 0, last_v = 0, sum = 0;
     int n = 0;
     bool has_last = false;
     void add(double x, double v) noexcept {
-      if (has_last) excess += 0.5 * ((x - last) * (x - last) - v - last_v), ++n;
+      if (has_last) sum += (x - last) * (x - last) / (v + last_v), ++n;
       last = x, last_v = v, has_last = true;
     }
-    double tau2() const noexcept { return n > 0 ? std::max(0.0, excess / n) : 0.0; }
+    double factor() const noexcept { return n > 0 ? std::max(1.0, sum / n) : 1.0; }
   };
   void close_block() noexcept;
   void close_window() noexcept;
@@ -164,7 +150,7 @@ class PassiveLoadDrift {
   double shift_m_ = 0;  // the window's position shift from the map's frame (a moved anchor)
   int stretch_ = 0, map_stretch_ = 0;  // force-control stretches ended; the one the map began in
   Dispersion disp_gain_, disp_step_;
-  Pool gain_, step_;
+  Mean gain_, step_;
   double fc_s_ = 0;  // force-control time since the reference
   double used_s_ = 0;
   PassiveEstimate est_{};
