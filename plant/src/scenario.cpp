@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -25,6 +26,9 @@ const std::vector<ScenarioInfo>& scenario_list() {
       {"mixed",
        "alternating: force control against a spring (8 s of steps, ramps, sweep), then hand "
        "pushes with the screw held (9 s); the spring re-engages where the hand left the nut"},
+      {"mixed-moves",
+       "alternating: force control against a spring (6 s), hand pushes with the screw held (8 s), "
+       "free point-to-point moves with no load (7 s); each starts where the last left the nut"},
   };
   return list;
 }
@@ -105,21 +109,30 @@ struct MoveProfile {
     double t0, from, to, v, a;
   };
   std::vector<Move> moves;
-  explicit MoveProfile(double duration_s) {
+  double start_m = kMidStroke_m;
+  MoveProfile() = default;
+  /// Moves starting at t0_s from from_m, the first to target `first`. whole_only: only moves that
+  /// end (with their 0.5 s pause) by t0_s + duration_s are made (a move segment that ends).
+  explicit MoveProfile(double duration_s, double t0_s = 0.0, double from_m = kMidStroke_m,
+                       std::size_t first = 0, bool whole_only = false)
+      : start_m(from_m) {
     const double targets[] = {0.035, 0.005, 0.030, 0.010, 0.038, 0.002, 0.020};
     const double speeds[] = {0.005, 0.020, 0.050};
-    double t = 0.5, at = kMidStroke_m;
-    for (std::size_t i = 0; t < duration_s; ++i) {
+    double t = t0_s + 0.5, at = from_m;
+    const double end_s = t0_s + duration_s;
+    for (std::size_t i = first; t < end_s; ++i) {
+      if (whole_only && i >= first + 21) break;  // every target at every speed tried
       const double to = targets[i % 7], v = speeds[i % 3], a = 0.5;
-      moves.push_back({t, at, to, v, a});
       const double d = std::abs(to - at);
       const double t_move = d / v + v / a;
+      if (whole_only && t + t_move + 0.5 > end_s) continue;  // try the next, perhaps shorter
+      moves.push_back({t, at, to, v, a});
       t += t_move + 0.5;
       at = to;
     }
   }
   double pos_m(double t) const {
-    double p = kMidStroke_m;
+    double p = start_m;
     for (const auto& m : moves) {
       if (t < m.t0) break;
       const double d = std::abs(m.to - m.from), dir = m.to > m.from ? 1.0 : -1.0;
@@ -161,13 +174,20 @@ LoadSetting hand_load(const HandProfile& hand, const PeriodicForceModel& couplin
   return load;
 }
 
-/// The mixed scenario's schedule: force-control segments and hand segments in turn.
+/// The mixed scenarios' schedule: force-control, hand and (mixed-moves) free-move segments in
+/// turn.
 struct MixedSchedule {
-  static constexpr double kForce_s = 8.0, kHand_s = 9.0;
-  double period_s() const { return kForce_s + kHand_s; }
+  enum class Segment : std::uint8_t { force, hand, moves };
+  double force_s = 8.0, hand_s = 9.0, moves_s = 0.0;
+  double period_s() const { return force_s + hand_s + moves_s; }
   double start_s(double t) const { return std::floor(t / period_s()) * period_s(); }
-  bool force(double t) const { return t - start_s(t) < kForce_s; }
-  double hand_t0_s(double t) const { return start_s(t) + kForce_s; }
+  Segment at(double t) const {
+    const double u = t - start_s(t);
+    if (u < force_s) return Segment::force;
+    return u < force_s + hand_s ? Segment::hand : Segment::moves;
+  }
+  double hand_t0_s(double t) const { return start_s(t) + force_s; }
+  double moves_t0_s(double t) const { return start_s(t) + force_s + hand_s; }
   /// Every other force segment runs its profile mirrored: the nut, left where each segment
   /// ends, does not walk to a stroke end over a long run.
   double sign(double t) const { return std::fmod(std::floor(t / period_s()), 2.0) == 0 ? 1 : -1; }
@@ -182,9 +202,10 @@ class ScenarioRun {
         rng_(opt.seed),
         plant_(opt.plant, opt.seed * 7919 + 17, kMidStroke_m),
         screw0_(rest_angle_rad(kMidStroke_m, act_.lead_m)),
-        mixed_(opt.scenario == "mixed"),
+        mixed_(opt.scenario == "mixed" || opt.scenario == "mixed-moves"),
         force_mode_(opt.scenario == "force-steps" || mixed_),
         move_mode_(opt.scenario == "position-moves"),
+        schedule_(opt.scenario == "mixed-moves" ? MixedSchedule{6.0, 8.0, 7.0} : MixedSchedule{}),
         hand_(opt.duration_s, rng_),
         moves_(opt.duration_s),
         estimator_(opt.estimator_calibration, act_.coulomb_n, 1e-5),
@@ -215,7 +236,7 @@ class ScenarioRun {
     const Command cmd = command_at(t, pos);
     plant_.write_motor_angle(cmd.screw_rad * act_.gear_ratio);
     last_screw_cmd_ = cmd.screw_rad;
-    was_force_ = !mixed_ || schedule_.force(t);
+    last_segment_ = mixed_ ? schedule_.at(t) : Segment::force;
     std::size_t c = 0;
     row[c++] = static_cast<double>(k) / act_.sample_rate_hz;  // 0.026, not 0.026000000000000002
     row[c++] = motor;
@@ -237,9 +258,17 @@ class ScenarioRun {
 
  private:
   static constexpr double kSweepAmp_m = 1.55e-3;
+  using Segment = MixedSchedule::Segment;
   struct Command {
     double screw_rad, force_set_n = 0.0, pos_set_m = 0.0;
   };
+
+  /// A move segment's moves: from the nut's position, each segment's list begun further on.
+  void start_moves(double t) {
+    const auto segment = static_cast<std::size_t>(std::floor(t / schedule_.period_s()));
+    segment_moves_ = MoveProfile(schedule_.moves_s, schedule_.moves_t0_s(t),
+                                 plant_.truth().nut_pos_m, 3 * segment, true);
+  }
 
   LoadSetting load_at(double t) {
     const auto& S = opt_.scenario;
@@ -254,13 +283,16 @@ class ScenarioRun {
                             1e-4;
     } else if (S == "hand-push") {
       load = hand_load(hand_, opt_.plant.coupling, screw0_, act_.lead_m, t);
-    } else if (mixed_ && !schedule_.force(t)) {
-      if (was_force_) screw_hold_ = last_screw_cmd_;
+    } else if (mixed_ && schedule_.at(t) == Segment::hand) {
+      if (last_segment_ != Segment::hand) screw_hold_ = last_screw_cmd_;
       load = hand_load(hand_, opt_.plant.coupling, screw_hold_, act_.lead_m, t,
-                       schedule_.hand_t0_s(t), MixedSchedule::kHand_s);
+                       schedule_.hand_t0_s(t), schedule_.hand_s);
+    } else if (mixed_ && schedule_.at(t) == Segment::moves) {
+      // Free moves, nothing touching the nut; they start where the hand left it.
+      if (last_segment_ != Segment::moves) start_moves(t);
     } else if (force_mode_) {
-      // The mixed scenario's spring is anchored where the nut was when force control began.
-      if (mixed_ && !was_force_) spring_anchor_m_ = plant_.truth().nut_pos_m;
+      // The mixed scenarios' spring is anchored where the nut was when force control began.
+      if (mixed_ && last_segment_ != Segment::force) spring_anchor_m_ = plant_.truth().nut_pos_m;
       load.kind = LoadSetting::Kind::spring_to_wall;
       load.stiffness_n_per_m = 3000.0;
       load.damping_n_s_per_m = 5.0;
@@ -275,12 +307,14 @@ class ScenarioRun {
 
   Command command_at(double t, double pos_m) const {
     const double L = act_.lead_m;
-    if (mixed_ && !schedule_.force(t))  // no force control: the setpoint logged empty
-      return {screw_hold_, std::numeric_limits<double>::quiet_NaN()};
+    constexpr double kNoSetpoint = std::numeric_limits<double>::quiet_NaN();  // logged empty
+    if (mixed_ && schedule_.at(t) == Segment::hand) return {screw_hold_, kNoSetpoint};
+    if (mixed_ && schedule_.at(t) == Segment::moves)
+      return {rest_angle_rad(segment_moves_.pos_m(t), L), kNoSetpoint};
     if (force_mode_) {
-      const double set = mixed_ ? schedule_.sign(t) * force_setpoint_n(t - schedule_.start_s(t),
-                                                                       MixedSchedule::kForce_s)
-                                : force_setpoint_n(t, opt_.duration_s);
+      const double set =
+          mixed_ ? schedule_.sign(t) * force_setpoint_n(t - schedule_.start_s(t), schedule_.force_s)
+                 : force_setpoint_n(t, opt_.duration_s);
       const auto inv = phase_for_output_force(opt_.estimator_calibration, set, 0.9);
       return {rest_angle_rad(pos_m, L) + inv.phase_rad, set};
     }
@@ -297,16 +331,16 @@ class ScenarioRun {
   SimulatedActuator plant_;
   const double screw0_;
   const bool mixed_, force_mode_, move_mode_;
-  const MixedSchedule schedule_{};
+  const MixedSchedule schedule_;
   HandProfile hand_;
-  MoveProfile moves_;
+  MoveProfile moves_, segment_moves_;
   StaticForceEstimator estimator_;
   EncoderVelocityEstimator velocity_;
   double sweep_period_s_ = 1.0;
   // The mixed scenario's state: the spring's anchor and the screw angle held during a hand
   // segment.
   double spring_anchor_m_ = kMidStroke_m, screw_hold_ = screw0_, last_screw_cmd_ = screw0_;
-  bool was_force_ = true;
+  Segment last_segment_ = Segment::force;
   SensorSample s_;
 };
 

@@ -123,14 +123,17 @@ void PassiveLoadDrift::close_window() noexcept {
 /// same force, and so the same phase and the same model error, then lies at another position.
 /// The window is compared at the shift of position that fits it best (least residual variance of
 /// a comparison that passes the passive-load test and uses at least half of the window's
-/// blocks), searched in map cells over a quarter of the stroke either way; at no shift it is
-/// the comparison at the same positions. The shift is the moved anchor, so it stands for the
+/// blocks), searched in map cells over the whole stroke either way (free moves in between carry
+/// the nut, and so the anchor, anywhere in the stroke; a search narrower than the anchor's move
+/// finds a wrong shift that still passes the passive-load test: `mixed-moves` read α ≈ −2 and
+/// warned falsely with a quarter of the stroke); at no shift it is the comparison at the same
+/// positions. The shift is the moved anchor, so it stands for the
 /// window's own offset c: on a linear load a shift and an offset are the same, and both free would
 /// leave the shift undetermined (the least variance picked among equals, its variance too low).
 PassiveLoadDrift::Fit PassiveLoadDrift::compare_window() noexcept {
   shift_m_ = 0;
   if (ref_n_ == 0 || stretch_ == map_stretch_) return fit(true);
-  const int reach = static_cast<int>(0.25 * (s_.stroke_max_m - s_.stroke_min_m) / s_.bin_m);
+  const int reach = static_cast<int>((s_.stroke_max_m - s_.stroke_min_m) / s_.bin_m);
   Fit best;
   double best_shift = 0;
   const auto scan = [&](double from_m, double step_m, int steps) {
