@@ -178,4 +178,18 @@ Named jackknife_se(const std::vector<Named>& leave_one_out_values) {
   return se;
 }
 
+Estimates estimate(const Grams& g, const std::vector<int>& idx, const GroupValues& values) {
+  Estimates out;
+  out.fit = solve(g, idx);
+  out.values = values(out.fit);
+  std::vector<std::vector<Named>> per_group(out.values.size());
+  for (const Fit& fit : leave_one_out(g, idx)) {
+    auto v = values(fit);
+    for (std::size_t k = 0; k < per_group.size() && k < v.size(); ++k)
+      if (v[k]) per_group[k].push_back(std::move(*v[k]));
+  }
+  for (const auto& group : per_group) out.standard_errors.push_back(jackknife_se(group));
+  return out;
+}
+
 }  // namespace maglead::analysis::stats
