@@ -836,33 +836,31 @@ stats::Named named(const Parameters& p) {
 
 // Every fitted parameter of the model at one fit: the baseline's fitted totals, then each chosen
 // term's, as the findings report them.
-std::vector<stats::Named> model_parameters(const AxisRun& run, const std::vector<Chosen>& chosen,
-                                           const Fit& fit) {
-  std::vector<stats::Named> out{named(fitted_base(run, fit))};
+std::vector<std::optional<stats::Named>> model_parameters(const AxisRun& run,
+                                                          const std::vector<Chosen>& chosen,
+                                                          const Fit& fit) {
+  std::vector<std::optional<stats::Named>> out{named(fitted_base(run, fit))};
   auto off = static_cast<Eigen::Index>(run.base_cols.size());
   for (const auto& ch : chosen) {
     const auto n = static_cast<Eigen::Index>(ch.idx.size());
     const effects::State totals = fitted_totals(run, fit, ch.var->effect);
-    out.push_back(
+    out.emplace_back(
         named(unit_params(run.g, *ch.var, ch.idx, fit.theta.segment(off, n), totals).values));
     off += n;
   }
   return out;
 }
 
-// Their standard errors from the held-out segments (the model with columns `idx` fitted without
-// each segment in turn: a jackknife, as on the actuator), in the same order.
+// Their standard errors from the held-out segments (stats::estimate: the model with columns
+// `idx` fitted without each segment in turn, as on the actuator), in the same order.
 std::vector<Parameters> model_standard_errors(const AxisRun& run, const std::vector<Chosen>& chosen,
                                               const std::vector<int>& idx) {
-  std::vector<std::vector<stats::Named>> per_term(chosen.size() + 1);
-  for (const Fit& f : stats::leave_one_out(run.g, idx)) {
-    auto prm = model_parameters(run, chosen, f);
-    for (std::size_t k = 0; k < prm.size(); ++k) per_term[k].push_back(std::move(prm[k]));
-  }
+  const auto est = stats::estimate(
+      run.g, idx, [&](const Fit& fit) { return model_parameters(run, chosen, fit); });
   std::vector<Parameters> out;
-  for (const auto& values : per_term) {
+  for (const auto& group : est.standard_errors) {
     Parameters se;
-    for (const auto& [name, v] : stats::jackknife_se(values)) set_parameter(se, name, v);
+    for (const auto& [name, v] : group) set_parameter(se, name, v);
     out.push_back(std::move(se));
   }
   return out;
