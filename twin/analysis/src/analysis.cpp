@@ -834,20 +834,27 @@ stats::Named named(const Parameters& p) {
   return out;
 }
 
+// Each chosen term's parameters at one fit of the model (the baseline's columns first).
+std::vector<Params> term_params(const AxisRun& run, const std::vector<Chosen>& chosen,
+                                const Fit& fit) {
+  std::vector<Params> out;
+  auto off = static_cast<Eigen::Index>(run.base_cols.size());
+  for (const auto& ch : chosen) {
+    const auto n = static_cast<Eigen::Index>(ch.idx.size());
+    const effects::State totals = fitted_totals(run, fit, ch.var->effect);
+    out.push_back(unit_params(run.g, *ch.var, ch.idx, fit.theta.segment(off, n), totals));
+    off += n;
+  }
+  return out;
+}
+
 // Every fitted parameter of the model at one fit: the baseline's fitted totals, then each chosen
 // term's, as the findings report them.
 std::vector<std::optional<stats::Named>> model_parameters(const AxisRun& run,
                                                           const std::vector<Chosen>& chosen,
                                                           const Fit& fit) {
   std::vector<std::optional<stats::Named>> out{named(fitted_base(run, fit))};
-  auto off = static_cast<Eigen::Index>(run.base_cols.size());
-  for (const auto& ch : chosen) {
-    const auto n = static_cast<Eigen::Index>(ch.idx.size());
-    const effects::State totals = fitted_totals(run, fit, ch.var->effect);
-    out.emplace_back(
-        named(unit_params(run.g, *ch.var, ch.idx, fit.theta.segment(off, n), totals).values));
-    off += n;
-  }
+  for (const auto& p : term_params(run, chosen, fit)) out.emplace_back(named(p.values));
   return out;
 }
 
@@ -887,14 +894,9 @@ void fill_findings(Findings& J, const AxisRun& run, const Selected& sel, const P
                 fitted_base(run, p.base_fit),
                 {},
                 {}};
-  std::size_t off = run.base_cols.size();
-  for (const auto& ch : sel.chosen) {
-    const Eigen::VectorXd c = p.final_fit.theta.segment(static_cast<Eigen::Index>(off),
-                                                        static_cast<Eigen::Index>(ch.idx.size()));
-    off += ch.idx.size();
-    const effects::State totals = fitted_totals(run, p.final_fit, ch.var->effect);
-    J.effects.push_back(finding_of(run, ch, unit_params(run.g, *ch.var, ch.idx, c, totals)));
-  }
+  const auto prm = term_params(run, sel.chosen, p.final_fit);
+  for (std::size_t k = 0; k < sel.chosen.size(); ++k)
+    J.effects.push_back(finding_of(run, sel.chosen[k], prm[k]));
   const auto se = model_standard_errors(run, sel.chosen, sel.current);
   for (std::size_t k = 0; k < J.effects.size(); ++k) {
     J.effects[k].standard_errors = se[k + 1];
