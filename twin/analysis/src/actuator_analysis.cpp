@@ -625,8 +625,7 @@ void finish(const Prepared& P, const Grams& g, const Candidates& cand, const Sta
   const auto est = stats::estimate(
       g, current, [&](const Fit& fit) { return term_parameters(out.chosen, fit, model); });
   const Fit& final_fit = est.fit;
-  out.final_sse = 0;
-  for (std::size_t f = 0; f < g.xx.size(); ++f) out.final_sse += sse(g, final_fit, f);
+  out.final_sse = sse(g, final_fit);
   out.final_residual = P.residual;
   std::vector<Column> used_cols;
   used_cols.reserve(current.size());

@@ -648,8 +648,7 @@ struct Selected {
 ValidationStep validation_step(const AxisRun& run, const std::string& name, const Score& sc,
                                const std::vector<int>& idx) {
   const Fit f = fit_all(run.g, idx);
-  double in = 0;
-  for (std::size_t k = 0; k < run.g.xx.size(); ++k) in += sse(run.g, f, k);
+  const double in = sse(run.g, f);
   return ValidationStep{name, std::sqrt(sc.total / run.n_total),
                         100.0 * std::sqrt(sc.total / run.yy_total), std::sqrt(in / run.n_total),
                         100.0 * std::sqrt(in / run.yy_total)};

@@ -153,6 +153,12 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   return std::clamp(bz.dot(lb.solve(bz)) / zz, 0.0, 1.0);
 }
 
+double sse(const Grams& g, const Fit& fit) {
+  double out = 0;
+  for (std::size_t f = 0; f < g.folds(); ++f) out += sse(g, fit, f);
+  return out;
+}
+
 std::vector<Fit> leave_one_out(const Grams& g, const std::vector<int>& idx) {
   std::vector<Fit> fits;
   for (std::size_t f = 0; f < g.folds(); ++f)

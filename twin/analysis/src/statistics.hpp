@@ -58,6 +58,8 @@ struct Fit {
 Fit solve(const Grams& g, const std::vector<int>& idx, int skip_fold = -1);
 /// Squared error of `fit` on segment f.
 double sse(const Grams& g, const Fit& fit, std::size_t f);
+/// Squared error of `fit` on every segment (in-sample).
+double sse(const Grams& g, const Fit& fit);
 /// Held-out error per segment: fit on the others, score on this one.
 std::vector<double> heldout(const Grams& g, const std::vector<int>& idx);
 /// The fit without each segment in turn (a segment without samples is skipped).
