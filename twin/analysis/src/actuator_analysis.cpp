@@ -495,19 +495,6 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
   return g;
 }
 
-// Standard error of a chosen term's parameters from the held-out segments: a jackknife over the
-// fits without each segment in turn.
-effects::Params jackknife_se(const Grams& g, const std::vector<int>& idx, Eigen::Index off,
-                             const Candidate& c, const State& model) {
-  const auto* e = effects::find(c.id);
-  const auto k = static_cast<Eigen::Index>(e->columns());
-  std::vector<effects::Params> values;
-  for (const Fit& fit : stats::leave_one_out(g, idx))
-    if (auto prm = e->parameters(c.shape, fit.theta.segment(off, k).data(), model))
-      values.push_back(*prm);
-  return stats::jackknife_se(values);
-}
-
 }  // namespace
 
 // ------------------------------------------------------------------------------- select
@@ -618,12 +605,27 @@ void note_implausible(const selection::Outcome& o, const Prepared& P, const Opti
       Implausible{std::string(f.var->effect->id()), f.params, gain, 0.0, explained_n, t0, t0 + seg};
 }
 
+// The chosen terms' parameters at a fit, in their order (none: the unit gives no value there).
+std::vector<std::optional<stats::Named>> term_parameters(const std::vector<Candidate>& chosen,
+                                                         const Fit& fit, const State& model) {
+  std::vector<std::optional<stats::Named>> out;
+  Eigen::Index off = 0;
+  for (const auto& c : chosen) {
+    const auto* e = effects::find(c.id);
+    const auto k = static_cast<Eigen::Index>(e->columns());
+    out.push_back(e->parameters(c.shape, fit.theta.segment(off, k).data(), model));
+    off += k;
+  }
+  return out;
+}
+
 // Final fit on everything: the corrected residual, the parameters and their standard errors.
 void finish(const Prepared& P, const Grams& g, const Candidates& cand, const State& model,
             const std::vector<int>& current, Selection& out) {
-  const Fit final_fit = solve(g, current, -1);
-  out.final_sse = 0;
-  for (std::size_t f = 0; f < g.xx.size(); ++f) out.final_sse += sse(g, final_fit, f);
+  const auto est = stats::estimate(
+      g, current, [&](const Fit& fit) { return term_parameters(out.chosen, fit, model); });
+  const Fit& final_fit = est.fit;
+  out.final_sse = sse(g, final_fit);
   out.final_residual = P.residual;
   std::vector<Column> used_cols;
   used_cols.reserve(current.size());
@@ -638,15 +640,9 @@ void finish(const Prepared& P, const Grams& g, const Candidates& cand, const Sta
         out.final_residual[i] -= final_fit.theta[static_cast<Eigen::Index>(j)] * buf[q];
     }
   }
-  std::size_t off = 0;
-  for (auto& c : out.chosen) {
-    const auto* e = effects::find(c.id);
-    const auto k = static_cast<Eigen::Index>(e->columns());
-    if (auto prm = e->parameters(
-            c.shape, final_fit.theta.segment(static_cast<Eigen::Index>(off), k).data(), model))
-      c.params = *prm;
-    c.standard_errors = jackknife_se(g, current, static_cast<Eigen::Index>(off), c, model);
-    off += static_cast<std::size_t>(k);
+  for (std::size_t k = 0; k < out.chosen.size(); ++k) {
+    if (est.values[k]) out.chosen[k].params = *est.values[k];
+    out.chosen[k].standard_errors = est.standard_errors[k];
   }
 }
 

@@ -637,20 +637,9 @@ void locate_pulses(AxisRun& run) {
 }
 
 // ---------------------------------------------------------------- forward selection
-struct Chosen {
-  const Variant* var;
-  std::vector<int> idx;  // its columns in the fit (those the model did not span already)
-  double gain_pct, t_stat, improvement_pct;
-  int folds_improved;
-  std::vector<Alternative> alternatives;
-  std::string note;
-  double explained_n = 0, worst = 0;
-  std::string id() const { return std::string(var->effect->id()); }
-};
-
 struct Selected {
-  std::vector<int> current;  // Gram positions of the baseline and every chosen column
-  std::vector<Chosen> chosen;
+  std::vector<int> current;             // Gram positions of the baseline and every chosen column
+  std::vector<selection::Term> chosen;  // the terms kept, as the selection took them
   std::vector<ValidationStep> validation;
   std::vector<Rejected> rejected;
   double base_heldout = 0;
@@ -659,8 +648,7 @@ struct Selected {
 ValidationStep validation_step(const AxisRun& run, const std::string& name, const Score& sc,
                                const std::vector<int>& idx) {
   const Fit f = fit_all(run.g, idx);
-  double in = 0;
-  for (std::size_t k = 0; k < run.g.xx.size(); ++k) in += sse(run.g, f, k);
+  const double in = sse(run.g, f);
   return ValidationStep{name, std::sqrt(sc.total / run.n_total),
                         100.0 * std::sqrt(sc.total / run.yy_total), std::sqrt(in / run.n_total),
                         100.0 * std::sqrt(in / run.yy_total)};
@@ -697,27 +685,6 @@ selection::Settings settings_of(const AnalysisOptions& opt) {
           .leave_out_spanned = true};
 }
 
-Chosen chosen_of(const selection::Term& term) {
-  const auto& tr = term.trial;
-  Chosen ch{tr.var,
-            tr.idx,
-            tr.gain,
-            tr.t,
-            100.0 * (1.0 - std::sqrt(term.after / term.before)),
-            tr.improved,
-            {},
-            "",
-            term.explained_n,
-            tr.worst};
-  for (const auto& a : term.alternatives)
-    ch.alternatives.push_back(
-        {std::string(a.var->effect->id()), values_of(a.params), 100.0 * a.r2, a.plausible});
-  if (term.over)
-    ch.note = "chosen before '" + std::string(term.over->id()) +
-              "', which contains it: the simpler explanation first";
-  return ch;
-}
-
 // The validation: the baseline, then each term taken (+) or dropped by the backward check (−).
 std::vector<ValidationStep> validation_of(const AxisRun& run, const selection::Outcome& o) {
   std::vector<ValidationStep> out{
@@ -740,7 +707,7 @@ Selected select_terms(const AxisRun& run) {
   sel.current = o.current;
   sel.base_heldout = stats::total(o.start_ho);
   sel.validation = validation_of(run, o);
-  for (const auto& term : o.terms) sel.chosen.push_back(chosen_of(term));
+  sel.chosen = o.terms;
   if (o.stopped_at)
     sel.rejected.push_back(
         selection::rejected_of(*o.stopped_at, o.stopped_explained_n,
@@ -803,28 +770,39 @@ Parameters fitted_base(const AxisRun& run, const Fit& fit) {
   return b;
 }
 
-EffectFinding finding_of(const AxisRun& run, const Chosen& ch, const Params& pp) {
+// A term's alternatives as the findings list them, plausible or not.
+std::vector<Alternative> alternatives_of(const selection::Term& term) {
+  std::vector<Alternative> out;
+  for (const auto& a : term.alternatives)
+    out.push_back(
+        {std::string(a.var->effect->id()), values_of(a.params), 100.0 * a.r2, a.plausible});
+  return out;
+}
+
+EffectFinding finding_of(const AxisRun& run, const selection::Term& term, const Params& pp) {
+  const auto& tr = term.trial;
   EffectFinding e;
-  e.id = ch.id();
+  e.id = std::string(tr.var->effect->id());
   e.parameters = pp.values;
-  e.where = "all samples; the missing force follows " + std::string(ch.var->effect->law());
-  e.evidence.heldout_gain_pct = ch.gain_pct;
-  e.evidence.t_stat = ch.t_stat;
-  e.evidence.segments_improved =
-      std::to_string(ch.folds_improved) + "/" + std::to_string(run.folds);
-  e.evidence.explained_rms_n = ch.explained_n;
-  e.evidence.worst_segment_pct = ch.worst;
+  e.where = "all samples; the missing force follows " + std::string(tr.var->effect->law());
+  e.evidence.heldout_gain_pct = tr.gain;
+  e.evidence.t_stat = tr.t;
+  e.evidence.segments_improved = std::to_string(tr.improved) + "/" + std::to_string(run.folds);
+  e.evidence.explained_rms_n = term.explained_n;
+  e.evidence.worst_segment_pct = tr.worst;
   e.evidence.noise_floor_n = run.P.noise_floor_n;
   e.evidence.plausible = pp.plausible;
-  e.improvement_pct = ch.improvement_pct;
-  e.identifiable = ch.alternatives.empty();
-  if (!ch.alternatives.empty()) {
-    e.alternatives = ch.alternatives;
+  e.improvement_pct = 100.0 * (1.0 - std::sqrt(term.after / term.before));
+  e.identifiable = term.alternatives.empty();
+  if (!term.alternatives.empty()) {
+    e.alternatives = alternatives_of(term);
     std::string names = e.id;
-    for (const auto& a : ch.alternatives) names += " or " + a.id;
+    for (const auto& a : e.alternatives) names += " or " + a.id;
     e.finding = "one combined finding: the data cannot tell " + names + " apart";
   }
-  e.note = ch.note;
+  if (term.over)
+    e.note = "chosen before '" + std::string(term.over->id()) +
+             "', which contains it: the simpler explanation first";
   return e;
 }
 
@@ -834,35 +812,41 @@ stats::Named named(const Parameters& p) {
   return out;
 }
 
-// Every fitted parameter of the model at one fit: the baseline's fitted totals, then each chosen
-// term's, as the findings report them.
-std::vector<stats::Named> model_parameters(const AxisRun& run, const std::vector<Chosen>& chosen,
-                                           const Fit& fit) {
-  std::vector<stats::Named> out{named(fitted_base(run, fit))};
+// Each chosen term's parameters at one fit of the model (the baseline's columns first).
+std::vector<Params> term_params(const AxisRun& run, const std::vector<selection::Term>& chosen,
+                                const Fit& fit) {
+  std::vector<Params> out;
   auto off = static_cast<Eigen::Index>(run.base_cols.size());
-  for (const auto& ch : chosen) {
-    const auto n = static_cast<Eigen::Index>(ch.idx.size());
-    const effects::State totals = fitted_totals(run, fit, ch.var->effect);
-    out.push_back(
-        named(unit_params(run.g, *ch.var, ch.idx, fit.theta.segment(off, n), totals).values));
+  for (const auto& term : chosen) {
+    const auto& tr = term.trial;
+    const auto n = static_cast<Eigen::Index>(tr.idx.size());
+    const effects::State totals = fitted_totals(run, fit, tr.var->effect);
+    out.push_back(unit_params(run.g, *tr.var, tr.idx, fit.theta.segment(off, n), totals));
     off += n;
   }
   return out;
 }
 
-// Their standard errors from the held-out segments (the model with columns `idx` fitted without
-// each segment in turn: a jackknife, as on the actuator), in the same order.
-std::vector<Parameters> model_standard_errors(const AxisRun& run, const std::vector<Chosen>& chosen,
+// Every fitted parameter of the model at one fit: the baseline's fitted totals, then each chosen
+// term's, as the findings report them.
+std::vector<std::optional<stats::Named>> model_parameters(
+    const AxisRun& run, const std::vector<selection::Term>& chosen, const Fit& fit) {
+  std::vector<std::optional<stats::Named>> out{named(fitted_base(run, fit))};
+  for (const auto& p : term_params(run, chosen, fit)) out.emplace_back(named(p.values));
+  return out;
+}
+
+// Their standard errors from the held-out segments (stats::estimate: the model with columns
+// `idx` fitted without each segment in turn, as on the actuator), in the same order.
+std::vector<Parameters> model_standard_errors(const AxisRun& run,
+                                              const std::vector<selection::Term>& chosen,
                                               const std::vector<int>& idx) {
-  std::vector<std::vector<stats::Named>> per_term(chosen.size() + 1);
-  for (const Fit& f : stats::leave_one_out(run.g, idx)) {
-    auto prm = model_parameters(run, chosen, f);
-    for (std::size_t k = 0; k < prm.size(); ++k) per_term[k].push_back(std::move(prm[k]));
-  }
+  const auto est = stats::estimate(
+      run.g, idx, [&](const Fit& fit) { return model_parameters(run, chosen, fit); });
   std::vector<Parameters> out;
-  for (const auto& values : per_term) {
+  for (const auto& group : est.standard_errors) {
     Parameters se;
-    for (const auto& [name, v] : stats::jackknife_se(values)) set_parameter(se, name, v);
+    for (const auto& [name, v] : group) set_parameter(se, name, v);
     out.push_back(std::move(se));
   }
   return out;
@@ -889,14 +873,9 @@ void fill_findings(Findings& J, const AxisRun& run, const Selected& sel, const P
                 fitted_base(run, p.base_fit),
                 {},
                 {}};
-  std::size_t off = run.base_cols.size();
-  for (const auto& ch : sel.chosen) {
-    const Eigen::VectorXd c = p.final_fit.theta.segment(static_cast<Eigen::Index>(off),
-                                                        static_cast<Eigen::Index>(ch.idx.size()));
-    off += ch.idx.size();
-    const effects::State totals = fitted_totals(run, p.final_fit, ch.var->effect);
-    J.effects.push_back(finding_of(run, ch, unit_params(run.g, *ch.var, ch.idx, c, totals)));
-  }
+  const auto prm = term_params(run, sel.chosen, p.final_fit);
+  for (std::size_t k = 0; k < sel.chosen.size(); ++k)
+    J.effects.push_back(finding_of(run, sel.chosen[k], prm[k]));
   const auto se = model_standard_errors(run, sel.chosen, sel.current);
   for (std::size_t k = 0; k < J.effects.size(); ++k) {
     J.effects[k].standard_errors = se[k + 1];

@@ -153,6 +153,12 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   return std::clamp(bz.dot(lb.solve(bz)) / zz, 0.0, 1.0);
 }
 
+double sse(const Grams& g, const Fit& fit) {
+  double out = 0;
+  for (std::size_t f = 0; f < g.folds(); ++f) out += sse(g, fit, f);
+  return out;
+}
+
 std::vector<Fit> leave_one_out(const Grams& g, const std::vector<int>& idx) {
   std::vector<Fit> fits;
   for (std::size_t f = 0; f < g.folds(); ++f)
@@ -176,6 +182,20 @@ Named jackknife_se(const std::vector<Named>& leave_one_out_values) {
     se[name] = std::sqrt((k - 1) / k * ss);
   }
   return se;
+}
+
+Estimates estimate(const Grams& g, const std::vector<int>& idx, const GroupValues& values) {
+  Estimates out;
+  out.fit = solve(g, idx);
+  out.values = values(out.fit);
+  std::vector<std::vector<Named>> per_group(out.values.size());
+  for (const Fit& fit : leave_one_out(g, idx)) {
+    auto v = values(fit);
+    for (std::size_t k = 0; k < per_group.size() && k < v.size(); ++k)
+      if (v[k]) per_group[k].push_back(std::move(*v[k]));
+  }
+  for (const auto& group : per_group) out.standard_errors.push_back(jackknife_se(group));
+  return out;
 }
 
 }  // namespace maglead::analysis::stats

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,8 @@ struct Fit {
 Fit solve(const Grams& g, const std::vector<int>& idx, int skip_fold = -1);
 /// Squared error of `fit` on segment f.
 double sse(const Grams& g, const Fit& fit, std::size_t f);
+/// Squared error of `fit` on every segment (in-sample).
+double sse(const Grams& g, const Fit& fit);
 /// Held-out error per segment: fit on the others, score on this one.
 std::vector<double> heldout(const Grams& g, const std::vector<int>& idx);
 /// The fit without each segment in turn (a segment without samples is skipped).
@@ -66,6 +69,18 @@ using Named = std::map<std::string, double, std::less<>>;
 /// Jackknife standard errors from named values in each leave-one-out fit: √((K−1)/K Σ(x − x̄)²)
 /// over the K fits that give the name (fewer than two: no error).
 Named jackknife_se(const std::vector<Named>& leave_one_out_values);
+/// A model's named values at one fit, in groups (a term's parameters, in a fixed order); none:
+/// that group gives no value at this fit.
+using GroupValues = std::function<std::vector<std::optional<Named>>(const Fit&)>;
+/// The final model: columns `idx` fitted on every segment, its values group by group, and each
+/// group's standard errors from the held-out segments (jackknife_se over the fits without each
+/// segment in turn, those where the group gives a value).
+struct Estimates {
+  Fit fit;
+  std::vector<std::optional<Named>> values;
+  std::vector<Named> standard_errors;
+};
+Estimates estimate(const Grams& g, const std::vector<int>& idx, const GroupValues& values);
 /// Share of `a`'s fitted contribution wa (beyond `base`) that columns `b` reproduce, between
 /// the columns' noise-free parts (Grams::noise_ss taken off their sums of squares): a column
 /// made from a noisy measurement reproduces a law no worse for the noise it carries.
