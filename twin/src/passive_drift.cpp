@@ -86,8 +86,8 @@ void PassiveLoadDrift::close_block() noexcept {
   if (n == 0 || b_s_ < 0.5 * s_.block_s || n_blocks_ >= kMaxBlocks) return;
   if (std::abs(b_a_ / n) > s_.max_accel_force_n) return;
   const double p = b_p_ / n;
-  blocks_[n_blocks_++] = {b_t_ / n, p, b_f_ / n, ref_n_ > 0 ? reference_at(p, b_dir_) : kNaN,
-                          b_dir_};
+  const double ref = ref_n_ > 0 ? reference_at(p, b_dir_) : kNaN;
+  blocks_[n_blocks_++] = {b_t_ / n, p, b_f_ / n, ref, b_dir_, kNaN};
   slide_s_ += b_s_;
   seen_ = true;
 }
@@ -151,12 +151,35 @@ PassiveLoadDrift::Fit PassiveLoadDrift::compare_window() noexcept {
   if (best.ok) scan(best_shift - s_.bin_m, 0.1 * s_.bin_m, 20);
   shift_m_ = best_shift;
   set_refs();
+  return best.ok ? with_shift_variances(best) : best;
+}
+
+/// The shift was fitted too (the least residual variance), so the window's gain and step are
+/// known only jointly with it: their variances are those of the fit linearized in the shift as
+/// well (its column −∂F̂_ref/∂p, the profile's curvature at the best shift), not of the fit with
+/// the shift held. A window whose few blocks span little of the load trades gain for shift and
+/// counts little; on a linear load the shift's column is the offset's. Where the joint fit does
+/// not resolve the gain (gain and shift not separable in the window), it is no evidence.
+PassiveLoadDrift::Fit PassiveLoadDrift::with_shift_variances(Fit best) const noexcept {
+  const Fit joint = fit(true, true);
+  if (!joint.ok) return Fit{};
+  best.var_gain = joint.var_gain, best.var_step = joint.var_step;
   return best;
 }
 
+/// The reference at each block's position in the map's frame, and its slope there (a central
+/// difference over a cell either side; one-sided at the map's edge).
 void PassiveLoadDrift::set_refs() noexcept {
-  for (int i = 0; i < n_blocks_; ++i)
-    blocks_[i].ref = reference_at(blocks_[i].p - shift_m_, blocks_[i].dir);
+  const double h = s_.bin_m;
+  for (int i = 0; i < n_blocks_; ++i) {
+    Block& b = blocks_[i];
+    const double q = b.p - shift_m_;
+    b.ref = reference_at(q, b.dir);
+    const double lo = reference_at(q - h, b.dir), hi = reference_at(q + h, b.dir);
+    b.dref = std::isfinite(lo) && std::isfinite(hi) ? (hi - lo) / (2 * h)
+             : std::isfinite(hi)                    ? (hi - b.ref) / h
+                                                    : (b.ref - lo) / h;
+  }
 }
 
 /// The map must predict later visits, in both directions, before it is the reference: once it
@@ -237,9 +260,9 @@ double PassiveLoadDrift::reference_at(double p, int dir) const noexcept {
 /// mean of each direction in each half of the window (by time) within sigmas of its standard
 /// error (sd/√n); a load that changes on its own — a hand, an anchor that moves — leaves a part
 /// off the line. Before the reference the stiffness must also be resolved (a load to compare).
-PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare) const noexcept {
+PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare, bool joint) const noexcept {
   Fit f;
-  const Design d = design(compare);
+  const Design d = design(compare, joint);
   f.has_step = d.has_step;
   if (d.m < 2 * d.params()) return f;
   std::array<Vec, kP> a{}, inv{};
@@ -254,7 +277,9 @@ PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare) const noexcept {
     }
   }
   if (!d.has_step) a[2][2] = 1.0;  // the step's column is empty: θ₂ = 0, decoupled
-  if (d.shifted) {  // the shift of position stands for the offset (see compare_window): c = 0
+  // The shift of position stands for the offset (see compare_window): c = 0. Not in the joint
+  // fit, where the shift's own column takes c's place.
+  if (d.shifted && !d.joint) {
     a[0] = Vec{1.0, 0.0, 0.0}, rhs[0] = 0.0;
     a[1][0] = a[2][0] = 0.0;
   }
@@ -274,13 +299,15 @@ PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare) const noexcept {
 
 /// The blocks a fit uses: before the reference all, after it those where the reference went;
 /// of one direction only where the other has too few to resolve the step.
-PassiveLoadDrift::Design PassiveLoadDrift::design(bool compare) const noexcept {
+PassiveLoadDrift::Design PassiveLoadDrift::design(bool compare, bool joint) const noexcept {
   Design d;
   d.compare = compare;
   d.shifted = compare && ref_n_ > 0 && stretch_ != map_stretch_;
+  d.joint = joint && d.shifted;
   int n_pos = 0, n_all = 0;
   for (int i = 0; i < n_blocks_; ++i) {
     if (compare && !std::isfinite(blocks_[i].ref)) continue;
+    if (d.joint && !std::isfinite(blocks_[i].dref)) continue;
     ++n_all, n_pos += blocks_[i].dir > 0 ? 1 : 0, d.p_mean += blocks_[i].p;
   }
   d.has_step = n_pos >= kP && n_all - n_pos >= kP;

@@ -76,6 +76,7 @@ class PassiveLoadDrift {
   struct Block {
     double t, p, f, ref;  // ref: the reference's F̂ at p in this direction (NaN: none)
     int dir;
+    double dref = std::numeric_limits<double>::quiet_NaN();  // ∂ref/∂p there (a shifted window)
   };
   struct Fit {
     double offset = 0, gain = 0, step = 0, var_gain = 0, var_step = 0;  // c, slope, step
@@ -113,19 +114,23 @@ class PassiveLoadDrift {
   /// Which blocks a fit uses and its regressors.
   struct Design {
     bool compare = false, has_step = false, shifted = false;  // shifted: c = 0, a shift instead
+    bool joint = false;   // shifted, the shift a parameter: its column −∂ref/∂p in place of c
     int only = 0, m = 0;  // only: the one direction used (0: both); m: the blocks used
     double p_mean = 0;
     int params() const noexcept { return has_step ? kP : kP - 1; }
     bool used(const Block& b) const noexcept {
-      return (!compare || std::isfinite(b.ref)) && (only == 0 || b.dir == only);
+      return (!compare || std::isfinite(b.ref)) && (!joint || std::isfinite(b.dref)) &&
+             (only == 0 || b.dir == only);
     }
     Vec row(const Block& b, double& y) const noexcept {
       y = compare ? b.f - b.ref : b.f;
-      return {1.0, compare ? b.ref : b.p - p_mean, has_step ? static_cast<double>(b.dir) : 0.0};
+      return {joint ? -b.dref : 1.0, compare ? b.ref : b.p - p_mean,
+              has_step ? static_cast<double>(b.dir) : 0.0};
     }
   };
-  Design design(bool compare) const noexcept;
-  Fit fit(bool compare) const noexcept;
+  Design design(bool compare, bool joint = false) const noexcept;
+  Fit fit(bool compare, bool joint = false) const noexcept;
+  Fit with_shift_variances(Fit best) const noexcept;
   Fit compare_window() noexcept;
   void set_refs() noexcept;
   static double residual(const Design& d, const Vec& th, const Block& b) noexcept;
