@@ -151,7 +151,9 @@ PassiveLoadDrift::Fit PassiveLoadDrift::compare_window() noexcept {
   if (best.ok) scan(best_shift - s_.bin_m, 0.1 * s_.bin_m, 20);
   shift_m_ = best_shift;
   set_refs();
-  return best.ok ? with_shift_variances(best) : best;
+  if (!best.ok) return best;
+  set_slopes();  // once, at the shift found: the scan needs only the reference itself
+  return with_shift_variances(best);
 }
 
 /// The shift was fitted too (the least residual variance), so the window's gain and step are
@@ -167,14 +169,19 @@ PassiveLoadDrift::Fit PassiveLoadDrift::with_shift_variances(Fit best) const noe
   return best;
 }
 
-/// The reference at each block's position in the map's frame, and its slope there (a central
-/// difference over a cell either side; one-sided at the map's edge).
+/// The reference at each block's position in the map's frame.
 void PassiveLoadDrift::set_refs() noexcept {
+  for (int i = 0; i < n_blocks_; ++i)
+    blocks_[i].ref = reference_at(blocks_[i].p - shift_m_, blocks_[i].dir);
+}
+
+/// The reference's slope at each block's position in the map's frame (a central difference over
+/// a cell either side; one-sided at the map's edge), after set_refs at the same shift.
+void PassiveLoadDrift::set_slopes() noexcept {
   const double h = s_.bin_m;
   for (int i = 0; i < n_blocks_; ++i) {
     Block& b = blocks_[i];
     const double q = b.p - shift_m_;
-    b.ref = reference_at(q, b.dir);
     const double lo = reference_at(q - h, b.dir), hi = reference_at(q + h, b.dir);
     b.dref = std::isfinite(lo) && std::isfinite(hi) ? (hi - lo) / (2 * h)
              : std::isfinite(hi)                    ? (hi - b.ref) / h

@@ -133,6 +133,7 @@ class PassiveLoadDrift {
   Fit with_shift_variances(Fit best) const noexcept;
   Fit compare_window() noexcept;
   void set_refs() noexcept;
+  void set_slopes() noexcept;
   static double residual(const Design& d, const Vec& th, const Block& b) noexcept;
   bool parts_on_line(const Design& d, const Vec& th, double sd) const noexcept;
   int bin_of(double p) const noexcept;
