@@ -561,30 +561,6 @@ selection::Settings settings_of(const Options& opt) {
           .leave_out_spanned = false};
 }
 
-Candidate candidate_of(const selection::Trial& tr, int folds) {
-  return Candidate{
-      std::string(tr.var->effect->id()), tr.params, tr.gain, tr.t, tr.improved, folds, {}};
-}
-
-// The taken terms as candidates, with their plausible alternatives.
-void take_terms(const selection::Outcome& o, int folds, Selection& out) {
-  for (const auto& term : o.terms) {
-    Candidate c = candidate_of(term.trial, folds);
-    c.shape = term.trial.var->shape;
-    for (const auto& a : term.alternatives)
-      if (a.plausible)
-        c.alternatives.push_back({std::string(a.var->effect->id()), *a.params, 100.0 * a.r2});
-    out.chosen.push_back(std::move(c));
-    out.heldout_sse_before.push_back(term.before);
-    out.heldout_sse_after.push_back(term.after);
-  }
-  for (const auto& st : o.steps)
-    out.steps.emplace_back(std::string(1, st.sign) + " " + std::string(st.effect->id()),
-                           total(st.ho));
-  for (const auto& [tr, explained] : o.dropped)
-    out.dropped.push_back(selection::dropped_of(tr, explained));
-}
-
 // The implausible fit that would remove most error, and where the error it leaves is largest
 // (the segment a user should look at first); after a stop, only if it would have stood out (its
 // gain and force beyond what was left untaken).
@@ -606,14 +582,13 @@ void note_implausible(const selection::Outcome& o, const Prepared& P, const Opti
 }
 
 // The chosen terms' parameters at a fit, in their order (none: the unit gives no value there).
-std::vector<std::optional<stats::Named>> term_parameters(const std::vector<Candidate>& chosen,
-                                                         const Fit& fit, const State& model) {
+std::vector<std::optional<stats::Named>> term_parameters(
+    const std::vector<selection::Found>& chosen, const Fit& fit, const State& model) {
   std::vector<std::optional<stats::Named>> out;
   Eigen::Index off = 0;
   for (const auto& c : chosen) {
-    const auto* e = effects::find(c.id);
-    const auto k = static_cast<Eigen::Index>(e->columns());
-    out.push_back(e->parameters(c.shape, fit.theta.segment(off, k).data(), model));
+    const auto k = static_cast<Eigen::Index>(c.effect->columns());
+    out.push_back(c.effect->parameters(c.shape, fit.theta.segment(off, k).data(), model));
     off += k;
   }
   return out;
@@ -623,7 +598,7 @@ std::vector<std::optional<stats::Named>> term_parameters(const std::vector<Candi
 void finish(const Prepared& P, const Grams& g, const Candidates& cand, const State& model,
             const std::vector<int>& current, Selection& out) {
   const auto est = stats::estimate(
-      g, current, [&](const Fit& fit) { return term_parameters(out.chosen, fit, model); });
+      g, current, [&](const Fit& fit) { return term_parameters(out.terms, fit, model); });
   const Fit& final_fit = est.fit;
   out.final_sse = sse(g, final_fit);
   out.final_residual = P.residual;
@@ -640,9 +615,9 @@ void finish(const Prepared& P, const Grams& g, const Candidates& cand, const Sta
         out.final_residual[i] -= final_fit.theta[static_cast<Eigen::Index>(j)] * buf[q];
     }
   }
-  for (std::size_t k = 0; k < out.chosen.size(); ++k) {
-    if (est.values[k]) out.chosen[k].params = *est.values[k];
-    out.chosen[k].standard_errors = est.standard_errors[k];
+  for (std::size_t k = 0; k < out.terms.size(); ++k) {
+    if (est.values[k]) out.terms[k].params = *est.values[k];
+    out.terms[k].standard_errors = est.standard_errors[k];
   }
 }
 
@@ -668,22 +643,20 @@ Selection select(const Prepared& P, const Options& opt,
   }
   const NutRules rules(P, P.states.empty() ? State{} : P.states.front());
   const auto o = selection::select(g, cand, rules, settings_of(opt), {}, {}, progress);
-  out.baseline_heldout_sse = total(o.start_ho);
-  take_terms(o, folds, out);
-  if (o.stopped_at) out.next_best = candidate_of(*o.stopped_at, folds);
+  static_cast<selection::Result&>(out) = selection::result_of(o, folds);
   note_implausible(o, P, opt, static_cast<double>(n_used), out);
-  finish(P, g, cand, rules.model(), o.current, out);
+  finish(P, g, cand, rules.model(), out.current, out);
   return out;
 }
 
 // ------------------------------------------------------------------------------- break-away
 BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
-                             const std::vector<Candidate>& chosen) {
+                             const std::vector<selection::Found>& chosen) {
   BreakawayTest out;
   // The model's break-away level per direction, with the terms found so far.
   std::vector<std::pair<const effects::Effect*, effects::Params>> terms;
   terms.reserve(chosen.size());
-  for (const auto& c : chosen) terms.emplace_back(effects::find(c.id), c.params);
+  for (const auto& c : chosen) terms.emplace_back(c.effect, c.params);
   for (int side = 0; side < 2; ++side) {
     const double dir = side == 0 ? 1.0 : -1.0;
     std::vector<double> excess, count_force, rate;
@@ -739,9 +712,9 @@ double breakaway_margin(const BreakawayTest::Side& s) {
 // directions, the hump must show there as well, by the test stribeck_from_breakaway names it on.
 std::optional<std::string> stribeck_unseen_at_rest(const Prepared& P, const Baseline& base,
                                                    const Selection& sel, const Options& opt) {
-  auto without = sel.chosen;
+  auto without = sel.terms;
   const auto n_before = without.size();
-  std::erase_if(without, [](const Candidate& c) { return c.id == "stribeck_friction"; });
+  std::erase_if(without, [](const selection::Found& c) { return c.id == "stribeck_friction"; });
   if (without.size() == n_before) return std::nullopt;
   const auto bt = breakaway_test(P, base, without);
   if (bt.pos.episodes < 3 || bt.neg.episodes < 3) return std::nullopt;
@@ -803,12 +776,13 @@ StribeckVelocity stribeck_velocity(const Prepared& P, const Selection& sel,
 // The release is seen only once the nut has crossed an encoder count: the force read then is
 // late by up to the lag bound (breakaway_test), and the phase it is computed from is known to
 // half a count's coupling force. Only an excess beyond both is physics.
-std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
-                                                 const Selection& sel, const BreakawayTest& bt,
-                                                 const Options& opt) {
+std::optional<selection::Found> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
+                                                        const Selection& sel,
+                                                        const BreakawayTest& bt,
+                                                        const Options& opt) {
   // A kinetic level found by the sliding fit stays: Stribeck's law carries it as its coulomb_n.
   double kinetic_n = base.coulomb_n;
-  for (const auto& c : sel.chosen) {
+  for (const auto& c : sel.terms) {
     if (c.id == "stribeck_friction") return std::nullopt;
     if (c.id == "coulomb_friction") kinetic_n = c.params.at("coulomb_n");
   }
@@ -823,14 +797,14 @@ std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseli
   State model = P.states.empty() ? State{} : P.states.front();
   model.coulomb_n = kinetic_n;
   const auto vs = stribeck_velocity(P, sel, *e, excess);
-  Candidate c;
+  selection::Found c;
   c.id = "stribeck_friction";
+  c.effect = e;
   c.shape = vs.value;
   const double coef = excess;
   c.params = *e->parameters(vs.value, &coef, model);
   c.t_stat = std::min(t_pos, t_neg);
-  c.velocity_determined = vs.determined;
-  c.velocity_range_m_s = {vs.low, vs.high};
+  c.from_releases = selection::Found::FromReleases{vs.determined, {vs.low, vs.high}, 0};
   c.segments = static_cast<int>(bt.pos.episodes + bt.neg.episodes);
   return c;
 }

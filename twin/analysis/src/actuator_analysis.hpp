@@ -12,6 +12,7 @@
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/recording/recording.hpp"
+#include "selection.hpp"
 
 namespace maglead::analysis::actuator {
 
@@ -89,25 +90,6 @@ struct Prepared {
   std::vector<Window> stops;  // stops the filtered speed hides, widened by the filter's support
 };
 
-struct Alternative {
-  std::string id;
-  effects::Params params;
-  double explains_pct;
-};
-
-struct Candidate {
-  std::string id;
-  effects::Params params;
-  double gain_pct = 0, t_stat = 0;
-  int segments_improved = 0, segments = 0;
-  std::vector<Alternative> alternatives;
-  double shape = 0;
-  effects::Params standard_errors{};               // jackknife over the held-out segments' fits
-  bool velocity_determined = true;                 // Stribeck: did slow sliding pin down v_s?
-  std::pair<double, double> velocity_range_m_s{};  // Stribeck: the v_s the sliding data allow
-  std::size_t stops_left_out = 0;  // Stribeck: hidden stops the sliding fit left out
-};
-
 /// The best fit the selection could not take because its parameters lie outside the effect's
 /// physical range: the missing force is real, but no library effect explains it plausibly.
 struct Implausible {
@@ -117,17 +99,11 @@ struct Implausible {
   double worst_t0_s = 0, worst_t1_s = 0;  // the held-out segment with the most error left
 };
 
-struct Selection {
-  std::vector<Candidate> chosen;
+/// The selection's result (the one type both paths read) with what the actuator adds: the
+/// implausible fit, the errors over the sliding samples and the corrected residual.
+struct Selection : selection::Result {
   std::optional<Implausible> implausible;
-  // Per chosen term, the held-out error before and after it was taken.
-  std::vector<double> heldout_sse_before, heldout_sse_after;
-  // The validation: each term taken (+ id) or dropped by the backward check (- id), and the
-  // held-out error of the model it leaves.
-  std::vector<std::pair<std::string, double>> steps;
-  std::vector<Rejected> dropped;  // by the backward check
-  Candidate next_best;            // the best rejected one (id empty if none)
-  double baseline_sse = 0, baseline_heldout_sse = 0, final_sse = 0, measured_ss = 0;
+  double baseline_sse = 0, final_sse = 0, measured_ss = 0;
   std::vector<double> final_residual;  // at Prepared::states, after every chosen term
   std::size_t samples_used = 0;
   bool too_little_sliding = false;
@@ -155,9 +131,10 @@ Prepared without_stops(const Prepared& P);
 std::string selection_rule(const Options& opt);
 Selection select(const Prepared& P, const Options& opt,
                  const std::function<void(double)>& progress);
-std::optional<Candidate> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
-                                                 const Selection& sel, const BreakawayTest& bt,
-                                                 const Options& opt);
+std::optional<selection::Found> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
+                                                        const Selection& sel,
+                                                        const BreakawayTest& bt,
+                                                        const Options& opt);
 /// Significance of a break-away above the kinetic level on one side: the median excess beyond the
 /// first-count lag bound and half a count's force, in standard errors (−∞ below 3 releases).
 double breakaway_margin(const BreakawayTest::Side& s);
@@ -168,6 +145,6 @@ std::optional<std::string> stribeck_unseen_at_rest(const Prepared& P, const Base
                                                    const Selection& sel, const Options& opt);
 std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt);
 BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
-                             const std::vector<Candidate>& chosen);
+                             const std::vector<selection::Found>& chosen);
 
 }  // namespace maglead::analysis::actuator

@@ -50,7 +50,7 @@ actuator::Baseline baseline_of(const ModelFile& m) {
 }
 
 // The baseline plus the findings given: what the twin should run from now on.
-ModelFile corrected_model(const ModelFile& base, const std::vector<actuator::Candidate>& terms,
+ModelFile corrected_model(const ModelFile& base, const std::vector<selection::Found>& terms,
                           const std::string& recording) {
   ModelFile m = base;
   m.source = "maglead analyze of " + recording;
@@ -67,7 +67,7 @@ ModelFile corrected_model(const ModelFile& base, const std::vector<actuator::Can
 // Samples further apart than two decimated periods belong to different sliding stretches: a NaN
 // between them keeps a plot from drawing a line across the stuck time in between.
 Chart fit_over_time(const actuator::Prepared& P, const actuator::Selection& sel) {
-  const bool added = !sel.chosen.empty();
+  const bool added = !sel.terms.empty();
   Chart c{"The fit before and after",
           "time [s]",
           "missing force [N]",
@@ -90,8 +90,7 @@ Chart fit_over_time(const actuator::Prepared& P, const actuator::Selection& sel)
 // not rise. `corrected` becomes the model of the kept terms.
 TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
                                const ForceCalibration& cal, const ModelFile& base,
-                               const std::vector<actuator::Candidate>& terms,
-                               ModelFile& corrected) {
+                               const std::vector<selection::Found>& terms, ModelFile& corrected) {
   TwinForceCheck out;
   const auto before = actuator::twin_force_mae_n(rec, act, cal, base);
   if (!before) {
@@ -107,7 +106,7 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
     for (const auto& c : terms) out.kept.push_back(c.id);
     return out;
   }
-  std::vector<actuator::Candidate> kept;
+  std::vector<selection::Found> kept;
   for (const auto& c : terms) {
     auto trial = kept;
     trial.push_back(c);
@@ -125,7 +124,7 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
   return out;
 }
 
-std::string summary_of(const actuator::Candidate& c, const actuator::Prepared& P) {
+std::string summary_of(const selection::Found& c, const actuator::Prepared& P) {
   const std::string s = summary_text(params_of(c.params), params_of(c.standard_errors));
   char buf[224];
   if (P.locked_share > 0)
@@ -170,7 +169,7 @@ actuator::Options options_of(const AnalysisOptions& opt, const actuator::Baselin
 // Stribeck's sliding part belongs to the corrected model's error too; a kinetic level the sliding
 // fit already found is in it (and in the residual) once.
 void fold_in_stribeck(actuator::Selection& sel, const actuator::Prepared& P,
-                      const actuator::Candidate& stribeck) {
+                      const selection::Found& stribeck) {
   const auto* e = effects::find(stribeck.id);
   const auto* coulomb = effects::find("coulomb_friction");
   const effects::Params kinetic{{"coulomb_n", stribeck.params.at("coulomb_n")}};
@@ -204,9 +203,9 @@ struct ErrorScale {
   double rel(double s) const { return measured_ss > 0 ? 100.0 * std::sqrt(s / measured_ss) : 0.0; }
 };
 
-EffectFinding sliding_finding(const actuator::Candidate& c, const actuator::Prepared& P,
-                              double sse_before, double sse_after, double baseline_heldout_sse,
-                              const ErrorScale& es) {
+EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepared& P,
+                              double baseline_heldout_sse, const ErrorScale& es) {
+  const double sse_before = c.heldout_before, sse_after = c.heldout_after;
   EffectFinding e;
   e.id = c.id;
   e.parameters = params_of(c.params);
@@ -222,28 +221,29 @@ EffectFinding sliding_finding(const actuator::Candidate& c, const actuator::Prep
   e.summary = summary_of(c, P);
   e.improvement_pct = 100.0 * (sse_before - sse_after) / baseline_heldout_sse;
   e.where = "sliding samples";
-  if (!c.alternatives.empty()) {
-    for (const auto& a : c.alternatives)
-      e.alternatives.push_back({a.id, params_of(a.params), a.explains_pct, std::nullopt});
+  // Only the plausible alternatives: one outside its physical range explains nothing here.
+  for (const auto& a : c.alternatives)
+    if (a.plausible)
+      e.alternatives.push_back({a.id, params_of(*a.params), a.explains_pct, std::nullopt});
+  if (!e.alternatives.empty())
     e.finding = "the data cannot tell these apart here; " + c.id + " is preferred";
-  }
   return e;
 }
 
 // The terms the sliding fit chose, and the validation: each term taken or dropped.
 void add_sliding_findings(Findings& J, const actuator::Selection& sel, const actuator::Prepared& P,
                           const ErrorScale& es) {
-  J.validation.push_back({"baseline", es.rms(sel.baseline_heldout_sse),
-                          es.rel(sel.baseline_heldout_sse), std::nullopt, std::nullopt});
-  for (std::size_t k = 0; k < sel.chosen.size(); ++k)
-    J.effects.push_back(sliding_finding(sel.chosen[k], P, sel.heldout_sse_before[k],
-                                        sel.heldout_sse_after[k], sel.baseline_heldout_sse, es));
-  for (const auto& [model, sse] : sel.steps)
-    J.validation.push_back({model, es.rms(sse), es.rel(sse), std::nullopt, std::nullopt});
+  J.validation.push_back({"baseline", es.rms(sel.start_heldout_sse), es.rel(sel.start_heldout_sse),
+                          std::nullopt, std::nullopt});
+  for (const auto& c : sel.terms)
+    J.effects.push_back(sliding_finding(c, P, sel.start_heldout_sse, es));
+  for (const auto& st : sel.steps)
+    J.validation.push_back(
+        {st.model, es.rms(st.heldout_sse), es.rel(st.heldout_sse), std::nullopt, std::nullopt});
 }
 
-EffectFinding stribeck_finding(const actuator::Candidate& stribeck,
-                               const actuator::BreakawayTest& bt, const actuator::Prepared& P) {
+EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator::BreakawayTest& bt,
+                               const actuator::Prepared& P) {
   EffectFinding e;
   e.id = stribeck.id;
   e.parameters = params_of(stribeck.params);
@@ -259,8 +259,9 @@ EffectFinding stribeck_finding(const actuator::Candidate& stribeck,
   e.standard_errors = params_of(c.standard_errors);
   e.summary = summary_of(c, P);
   e.improvement_pct = 0.0;
-  const auto [vs_low, vs_high] = stribeck.velocity_range_m_s;
-  e.note = stribeck.velocity_determined
+  const auto releases = stribeck.from_releases.value_or(selection::Found::FromReleases{});
+  const auto [vs_low, vs_high] = releases.velocity_range_m_s;
+  e.note = releases.velocity_determined
                ? "break-away from the net force at release; the Stribeck velocity is the one "
                  "the sliding samples prefer"
                : "break-away from the net force at release; the Stribeck velocity is not "
@@ -272,26 +273,25 @@ EffectFinding stribeck_finding(const actuator::Candidate& stribeck,
       "its first count (" +
       fmt(0.5 * (bt.pos.lag_expected_n + bt.neg.lag_expected_n)) + " N, at most " +
       fmt(std::max(bt.pos.lag_bound_n, bt.neg.lag_bound_n)) + " N)";
-  if (stribeck.stops_left_out > 0)
+  if (releases.stops_left_out > 0)
     e.note += "; the sliding fit leaves out the samples within the filter's reach of " +
-              std::to_string(stribeck.stops_left_out) +
+              std::to_string(releases.stops_left_out) +
               " stops its filtered speed hides (stick-slip: no friction law of the speed holds "
               "at a speed that averages stuck and slipping motion)";
   return e;
 }
 
 // Stribeck's law holds the kinetic level: a coulomb_friction finding becomes part of it.
-void add_stribeck(Findings& J, actuator::Selection& sel, const actuator::Candidate& stribeck,
+void add_stribeck(Findings& J, actuator::Selection& sel, const selection::Found& stribeck,
                   const actuator::BreakawayTest& bt, const actuator::Prepared& P) {
-  std::erase_if(sel.chosen,
-                [](const actuator::Candidate& c) { return c.id == "coulomb_friction"; });
+  std::erase_if(sel.terms, [](const selection::Found& c) { return c.id == "coulomb_friction"; });
   for (auto it = J.effects.begin(); it != J.effects.end(); ++it)
     if (it->id == "coulomb_friction") {
       J.effects.erase(it);
       break;
     }
   J.effects.push_back(stribeck_finding(stribeck, bt, P));
-  sel.chosen.push_back(stribeck);
+  sel.terms.push_back(stribeck);
 }
 
 void add_step_outs(Findings& J, const actuator::Prepared& P) {
@@ -350,7 +350,7 @@ std::string sliding_note(const actuator::Prepared& P, const actuator::Selection&
 
 // The typed findings of the stages' results.
 Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator::Selection& sel,
-                     const std::optional<actuator::Candidate>& stribeck,
+                     const std::optional<selection::Found>& stribeck,
                      const actuator::BreakawayTest& bt, const actuator::Options& o) {
   Findings J;
   J.system = "actuator";
@@ -365,7 +365,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
                 es.rel(sel.baseline_sse),
                 es.rms(sel.baseline_sse),
                 es.rel(sel.baseline_sse),
-                es.rms(sel.baseline_heldout_sse),
+                es.rms(sel.start_heldout_sse),
                 std::nullopt,
                 {},
                 {}};
@@ -384,17 +384,15 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
                  std::nullopt,
                  {},
                  {}};
-  if (!sel.next_best.id.empty())
-    J.not_selected.push_back({sel.next_best.id, sel.next_best.gain_pct, sel.next_best.t_stat,
-                              std::nullopt, std::nullopt, std::nullopt,
-                              params_of(sel.next_best.params)});
+  if (const auto& next = sel.stopped_at)
+    J.not_selected.push_back({next->id, next->gain_pct, next->t_stat, std::nullopt, std::nullopt,
+                              std::nullopt, params_of(next->params)});
   J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);
-  J.conclusion = sel.chosen.empty()
-                     ? "nothing is missing: no effect explains a significant part of "
-                       "the held-out error"
-                     : std::to_string(sel.chosen.size()) + " effect(s) found";
+  J.conclusion = sel.terms.empty() ? "nothing is missing: no effect explains a significant part of "
+                                     "the held-out error"
+                                   : std::to_string(sel.terms.size()) + " effect(s) found";
   return J;
 }
 
@@ -418,7 +416,7 @@ SlidingFit sliding_fit(const actuator::Prepared& P, const actuator::Baseline& ba
   const auto report = [&](double f) { progress("selection", f); };
   out.fit = actuator::select(P, o, report);
   if (auto why = actuator::stribeck_unseen_at_rest(P, base, out.fit, o)) {
-    for (const auto& c : out.fit.chosen)
+    for (const auto& c : out.fit.terms)
       if (c.id == "stribeck_friction")
         out.unseen = Rejected{c.id,         c.gain_pct, c.t_stat,           std::nullopt,
                               std::nullopt, *why,       params_of(c.params)};
@@ -440,7 +438,7 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   auto P = actuator::prepare(rec, base, cal, act, o);
   progress("prepare", 1.0);
   auto sel = sliding_fit(P, base, o, progress);
-  auto bt = actuator::breakaway_test(P, base, sel.fit.chosen);
+  auto bt = actuator::breakaway_test(P, base, sel.fit.terms);
   auto stribeck = actuator::stribeck_from_breakaway(P, base, sel.fit, bt, o);
   // Break-away friction: a release is a jump (the friction drops from F_s to F_c at once), many
   // within one filter period where the nut stick-slips, and the filtered speed averages stuck and
@@ -452,10 +450,10 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
       stribeck && P2.states.size() < P.states.size()) {
     auto o2 = o;
     auto sel2 = sliding_fit(P2, base, o2, progress);
-    const auto bt2 = actuator::breakaway_test(P2, base, sel2.fit.chosen);
+    const auto bt2 = actuator::breakaway_test(P2, base, sel2.fit.terms);
     if (auto s2 = actuator::stribeck_from_breakaway(P2, base, sel2.fit, bt2, o2)) {
       P = std::move(P2), sel = std::move(sel2), bt = bt2, stribeck = s2, o = std::move(o2);
-      stribeck->stops_left_out = P.stops.size();
+      stribeck->from_releases->stops_left_out = P.stops.size();
     }
   }
   progress("selection", 1.0);
@@ -464,10 +462,9 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   AnalysisResult r;
   r.findings = findings_of(rec, P, sel.fit, stribeck, bt, o);
   if (sel.unseen) r.findings.not_selected.insert(r.findings.not_selected.begin(), *sel.unseen);
-  r.corrected = corrected_model(model, sel.fit.chosen, rec.path);
+  r.corrected = corrected_model(model, sel.fit.terms, rec.path);
   if (opt.twin_force_check) {
-    r.findings.twin_force_check =
-        check_with_twin(rec, act, cal, model, sel.fit.chosen, r.corrected);
+    r.findings.twin_force_check = check_with_twin(rec, act, cal, model, sel.fit.terms, r.corrected);
     for (auto& e : r.findings.effects)
       for (const auto& d : r.findings.twin_force_check->dropped)
         if (e.id == d)

@@ -149,11 +149,6 @@ Grams accumulate(const Signals& s, const std::vector<Column>& cols, int folds,
   return g;
 }
 
-struct Score {
-  std::vector<double> heldout_sse;  // per fold
-  double total = 0.0;
-};
-
 Fit fit_all(const Grams& g, const std::vector<int>& idx) { return stats::solve(g, idx); }
 
 // ---------------------------------------------------------------- binned maps
@@ -479,15 +474,15 @@ struct Params {
 
 // The unit's parameters from the fitted coefficients of its columns `idx` (a column left out,
 // because the model already spans it, counts zero); none where the unit gives no value.
-std::optional<effects::Params> axis_params(const Grams& g, const Variant& var,
+std::optional<effects::Params> axis_params(const Grams& g, const effects::Effect& e, double shape,
                                            const std::vector<int>& idx,
                                            const Eigen::VectorXd& theta,
                                            const effects::State& totals) {
-  std::vector<double> c(static_cast<std::size_t>(var.effect->axis_columns()), 0.0);
+  std::vector<double> c(static_cast<std::size_t>(e.axis_columns()), 0.0);
   for (std::size_t j = 0; j < idx.size(); ++j)
     c[static_cast<std::size_t>(g.cols[static_cast<std::size_t>(idx[j])].index)] =
         theta[static_cast<Eigen::Index>(j)];
-  return var.effect->axis_parameters(var.shape, c.data(), totals);
+  return e.axis_parameters(shape, c.data(), totals);
 }
 
 Parameters values_of(const std::optional<effects::Params>& prm) {
@@ -498,10 +493,10 @@ Parameters values_of(const std::optional<effects::Params>& prm) {
 }
 
 // The same judged by the unit's plausible ranges.
-Params unit_params(const Grams& g, const Variant& var, const std::vector<int>& idx,
-                   const Eigen::VectorXd& theta, const effects::State& totals) {
-  const auto prm = axis_params(g, var, idx, theta, totals);
-  return {values_of(prm), prm.has_value() && effects::plausible(*var.effect, *prm)};
+Params unit_params(const Grams& g, const selection::Found& f, const Eigen::VectorXd& theta,
+                   const effects::State& totals) {
+  const auto prm = axis_params(g, *f.effect, f.shape, f.idx, theta, totals);
+  return {values_of(prm), prm.has_value() && effects::plausible(*f.effect, *prm)};
 }
 
 std::vector<std::pair<double, double>> find_bursts(const Signals& s, const std::vector<double>& r0,
@@ -637,20 +632,14 @@ void locate_pulses(AxisRun& run) {
 }
 
 // ---------------------------------------------------------------- forward selection
-struct Selected {
-  std::vector<int> current;             // Gram positions of the baseline and every chosen column
-  std::vector<selection::Term> chosen;  // the terms kept, as the selection took them
-  std::vector<ValidationStep> validation;
-  std::vector<Rejected> rejected;
-  double base_heldout = 0;
-};
-
-ValidationStep validation_step(const AxisRun& run, const std::string& name, const Score& sc,
+// A step of the validation: the held-out error of the model with columns `idx` and its fit on
+// every segment.
+ValidationStep validation_step(const AxisRun& run, const std::string& name, double heldout_sse,
                                const std::vector<int>& idx) {
   const Fit f = fit_all(run.g, idx);
   const double in = sse(run.g, f);
-  return ValidationStep{name, std::sqrt(sc.total / run.n_total),
-                        100.0 * std::sqrt(sc.total / run.yy_total), std::sqrt(in / run.n_total),
+  return ValidationStep{name, std::sqrt(heldout_sse / run.n_total),
+                        100.0 * std::sqrt(heldout_sse / run.yy_total), std::sqrt(in / run.n_total),
                         100.0 * std::sqrt(in / run.yy_total)};
 }
 
@@ -663,7 +652,8 @@ class AxisRules : public selection::Rules {
   std::optional<effects::Params> parameters(const Variant& var, const std::vector<int>& cols,
                                             const Fit& fit) const override {
     const auto k = static_cast<Eigen::Index>(cols.size());
-    return axis_params(run_.g, var, cols, fit.theta.tail(k), fitted_totals(run_, fit, var.effect));
+    return axis_params(run_.g, *var.effect, var.shape, cols, fit.theta.tail(k),
+                       fitted_totals(run_, fit, var.effect));
   }
   bool resolved(const selection::Trial& /*tr*/, double explained_n) const override {
     return explained_n >= run_.P.noise_floor_n;
@@ -686,16 +676,25 @@ selection::Settings settings_of(const AnalysisOptions& opt) {
 }
 
 // The validation: the baseline, then each term taken (+) or dropped by the backward check (−).
-std::vector<ValidationStep> validation_of(const AxisRun& run, const selection::Outcome& o) {
+std::vector<ValidationStep> validation_of(const AxisRun& run, const selection::Result& r) {
   std::vector<ValidationStep> out{
-      validation_step(run, "baseline", {o.start_ho, stats::total(o.start_ho)}, run.base_cols)};
-  for (const auto& st : o.steps)
-    out.push_back(validation_step(run, std::string(1, st.sign) + " " + std::string(st.effect->id()),
-                                  {st.ho, stats::total(st.ho)}, st.current));
+      validation_step(run, "baseline", r.start_heldout_sse, run.base_cols)};
+  for (const auto& st : r.steps)
+    out.push_back(validation_step(run, st.model, st.heldout_sse, st.current));
   return out;
 }
 
-Selected select_terms(const AxisRun& run) {
+// The terms not selected: the best remaining one and those the backward check dropped.
+std::vector<Rejected> rejected_of(const selection::Result& r) {
+  std::vector<Rejected> out;
+  if (r.stopped_at)
+    out.push_back(selection::rejected_of(
+        *r.stopped_at, "best remaining candidate, below the significance threshold"));
+  out.insert(out.end(), r.dropped.begin(), r.dropped.end());
+  return out;
+}
+
+selection::Result select_terms(const AxisRun& run) {
   std::vector<const effects::Effect*> in_baseline;
   for (const auto* e : effects::library())
     if (run.in_baseline.count(std::string(e->id()))) in_baseline.push_back(e);
@@ -703,18 +702,7 @@ Selected select_terms(const AxisRun& run) {
   const auto o = selection::select(run.g, run.cand, rules, settings_of(run.opt), run.base_cols,
                                    in_baseline, [&](double f) { run.progress("selection", f); });
   run.progress("selection", 1.0);
-  Selected sel;
-  sel.current = o.current;
-  sel.base_heldout = stats::total(o.start_ho);
-  sel.validation = validation_of(run, o);
-  sel.chosen = o.terms;
-  if (o.stopped_at)
-    sel.rejected.push_back(
-        selection::rejected_of(*o.stopped_at, o.stopped_explained_n,
-                               "best remaining candidate, below the significance threshold"));
-  for (const auto& [tr, explained] : o.dropped)
-    sel.rejected.push_back(selection::dropped_of(tr, explained));
-  return sel;
+  return selection::result_of(o, run.folds);
 }
 
 // ---------------------------------------------------------------- findings
@@ -724,7 +712,7 @@ struct Predictions {
   Errors eb, ef, eb_full, ef_full;
 };
 
-Predictions predictions(AxisRun& run, const Selected& sel) {
+Predictions predictions(AxisRun& run, const selection::Result& sel) {
   Predictions p;
   const Grams& g = run.g;
   Signals& S = *run.S;
@@ -771,37 +759,36 @@ Parameters fitted_base(const AxisRun& run, const Fit& fit) {
 }
 
 // A term's alternatives as the findings list them, plausible or not.
-std::vector<Alternative> alternatives_of(const selection::Term& term) {
+std::vector<Alternative> alternatives_of(const selection::Found& f) {
   std::vector<Alternative> out;
-  for (const auto& a : term.alternatives)
-    out.push_back(
-        {std::string(a.var->effect->id()), values_of(a.params), 100.0 * a.r2, a.plausible});
+  for (const auto& a : f.alternatives)
+    out.push_back({a.id, values_of(a.params), a.explains_pct, a.plausible});
   return out;
 }
 
-EffectFinding finding_of(const AxisRun& run, const selection::Term& term, const Params& pp) {
-  const auto& tr = term.trial;
+EffectFinding finding_of(const AxisRun& run, const selection::Found& f, const Params& pp) {
   EffectFinding e;
-  e.id = std::string(tr.var->effect->id());
+  e.id = f.id;
   e.parameters = pp.values;
-  e.where = "all samples; the missing force follows " + std::string(tr.var->effect->law());
-  e.evidence.heldout_gain_pct = tr.gain;
-  e.evidence.t_stat = tr.t;
-  e.evidence.segments_improved = std::to_string(tr.improved) + "/" + std::to_string(run.folds);
-  e.evidence.explained_rms_n = term.explained_n;
-  e.evidence.worst_segment_pct = tr.worst;
+  e.where = "all samples; the missing force follows " + std::string(f.effect->law());
+  e.evidence.heldout_gain_pct = f.gain_pct;
+  e.evidence.t_stat = f.t_stat;
+  e.evidence.segments_improved =
+      std::to_string(f.segments_improved) + "/" + std::to_string(f.segments);
+  e.evidence.explained_rms_n = f.explained_n;
+  e.evidence.worst_segment_pct = f.worst_pct;
   e.evidence.noise_floor_n = run.P.noise_floor_n;
   e.evidence.plausible = pp.plausible;
-  e.improvement_pct = 100.0 * (1.0 - std::sqrt(term.after / term.before));
-  e.identifiable = term.alternatives.empty();
-  if (!term.alternatives.empty()) {
-    e.alternatives = alternatives_of(term);
+  e.improvement_pct = 100.0 * (1.0 - std::sqrt(f.heldout_after / f.heldout_before));
+  e.identifiable = f.alternatives.empty();
+  if (!f.alternatives.empty()) {
+    e.alternatives = alternatives_of(f);
     std::string names = e.id;
     for (const auto& a : e.alternatives) names += " or " + a.id;
     e.finding = "one combined finding: the data cannot tell " + names + " apart";
   }
-  if (term.over)
-    e.note = "chosen before '" + std::string(term.over->id()) +
+  if (f.over)
+    e.note = "chosen before '" + std::string(f.over->id()) +
              "', which contains it: the simpler explanation first";
   return e;
 }
@@ -813,15 +800,14 @@ stats::Named named(const Parameters& p) {
 }
 
 // Each chosen term's parameters at one fit of the model (the baseline's columns first).
-std::vector<Params> term_params(const AxisRun& run, const std::vector<selection::Term>& chosen,
+std::vector<Params> term_params(const AxisRun& run, const std::vector<selection::Found>& chosen,
                                 const Fit& fit) {
   std::vector<Params> out;
   auto off = static_cast<Eigen::Index>(run.base_cols.size());
-  for (const auto& term : chosen) {
-    const auto& tr = term.trial;
-    const auto n = static_cast<Eigen::Index>(tr.idx.size());
-    const effects::State totals = fitted_totals(run, fit, tr.var->effect);
-    out.push_back(unit_params(run.g, *tr.var, tr.idx, fit.theta.segment(off, n), totals));
+  for (const auto& f : chosen) {
+    const auto n = static_cast<Eigen::Index>(f.idx.size());
+    const effects::State totals = fitted_totals(run, fit, f.effect);
+    out.push_back(unit_params(run.g, f, fit.theta.segment(off, n), totals));
     off += n;
   }
   return out;
@@ -830,7 +816,7 @@ std::vector<Params> term_params(const AxisRun& run, const std::vector<selection:
 // Every fitted parameter of the model at one fit: the baseline's fitted totals, then each chosen
 // term's, as the findings report them.
 std::vector<std::optional<stats::Named>> model_parameters(
-    const AxisRun& run, const std::vector<selection::Term>& chosen, const Fit& fit) {
+    const AxisRun& run, const std::vector<selection::Found>& chosen, const Fit& fit) {
   std::vector<std::optional<stats::Named>> out{named(fitted_base(run, fit))};
   for (const auto& p : term_params(run, chosen, fit)) out.emplace_back(named(p.values));
   return out;
@@ -839,7 +825,7 @@ std::vector<std::optional<stats::Named>> model_parameters(
 // Their standard errors from the held-out segments (stats::estimate: the model with columns
 // `idx` fitted without each segment in turn, as on the actuator), in the same order.
 std::vector<Parameters> model_standard_errors(const AxisRun& run,
-                                              const std::vector<selection::Term>& chosen,
+                                              const std::vector<selection::Found>& chosen,
                                               const std::vector<int>& idx) {
   const auto est = stats::estimate(
       run.g, idx, [&](const Fit& fit) { return model_parameters(run, chosen, fit); });
@@ -859,7 +845,8 @@ void add_errors(FitErrors& e, const Parameters& standard_errors) {
   e.summary = summary_text(*e.fitted_parameters, standard_errors);
 }
 
-void fill_findings(Findings& J, const AxisRun& run, const Selected& sel, const Predictions& p) {
+void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel,
+                   const Predictions& p) {
   J.recording = run.rec.path;
   J.system = run.model.system;
   J.samples = run.rec.rows();
@@ -869,24 +856,24 @@ void fill_findings(Findings& J, const AxisRun& run, const Selected& sel, const P
                 p.eb.rel_pct,
                 p.eb_full.rms,
                 p.eb_full.rel_pct,
-                std::sqrt(sel.base_heldout / run.n_total),
+                std::sqrt(sel.start_heldout_sse / run.n_total),
                 fitted_base(run, p.base_fit),
                 {},
                 {}};
-  const auto prm = term_params(run, sel.chosen, p.final_fit);
-  for (std::size_t k = 0; k < sel.chosen.size(); ++k)
-    J.effects.push_back(finding_of(run, sel.chosen[k], prm[k]));
-  const auto se = model_standard_errors(run, sel.chosen, sel.current);
+  const auto prm = term_params(run, sel.terms, p.final_fit);
+  for (std::size_t k = 0; k < sel.terms.size(); ++k)
+    J.effects.push_back(finding_of(run, sel.terms[k], prm[k]));
+  const auto se = model_standard_errors(run, sel.terms, sel.current);
   for (std::size_t k = 0; k < J.effects.size(); ++k) {
     J.effects[k].standard_errors = se[k + 1];
     J.effects[k].summary = summary_text(J.effects[k].parameters, se[k + 1]);
   }
-  J.nothing_missing = sel.chosen.empty();
+  J.nothing_missing = sel.terms.empty();
   J.conclusion =
-      sel.chosen.empty()
+      sel.terms.empty()
           ? "nothing is missing: no candidate effect lowers the held-out error significantly"
-          : std::to_string(sel.chosen.size()) + " effect(s) found";
-  J.not_selected = sel.rejected;
+          : std::to_string(sel.terms.size()) + " effect(s) found";
+  J.not_selected = rejected_of(sel);
   J.final_fit = {p.ef.rms,
                  p.ef.rel_pct,
                  p.ef_full.rms,
@@ -897,7 +884,7 @@ void fill_findings(Findings& J, const AxisRun& run, const Selected& sel, const P
                  {}};
   add_errors(J.baseline, model_standard_errors(run, {}, run.base_cols).front());
   add_errors(J.final_fit, se.front());
-  J.validation = sel.validation;
+  J.validation = validation_of(run, sel);
   for (const auto& [ts, amp] : run.bursts) {
     Event ev;
     ev.type = "isolated_disturbance";
@@ -1206,7 +1193,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   baseline_columns(run);
   accumulate_all(run);
   locate_pulses(run);
-  const Selected sel = select_terms(run);
+  const selection::Result sel = select_terms(run);
   const Predictions p = predictions(run, sel);
   AnalysisResult R;
   fill_findings(R.findings, run, sel, p);
@@ -1219,7 +1206,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   residual_maps(R, S, res);
   residual_over_time(R, S, res, run.P.noise_floor_n);
   event_locked(R, run, res);
-  time_figures(R, S, p, res, !sel.chosen.empty());
+  time_figures(R, S, p, res, !sel.terms.empty());
   R.corrected = corrected_model(run, R.findings, p.final_fit);
   R.findings.twin_simulation = TwinSimulation{};
   R.findings.twin_simulation->reason =

@@ -244,25 +244,61 @@ void backward_check(Search& s, const std::vector<int>& start, Outcome& out) {
   }
 }
 
-}  // namespace
-
-Rejected rejected_of(const Trial& tr, double explained_n, std::string reason) {
-  return Rejected{std::string(tr.var->effect->id()),
-                  tr.gain,
-                  tr.t,
-                  tr.worst,
-                  explained_n,
-                  std::move(reason),
-                  std::nullopt};
+Found found_of(const Trial& tr, double explained_n, int folds) {
+  Found f;
+  f.id = std::string(tr.var->effect->id());
+  f.effect = tr.var->effect;
+  f.shape = tr.var->shape;
+  f.idx = tr.idx;
+  f.params = tr.params;
+  f.gain_pct = tr.gain;
+  f.t_stat = tr.t;
+  f.worst_pct = tr.worst;
+  f.explained_n = explained_n;
+  f.segments_improved = tr.improved;
+  f.segments = folds;
+  return f;
 }
 
+Found found_of(const Term& term, int folds) {
+  Found f = found_of(term.trial, term.explained_n, folds);
+  f.heldout_before = term.before;
+  f.heldout_after = term.after;
+  f.over = term.over;
+  for (const auto& a : term.alternatives)
+    f.alternatives.push_back(
+        {std::string(a.var->effect->id()), a.params, 100.0 * a.r2, a.plausible});
+  return f;
+}
+
+// A term the backward check dropped, with what it adds last.
 Rejected dropped_of(const Trial& tr, double explained_n) {
   char why[160];
   std::snprintf(why, sizeof why,
                 "dropped by the backward check: with the other terms in, it adds a held-out "
                 "gain of %.2f %% at t = %.2f",
                 tr.gain, tr.t);
-  return rejected_of(tr, explained_n, why);
+  return rejected_of(found_of(tr, explained_n, 0), why);
+}
+
+}  // namespace
+
+Rejected rejected_of(const Found& f, std::string reason) {
+  return Rejected{f.id,          f.gain_pct,        f.t_stat,    f.worst_pct,
+                  f.explained_n, std::move(reason), std::nullopt};
+}
+
+Result result_of(const Outcome& o, int folds) {
+  Result r;
+  r.current = o.current;
+  r.start_heldout_sse = total(o.start_ho);
+  for (const auto& term : o.terms) r.terms.push_back(found_of(term, folds));
+  for (const auto& st : o.steps)
+    r.steps.push_back(
+        {std::string(1, st.sign) + " " + std::string(st.effect->id()), st.current, total(st.ho)});
+  for (const auto& [tr, explained] : o.dropped) r.dropped.push_back(dropped_of(tr, explained));
+  if (o.stopped_at) r.stopped_at = found_of(*o.stopped_at, o.stopped_explained_n, folds);
+  return r;
 }
 
 std::string describe(const Settings& st) {

@@ -96,10 +96,61 @@ struct Outcome {
   std::optional<ImplausibleFit> implausible;
 };
 
-/// A trial as a term not selected, with the RMS force it explains and why.
-Rejected rejected_of(const Trial& tr, double explained_n, std::string reason);
-/// A term the backward check dropped, with what it adds last.
-Rejected dropped_of(const Trial& tr, double explained_n);
+/// A term as every path reports it: the one result type of the analysis. result_of builds it
+/// from the Outcome; a path that names a term otherwise (the actuator's Stribeck friction from its
+/// stuck episodes) fills the same type, and a new path plugs in by reading these.
+struct Found {
+  /// Another effect the data cannot tell from this one; every one, plausible or not (a path
+  /// that lists only the plausible filters where it renders).
+  struct Alternative {
+    std::string id;
+    std::optional<effects::Params> params;
+    double explains_pct = 0;
+    bool plausible = false;
+  };
+  /// Stribeck friction named from the releases, not by the selection (optional extras).
+  struct FromReleases {
+    bool velocity_determined = true;                 // did slow sliding pin down v_s?
+    std::pair<double, double> velocity_range_m_s{};  // the v_s the sliding data allow
+    std::size_t stops_left_out = 0;                  // hidden stops the sliding fit left out
+  };
+  std::string id;
+  const effects::Effect* effect = nullptr;
+  double shape = 0;
+  std::vector<int> idx;               // its columns in the final model (none: not selected)
+  effects::Params params;             // as selected; a path sets the final fit's
+  effects::Params standard_errors{};  // jackknife over the held-out segments' fits
+  bool plausible = true;              // params inside the unit's physical range
+  double gain_pct = 0, t_stat = 0;    // held-out gain and its consistency over the segments
+  double worst_pct = 0;               // the worst counted segment's relative gain
+  double explained_n = 0;             // RMS force it explains on top of the model before it
+  int segments_improved = 0, segments = 0;
+  double heldout_before = 0, heldout_after = 0;  // total held-out error before and after it
+  const effects::Effect* over = nullptr;  // the richer best trial it was preferred to, if any
+  std::vector<Alternative> alternatives;
+  std::optional<FromReleases> from_releases;
+};
+
+/// The selection's result as both paths read it.
+struct Result {
+  struct Step {
+    std::string model;  // "+ id" taken, "- id" dropped by the backward check
+    std::vector<int> current;
+    double heldout_sse = 0;  // of the model it leaves
+  };
+  std::vector<int> current;  // the final model's columns: the start's, then each term's
+  double start_heldout_sse = 0;
+  std::vector<Found> terms;  // the terms kept, in the order taken
+  std::vector<Step> steps;
+  std::vector<Rejected> dropped;    // by the backward check
+  std::optional<Found> stopped_at;  // the next term the rule named, below the threshold
+};
+
+/// The Outcome as a Result over `folds` held-out segments.
+Result result_of(const Outcome& o, int folds);
+
+/// A term not selected, with the RMS force it explains and why.
+Rejected rejected_of(const Found& f, std::string reason);
 
 /// The rule in words, for the report's method.
 std::string describe(const Settings& st);
