@@ -14,11 +14,7 @@
 namespace maglead::analysis {
 namespace {
 
-Parameters params_of(const effects::Params& p) {
-  Parameters out;
-  for (const auto& [k, v] : p) out.push_back({k, v, false});
-  return out;
-}
+using selection::parameters_of;
 
 std::string fmt(double v, int prec = 3) {
   std::ostringstream o;
@@ -125,7 +121,7 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
 }
 
 std::string summary_of(const selection::Found& c, const actuator::Prepared& P) {
-  const std::string s = summary_text(params_of(c.params), params_of(c.standard_errors));
+  const std::string s = summary_text(parameters_of(c.params), parameters_of(c.standard_errors));
   char buf[224];
   if (P.locked_share > 0)
     std::snprintf(buf, sizeof buf,
@@ -143,7 +139,7 @@ std::optional<Unexplained> unexplained_of(const actuator::Selection& sel) {
   const auto& imp = *sel.implausible;
   Unexplained u;
   u.id = imp.id;
-  u.parameters = params_of(imp.params);
+  u.parameters = parameters_of(imp.params);
   u.heldout_gain_pct = imp.gain_pct;
   u.explained_rms_n = imp.explained_n;
   u.where = "the missing force follows the law of " + imp.id +
@@ -208,7 +204,7 @@ EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepare
   const double sse_before = c.heldout_before, sse_after = c.heldout_after;
   EffectFinding e;
   e.id = c.id;
-  e.parameters = params_of(c.params);
+  e.parameters = parameters_of(c.params);
   e.evidence.heldout_gain_pct = c.gain_pct;
   e.evidence.t_stat = c.t_stat;
   e.evidence.segments_improved =
@@ -217,14 +213,14 @@ EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepare
   e.evidence.noise_floor_n = P.load_noise_n;
   e.evidence.resolution_floor_n = P.floor_n;
   e.evidence.minimum_n = P.minimum_n;
-  e.standard_errors = params_of(c.standard_errors);
+  e.standard_errors = parameters_of(c.standard_errors);
   e.summary = summary_of(c, P);
   e.improvement_pct = 100.0 * (sse_before - sse_after) / baseline_heldout_sse;
   e.where = "sliding samples";
   // Only the plausible alternatives: one outside its physical range explains nothing here.
   for (const auto& a : c.alternatives)
     if (a.plausible)
-      e.alternatives.push_back({a.id, params_of(*a.params), a.explains_pct, std::nullopt});
+      e.alternatives.push_back({a.id, parameters_of(*a.params), a.explains_pct, std::nullopt});
   if (!e.alternatives.empty())
     e.finding = "the data cannot tell these apart here; " + c.id + " is preferred";
   return e;
@@ -246,7 +242,7 @@ EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator:
                                const actuator::Prepared& P) {
   EffectFinding e;
   e.id = stribeck.id;
-  e.parameters = params_of(stribeck.params);
+  e.parameters = parameters_of(stribeck.params);
   e.where = "stuck episodes: the nut breaks away above its sliding friction in both directions";
   e.evidence.t_stat = stribeck.t_stat;
   e.evidence.segments_improved = std::to_string(stribeck.segments) + " releases";
@@ -256,7 +252,7 @@ EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator:
   // The break-away's error: the two sides' medians averaged.
   auto c = stribeck;
   c.standard_errors["breakaway_n"] = 0.5 * std::hypot(bt.pos.se_n, bt.neg.se_n);
-  e.standard_errors = params_of(c.standard_errors);
+  e.standard_errors = parameters_of(c.standard_errors);
   e.summary = summary_of(c, P);
   e.improvement_pct = 0.0;
   const auto releases = stribeck.from_releases.value_or(selection::Found::FromReleases{});
@@ -386,7 +382,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
                  {}};
   if (const auto& next = sel.stopped_at)
     J.not_selected.push_back({next->id, next->gain_pct, next->t_stat, std::nullopt, std::nullopt,
-                              std::nullopt, params_of(next->params)});
+                              std::nullopt, parameters_of(next->params)});
   J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);
@@ -418,8 +414,8 @@ SlidingFit sliding_fit(const actuator::Prepared& P, const actuator::Baseline& ba
   if (auto why = actuator::stribeck_unseen_at_rest(P, base, out.fit, o)) {
     for (const auto& c : out.fit.terms)
       if (c.id == "stribeck_friction")
-        out.unseen = Rejected{c.id,         c.gain_pct, c.t_stat,           std::nullopt,
-                              std::nullopt, *why,       params_of(c.params)};
+        out.unseen = Rejected{
+            c.id, c.gain_pct, c.t_stat, std::nullopt, std::nullopt, *why, parameters_of(c.params)};
     o.exclude.emplace_back("stribeck_friction");
     out.fit = actuator::select(P, o, report);
   }

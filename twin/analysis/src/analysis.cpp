@@ -467,11 +467,6 @@ Errors errors(const std::vector<double>& y, const std::vector<double>& yhat,
 }
 
 // ---------------------------------------------------------------- physical parameters
-struct Params {
-  Parameters values;
-  bool plausible = true;
-};
-
 // The unit's parameters from the fitted coefficients of its columns `idx` (a column left out,
 // because the model already spans it, counts zero); none where the unit gives no value.
 std::optional<effects::Params> axis_params(const Grams& g, const effects::Effect& e, double shape,
@@ -483,20 +478,6 @@ std::optional<effects::Params> axis_params(const Grams& g, const effects::Effect
     c[static_cast<std::size_t>(g.cols[static_cast<std::size_t>(idx[j])].index)] =
         theta[static_cast<Eigen::Index>(j)];
   return e.axis_parameters(shape, c.data(), totals);
-}
-
-Parameters values_of(const std::optional<effects::Params>& prm) {
-  Parameters values;
-  if (prm)
-    for (const auto& [name, v] : *prm) set_parameter(values, name, v);
-  return values;
-}
-
-// The same judged by the unit's plausible ranges.
-Params unit_params(const Grams& g, const selection::Found& f, const Eigen::VectorXd& theta,
-                   const effects::State& totals) {
-  const auto prm = axis_params(g, *f.effect, f.shape, f.idx, theta, totals);
-  return {values_of(prm), prm.has_value() && effects::plausible(*f.effect, *prm)};
 }
 
 std::vector<std::pair<double, double>> find_bursts(const Signals& s, const std::vector<double>& r0,
@@ -762,14 +743,17 @@ Parameters fitted_base(const AxisRun& run, const Fit& fit) {
 std::vector<Alternative> alternatives_of(const selection::Found& f) {
   std::vector<Alternative> out;
   for (const auto& a : f.alternatives)
-    out.push_back({a.id, values_of(a.params), a.explains_pct, a.plausible});
+    out.push_back({a.id, selection::parameters_of(a.params.value_or(effects::Params{})),
+                   a.explains_pct, a.plausible});
   return out;
 }
 
-EffectFinding finding_of(const AxisRun& run, const selection::Found& f, const Params& pp) {
+EffectFinding finding_of(const AxisRun& run, const selection::Found& f) {
   EffectFinding e;
   e.id = f.id;
-  e.parameters = pp.values;
+  e.parameters = selection::parameters_of(f.params);
+  e.standard_errors = selection::parameters_of(f.standard_errors);
+  e.summary = summary_text(e.parameters, e.standard_errors);
   e.where = "all samples; the missing force follows " + std::string(f.effect->law());
   e.evidence.heldout_gain_pct = f.gain_pct;
   e.evidence.t_stat = f.t_stat;
@@ -778,7 +762,7 @@ EffectFinding finding_of(const AxisRun& run, const selection::Found& f, const Pa
   e.evidence.explained_rms_n = f.explained_n;
   e.evidence.worst_segment_pct = f.worst_pct;
   e.evidence.noise_floor_n = run.P.noise_floor_n;
-  e.evidence.plausible = pp.plausible;
+  e.evidence.plausible = f.plausible;
   e.improvement_pct = 100.0 * (1.0 - std::sqrt(f.heldout_after / f.heldout_before));
   e.identifiable = f.alternatives.empty();
   if (!f.alternatives.empty()) {
@@ -799,15 +783,17 @@ stats::Named named(const Parameters& p) {
   return out;
 }
 
-// Each chosen term's parameters at one fit of the model (the baseline's columns first).
-std::vector<Params> term_params(const AxisRun& run, const std::vector<selection::Found>& chosen,
-                                const Fit& fit) {
-  std::vector<Params> out;
+// Each chosen term's parameters at one fit of the model (the baseline's columns first); none
+// where the unit gives no value.
+std::vector<std::optional<effects::Params>> term_params(const AxisRun& run,
+                                                        const std::vector<selection::Found>& chosen,
+                                                        const Fit& fit) {
+  std::vector<std::optional<effects::Params>> out;
   auto off = static_cast<Eigen::Index>(run.base_cols.size());
   for (const auto& f : chosen) {
     const auto n = static_cast<Eigen::Index>(f.idx.size());
     const effects::State totals = fitted_totals(run, fit, f.effect);
-    out.push_back(unit_params(run.g, f, fit.theta.segment(off, n), totals));
+    out.push_back(axis_params(run.g, *f.effect, f.shape, f.idx, fit.theta.segment(off, n), totals));
     off += n;
   }
   return out;
@@ -818,24 +804,31 @@ std::vector<Params> term_params(const AxisRun& run, const std::vector<selection:
 std::vector<std::optional<stats::Named>> model_parameters(
     const AxisRun& run, const std::vector<selection::Found>& chosen, const Fit& fit) {
   std::vector<std::optional<stats::Named>> out{named(fitted_base(run, fit))};
-  for (const auto& p : term_params(run, chosen, fit)) out.emplace_back(named(p.values));
+  for (const auto& p : term_params(run, chosen, fit)) out.emplace_back(p.value_or(stats::Named{}));
   return out;
 }
 
-// Their standard errors from the held-out segments (stats::estimate: the model with columns
-// `idx` fitted without each segment in turn, as on the actuator), in the same order.
-std::vector<Parameters> model_standard_errors(const AxisRun& run,
-                                              const std::vector<selection::Found>& chosen,
-                                              const std::vector<int>& idx) {
+// The final fit on every segment (stats::estimate, as on the actuator): each term's parameters
+// there, whether they lie in the unit's physical range, and their standard errors from the fits
+// without each segment in turn. Returns the baseline's fitted totals' standard errors.
+Parameters finish_terms(const AxisRun& run, selection::Result& sel) {
   const auto est = stats::estimate(
-      run.g, idx, [&](const Fit& fit) { return model_parameters(run, chosen, fit); });
-  std::vector<Parameters> out;
-  for (const auto& group : est.standard_errors) {
-    Parameters se;
-    for (const auto& [name, v] : group) set_parameter(se, name, v);
-    out.push_back(std::move(se));
+      run.g, sel.current, [&](const Fit& fit) { return model_parameters(run, sel.terms, fit); });
+  const auto prm = term_params(run, sel.terms, est.fit);
+  for (std::size_t k = 0; k < sel.terms.size(); ++k) {
+    auto& f = sel.terms[k];
+    f.params = prm[k].value_or(effects::Params{});
+    f.plausible = prm[k].has_value() && effects::plausible(*f.effect, *prm[k]);
+    f.standard_errors = est.standard_errors[k + 1];
   }
-  return out;
+  return selection::parameters_of(est.standard_errors.front());
+}
+
+// The baseline's fitted totals' standard errors with columns `idx`.
+Parameters base_standard_errors(const AxisRun& run, const std::vector<int>& idx) {
+  const auto est =
+      stats::estimate(run.g, idx, [&](const Fit& fit) { return model_parameters(run, {}, fit); });
+  return selection::parameters_of(est.standard_errors.front());
 }
 
 // The fitted totals' standard errors and their printed form (none when nothing is fitted).
@@ -846,7 +839,7 @@ void add_errors(FitErrors& e, const Parameters& standard_errors) {
 }
 
 void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel,
-                   const Predictions& p) {
+                   const Predictions& p, const Parameters& final_base_se) {
   J.recording = run.rec.path;
   J.system = run.model.system;
   J.samples = run.rec.rows();
@@ -860,14 +853,7 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
                 fitted_base(run, p.base_fit),
                 {},
                 {}};
-  const auto prm = term_params(run, sel.terms, p.final_fit);
-  for (std::size_t k = 0; k < sel.terms.size(); ++k)
-    J.effects.push_back(finding_of(run, sel.terms[k], prm[k]));
-  const auto se = model_standard_errors(run, sel.terms, sel.current);
-  for (std::size_t k = 0; k < J.effects.size(); ++k) {
-    J.effects[k].standard_errors = se[k + 1];
-    J.effects[k].summary = summary_text(J.effects[k].parameters, se[k + 1]);
-  }
+  for (const auto& f : sel.terms) J.effects.push_back(finding_of(run, f));
   J.nothing_missing = sel.terms.empty();
   J.conclusion =
       sel.terms.empty()
@@ -882,8 +868,8 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
                  fitted_base(run, p.final_fit),
                  {},
                  {}};
-  add_errors(J.baseline, model_standard_errors(run, {}, run.base_cols).front());
-  add_errors(J.final_fit, se.front());
+  add_errors(J.baseline, base_standard_errors(run, run.base_cols));
+  add_errors(J.final_fit, final_base_se);
   J.validation = validation_of(run, sel);
   for (const auto& [ts, amp] : run.bursts) {
     Event ev;
@@ -1193,10 +1179,11 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   baseline_columns(run);
   accumulate_all(run);
   locate_pulses(run);
-  const selection::Result sel = select_terms(run);
+  selection::Result sel = select_terms(run);
+  const Parameters final_base_se = finish_terms(run, sel);
   const Predictions p = predictions(run, sel);
   AnalysisResult R;
-  fill_findings(R.findings, run, sel, p);
+  fill_findings(R.findings, run, sel, p, final_base_se);
   const Signals& S = *run.S;
   Residuals res{std::vector<double>(S.size()), std::vector<double>(S.size()), p.eb.rms};
   for (std::size_t i = 0; i < S.size(); ++i) {

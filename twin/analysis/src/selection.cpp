@@ -288,6 +288,12 @@ Rejected rejected_of(const Found& f, std::string reason) {
                   f.explained_n, std::move(reason), std::nullopt};
 }
 
+Parameters parameters_of(const effects::Params& p) {
+  Parameters out;
+  for (const auto& [k, v] : p) out.push_back({k, v, false});
+  return out;
+}
+
 Result result_of(const Outcome& o, int folds) {
   Result r;
   r.current = o.current;

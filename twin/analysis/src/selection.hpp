@@ -146,6 +146,9 @@ struct Result {
   std::optional<Found> stopped_at;  // the next term the rule named, below the threshold
 };
 
+/// Parameters by name in the findings' form (the same for every path).
+Parameters parameters_of(const effects::Params& p);
+
 /// The Outcome as a Result over `folds` held-out segments.
 Result result_of(const Outcome& o, int folds);
 
