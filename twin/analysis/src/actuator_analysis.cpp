@@ -476,16 +476,9 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
   const auto m = static_cast<Eigen::Index>(cols.size());
   Grams g(static_cast<std::size_t>(folds), m);
   Eigen::VectorXd x(m);
-  double buf[8];
   for (std::size_t i = 0; i < P.states.size(); ++i) {
     const auto& s = P.states[i];
-    for (Eigen::Index j = 0; j < m;) {
-      const auto& c = cols[static_cast<std::size_t>(j)];
-      c.effect->regressors(c.shape, s, buf);
-      const int k = c.effect->columns();
-      for (int q = 0; q < k; ++q) x[j + q] = buf[q];
-      j += k;
-    }
+    unit_row(Form::nut, cols, s, x.data());
     auto f = static_cast<std::size_t>(
         std::min<double>(folds - 1, std::floor(folds * s.t_s / P.duration_s)));
     g.add_row(f, x, P.residual[i], s.load_n);
@@ -605,16 +598,9 @@ void finish(const Prepared& P, const Grams& g, const Candidates& cand, const Sta
   std::vector<Column> used_cols;
   used_cols.reserve(current.size());
   for (int k : current) used_cols.push_back(cand.cols[static_cast<std::size_t>(k)]);
-  double buf[8];
-  for (std::size_t i = 0; i < P.states.size(); ++i) {
-    std::size_t j = 0;
-    while (j < used_cols.size()) {
-      const auto& c = used_cols[j];
-      c.effect->regressors(c.shape, P.states[i], buf);
-      for (int q = 0; q < c.effect->columns(); ++q, ++j)
-        out.final_residual[i] -= final_fit.theta[static_cast<Eigen::Index>(j)] * buf[q];
-    }
-  }
+  for (std::size_t i = 0; i < P.states.size(); ++i)
+    out.final_residual[i] =
+        less_fitted(Form::nut, used_cols, P.states[i], final_fit.theta, out.final_residual[i]);
   for (std::size_t k = 0; k < out.terms.size(); ++k) {
     if (est.values[k]) out.terms[k].params = *est.values[k];
     out.terms[k].standard_errors = est.standard_errors[k];

@@ -84,19 +84,10 @@ struct Signals {
 
 double sgn(double x) { return effects::sgn(x); }
 
-// The columns `cols` at sample i (a unit with several columns is asked once per run of them).
+// The columns `cols` at sample i: the units' axis regressors with their sign turned.
 void fill_row(const Signals& s, std::size_t i, const std::vector<Column>& cols, double* row) {
-  const effects::State st = s.state(i);
-  double buf[8];
-  const Column* last = nullptr;
-  for (std::size_t j = 0; j < cols.size(); ++j) {
-    const Column& c = cols[j];
-    if (!last || last->effect != c.effect || last->shape != c.shape) {
-      c.effect->axis_regressors(c.shape, st, buf);
-      last = &c;
-    }
-    row[j] = -buf[c.index];
-  }
+  unit_row(Form::axis, cols, s.state(i), row);
+  for (std::size_t j = 0; j < cols.size(); ++j) row[j] = -row[j];
 }
 
 double median_step(const std::vector<double>& t) {
@@ -422,17 +413,13 @@ Grams accumulate_matrix(const Prepared& P, const std::vector<Column>& cols, int 
   return g;
 }
 
-// Prediction of the fitted extra columns at every sample of `s` (streaming; no matrix).
+// Prediction of the fitted extra columns at every sample of `s` (streaming; no matrix): the
+// fixed force plus each column θ_j (−u_j), u the unit's axis regressor (less_fitted).
 std::vector<double> predict(const Signals& s, const Grams& g, const Fit& fit) {
   const std::vector<Column> cols = columns_at(g, fit.idx);
-  std::vector<double> out(s.size()), row(cols.size());
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    fill_row(s, i, cols, row.data());
-    double y = s.y_fixed[i];
-    for (std::size_t j = 0; j < cols.size(); ++j)
-      y += fit.theta[static_cast<Eigen::Index>(j)] * row[j];
-    out[i] = y;
-  }
+  std::vector<double> out(s.size());
+  for (std::size_t i = 0; i < s.size(); ++i)
+    out[i] = less_fitted(Form::axis, cols, s.state(i), fit.theta, s.y_fixed[i]);
   return out;
 }
 

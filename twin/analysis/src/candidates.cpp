@@ -31,6 +31,40 @@ Candidates candidate_columns(Form form, const std::vector<std::string>& exclude)
   return out;
 }
 
+namespace {
+
+// Asks the unit for its regressors at `s` unless `last` already asked it (same unit and shape).
+void ask(Form form, const Column& c, const Column*& last, const effects::State& s, double* buf) {
+  if (last && last->effect == c.effect && last->shape == c.shape) return;
+  if (form == Form::axis)
+    c.effect->axis_regressors(c.shape, s, buf);
+  else
+    c.effect->regressors(c.shape, s, buf);
+  last = &c;
+}
+
+}  // namespace
+
+void unit_row(Form form, const std::vector<Column>& cols, const effects::State& s, double* row) {
+  double buf[8];
+  const Column* last = nullptr;
+  for (std::size_t j = 0; j < cols.size(); ++j) {
+    ask(form, cols[j], last, s, buf);
+    row[j] = buf[cols[j].index];
+  }
+}
+
+double less_fitted(Form form, const std::vector<Column>& cols, const effects::State& s,
+                   const Eigen::VectorXd& theta, double start) {
+  double buf[8];
+  const Column* last = nullptr;
+  for (std::size_t j = 0; j < cols.size(); ++j) {
+    ask(form, cols[j], last, s, buf);
+    start -= theta[static_cast<Eigen::Index>(j)] * buf[cols[j].index];
+  }
+  return start;
+}
+
 std::vector<int> with(const std::vector<int>& current, const std::vector<int>& more) {
   std::vector<int> idx = current;
   idx.insert(idx.end(), more.begin(), more.end());

@@ -40,6 +40,15 @@ struct Candidates {
 /// those whose ids `exclude` lists.
 Candidates candidate_columns(Form form, const std::vector<std::string>& exclude);
 
+/// The unit's own regressors of columns `cols` at state `s` in `form`, one per column (a unit
+/// with several columns is asked once per run of them).
+void unit_row(Form form, const std::vector<Column>& cols, const effects::State& s, double* row);
+
+/// `start` less the fitted contribution Σ θ_j x_j of columns `cols` at state `s` (x: unit_row),
+/// column by column: the corrected residual (or prediction) at one sample, for every path.
+double less_fitted(Form form, const std::vector<Column>& cols, const effects::State& s,
+                   const Eigen::VectorXd& theta, double start);
+
 /// Gram positions `current` followed by `more`.
 std::vector<int> with(const std::vector<int>& current, const std::vector<int>& more);
 
