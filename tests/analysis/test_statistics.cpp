@@ -1,12 +1,19 @@
-// The one final fit with standard errors both analysis paths use (stats::estimate, internal to
-// twin/analysis): a constant fitted to four segments, against the jackknife computed by hand.
+// The statistics both analysis paths use (internal to twin/analysis): the one final fit with
+// standard errors (stats::estimate: a constant fitted to four segments, against the jackknife
+// computed by hand), the white-noise level of a sensor and the checks of a recording's columns.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <functional>
+#include <numbers>
 #include <optional>
+#include <random>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
+#include "maglead/recording/recording.hpp"
 #include "statistics.hpp"
 
 namespace {
@@ -15,6 +22,8 @@ using maglead::analysis::stats::Estimates;
 using maglead::analysis::stats::Fit;
 using maglead::analysis::stats::Grams;
 using maglead::analysis::stats::Named;
+using maglead::analysis::stats::require_analysable;
+using maglead::analysis::stats::white_noise_sigma;
 
 // Four segments of two samples each; one column of ones, so a fit is the mean residual of the
 // segments it uses: 2.5 on all, 16/6, 16/6, 10/6 and 18/6 without each segment in turn.
@@ -60,6 +69,58 @@ TEST(StatsEstimate, FinalFitAndJackknifeErrorsPerGroup) {
   expect_close(est.standard_errors[0].at("mean"), all);
   expect_close(est.standard_errors[0].at("twice"), 2 * all);
   expect_close(est.standard_errors[1].at("mean"), jackknife({16.0 / 6, 16.0 / 6, 10.0 / 6}));
+}
+
+// A slow sine with steps (a signal's own structure) under white noise of 0.3: the second
+// difference sees the noise, not the signal; the median keeps the few steps out. 5 % is about
+// six standard errors of the robust estimate on 20 000 samples.
+TEST(WhiteNoiseSigma, ReadsTheNoiseUnderASmoothSignalWithSteps) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  std::vector<double> y(20000);
+  for (std::size_t i = 0; i < y.size(); ++i) {
+    const double t = static_cast<double>(i) / 1000.0;
+    y[i] =
+        5.0 * std::sin(2 * std::numbers::pi * 0.5 * t) + (i % 2000 < 1000 ? 2.0 : 0.0) + noise(rng);
+  }
+  EXPECT_NEAR(white_noise_sigma(y), 0.3, 0.015);
+}
+
+maglead::Recording two_columns(std::size_t rows) {
+  maglead::Recording rec;
+  rec.path = "r.csv";
+  std::vector<double> t(rows), x(rows, 1.0);
+  for (std::size_t i = 0; i < rows; ++i) t[i] = 0.001 * static_cast<double>(i);
+  rec.add_column("t_s", t);
+  rec.add_column("x", x);
+  return rec;
+}
+
+std::string message_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return {};
+}
+
+TEST(RequireAnalysable, RefusesShortRecordsMissingColumnsAndNonNumbers) {
+  EXPECT_EQ(message_of([] { require_analysable(two_columns(200), {"t_s", "x"}); }), "");
+  EXPECT_EQ(message_of([] {
+              require_analysable(two_columns(199), {"t_s", "x"});
+            }),
+            "r.csv: too short to analyse (199 rows)");
+  EXPECT_NE(message_of([] {
+              require_analysable(two_columns(300), {"t_s", "y"});
+            }).find("'y'"),
+            std::string::npos);
+  auto rec = two_columns(300);
+  rec.columns[1][5] = std::nan("");
+  EXPECT_EQ(message_of([&] {
+              require_analysable(rec, {"t_s", "x"});
+            }),
+            "r.csv: column 'x' has no number at data row 6");
 }
 
 }  // namespace

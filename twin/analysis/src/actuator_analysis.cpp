@@ -156,15 +156,6 @@ Signals filtered_signals(const Recording& rec, const ActuatorParams& act, const 
   return s;
 }
 
-// Noise of the load cell from its sample-to-sample roughness (white noise: var(Δ²y) = 6σ²).
-double load_cell_noise(const std::vector<double>& load_raw) {
-  std::vector<double> d2;
-  d2.reserve(load_raw.size());
-  for (std::size_t i = 1; i + 1 < load_raw.size(); ++i)
-    d2.push_back(load_raw[i + 1] - 2 * load_raw[i] + load_raw[i - 1]);
-  return robust_sigma(d2) / std::sqrt(6.0);
-}
-
 // The standard deviation of white load-cell noise after the filter, and of its rate (the
 // filter's and the derivative's impulse response, summed in squares).
 std::pair<double, double> filtered_noise(const Prepared& P) {
@@ -375,12 +366,9 @@ std::vector<StuckEpisode> stuck_episodes(const Signals& s, const Prepared& P, co
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
                  const ActuatorParams& act, const Options& opt) {
   Prepared P;
-  for (const char* c : {"t_s", "nut_pos_m", "load_force_n"}) require_finite(rec, rec.column(c), c);
+  stats::require_analysable(rec, {"t_s", "nut_pos_m", "load_force_n"});
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
-  if (n < 200)
-    throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(n) +
-                                " rows)");
   P.fs_hz = sample_rate(rec);
   // The nut's mechanics (mass on the coupling stiffness) sit near 100 Hz; the effects live
   // below a few tens of Hz. The filter keeps those and averages encoder steps and load-cell noise.
@@ -390,7 +378,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   if (auto c = rec.meta("linear_encoder_m_per_count")) P.count_m = std::stod(*c);
   const Signals s = filtered_signals(rec, act, P);
   P.slips = find_slips(t, s.phi_raw);
-  P.load_noise_n = load_cell_noise(s.load_raw);
+  P.load_noise_n = stats::white_noise_sigma(s.load_raw);  // the load cell's noise
   std::tie(P.load_filtered_noise_n, P.load_rate_noise_n_s) = filtered_noise(P);
   P.v_min_m_s = P.count_m * P.filter_hz;
   const auto ok = sliding_mask(s, P);

@@ -10,11 +10,13 @@
 #include "actuator_analysis.hpp"
 #include "actuator_twin_force.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "statistics.hpp"
 
 namespace maglead::analysis {
 namespace {
 
 using selection::parameters_of;
+using stats::ErrorScale;  // over the sliding samples used
 
 std::string fmt(double v, int prec = 3) {
   std::ostringstream o;
@@ -191,13 +193,6 @@ Method method_of(const actuator::Prepared& P, const actuator::Options& o) {
                   "the break-away test";
   return m;
 }
-
-// RMS and relative error of a sum of squares over the sliding samples used.
-struct ErrorScale {
-  double n_used, measured_ss;
-  double rms(double s) const { return std::sqrt(s / n_used); }
-  double rel(double s) const { return measured_ss > 0 ? 100.0 * std::sqrt(s / measured_ss) : 0.0; }
-};
 
 EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepared& P,
                               double baseline_heldout_sse, const ErrorScale& es) {

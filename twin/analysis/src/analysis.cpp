@@ -295,13 +295,6 @@ void fixed_force(Signals& s, const ModelFile& model) {
   }
 }
 
-// A noise floor from the force's sample-to-sample roughness (white noise: var(Δ²y) = 6σ²).
-double noise_floor(const std::vector<double>& y) {
-  std::vector<double> d2;
-  for (std::size_t i = 1; i + 1 < y.size(); i += 1) d2.push_back(y[i + 1] - 2 * y[i] + y[i - 1]);
-  return robust_sigma(d2) / std::sqrt(6.0);
-}
-
 // Identification bandwidth: the lowest frequency below which the acceleration (the most
 // demanding regressor) keeps 99 % of its energy; decimate as far as the decimation filter
 // (80 % of the new Nyquist frequency) stays above it.
@@ -345,12 +338,8 @@ void decimate_signals(Prepared& P, int nd) {
 // differences, the drive force as logged, the baseline's fixed part at every sample.
 Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOptions& opt) {
   Prepared P;
-  for (const char* c : {"t_s", "pos_m", "drive_force_n"})
-    stats::require_finite(rec, rec.column(c), c);  // column(): throws naming file and column
+  stats::require_analysable(rec, {"t_s", "pos_m", "drive_force_n"});
   const auto& t = rec.column("t_s");
-  if (t.size() < 200)
-    throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(t.size()) +
-                                " rows)");
   const double dt = median_step(t);
   if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
   P.fs_hz = 1.0 / dt;
@@ -361,7 +350,7 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   s.v = central_diff(s.p, dt);
   s.a = central_diff2(s.p, dt);
   P.y_raw = rec.column("drive_force_n");
-  P.noise_floor_n = noise_floor(P.y_raw);
+  P.noise_floor_n = stats::white_noise_sigma(P.y_raw);  // the force sensor's noise
   s.valid.assign(s.size(), 1);
   // The travel the recording covers stands for the stroke (the spring's mid-stroke).
   s.stroke_min_m = *std::min_element(s.p.begin(), s.p.end());
@@ -604,11 +593,9 @@ void locate_pulses(AxisRun& run) {
 // every segment.
 ValidationStep validation_step(const AxisRun& run, const std::string& name, double heldout_sse,
                                const std::vector<int>& idx) {
-  const Fit f = fit_all(run.g, idx);
-  const double in = sse(run.g, f);
-  return ValidationStep{name, std::sqrt(heldout_sse / run.n_total),
-                        100.0 * std::sqrt(heldout_sse / run.yy_total), std::sqrt(in / run.n_total),
-                        100.0 * std::sqrt(in / run.yy_total)};
+  const double in = sse(run.g, fit_all(run.g, idx));
+  const stats::ErrorScale es{run.n_total, run.yy_total};
+  return ValidationStep{name, es.rms(heldout_sse), es.rel(heldout_sse), es.rms(in), es.rel(in)};
 }
 
 // The axis's rules for the one selection: the units' axis parameters beside the fitted totals,

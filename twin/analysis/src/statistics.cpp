@@ -40,6 +40,21 @@ void require_finite(const Recording& rec, const std::vector<double>& x, const st
                            std::to_string(i + 1));
 }
 
+void require_analysable(const Recording& rec, const std::vector<std::string>& columns) {
+  for (const auto& c : columns) require_finite(rec, rec.column(c), c);  // column(): names it
+  const std::size_t n = rec.column("t_s").size();
+  if (n < 200)
+    throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(n) +
+                                " rows)");
+}
+
+double white_noise_sigma(const std::vector<double>& y) {
+  std::vector<double> d2;
+  d2.reserve(y.size());
+  for (std::size_t i = 1; i + 1 < y.size(); ++i) d2.push_back(y[i + 1] - 2 * y[i] + y[i - 1]);
+  return robust_sigma(d2) / std::sqrt(6.0);
+}
+
 Grams::Grams(std::size_t folds, Eigen::Index columns)
     : xx(folds, Eigen::MatrixXd::Zero(columns, columns)),
       xr(folds, Eigen::VectorXd::Zero(columns)),

@@ -2,6 +2,7 @@
 // Statistics both analysis engines share (internal to twin/analysis): robust spread, per-segment
 // normal equations, least squares on the segments, held-out errors and partial R².
 #include <Eigen/Dense>
+#include <cmath>
 #include <cstddef>
 #include <functional>
 #include <map>
@@ -22,6 +23,20 @@ double total(const std::vector<double>& x);
 
 /// Throws RecordingError naming the file, the column and the data row of the first non-number.
 void require_finite(const Recording& rec, const std::vector<double>& x, const std::string& name);
+/// The columns every analysis reads: each present and finite (require_finite), and enough rows
+/// to analyse; throws naming the file otherwise.
+void require_analysable(const Recording& rec, const std::vector<std::string>& columns);
+/// Standard deviation of white noise on a smooth signal, from its sample-to-sample roughness
+/// (var(Δ²y) = 6σ²; robust to the signal's own steps).
+double white_noise_sigma(const std::vector<double>& y);
+
+/// RMS and relative error of a sum of squares over `n_used` samples whose measured force has
+/// the sum of squares `measured_ss`.
+struct ErrorScale {
+  double n_used, measured_ss;
+  double rms(double s) const { return std::sqrt(s / n_used); }
+  double rel(double s) const { return measured_ss > 0 ? 100.0 * std::sqrt(s / measured_ss) : 0.0; }
+};
 
 /// Per-segment normal equations over a set of columns; a fit is a small solve on their sums.
 struct Grams {
