@@ -442,19 +442,16 @@ Eigen::VectorXd column_noise(const Prepared& P, const std::vector<Column>& cols)
   Eigen::VectorXd out = Eigen::VectorXd::Zero(m);
   const std::size_t n = P.states.size(), step = std::max<std::size_t>(1, n / 2000);
   std::size_t used = 0;
-  double x0[8], x1[8], x2[8];
+  Eigen::VectorXd x0(m), x1(m), x2(m);
   for (std::size_t i = 0; i < n; i += step, ++used) {
     State load = P.states[i], rate = P.states[i];
     load.load_n += P.load_filtered_noise_n;
     rate.load_rate_n_s += P.load_rate_noise_n_s;
-    for (Eigen::Index j = 0; j < m;) {
-      const auto& c = cols[static_cast<std::size_t>(j)];
-      c.effect->regressors(c.shape, P.states[i], x0);
-      c.effect->regressors(c.shape, load, x1);
-      c.effect->regressors(c.shape, rate, x2);
-      for (int q = 0; q < c.effect->columns(); ++q, ++j)
-        out[j] += (x1[q] - x0[q]) * (x1[q] - x0[q]) + (x2[q] - x0[q]) * (x2[q] - x0[q]);
-    }
+    unit_row(Form::nut, cols, P.states[i], x0.data());
+    unit_row(Form::nut, cols, load, x1.data());
+    unit_row(Form::nut, cols, rate, x2.data());
+    for (Eigen::Index j = 0; j < m; ++j)
+      out[j] += (x1[j] - x0[j]) * (x1[j] - x0[j]) + (x2[j] - x0[j]) * (x2[j] - x0[j]);
   }
   return used > 0 ? Eigen::VectorXd(out * (static_cast<double>(n) / static_cast<double>(used)))
                   : out;
