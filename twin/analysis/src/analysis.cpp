@@ -436,10 +436,9 @@ Errors errors(const std::vector<double>& y, const std::vector<double>& yhat,
     yy += y[i] * y[i];
     ++n;
   }
-  Errors r;
-  r.rms = n ? std::sqrt(e / static_cast<double>(n)) : 0.0;
-  r.rel_pct = yy > 0 ? 100.0 * std::sqrt(e / yy) : 0.0;
-  return r;
+  if (n == 0) return {};
+  const stats::ErrorScale es{static_cast<double>(n), yy};
+  return {es.rms(e), es.rel(e)};
 }
 
 // ---------------------------------------------------------------- physical parameters
