@@ -587,8 +587,10 @@ void finish(const Prepared& P, const Grams& g, const Candidates& cand, const Sta
     out.final_residual[i] =
         less_fitted(Form::nut, used_cols, P.states[i], final_fit.theta, out.final_residual[i]);
   for (std::size_t k = 0; k < out.terms.size(); ++k) {
-    if (est.values[k]) out.terms[k].params = *est.values[k];
-    out.terms[k].standard_errors = est.standard_errors[k];
+    auto& term = out.terms[k];
+    if (est.values[k]) term.params = *est.values[k];
+    term.plausible = effects::plausible(*term.effect, term.params);
+    term.standard_errors = est.standard_errors[k];
   }
 }
 
