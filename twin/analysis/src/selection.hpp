@@ -117,14 +117,14 @@ struct Found {
   std::string id;
   const effects::Effect* effect = nullptr;
   double shape = 0;
-  std::vector<int> idx;               // its columns in the final model (none: not selected)
-  effects::Params params;             // as selected; a path sets the final fit's
-  effects::Params standard_errors{};  // jackknife over the held-out segments' fits
-  bool plausible = true;              // params inside the unit's physical range
-  double gain_pct = 0, t_stat = 0;    // held-out gain and its consistency over the segments
-  double worst_pct = 0;               // the worst counted segment's relative gain
-  double explained_n = 0;             // RMS force it explains on top of the model before it
-  int segments_improved = 0, segments = 0;
+  std::vector<int> idx;                     // its columns in the final model (none: not selected)
+  effects::Params params;                   // as selected; a path sets the final fit's
+  effects::Params standard_errors{};        // jackknife over the held-out segments' fits
+  bool plausible = true;                    // params inside the unit's physical range
+  double gain_pct = 0, t_stat = 0;          // held-out gain and its consistency over the segments
+  double worst_pct = 0;                     // the worst counted segment's relative gain
+  double explained_n = 0;                   // RMS force it explains on top of the model before it
+  int segments_improved = 0, segments = 0;  // held-out segments (from releases: the releases)
   double heldout_before = 0, heldout_after = 0;  // total held-out error before and after it
   const effects::Effect* over = nullptr;  // the richer best trial it was preferred to, if any
   std::vector<Alternative> alternatives;
