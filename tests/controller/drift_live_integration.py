@@ -10,8 +10,8 @@ plant is free and nothing here looks at IR 30).
 Usage: drift_live_integration.py MAGLEAD_BIN CONFIG_DIR [GAIN_PER_MIN RUN_S [force]] (defaults
 -0.05 95). GAIN_PER_MIN may instead be friction_drift=N_PER_MIN: the friction rises (the flag is
 due within 30 s of a 1 N rise, with reason 3 or 5). With "force" the PLC runs force mode against the default simulated spring instead
-(the issue's setpoints, 2.5 s each, no reference moves): a known gap, not flagged today (README,
-"Not flagged live in force control"); ctest runs it by hand only (label manual)."""
+(the issue's setpoints, 2.5 s each, no reference moves; README, "Live force control"); ctest
+runs it by hand only (drift_live_force_control, label manual: 150 s)."""
 import os
 import sys
 import threading
