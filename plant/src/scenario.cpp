@@ -22,6 +22,9 @@ const std::vector<ScenarioInfo>& scenario_list() {
        "screw held, a compliant hand pushes the nut back and forth, peaks up to ~35 N (Fig. 11)"},
       {"force-steps",
        "force control against a spring load: setpoint steps, ramps and a sine sweep"},
+      {"force-holds",
+       "force control against a 2000 N/m spring: setpoints held 2.5 s each, as a PLC steps them "
+       "(5, 10, 15, 20, -5, -10, -15, 12, 8, 3, 0, 18, 6 N, repeated)"},
       {"position-moves", "moves across the stroke at 5, 20 and 50 mm/s with a light load"},
       {"mixed",
        "alternating: force control against a spring (8 s of steps, ramps, sweep), then hand "
@@ -101,6 +104,16 @@ double force_setpoint_n(double t, double duration) {
   const double f0 = 0.2, f1 = 2.0;
   const double phase = 2 * std::numbers::pi * (f0 * tau + 0.5 * (f1 - f0) / span * tau * tau);
   return 20.0 * std::sin(phase);
+}
+
+/// A PLC's force steps: each setpoint held, the loop landing on it and then holding (the nut
+/// slides only briefly after each step, as `serve` in force mode does against its spring).
+double held_setpoint_n(double t) {
+  static constexpr double steps[] = {5.0,  10.0, 15.0, 20.0, -5.0, -10.0, -15.0,
+                                     12.0, 8.0,  3.0,  0.0,  18.0, 6.0};
+  constexpr double hold_s = 2.5;
+  const auto i = static_cast<std::size_t>(std::floor(t / hold_s)) % std::size(steps);
+  return steps[i];
 }
 
 /// Trapezoidal point-to-point moves across the stroke at several speeds.
@@ -203,7 +216,8 @@ class ScenarioRun {
         plant_(opt.plant, opt.seed * 7919 + 17, kMidStroke_m),
         screw0_(rest_angle_rad(kMidStroke_m, act_.lead_m)),
         mixed_(opt.scenario == "mixed" || opt.scenario == "mixed-moves"),
-        force_mode_(opt.scenario == "force-steps" || mixed_),
+        holds_(opt.scenario == "force-holds"),
+        force_mode_(opt.scenario == "force-steps" || holds_ || mixed_),
         move_mode_(opt.scenario == "position-moves"),
         schedule_(opt.scenario == "mixed-moves" ? MixedSchedule{6.0, 8.0, 7.0} : MixedSchedule{}),
         hand_(opt.duration_s, rng_),
@@ -294,7 +308,8 @@ class ScenarioRun {
       // The mixed scenarios' spring is anchored where the nut was when force control began.
       if (mixed_ && last_segment_ != Segment::force) spring_anchor_m_ = plant_.truth().nut_pos_m;
       load.kind = LoadSetting::Kind::spring_to_wall;
-      load.stiffness_n_per_m = 3000.0;
+      // force-holds: the spring `serve` simulates by default (the live test's load).
+      load.stiffness_n_per_m = holds_ ? 2000.0 : 3000.0;
       load.damping_n_s_per_m = 5.0;
       load.anchor_pos_m = mixed_ ? spring_anchor_m_ : kMidStroke_m;
     } else {
@@ -314,7 +329,8 @@ class ScenarioRun {
     if (force_mode_) {
       const double set =
           mixed_ ? schedule_.sign(t) * force_setpoint_n(t - schedule_.start_s(t), schedule_.force_s)
-                 : force_setpoint_n(t, opt_.duration_s);
+          : holds_ ? held_setpoint_n(t)
+                   : force_setpoint_n(t, opt_.duration_s);
       const auto inv = phase_for_output_force(opt_.estimator_calibration, set, 0.9);
       return {rest_angle_rad(pos_m, L) + inv.phase_rad, set};
     }
@@ -330,7 +346,7 @@ class ScenarioRun {
   std::mt19937_64 rng_;
   SimulatedActuator plant_;
   const double screw0_;
-  const bool mixed_, force_mode_, move_mode_;
+  const bool mixed_, holds_, force_mode_, move_mode_;
   const MixedSchedule schedule_;
   HandProfile hand_;
   MoveProfile moves_, segment_moves_;

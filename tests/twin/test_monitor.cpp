@@ -234,6 +234,23 @@ TEST(TwinMonitor, ForceStepsAndHandPushesWithoutDriftRaiseNoDriftWarning) {
   EXPECT_EQ(hand.last.drift_observability, DriftObservability::none);
 }
 
+// A PLC's force steps held 2.5 s each (`simulate --scenario force-holds`, 2000 N/m): the nut
+// slides one way at each step for a fraction of a second, so no 2 s window goes both ways. Such a
+// window, compared within the map's own stretch, takes the step as its intercept (the load is
+// where the map found it); with an offset of its own it resolved no step and 150 s formed no
+// reference. −5 %/min flagged within 30 s of the crossing, as gain; the control never warns.
+TEST(TwinMonitor, HeldForceStepsDriftFlaggedWithoutLoadCell) {
+  const MonitorRun r = run_recording("force-holds", 100.0, 1, -0.05, {}, false);
+  expect_loss_in_time(r, 0.05, "force-holds, gain -5 %/min");
+  EXPECT_EQ(r.at_drift.drift_reason, DriftReason::gain_fell);
+  const MonitorRun control = run_recording("force-holds", 150.0, 1, 0.0, {}, false);
+  std::printf("force-holds 150 s, no drift: statistic max %.2f; at the end %s\n",
+              control.max_drift_statistic, drift_figures_text(control.last.drift_now).c_str());
+  EXPECT_FALSE(std::isfinite(control.first_drift_s))
+      << drift_message(control.at_drift) << " at " << control.first_drift_s;
+  EXPECT_EQ(control.last.drift_observability, DriftObservability::tracking) << "nothing compared";
+}
+
 // Force control and hand pushes in turn (`simulate --scenario mixed`: 8 s of force steps, ramps
 // and a sweep against a spring, 9 s of hand pushes with the screw held; the spring re-engages
 // where the hand left the nut, 1.4 mm away each time). The passive load's evidence spans the hand

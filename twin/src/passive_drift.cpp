@@ -233,12 +233,34 @@ int PassiveLoadDrift::bin_of(double p) const noexcept {
 /// segment in between) would otherwise leave cells of two anchors side by side, and a later
 /// window spanning both would read the jump between them as a gain.
 void PassiveLoadDrift::map_window(const Fit& cmp) noexcept {
+  const auto in_frame = [&](const Block& b) {
+    return (b.f - cmp.offset - cmp.step * b.dir) / (1.0 + cmp.gain);
+  };
   for (int i = 0; i < n_blocks_; ++i) {
     const Block& b = blocks_[i];
     if (std::isfinite(b.ref)) continue;  // compared, not mapped again
     Cell& c = map_[(b.dir > 0 ? kBins : 0) + bin_of(b.p - shift_m_)];
-    c.sum_p += b.p - shift_m_, c.sum_f += (b.f - cmp.offset - cmp.step * b.dir) / (1.0 + cmp.gain),
-        ++c.n;
+    c.sum_p += b.p - shift_m_, c.sum_f += in_frame(b), ++c.n;
+    if (i > 0 && !std::isfinite(blocks_[i - 1].ref)) span_slide(blocks_[i - 1], b, in_frame);
+  }
+}
+
+/// Two blocks of one slide (one direction, one block after the other): the nut passed through
+/// the load between them, so the empty cells between their positions take the line between the
+/// two. A fast slide (the loop landing a force step at tens of mm/s) maps one block every few
+/// cells; without this a later visit, whose blocks fall in between, finds no reference there
+/// (the map interpolates only across two cells) and a window of a few slides is never compared.
+template <class F>
+void PassiveLoadDrift::span_slide(const Block& a, const Block& b, const F& in_frame) noexcept {
+  if (a.dir != b.dir || b.t - a.t > 1.5 * s_.block_s) return;
+  const double pa = a.p - shift_m_, pb = b.p - shift_m_, fa = in_frame(a), fb = in_frame(b);
+  const int lo = bin_of(std::min(pa, pb)), hi = bin_of(std::max(pa, pb)),
+            off = b.dir > 0 ? kBins : 0;
+  for (int k = lo + 1; k < hi; ++k) {
+    Cell& c = map_[off + k];
+    if (c.n > 0) continue;
+    const double p = s_.stroke_min_m + (k + 0.5) * s_.bin_m;
+    c.sum_p = p, c.sum_f = fa + (fb - fa) * (p - pa) / (pb - pa), c.n = 1;
   }
 }
 
@@ -286,7 +308,7 @@ PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare, bool joint) const noex
   if (!d.has_step) a[2][2] = 1.0;  // the step's column is empty: θ₂ = 0, decoupled
   // The shift of position stands for the offset (see compare_window): c = 0. Not in the joint
   // fit, where the shift's own column takes c's place.
-  if (d.shifted && !d.joint) {
+  if ((d.shifted && !d.joint) || d.anchored) {
     a[0] = Vec{1.0, 0.0, 0.0}, rhs[0] = 0.0;
     a[1][0] = a[2][0] = 0.0;
   }
@@ -305,7 +327,13 @@ PassiveLoadDrift::Fit PassiveLoadDrift::fit(bool compare, bool joint) const noex
 }
 
 /// The blocks a fit uses: before the reference all, after it those where the reference went;
-/// of one direction only where the other has too few to resolve the step.
+/// of one direction only where the other has too few to resolve the step. Such a window compared
+/// within the map's own stretch is anchored: the load is where the map found it (the premise of
+/// the map itself: the same force at the same position), so its offset is zero and its intercept
+/// is the step, −Δ₀·dir. A PLC that steps the force and holds slides one way at each step for a
+/// fraction of a second; with an offset of its own no such window resolved the step, the map was
+/// never checked, and live force control formed no reference in 150 s. A window that went both
+/// ways keeps its own offset (an anchor that creeps within a stretch is no drift).
 PassiveLoadDrift::Design PassiveLoadDrift::design(bool compare, bool joint) const noexcept {
   Design d;
   d.compare = compare;
@@ -320,6 +348,8 @@ PassiveLoadDrift::Design PassiveLoadDrift::design(bool compare, bool joint) cons
   d.has_step = n_pos >= kP && n_all - n_pos >= kP;
   d.only = d.has_step ? 0 : (2 * n_pos >= n_all ? 1 : -1);
   d.m = d.has_step ? n_all : (d.only > 0 ? n_pos : n_all - n_pos);
+  d.anchored = compare && !d.shifted && !d.has_step;
+  if (d.anchored) d.has_step = true;
   if (n_all > 0) d.p_mean /= n_all;
   return d;
 }

@@ -12,7 +12,10 @@
 // Δ₀·dir, with its own offset c (an anchor moved between windows), α = g_ref / g − 1 the gain,
 // Δ₀ the estimate's error change at zero load. Like with like: the same positions are the same
 // phases, so a coupling model that is wrong by a different amount at another phase does not
-// look like a drift. Gain and friction are told apart, unlike on free moves.
+// look like a drift. Gain and friction are told apart, unlike on free moves. A window that went
+// one way only (a PLC's force step, landed and held) cannot tell its own offset from the step:
+// within the stretch the map was formed in, the load is anchored where the map found it, so c = 0
+// there and the window's intercept is the step.
 #include <array>
 #include <cmath>
 #include <limits>
@@ -114,6 +117,7 @@ class PassiveLoadDrift {
   /// Which blocks a fit uses and its regressors.
   struct Design {
     bool compare = false, has_step = false, shifted = false;  // shifted: c = 0, a shift instead
+    bool anchored = false;  // one direction in the map's stretch: c = 0, the step the intercept
     bool joint = false;   // shifted, the shift a parameter: its column −∂ref/∂p in place of c
     int only = 0, m = 0;  // only: the one direction used (0: both); m: the blocks used
     double p_mean = 0;
@@ -138,6 +142,8 @@ class PassiveLoadDrift {
   bool parts_on_line(const Design& d, const Vec& th, double sd) const noexcept;
   int bin_of(double p) const noexcept;
   void map_window(const Fit& cmp) noexcept;
+  template <class F>
+  void span_slide(const Block& a, const Block& b, const F& in_frame) noexcept;
   void reference_window(const Fit& cmp, double span_s) noexcept;
   double reference_at(double p, int dir) const noexcept;
   void add_window(const Fit& f) noexcept;
