@@ -10,7 +10,7 @@ plant is free and nothing here looks at IR 30).
 Usage: drift_live_integration.py MAGLEAD_BIN CONFIG_DIR [GAIN_PER_MIN RUN_S [force]] (defaults
 -0.05 95). GAIN_PER_MIN may instead be friction_drift=N_PER_MIN: the friction rises (the flag is
 due within 30 s of a 1 N rise, with reason 3 or 5). With "force" the PLC runs force mode against the default simulated spring instead
-(the issue's setpoints, 2.5 s each, no reference moves; README, "Live force control"): there the
+(the issue's setpoints, 2.5 s each, no reference moves; docs/drift.md, "Live force control"): there the
 flag is asserted within the run, not within 30 s of the crossing (measured 23-39 s after it);
 ctest runs it by hand only (drift_live_force_control, label manual: 150 s)."""
 import os
@@ -41,7 +41,7 @@ else:  # the coupling 3 % below its start (36 s at -5 %/min)
 # Wall time per server; the control is judged over all of it.
 RUN_S = float(sys.argv[4]) if len(sys.argv) > 4 else 95.0
 FORCE_CONTROL = len(sys.argv) > 5 and sys.argv[5] == "force"
-# In force control the flag comes 23-39 s after the crossing (four runs: README, "Live force
+# In force control the flag comes 23-39 s after the crossing (four runs: docs/drift.md, "Live force
 # control"): within the run is asserted, the 30 s aim is printed, not asserted.
 DEADLINE_S = RUN_S if FORCE_CONTROL else CROSS_S + 30.0
 DEADLINE_TEXT = "within the run" if FORCE_CONTROL else f"30 s after the {CHANGE} crossing"
