@@ -131,6 +131,17 @@ void expect_loss_in_time(const MonitorRun& r, double loss_per_min, const char* w
   expect_in_time(r, 60.0 * (1.0 - 0.97 * g_ref) / loss_per_min, what);
 }
 
+/// A control without drift: compared (the reference formed and later stretches tracked) and
+/// never warned.
+void expect_quiet_and_tracking(const MonitorRun& r, const char* what) {
+  std::printf("%s, no drift: statistic max %.2f; at the end %s\n", what, r.max_drift_statistic,
+              drift_figures_text(r.last.drift_now).c_str());
+  EXPECT_FALSE(std::isfinite(r.first_drift_s))
+      << what << ": " << drift_message(r.at_drift) << " at " << r.first_drift_s;
+  EXPECT_EQ(r.last.drift_observability, DriftObservability::tracking)
+      << what << ": nothing compared";
+}
+
 TEST(TwinMonitor, CouplingLossFlaggedFromFreeMovesWithoutLoadCell) {
   // −5 %/min: 10 % over the two minutes. Warned within 30 s of the gain crossing 3 % below its
   // value at the reference; the moves (one acceleration, speeds where C·v is 0.1 N) cannot tell
@@ -223,11 +234,7 @@ TEST(TwinMonitor, ForceStepsDriftFlaggedFromAPassiveLoadWithoutLoadCell) {
 // passive load pressed by the loop: not observable, no warning.
 TEST(TwinMonitor, ForceStepsAndHandPushesWithoutDriftRaiseNoDriftWarning) {
   const MonitorRun steps = run_recording("force-steps", 120.0, 5, 0.0, {}, false);
-  std::printf("force-steps 120 s, no drift: statistic max %.2f; at the end %s\n",
-              steps.max_drift_statistic, drift_figures_text(steps.last.drift_now).c_str());
-  EXPECT_FALSE(std::isfinite(steps.first_drift_s))
-      << drift_message(steps.at_drift) << " at " << steps.first_drift_s;
-  EXPECT_EQ(steps.last.drift_observability, DriftObservability::tracking) << "nothing compared";
+  expect_quiet_and_tracking(steps, "force-steps 120 s");
   EXPECT_GT(steps.max_drift_statistic, 0.0) << "never judged";
   const MonitorRun hand = run_recording("hand-push", 60.0, 3, 0.0, {}, false);
   EXPECT_FALSE(std::isfinite(hand.first_drift_s)) << drift_message(hand.at_drift);
@@ -244,11 +251,7 @@ TEST(TwinMonitor, HeldForceStepsDriftFlaggedWithoutLoadCell) {
   expect_loss_in_time(r, 0.05, "force-holds, gain -5 %/min");
   EXPECT_EQ(r.at_drift.drift_reason, DriftReason::gain_fell);
   const MonitorRun control = run_recording("force-holds", 150.0, 1, 0.0, {}, false);
-  std::printf("force-holds 150 s, no drift: statistic max %.2f; at the end %s\n",
-              control.max_drift_statistic, drift_figures_text(control.last.drift_now).c_str());
-  EXPECT_FALSE(std::isfinite(control.first_drift_s))
-      << drift_message(control.at_drift) << " at " << control.first_drift_s;
-  EXPECT_EQ(control.last.drift_observability, DriftObservability::tracking) << "nothing compared";
+  expect_quiet_and_tracking(control, "force-holds 150 s");
 }
 
 // Force control and hand pushes in turn (`simulate --scenario mixed`: 8 s of force steps, ramps

@@ -21,14 +21,19 @@ struct Load {
   double first_s = 0.0, first_scale = 1.0;  // the estimate scaled so over the first seconds
 };
 
-/// 120 s of a ±4 mm sweep (0.25 Hz) against a 3000 N/m spring at mid-stroke, 1 kHz, noise
-/// 0.2 N on the estimate; the nut sticks where it turns (|v| below 1 mm/s).
-PassiveLoadDrift run(const Load& l) {
+/// The unit as the paper's actuator configures it: 7.5 N friction, 36 N rated, cells of 4 counts.
+PassiveDriftSettings settings() {
   PassiveDriftSettings s;
   s.friction_n = 7.5;
   s.rated_n = 36.0;
   s.stroke_min_m = 0.0, s.stroke_max_m = 0.04, s.bin_m = 4 * 21.6e-6;
-  PassiveLoadDrift d(s);
+  return s;
+}
+
+/// 120 s of a ±4 mm sweep (0.25 Hz) against a 3000 N/m spring at mid-stroke, 1 kHz, noise
+/// 0.2 N on the estimate; the nut sticks where it turns (|v| below 1 mm/s).
+PassiveLoadDrift run(const Load& l) {
+  PassiveLoadDrift d(settings());
   std::mt19937_64 rng(7);
   std::normal_distribution<double> noise(0.0, 0.2);
   constexpr double kW = 2 * M_PI * 0.25, kA = 0.004, kK = 3000.0;
@@ -51,11 +56,7 @@ PassiveLoadDrift run(const Load& l) {
 /// takes the nut to each new balance at 20 mm/s and holds it there. Every slide is one step,
 /// 0.1–0.7 s long and one way, so no 2 s window goes both ways.
 PassiveLoadDrift run_holds(const Load& l, double duration_s) {
-  PassiveDriftSettings s;
-  s.friction_n = 7.5;
-  s.rated_n = 36.0;
-  s.stroke_min_m = 0.0, s.stroke_max_m = 0.04, s.bin_m = 4 * 21.6e-6;
-  PassiveLoadDrift d(s);
+  PassiveLoadDrift d(settings());
   std::mt19937_64 rng(11);
   std::normal_distribution<double> noise(0.0, 0.2);
   constexpr double kK = 2000.0, kV = 0.02, kDt = 1e-3;
