@@ -23,6 +23,7 @@ using maglead::analysis::stats::Fit;
 using maglead::analysis::stats::Grams;
 using maglead::analysis::stats::Named;
 using maglead::analysis::stats::require_analysable;
+using maglead::analysis::stats::sample_rate_hz;
 using maglead::analysis::stats::white_noise_sigma;
 
 // Four segments of two samples each; one column of ones, so a fit is the mean residual of the
@@ -121,6 +122,25 @@ TEST(RequireAnalysable, RefusesShortRecordsMissingColumnsAndNonNumbers) {
               require_analysable(rec, {"t_s", "x"});
             }),
             "r.csv: column 'x' has no number at data row 6");
+}
+
+// The header names the logger's clock; the time stamps only carry its rounding (EMPS: header
+// 1000 Hz, a median step of 0.999984 ms over its first steps, mean exactly 1 ms).
+TEST(SampleRate, HeaderWinsOverJitteredStampsElseTheMedianStep) {
+  auto rec = two_columns(1000);
+  for (std::size_t i = 0; i < 1000; ++i) rec.columns[0][i] += (i % 2 ? 2e-8 : -1e-8);
+  EXPECT_NEAR(sample_rate_hz(rec), 1000.0, 0.1);
+  EXPECT_NE(sample_rate_hz(rec), 1000.0);  // the median step is jittered
+  rec.set_meta("sample_rate_hz", "1000");
+  EXPECT_EQ(sample_rate_hz(rec), 1000.0);
+  rec.set_meta("sample_rate_hz", "fast");
+  EXPECT_EQ(message_of([&] { sample_rate_hz(rec); }),
+            "r.csv: header sample_rate_hz 'fast' is not a positive number");
+  rec.set_meta("sample_rate_hz", "-5");
+  EXPECT_NE(message_of([&] { sample_rate_hz(rec); }), "");
+  auto still = two_columns(300);
+  still.columns[0].assign(300, 1.0);
+  EXPECT_EQ(message_of([&] { sample_rate_hz(still); }), "r.csv: t_s does not advance");
 }
 
 }  // namespace

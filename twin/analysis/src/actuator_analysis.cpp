@@ -28,22 +28,6 @@ using stats::median_of;
 using stats::require_finite;
 using stats::robust_sigma;
 
-double sample_rate(const Recording& rec) {
-  if (auto s = rec.meta("sample_rate_hz")) {
-    try {
-      const double f = std::stod(*s);
-      if (f > 0) return f;
-    } catch (const std::exception&) {
-    }
-  }
-  const auto& t = rec.column("t_s");
-  std::vector<double> d;
-  for (std::size_t i = 1; i < t.size() && d.size() < 20000; ++i) d.push_back(t[i] - t[i - 1]);
-  const double dt = median_of(d);
-  if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
-  return 1.0 / dt;
-}
-
 // Coupling force on the nut, F_m = −F̂_s: the polynomial on the calibrated branch, the periodic
 // model past it (step-out), so the force is defined for every phase.
 struct Coupling {
@@ -369,7 +353,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   stats::require_analysable(rec, {"t_s", "nut_pos_m", "load_force_n"});
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
-  P.fs_hz = sample_rate(rec);
+  P.fs_hz = stats::sample_rate_hz(rec);
   // The nut's mechanics (mass on the coupling stiffness) sit near 100 Hz; the effects live
   // below a few tens of Hz. The filter keeps those and averages encoder steps and load-cell noise.
   P.filter_hz = std::min(opt.filter_hz, 0.2 * P.fs_hz);

@@ -90,14 +90,6 @@ void fill_row(const Signals& s, std::size_t i, const std::vector<Column>& cols, 
   for (std::size_t j = 0; j < cols.size(); ++j) row[j] = -row[j];
 }
 
-// The median of the first 10 000 time steps (the recording's header is not asked, unlike the
-// actuator's sample_rate: EMPS's says 1000 Hz, its median step is 0.999984 ms).
-double median_step(const std::vector<double>& t) {
-  std::vector<double> d;
-  for (std::size_t i = 1; i < t.size() && d.size() < 10000; ++i) d.push_back(t[i] - t[i - 1]);
-  return stats::median_of(std::move(d));
-}
-
 // ---------------------------------------------------------------- Gram per segment
 // The shared per-segment normal equations, with the columns in matrix order.
 struct Grams : stats::Grams {
@@ -340,9 +332,8 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   Prepared P;
   stats::require_analysable(rec, {"t_s", "pos_m", "drive_force_n"});
   const auto& t = rec.column("t_s");
-  const double dt = median_step(t);
-  if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
-  P.fs_hz = 1.0 / dt;
+  P.fs_hz = stats::sample_rate_hz(rec);
+  const double dt = 1.0 / P.fs_hz;
   P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : 100.0;
   Signals& s = P.full;
   s.t = t;

@@ -2,8 +2,11 @@
 #include "statistics.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <numeric>
+#include <stdexcept>
 
 namespace maglead::analysis::stats {
 
@@ -46,6 +49,24 @@ void require_analysable(const Recording& rec, const std::vector<std::string>& co
   if (n < 200)
     throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(n) +
                                 " rows)");
+}
+
+double sample_rate_hz(const Recording& rec) {
+  if (auto h = rec.meta("sample_rate_hz")) {
+    char* end = nullptr;
+    const double f = std::strtod(h->c_str(), &end);
+    while (end && std::isspace(static_cast<unsigned char>(*end))) ++end;
+    if (end == h->c_str() || *end != '\0' || !(f > 0) || !std::isfinite(f))
+      throw std::invalid_argument(rec.path + ": header sample_rate_hz '" + *h +
+                                  "' is not a positive number");
+    return f;
+  }
+  const auto& t = rec.column("t_s");
+  std::vector<double> d;
+  for (std::size_t i = 1; i < t.size() && d.size() < 20000; ++i) d.push_back(t[i] - t[i - 1]);
+  const double dt = median_of(std::move(d));
+  if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
+  return 1.0 / dt;
 }
 
 double white_noise_sigma(const std::vector<double>& y) {
