@@ -292,14 +292,6 @@ struct StateAt {
   }
 };
 
-// What the baseline leaves out of M p̈ = F_m − C v − F_c sign(v) + F_ext + Σ terms.
-double missing_force(const Baseline& base, const State& s) {
-  double r = base.nut_mass_kg * s.a_m_s2 - s.coupling_n + base.viscous_n_s_per_m * s.v_m_s +
-             base.coulomb_n * effects::sgn(s.v_m_s) - s.load_n;
-  for (const auto& term : base.terms) r -= term.effect->force_n(term.params, s);
-  return r;
-}
-
 // The stuck episode that ends at sample j (the raw count unchanged since sample i), if the nut
 // then slipped on (not encoder chatter) away from any step-out.
 std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, const Baseline& base,
@@ -378,7 +370,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(P.decimation)) {
     if (!ok[i]) continue;
     P.states.push_back(state_at(i));
-    P.residual.push_back(missing_force(base, P.states.back()));
+    P.residual.push_back(missing_force(P.states.back(), base.terms));
     P.locked_run.push_back(runs.run[i]);
   }
   P.locked_period = runs.period;

@@ -19,10 +19,7 @@ namespace maglead::analysis::actuator {
 /// The screw angle: logged, or the motor angle through the gear (the header's gear_ratio wins).
 std::vector<double> angle_column(const Recording& rec, const ActuatorParams& act);
 
-struct BaselineTerm {
-  const effects::Effect* effect;
-  effects::Params params;
-};
+using analysis::BaselineTerm;
 
 /// The model the recording is compared with: nominal dynamics plus the terms it already has.
 struct Baseline {

@@ -260,13 +260,9 @@ effects::State model_totals(const ModelFile& model) {
 // The baseline's fixed force at every sample of a force-driven axis: the drive supplies the
 // known dynamics M a + C v + F_c sign(v) and whatever every term of the model file takes from
 // the moving part (the units' laws, the same the twin runs). A term whose total is fitted here
-// is left to the fit.
+// is left to the fit. The law is the actuator's (missing_force; no coupling or load here).
 void fixed_force(Signals& s, const ModelFile& model) {
-  struct Term {
-    const effects::Effect* effect;
-    effects::Params params;
-  };
-  std::vector<Term> terms;
+  std::vector<BaselineTerm> terms;
   for (const auto& t : model.terms) {
     const auto* e = effects::find(t.id);
     if (!t.enabled || !e) continue;
@@ -280,10 +276,7 @@ void fixed_force(Signals& s, const ModelFile& model) {
     st.nut_mass_kg = totals.nut_mass_kg;
     st.viscous_n_s_per_m = totals.viscous_n_s_per_m;
     st.coulomb_n = totals.coulomb_n;
-    double y =
-        st.nut_mass_kg * st.a_m_s2 + st.viscous_n_s_per_m * st.v_m_s + st.coulomb_n * sgn(st.v_m_s);
-    for (const auto& t : terms) y -= t.effect->force_n(t.params, st);
-    s.y_fixed[i] = y;
+    s.y_fixed[i] = missing_force(st, terms);
   }
 }
 
