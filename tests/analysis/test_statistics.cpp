@@ -20,6 +20,8 @@ namespace {
 
 using maglead::analysis::stats::Estimates;
 using maglead::analysis::stats::Fit;
+using maglead::analysis::stats::fold_of;
+using maglead::analysis::stats::fold_starts;
 using maglead::analysis::stats::Grams;
 using maglead::analysis::stats::Named;
 using maglead::analysis::stats::require_analysable;
@@ -141,6 +143,26 @@ TEST(SampleRate, HeaderWinsOverJitteredStampsElseTheMedianStep) {
   auto still = two_columns(300);
   still.columns[0].assign(300, 1.0);
   EXPECT_EQ(message_of([&] { sample_rate_hz(still); }), "r.csv: t_s does not advance");
+}
+
+// Segments are equal times, not equal sample counts: a logger that sampled the first half ten
+// times faster still gets its span cut in the middle.
+TEST(Folds, CutTheSpanByTimeNotBySampleCount) {
+  std::vector<double> t;
+  for (int i = 0; i < 100; ++i) t.push_back(0.01 * i);      // 0 … 0.99 s, 100 samples
+  for (int i = 0; i < 10; ++i) t.push_back(1.0 + 0.1 * i);  // 1.0 … 1.9 s, 10 samples
+  t.push_back(2.0);
+  const auto starts = fold_starts(t, 0.0, 2.0, 2);
+  ASSERT_EQ(starts.size(), 3U);
+  EXPECT_EQ(starts[0], 0U);
+  EXPECT_EQ(starts[1], 100U);  // by sample count it would be 55
+  EXPECT_EQ(starts[2], t.size());
+  EXPECT_EQ(fold_of(0.0, 2.0, 4), 0U);
+  EXPECT_EQ(fold_of(1.99, 2.0, 4), 3U);
+  EXPECT_EQ(fold_of(2.0, 2.0, 4), 3U);  // the last stamp belongs to the last segment
+  EXPECT_EQ(fold_of(0.5, 0.0, 4), 0U);  // no span: one segment
+  const auto uniform = fold_starts(std::vector<double>{0, 1, 2, 3, 4, 5}, 0.0, 5.0, 3);
+  EXPECT_EQ(uniform, (std::vector<std::size_t>{0, 2, 4, 6}));
 }
 
 }  // namespace

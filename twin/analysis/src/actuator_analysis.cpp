@@ -440,9 +440,7 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
   for (std::size_t i = 0; i < P.states.size(); ++i) {
     const auto& s = P.states[i];
     unit_row(Form::nut, cols, s, x.data());
-    auto f = static_cast<std::size_t>(
-        std::min<double>(folds - 1, std::floor(folds * s.t_s / P.duration_s)));
-    g.add_row(f, x, P.residual[i], s.load_n);
+    g.add_row(stats::fold_of(s.t_s, P.duration_s, folds), x, P.residual[i], s.load_n);
   }
   g.symmetrize();
   g.noise_ss = column_noise(P, cols);

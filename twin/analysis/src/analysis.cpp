@@ -68,7 +68,12 @@ struct Signals {
   std::vector<double> t, p, v, a, y, y_fixed;
   std::vector<unsigned char> valid;
   double stroke_min_m = 0.0, stroke_max_m = 0.0;
+  double start_s = 0.0, span_s = 0.0;  // the recording's time span (decimated or not)
   std::size_t size() const { return t.size(); }
+  // Where each held-out segment starts: the span cut by time, as on the actuator.
+  std::vector<std::size_t> fold_starts(int folds) const {
+    return stats::fold_starts(t, start_s, span_s, folds);
+  }
   effects::State state(std::size_t i) const {
     effects::State s;
     s.t_s = t[i];
@@ -107,13 +112,13 @@ Grams accumulate(const Signals& s, const std::vector<Column>& cols, int folds,
                  const std::function<void(double)>& progress) {
   const auto m = static_cast<Eigen::Index>(cols.size());
   Grams g{stats::Grams(static_cast<std::size_t>(folds), m), cols};
-  const std::size_t n = s.size();
+  const auto starts = s.fold_starts(folds);
   constexpr std::size_t kChunk = 2048;
   stats::Grams::RowMatrix x(kChunk, m);
   Eigen::VectorXd r(kChunk);
   for (int f = 0; f < folds; ++f) {
-    const std::size_t lo = n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
-    const std::size_t hi = n * static_cast<std::size_t>(f + 1) / static_cast<std::size_t>(folds);
+    const std::size_t lo = starts[static_cast<std::size_t>(f)];
+    const std::size_t hi = starts[static_cast<std::size_t>(f) + 1];
     for (std::size_t i0 = lo; i0 < hi; i0 += kChunk) {
       Eigen::Index k = 0;
       double yy = 0;
@@ -310,6 +315,8 @@ void decimate_signals(Prepared& P, int nd) {
   d = Signals{};
   d.stroke_min_m = s.stroke_min_m;
   d.stroke_max_m = s.stroke_max_m;
+  d.start_s = s.start_s;
+  d.span_s = s.span_s;
   for (std::size_t i = 0; i < s.size(); i += static_cast<std::size_t>(nd)) d.t.push_back(s.t[i]);
   d.p = decimate(s.p, nd, P.fs_hz);
   d.v = decimate(s.v, nd, P.fs_hz);
@@ -330,6 +337,8 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : 100.0;
   Signals& s = P.full;
   s.t = t;
+  s.start_s = t.front();
+  s.span_s = t.back() - t.front();
   s.p = filtfilt_butter4(rec.column("pos_m"), P.filter_hz, P.fs_hz);
   s.v = central_diff(s.p, dt);
   s.a = central_diff2(s.p, dt);
@@ -369,10 +378,10 @@ Grams accumulate_matrix(const Prepared& P, const std::vector<Column>& cols, int 
   Grams g;
   g.cols = cols;
   const Signals& s = P.id;
-  const std::size_t n = s.size();
+  const auto starts = s.fold_starts(folds);
   for (int f = 0; f < folds; ++f) {
-    const std::size_t lo = n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
-    const std::size_t hi = n * static_cast<std::size_t>(f + 1) / static_cast<std::size_t>(folds);
+    const std::size_t lo = starts[static_cast<std::size_t>(f)];
+    const std::size_t hi = starts[static_cast<std::size_t>(f) + 1];
     Eigen::VectorXd r(static_cast<Eigen::Index>(hi - lo));
     double yy = 0;
     for (std::size_t i = lo; i < hi; ++i) {

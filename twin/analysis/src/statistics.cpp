@@ -76,6 +76,22 @@ double white_noise_sigma(const std::vector<double>& y) {
   return robust_sigma(d2) / std::sqrt(6.0);
 }
 
+std::size_t fold_of(double since_start_s, double span_s, int folds) {
+  if (!(span_s > 0)) return 0;
+  return static_cast<std::size_t>(
+      std::clamp<double>(std::floor(folds * since_start_s / span_s), 0.0, folds - 1));
+}
+
+std::vector<std::size_t> fold_starts(const std::vector<double>& t, double start_s, double span_s,
+                                     int folds) {
+  std::vector<std::size_t> starts(static_cast<std::size_t>(folds) + 1, t.size());
+  starts[0] = 0;
+  std::size_t f = 1;
+  for (std::size_t i = 0; i < t.size() && f < starts.size() - 1; ++i)
+    while (f < starts.size() - 1 && fold_of(t[i] - start_s, span_s, folds) >= f) starts[f++] = i;
+  return starts;
+}
+
 Grams::Grams(std::size_t folds, Eigen::Index columns)
     : xx(folds, Eigen::MatrixXd::Zero(columns, columns)),
       xr(folds, Eigen::VectorXd::Zero(columns)),

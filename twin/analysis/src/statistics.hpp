@@ -43,6 +43,15 @@ struct ErrorScale {
   double rel(double s) const { return measured_ss > 0 ? 100.0 * std::sqrt(s / measured_ss) : 0.0; }
 };
 
+/// The held-out segment of a sample `since_start_s` after the recording's start: its span `span_s`
+/// cut into `folds` equal times. By time, not by sample count: the same cut whatever the logger's
+/// spacing, gaps or samples left out (with a uniform logger the two coincide).
+std::size_t fold_of(double since_start_s, double span_s, int folds);
+/// Where each segment starts in the non-decreasing time stamps `t` (fold_of from `start_s`):
+/// folds + 1 positions, segment f being [starts[f], starts[f + 1]).
+std::vector<std::size_t> fold_starts(const std::vector<double>& t, double start_s, double span_s,
+                                     int folds);
+
 /// Per-segment normal equations over a set of columns; a fit is a small solve on their sums.
 struct Grams {
   using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
