@@ -12,6 +12,7 @@
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/recording/recording.hpp"
+#include "pulses.hpp"
 #include "selection.hpp"
 
 namespace maglead::analysis::actuator {
@@ -106,9 +107,7 @@ struct Selection : selection::Result {
   bool too_little_sliding = false;
 };
 
-struct Pulse {
-  double t_s, duration_s, force_n;  // force_n: the residual's peak, the missing force on the nut
-};
+using Pulse = pulses::Pulse;  // peak_n: the missing force on the nut
 
 struct BreakawayTest {
   struct Side {

@@ -304,9 +304,9 @@ void add_pulses(Findings& J, const std::vector<actuator::Pulse>& pulses) {
     ev.type = "external_disturbance";
     ev.t_s = q.t_s;
     ev.duration_s = q.duration_s;
-    ev.force_n = q.force_n;
+    ev.force_n = q.peak_n;
     J.events.push_back(ev);
-    if (std::abs(q.force_n) > std::abs(largest)) largest = q.force_n;
+    if (std::abs(q.peak_n) > std::abs(largest)) largest = q.peak_n;
   }
   EffectFinding e;
   e.id = "external_disturbance";
