@@ -20,6 +20,7 @@
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "maglead/effects/effect.hpp"
+#include "pulses.hpp"
 #include "selection.hpp"
 #include "statistics.hpp"
 
@@ -448,51 +449,6 @@ std::optional<effects::Params> axis_params(const Grams& g, const effects::Effect
   return e.axis_parameters(shape, c.data(), totals);
 }
 
-std::vector<std::pair<double, double>> find_bursts(const Signals& s, const std::vector<double>& r0,
-                                                   double fs_hz) {
-  // Moving average over 50 ms; isolated excursions far beyond the robust spread, shorter than
-  // 0.3 s, are pulses (a longer one is a different misfit, not a disturbance).
-  const std::size_t n = s.size();
-  const auto w = std::max<std::size_t>(1, static_cast<std::size_t>(0.05 * fs_hz));
-  std::vector<double> m(n, 0.0), sample;
-  double acc = 0;
-  std::size_t cnt = 0;
-  std::vector<double> rv(n);
-  for (std::size_t i = 0; i < n; ++i) rv[i] = s.valid[i] ? r0[i] : 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    acc += rv[i];
-    cnt += s.valid[i];
-    if (i >= w) {
-      acc -= rv[i - w];
-      cnt -= s.valid[i - w];
-    }
-    m[i >= w / 2 ? i - w / 2 : 0] = cnt ? acc / static_cast<double>(cnt) : 0.0;
-  }
-  for (std::size_t i = 0; i < n; i += 7)
-    if (s.valid[i]) sample.push_back(m[i]);
-  const double sig = robust_sigma(sample);
-  std::vector<std::pair<double, double>> out;
-  if (!(sig > 0)) return out;
-  const double thr = 8.0 * sig;
-  for (std::size_t i = 0; i < n;) {
-    if (!(s.valid[i] && std::abs(m[i]) > thr)) {
-      ++i;
-      continue;
-    }
-    std::size_t j = i;
-    double peak = 0;
-    while (j < n && std::abs(m[j]) > 0.5 * thr) {
-      if (std::abs(m[j]) > std::abs(peak)) peak = m[j];
-      ++j;
-    }
-    std::size_t i0 = i;
-    while (i0 > 0 && std::abs(m[i0 - 1]) > 0.5 * thr) --i0;
-    if (static_cast<double>(j - i0) / fs_hz < 0.3) out.emplace_back(s.t[i0], peak);
-    i = j + 1;
-  }
-  return out;
-}
-
 // ---------------------------------------------------------------- the axis analysis, in stages
 // Everything one axis analysis works on, shared by its stages.
 struct AxisRun {
@@ -505,7 +461,7 @@ struct AxisRun {
   Candidates cand;                    // every column the units give an axis
   std::vector<int> base_cols;         // baseline totals whose values are unknown (fit = [...])
   std::set<std::string> in_baseline;  // effects the model has already: not candidates again
-  std::vector<std::pair<double, double>> bursts;
+  std::vector<pulses::Pulse> pulses;
   Grams g;
   double yy_total = 0, n_total = 0;
   AxisRun(const Recording& r, const ModelFile& m, const AnalysisOptions& o)
@@ -569,15 +525,6 @@ void accumulate_all(AxisRun& run) {
   if (run.n_total < 100)
     throw std::invalid_argument(run.rec.path +
                                 ": fewer than 100 usable samples (the axis hardly moves)");
-}
-
-// Isolated pulses in the baseline fit's residual: events (a force no input explains).
-void locate_pulses(AxisRun& run) {
-  const Signals& S = *run.S;
-  const auto yb = predict_any(run, fit_all(run.g, run.base_cols));
-  std::vector<double> r0(S.size());
-  for (std::size_t i = 0; i < S.size(); ++i) r0[i] = S.y[i] - yb[i];
-  run.bursts = find_bursts(S, r0, run.P.fs_hz / run.P.decimation);
 }
 
 // ---------------------------------------------------------------- forward selection
@@ -837,13 +784,36 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
   add_errors(J.baseline, base_standard_errors(run, run.base_cols));
   add_errors(J.final_fit, final_base_se);
   J.validation = validation_of(run, sel);
-  for (const auto& [ts, amp] : run.bursts) {
+  for (const auto& q : run.pulses) {
     Event ev;
     ev.type = "isolated_disturbance";
-    ev.t_s = ts;
-    ev.residual_n = amp;
+    ev.t_s = q.t_s;
+    ev.duration_s = q.duration_s;
+    ev.residual_n = q.peak_n;
     J.events.push_back(ev);
   }
+}
+
+// Isolated pulses in the corrected residual (the one pulse finder, as on the actuator): events,
+// a force no input explains, above the force sensor's noise. The residual's band limit is the
+// decimation filter's, or at full rate the position's filter, applied to the residual here.
+void locate_pulses(AxisRun& run, const std::vector<double>& yf) {
+  const Signals& S = *run.S;
+  pulses::Floors f;
+  f.min_n = run.P.noise_floor_n;
+  f.fs_hz = run.P.fs_hz;
+  f.step_s = static_cast<double>(run.P.decimation) / run.P.fs_hz;
+  f.start_s = S.start_s;
+  f.span_s = S.span_s;
+  f.filter_hz = run.P.decimated ? decimation_cutoff_hz(run.P.decimation, f.fs_hz) : run.P.filter_hz;
+  std::vector<double> t, r;
+  for (std::size_t i = 0; i < S.size(); ++i) {
+    if (!S.valid[i]) continue;
+    t.push_back(S.t[i]);
+    r.push_back(S.y[i] - yf[i]);
+  }
+  if (!run.P.decimated && r.size() > 12) r = filtfilt_butter4(r, f.filter_hz, f.fs_hz);
+  run.pulses = pulses::find(t, r, f);
 }
 
 // ---------------------------------------------------------------- localisation
@@ -1144,10 +1114,10 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   run.progress("prepare", 1.0);
   baseline_columns(run);
   accumulate_all(run);
-  locate_pulses(run);
   selection::Result sel = select_terms(run);
   const Parameters final_base_se = finish_terms(run, sel);
   const Predictions p = predictions(run, sel);
+  locate_pulses(run, p.yf);
   AnalysisResult R;
   fill_findings(R.findings, run, sel, p, final_base_se);
   const Signals& S = *run.S;

@@ -56,6 +56,14 @@ Flanks flanks_of(const std::vector<double>& t, const std::vector<double>& r, std
   return out;
 }
 
+// Whether a run from t0 to t1 lies where the residual is settled: the zero-phase filter runs
+// over the recording's ends (and derivatives there are one-sided), so its first and last
+// settling times (as filter_undershoot's) cannot tell a pulse from an edge.
+bool clear_of_ends(const Floors& f, double t0, double t1) {
+  const double edge_s = 4.0 / f.filter_hz;
+  return t0 >= f.start_s + edge_s && t1 <= f.start_s + f.span_s - edge_s;
+}
+
 // The run of consecutive samples (no gap in time) beyond `thr` from i: its end and peak.
 std::pair<std::size_t, double> run_from(const std::vector<double>& t, const std::vector<double>& r,
                                         std::size_t i, double thr, double step_s) {
@@ -90,7 +98,7 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
     const auto [j, peak] = run_from(t, r, i, thr, f.step_s);
     const double duration = t[j - 1] - t[i] + f.step_s;
     // Shorter than the filter resolves is ringing of a transition, not a force that acted.
-    if (duration <= f.max_s && duration >= 0.5 / f.filter_hz) {
+    if (duration <= f.max_s && duration >= 0.5 / f.filter_hz && clear_of_ends(f, t[i], t[j - 1])) {
       const auto fl = flanks_of(t, r, i, j, peak, duration + 2.0 / f.filter_hz, f.step_s);
       const bool stands_out = std::abs(peak - fl.level_n) > thr;
       const bool one_sign =
