@@ -149,6 +149,7 @@ TEST(SampleRate, HeaderWinsOverJitteredStampsElseTheMedianStep) {
 // times faster still gets its span cut in the middle.
 TEST(Folds, CutTheSpanByTimeNotBySampleCount) {
   std::vector<double> t;
+  t.reserve(111);
   for (int i = 0; i < 100; ++i) t.push_back(0.01 * i);      // 0 … 0.99 s, 100 samples
   for (int i = 0; i < 10; ++i) t.push_back(1.0 + 0.1 * i);  // 1.0 … 1.9 s, 10 samples
   t.push_back(2.0);
