@@ -257,8 +257,21 @@ void expect_nothing(const AnalysisResult& r, const std::string& scenario) {
 TEST(GeneratedSuite, ControlHandPushNamesNothing) {
   expect_nothing(run("hand-push", 40.0, {}).result, "hand-push");
 }
+// Both paths list the best candidate left out the same way: why, the force it would explain and
+// its parameters (the actuator once gave only its gain and parameters).
+void expect_best_left_out_explained(const AnalysisResult& r) {
+  ASSERT_FALSE(r.findings.not_selected.empty());
+  const auto& n = r.findings.not_selected.front();
+  EXPECT_NE(n.reason.value_or("").find("best remaining candidate"), std::string::npos) << n.id;
+  EXPECT_TRUE(n.explained_rms_n && std::isfinite(*n.explained_rms_n) && *n.explained_rms_n >= 0)
+      << n.id;
+  EXPECT_TRUE(n.parameters && !n.parameters->empty()) << n.id;
+}
+
 TEST(GeneratedSuite, ControlPositionMovesNamesNothing) {
-  expect_nothing(run("position-moves", 40.0, {}).result, "position-moves");
+  const auto r = run("position-moves", 40.0, {}).result;
+  expect_nothing(r, "position-moves");
+  expect_best_left_out_explained(r);
 }
 TEST(GeneratedSuite, ControlForceStepsNamesNothing) {
   expect_nothing(run("force-steps", 40.0, {}).result, "force-steps");
@@ -622,6 +635,7 @@ TEST(Emps, DirectionDependentFrictionSpansTheCoulombAndOffsetTakenFirst) {
         n.reason.value_or("").find("backward check") != std::string::npos)
       ++dropped;
   EXPECT_EQ(dropped, 2);
+  expect_best_left_out_explained(r);
   const double sym = v[2].fitted_relative_error_pct.value_or(NAN),
                asym = v[3].fitted_relative_error_pct.value_or(NAN);
   std::printf(

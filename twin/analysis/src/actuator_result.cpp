@@ -375,9 +375,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
                  std::nullopt,
                  {},
                  {}};
-  if (const auto& next = sel.stopped_at)
-    J.not_selected.push_back({next->id, next->gain_pct, next->t_stat, std::nullopt, std::nullopt,
-                              std::nullopt, parameters_of(next->params)});
+  if (sel.stopped_at) J.not_selected.push_back(selection::best_left_out(*sel.stopped_at));
   J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);

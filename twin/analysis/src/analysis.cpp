@@ -581,9 +581,7 @@ std::vector<ValidationStep> validation_of(const AxisRun& run, const selection::R
 // The terms not selected: the best remaining one and those the backward check dropped.
 std::vector<Rejected> rejected_of(const selection::Result& r) {
   std::vector<Rejected> out;
-  if (r.stopped_at)
-    out.push_back(selection::rejected_of(
-        *r.stopped_at, "best remaining candidate, below the significance threshold"));
+  if (r.stopped_at) out.push_back(selection::best_left_out(*r.stopped_at));
   out.insert(out.end(), r.dropped.begin(), r.dropped.end());
   return out;
 }
