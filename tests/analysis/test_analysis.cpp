@@ -257,8 +257,21 @@ void expect_nothing(const AnalysisResult& r, const std::string& scenario) {
 TEST(GeneratedSuite, ControlHandPushNamesNothing) {
   expect_nothing(run("hand-push", 40.0, {}).result, "hand-push");
 }
+// Both paths list the best candidate left out the same way: why, the force it would explain and
+// its parameters (the actuator once gave only its gain and parameters).
+void expect_best_left_out_explained(const AnalysisResult& r) {
+  ASSERT_FALSE(r.findings.not_selected.empty());
+  const auto& n = r.findings.not_selected.front();
+  EXPECT_NE(n.reason.value_or("").find("best remaining candidate"), std::string::npos) << n.id;
+  EXPECT_TRUE(n.explained_rms_n && std::isfinite(*n.explained_rms_n) && *n.explained_rms_n >= 0)
+      << n.id;
+  EXPECT_TRUE(n.parameters && !n.parameters->empty()) << n.id;
+}
+
 TEST(GeneratedSuite, ControlPositionMovesNamesNothing) {
-  expect_nothing(run("position-moves", 40.0, {}).result, "position-moves");
+  const auto r = run("position-moves", 40.0, {}).result;
+  expect_nothing(r, "position-moves");
+  expect_best_left_out_explained(r);
 }
 TEST(GeneratedSuite, ControlForceStepsNamesNothing) {
   expect_nothing(run("force-steps", 40.0, {}).result, "force-steps");
@@ -622,6 +635,7 @@ TEST(Emps, DirectionDependentFrictionSpansTheCoulombAndOffsetTakenFirst) {
         n.reason.value_or("").find("backward check") != std::string::npos)
       ++dropped;
   EXPECT_EQ(dropped, 2);
+  expect_best_left_out_explained(r);
   const double sym = v[2].fitted_relative_error_pct.value_or(NAN),
                asym = v[3].fitted_relative_error_pct.value_or(NAN);
   std::printf(
@@ -721,11 +735,10 @@ TEST(Emps, EveryParameterHasAStandardErrorAndItsDigits) {
 }
 
 // A generated force-driven axis (a drive pushing a carriage against mass, friction and a return
-// spring, the force logged with noise): the axis path names the spring the effect unit states,
-// in the unit's parameter names, from the units' axis columns (the same law the twin runs).
-TEST(Axis, GeneratedSpringIsNamedWithTheUnitsParameters) {
-  constexpr double kMass_kg = 10.0, kViscous = 50.0, kCoulomb_n = 5.0;
-  constexpr double kStiffness = 200.0, kRest_m = 0.02;
+// spring, the force logged with noise), with force pulses of `pulse_n` for 60 ms at `pulses_s`.
+constexpr double kMass_kg = 10.0, kViscous = 50.0, kCoulomb_n = 5.0;
+constexpr double kStiffness = 200.0, kRest_m = 0.02;
+maglead::Recording generated_axis(const std::vector<double>& pulses_s, double pulse_n = 0.0) {
   maglead::Recording rec;
   rec.path = "generated axis";
   std::vector<double> t, pos, force;
@@ -736,16 +749,30 @@ TEST(Axis, GeneratedSpringIsNamedWithTheUnitsParameters) {
     const double v = 0.1 * w1 * std::cos(w1 * ts) + 0.03 * w2 * std::cos(w2 * ts + 1.0);
     const double a = -0.1 * w1 * w1 * std::sin(w1 * ts) - 0.03 * w2 * w2 * std::sin(w2 * ts + 1.0);
     const double noise = 0.2 * (std::rand() / static_cast<double>(RAND_MAX) - 0.5);
+    double pulse = 0.0;
+    for (double t0 : pulses_s) pulse += ts >= t0 && ts < t0 + 0.060 ? pulse_n : 0.0;
     t.push_back(ts);
     pos.push_back(p);
     force.push_back(kMass_kg * a + kViscous * v + kCoulomb_n * (v > 0 ? 1 : -1) +
-                    kStiffness * (p - kRest_m) + noise);
+                    kStiffness * (p - kRest_m) + noise + pulse);
   }
   rec.names = {"t_s", "pos_m", "drive_force_n"};
   rec.columns = {t, pos, force};
+  return rec;
+}
+
+maglead::analysis::ModelFile axis_model() {
   maglead::analysis::ModelFile model;
   model.system = "axis";
   model.fit = {"nut_mass_kg", "viscous_n_s_per_m", "coulomb_n"};
+  return model;
+}
+
+// The axis path names the spring the effect unit states, in the unit's parameter names, from the
+// units' axis columns (the same law the twin runs).
+TEST(Axis, GeneratedSpringIsNamedWithTheUnitsParameters) {
+  const auto rec = generated_axis({});
+  maglead::analysis::ModelFile model = axis_model();
   const auto r = maglead::analysis::analyze_recording(rec, model, maglead::paper_calibration(),
                                                       maglead::ActuatorParams{}, {});
   ASSERT_EQ(r.findings.effects.size(), 1u) << named_as(r);
@@ -772,6 +799,28 @@ TEST(Axis, GeneratedSpringIsNamedWithTheUnitsParameters) {
   const auto again = maglead::analysis::analyze_recording(
       rec, r.corrected, maglead::paper_calibration(), maglead::ActuatorParams{}, {});
   EXPECT_TRUE(again.findings.effects.empty()) << named_as(again);
+}
+
+// The one pulse finder on the axis: force pulses no motion explains are isolated_disturbance
+// events at their times with their force (the residual is band-limited by the decimation, so
+// the peak is read within a third), and a recording without them has none.
+TEST(Axis, IsolatedForcePulsesAreEventsAtTheirTimes) {
+  const std::vector<double> at_s = {8.3, 21.7};
+  const double pulse_n = 10.0;
+  const auto model = axis_model();
+  const auto r = maglead::analysis::analyze_recording(generated_axis(at_s, pulse_n), model,
+                                                      maglead::paper_calibration(),
+                                                      maglead::ActuatorParams{}, {});
+  ASSERT_EQ(r.findings.events.size(), at_s.size()) << events_text(r);
+  for (std::size_t k = 0; k < at_s.size(); ++k) {
+    const auto& e = r.findings.events[k];
+    EXPECT_EQ(e.type, "isolated_disturbance");
+    EXPECT_NEAR(e.t_s, at_s[k], 0.1) << events_text(r);
+    EXPECT_NEAR(e.residual_n.value_or(0), pulse_n, pulse_n / 3) << events_text(r);
+  }
+  const auto clean = maglead::analysis::analyze_recording(
+      generated_axis({}), model, maglead::paper_calibration(), maglead::ActuatorParams{}, {});
+  EXPECT_TRUE(clean.findings.events.empty()) << events_text(clean);
 }
 
 TEST(Signal, ButterworthPassesLowAndStopsHighFrequencies) {

@@ -20,9 +20,12 @@ namespace {
 
 using maglead::analysis::stats::Estimates;
 using maglead::analysis::stats::Fit;
+using maglead::analysis::stats::fold_of;
+using maglead::analysis::stats::fold_starts;
 using maglead::analysis::stats::Grams;
 using maglead::analysis::stats::Named;
 using maglead::analysis::stats::require_analysable;
+using maglead::analysis::stats::sample_rate_hz;
 using maglead::analysis::stats::white_noise_sigma;
 
 // Four segments of two samples each; one column of ones, so a fit is the mean residual of the
@@ -121,6 +124,46 @@ TEST(RequireAnalysable, RefusesShortRecordsMissingColumnsAndNonNumbers) {
               require_analysable(rec, {"t_s", "x"});
             }),
             "r.csv: column 'x' has no number at data row 6");
+}
+
+// The header names the logger's clock; the time stamps only carry its rounding (EMPS: header
+// 1000 Hz, a median step of 0.999984 ms over its first steps, mean exactly 1 ms).
+TEST(SampleRate, HeaderWinsOverJitteredStampsElseTheMedianStep) {
+  auto rec = two_columns(1000);
+  for (std::size_t i = 0; i < 1000; ++i) rec.columns[0][i] += (i % 2 ? 2e-8 : -1e-8);
+  EXPECT_NEAR(sample_rate_hz(rec), 1000.0, 0.1);
+  EXPECT_NE(sample_rate_hz(rec), 1000.0);  // the median step is jittered
+  rec.set_meta("sample_rate_hz", "1000");
+  EXPECT_EQ(sample_rate_hz(rec), 1000.0);
+  rec.set_meta("sample_rate_hz", "fast");
+  EXPECT_EQ(message_of([&] { sample_rate_hz(rec); }),
+            "r.csv: header sample_rate_hz 'fast' is not a positive number");
+  rec.set_meta("sample_rate_hz", "-5");
+  EXPECT_NE(message_of([&] { sample_rate_hz(rec); }), "");
+  auto still = two_columns(300);
+  still.columns[0].assign(300, 1.0);
+  EXPECT_EQ(message_of([&] { sample_rate_hz(still); }), "r.csv: t_s does not advance");
+}
+
+// Segments are equal times, not equal sample counts: a logger that sampled the first half ten
+// times faster still gets its span cut in the middle.
+TEST(Folds, CutTheSpanByTimeNotBySampleCount) {
+  std::vector<double> t;
+  t.reserve(111);
+  for (int i = 0; i < 100; ++i) t.push_back(0.01 * i);      // 0 … 0.99 s, 100 samples
+  for (int i = 0; i < 10; ++i) t.push_back(1.0 + 0.1 * i);  // 1.0 … 1.9 s, 10 samples
+  t.push_back(2.0);
+  const auto starts = fold_starts(t, 0.0, 2.0, 2);
+  ASSERT_EQ(starts.size(), 3U);
+  EXPECT_EQ(starts[0], 0U);
+  EXPECT_EQ(starts[1], 100U);  // by sample count it would be 55
+  EXPECT_EQ(starts[2], t.size());
+  EXPECT_EQ(fold_of(0.0, 2.0, 4), 0U);
+  EXPECT_EQ(fold_of(1.99, 2.0, 4), 3U);
+  EXPECT_EQ(fold_of(2.0, 2.0, 4), 3U);  // the last stamp belongs to the last segment
+  EXPECT_EQ(fold_of(0.5, 0.0, 4), 0U);  // no span: one segment
+  const auto uniform = fold_starts(std::vector<double>{0, 1, 2, 3, 4, 5}, 0.0, 5.0, 3);
+  EXPECT_EQ(uniform, (std::vector<std::size_t>{0, 2, 4, 6}));
 }
 
 }  // namespace

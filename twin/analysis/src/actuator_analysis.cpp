@@ -16,6 +16,7 @@
 
 #include "candidates.hpp"
 #include "maglead/analysis/signal.hpp"
+#include "pulses.hpp"
 #include "selection.hpp"
 #include "statistics.hpp"
 
@@ -27,22 +28,6 @@ using effects::State;
 using stats::median_of;
 using stats::require_finite;
 using stats::robust_sigma;
-
-double sample_rate(const Recording& rec) {
-  if (auto s = rec.meta("sample_rate_hz")) {
-    try {
-      const double f = std::stod(*s);
-      if (f > 0) return f;
-    } catch (const std::exception&) {
-    }
-  }
-  const auto& t = rec.column("t_s");
-  std::vector<double> d;
-  for (std::size_t i = 1; i < t.size() && d.size() < 20000; ++i) d.push_back(t[i] - t[i - 1]);
-  const double dt = median_of(d);
-  if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
-  return 1.0 / dt;
-}
 
 // Coupling force on the nut, F_m = −F̂_s: the polynomial on the calibrated branch, the periodic
 // model past it (step-out), so the force is defined for every phase.
@@ -308,14 +293,6 @@ struct StateAt {
   }
 };
 
-// What the baseline leaves out of M p̈ = F_m − C v − F_c sign(v) + F_ext + Σ terms.
-double missing_force(const Baseline& base, const State& s) {
-  double r = base.nut_mass_kg * s.a_m_s2 - s.coupling_n + base.viscous_n_s_per_m * s.v_m_s +
-             base.coulomb_n * effects::sgn(s.v_m_s) - s.load_n;
-  for (const auto& term : base.terms) r -= term.effect->force_n(term.params, s);
-  return r;
-}
-
 // The stuck episode that ends at sample j (the raw count unchanged since sample i), if the nut
 // then slipped on (not encoder chatter) away from any step-out.
 std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, const Baseline& base,
@@ -369,7 +346,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   stats::require_analysable(rec, {"t_s", "nut_pos_m", "load_force_n"});
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
-  P.fs_hz = sample_rate(rec);
+  P.fs_hz = stats::sample_rate_hz(rec);
   // The nut's mechanics (mass on the coupling stiffness) sit near 100 Hz; the effects live
   // below a few tens of Hz. The filter keeps those and averages encoder steps and load-cell noise.
   P.filter_hz = std::min(opt.filter_hz, 0.2 * P.fs_hz);
@@ -394,7 +371,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(P.decimation)) {
     if (!ok[i]) continue;
     P.states.push_back(state_at(i));
-    P.residual.push_back(missing_force(base, P.states.back()));
+    P.residual.push_back(missing_force(P.states.back(), base.terms));
     P.locked_run.push_back(runs.run[i]);
   }
   P.locked_period = runs.period;
@@ -464,9 +441,7 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
   for (std::size_t i = 0; i < P.states.size(); ++i) {
     const auto& s = P.states[i];
     unit_row(Form::nut, cols, s, x.data());
-    auto f = static_cast<std::size_t>(
-        std::min<double>(folds - 1, std::floor(folds * s.t_s / P.duration_s)));
-    g.add_row(f, x, P.residual[i], s.load_n);
+    g.add_row(stats::fold_of(s.t_s, P.duration_s, folds), x, P.residual[i], s.load_n);
   }
   g.symmetrize();
   g.noise_ss = column_noise(P, cols);
@@ -786,96 +761,21 @@ std::optional<selection::Found> stribeck_from_breakaway(const Prepared& P, const
 
 namespace maglead::analysis::actuator {
 
-namespace {
-
-// How far the zero-phase filter itself swings a one-sided pulse of this duration to the other
-// side (its undershoot), as a share of the pulse's filtered peak.
-double filter_undershoot(const Prepared& P, double duration_s) {
-  const double edge_s = 4.0 / P.filter_hz;  // the filter's response has died out by then
-  const auto n = static_cast<std::size_t>(std::ceil((duration_s + 2 * edge_s) * P.fs_hz));
-  const auto k0 = static_cast<std::size_t>(edge_s * P.fs_hz);
-  const auto k1 = k0 + static_cast<std::size_t>(std::max(1.0, duration_s * P.fs_hz));
-  std::vector<double> x(n, 0.0);
-  for (std::size_t k = k0; k < std::min(k1, n); ++k) x[k] = 1.0;
-  const auto y = filtfilt_butter4(x, P.filter_hz, P.fs_hz);
-  const double top = *std::max_element(y.begin(), y.end());
-  return top > 0 ? std::max(0.0, -*std::min_element(y.begin(), y.end())) / top : 0.0;
-}
-
-// The sliding stretch around sample i: samples no further apart than 1.5 decimated periods.
-std::pair<std::size_t, std::size_t> stretch_of(const Prepared& P, std::size_t i, double dt) {
-  std::size_t a = i, b = i + 1;
-  while (a > 0 && P.states[a].t_s - P.states[a - 1].t_s < 1.5 * dt) --a;
-  while (b < P.states.size() && P.states[b].t_s - P.states[b - 1].t_s < 1.5 * dt) ++b;
-  return {a, b};
-}
-
-struct Flanks {
-  double level_n = 0;     // median residual beside the run: the misfit it rides on
-  double opposite_n = 0;  // the largest swing to the other side of the peak
-};
-
-// The residual beside the run [i, j) within `reach_s`, in the same sliding stretch.
-Flanks flanks_of(const Prepared& P, const std::vector<double>& r, std::size_t i, std::size_t j,
-                 double peak, double reach_s, double dt) {
-  const auto [a, b] = stretch_of(P, i, dt);
-  Flanks out;
-  std::vector<double> beside;
-  for (std::size_t k = a; k < b; ++k) {
-    const double dist_s = k < i ? P.states[i].t_s - P.states[k].t_s
-                                : (k >= j ? P.states[k].t_s - P.states[j - 1].t_s : 0.0);
-    if (dist_s > reach_s) continue;
-    if (k < i || k >= j) beside.push_back(r[k]);
-    if (r[k] * peak < 0) out.opposite_n = std::max(out.opposite_n, std::abs(r[k]));
-  }
-  if (!beside.empty()) out.level_n = median_of(beside);
-  return out;
-}
-
-}  // namespace
-
-// Force pulses no input explains: short runs of the corrected residual far outside its own
-// spread (robust σ) and larger than one encoder count's worth of force, few and far between.
-// A model that is merely wrong leaves structure everywhere, not a handful of isolated pulses:
-// a pulse must stand out of the residual beside it (a misfit it rides on, as at the first samples
-// of a sliding stretch, is not a force that came and went), and a force pulse has one sign (a
-// swing through zero beyond what the filter makes of a pulse is a transition the model places
-// at a slightly different time: a delay or play under a force step).
+// Force pulses no input explains in the corrected residual on the sliding samples (the one
+// pulse finder), above one encoder count's worth of force.
 std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt) {
-  std::vector<Pulse> out;
-  const auto& r = sel.final_residual;
-  if (r.size() < 100) return out;
-  const double sigma = robust_sigma(r);
-  const double thr = std::max(opt.pulse_sigmas * sigma, P.count_force_n);
-  const double dt = static_cast<double>(P.decimation) / P.fs_hz;
-  std::size_t i = 0;
-  while (i < r.size()) {
-    if (std::abs(r[i]) <= thr) {
-      ++i;
-      continue;
-    }
-    std::size_t j = i;
-    double peak = 0;
-    // One pulse: consecutive samples (no gap in time) beyond the threshold.
-    while (j < r.size() && std::abs(r[j]) > thr &&
-           (j == i || P.states[j].t_s - P.states[j - 1].t_s < 1.5 * dt)) {
-      if (std::abs(r[j]) > std::abs(peak)) peak = r[j];
-      ++j;
-    }
-    const double duration = P.states[j - 1].t_s - P.states[i].t_s + dt;
-    // Shorter than the filter resolves is ringing of a transition, not a force that acted.
-    if (duration <= opt.pulse_max_s && duration >= 0.5 / P.filter_hz) {
-      const auto fl = flanks_of(P, r, i, j, peak, duration + 2.0 / P.filter_hz, dt);
-      const bool stands_out = std::abs(peak - fl.level_n) > thr;
-      const bool one_sign =
-          fl.opposite_n <= std::max(thr, 2.0 * filter_undershoot(P, duration) * std::abs(peak));
-      if (stands_out && one_sign) out.push_back({P.states[i].t_s, duration, peak});
-    }
-    i = j;
-  }
-  // Isolated: pulses every few seconds at most; more is a misfit, not a disturbance.
-  if (static_cast<double>(out.size()) > P.duration_s / opt.pulse_min_spacing_s) out.clear();
-  return out;
+  pulses::Floors f;
+  f.min_n = P.count_force_n;
+  f.sigmas = opt.pulse_sigmas;
+  f.max_s = opt.pulse_max_s;
+  f.min_spacing_s = opt.pulse_min_spacing_s;
+  f.filter_hz = P.filter_hz;
+  f.fs_hz = P.fs_hz;
+  f.step_s = static_cast<double>(P.decimation) / P.fs_hz;
+  f.span_s = P.duration_s;
+  std::vector<double> t(P.states.size());
+  for (std::size_t i = 0; i < t.size(); ++i) t[i] = P.states[i].t_s;
+  return pulses::find(t, sel.final_residual, f);
 }
 
 }  // namespace maglead::analysis::actuator

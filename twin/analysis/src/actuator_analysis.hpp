@@ -12,6 +12,7 @@
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/recording/recording.hpp"
+#include "pulses.hpp"
 #include "selection.hpp"
 
 namespace maglead::analysis::actuator {
@@ -19,10 +20,7 @@ namespace maglead::analysis::actuator {
 /// The screw angle: logged, or the motor angle through the gear (the header's gear_ratio wins).
 std::vector<double> angle_column(const Recording& rec, const ActuatorParams& act);
 
-struct BaselineTerm {
-  const effects::Effect* effect;
-  effects::Params params;
-};
+using analysis::BaselineTerm;
 
 /// The model the recording is compared with: nominal dynamics plus the terms it already has.
 struct Baseline {
@@ -109,9 +107,7 @@ struct Selection : selection::Result {
   bool too_little_sliding = false;
 };
 
-struct Pulse {
-  double t_s, duration_s, force_n;  // force_n: the residual's peak, the missing force on the nut
-};
+using Pulse = pulses::Pulse;  // peak_n: the missing force on the nut
 
 struct BreakawayTest {
   struct Side {

@@ -304,9 +304,9 @@ void add_pulses(Findings& J, const std::vector<actuator::Pulse>& pulses) {
     ev.type = "external_disturbance";
     ev.t_s = q.t_s;
     ev.duration_s = q.duration_s;
-    ev.force_n = q.force_n;
+    ev.force_n = q.peak_n;
     J.events.push_back(ev);
-    if (std::abs(q.force_n) > std::abs(largest)) largest = q.force_n;
+    if (std::abs(q.peak_n) > std::abs(largest)) largest = q.peak_n;
   }
   EffectFinding e;
   e.id = "external_disturbance";
@@ -375,9 +375,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
                  std::nullopt,
                  {},
                  {}};
-  if (const auto& next = sel.stopped_at)
-    J.not_selected.push_back({next->id, next->gain_pct, next->t_stat, std::nullopt, std::nullopt,
-                              std::nullopt, parameters_of(next->params)});
+  if (sel.stopped_at) J.not_selected.push_back(selection::best_left_out(*sel.stopped_at));
   J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);

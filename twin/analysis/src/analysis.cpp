@@ -20,6 +20,7 @@
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "maglead/effects/effect.hpp"
+#include "pulses.hpp"
 #include "selection.hpp"
 #include "statistics.hpp"
 
@@ -68,7 +69,12 @@ struct Signals {
   std::vector<double> t, p, v, a, y, y_fixed;
   std::vector<unsigned char> valid;
   double stroke_min_m = 0.0, stroke_max_m = 0.0;
+  double start_s = 0.0, span_s = 0.0;  // the recording's time span (decimated or not)
   std::size_t size() const { return t.size(); }
+  // Where each held-out segment starts: the span cut by time, as on the actuator.
+  std::vector<std::size_t> fold_starts(int folds) const {
+    return stats::fold_starts(t, start_s, span_s, folds);
+  }
   effects::State state(std::size_t i) const {
     effects::State s;
     s.t_s = t[i];
@@ -90,14 +96,6 @@ void fill_row(const Signals& s, std::size_t i, const std::vector<Column>& cols, 
   for (std::size_t j = 0; j < cols.size(); ++j) row[j] = -row[j];
 }
 
-// The median of the first 10 000 time steps (the recording's header is not asked, unlike the
-// actuator's sample_rate: EMPS's says 1000 Hz, its median step is 0.999984 ms).
-double median_step(const std::vector<double>& t) {
-  std::vector<double> d;
-  for (std::size_t i = 1; i < t.size() && d.size() < 10000; ++i) d.push_back(t[i] - t[i - 1]);
-  return stats::median_of(std::move(d));
-}
-
 // ---------------------------------------------------------------- Gram per segment
 // The shared per-segment normal equations, with the columns in matrix order.
 struct Grams : stats::Grams {
@@ -115,13 +113,13 @@ Grams accumulate(const Signals& s, const std::vector<Column>& cols, int folds,
                  const std::function<void(double)>& progress) {
   const auto m = static_cast<Eigen::Index>(cols.size());
   Grams g{stats::Grams(static_cast<std::size_t>(folds), m), cols};
-  const std::size_t n = s.size();
+  const auto starts = s.fold_starts(folds);
   constexpr std::size_t kChunk = 2048;
   stats::Grams::RowMatrix x(kChunk, m);
   Eigen::VectorXd r(kChunk);
   for (int f = 0; f < folds; ++f) {
-    const std::size_t lo = n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
-    const std::size_t hi = n * static_cast<std::size_t>(f + 1) / static_cast<std::size_t>(folds);
+    const std::size_t lo = starts[static_cast<std::size_t>(f)];
+    const std::size_t hi = starts[static_cast<std::size_t>(f) + 1];
     for (std::size_t i0 = lo; i0 < hi; i0 += kChunk) {
       Eigen::Index k = 0;
       double yy = 0;
@@ -268,13 +266,9 @@ effects::State model_totals(const ModelFile& model) {
 // The baseline's fixed force at every sample of a force-driven axis: the drive supplies the
 // known dynamics M a + C v + F_c sign(v) and whatever every term of the model file takes from
 // the moving part (the units' laws, the same the twin runs). A term whose total is fitted here
-// is left to the fit.
+// is left to the fit. The law is the actuator's (missing_force; no coupling or load here).
 void fixed_force(Signals& s, const ModelFile& model) {
-  struct Term {
-    const effects::Effect* effect;
-    effects::Params params;
-  };
-  std::vector<Term> terms;
+  std::vector<BaselineTerm> terms;
   for (const auto& t : model.terms) {
     const auto* e = effects::find(t.id);
     if (!t.enabled || !e) continue;
@@ -288,10 +282,7 @@ void fixed_force(Signals& s, const ModelFile& model) {
     st.nut_mass_kg = totals.nut_mass_kg;
     st.viscous_n_s_per_m = totals.viscous_n_s_per_m;
     st.coulomb_n = totals.coulomb_n;
-    double y =
-        st.nut_mass_kg * st.a_m_s2 + st.viscous_n_s_per_m * st.v_m_s + st.coulomb_n * sgn(st.v_m_s);
-    for (const auto& t : terms) y -= t.effect->force_n(t.params, st);
-    s.y_fixed[i] = y;
+    s.y_fixed[i] = missing_force(st, terms);
   }
 }
 
@@ -325,6 +316,8 @@ void decimate_signals(Prepared& P, int nd) {
   d = Signals{};
   d.stroke_min_m = s.stroke_min_m;
   d.stroke_max_m = s.stroke_max_m;
+  d.start_s = s.start_s;
+  d.span_s = s.span_s;
   for (std::size_t i = 0; i < s.size(); i += static_cast<std::size_t>(nd)) d.t.push_back(s.t[i]);
   d.p = decimate(s.p, nd, P.fs_hz);
   d.v = decimate(s.v, nd, P.fs_hz);
@@ -340,12 +333,13 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   Prepared P;
   stats::require_analysable(rec, {"t_s", "pos_m", "drive_force_n"});
   const auto& t = rec.column("t_s");
-  const double dt = median_step(t);
-  if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
-  P.fs_hz = 1.0 / dt;
+  P.fs_hz = stats::sample_rate_hz(rec);
+  const double dt = 1.0 / P.fs_hz;
   P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : 100.0;
   Signals& s = P.full;
   s.t = t;
+  s.start_s = t.front();
+  s.span_s = t.back() - t.front();
   s.p = filtfilt_butter4(rec.column("pos_m"), P.filter_hz, P.fs_hz);
   s.v = central_diff(s.p, dt);
   s.a = central_diff2(s.p, dt);
@@ -385,10 +379,10 @@ Grams accumulate_matrix(const Prepared& P, const std::vector<Column>& cols, int 
   Grams g;
   g.cols = cols;
   const Signals& s = P.id;
-  const std::size_t n = s.size();
+  const auto starts = s.fold_starts(folds);
   for (int f = 0; f < folds; ++f) {
-    const std::size_t lo = n * static_cast<std::size_t>(f) / static_cast<std::size_t>(folds);
-    const std::size_t hi = n * static_cast<std::size_t>(f + 1) / static_cast<std::size_t>(folds);
+    const std::size_t lo = starts[static_cast<std::size_t>(f)];
+    const std::size_t hi = starts[static_cast<std::size_t>(f) + 1];
     Eigen::VectorXd r(static_cast<Eigen::Index>(hi - lo));
     double yy = 0;
     for (std::size_t i = lo; i < hi; ++i) {
@@ -455,51 +449,6 @@ std::optional<effects::Params> axis_params(const Grams& g, const effects::Effect
   return e.axis_parameters(shape, c.data(), totals);
 }
 
-std::vector<std::pair<double, double>> find_bursts(const Signals& s, const std::vector<double>& r0,
-                                                   double fs_hz) {
-  // Moving average over 50 ms; isolated excursions far beyond the robust spread, shorter than
-  // 0.3 s, are pulses (a longer one is a different misfit, not a disturbance).
-  const std::size_t n = s.size();
-  const auto w = std::max<std::size_t>(1, static_cast<std::size_t>(0.05 * fs_hz));
-  std::vector<double> m(n, 0.0), sample;
-  double acc = 0;
-  std::size_t cnt = 0;
-  std::vector<double> rv(n);
-  for (std::size_t i = 0; i < n; ++i) rv[i] = s.valid[i] ? r0[i] : 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    acc += rv[i];
-    cnt += s.valid[i];
-    if (i >= w) {
-      acc -= rv[i - w];
-      cnt -= s.valid[i - w];
-    }
-    m[i >= w / 2 ? i - w / 2 : 0] = cnt ? acc / static_cast<double>(cnt) : 0.0;
-  }
-  for (std::size_t i = 0; i < n; i += 7)
-    if (s.valid[i]) sample.push_back(m[i]);
-  const double sig = robust_sigma(sample);
-  std::vector<std::pair<double, double>> out;
-  if (!(sig > 0)) return out;
-  const double thr = 8.0 * sig;
-  for (std::size_t i = 0; i < n;) {
-    if (!(s.valid[i] && std::abs(m[i]) > thr)) {
-      ++i;
-      continue;
-    }
-    std::size_t j = i;
-    double peak = 0;
-    while (j < n && std::abs(m[j]) > 0.5 * thr) {
-      if (std::abs(m[j]) > std::abs(peak)) peak = m[j];
-      ++j;
-    }
-    std::size_t i0 = i;
-    while (i0 > 0 && std::abs(m[i0 - 1]) > 0.5 * thr) --i0;
-    if (static_cast<double>(j - i0) / fs_hz < 0.3) out.emplace_back(s.t[i0], peak);
-    i = j + 1;
-  }
-  return out;
-}
-
 // ---------------------------------------------------------------- the axis analysis, in stages
 // Everything one axis analysis works on, shared by its stages.
 struct AxisRun {
@@ -512,7 +461,7 @@ struct AxisRun {
   Candidates cand;                    // every column the units give an axis
   std::vector<int> base_cols;         // baseline totals whose values are unknown (fit = [...])
   std::set<std::string> in_baseline;  // effects the model has already: not candidates again
-  std::vector<std::pair<double, double>> bursts;
+  std::vector<pulses::Pulse> pulses;
   Grams g;
   double yy_total = 0, n_total = 0;
   AxisRun(const Recording& r, const ModelFile& m, const AnalysisOptions& o)
@@ -578,15 +527,6 @@ void accumulate_all(AxisRun& run) {
                                 ": fewer than 100 usable samples (the axis hardly moves)");
 }
 
-// Isolated pulses in the baseline fit's residual: events (a force no input explains).
-void locate_pulses(AxisRun& run) {
-  const Signals& S = *run.S;
-  const auto yb = predict_any(run, fit_all(run.g, run.base_cols));
-  std::vector<double> r0(S.size());
-  for (std::size_t i = 0; i < S.size(); ++i) r0[i] = S.y[i] - yb[i];
-  run.bursts = find_bursts(S, r0, run.P.fs_hz / run.P.decimation);
-}
-
 // ---------------------------------------------------------------- forward selection
 // A step of the validation: the held-out error of the model with columns `idx` and its fit on
 // every segment.
@@ -641,9 +581,7 @@ std::vector<ValidationStep> validation_of(const AxisRun& run, const selection::R
 // The terms not selected: the best remaining one and those the backward check dropped.
 std::vector<Rejected> rejected_of(const selection::Result& r) {
   std::vector<Rejected> out;
-  if (r.stopped_at)
-    out.push_back(selection::rejected_of(
-        *r.stopped_at, "best remaining candidate, below the significance threshold"));
+  if (r.stopped_at) out.push_back(selection::best_left_out(*r.stopped_at));
   out.insert(out.end(), r.dropped.begin(), r.dropped.end());
   return out;
 }
@@ -844,13 +782,36 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
   add_errors(J.baseline, base_standard_errors(run, run.base_cols));
   add_errors(J.final_fit, final_base_se);
   J.validation = validation_of(run, sel);
-  for (const auto& [ts, amp] : run.bursts) {
+  for (const auto& q : run.pulses) {
     Event ev;
     ev.type = "isolated_disturbance";
-    ev.t_s = ts;
-    ev.residual_n = amp;
+    ev.t_s = q.t_s;
+    ev.duration_s = q.duration_s;
+    ev.residual_n = q.peak_n;
     J.events.push_back(ev);
   }
+}
+
+// Isolated pulses in the corrected residual (the one pulse finder, as on the actuator): events,
+// a force no input explains, above the force sensor's noise. The residual's band limit is the
+// decimation filter's, or at full rate the position's filter, applied to the residual here.
+void locate_pulses(AxisRun& run, const std::vector<double>& yf) {
+  const Signals& S = *run.S;
+  pulses::Floors f;
+  f.min_n = run.P.noise_floor_n;
+  f.fs_hz = run.P.fs_hz;
+  f.step_s = static_cast<double>(run.P.decimation) / run.P.fs_hz;
+  f.start_s = S.start_s;
+  f.span_s = S.span_s;
+  f.filter_hz = run.P.decimated ? decimation_cutoff_hz(run.P.decimation, f.fs_hz) : run.P.filter_hz;
+  std::vector<double> t, r;
+  for (std::size_t i = 0; i < S.size(); ++i) {
+    if (!S.valid[i]) continue;
+    t.push_back(S.t[i]);
+    r.push_back(S.y[i] - yf[i]);
+  }
+  if (!run.P.decimated && r.size() > 12) r = filtfilt_butter4(r, f.filter_hz, f.fs_hz);
+  run.pulses = pulses::find(t, r, f);
 }
 
 // ---------------------------------------------------------------- localisation
@@ -1151,10 +1112,10 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   run.progress("prepare", 1.0);
   baseline_columns(run);
   accumulate_all(run);
-  locate_pulses(run);
   selection::Result sel = select_terms(run);
   const Parameters final_base_se = finish_terms(run, sel);
   const Predictions p = predictions(run, sel);
+  locate_pulses(run, p.yf);
   AnalysisResult R;
   fill_findings(R.findings, run, sel, p, final_base_se);
   const Signals& S = *run.S;

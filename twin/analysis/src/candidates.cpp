@@ -5,6 +5,14 @@
 
 namespace maglead::analysis {
 
+double missing_force(const effects::State& s, const std::vector<BaselineTerm>& terms) {
+  // The order of the sums is kept as the actuator had it (its output is compared bit for bit).
+  double r = s.nut_mass_kg * s.a_m_s2 - s.coupling_n + s.viscous_n_s_per_m * s.v_m_s +
+             s.coulomb_n * effects::sgn(s.v_m_s) - s.load_n;
+  for (const auto& term : terms) r -= term.effect->force_n(term.params, s);
+  return r;
+}
+
 const Variant* Candidates::of(const effects::Effect* e) const {
   for (const auto& v : variants)
     if (v.effect == e) return &v;

@@ -49,6 +49,18 @@ void unit_row(Form form, const std::vector<Column>& cols, const effects::State& 
 double less_fitted(Form form, const std::vector<Column>& cols, const effects::State& s,
                    const Eigen::VectorXd& theta, double start);
 
+/// A term the model file already has, at its values: part of the baseline.
+struct BaselineTerm {
+  const effects::Effect* effect;
+  effects::Params params;
+};
+
+/// What the baseline leaves unexplained at state `s`, from M p̈ = F_m − C v − F_c sign(v) + F_ext
+/// + Σ terms: M a + C v + F_c sign(v) − F_m − F_ext − Σ terms, with the totals M, C, F_c the
+/// state's (the model file's). One law for both paths: on a force-driven axis the drive force is
+/// what the motion needs, and the coupling and load (zero in its state) drop out.
+double missing_force(const effects::State& s, const std::vector<BaselineTerm>& terms);
+
 /// Gram positions `current` followed by `more`.
 std::vector<int> with(const std::vector<int>& current, const std::vector<int>& more);
 

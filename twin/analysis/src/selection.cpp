@@ -288,6 +288,12 @@ Rejected rejected_of(const Found& f, std::string reason) {
                   f.explained_n, std::move(reason), std::nullopt};
 }
 
+Rejected best_left_out(const Found& f) {
+  Rejected r = rejected_of(f, "best remaining candidate, below the significance threshold");
+  if (!f.params.empty()) r.parameters = parameters_of(f.params);
+  return r;
+}
+
 Parameters parameters_of(const effects::Params& p) {
   Parameters out;
   for (const auto& [k, v] : p) out.push_back({k, v, false});

@@ -154,6 +154,10 @@ Result result_of(const Outcome& o, int folds);
 
 /// A term not selected, with the RMS force it explains and why.
 Rejected rejected_of(const Found& f, std::string reason);
+/// The best candidate left out (the term the rule named next, below the threshold) as both
+/// paths' findings list it: its held-out gain, t, worst segment, the force it would explain, why
+/// it was left out and its parameters where the unit gives them.
+Rejected best_left_out(const Found& f);
 
 /// The rule in words, for the report's method.
 std::string describe(const Settings& st);

@@ -84,10 +84,13 @@ std::vector<double> central_diff2(const std::vector<double>& x, double dt_s) {
   return d;
 }
 
+double decimation_cutoff_hz(int factor, double sample_rate_hz) {
+  return 0.8 * 0.5 * sample_rate_hz / factor;
+}
+
 std::vector<double> decimate(const std::vector<double>& x, int factor, double sample_rate_hz) {
   if (factor <= 1) return x;
-  // Cut at 80 % of the new Nyquist frequency, as MATLAB's decimate does.
-  const auto f = filtfilt_butter4(x, 0.8 * 0.5 * sample_rate_hz / factor, sample_rate_hz);
+  const auto f = filtfilt_butter4(x, decimation_cutoff_hz(factor, sample_rate_hz), sample_rate_hz);
   std::vector<double> out;
   out.reserve(x.size() / static_cast<std::size_t>(factor) + 1);
   for (std::size_t i = 0; i < f.size(); i += static_cast<std::size_t>(factor)) out.push_back(f[i]);

@@ -2,8 +2,11 @@
 #include "statistics.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <numeric>
+#include <stdexcept>
 
 namespace maglead::analysis::stats {
 
@@ -48,11 +51,45 @@ void require_analysable(const Recording& rec, const std::vector<std::string>& co
                                 " rows)");
 }
 
+double sample_rate_hz(const Recording& rec) {
+  if (auto h = rec.meta("sample_rate_hz")) {
+    char* end = nullptr;
+    const double f = std::strtod(h->c_str(), &end);
+    while (end && std::isspace(static_cast<unsigned char>(*end))) ++end;
+    if (end == h->c_str() || *end != '\0' || !(f > 0) || !std::isfinite(f))
+      throw std::invalid_argument(rec.path + ": header sample_rate_hz '" + *h +
+                                  "' is not a positive number");
+    return f;
+  }
+  const auto& t = rec.column("t_s");
+  std::vector<double> d;
+  for (std::size_t i = 1; i < t.size() && d.size() < 20000; ++i) d.push_back(t[i] - t[i - 1]);
+  const double dt = median_of(std::move(d));
+  if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
+  return 1.0 / dt;
+}
+
 double white_noise_sigma(const std::vector<double>& y) {
   std::vector<double> d2;
   d2.reserve(y.size());
   for (std::size_t i = 1; i + 1 < y.size(); ++i) d2.push_back(y[i + 1] - 2 * y[i] + y[i - 1]);
   return robust_sigma(d2) / std::sqrt(6.0);
+}
+
+std::size_t fold_of(double since_start_s, double span_s, int folds) {
+  if (!(span_s > 0)) return 0;
+  return static_cast<std::size_t>(
+      std::clamp<double>(std::floor(folds * since_start_s / span_s), 0.0, folds - 1));
+}
+
+std::vector<std::size_t> fold_starts(const std::vector<double>& t, double start_s, double span_s,
+                                     int folds) {
+  std::vector<std::size_t> starts(static_cast<std::size_t>(folds) + 1, t.size());
+  starts[0] = 0;
+  std::size_t f = 1;
+  for (std::size_t i = 0; i < t.size() && f < starts.size() - 1; ++i)
+    while (f < starts.size() - 1 && fold_of(t[i] - start_s, span_s, folds) >= f) starts[f++] = i;
+  return starts;
 }
 
 Grams::Grams(std::size_t folds, Eigen::Index columns)

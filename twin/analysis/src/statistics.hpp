@@ -26,6 +26,11 @@ void require_finite(const Recording& rec, const std::vector<double>& x, const st
 /// The columns every analysis reads: each present and finite (require_finite), and enough rows
 /// to analyse; throws naming the file otherwise.
 void require_analysable(const Recording& rec, const std::vector<std::string>& columns);
+/// The logger's sample rate [Hz]: the header's sample_rate_hz where it states one (a logger's
+/// clock is what the header names; the time stamps carry its rounding), else one over the median
+/// of the first 20 000 time steps. Throws naming the file for a header that is not a positive
+/// number or time stamps that do not advance.
+double sample_rate_hz(const Recording& rec);
 /// Standard deviation of white noise on a smooth signal, from its sample-to-sample roughness
 /// (var(Δ²y) = 6σ²; robust to the signal's own steps).
 double white_noise_sigma(const std::vector<double>& y);
@@ -37,6 +42,15 @@ struct ErrorScale {
   double rms(double s) const { return std::sqrt(s / n_used); }
   double rel(double s) const { return measured_ss > 0 ? 100.0 * std::sqrt(s / measured_ss) : 0.0; }
 };
+
+/// The held-out segment of a sample `since_start_s` after the recording's start: its span `span_s`
+/// cut into `folds` equal times. By time, not by sample count: the same cut whatever the logger's
+/// spacing, gaps or samples left out (with a uniform logger the two coincide).
+std::size_t fold_of(double since_start_s, double span_s, int folds);
+/// Where each segment starts in the non-decreasing time stamps `t` (fold_of from `start_s`):
+/// folds + 1 positions, segment f being [starts[f], starts[f + 1]).
+std::vector<std::size_t> fold_starts(const std::vector<double>& t, double start_s, double span_s,
+                                     int folds);
 
 /// Per-segment normal equations over a set of columns; a fit is a small solve on their sums.
 struct Grams {

@@ -18,5 +18,7 @@ std::vector<double> central_diff2(const std::vector<double>& x, double dt_s);
 
 /// Low-pass below the new Nyquist frequency (zero phase), then keep every `factor`-th sample.
 std::vector<double> decimate(const std::vector<double>& x, int factor, double sample_rate_hz);
+/// The cutoff decimate filters at: 80 % of the new Nyquist frequency, as MATLAB's decimate.
+double decimation_cutoff_hz(int factor, double sample_rate_hz);
 
 }  // namespace maglead::analysis

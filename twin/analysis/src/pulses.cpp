@@ -1,0 +1,115 @@
+// The one pulse finder (see pulses.hpp).
+#include "pulses.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <utility>
+
+#include "maglead/analysis/signal.hpp"
+#include "statistics.hpp"
+
+namespace maglead::analysis::pulses {
+namespace {
+
+// How far the zero-phase filter itself swings a one-sided pulse of this duration to the other
+// side (its undershoot), as a share of the pulse's filtered peak.
+double filter_undershoot(const Floors& f, double duration_s) {
+  const double edge_s = 4.0 / f.filter_hz;  // the filter's response has died out by then
+  const auto n = static_cast<std::size_t>(std::ceil((duration_s + 2 * edge_s) * f.fs_hz));
+  const auto k0 = static_cast<std::size_t>(edge_s * f.fs_hz);
+  const auto k1 = k0 + static_cast<std::size_t>(std::max(1.0, duration_s * f.fs_hz));
+  std::vector<double> x(n, 0.0);
+  for (std::size_t k = k0; k < std::min(k1, n); ++k) x[k] = 1.0;
+  const auto y = filtfilt_butter4(x, f.filter_hz, f.fs_hz);
+  const double top = *std::max_element(y.begin(), y.end());
+  return top > 0 ? std::max(0.0, -*std::min_element(y.begin(), y.end())) / top : 0.0;
+}
+
+// The stretch around sample i: samples no further apart than 1.5 sample steps.
+std::pair<std::size_t, std::size_t> stretch_of(const std::vector<double>& t, std::size_t i,
+                                               double step_s) {
+  std::size_t a = i, b = i + 1;
+  while (a > 0 && t[a] - t[a - 1] < 1.5 * step_s) --a;
+  while (b < t.size() && t[b] - t[b - 1] < 1.5 * step_s) ++b;
+  return {a, b};
+}
+
+struct Flanks {
+  double level_n = 0;     // median residual beside the run: the misfit it rides on
+  double opposite_n = 0;  // the largest swing to the other side of the peak
+};
+
+// The residual beside the run [i, j) within `reach_s`, in the same stretch.
+Flanks flanks_of(const std::vector<double>& t, const std::vector<double>& r, std::size_t i,
+                 std::size_t j, double peak, double reach_s, double step_s) {
+  const auto [a, b] = stretch_of(t, i, step_s);
+  Flanks out;
+  std::vector<double> beside;
+  for (std::size_t k = a; k < b; ++k) {
+    const double dist_s = k < i ? t[i] - t[k] : (k >= j ? t[k] - t[j - 1] : 0.0);
+    if (dist_s > reach_s) continue;
+    if (k < i || k >= j) beside.push_back(r[k]);
+    if (r[k] * peak < 0) out.opposite_n = std::max(out.opposite_n, std::abs(r[k]));
+  }
+  if (!beside.empty()) out.level_n = stats::median_of(beside);
+  return out;
+}
+
+// Whether a run from t0 to t1 lies where the residual is settled: the zero-phase filter runs
+// over the recording's ends (and derivatives there are one-sided), so its first and last
+// settling times (as filter_undershoot's) cannot tell a pulse from an edge.
+bool clear_of_ends(const Floors& f, double t0, double t1) {
+  const double edge_s = 4.0 / f.filter_hz;
+  return t0 >= f.start_s + edge_s && t1 <= f.start_s + f.span_s - edge_s;
+}
+
+// The run of consecutive samples (no gap in time) beyond `thr` from i: its end and peak.
+std::pair<std::size_t, double> run_from(const std::vector<double>& t, const std::vector<double>& r,
+                                        std::size_t i, double thr, double step_s) {
+  std::size_t j = i;
+  double peak = 0;
+  while (j < r.size() && std::abs(r[j]) > thr && (j == i || t[j] - t[j - 1] < 1.5 * step_s)) {
+    if (std::abs(r[j]) > std::abs(peak)) peak = r[j];
+    ++j;
+  }
+  return {j, peak};
+}
+
+}  // namespace
+
+// Short runs of the residual far outside its own spread (robust σ) and above the recording's
+// floor, few and far between. A model that is merely wrong leaves structure everywhere, not a
+// handful of isolated pulses: a pulse must stand out of the residual beside it (a misfit it rides
+// on is not a force that came and went), and a force pulse has one sign (a swing through zero
+// beyond what the filter makes of a pulse is a transition the model places at a slightly
+// different time: a delay or play under a force step).
+std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>& r,
+                        const Floors& f) {
+  std::vector<Pulse> out;
+  if (r.size() < 100) return out;
+  const double thr = std::max(f.sigmas * stats::robust_sigma(r), f.min_n);
+  std::size_t i = 0;
+  while (i < r.size()) {
+    if (std::abs(r[i]) <= thr) {
+      ++i;
+      continue;
+    }
+    const auto [j, peak] = run_from(t, r, i, thr, f.step_s);
+    const double duration = t[j - 1] - t[i] + f.step_s;
+    // Shorter than the filter resolves is ringing of a transition, not a force that acted.
+    if (duration <= f.max_s && duration >= 0.5 / f.filter_hz && clear_of_ends(f, t[i], t[j - 1])) {
+      const auto fl = flanks_of(t, r, i, j, peak, duration + 2.0 / f.filter_hz, f.step_s);
+      const bool stands_out = std::abs(peak - fl.level_n) > thr;
+      const bool one_sign =
+          fl.opposite_n <= std::max(thr, 2.0 * filter_undershoot(f, duration) * std::abs(peak));
+      if (stands_out && one_sign) out.push_back({t[i], duration, peak});
+    }
+    i = j;
+  }
+  // Isolated: pulses every few seconds at most; more is a misfit, not a disturbance.
+  if (static_cast<double>(out.size()) > f.span_s / f.min_spacing_s) out.clear();
+  return out;
+}
+
+}  // namespace maglead::analysis::pulses

@@ -1,0 +1,28 @@
+#pragma once
+// The one pulse finder of both analysis paths (internal to twin/analysis): isolated force pulses
+// no input explains, in a residual, judged against the recording's own floors.
+#include <vector>
+
+namespace maglead::analysis::pulses {
+
+/// What the recording resolves and how its residual was made; each path passes its own.
+struct Floors {
+  double min_n = 0;                // the smallest force it resolves (a count's force, sensor noise)
+  double sigmas = 8.0;             // a pulse stands this many robust σ out of the residual …
+  double max_s = 1.0;              // … for at most this long …
+  double min_spacing_s = 2.0;      // … and pulses are at least this far apart on average
+  double filter_hz = 0;            // the residual's band limit (zero-phase Butterworth) …
+  double fs_hz = 0;                // … run at this rate
+  double step_s = 0;               // the residual's sample spacing: a larger gap ends a stretch
+  double start_s = 0, span_s = 0;  // the recording's start and span
+};
+
+struct Pulse {
+  double t_s, duration_s, peak_n;  // start, length and the residual's peak (the missing force)
+};
+
+/// Pulses in the residual `r` at times `t` (non-decreasing; gaps where samples were left out).
+std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>& r,
+                        const Floors& f);
+
+}  // namespace maglead::analysis::pulses
