@@ -96,6 +96,7 @@ PassiveDriftSettings passive_settings(const TwinMonitorConfig& c, const FreeDrif
   s.stroke_max_m = c.actuator.stroke_max_m;
   s.bin_m = c.drift_passive_bin_counts * c.actuator.linear_count_m;
   s.max_accel_force_n = c.stop_force_sd_n;
+  s.creep_travel_m = c.drift_min_edges * c.actuator.linear_count_m;
   return s;
 }
 

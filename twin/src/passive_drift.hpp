@@ -38,6 +38,7 @@ struct PassiveDriftSettings : DriftScale {
   double stroke_min_m = 0.0, stroke_max_m = 0.04;  // where the map lies
   double bin_m = 1e-4;                             // the map's cells (a few encoder counts)
   double max_accel_force_n = 0.3;  // quasi-static: |M·a| of a block within the model's error
+  double creep_travel_m = 0.0;     // a block's travel under which a slide's tail is a creep
 };
 
 /// The change since the reference, from the windows compared with it (NaN until there is one).
@@ -79,6 +80,7 @@ class PassiveLoadDrift {
   struct Block {
     double t, p, f, ref;  // ref: the reference's F̂ at p in this direction (NaN: none)
     int dir;
+    double travel_m = 0.0, span_s = 0.0;  // the nut's travel over the block, its duration
     double dref = std::numeric_limits<double>::quiet_NaN();  // ∂ref/∂p there (a shifted window)
   };
   struct Fit {
@@ -113,6 +115,7 @@ class PassiveLoadDrift {
     double factor() const noexcept { return n > 0 ? std::max(1.0, sum / n) : 1.0; }
   };
   void close_block() noexcept;
+  void end_slide() noexcept;
   void close_window() noexcept;
   /// Which blocks a fit uses and its regressors.
   struct Design {
@@ -155,6 +158,8 @@ class PassiveLoadDrift {
   int n_blocks_ = 0;
   double win_t0_ = 0, win_s_ = 0, slide_s_ = 0;
   double b_t_ = 0, b_p_ = 0, b_f_ = 0, b_s_ = 0, b_a_ = 0;  // the running block
+  double b_p_first_ = 0, b_p_last_ = 0;                     // its first and last position
+  int slide_first_ = 0;  // the first block of the running slide (n_blocks_: none yet)
   int b_n_ = 0, b_dir_ = 0;
   double ref_s_ = 0, ref_t_sum_ = 0, ref_t_ = 0;
   int ref_n_ = 0;
