@@ -70,8 +70,10 @@ void PassiveLoadDrift::tick(double t, double dt, bool slide, double fhat_n, int 
   win_s_ += dt;
   if (ref_frozen_) fc_s_ += dt;
   const bool ends = !slide || (b_n_ > 0 && dir != b_dir_);
-  if (ends) close_block();
-  if (ends) end_slide();
+  if (ends) {
+    close_block();
+    end_slide();
+  }
   if (slide) {
     if (b_n_ == 0) b_t_ = b_p_ = b_f_ = b_s_ = b_a_ = 0, b_dir_ = dir, b_p_first_ = pos_m;
     b_p_last_ = pos_m;
