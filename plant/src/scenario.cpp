@@ -62,14 +62,15 @@ double triangle(double x) {  // period 1, range −1 … 1, starts at 0 rising
 /// Smooth pushes with random peaks and mostly alternating direction, like a hand.
 struct HandProfile {
   std::vector<double> start_s, length_s, peak_n;
-  HandProfile(double duration_s, std::mt19937_64& rng) {
+  /// force_scale: the pushes' share of the 12–35 N below (an actuator whose safe force is less).
+  HandProfile(double duration_s, std::mt19937_64& rng, double force_scale = 1.0) {
     std::uniform_real_distribution<double> len(1.2, 2.8), peak(12.0, 35.0), gap(0.0, 0.6),
         coin(0.0, 1.0);
     double t = 0.5, sign = 1.0;
     while (t < duration_s) {
       start_s.push_back(t);
       length_s.push_back(len(rng));
-      peak_n.push_back(sign * peak(rng));
+      peak_n.push_back(force_scale * sign * peak(rng));
       t += length_s.back() + gap(rng);
       if (coin(rng) < 0.75) sign = -sign;
     }
@@ -220,12 +221,13 @@ class ScenarioRun {
         force_mode_(opt.scenario == "force-steps" || holds_ || mixed_),
         move_mode_(opt.scenario == "position-moves"),
         schedule_(opt.scenario == "mixed-moves" ? MixedSchedule{6.0, 8.0, 7.0} : MixedSchedule{}),
-        hand_(opt.duration_s, rng_),
+        force_scale_(force_scale(opt)),
+        hand_(opt.duration_s, rng_, force_scale_),
         moves_(opt.duration_s),
         estimator_(opt.estimator_calibration, act_.coulomb_n, 1e-5),
         velocity_(1.0 / act_.sample_rate_hz, act_.linear_count_m) {
-    // Sweep amplitude reaching |φ| ≈ 1.5 rad; whole cycles at about 0.5 mm/s.
-    const double cycles = std::max(1.0, std::round(opt.duration_s * 0.5e-3 / (4 * kSweepAmp_m)));
+    // Sweep amplitude reaching |φ| ≈ 1.5 rad whatever the lead; whole cycles at about 0.5 mm/s.
+    const double cycles = std::max(1.0, std::round(opt.duration_s * 0.5e-3 / (4 * sweep_amp_m_)));
     sweep_period_s_ = opt.duration_s / cycles;
   }
 
@@ -271,7 +273,21 @@ class ScenarioRun {
   }
 
  private:
-  static constexpr double kSweepAmp_m = 1.55e-3;
+  // The sweep's phase amplitude (1.55 mm at a 6 mm lead), in metres at the configured lead.
+  static constexpr double kSweepAmp_rad = 1.6231562043547265;
+  // The largest force the scenarios ask of the nut (a hand's push; setpoints reach 30 N).
+  static constexpr double kLargestForce_n = 35.0;
+
+  /// The scenarios' forces were written for an actuator whose safe force reaches
+  /// kLargestForce_n; a weaker one (configuration: calibration peaks × safe fraction) gets them
+  /// scaled down to its safe force, so that it still slides, stops and pushes without stepping out.
+  static double force_scale(const ScenarioOptions& opt) {
+    const auto& cal = opt.estimator_calibration;
+    const double safe_n = opt.plant.actuator.safe_force_fraction *
+                          std::min(std::abs(cal.peak_push_n), std::abs(cal.peak_pull_n));
+    return std::min(1.0, safe_n / kLargestForce_n);
+  }
+
   using Segment = MixedSchedule::Segment;
   struct Command {
     double screw_rad, force_set_n = 0.0, pos_set_m = 0.0;
@@ -291,9 +307,9 @@ class ScenarioRun {
       load.kind = LoadSetting::Kind::compliant;
       load.stiffness_n_per_m = 5e5;
       load.damping_n_s_per_m = 300;
-      load.anchor_pos_m = kMidStroke_m + kSweepAmp_m * triangle(t / sweep_period_s_);
-      load.anchor_vel_m_s = (kSweepAmp_m * triangle((t + 1e-4) / sweep_period_s_) -
-                             kSweepAmp_m * triangle(t / sweep_period_s_)) /
+      load.anchor_pos_m = kMidStroke_m + sweep_amp_m_ * triangle(t / sweep_period_s_);
+      load.anchor_vel_m_s = (sweep_amp_m_ * triangle((t + 1e-4) / sweep_period_s_) -
+                             sweep_amp_m_ * triangle(t / sweep_period_s_)) /
                             1e-4;
     } else if (S == "hand-push") {
       load = hand_load(hand_, opt_.plant.coupling, screw0_, act_.lead_m, t);
@@ -328,9 +344,10 @@ class ScenarioRun {
       return {rest_angle_rad(segment_moves_.pos_m(t), L), kNoSetpoint};
     if (force_mode_) {
       const double set =
-          mixed_ ? schedule_.sign(t) * force_setpoint_n(t - schedule_.start_s(t), schedule_.force_s)
-          : holds_ ? held_setpoint_n(t)
-                   : force_setpoint_n(t, opt_.duration_s);
+          force_scale_ * (mixed_ ? schedule_.sign(t) *
+                                       force_setpoint_n(t - schedule_.start_s(t), schedule_.force_s)
+                          : holds_ ? held_setpoint_n(t)
+                                   : force_setpoint_n(t, opt_.duration_s));
       const auto inv = phase_for_output_force(opt_.estimator_calibration, set, 0.9);
       return {rest_angle_rad(pos_m, L) + inv.phase_rad, set};
     }
@@ -348,11 +365,13 @@ class ScenarioRun {
   const double screw0_;
   const bool mixed_, holds_, force_mode_, move_mode_;
   const MixedSchedule schedule_;
+  const double force_scale_;
   HandProfile hand_;
   MoveProfile moves_, segment_moves_;
   StaticForceEstimator estimator_;
   EncoderVelocityEstimator velocity_;
   double sweep_period_s_ = 1.0;
+  const double sweep_amp_m_ = kSweepAmp_rad * act_.lead_m / (2 * std::numbers::pi);
   // The mixed scenario's state: the spring's anchor and the screw angle held during a hand
   // segment.
   double spring_anchor_m_ = kMidStroke_m, screw_hold_ = screw0_, last_screw_cmd_ = screw0_;
