@@ -394,11 +394,30 @@ struct Progress {
 
 struct SlidingFit {
   actuator::Selection fit;
-  std::optional<Rejected> unseen;  // a Stribeck term the releases do not confirm
+  std::vector<Rejected> rejected;  // terms taken, then refused (unseen hump, implausible)
 };
 
+Rejected refused(const selection::Found& c, const std::string& why) {
+  return Rejected{
+      c.id, c.gain_pct, c.t_stat, std::nullopt, std::nullopt, why, parameters_of(c.params)};
+}
+
+// A term whose parameters leave the effect's physical range once the terms taken after it are
+// fitted beside it (collinear columns trading places: on moves against high friction the
+// coupling force is the friction, so a gain and the friction levels can share it) explains
+// nothing plausibly: the first such is refused and the others are chosen again without it.
+std::optional<Rejected> implausible_in_final_fit(const actuator::Selection& fit) {
+  for (const auto& c : fit.terms)
+    if (!c.plausible)
+      return refused(c,
+                     "outside its physical range in the final fit beside the terms taken "
+                     "after it");
+  return std::nullopt;
+}
+
 // The forward selection on the sliding samples; a Stribeck term it takes that the releases do
-// not show is rejected (and stays out of `o`), and the others are chosen again without it.
+// not show, or a term that ends outside its physical range, is rejected (and stays out of `o`),
+// and the others are chosen again without it.
 SlidingFit sliding_fit(const actuator::Prepared& P, const actuator::Baseline& base,
                        actuator::Options& o, const Progress& progress) {
   SlidingFit out;
@@ -406,10 +425,14 @@ SlidingFit sliding_fit(const actuator::Prepared& P, const actuator::Baseline& ba
   out.fit = actuator::select(P, o, report);
   if (auto why = actuator::stribeck_unseen_at_rest(P, base, out.fit, o)) {
     for (const auto& c : out.fit.terms)
-      if (c.id == "stribeck_friction")
-        out.unseen = Rejected{
-            c.id, c.gain_pct, c.t_stat, std::nullopt, std::nullopt, *why, parameters_of(c.params)};
+      if (c.id == "stribeck_friction") out.rejected.push_back(refused(c, *why));
     o.exclude.emplace_back("stribeck_friction");
+    out.fit = actuator::select(P, o, report);
+  }
+  // Each pass excludes one more effect, so this ends within the library's size.
+  while (auto r = implausible_in_final_fit(out.fit)) {
+    o.exclude.push_back(r->id);
+    out.rejected.push_back(std::move(*r));
     out.fit = actuator::select(P, o, report);
   }
   return out;
@@ -450,7 +473,8 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
 
   AnalysisResult r;
   r.findings = findings_of(rec, P, sel.fit, stribeck, bt, o);
-  if (sel.unseen) r.findings.not_selected.insert(r.findings.not_selected.begin(), *sel.unseen);
+  r.findings.not_selected.insert(r.findings.not_selected.begin(), sel.rejected.begin(),
+                                 sel.rejected.end());
   r.corrected = corrected_model(model, sel.fit.terms, rec.path);
   if (opt.twin_force_check) {
     r.findings.twin_force_check = check_with_twin(rec, act, cal, model, sel.fit.terms, r.corrected);
