@@ -801,9 +801,11 @@ TEST(Axis, GeneratedSpringIsNamedWithTheUnitsParameters) {
   EXPECT_TRUE(again.findings.effects.empty()) << named_as(again);
 }
 
-// The one pulse finder on the axis: force pulses no motion explains are isolated_disturbance
-// events at their times with their force (the residual is band-limited by the decimation, so
-// the peak is read within a third), and a recording without them has none.
+// The one pulse finder on the axis: force pulses no motion explains are reported in the
+// actuator's one form, external_disturbance events at their times with their force (the
+// residual is band-limited by the decimation, so the peak is read within a third) and one
+// external_disturbance finding with their count, which the corrected model does not take up;
+// a recording without them has none.
 TEST(Axis, IsolatedForcePulsesAreEventsAtTheirTimes) {
   const std::vector<double> at_s = {8.3, 21.7};
   const double pulse_n = 10.0;
@@ -814,10 +816,14 @@ TEST(Axis, IsolatedForcePulsesAreEventsAtTheirTimes) {
   ASSERT_EQ(r.findings.events.size(), at_s.size()) << events_text(r);
   for (std::size_t k = 0; k < at_s.size(); ++k) {
     const auto& e = r.findings.events[k];
-    EXPECT_EQ(e.type, "isolated_disturbance");
+    EXPECT_EQ(e.type, "external_disturbance");
     EXPECT_NEAR(e.t_s, at_s[k], 0.1) << events_text(r);
-    EXPECT_NEAR(e.residual_n.value_or(0), pulse_n, pulse_n / 3) << events_text(r);
+    EXPECT_NEAR(e.force_n.value_or(0), pulse_n, pulse_n / 3) << events_text(r);
   }
+  Parameters p;
+  ASSERT_NE(finding(r, "external_disturbance", &p), nullptr) << named_as(r);
+  EXPECT_EQ(maglead::analysis::parameter_value(p, "count"), static_cast<double>(at_s.size()));
+  EXPECT_EQ(r.corrected.find("external_disturbance"), nullptr) << "an event is no force law";
   const auto clean = maglead::analysis::analyze_recording(
       generated_axis({}), model, maglead::paper_calibration(), maglead::ActuatorParams{}, {});
   EXPECT_TRUE(clean.findings.events.empty()) << events_text(clean);

@@ -296,27 +296,6 @@ void add_step_outs(Findings& J, const actuator::Prepared& P) {
   }
 }
 
-void add_pulses(Findings& J, const std::vector<actuator::Pulse>& pulses) {
-  if (pulses.empty()) return;
-  double largest = 0;
-  for (const auto& q : pulses) {
-    Event ev;
-    ev.type = "external_disturbance";
-    ev.t_s = q.t_s;
-    ev.duration_s = q.duration_s;
-    ev.force_n = q.peak_n;
-    J.events.push_back(ev);
-    if (std::abs(q.peak_n) > std::abs(largest)) largest = q.peak_n;
-  }
-  EffectFinding e;
-  e.id = "external_disturbance";
-  set_parameter(e.parameters, "count", static_cast<double>(pulses.size()), true);
-  set_parameter(e.parameters, "force_n", largest);
-  e.where = "isolated force pulses no input explains (see events)";
-  e.evidence.events = pulses.size();
-  J.effects.push_back(e);
-}
-
 void add_step_out_finding(Findings& J, const actuator::Prepared& P) {
   if (P.slips.empty()) return;
   EffectFinding e;
@@ -363,7 +342,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   add_sliding_findings(J, sel, P, es);
   if (stribeck) add_stribeck(J, sel, *stribeck, bt, P);
   add_step_outs(J, P);
-  add_pulses(J, actuator::find_pulses(P, sel, o));
+  pulses::report(J, actuator::find_pulses(P, sel, o));
   add_step_out_finding(J, P);
   J.breakaway_test = BreakawayTest{{bt.pos.episodes, bt.pos.median_excess_n, bt.pos.se_n},
                                    {bt.neg.episodes, bt.neg.median_excess_n, bt.neg.se_n}};

@@ -782,14 +782,7 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
   add_errors(J.baseline, base_standard_errors(run, run.base_cols));
   add_errors(J.final_fit, final_base_se);
   J.validation = validation_of(run, sel);
-  for (const auto& q : run.pulses) {
-    Event ev;
-    ev.type = "isolated_disturbance";
-    ev.t_s = q.t_s;
-    ev.duration_s = q.duration_s;
-    ev.residual_n = q.peak_n;
-    J.events.push_back(ev);
-  }
+  pulses::report(J, run.pulses);
 }
 
 // Isolated pulses in the corrected residual (the one pulse finder, as on the actuator): events,
@@ -1081,6 +1074,7 @@ std::string term_note(const EffectFinding& e) {
 // unit's parameters.
 void apply_finding(ModelFile& M, const EffectFinding& e) {
   const effects::Effect* unit = effects::find(e.id);
+  if (unit && !unit->selectable()) return;  // events (pulses) are reported, not a force law
   if (const auto total = unit ? total_of(*unit) : std::string(); !total.empty()) {
     *total_field(M, total) = parameter_value(e.parameters, total);
     return;
