@@ -121,8 +121,18 @@ struct BreakawayTest {
 
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
                  const ActuatorParams& act, const Options& opt);
-/// The same recording without the sliding samples a hidden stop reaches (Prepared::stops).
-Prepared without_stops(const Prepared& P);
+/// The sliding samples a hidden stop reaches (Prepared::stops), set aside with their places.
+struct StopSamples {
+  std::vector<std::size_t> at;  // their indices in the whole sample set, increasing
+  std::vector<effects::State> states;
+  std::vector<double> residual;
+  std::vector<int> locked_run;
+};
+/// Takes those samples out of `P` (its locked floor follows): the stages see the recording
+/// without them, and no second copy of the sample set is made.
+StopSamples take_stops(Prepared& P);
+/// `P` as it was before take_stops (the samples back in their places, the floor recomputed).
+void put_back(Prepared& P, const StopSamples& aside);
 /// The forward selection's rule in words (the report's method).
 std::string selection_rule(const Options& opt);
 Selection select(const Prepared& P, const Options& opt,

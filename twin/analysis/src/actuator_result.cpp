@@ -413,16 +413,21 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   // slipping motion, where no friction law of the speed holds (the slips' accelerations would
   // read as mass). The sliding fit is made again without the samples those stops reach, kept if
   // the break-away test on it still names the hump. Without a hump a release is gentle and those
-  // samples stay: a pulse that stalls the nut is seen there.
-  if (auto P2 = stribeck ? actuator::without_stops(P) : actuator::Prepared{};
-      stribeck && P2.states.size() < P.states.size()) {
-    auto o2 = o;
-    auto sel2 = sliding_fit(P2, base, o2, progress);
-    const auto bt2 = actuator::breakaway_test(P2, base, sel2.fit.terms);
-    if (auto s2 = actuator::stribeck_from_breakaway(P2, base, sel2.fit, bt2, o2)) {
-      P = std::move(P2), sel = std::move(sel2), bt = bt2, stribeck = s2, o = std::move(o2);
-      stribeck->from_releases->stops_left_out = P.stops.size();
+  // samples stay: a pulse that stalls the nut is seen there. (They are set aside in place, not
+  // copied, and put back when the refit does not hold.)
+  if (stribeck) {
+    const auto aside = actuator::take_stops(P);
+    bool kept = false;
+    if (!aside.at.empty()) {
+      auto o2 = o;
+      auto sel2 = sliding_fit(P, base, o2, progress);
+      const auto bt2 = actuator::breakaway_test(P, base, sel2.fit.terms);
+      if (auto s2 = actuator::stribeck_from_breakaway(P, base, sel2.fit, bt2, o2)) {
+        sel = std::move(sel2), bt = bt2, stribeck = s2, o = std::move(o2), kept = true;
+        stribeck->from_releases->stops_left_out = P.stops.size();
+      }
     }
+    if (!kept) actuator::put_back(P, aside);
   }
   progress("selection", 1.0);
   if (stribeck) fold_in_stribeck(sel.fit, P, *stribeck);
