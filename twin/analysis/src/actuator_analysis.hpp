@@ -72,6 +72,8 @@ struct Prepared {
   double floor_n = 0;         // RMS force the recording resolves: one count's rounding and the
                               // load-cell noise, both after the filter
   double minimum_n = 0;       // the stated minimum (Options::min_effect_of_peak × peak force)
+  effects::Scales scales;     // the calibrated peak force, the fastest sliding speed: the
+                              // effect units' plausible ranges are stated in these
   double locked_share = 0;    // sliding samples whose count rate is locked to the sample clock
   double locked_floor_n = 0;  // floor_n with what a locked count's rounding may hold there
   int decimation = 1;

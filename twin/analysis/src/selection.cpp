@@ -71,7 +71,8 @@ std::optional<Trial> best_variant(const Search& s, const effects::Effect* e, Out
     const auto prm = s.rules.parameters(var, cols, full);
     if (!prm) continue;
     auto ho = stats::heldout(s.g, idx);
-    if (!effects::plausible(*e, *prm)) {  // a term must make physical sense to explain anything
+    if (!effects::plausible(*e, *prm,
+                            s.st.scales)) {  // a term must make physical sense to explain anything
       note_implausible(s, out, var, *prm, std::move(ho));
       continue;
     }
@@ -163,7 +164,7 @@ std::vector<Alternative> alternatives_of(const Search& s, const Trial& tr) {
     if (!var || r2 < kAlternativeR2) continue;
     const auto cols = columns_of(s, *var, s.current);
     const auto prm = s.rules.parameters(*var, cols, stats::solve(s.g, with(s.current, cols), -1));
-    out.push_back({var, prm, r2, prm && effects::plausible(*e, *prm)});
+    out.push_back({var, prm, r2, prm && effects::plausible(*e, *prm, s.st.scales)});
   }
   return out;
 }

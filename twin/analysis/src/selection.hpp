@@ -52,6 +52,7 @@ struct Settings {
   double acting_share = 0;
   double parsimony = 0.5;          // a simpler term reaching this share of the best gain goes first
   bool leave_out_spanned = false;  // a variant's columns the model already spans are left out
+  effects::Scales scales{};        // the actuator's, that the units' plausible ranges are in
 };
 
 /// Another effect that reproduces a taken term's contribution.
