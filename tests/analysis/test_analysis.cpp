@@ -824,6 +824,26 @@ TEST(Axis, AHeavyCarriagesChangedMassIsNamedWithTheModelItWasGiven) {
       << e.summary;
 }
 
+// A drive force logged with the wrong sign is missing force no library effect explains
+// plausibly (every law would need a negative mass or friction): the axis says so, as the
+// actuator does, with what to check, instead of naming an effect or "nothing is missing".
+TEST(Axis, AForceOfTheWrongSignIsNotExplainedPlausibly) {
+  const auto rec = generated_axis({});
+  const auto first = maglead::analysis::analyze_recording(
+      rec, axis_model(), maglead::paper_calibration(), maglead::ActuatorParams{}, {});
+  auto flipped = rec;
+  for (double& f : flipped.columns[2]) f = -f;
+  const auto r = maglead::analysis::analyze_recording(
+      flipped, first.corrected, maglead::paper_calibration(), maglead::ActuatorParams{}, {});
+  EXPECT_TRUE(r.findings.effects.empty()) << named_as(r);
+  EXPECT_FALSE(r.findings.nothing_missing.value_or(true));
+  ASSERT_TRUE(r.findings.unexplained.has_value()) << r.findings.conclusion;
+  const auto& u = *r.findings.unexplained;
+  EXPECT_NE(u.message.find("no library effect explains this plausibly"), std::string::npos);
+  EXPECT_NE(u.check.find("sign of drive_force_n"), std::string::npos) << u.check;
+  std::printf("%s\n  where: %s\n", u.message.c_str(), u.where.c_str());
+}
+
 // The one pulse finder on the axis: force pulses no motion explains are isolated_disturbance
 // events at their times with their force (the residual is band-limited by the decimation, so
 // the peak is read within a third), and a recording without them has none.

@@ -516,26 +516,6 @@ selection::Settings settings_of(const Options& opt, const effects::Scales& scale
           .scales = scales};
 }
 
-// The implausible fit that would remove most error, and where the error it leaves is largest
-// (the segment a user should look at first); after a stop, only if it would have stood out (its
-// gain and force beyond what was left untaken).
-void note_implausible(const selection::Outcome& o, const Prepared& P, const Options& opt,
-                      double n_used, Selection& out) {
-  if (!o.implausible) return;
-  const auto& f = *o.implausible;
-  const double before = total(f.cur_ho), after = total(f.ho);
-  const double gain = 100.0 * (before - after) / before;
-  const double explained_n = std::sqrt((before - after) / n_used);
-  if (o.stopped_at && (gain < opt.min_gain_pct || explained_n < std::max(P.floor_n, P.minimum_n)))
-    return;
-  const auto worst =
-      static_cast<std::size_t>(std::max_element(f.ho.begin(), f.ho.end()) - f.ho.begin());
-  const double seg = P.duration_s / static_cast<double>(f.ho.size());
-  const double t0 = P.t0_s + seg * static_cast<double>(worst);
-  out.implausible =
-      Implausible{std::string(f.var->effect->id()), f.params, gain, 0.0, explained_n, t0, t0 + seg};
-}
-
 // The chosen terms' parameters at a fit, in their order (none: the unit gives no value there).
 std::vector<std::optional<stats::Named>> term_parameters(
     const std::vector<selection::Found>& chosen, const Fit& fit, const State& model) {
@@ -593,8 +573,12 @@ Selection select(const Prepared& P, const Options& opt,
   }
   const NutRules rules(P, P.states.empty() ? State{} : P.states.front());
   const auto o = selection::select(g, cand, rules, settings_of(opt, P.scales), {}, {}, progress);
-  static_cast<selection::Result&>(out) = selection::result_of(o, folds);
-  note_implausible(o, P, opt, static_cast<double>(n_used), out);
+  const selection::Span span{.n_used = static_cast<double>(n_used),
+                             .t0_s = P.t0_s,
+                             .duration_s = P.duration_s,
+                             .floor_n = std::max(P.floor_n, P.minimum_n),
+                             .min_gain_pct = opt.min_gain_pct};
+  static_cast<selection::Result&>(out) = selection::result_of(o, folds, span);
   finish(P, g, cand, rules.model(), out.current, out);
   return out;
 }

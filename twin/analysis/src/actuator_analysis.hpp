@@ -90,19 +90,9 @@ struct Prepared {
   std::vector<Window> stops;  // stops the filtered speed hides, widened by the filter's support
 };
 
-/// The best fit the selection could not take because its parameters lie outside the effect's
-/// physical range: the missing force is real, but no library effect explains it plausibly.
-struct Implausible {
-  std::string id;
-  effects::Params params;
-  double gain_pct = 0, t_stat = 0, explained_n = 0;
-  double worst_t0_s = 0, worst_t1_s = 0;  // the held-out segment with the most error left
-};
-
 /// The selection's result (the one type both paths read) with what the actuator adds: the
-/// implausible fit, the errors over the sliding samples and the corrected residual.
+/// errors over the sliding samples and the corrected residual.
 struct Selection : selection::Result {
-  std::optional<Implausible> implausible;
   double baseline_sse = 0, final_sse = 0, measured_ss = 0;
   std::vector<double> final_residual;  // at Prepared::states, after every chosen term
   std::size_t samples_used = 0;

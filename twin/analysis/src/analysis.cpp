@@ -604,7 +604,12 @@ selection::Result select_terms(const AxisRun& run) {
       selection::select(run.g, run.cand, rules, settings_of(run.opt, run.P.scales), run.base_cols,
                         in_baseline, [&](double f) { run.progress("selection", f); });
   run.progress("selection", 1.0);
-  return selection::result_of(o, run.folds);
+  const selection::Span span{.n_used = run.n_total,
+                             .t0_s = run.S->start_s,
+                             .duration_s = run.S->span_s,
+                             .floor_n = run.P.noise_floor_n,
+                             .min_gain_pct = run.opt.min_gain_pct};
+  return selection::result_of(o, run.folds, span);
 }
 
 // ---------------------------------------------------------------- findings
@@ -775,12 +780,14 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
                 {},
                 {}};
   for (const auto& f : sel.terms) J.effects.push_back(finding_of(run, f));
-  J.nothing_missing = sel.terms.empty();
-  J.conclusion =
-      sel.terms.empty()
-          ? "nothing is missing: no candidate effect lowers the held-out error significantly"
-          : std::to_string(sel.terms.size()) + " effect(s) found";
+  J.nothing_missing = sel.terms.empty() && !sel.implausible;
+  J.conclusion = selection::conclusion_of(sel);
   J.not_selected = rejected_of(sel);
+  if (sel.implausible)
+    J.unexplained = selection::unexplained_of(
+        *sel.implausible,
+        "units and sign of drive_force_n and pos_m, the drive's force constant, the encoder "
+        "scale and the model file's values (is it this axis's?)");
   J.final_fit = {p.ef.rms,
                  p.ef.rel_pct,
                  p.ef_full.rms,
