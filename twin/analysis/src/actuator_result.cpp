@@ -25,12 +25,6 @@ std::string fmt(double v, int prec = 3) {
   return o.str();
 }
 
-std::string params_text(const effects::Params& p) {
-  std::string s;
-  for (const auto& [k, v] : p) s += (s.empty() ? "" : ", ") + k + " = " + fmt(v);
-  return s;
-}
-
 actuator::Baseline baseline_of(const ModelFile& m) {
   actuator::Baseline b;
   b.nut_mass_kg = m.nut_mass_kg;
@@ -138,20 +132,10 @@ std::string summary_of(const selection::Found& c, const actuator::Prepared& P) {
 
 std::optional<Unexplained> unexplained_of(const actuator::Selection& sel) {
   if (!sel.implausible) return std::nullopt;
-  const auto& imp = *sel.implausible;
-  Unexplained u;
-  u.id = imp.id;
-  u.parameters = parameters_of(imp.params);
-  u.heldout_gain_pct = imp.gain_pct;
-  u.explained_rms_n = imp.explained_n;
-  u.where = "the missing force follows the law of " + imp.id +
-            ", most left in t = " + fmt(imp.worst_t0_s) + " .. " + fmt(imp.worst_t1_s) + " s";
-  u.check =
+  return selection::unexplained_of(
+      *sel.implausible,
       "units and sign of load_force_n, the calibration (is it this actuator's?), the encoder "
-      "scales (lead, counts) and the load cell itself";
-  u.message = "no library effect explains this plausibly: " + imp.id + " would need " +
-              params_text(imp.params) + ", outside its physical range";
-  return u;
+      "scales (lead, counts) and the load cell itself");
 }
 
 actuator::Options options_of(const AnalysisOptions& opt, const actuator::Baseline& base) {
@@ -358,9 +342,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);
-  J.conclusion = sel.terms.empty() ? "nothing is missing: no effect explains a significant part of "
-                                     "the held-out error"
-                                   : std::to_string(sel.terms.size()) + " effect(s) found";
+  J.conclusion = selection::conclusion_of(sel);
   return J;
 }
 
