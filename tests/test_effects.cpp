@@ -98,7 +98,27 @@ TEST(Effects, IdsAndParameterNamesAreTheDocumentedOnes) {
   }
   EXPECT_EQ(find("no_such_effect"), nullptr);
   EXPECT_THROW(check(*find("offset"), {{"force_n", 1.0}}), std::invalid_argument);
-  EXPECT_FALSE(plausible(*find("coupling_gain_error"), {{"gain", 3.0}}));
+  EXPECT_FALSE(plausible(*find("coupling_gain_error"), {{"gain", 3.0}}, {}));
+}
+
+// A range in the actuator's own scales: the same friction is plausible on a drive that produces
+// more than it, not on one that could never overcome it; no actuator's size sits in a unit.
+TEST(EffectLibrary, RangesScaleWithTheActuator) {
+  const Effect& coulomb = *find("coulomb_friction");
+  EXPECT_TRUE(plausible(coulomb, {{"coulomb_n", 30.0}}, {.force_n = 44.0, .speed_m_s = 0.1}));
+  EXPECT_FALSE(plausible(coulomb, {{"coulomb_n", 30.0}}, {.force_n = 20.0, .speed_m_s = 0.1}));
+  EXPECT_TRUE(plausible(coulomb, {{"coulomb_n", 300.0}}, {.force_n = 500.0, .speed_m_s = 0.1}));
+  EXPECT_FALSE(plausible(coulomb, {{"coulomb_n", -1.0}}, {}));  // scale unknown: the sign only
+  EXPECT_TRUE(plausible(coulomb, {{"coulomb_n", 1e3}}, {}));
+  // A viscous force at the top speed beyond what the drive produces is not viscous friction.
+  const Effect& viscous = *find("viscous_friction");
+  EXPECT_TRUE(
+      plausible(viscous, {{"viscous_n_s_per_m", 400.0}}, {.force_n = 44.0, .speed_m_s = 0.1}));
+  EXPECT_FALSE(
+      plausible(viscous, {{"viscous_n_s_per_m", 500.0}}, {.force_n = 44.0, .speed_m_s = 0.1}));
+  // A heavy axis's moving mass is a mass (the EMPS carriage weighs 95 kg).
+  EXPECT_TRUE(plausible(*find("mass_error"), {{"nut_mass_kg", 95.0}}, {.force_n = 100.0}));
+  EXPECT_FALSE(plausible(*find("mass_error"), {{"nut_mass_kg", -0.1}}, {.force_n = 100.0}));
 }
 
 }  // namespace

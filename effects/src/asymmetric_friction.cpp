@@ -11,10 +11,12 @@ struct Asymmetric final : Effect {
     return "F_f = F_c+ (v > 0), -F_c- (v < 0); break-away likewise";
   }
   std::vector<ParamSpec> params() const override {
-    return {{"coulomb_pos_n", "friction moving +p", 0.0, 60.0},
-            {"coulomb_neg_n", "friction moving -p", 0.0, 60.0},
-            {"viscous_pos_n_s_per_m", "viscous coefficient moving +p (optional)", 0.0, 1000.0},
-            {"viscous_neg_n_s_per_m", "viscous coefficient moving -p (optional)", 0.0, 1000.0}};
+    return {{"coulomb_pos_n", "friction moving +p", 0.0, 1.0, Scale::force},
+            {"coulomb_neg_n", "friction moving -p", 0.0, 1.0, Scale::force},
+            {"viscous_pos_n_s_per_m", "viscous coefficient moving +p (optional)", 0.0, 1.0,
+             Scale::force_per_speed},
+            {"viscous_neg_n_s_per_m", "viscous coefficient moving -p (optional)", 0.0, 1.0,
+             Scale::force_per_speed}};
   }
   double force_n(const Params& p, const State& s) const override {
     const double v = s.v_m_s;

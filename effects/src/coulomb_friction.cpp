@@ -11,7 +11,8 @@ struct Coulomb final : Effect {
     return "F_f = F_c sign(v); stuck while |F_m + F_ext| <= F_c";
   }
   std::vector<ParamSpec> params() const override {
-    return {{"coulomb_n", "kinetic and break-away friction F_c (the total)", 0.0, 60.0}};
+    return {
+        {"coulomb_n", "kinetic and break-away friction F_c (the total)", 0.0, 1.0, Scale::force}};
   }
   double force_n(const Params& p, const State& s) const override {
     return -(param(p, "coulomb_n", s.coulomb_n) - s.coulomb_n) * sgn(s.v_m_s);

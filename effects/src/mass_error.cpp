@@ -9,7 +9,7 @@ struct MassError final : Effect {
   std::string_view id() const override { return "mass_error"; }
   std::string_view law() const override { return "M p'' with M the total moving mass"; }
   std::vector<ParamSpec> params() const override {
-    return {{"nut_mass_kg", "moving mass M (the total)", 0.005, 20.0}};
+    return {{"nut_mass_kg", "moving mass M (the total)", 0.0, 1e4}};
   }
   double force_n(const Params& p, const State& s) const override {
     return -(param(p, "nut_mass_kg", s.nut_mass_kg) - s.nut_mass_kg) * s.a_m_s2;

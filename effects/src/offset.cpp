@@ -11,7 +11,7 @@ struct Offset final : Effect {
     return "F = F_o (constant, along +p, unseen by the load cell)";
   }
   std::vector<ParamSpec> params() const override {
-    return {{"offset_n", "constant force on the nut along +p", -60.0, 60.0}};
+    return {{"offset_n", "constant force on the nut along +p", -1.0, 1.0, Scale::force}};
   }
   double force_n(const Params& p, const State&) const override { return param(p, "offset_n", 0.0); }
   int columns() const override { return 1; }

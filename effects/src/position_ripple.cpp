@@ -10,8 +10,11 @@ constexpr double kPi = std::numbers::pi;
 struct PositionRipple final : Effect {
   std::string_view id() const override { return "position_ripple"; }
   std::string_view law() const override { return "F = A sin(2 pi p / lambda + psi)"; }
+  // A guide's or cogging ripple is a disturbance beside the drive's force, not a second drive:
+  // at most a quarter of the peak force (one at the lead's period and near the coupling's own
+  // size is the coupling's force misread, e.g. a calibration off by a factor).
   std::vector<ParamSpec> params() const override {
-    return {{"amplitude_n", "A", 0.0, 30.0},
+    return {{"amplitude_n", "A", 0.0, 0.25, Scale::force},
             {"period_m", "lambda", 1e-4, 0.1},
             {"phase_rad", "psi", -kPi, kPi}};
   }

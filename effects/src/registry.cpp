@@ -50,10 +50,32 @@ void check(const Effect& e, const Params& p) {
   }
 }
 
-bool plausible(const Effect& e, const Params& p) {
+namespace {
+// The size one unit of a range stands for; 0 when the scale is not known.
+double unit_of(Scale per, const Scales& scales) {
+  switch (per) {
+    case Scale::absolute:
+      return 1.0;
+    case Scale::force:
+      return scales.force_n;
+    case Scale::force_per_speed:
+      return scales.speed_m_s > 0 ? scales.force_n / scales.speed_m_s : 0.0;
+  }
+  return 0.0;
+}
+}  // namespace
+
+bool plausible(const Effect& e, const Params& p, const Scales& scales) {
   for (const auto& s : e.params()) {
     const auto it = p.find(s.name);
-    if (it != p.end() && (it->second < s.min || it->second > s.max)) return false;
+    if (it == p.end()) continue;
+    const double unit = unit_of(s.per, scales);
+    const double v = it->second;
+    if (unit > 0) {
+      if (v < s.min * unit || v > s.max * unit) return false;
+    } else if (s.min >= 0 && v < 0) {  // the scale unknown: only the sign is judged
+      return false;
+    }
   }
   return true;
 }

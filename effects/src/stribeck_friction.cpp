@@ -11,8 +11,8 @@ struct Stribeck final : Effect {
     return "F_k(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2); stuck while |F_m + F_ext| <= F_s";
   }
   std::vector<ParamSpec> params() const override {
-    return {{"breakaway_n", "break-away friction F_s", 0.0, 60.0},
-            {"coulomb_n", "kinetic friction F_c at speed", 0.0, 60.0},
+    return {{"breakaway_n", "break-away friction F_s", 0.0, 1.0, Scale::force},
+            {"coulomb_n", "kinetic friction F_c at speed", 0.0, 1.0, Scale::force},
             {"stribeck_velocity_m_s", "Stribeck velocity v_s", 1e-5, 0.1}};
   }
   double force_n(const Params& p, const State& s) const override {

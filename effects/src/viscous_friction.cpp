@@ -9,7 +9,8 @@ struct Viscous final : Effect {
   std::string_view id() const override { return "viscous_friction"; }
   std::string_view law() const override { return "F = -C v"; }
   std::vector<ParamSpec> params() const override {
-    return {{"viscous_n_s_per_m", "viscous coefficient C (the total)", 0.0, 1000.0}};
+    return {{"viscous_n_s_per_m", "viscous coefficient C (the total)", 0.0, 1.0,
+             Scale::force_per_speed}};
   }
   double force_n(const Params& p, const State& s) const override {
     return -(param(p, "viscous_n_s_per_m", s.viscous_n_s_per_m) - s.viscous_n_s_per_m) * s.v_m_s;

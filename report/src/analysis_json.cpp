@@ -77,7 +77,6 @@ Json event_json(const Event& e) {
   put(j, "leads", e.leads);
   put(j, "duration_s", e.duration_s);
   put(j, "force_n", e.force_n);
-  put(j, "residual_n", e.residual_n);
   put(j, "rms_n", e.rms_n);
   return j;
 }

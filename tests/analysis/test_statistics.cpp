@@ -1,6 +1,7 @@
 // The statistics both analysis paths use (internal to twin/analysis): the one final fit with
 // standard errors (stats::estimate: a constant fitted to four segments, against the jackknife
-// computed by hand), the white-noise level of a sensor and the checks of a recording's columns.
+// computed by hand), the white-noise level of a sensor and the checks of a recording's columns;
+// and the actuator's setting aside of the samples hidden stops reach.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -13,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "actuator_analysis.hpp"
 #include "maglead/recording/recording.hpp"
 #include "statistics.hpp"
 
@@ -164,6 +166,44 @@ TEST(Folds, CutTheSpanByTimeNotBySampleCount) {
   EXPECT_EQ(fold_of(0.5, 0.0, 4), 0U);  // no span: one segment
   const auto uniform = fold_starts(std::vector<double>{0, 1, 2, 3, 4, 5}, 0.0, 5.0, 3);
   EXPECT_EQ(uniform, (std::vector<std::size_t>{0, 2, 4, 6}));
+}
+
+// The samples a hidden stop reaches (its window's ends included) leave the sample set in place,
+// the locked floor follows the samples left, and putting them back restores every sample and
+// the floor exactly.
+TEST(StopSamples, TakenOutInPlaceAndPutBackExactly) {
+  namespace act = maglead::analysis::actuator;
+  act::Prepared P;
+  P.count_force_n = 0.4;
+  P.floor_n = 0.1;
+  P.locked_period = {2, 5};
+  for (int i = 0; i < 20; ++i) {
+    maglead::effects::State s;
+    s.t_s = 0.1 * i;
+    s.v_m_s = 0.001 * i;
+    P.states.push_back(s);
+    P.residual.push_back(1.0 + i);
+    P.locked_run.push_back(i < 8 ? 0 : (i < 12 ? -1 : 1));
+  }
+  P.stops = {{0.25, 0.5}, {1.2, 1.3}};  // samples 3, 4, 5 and 12, 13 (t = 1.2, 1.3)
+  act::put_back(P, {});                 // nothing aside: the locked floor as prepare sets it
+  const act::Prepared before = P;
+  const auto aside = act::take_stops(P);
+  EXPECT_EQ(aside.at, (std::vector<std::size_t>{3, 4, 5, 12, 13}));
+  ASSERT_EQ(P.states.size(), 15U);
+  EXPECT_DOUBLE_EQ(P.residual[3], 7.0);                      // sample 6 closed up behind sample 2
+  EXPECT_DOUBLE_EQ(P.states[9].t_s, before.states[14].t_s);  // and 14 behind 11
+  EXPECT_NE(P.locked_floor_n, before.locked_floor_n);
+  act::put_back(P, aside);
+  ASSERT_EQ(P.states.size(), before.states.size());
+  for (std::size_t i = 0; i < P.states.size(); ++i) {
+    EXPECT_EQ(P.states[i].t_s, before.states[i].t_s) << i;
+    EXPECT_EQ(P.states[i].v_m_s, before.states[i].v_m_s) << i;
+    EXPECT_EQ(P.residual[i], before.residual[i]) << i;
+    EXPECT_EQ(P.locked_run[i], before.locked_run[i]) << i;
+  }
+  EXPECT_EQ(P.locked_floor_n, before.locked_floor_n);
+  EXPECT_EQ(P.locked_share, before.locked_share);
 }
 
 }  // namespace

@@ -242,8 +242,8 @@ void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
   // are broadband, and the filter keeps 2 f_c / f_s of their power.
   const double kept = std::sqrt(std::min(1.0, 2.0 * P.filter_hz / P.fs_hz));
   P.floor_n = kept * std::hypot(P.count_force_n / std::sqrt(12.0), P.load_noise_n);
-  P.minimum_n =
-      opt.min_effect_of_peak * std::max(std::abs(cal.peak_push_n), std::abs(cal.peak_pull_n));
+  P.scales.force_n = std::max(std::abs(cal.peak_push_n), std::abs(cal.peak_pull_n));
+  P.minimum_n = opt.min_effect_of_peak * P.scales.force_n;
 }
 
 // Where the count is locked the rounding error's mean is one unknown value per run, kept whole by
@@ -373,6 +373,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
     P.states.push_back(state_at(i));
     P.residual.push_back(missing_force(P.states.back(), base.terms));
     P.locked_run.push_back(runs.run[i]);
+    P.scales.speed_m_s = std::max(P.scales.speed_m_s, std::abs(P.states.back().v_m_s));
   }
   P.locked_period = runs.period;
   set_locked_floor(P);
@@ -383,22 +384,54 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   return P;
 }
 
-Prepared without_stops(const Prepared& P) {
-  Prepared out = P;
-  out.states.clear();
-  out.residual.clear();
-  out.locked_run.clear();
+StopSamples take_stops(Prepared& P) {
+  StopSamples aside;
+  std::size_t kept = 0;
   auto w = P.stops.begin();
   for (std::size_t i = 0; i < P.states.size(); ++i) {
     const double t = P.states[i].t_s;
     while (w != P.stops.end() && w->to_s < t) ++w;
-    if (w != P.stops.end() && w->from_s <= t) continue;
-    out.states.push_back(P.states[i]);
-    out.residual.push_back(P.residual[i]);
-    out.locked_run.push_back(P.locked_run[i]);
+    if (w != P.stops.end() && w->from_s <= t) {
+      aside.at.push_back(i);
+      aside.states.push_back(P.states[i]);
+      aside.residual.push_back(P.residual[i]);
+      aside.locked_run.push_back(P.locked_run[i]);
+      continue;
+    }
+    // Kept samples close up in place: one pass, nothing else allocated.
+    P.states[kept] = P.states[i];
+    P.residual[kept] = P.residual[i];
+    P.locked_run[kept] = P.locked_run[i];
+    ++kept;
   }
-  set_locked_floor(out);
-  return out;
+  P.states.resize(kept);
+  P.residual.resize(kept);
+  P.locked_run.resize(kept);
+  set_locked_floor(P);
+  return aside;
+}
+
+void put_back(Prepared& P, const StopSamples& aside) {
+  const std::size_t n = P.states.size() + aside.at.size();
+  P.states.resize(n);
+  P.residual.resize(n);
+  P.locked_run.resize(n);
+  // From the back, so every kept sample moves once to its place and none is overwritten first.
+  std::size_t from = n - aside.at.size(), k = aside.at.size();
+  for (std::size_t i = n; i-- > 0;) {
+    if (k > 0 && aside.at[k - 1] == i) {
+      --k;
+      P.states[i] = aside.states[k];
+      P.residual[i] = aside.residual[k];
+      P.locked_run[i] = aside.locked_run[k];
+      continue;
+    }
+    --from;
+    P.states[i] = P.states[from];
+    P.residual[i] = P.residual[from];
+    P.locked_run[i] = P.locked_run[from];
+  }
+  set_locked_floor(P);
 }
 
 // ------------------------------------------------------------------------------- fitting
@@ -505,33 +538,14 @@ bool NutRules::resolved(const selection::Trial& tr, double explained_n) const {
   return beyond_locked_rounding(tr) >= floor_n;
 }
 
-selection::Settings settings_of(const Options& opt) {
+selection::Settings settings_of(const Options& opt, const effects::Scales& scales = {}) {
   return {.max_terms = opt.max_terms,
           .min_gain_pct = opt.min_gain_pct,
           .min_t = opt.min_t,
           .acting_share = opt.acting_share,
           .parsimony = opt.parsimony,
-          .leave_out_spanned = false};
-}
-
-// The implausible fit that would remove most error, and where the error it leaves is largest
-// (the segment a user should look at first); after a stop, only if it would have stood out (its
-// gain and force beyond what was left untaken).
-void note_implausible(const selection::Outcome& o, const Prepared& P, const Options& opt,
-                      double n_used, Selection& out) {
-  if (!o.implausible) return;
-  const auto& f = *o.implausible;
-  const double before = total(f.cur_ho), after = total(f.ho);
-  const double gain = 100.0 * (before - after) / before;
-  const double explained_n = std::sqrt((before - after) / n_used);
-  if (o.stopped_at && (gain < opt.min_gain_pct || explained_n < std::max(P.floor_n, P.minimum_n)))
-    return;
-  const auto worst =
-      static_cast<std::size_t>(std::max_element(f.ho.begin(), f.ho.end()) - f.ho.begin());
-  const double seg = P.duration_s / static_cast<double>(f.ho.size());
-  const double t0 = P.t0_s + seg * static_cast<double>(worst);
-  out.implausible =
-      Implausible{std::string(f.var->effect->id()), f.params, gain, 0.0, explained_n, t0, t0 + seg};
+          .leave_out_spanned = false,
+          .scales = scales};
 }
 
 // The chosen terms' parameters at a fit, in their order (none: the unit gives no value there).
@@ -564,7 +578,7 @@ void finish(const Prepared& P, const Grams& g, const Candidates& cand, const Sta
   for (std::size_t k = 0; k < out.terms.size(); ++k) {
     auto& term = out.terms[k];
     if (est.values[k]) term.params = *est.values[k];
-    term.plausible = effects::plausible(*term.effect, term.params);
+    term.plausible = effects::plausible(*term.effect, term.params, P.scales);
     term.standard_errors = est.standard_errors[k];
   }
 }
@@ -590,9 +604,13 @@ Selection select(const Prepared& P, const Options& opt,
     return out;
   }
   const NutRules rules(P, P.states.empty() ? State{} : P.states.front());
-  const auto o = selection::select(g, cand, rules, settings_of(opt), {}, {}, progress);
-  static_cast<selection::Result&>(out) = selection::result_of(o, folds);
-  note_implausible(o, P, opt, static_cast<double>(n_used), out);
+  const auto o = selection::select(g, cand, rules, settings_of(opt, P.scales), {}, {}, progress);
+  const selection::Span span{.n_used = static_cast<double>(n_used),
+                             .t0_s = P.t0_s,
+                             .duration_s = P.duration_s,
+                             .floor_n = std::max(P.floor_n, P.minimum_n),
+                             .min_gain_pct = opt.min_gain_pct};
+  static_cast<selection::Result&>(out) = selection::result_of(o, folds, span);
   finish(P, g, cand, rules.model(), out.current, out);
   return out;
 }

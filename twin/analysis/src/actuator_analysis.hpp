@@ -72,6 +72,8 @@ struct Prepared {
   double floor_n = 0;         // RMS force the recording resolves: one count's rounding and the
                               // load-cell noise, both after the filter
   double minimum_n = 0;       // the stated minimum (Options::min_effect_of_peak × peak force)
+  effects::Scales scales;     // the calibrated peak force, the fastest sliding speed: the
+                              // effect units' plausible ranges are stated in these
   double locked_share = 0;    // sliding samples whose count rate is locked to the sample clock
   double locked_floor_n = 0;  // floor_n with what a locked count's rounding may hold there
   int decimation = 1;
@@ -88,19 +90,9 @@ struct Prepared {
   std::vector<Window> stops;  // stops the filtered speed hides, widened by the filter's support
 };
 
-/// The best fit the selection could not take because its parameters lie outside the effect's
-/// physical range: the missing force is real, but no library effect explains it plausibly.
-struct Implausible {
-  std::string id;
-  effects::Params params;
-  double gain_pct = 0, t_stat = 0, explained_n = 0;
-  double worst_t0_s = 0, worst_t1_s = 0;  // the held-out segment with the most error left
-};
-
 /// The selection's result (the one type both paths read) with what the actuator adds: the
-/// implausible fit, the errors over the sliding samples and the corrected residual.
+/// errors over the sliding samples and the corrected residual.
 struct Selection : selection::Result {
-  std::optional<Implausible> implausible;
   double baseline_sse = 0, final_sse = 0, measured_ss = 0;
   std::vector<double> final_residual;  // at Prepared::states, after every chosen term
   std::size_t samples_used = 0;
@@ -121,8 +113,18 @@ struct BreakawayTest {
 
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
                  const ActuatorParams& act, const Options& opt);
-/// The same recording without the sliding samples a hidden stop reaches (Prepared::stops).
-Prepared without_stops(const Prepared& P);
+/// The sliding samples a hidden stop reaches (Prepared::stops), set aside with their places.
+struct StopSamples {
+  std::vector<std::size_t> at;  // their indices in the whole sample set, increasing
+  std::vector<effects::State> states;
+  std::vector<double> residual;
+  std::vector<int> locked_run;
+};
+/// Takes those samples out of `P` (its locked floor follows): the stages see the recording
+/// without them, and no second copy of the sample set is made.
+StopSamples take_stops(Prepared& P);
+/// `P` as it was before take_stops (the samples back in their places, the floor recomputed).
+void put_back(Prepared& P, const StopSamples& aside);
 /// The forward selection's rule in words (the report's method).
 std::string selection_rule(const Options& opt);
 Selection select(const Prepared& P, const Options& opt,

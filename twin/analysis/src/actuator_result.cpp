@@ -25,12 +25,6 @@ std::string fmt(double v, int prec = 3) {
   return o.str();
 }
 
-std::string params_text(const effects::Params& p) {
-  std::string s;
-  for (const auto& [k, v] : p) s += (s.empty() ? "" : ", ") + k + " = " + fmt(v);
-  return s;
-}
-
 actuator::Baseline baseline_of(const ModelFile& m) {
   actuator::Baseline b;
   b.nut_mass_kg = m.nut_mass_kg;
@@ -138,20 +132,10 @@ std::string summary_of(const selection::Found& c, const actuator::Prepared& P) {
 
 std::optional<Unexplained> unexplained_of(const actuator::Selection& sel) {
   if (!sel.implausible) return std::nullopt;
-  const auto& imp = *sel.implausible;
-  Unexplained u;
-  u.id = imp.id;
-  u.parameters = parameters_of(imp.params);
-  u.heldout_gain_pct = imp.gain_pct;
-  u.explained_rms_n = imp.explained_n;
-  u.where = "the missing force follows the law of " + imp.id +
-            ", most left in t = " + fmt(imp.worst_t0_s) + " .. " + fmt(imp.worst_t1_s) + " s";
-  u.check =
+  return selection::unexplained_of(
+      *sel.implausible,
       "units and sign of load_force_n, the calibration (is it this actuator's?), the encoder "
-      "scales (lead, counts) and the load cell itself";
-  u.message = "no library effect explains this plausibly: " + imp.id + " would need " +
-              params_text(imp.params) + ", outside its physical range";
-  return u;
+      "scales (lead, counts) and the load cell itself");
 }
 
 actuator::Options options_of(const AnalysisOptions& opt, const actuator::Baseline& base) {
@@ -296,27 +280,6 @@ void add_step_outs(Findings& J, const actuator::Prepared& P) {
   }
 }
 
-void add_pulses(Findings& J, const std::vector<actuator::Pulse>& pulses) {
-  if (pulses.empty()) return;
-  double largest = 0;
-  for (const auto& q : pulses) {
-    Event ev;
-    ev.type = "external_disturbance";
-    ev.t_s = q.t_s;
-    ev.duration_s = q.duration_s;
-    ev.force_n = q.peak_n;
-    J.events.push_back(ev);
-    if (std::abs(q.peak_n) > std::abs(largest)) largest = q.peak_n;
-  }
-  EffectFinding e;
-  e.id = "external_disturbance";
-  set_parameter(e.parameters, "count", static_cast<double>(pulses.size()), true);
-  set_parameter(e.parameters, "force_n", largest);
-  e.where = "isolated force pulses no input explains (see events)";
-  e.evidence.events = pulses.size();
-  J.effects.push_back(e);
-}
-
 void add_step_out_finding(Findings& J, const actuator::Prepared& P) {
   if (P.slips.empty()) return;
   EffectFinding e;
@@ -363,7 +326,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   add_sliding_findings(J, sel, P, es);
   if (stribeck) add_stribeck(J, sel, *stribeck, bt, P);
   add_step_outs(J, P);
-  add_pulses(J, actuator::find_pulses(P, sel, o));
+  pulses::report(J, actuator::find_pulses(P, sel, o));
   add_step_out_finding(J, P);
   J.breakaway_test = BreakawayTest{{bt.pos.episodes, bt.pos.median_excess_n, bt.pos.se_n},
                                    {bt.neg.episodes, bt.neg.median_excess_n, bt.neg.se_n}};
@@ -379,9 +342,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);
-  J.conclusion = sel.terms.empty() ? "nothing is missing: no effect explains a significant part of "
-                                     "the held-out error"
-                                   : std::to_string(sel.terms.size()) + " effect(s) found";
+  J.conclusion = selection::conclusion_of(sel);
   return J;
 }
 
@@ -457,16 +418,21 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   // slipping motion, where no friction law of the speed holds (the slips' accelerations would
   // read as mass). The sliding fit is made again without the samples those stops reach, kept if
   // the break-away test on it still names the hump. Without a hump a release is gentle and those
-  // samples stay: a pulse that stalls the nut is seen there.
-  if (auto P2 = stribeck ? actuator::without_stops(P) : actuator::Prepared{};
-      stribeck && P2.states.size() < P.states.size()) {
-    auto o2 = o;
-    auto sel2 = sliding_fit(P2, base, o2, progress);
-    const auto bt2 = actuator::breakaway_test(P2, base, sel2.fit.terms);
-    if (auto s2 = actuator::stribeck_from_breakaway(P2, base, sel2.fit, bt2, o2)) {
-      P = std::move(P2), sel = std::move(sel2), bt = bt2, stribeck = s2, o = std::move(o2);
-      stribeck->from_releases->stops_left_out = P.stops.size();
+  // samples stay: a pulse that stalls the nut is seen there. (They are set aside in place, not
+  // copied, and put back when the refit does not hold.)
+  if (stribeck) {
+    const auto aside = actuator::take_stops(P);
+    bool kept = false;
+    if (!aside.at.empty()) {
+      auto o2 = o;
+      auto sel2 = sliding_fit(P, base, o2, progress);
+      const auto bt2 = actuator::breakaway_test(P, base, sel2.fit.terms);
+      if (auto s2 = actuator::stribeck_from_breakaway(P, base, sel2.fit, bt2, o2)) {
+        sel = std::move(sel2), bt = bt2, stribeck = s2, o = std::move(o2), kept = true;
+        stribeck->from_releases->stops_left_out = P.stops.size();
+      }
     }
+    if (!kept) actuator::put_back(P, aside);
   }
   progress("selection", 1.0);
   if (stribeck) fold_in_stribeck(sel.fit, P, *stribeck);

@@ -237,7 +237,14 @@ struct Prepared {
   int decimation = 1;
   double fs_hz = 0, filter_hz = 0, noise_floor_n = 0, bandwidth_hz = 0;
   std::vector<double> y_raw;  // full-rate measured force, unfiltered
+  effects::Scales scales;     // the units' plausible ranges are stated in these
 };
+
+double max_abs(const std::vector<double>& x) {
+  double m = 0;
+  for (double v : x) m = std::max(m, std::abs(v));
+  return m;
+}
 
 }  // namespace
 
@@ -345,6 +352,7 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   s.a = central_diff2(s.p, dt);
   P.y_raw = rec.column("drive_force_n");
   P.noise_floor_n = stats::white_noise_sigma(P.y_raw);  // the force sensor's noise
+  P.scales = {max_abs(P.y_raw), max_abs(s.v)};          // what the drive produced and reached
   s.valid.assign(s.size(), 1);
   // The travel the recording covers stands for the stroke (the spring's mid-stroke).
   s.stroke_min_m = *std::min_element(s.p.begin(), s.p.end());
@@ -560,13 +568,14 @@ class AxisRules : public selection::Rules {
 // No segment filter (a drive force acts everywhere); a simpler candidate with at least half the
 // best one's gain goes first; a column the model already spans (the constant part of
 // direction-dependent friction once an offset is in) is left out.
-selection::Settings settings_of(const AnalysisOptions& opt) {
+selection::Settings settings_of(const AnalysisOptions& opt, const effects::Scales& scales = {}) {
   return {.max_terms = opt.max_terms,
           .min_gain_pct = opt.min_gain_pct,
           .min_t = opt.min_t,
           .acting_share = 0,
           .parsimony = 0.5,
-          .leave_out_spanned = true};
+          .leave_out_spanned = true,
+          .scales = scales};
 }
 
 // The validation: the baseline, then each term taken (+) or dropped by the backward check (−).
@@ -591,10 +600,16 @@ selection::Result select_terms(const AxisRun& run) {
   for (const auto* e : effects::library())
     if (run.in_baseline.count(std::string(e->id()))) in_baseline.push_back(e);
   const AxisRules rules(run);
-  const auto o = selection::select(run.g, run.cand, rules, settings_of(run.opt), run.base_cols,
-                                   in_baseline, [&](double f) { run.progress("selection", f); });
+  const auto o =
+      selection::select(run.g, run.cand, rules, settings_of(run.opt, run.P.scales), run.base_cols,
+                        in_baseline, [&](double f) { run.progress("selection", f); });
   run.progress("selection", 1.0);
-  return selection::result_of(o, run.folds);
+  const selection::Span span{.n_used = run.n_total,
+                             .t0_s = run.S->start_s,
+                             .duration_s = run.S->span_s,
+                             .floor_n = run.P.noise_floor_n,
+                             .min_gain_pct = run.opt.min_gain_pct};
+  return selection::result_of(o, run.folds, span);
 }
 
 // ---------------------------------------------------------------- findings
@@ -729,7 +744,7 @@ Parameters finish_terms(const AxisRun& run, selection::Result& sel) {
   for (std::size_t k = 0; k < sel.terms.size(); ++k) {
     auto& f = sel.terms[k];
     f.params = prm[k].value_or(effects::Params{});
-    f.plausible = prm[k].has_value() && effects::plausible(*f.effect, *prm[k]);
+    f.plausible = prm[k].has_value() && effects::plausible(*f.effect, *prm[k], run.P.scales);
     f.standard_errors = est.standard_errors[k + 1];
   }
   return selection::parameters_of(est.standard_errors.front());
@@ -765,12 +780,14 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
                 {},
                 {}};
   for (const auto& f : sel.terms) J.effects.push_back(finding_of(run, f));
-  J.nothing_missing = sel.terms.empty();
-  J.conclusion =
-      sel.terms.empty()
-          ? "nothing is missing: no candidate effect lowers the held-out error significantly"
-          : std::to_string(sel.terms.size()) + " effect(s) found";
+  J.nothing_missing = sel.terms.empty() && !sel.implausible;
+  J.conclusion = selection::conclusion_of(sel);
   J.not_selected = rejected_of(sel);
+  if (sel.implausible)
+    J.unexplained = selection::unexplained_of(
+        *sel.implausible,
+        "units and sign of drive_force_n and pos_m, the drive's force constant, the encoder "
+        "scale and the model file's values (is it this axis's?)");
   J.final_fit = {p.ef.rms,
                  p.ef.rel_pct,
                  p.ef_full.rms,
@@ -782,14 +799,7 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
   add_errors(J.baseline, base_standard_errors(run, run.base_cols));
   add_errors(J.final_fit, final_base_se);
   J.validation = validation_of(run, sel);
-  for (const auto& q : run.pulses) {
-    Event ev;
-    ev.type = "isolated_disturbance";
-    ev.t_s = q.t_s;
-    ev.duration_s = q.duration_s;
-    ev.residual_n = q.peak_n;
-    J.events.push_back(ev);
-  }
+  pulses::report(J, run.pulses);
 }
 
 // Isolated pulses in the corrected residual (the one pulse finder, as on the actuator): events,
@@ -1081,6 +1091,7 @@ std::string term_note(const EffectFinding& e) {
 // unit's parameters.
 void apply_finding(ModelFile& M, const EffectFinding& e) {
   const effects::Effect* unit = effects::find(e.id);
+  if (unit && !unit->selectable()) return;  // events (pulses) are reported, not a force law
   if (const auto total = unit ? total_of(*unit) : std::string(); !total.empty()) {
     *total_field(M, total) = parameter_value(e.parameters, total);
     return;

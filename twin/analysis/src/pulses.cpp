@@ -112,4 +112,25 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
   return out;
 }
 
+void report(Findings& J, const std::vector<Pulse>& found) {
+  if (found.empty()) return;
+  double largest_n = 0;
+  for (const auto& q : found) {
+    Event ev;
+    ev.type = "external_disturbance";
+    ev.t_s = q.t_s;
+    ev.duration_s = q.duration_s;
+    ev.force_n = q.peak_n;
+    J.events.push_back(ev);
+    if (std::abs(q.peak_n) > std::abs(largest_n)) largest_n = q.peak_n;
+  }
+  EffectFinding e;
+  e.id = "external_disturbance";
+  set_parameter(e.parameters, "count", static_cast<double>(found.size()), true);
+  set_parameter(e.parameters, "force_n", largest_n);
+  e.where = "isolated force pulses no input explains (see events)";
+  e.evidence.events = found.size();
+  J.effects.push_back(e);
+}
+
 }  // namespace maglead::analysis::pulses

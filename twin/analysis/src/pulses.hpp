@@ -3,6 +3,8 @@
 // no input explains, in a residual, judged against the recording's own floors.
 #include <vector>
 
+#include "maglead/analysis/results.hpp"
+
 namespace maglead::analysis::pulses {
 
 /// What the recording resolves and how its residual was made; each path passes its own.
@@ -24,5 +26,11 @@ struct Pulse {
 /// Pulses in the residual `r` at times `t` (non-decreasing; gaps where samples were left out).
 std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>& r,
                         const Floors& f);
+
+/// The pulses in the report, in the one form of both paths (docs/effects.md's
+/// `external_disturbance`, which the report page and graders read): an event per pulse (start,
+/// length, the missing force `force_n`) and one finding with their count and the largest force.
+/// Nothing is added when there are none.
+void report(Findings& J, const std::vector<Pulse>& found);
 
 }  // namespace maglead::analysis::pulses

@@ -71,7 +71,8 @@ std::optional<Trial> best_variant(const Search& s, const effects::Effect* e, Out
     const auto prm = s.rules.parameters(var, cols, full);
     if (!prm) continue;
     auto ho = stats::heldout(s.g, idx);
-    if (!effects::plausible(*e, *prm)) {  // a term must make physical sense to explain anything
+    if (!effects::plausible(*e, *prm,
+                            s.st.scales)) {  // a term must make physical sense to explain anything
       note_implausible(s, out, var, *prm, std::move(ho));
       continue;
     }
@@ -163,7 +164,7 @@ std::vector<Alternative> alternatives_of(const Search& s, const Trial& tr) {
     if (!var || r2 < kAlternativeR2) continue;
     const auto cols = columns_of(s, *var, s.current);
     const auto prm = s.rules.parameters(*var, cols, stats::solve(s.g, with(s.current, cols), -1));
-    out.push_back({var, prm, r2, prm && effects::plausible(*e, *prm)});
+    out.push_back({var, prm, r2, prm && effects::plausible(*e, *prm, s.st.scales)});
   }
   return out;
 }
@@ -300,8 +301,59 @@ Parameters parameters_of(const effects::Params& p) {
   return out;
 }
 
-Result result_of(const Outcome& o, int folds) {
+namespace {
+// The implausible fit and where the error it leaves is largest (the segment a user should look
+// at first); after a stop, only if it would have stood out (its gain and force beyond what was
+// left untaken).
+std::optional<Implausible> implausible_of(const Outcome& o, const Span& span) {
+  if (!o.implausible) return std::nullopt;
+  const auto& f = *o.implausible;
+  const double before = total(f.cur_ho), after = total(f.ho);
+  const double gain = 100.0 * (before - after) / before;
+  const double explained_n = std::sqrt((before - after) / span.n_used);
+  if (o.stopped_at && (gain < span.min_gain_pct || explained_n < span.floor_n)) return std::nullopt;
+  const auto worst =
+      static_cast<std::size_t>(std::max_element(f.ho.begin(), f.ho.end()) - f.ho.begin());
+  const double seg = span.duration_s / static_cast<double>(f.ho.size());
+  const double t0 = span.t0_s + seg * static_cast<double>(worst);
+  return Implausible{std::string(f.var->effect->id()), f.params, gain, explained_n, t0, t0 + seg};
+}
+
+std::string params_text(const effects::Params& p) {
+  std::ostringstream o;
+  o.precision(3);
+  for (const auto& [k, v] : p) o << (o.tellp() > 0 ? ", " : "") << k << " = " << v;
+  return o.str();
+}
+}  // namespace
+
+std::string conclusion_of(const Result& r) {
+  if (!r.terms.empty()) return std::to_string(r.terms.size()) + " effect(s) found";
+  if (r.implausible)
+    return "a force is missing that no library effect explains plausibly (see below)";
+  return "nothing is missing: no effect explains a significant part of the held-out error";
+}
+
+Unexplained unexplained_of(const Implausible& imp, std::string check) {
+  Unexplained u;
+  u.id = imp.id;
+  u.parameters = parameters_of(imp.params);
+  u.heldout_gain_pct = imp.gain_pct;
+  u.explained_rms_n = imp.explained_n;
+  std::ostringstream where;
+  where.precision(3);
+  where << "the missing force follows the law of " << imp.id
+        << ", most left in t = " << imp.worst_t0_s << " .. " << imp.worst_t1_s << " s";
+  u.where = where.str();
+  u.check = std::move(check);
+  u.message = "no library effect explains this plausibly: " + imp.id + " would need " +
+              params_text(imp.params) + ", outside its physical range";
+  return u;
+}
+
+Result result_of(const Outcome& o, int folds, const Span& span) {
   Result r;
+  r.implausible = implausible_of(o, span);
   r.current = o.current;
   r.start_heldout_sse = total(o.start_ho);
   for (const auto& term : o.terms) r.terms.push_back(found_of(term, folds));

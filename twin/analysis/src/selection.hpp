@@ -52,6 +52,7 @@ struct Settings {
   double acting_share = 0;
   double parsimony = 0.5;          // a simpler term reaching this share of the best gain goes first
   bool leave_out_spanned = false;  // a variant's columns the model already spans are left out
+  effects::Scales scales{};        // the actuator's, that the units' plausible ranges are in
 };
 
 /// Another effect that reproduces a taken term's contribution.
@@ -131,6 +132,23 @@ struct Found {
   std::optional<FromReleases> from_releases;
 };
 
+/// The implausible fit that would remove most error, as both paths report it: "no library effect
+/// explains this plausibly", with where most error is left.
+struct Implausible {
+  std::string id;
+  effects::Params params;
+  double gain_pct = 0, explained_n = 0;
+  double worst_t0_s = 0, worst_t1_s = 0;  // the held-out segment with the most error left
+};
+
+/// What a path says about its recording for that report.
+struct Span {
+  double n_used = 0;                // samples in the fit
+  double t0_s = 0, duration_s = 0;  // the recording's time span
+  double floor_n = 0;               // the RMS force a term must explain to count
+  double min_gain_pct = 0;          // the held-out gain a term must bring
+};
+
 /// The selection's result as both paths read it.
 struct Result {
   struct Step {
@@ -144,13 +162,21 @@ struct Result {
   std::vector<Step> steps;
   std::vector<Rejected> dropped;    // by the backward check
   std::optional<Found> stopped_at;  // the next term the rule named, below the threshold
+  std::optional<Implausible> implausible;
 };
 
 /// Parameters by name in the findings' form (the same for every path).
 Parameters parameters_of(const effects::Params& p);
 
-/// The Outcome as a Result over `folds` held-out segments.
-Result result_of(const Outcome& o, int folds);
+/// The Outcome as a Result over `folds` held-out segments of `span`.
+Result result_of(const Outcome& o, int folds, const Span& span);
+
+/// The findings' one-line conclusion: terms found, a missing force no library effect explains
+/// plausibly, or nothing missing.
+std::string conclusion_of(const Result& r);
+
+/// The implausible fit as the findings say it; `check`: what a user should look at.
+Unexplained unexplained_of(const Implausible& imp, std::string check);
 
 /// A term not selected, with the RMS force it explains and why.
 Rejected rejected_of(const Found& f, std::string reason);

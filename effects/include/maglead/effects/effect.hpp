@@ -14,10 +14,27 @@
 
 namespace maglead::effects {
 
+/// What a plausible range is stated in: absolute units, or the actuator's own scales, so that
+/// no one actuator's size sits in a range (a friction beyond the force the drive produces would
+/// never let it move, whatever that force is).
+enum class Scale {
+  absolute,
+  force,            // multiples of Scales::force_n
+  force_per_speed,  // multiples of Scales::force_n / Scales::speed_m_s (a viscous coefficient)
+};
+
 struct ParamSpec {
   std::string name;  // spec name, unit in the name (offset_n, delay_s)
   std::string meaning;
-  double min, max;  // plausible range: a fit outside it is not this physics
+  double min, max;  // plausible range in units of `per`: a fit outside it is not this physics
+  Scale per = Scale::absolute;
+};
+
+/// The scales of the actuator a fit is judged on (from its configuration and recording).
+struct Scales {
+  double force_n = 0;    // the largest force the drive produces (the calibrated peak, an axis's
+                         // largest drive force)
+  double speed_m_s = 0;  // the largest speed the recording reaches
 };
 
 // Transparent comparison: the twin looks parameters up by name inside the 1 kHz cycle, and a
@@ -95,8 +112,9 @@ const Effect* find(std::string_view id);
 /// Throws std::invalid_argument naming the effect and parameter when a required one is absent
 /// or outside its range.
 void check(const Effect& e, const Params& p);
-/// True when every value lies inside its documented plausible range.
-bool plausible(const Effect& e, const Params& p);
+/// True when every value lies inside its documented plausible range, a range in the actuator's
+/// scales taken in `scales` (a scale not known, 0: that bound is not applied).
+bool plausible(const Effect& e, const Params& p, const Scales& scales);
 
 double sgn(double x);
 

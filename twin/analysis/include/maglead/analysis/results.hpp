@@ -111,8 +111,7 @@ struct ValidationStep {
   std::optional<double> fitted_relative_error_pct;
 };
 
-/// Something that happened at a time: step_out, external_disturbance, isolated_disturbance,
-/// misfit_window.
+/// Something that happened at a time: step_out, external_disturbance, misfit_window.
 struct Event {
   std::string type;
   double t_s = 0.0;
@@ -120,7 +119,6 @@ struct Event {
   std::optional<int> leads;
   std::optional<double> duration_s;
   std::optional<double> force_n;
-  std::optional<double> residual_n;
   std::optional<double> rms_n;
 };
 
