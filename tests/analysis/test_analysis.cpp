@@ -646,7 +646,9 @@ TEST(Emps, DirectionDependentFrictionSpansTheCoulombAndOffsetTakenFirst) {
   // Published: 4.08 % and 3.11 %. The symmetric stage lands at 4.13 % here (see the report).
   EXPECT_LT(sym, 4.2);
   EXPECT_LE(asym, 3.11);
-  EXPECT_LE(r.findings.final_fit.relative_error_pct, 3.11);
+  // The aim, direct ≤ 3.0 % (3.030 % while the filter's edge padding flipped the
+  // first samples' curvature).
+  EXPECT_LE(r.findings.final_fit.relative_error_pct, 3.0);
   // Physically plausible values, close to the benchmark's direction-dependent model.
   EXPECT_NEAR(parameter_value(e[0].parameters, "coulomb_pos_n", NAN), 20.14, 1.0);
   EXPECT_NEAR(parameter_value(e[0].parameters, "coulomb_neg_n", NAN), 20.63, 1.0);
@@ -885,6 +887,24 @@ TEST(Signal, ButterworthPassesLowAndStopsHighFrequencies) {
     EXPECT_LT(std::abs(b[i]), 1e-3);
   }
   EXPECT_THROW(maglead::analysis::filtfilt_butter4(lo, 600, 1000), std::invalid_argument);
+}
+
+// A recording that starts and ends accelerating keeps its acceleration at the edges through the
+// zero-phase filter: the padding continues the signal's curvature (an odd reflection flipped it,
+// and the first sample read no acceleration at all).
+TEST(Signal, ZeroPhaseFilterKeepsAnAccelerationAtTheEdges) {
+  const double a_m_s2 = 0.4, v0_m_s = 0.05, dt = 1e-3;
+  std::vector<double> p(2000);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double t = static_cast<double>(i) * dt;
+    p[i] = v0_m_s * t + 0.5 * a_m_s2 * t * t;
+  }
+  for (double cutoff_hz : {100.0, 25.0}) {
+    const auto a = maglead::analysis::central_diff2(
+        maglead::analysis::filtfilt_butter4(p, cutoff_hz, 1000), dt);
+    for (std::size_t i : {std::size_t{0}, std::size_t{1}, p.size() - 1})
+      EXPECT_NEAR(a[i], a_m_s2, 0.01 * a_m_s2) << cutoff_hz << " Hz, sample " << i;
+  }
 }
 
 TEST(BadInput, MissingColumnNamesFileAndColumn) {

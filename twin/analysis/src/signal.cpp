@@ -1,5 +1,6 @@
 #include "maglead/analysis/signal.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -29,10 +30,16 @@ std::vector<Biquad> butter4(double cutoff_hz, double fs_hz) {
   return out;
 }
 
-// Transposed direct form II, started in the steady state of the first input (no start-up step).
+// Transposed direct form II, started in the steady state of the ramp through the first two
+// inputs (a level is a ramp without slope): a section passes a ramp delayed by its DC group delay
+// tau, so a signal that starts moving leaves no start-up transient.
 void run(const Biquad& f, std::vector<double>& x) {
-  if (x.empty()) return;
-  double z1 = x[0] * (1.0 - f.b0), z2 = x[0] * (f.b2 - f.a2);
+  if (x.size() < 2) return;
+  const double tau =
+      (f.b1 + 2.0 * f.b2) / (f.b0 + f.b1 + f.b2) - (f.a1 + 2.0 * f.a2) / (1.0 + f.a1 + f.a2);
+  const double u0 = x[0], d = x[1] - x[0], y0 = u0 - d * tau;
+  double z1 = y0 - f.b0 * u0;
+  double z2 = (y0 + d) - f.b0 * (u0 + d) - f.b1 * u0 + f.a1 * y0;
   for (double& v : x) {
     const double in = v;
     const double y = f.b0 * in + z1;
@@ -42,6 +49,36 @@ void run(const Biquad& f, std::vector<double>& x) {
   }
 }
 
+// The padding before x[0], `pad` samples, continuing x's local quadratic: the odd reflection of
+// what is left after it. A plain odd reflection keeps the level and slope but flips the
+// curvature, so a recording that starts accelerating read zero acceleration at its first sample
+// (a 95 kg carriage at 0.4 m/s²: 37 N of force no effect explains).
+std::vector<double> lead_in(const std::vector<double>& x, std::size_t pad) {
+  // Least squares x[k] − x[0] ≈ c0 + c1 u + c2 u², u = k / pad (scaled and levelled so the
+  // normal equations keep the curvature a level of metres would round away).
+  const double scale = static_cast<double>(pad);
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d r = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i <= pad; ++i) {
+    const double u = static_cast<double>(i) / scale;
+    const Eigen::Vector3d row(1.0, u, u * u);
+    a += row * row.transpose();
+    r += row * (x[i] - x[0]);
+  }
+  const Eigen::Vector3d c = a.ldlt().solve(r);
+  const auto q = [&](double k) {
+    const double u = k / scale;
+    return c[0] + c[1] * u + c[2] * u * u;
+  };
+  std::vector<double> out(pad);
+  for (std::size_t i = 0; i < pad; ++i) {  // out[i] stands at k = −(pad − i)
+    const std::size_t k = pad - i;
+    const double kk = static_cast<double>(k);
+    out[i] = x[0] + q(-kk) + 2.0 * (0.0 - q(0)) - ((x[k] - x[0]) - q(kk));
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff_hz,
@@ -49,13 +86,16 @@ std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff
   const auto sections = butter4(cutoff_hz, sample_rate_hz);
   const std::size_t n = x.size();
   if (n < 3) return x;
-  // Odd reflection: about three time constants of the slowest section.
+  // Padding of about three time constants of the slowest section, continuing the curvature.
   const std::size_t pad = std::min<std::size_t>(
       n - 1, static_cast<std::size_t>(std::ceil(3.0 * sample_rate_hz / cutoff_hz)) + 12);
   std::vector<double> y(n + 2 * pad);
-  for (std::size_t i = 0; i < pad; ++i) y[i] = 2.0 * x[0] - x[pad - i];
+  const auto head = lead_in(x, pad);
+  std::copy(head.begin(), head.end(), y.begin());
   std::copy(x.begin(), x.end(), y.begin() + static_cast<std::ptrdiff_t>(pad));
-  for (std::size_t i = 0; i < pad; ++i) y[pad + n + i] = 2.0 * x[n - 1] - x[n - 2 - i];
+  const std::vector<double> reversed(x.rbegin(), x.rend());
+  const auto tail = lead_in(reversed, pad);
+  std::copy(tail.rbegin(), tail.rend(), y.begin() + static_cast<std::ptrdiff_t>(pad + n));
   for (const auto& s : sections) run(s, y);
   std::reverse(y.begin(), y.end());
   for (const auto& s : sections) run(s, y);

@@ -7,8 +7,9 @@
 namespace maglead::analysis {
 
 /// 4th-order Butterworth low-pass applied forward and backward (zero phase, squared magnitude),
-/// with odd reflection at the ends so the edges do not ring. Throws std::invalid_argument if
-/// cutoff_hz is not inside (0, sample_rate_hz / 2).
+/// padded at each end by the continuation of its local quadratic (so a signal that starts or
+/// ends accelerating keeps its curvature there) and each pass started on the ramp it meets. Throws
+/// std::invalid_argument if cutoff_hz is not inside (0, sample_rate_hz / 2).
 std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff_hz,
                                      double sample_rate_hz);
 
