@@ -136,6 +136,11 @@ void add_analyze(CLI::App& app) {
   cmd->add_option("--min-gain", o->a.min_gain_pct,
                   "Held-out mean-square-error reduction a term must bring [%]")
       ->capture_default_str();
+  cmd->add_option("--calibration-accuracy", o->a.calibration_accuracy_n,
+                  "Actuator: how well the calibration is known [N] (e.g. its bench's accuracy); "
+                  "a finding must change the force by more. Default: a thousandth of the "
+                  "calibrated peak force")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_flag("!--no-twin-check", o->a.twin_force_check,
                 "Skip the twin's force estimate with the corrected model (it runs the twin over "
                 "the recording two or more times)");

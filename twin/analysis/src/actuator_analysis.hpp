@@ -38,8 +38,9 @@ struct Options {
   // stated minimum: this fraction of the calibrated peak force (a bench calibration is good to
   // about a thousandth of its range; a force change below that nobody would act on).
   double min_effect_of_peak = 1e-3;
-  double parsimony = 0.99;        // a simpler term reaching this share of the best gain wins
-  double breakaway_sigmas = 3.0;  // break-away excess significance (standard errors)
+  double calibration_accuracy_n = 0;  // stated by the user: the minimum instead (0: not stated)
+  double parsimony = 0.99;            // a simpler term reaching this share of the best gain wins
+  double breakaway_sigmas = 3.0;      // break-away excess significance (standard errors)
   int max_terms = 6;
   double pulse_sigmas = 8.0;         // a disturbance pulse stands this far out of the residual …
   double pulse_max_s = 1.0;          // … for at most this long …
@@ -68,10 +69,11 @@ struct Prepared {
   double fs_hz = 0, filter_hz = 0, lead_m = 0, count_m = 0, v_min_m_s = 0, t0_s = 0;
   double duration_s = 0, load_noise_n = 0;
   double load_filtered_noise_n = 0, load_rate_noise_n_s = 0;  // that noise after the filter
-  double count_force_n = 0;   // coupling force of one linear encoder count at φ = 0
-  double floor_n = 0;         // RMS force the recording resolves: one count's rounding and the
-                              // load-cell noise, both after the filter
-  double minimum_n = 0;       // the stated minimum (Options::min_effect_of_peak × peak force)
+  double count_force_n = 0;  // coupling force of one linear encoder count at φ = 0
+  double floor_n = 0;        // RMS force the recording resolves: one count's rounding and the
+                             // load-cell noise, both after the filter
+  double minimum_n =
+      0;  // the stated minimum (the calibration accuracy, else a thousandth of the peak)
   effects::Scales scales;     // the calibrated peak force, the fastest sliding speed: the
                               // effect units' plausible ranges are stated in these
   double locked_share = 0;    // sliding samples whose count rate is locked to the sample clock

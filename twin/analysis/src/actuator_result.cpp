@@ -144,6 +144,7 @@ actuator::Options options_of(const AnalysisOptions& opt, const actuator::Baselin
   if (opt.filter_hz > 0) o.filter_hz = opt.filter_hz;
   o.min_gain_pct = opt.min_gain_pct;
   o.min_t = opt.min_t;
+  o.calibration_accuracy_n = opt.calibration_accuracy_n;
   for (const auto& t : base.terms) o.exclude.emplace_back(t.effect->id());
   return o;
 }

@@ -23,6 +23,9 @@ struct AnalysisOptions {
   double min_gain_pct = 1.0;    // a term must cut the held-out mean square error this much …
   double min_t = 3.0;           // … consistently over the segments (t statistic of the gains)
   double min_speed_m_s = 2e-4;  // actuator: slower samples stick, their friction is unknown
+  // actuator: how well the calibration is known [N]; a finding must change the force by more
+  // (0: not stated, a thousandth of the calibrated peak force).
+  double calibration_accuracy_n = 0.0;
   int max_terms = 8;
   // actuator: run the twin's force estimate with the corrected model against the load cell and
   // keep only terms that do not raise its error (several twin runs over the recording).
