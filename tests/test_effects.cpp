@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <numbers>
 #include <optional>
 #include <random>
 #include <sstream>
@@ -119,6 +120,44 @@ TEST(EffectLibrary, RangesScaleWithTheActuator) {
   // A heavy axis's moving mass is a mass (the EMPS carriage weighs 95 kg).
   EXPECT_TRUE(plausible(*find("mass_error"), {{"nut_mass_kg", 95.0}}, {.force_n = 100.0}));
   EXPECT_FALSE(plausible(*find("mass_error"), {{"nut_mass_kg", -0.1}}, {.force_n = 100.0}));
+}
+
+// sensor_delay against the balance itself: a heavy nut (2.5 kg, 20 N·s/m, 12 N Coulomb) sliding
+// one way on a wavy motion under a sinusoidal coupling, the load cell reading the force that
+// balances it. Read τ late, every term but the load cell is from t − τ: the missing force is
+// F_ext(t − τ) − F_ext(t), which the unit must give from the delayed state to first order in τ.
+// With the coupling term alone (k φ̇, the law before) a third of it was missing here (M p⃛).
+TEST(EffectLibrary, SensorDelayIsWhatTheDelayDoesToTheWholeBalance) {
+  const double m = 2.5, c = 20.0, fc = 12.0, k = 25.0, tau = 0.002;
+  const double w = 2 * std::numbers::pi * 3.0, w2 = 2 * std::numbers::pi * 2.0;
+  State at;  // the motion and coupling at time t
+  at.nut_mass_kg = m, at.viscous_n_s_per_m = c, at.coulomb_n = fc;
+  const auto state = [&](double t) {
+    State s = at;
+    s.p_m = 0.05 * t + 0.002 * std::sin(w * t);
+    s.v_m_s = 0.05 + 0.002 * w * std::cos(w * t);  // > 0: sliding one way
+    s.a_m_s2 = -0.002 * w * w * std::sin(w * t);
+    s.jerk_m_s3 = -0.002 * w * w * w * std::cos(w * t);
+    s.phi_rad = 0.3 * std::sin(w2 * t);
+    s.phi_rate_rad_s = 0.3 * w2 * std::cos(w2 * t);
+    s.coupling_n = -k * std::sin(s.phi_rad);
+    s.coupling_slope_n_per_rad = -k * std::cos(s.phi_rad);
+    return s;
+  };
+  const auto load_n = [&](double t) {  // M p̈ = F_m − C v − F_c + F_ext
+    const State s = state(t);
+    return m * s.a_m_s2 - s.coupling_n + c * s.v_m_s + fc;
+  };
+  const Effect& e = *find("sensor_delay");
+  double missing2 = 0, error2 = 0;
+  for (double t = 0; t < 1.0; t += 0.001) {
+    const double missing = load_n(t - tau) - load_n(t);
+    const double law = e.force_n({{"delay_s", tau}}, state(t - tau));
+    missing2 += missing * missing;
+    error2 += (law - missing) * (law - missing);
+  }
+  // Second order in τ: about ωτ/2 of it at the fastest component (2 % here).
+  EXPECT_LT(std::sqrt(error2 / missing2), 0.05);
 }
 
 }  // namespace

@@ -58,6 +58,10 @@ effects::State NutModel::state(double t_s, double screw_rad, double pos_m, doubl
   s.t_s = t_s;
   s.p_m = pos_m;
   s.v_m_s = vel_m_s;
+  // The acceleration and jerk stay 0: the twin's right-hand side is what computes the
+  // acceleration (a term reading it would make the balance implicit), and the jerk would need its
+  // derivative. A sensor_delay term thus applies its coupling part only (k φ̇); its inertial and
+  // viscous parts (−M p⃛, −C p̈) are left out here, as they were before the analysis fitted them.
   s.theta_rad = screw_rad;
   s.phi_rad = phase_rad(screw_rad, pos_m, lead_m_);
   s.phi_rate_rad_s = screw_rate_rad_s - 2.0 * std::numbers::pi * vel_m_s / lead_m_;

@@ -104,13 +104,14 @@ struct Signals {
   const std::vector<double>& t;
   const std::vector<double>& pos_raw;
   const std::vector<double>& load_raw;
-  std::vector<double> theta_raw, p, th, load, v, a, load_rate, phi, phi_raw, phi_rate;
+  std::vector<double> theta_raw, p, th, load, v, a, jerk, load_rate, phi, phi_raw, phi_rate;
 };
 
 Signals filtered_signals(const Recording& rec, const ActuatorParams& act, const Prepared& P) {
   Signals s{rec.column("t_s"),
             rec.column("nut_pos_m"),
             rec.column("load_force_n"),
+            {},
             {},
             {},
             {},
@@ -129,6 +130,7 @@ Signals filtered_signals(const Recording& rec, const ActuatorParams& act, const 
   s.load = filtfilt_butter4(s.load_raw, P.filter_hz, P.fs_hz);
   s.v = central_diff(s.p, dt);
   s.a = central_diff2(s.p, dt);
+  s.jerk = central_diff(s.a, dt);  // zero-phase like the filter: a sensor delay's inertial term
   s.load_rate = central_diff(s.load, dt);
   const std::size_t n = s.t.size();
   s.phi.resize(n);
@@ -277,6 +279,7 @@ struct StateAt {
     x.p_m = s.p[i];
     x.v_m_s = s.v[i];
     x.a_m_s2 = s.a[i];
+    x.jerk_m_s3 = s.jerk[i];
     x.theta_rad = s.th[i];
     x.phi_rad = s.phi[i];
     x.phi_rate_rad_s = s.phi_rate[i];
@@ -315,6 +318,7 @@ std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, con
   x.load_n = s.load_raw[j];
   x.v_m_s = 0;
   x.a_m_s2 = 0;
+  x.jerk_m_s3 = 0;
   e.net_n = x.coupling_n + x.load_n;
   for (const auto& term : base.terms) e.net_n += term.effect->force_n(term.params, x);
   e.state = x;

@@ -81,6 +81,9 @@ struct Signals {
     s.p_m = p[i];
     s.v_m_s = v[i];
     s.a_m_s2 = a[i];
+    // No axis unit reads the jerk (sensor_delay is a law of the coupling): a central difference
+    // of the acceleration where it has neighbours, rather than one more filtered column.
+    if (i > 0 && i + 1 < t.size()) s.jerk_m_s3 = (a[i + 1] - a[i - 1]) / (t[i + 1] - t[i - 1]);
     s.stroke_min_m = stroke_min_m;
     s.stroke_max_m = stroke_max_m;
     return s;

@@ -45,6 +45,7 @@ using Params = std::map<std::string, double, std::less<>>;
 struct State {
   double t_s = 0;  // time since the start of the recording
   double p_m = 0, v_m_s = 0, a_m_s2 = 0;
+  double jerk_m_s3 = 0;  // d³p/dt³ (0 where the caller cannot know it: see NutModel::state)
   double theta_rad = 0, phi_rad = 0, phi_rate_rad_s = 0;
   double coupling_n = 0;                 // F_m(φ): calibrated magnetic force on the nut along +p
   double coupling_slope_n_per_rad = 0;   // dF_m/dφ
