@@ -6,6 +6,8 @@
 #include <cstddef>
 #include <utility>
 
+#include <Eigen/Dense>
+
 #include "maglead/analysis/signal.hpp"
 #include "statistics.hpp"
 
@@ -76,6 +78,38 @@ std::pair<std::size_t, double> run_from(const std::vector<double>& t, const std:
   return {j, peak};
 }
 
+// The level a pulse must pass: far outside the residual's own spread and above the floor.
+double threshold(const std::vector<double>& r, const Floors& f) {
+  return std::max(f.sigmas * stats::robust_sigma(r), f.min_n);
+}
+
+// Whether the variant's law, fitted to `r` on the samples more than `reach_s` from the pulse,
+// predicts the pulse's samples back under `thr` (least squares; a column silent away from the
+// pulse gets no weight, so a law the rest of the recording does not show explains nothing).
+bool law_explains(const std::vector<double>& t, const std::vector<double>& r,
+                  const std::vector<effects::State>& s, Form form, const std::vector<Column>& cols,
+                  const Pulse& p, double reach_s, double thr) {
+  const double t1 = p.t_s + p.duration_s;
+  std::vector<std::size_t> fit, in;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (t[k] >= p.t_s && t[k] < t1) in.push_back(k);
+    if (t[k] < p.t_s - reach_s || t[k] >= t1 + reach_s) fit.push_back(k);
+  }
+  const auto m = static_cast<Eigen::Index>(cols.size());
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> a(
+      static_cast<Eigen::Index>(fit.size()), m);
+  Eigen::VectorXd b(a.rows());
+  for (Eigen::Index n = 0; n < a.rows(); ++n) {
+    const auto k = fit[static_cast<std::size_t>(n)];
+    unit_row(form, cols, s[k], a.row(n).data());
+    b[n] = r[k];
+  }
+  const Eigen::VectorXd theta = a.colPivHouseholderQr().solve(b);
+  return std::all_of(in.begin(), in.end(), [&](std::size_t k) {
+    return std::abs(less_fitted(form, cols, s[k], theta, r[k])) <= thr;
+  });
+}
+
 }  // namespace
 
 // Short runs of the residual far outside its own spread (robust σ) and above the recording's
@@ -88,7 +122,7 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
                         const Floors& f) {
   std::vector<Pulse> out;
   if (r.size() < 100) return out;
-  const double thr = std::max(f.sigmas * stats::robust_sigma(r), f.min_n);
+  const double thr = threshold(r, f);
   std::size_t i = 0;
   while (i < r.size()) {
     if (std::abs(r[i]) <= thr) {
@@ -110,6 +144,21 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
   // Isolated: pulses every few seconds at most; more is a misfit, not a disturbance.
   if (static_cast<double>(out.size()) > f.span_s / f.min_spacing_s) out.clear();
   return out;
+}
+
+std::vector<Pulse> unexplained(const std::vector<double>& t, const std::vector<double>& r,
+                               const std::vector<effects::State>& s, Form form,
+                               const Candidates& cand, const Floors& f, std::vector<Pulse> found) {
+  if (found.empty()) return found;
+  const double thr = threshold(r, f), reach_s = 2.0 / f.filter_hz;
+  std::erase_if(found, [&](const Pulse& p) {
+    return std::any_of(cand.variants.begin(), cand.variants.end(), [&](const Variant& v) {
+      std::vector<Column> cols;
+      for (int j : v.idx) cols.push_back(cand.cols[static_cast<std::size_t>(j)]);
+      return law_explains(t, r, s, form, cols, p, reach_s, thr);
+    });
+  });
+  return found;
 }
 
 void report(Findings& J, const std::vector<Pulse>& found) {
