@@ -83,31 +83,46 @@ double threshold(const std::vector<double>& r, const Floors& f) {
   return std::max(f.sigmas * stats::robust_sigma(r), f.min_n);
 }
 
-// Whether the variant's law, fitted to `r` on the samples more than `reach_s` from the pulse,
-// predicts the pulse's samples back under `thr` (least squares; a column silent away from the
-// pulse gets no weight, so a law the rest of the recording does not show explains nothing).
-bool law_explains(const std::vector<double>& t, const std::vector<double>& r,
-                  const std::vector<effects::State>& s, Form form, const std::vector<Column>& cols,
-                  const Pulse& p, double reach_s, double thr) {
-  const double t1 = p.t_s + p.duration_s;
-  std::vector<std::size_t> fit, in;
-  for (std::size_t k = 0; k < t.size(); ++k) {
-    if (t[k] >= p.t_s && t[k] < t1) in.push_back(k);
-    if (t[k] < p.t_s - reach_s || t[k] >= t1 + reach_s) fit.push_back(k);
-  }
-  const auto m = static_cast<Eigen::Index>(cols.size());
+// Per sample, whether it lies more than `reach_s` from every pulse (the samples a law is fitted
+// on, so that it cannot fit a pulse itself).
+std::vector<bool> away_from(const std::vector<double>& t, const std::vector<Pulse>& found,
+                            double reach_s) {
+  std::vector<bool> away(t.size(), true);
+  for (std::size_t k = 0; k < t.size(); ++k)
+    for (const auto& p : found)
+      if (t[k] >= p.t_s - reach_s && t[k] < p.t_s + p.duration_s + reach_s) away[k] = false;
+  return away;
+}
+
+// The variant's law fitted to `r` on the samples `away` marks (least squares; a column silent
+// there gets no weight, so a law the rest of the recording does not show explains nothing).
+Eigen::VectorXd fit_away(const std::vector<double>& r, const std::vector<effects::State>& s,
+                         Form form, const std::vector<Column>& cols,
+                         const std::vector<bool>& away) {
+  const auto rows = static_cast<Eigen::Index>(std::count(away.begin(), away.end(), true));
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> a(
-      static_cast<Eigen::Index>(fit.size()), m);
-  Eigen::VectorXd b(a.rows());
-  for (Eigen::Index n = 0; n < a.rows(); ++n) {
-    const auto k = fit[static_cast<std::size_t>(n)];
+      rows, static_cast<Eigen::Index>(cols.size()));
+  Eigen::VectorXd b(rows);
+  Eigen::Index n = 0;
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    if (!away[k]) continue;
     unit_row(form, cols, s[k], a.row(n).data());
-    b[n] = r[k];
+    b[n++] = r[k];
   }
-  const Eigen::VectorXd theta = a.colPivHouseholderQr().solve(b);
-  return std::all_of(in.begin(), in.end(), [&](std::size_t k) {
-    return std::abs(less_fitted(form, cols, s[k], theta, r[k])) <= thr;
-  });
+  // The minimum-norm solution: a column silent there (a law the samples do not exercise) gets
+  // zero, not the infinity a pivoted QR divides out of an empty column.
+  return a.completeOrthogonalDecomposition().solve(b);
+}
+
+// Whether the fitted law `theta` predicts the pulse's samples back under `thr`.
+bool explains(const std::vector<double>& t, const std::vector<double>& r,
+              const std::vector<effects::State>& s, Form form, const std::vector<Column>& cols,
+              const Eigen::VectorXd& theta, const Pulse& p, double thr) {
+  for (std::size_t k = 0; k < t.size(); ++k)
+    if (t[k] >= p.t_s && t[k] < p.t_s + p.duration_s &&
+        !(std::abs(less_fitted(form, cols, s[k], theta, r[k])) <= thr))  // NaN explains nothing
+      return false;
+  return true;
 }
 
 }  // namespace
@@ -150,15 +165,20 @@ std::vector<Pulse> unexplained(const std::vector<double>& t, const std::vector<d
                                const std::vector<effects::State>& s, Form form,
                                const Candidates& cand, const Floors& f, std::vector<Pulse> found) {
   if (found.empty()) return found;
-  const double thr = threshold(r, f), reach_s = 2.0 / f.filter_hz;
-  std::erase_if(found, [&](const Pulse& p) {
-    return std::any_of(cand.variants.begin(), cand.variants.end(), [&](const Variant& v) {
-      std::vector<Column> cols;
-      for (int j : v.idx) cols.push_back(cand.cols[static_cast<std::size_t>(j)]);
-      return law_explains(t, r, s, form, cols, p, reach_s, thr);
-    });
-  });
-  return found;
+  const double thr = threshold(r, f);
+  const auto away = away_from(t, found, 2.0 / f.filter_hz);
+  std::vector<bool> explained(found.size(), false);
+  for (const auto& v : cand.variants) {
+    std::vector<Column> cols;
+    for (int j : v.idx) cols.push_back(cand.cols[static_cast<std::size_t>(j)]);
+    const auto theta = fit_away(r, s, form, cols, away);
+    for (std::size_t q = 0; q < found.size(); ++q)
+      explained[q] = explained[q] || explains(t, r, s, form, cols, theta, found[q], thr);
+  }
+  std::vector<Pulse> out;
+  for (std::size_t q = 0; q < found.size(); ++q)
+    if (!explained[q]) out.push_back(found[q]);
+  return out;
 }
 
 void report(Findings& J, const std::vector<Pulse>& found) {

@@ -28,8 +28,8 @@ struct Pulse {
 std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>& r,
                         const Floors& f);
 
-/// `found` less the pulses a library law explains: fitted to the residual `r` away from the pulse
-/// (beyond the filter's support on either side, so the law cannot fit the pulse itself), one of
+/// `found` less the pulses a library law explains: fitted to the residual `r` away from every
+/// pulse (beyond the filter's support on either side, so the law cannot fit a pulse itself), one of
 /// the candidates' laws at the states `s` predicts it back under the threshold. Such a pulse is
 /// a force the motion's state explains (the coupling weakened where the nut stood at a stick-slip
 /// release, say), not one no input explains.
