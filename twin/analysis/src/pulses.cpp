@@ -83,14 +83,23 @@ double threshold(const std::vector<double>& r, const Floors& f) {
   return std::max(f.sigmas * stats::robust_sigma(r), f.min_n);
 }
 
+// The samples from t0 to t1 (t is non-decreasing): their first index and one past the last.
+std::pair<std::size_t, std::size_t> span_of(const std::vector<double>& t, double t0, double t1) {
+  const auto a = std::lower_bound(t.begin(), t.end(), t0);
+  const auto b = std::lower_bound(a, t.end(), t1);
+  return {static_cast<std::size_t>(a - t.begin()), static_cast<std::size_t>(b - t.begin())};
+}
+
 // Per sample, whether it lies more than `reach_s` from every pulse (the samples a law is fitted
 // on, so that it cannot fit a pulse itself).
 std::vector<bool> away_from(const std::vector<double>& t, const std::vector<Pulse>& found,
                             double reach_s) {
   std::vector<bool> away(t.size(), true);
-  for (std::size_t k = 0; k < t.size(); ++k)
-    for (const auto& p : found)
-      if (t[k] >= p.t_s - reach_s && t[k] < p.t_s + p.duration_s + reach_s) away[k] = false;
+  for (const auto& p : found) {
+    const auto [a, b] = span_of(t, p.t_s - reach_s, p.t_s + p.duration_s + reach_s);
+    std::fill(away.begin() + static_cast<std::ptrdiff_t>(a),
+              away.begin() + static_cast<std::ptrdiff_t>(b), false);
+  }
   return away;
 }
 
@@ -118,9 +127,9 @@ Eigen::VectorXd fit_away(const std::vector<double>& r, const std::vector<effects
 bool explains(const std::vector<double>& t, const std::vector<double>& r,
               const std::vector<effects::State>& s, Form form, const std::vector<Column>& cols,
               const Eigen::VectorXd& theta, const Pulse& p, double thr) {
-  for (std::size_t k = 0; k < t.size(); ++k)
-    if (t[k] >= p.t_s && t[k] < p.t_s + p.duration_s &&
-        !(std::abs(less_fitted(form, cols, s[k], theta, r[k])) <= thr))  // NaN explains nothing
+  const auto [a, b] = span_of(t, p.t_s, p.t_s + p.duration_s);
+  for (std::size_t k = a; k < b; ++k)
+    if (!(std::abs(less_fitted(form, cols, s[k], theta, r[k])) <= thr))  // NaN explains nothing
       return false;
   return true;
 }
