@@ -213,6 +213,13 @@ const std::vector<Regression>& regressions() {
       // At 1 kHz its 5 mm/s moves advance a count every other sample: the rounding repeats every
       // two samples and its mean (up to a quarter count) stays; an offset of 0.09 N was named.
       {"other", "end_effect", 0.5, 1000.0, 0.1},
+      // The third actuator's nut sticks and breaks away inside the end zone, where the weakened
+      // coupling misses 1.1 N at the break-away force for 30-70 ms: a force pulse to the finder,
+      // the end effect's law where the nut stood (pulses::unexplained); the law itself is below
+      // the 0.5 N load-cell noise's floor and not named.
+      {"third", "end_effect", 1.0, 2000.0, 0.5},
+      {"third", "position_ripple+end_effect", 1.0, 500.0, 0.5},
+      {"third", "end_effect+backlash", 1.0, 2000.0, 0.5},
   };
   return all;
 }
@@ -221,6 +228,18 @@ const EffectCase& effect_case(const std::string& id) {
   for (const auto& e : effect_cases())
     if (e.id == id) return e;
   throw std::invalid_argument("no generated case for " + id);
+}
+
+// The regression's case on bench `s`.
+Case case_of(const Bench& s, const Regression& r) {
+  Case c{&s, {}, r.scale, r.rate_hz, r.noise_n};
+  const std::string ids = r.effects;
+  for (std::size_t at = 0; at != std::string::npos;) {
+    const std::size_t plus = ids.find('+', at);
+    c.effects.push_back(&effect_case(ids.substr(at, plus == std::string::npos ? plus : plus - at)));
+    at = plus == std::string::npos ? plus : plus + 1;
+  }
+  return c;
 }
 
 bool full_matrix() {
@@ -252,18 +271,8 @@ std::vector<Case> cases_for(const Bench& s) {
         out.push_back({&s, {&a, &b}, 1.0, rate, noise});
   }
   if (full_matrix()) return out;
-  for (const auto& r : regressions()) {
-    if (s.name != r.actuator) continue;
-    Case c{&s, {}, r.scale, r.rate_hz, r.noise_n};
-    std::string ids = r.effects;
-    for (std::size_t at = 0; at != std::string::npos;) {
-      const std::size_t plus = ids.find('+', at);
-      c.effects.push_back(
-          &effect_case(ids.substr(at, plus == std::string::npos ? plus : plus - at)));
-      at = plus == std::string::npos ? plus : plus + 1;
-    }
-    out.push_back(c);
-  }
+  for (const auto& r : regressions())
+    if (s.name == r.actuator) out.push_back(case_of(s, r));
   return out;
 }
 
@@ -297,6 +306,16 @@ INSTANTIATE_TEST_SUITE_P(Actuators, Matrix, ::testing::Values(0, 1, 2),
                          [](const ::testing::TestParamInfo<int>& p) {
                            return p.param == 0 ? "Paper" : p.param == 1 ? "Other" : "Third";
                          });
+
+// The third actuator's matrix is a known gap (it still makes false claims elsewhere), so its
+// fixed cases are asserted here: none of them names an effect that is not there.
+TEST(ThirdActuator, ItsFixedCasesMakeNoFalseClaim) {
+  int index = 1000;
+  for (const auto& r : regressions())
+    if (std::string(r.actuator) == "third") {
+      EXPECT_EQ(run_case(case_of(third(), r), index++).false_claims, 0) << r.effects;
+    }
+}
 
 // The other actuators' calibrations are off from their plants' couplings by a few hundredths of
 // a newton, as the fixtures say: the suite runs on the calibrations it claims to.

@@ -16,6 +16,7 @@
 
 #include "actuator_analysis.hpp"
 #include "maglead/recording/recording.hpp"
+#include "pulses.hpp"
 #include "statistics.hpp"
 
 namespace {
@@ -207,3 +208,45 @@ TEST(StopSamples, TakenOutInPlaceAndPutBackExactly) {
 }
 
 }  // namespace
+
+// A nut runs a triangle between 3.5 and 36.5 mm, pushing a steady 1 N through a coupling that
+// weakens in the 5 mm end zones (end_effect, D = 0.5): 0.1 N missing at each end, under the
+// finder's threshold, except at t = 16 s, where it pushes 12 N (a release at the end stop, say)
+// and 1.3 N go missing for a quarter second: a pulse to the finder, and the end effect's law
+// where the nut stood, which the other visits show. A 1.3 N pulse mid-stroke at t = 10 s is one
+// no law explains: it stays.
+TEST(Pulses, APulseALibraryLawExplainsIsNotADisturbance) {
+  namespace ma = maglead::analysis;
+  const auto* end = maglead::effects::find("end_effect");
+  ASSERT_NE(end, nullptr);
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  std::vector<double> t, r;
+  std::vector<maglead::effects::State> st;
+  for (int k = 0; k <= 4000; ++k) {
+    maglead::effects::State s;
+    s.t_s = k * 0.01;
+    const double u = std::fmod(s.t_s, 8.0) / 4.0;  // 0 → 2 over a period
+    s.p_m = 0.0035 + 0.033 * (u <= 1.0 ? u : 2.0 - u);
+    s.v_m_s = (u <= 1.0 ? 1.0 : -1.0) * 0.033 / 4.0;
+    s.coupling_n = std::abs(s.t_s - 16.0) < 1.0 ? 12.0 : 1.0;
+    double x = 0;
+    end->regressors(0.005, s, &x);
+    const bool hit = s.t_s >= 10.0 && s.t_s < 10.25;
+    t.push_back(s.t_s);
+    r.push_back(0.5 * x + (hit ? 1.3 : 0.0) + noise(rng));
+    st.push_back(s);
+  }
+  ma::pulses::Floors f;
+  f.filter_hz = 20.0;
+  f.fs_hz = 100.0;
+  f.step_s = 0.01;
+  f.span_s = 40.0;
+  const auto found = ma::pulses::find(t, r, f);
+  ASSERT_EQ(found.size(), 2u);
+  const auto kept = ma::pulses::unexplained(t, r, st, ma::Form::nut,
+                                            ma::candidate_columns(ma::Form::nut, {}), f, found);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_NEAR(kept[0].t_s, 10.0, 0.02);
+  EXPECT_NEAR(kept[0].peak_n, 1.3, 0.1);
+}

@@ -785,7 +785,8 @@ std::optional<selection::Found> stribeck_from_breakaway(const Prepared& P, const
 namespace maglead::analysis::actuator {
 
 // Force pulses no input explains in the corrected residual on the sliding samples (the one
-// pulse finder), above one encoder count's worth of force.
+// pulse finder), above one encoder count's worth of force and not a library law's force where
+// the nut was (pulses::unexplained).
 std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt) {
   pulses::Floors f;
   f.min_n = P.count_force_n;
@@ -798,7 +799,9 @@ std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Op
   f.span_s = P.duration_s;
   std::vector<double> t(P.states.size());
   for (std::size_t i = 0; i < t.size(); ++i) t[i] = P.states[i].t_s;
-  return pulses::find(t, sel.final_residual, f);
+  const auto& r = sel.final_residual;
+  return pulses::unexplained(t, r, P.states, Form::nut, candidate_columns(Form::nut, opt.exclude),
+                             f, pulses::find(t, r, f));
 }
 
 }  // namespace maglead::analysis::actuator

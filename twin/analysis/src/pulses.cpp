@@ -6,6 +6,8 @@
 #include <cstddef>
 #include <utility>
 
+#include <Eigen/Dense>
+
 #include "maglead/analysis/signal.hpp"
 #include "statistics.hpp"
 
@@ -76,6 +78,62 @@ std::pair<std::size_t, double> run_from(const std::vector<double>& t, const std:
   return {j, peak};
 }
 
+// The level a pulse must pass: far outside the residual's own spread and above the floor.
+double threshold(const std::vector<double>& r, const Floors& f) {
+  return std::max(f.sigmas * stats::robust_sigma(r), f.min_n);
+}
+
+// The samples from t0 to t1 (t is non-decreasing): their first index and one past the last.
+std::pair<std::size_t, std::size_t> span_of(const std::vector<double>& t, double t0, double t1) {
+  const auto a = std::lower_bound(t.begin(), t.end(), t0);
+  const auto b = std::lower_bound(a, t.end(), t1);
+  return {static_cast<std::size_t>(a - t.begin()), static_cast<std::size_t>(b - t.begin())};
+}
+
+// Per sample, whether it lies more than `reach_s` from every pulse (the samples a law is fitted
+// on, so that it cannot fit a pulse itself).
+std::vector<bool> away_from(const std::vector<double>& t, const std::vector<Pulse>& found,
+                            double reach_s) {
+  std::vector<bool> away(t.size(), true);
+  for (const auto& p : found) {
+    const auto [a, b] = span_of(t, p.t_s - reach_s, p.t_s + p.duration_s + reach_s);
+    std::fill(away.begin() + static_cast<std::ptrdiff_t>(a),
+              away.begin() + static_cast<std::ptrdiff_t>(b), false);
+  }
+  return away;
+}
+
+// The variant's law fitted to `r` on the samples `away` marks (least squares; a column silent
+// there gets no weight, so a law the rest of the recording does not show explains nothing).
+Eigen::VectorXd fit_away(const std::vector<double>& r, const std::vector<effects::State>& s,
+                         Form form, const std::vector<Column>& cols,
+                         const std::vector<bool>& away) {
+  const auto rows = static_cast<Eigen::Index>(std::count(away.begin(), away.end(), true));
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> a(
+      rows, static_cast<Eigen::Index>(cols.size()));
+  Eigen::VectorXd b(rows);
+  Eigen::Index n = 0;
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    if (!away[k]) continue;
+    unit_row(form, cols, s[k], a.row(n).data());
+    b[n++] = r[k];
+  }
+  // The minimum-norm solution: a column silent there (a law the samples do not exercise) gets
+  // zero, not the infinity a pivoted QR divides out of an empty column.
+  return a.completeOrthogonalDecomposition().solve(b);
+}
+
+// Whether the fitted law `theta` predicts the pulse's samples back under `thr`.
+bool explains(const std::vector<double>& t, const std::vector<double>& r,
+              const std::vector<effects::State>& s, Form form, const std::vector<Column>& cols,
+              const Eigen::VectorXd& theta, const Pulse& p, double thr) {
+  const auto [a, b] = span_of(t, p.t_s, p.t_s + p.duration_s);
+  for (std::size_t k = a; k < b; ++k)
+    if (!(std::abs(less_fitted(form, cols, s[k], theta, r[k])) <= thr))  // NaN explains nothing
+      return false;
+  return true;
+}
+
 }  // namespace
 
 // Short runs of the residual far outside its own spread (robust σ) and above the recording's
@@ -88,7 +146,7 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
                         const Floors& f) {
   std::vector<Pulse> out;
   if (r.size() < 100) return out;
-  const double thr = std::max(f.sigmas * stats::robust_sigma(r), f.min_n);
+  const double thr = threshold(r, f);
   std::size_t i = 0;
   while (i < r.size()) {
     if (std::abs(r[i]) <= thr) {
@@ -109,6 +167,26 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
   }
   // Isolated: pulses every few seconds at most; more is a misfit, not a disturbance.
   if (static_cast<double>(out.size()) > f.span_s / f.min_spacing_s) out.clear();
+  return out;
+}
+
+std::vector<Pulse> unexplained(const std::vector<double>& t, const std::vector<double>& r,
+                               const std::vector<effects::State>& s, Form form,
+                               const Candidates& cand, const Floors& f, std::vector<Pulse> found) {
+  if (found.empty()) return found;
+  const double thr = threshold(r, f);
+  const auto away = away_from(t, found, 2.0 / f.filter_hz);
+  std::vector<bool> explained(found.size(), false);
+  for (const auto& v : cand.variants) {
+    std::vector<Column> cols;
+    for (int j : v.idx) cols.push_back(cand.cols[static_cast<std::size_t>(j)]);
+    const auto theta = fit_away(r, s, form, cols, away);
+    for (std::size_t q = 0; q < found.size(); ++q)
+      explained[q] = explained[q] || explains(t, r, s, form, cols, theta, found[q], thr);
+  }
+  std::vector<Pulse> out;
+  for (std::size_t q = 0; q < found.size(); ++q)
+    if (!explained[q]) out.push_back(found[q]);
   return out;
 }
 
