@@ -175,6 +175,9 @@ Outcome run_case(const Case& c, int index) {
   act.sample_rate_hz = c.rate_hz;
   maglead::analysis::AnalysisOptions aopt;
   aopt.twin_force_check = false;  // analysis_twin_round_trip checks it (and costs twin runs)
+  // MAGLEAD_MATRIX_CALIBRATION_ACCURACY_N=X analyses as `analyze --calibration-accuracy X`.
+  if (const char* acc = std::getenv("MAGLEAD_MATRIX_CALIBRATION_ACCURACY_N"))
+    aopt.calibration_accuracy_n = std::stod(acc);
   const auto r = maglead::analysis::analyze_recording(maglead::read_recording(path), c.setup->model,
                                                       c.setup->cal, act, aopt);
   // MAGLEAD_MATRIX_KEEP=1 keeps the recordings, to look at one case with `maglead analyze`.
@@ -341,6 +344,18 @@ INSTANTIATE_TEST_SUITE_P(Actuators, Calibration, ::testing::Values(1, 2),
                            return p.param == 1 ? "Other" : "Third";
                          });
 
+// A scenario on the bench's plant and calibration, seed 5.
+maglead::ScenarioOptions scenario_on(const Bench& s, const std::string& scenario,
+                                     double duration_s) {
+  maglead::ScenarioOptions opt;
+  opt.scenario = scenario;
+  opt.duration_s = duration_s;
+  opt.seed = 5;
+  opt.plant = s.plant;
+  opt.estimator_calibration = s.cal;
+  return opt;
+}
+
 // The scenarios' hand pushes (up to 35 N) and force setpoints (up to 30 N) were written for the
 // paper's actuator; on the third (safe force 0.8 × 27.2 N) the hand loaded the nut with 38 N,
 // beyond the coupling's peak (only the 12 N friction held it in step). They scale to the
@@ -349,12 +364,7 @@ TEST(ThirdActuator, ScenariosScaleTheirForcesToItsSafeForce) {
   const auto& s = third();
   const double peak_cal_n = std::min(std::abs(s.cal.peak_push_n), std::abs(s.cal.peak_pull_n));
   for (const std::string scenario : {"hand-push", "force-steps"}) {
-    maglead::ScenarioOptions opt;
-    opt.scenario = scenario;
-    opt.duration_s = 20.0;
-    opt.seed = 5;
-    opt.plant = s.plant;
-    opt.estimator_calibration = s.cal;
+    const auto opt = scenario_on(s, scenario, 20.0);
     const std::string path = test_tmp_dir() + "/scaled_" + scenario + ".csv";
     const auto summary = maglead::run_scenario(opt, path);
     const auto rec = maglead::read_recording(path);
@@ -375,12 +385,7 @@ namespace {
 maglead::analysis::AnalysisResult analyze_generated(
     const std::string& scenario, const maglead::ForceCalibration& cal,
     const std::vector<std::pair<std::string, double>>& keys, const Bench& s = paper()) {
-  maglead::ScenarioOptions opt;
-  opt.scenario = scenario;
-  opt.duration_s = 40.0;
-  opt.seed = 5;
-  opt.plant = s.plant;
-  opt.estimator_calibration = s.cal;
+  auto opt = scenario_on(s, scenario, 40.0);
   for (const auto& [k, v] : keys) maglead::set_plant_effect(opt.plant.effects, k, v);
   const std::string path = test_tmp_dir() + "/single_" + scenario + ".csv";
   maglead::run_scenario(opt, path);
