@@ -412,7 +412,7 @@ TEST(GeneratedSuite, AStatedCalibrationAccuracyIsTheMinimum) {
   Parameters p;
   const auto* named = finding(by_default, "offset", &p);
   ASSERT_NE(named, nullptr) << named_as(by_default);
-  EXPECT_NE(named->summary.find("minimum 0.04"), std::string::npos) << named->summary;
+  EXPECT_NE(named->summary.find("minimum 0.070 N"), std::string::npos) << named->summary;
   o.calibration_accuracy_n = 0.3;
   const auto stated = maglead::analysis::analyze_recording(rec, model, cal, act, o);
   EXPECT_EQ(finding(stated, "offset", &p), nullptr) << named_as(stated);

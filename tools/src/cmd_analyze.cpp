@@ -139,7 +139,7 @@ void add_analyze(CLI::App& app) {
   cmd->add_option("--calibration-accuracy", o->a.calibration_accuracy_n,
                   "Actuator: how well the calibration is known [N] (e.g. its bench's accuracy); "
                   "a finding must change the force by more. Default: a thousandth of the "
-                  "calibrated peak force")
+                  "calibrated peak force, at least 0.07 N")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("!--no-twin-check", o->a.twin_force_check,
                 "Skip the twin's force estimate with the corrected model (it runs the twin over "

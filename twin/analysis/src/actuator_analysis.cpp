@@ -245,8 +245,9 @@ void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
   const double kept = std::sqrt(std::min(1.0, 2.0 * P.filter_hz / P.fs_hz));
   P.floor_n = kept * std::hypot(P.count_force_n / std::sqrt(12.0), P.load_noise_n);
   P.scales.force_n = std::max(std::abs(cal.peak_push_n), std::abs(cal.peak_pull_n));
-  P.minimum_n = opt.calibration_accuracy_n > 0 ? opt.calibration_accuracy_n
-                                               : opt.min_effect_of_peak * P.scales.force_n;
+  P.minimum_n = opt.calibration_accuracy_n > 0
+                    ? opt.calibration_accuracy_n
+                    : std::max(opt.min_effect_of_peak * P.scales.force_n, opt.bench_accuracy_n);
 }
 
 // Where the count is locked the rounding error's mean is one unknown value per run, kept whole by

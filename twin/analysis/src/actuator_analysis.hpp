@@ -35,9 +35,12 @@ struct Options {
   double min_t = 3.0;         // … consistently over the segments (t of per-segment gains)
   double acting_share = 0.1;  // segments where the term carries this share of the error count
   // … and change the force by more than the recording resolves (Prepared::floor_n) and than a
-  // stated minimum: this fraction of the calibrated peak force (a bench calibration is good to
-  // about a thousandth of its range; a force change below that nobody would act on).
+  // stated minimum: how well the calibration is known. Unless the user states it, a bench
+  // calibration's: a thousandth of its range, and not better than a bench's absolute error (a
+  // load cell and a fixture: the bench calibrations are off by up to 0.07 N, our own
+  // `calibrate` on a bench with an unseen 0.05 N force by 0.070 N); below that nobody can act.
   double min_effect_of_peak = 1e-3;
+  double bench_accuracy_n = 0.07;
   double calibration_accuracy_n = 0;  // stated by the user: the minimum instead (0: not stated)
   double parsimony = 0.99;            // a simpler term reaching this share of the best gain wins
   double breakaway_sigmas = 3.0;      // break-away excess significance (standard errors)

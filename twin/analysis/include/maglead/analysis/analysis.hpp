@@ -24,7 +24,7 @@ struct AnalysisOptions {
   double min_t = 3.0;           // … consistently over the segments (t statistic of the gains)
   double min_speed_m_s = 2e-4;  // actuator: slower samples stick, their friction is unknown
   // actuator: how well the calibration is known [N]; a finding must change the force by more
-  // (0: not stated, a thousandth of the calibrated peak force).
+  // (0: not stated: a thousandth of the calibrated peak force, at least 0.07 N).
   double calibration_accuracy_n = 0.0;
   int max_terms = 8;
   // actuator: run the twin's force estimate with the corrected model against the load cell and
