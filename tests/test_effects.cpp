@@ -122,6 +122,20 @@ TEST(EffectLibrary, RangesScaleWithTheActuator) {
   EXPECT_FALSE(plausible(*find("mass_error"), {{"nut_mass_kg", -0.1}}, {.force_n = 100.0}));
 }
 
+// A ripple is named only where the samples see it repeat: a position ripple whose period is
+// longer than the travel covered, or an angle ripple over less than one screw turn, is any
+// smooth function there (a spring, a gain). Not known (0): not applied.
+TEST(EffectLibrary, RipplesAreResolvedOnlyOverAPeriodSeen) {
+  const Effect& position = *find("position_ripple");
+  EXPECT_TRUE(position.resolved_at(0.010, {.travel_m = 0.012}));
+  EXPECT_FALSE(position.resolved_at(0.010, {.travel_m = 0.0024}));
+  EXPECT_TRUE(position.resolved_at(0.010, {}));
+  const Effect& angle = *find("angle_ripple");
+  EXPECT_TRUE(angle.resolved_at(0.0, {.turn_rad = 7.0}));
+  EXPECT_FALSE(angle.resolved_at(0.0, {.turn_rad = 2.7}));
+  EXPECT_TRUE(find("coupling_gain_error")->resolved_at(0.0, {.travel_m = 1e-4, .turn_rad = 0.1}));
+}
+
 // sensor_delay against the balance itself: a heavy nut (2.5 kg, 20 N·s/m, 12 N Coulomb) sliding
 // one way on a wavy motion under a sinusoidal coupling, the load cell reading the force that
 // balances it. Read τ late, every term but the load cell is from t − τ: the missing force is

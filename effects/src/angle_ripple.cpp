@@ -17,6 +17,11 @@ struct AngleRipple final : Effect {
     return param(p, "relative_amplitude", 0.0) *
            std::sin(s.theta_rad + param(p, "phase_rad", 0.0)) * s.coupling_n;
   }
+  // Once per screw turn: over less than a turn it is a gain that varies smoothly with the angle
+  // (on a held screw, a constant gain).
+  bool resolved_at(double, const Scales& s) const override {
+    return s.turn_rad == 0 || s.turn_rad >= 2 * kPi;
+  }
   bool on_axis() const override { return false; }  // a law of the magnetic coupling
   int columns() const override { return 2; }
   void regressors(double, const State& s, double* x) const override {

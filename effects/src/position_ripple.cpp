@@ -25,6 +25,11 @@ struct PositionRipple final : Effect {
   std::vector<double> shapes() const override {
     return {1e-3, 1.5e-3, 2e-3, 2.5e-3, 3e-3, 4e-3, 5e-3, 6e-3, 8e-3, 10e-3, 12e-3, 16e-3, 20e-3};
   }
+  // A force seen over less than one period is not seen to repeat: it is a spring's, an offset's
+  // or a gain's as much as a ripple's.
+  bool resolved_at(double lambda, const Scales& s) const override {
+    return s.travel_m == 0 || lambda <= s.travel_m;
+  }
   int columns() const override { return 2; }
   void regressors(double lambda, const State& s, double* x) const override {
     x[0] = std::sin(2 * kPi * s.p_m / lambda);

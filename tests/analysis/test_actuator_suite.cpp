@@ -6,8 +6,8 @@
 // (tests/analysis/third_actuator/: 20 mm lead on a direct drive, 512 motor counts, 50 µm linear
 // count, 2.5 kg, 20 N·s/m, 12 N, a coupling 0.6 times the paper's, a bench calibration off by
 // 0.05 N; the scenarios scale their forces to its safe force). Each case prints one row; the
-// suite prints the false-claim count and asserts it is 0 (the third: a known gap,
-// tests/analysis/CMakeLists.txt).
+// suite prints the false-claim count and asserts it is 0 (the third's full matrix still has one:
+// README, "The matrix").
 //
 // A claim is false when the analysis names an effect (a finding's id) that is not concealed in
 // the plant, unless an alternative it lists (>= 95 %) or an accepted equivalence (offset ~
@@ -223,6 +223,16 @@ const std::vector<Regression>& regressions() {
       {"third", "end_effect", 1.0, 2000.0, 0.5},
       {"third", "position_ripple+end_effect", 1.0, 500.0, 0.5},
       {"third", "end_effect+backlash", 1.0, 2000.0, 0.5},
+      // Hand pushes with the screw held cover 2.4 mm of its 20 mm lead: the coupling's force is
+      // a function of position there, so a gain error is also a spring with a free rest position
+      // (which takes the calibration's few hundredths of a newton too) and a ripple of 10 or 20
+      // mm; neither is resolved (Effect::resolved_at, selection's preferred). An angle ripple is a
+      // constant gain on a held screw (its sin θ column is zero to rounding: stats::solve).
+      {"third", "coupling_gain_error", 0.5, 1000.0, 0.1},
+      {"third", "gain_drift+angle_ripple", 1.0, 1000.0, 0.1},
+      // Force steps that turn the screw less than a turn: an angle ripple is not seen to repeat;
+      // the backlash (a Coulomb level change while sliding against 12 N) is its alternative.
+      {"third", "backlash", 0.5, 1000.0, 0.5},
   };
   return all;
 }
@@ -309,16 +319,6 @@ INSTANTIATE_TEST_SUITE_P(Actuators, Matrix, ::testing::Values(0, 1, 2),
                          [](const ::testing::TestParamInfo<int>& p) {
                            return p.param == 0 ? "Paper" : p.param == 1 ? "Other" : "Third";
                          });
-
-// The third actuator's matrix is a known gap (it still makes false claims elsewhere), so its
-// fixed cases are asserted here: none of them names an effect that is not there.
-TEST(ThirdActuator, ItsFixedCasesMakeNoFalseClaim) {
-  int index = 1000;
-  for (const auto& r : regressions())
-    if (std::string(r.actuator) == "third") {
-      EXPECT_EQ(run_case(case_of(third(), r), index++).false_claims, 0) << r.effects;
-    }
-}
 
 // The other actuators' calibrations are off from their plants' couplings by a few hundredths of
 // a newton, as the fixtures say: the suite runs on the calibrations it claims to.

@@ -77,6 +77,25 @@ TEST(StatsEstimate, FinalFitAndJackknifeErrorsPerGroup) {
   expect_close(est.standard_errors[1].at("mean"), jackknife({16.0 / 6, 16.0 / 6, 10.0 / 6}));
 }
 
+// A column zero to rounding (F_m sin θ on a screw held at θ = 2π) beside a real one: it gets no
+// coefficient and the real one the whole fit. Scaled up it would have fit the noise with any value.
+TEST(StatsSolve, AColumnZeroToRoundingGetsNoCoefficient) {
+  Grams g(2, 2);
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  for (int i = 0; i < 200; ++i) {
+    const double f = std::sin(0.05 * i) * 10;
+    Eigen::VectorXd x(2);
+    x << f * std::sin(2 * std::numbers::pi), f;
+    const double r = 0.03 * f + noise(rng);
+    g.add_row(static_cast<std::size_t>(i % 2), x, r, r);
+  }
+  g.symmetrize();
+  const Fit fit = maglead::analysis::stats::solve(g, {0, 1}, -1);
+  EXPECT_EQ(fit.theta[0], 0.0);
+  EXPECT_NEAR(fit.theta[1], 0.03, 0.003);  // three standard errors: 0.1 / √(Σf² ≈ 10⁴)
+}
+
 // A slow sine with steps (a signal's own structure) under white noise of 0.3: the second
 // difference sees the noise, not the signal; the median keeps the few steps out. 5 % is about
 // six standard errors of the robust estimate on 20 000 samples.

@@ -268,6 +268,15 @@ void set_locked_floor(Prepared& P) {
 }
 
 // The effect library's view of one filtered sample.
+// Max − min of a state's value over the samples.
+double span_of(const std::vector<State>& states, double State::*value) {
+  if (states.empty()) return 0.0;
+  const auto [lo, hi] =
+      std::minmax_element(states.begin(), states.end(),
+                          [&](const State& a, const State& b) { return a.*value < b.*value; });
+  return (*hi).*value - (*lo).*value;
+}
+
 struct StateAt {
   const Signals& s;
   const Coupling& cp;
@@ -381,6 +390,8 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
     P.locked_run.push_back(runs.run[i]);
     P.scales.speed_m_s = std::max(P.scales.speed_m_s, std::abs(P.states.back().v_m_s));
   }
+  P.scales.travel_m = span_of(P.states, &State::p_m);
+  P.scales.turn_rad = span_of(P.states, &State::theta_rad);
   P.locked_period = runs.period;
   set_locked_floor(P);
   P.samples = n;

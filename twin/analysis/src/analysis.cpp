@@ -360,6 +360,7 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   // The travel the recording covers stands for the stroke (the spring's mid-stroke).
   s.stroke_min_m = *std::min_element(s.p.begin(), s.p.end());
   s.stroke_max_m = *std::max_element(s.p.begin(), s.p.end());
+  P.scales.travel_m = s.stroke_max_m - s.stroke_min_m;
   s.y = P.y_raw;
   fixed_force(s, model);
   // Slow smooth motion has a narrow bandwidth: every held-out segment keeps 100 samples still.

@@ -63,7 +63,7 @@ void note_implausible(const Search& s, Outcome& out, const Variant& var, const e
 std::optional<Trial> best_variant(const Search& s, const effects::Effect* e, Outcome& out) {
   std::optional<Trial> best;
   for (const auto& var : s.cand.variants) {
-    if (var.effect != e) continue;
+    if (var.effect != e || !e->resolved_at(var.shape, s.st.scales)) continue;
     std::vector<int> cols = columns_of(s, var, s.current);
     if (cols.empty()) continue;
     const auto idx = with(s.current, cols);
@@ -141,16 +141,20 @@ std::vector<Trial> trials_of(const Search& s, Outcome& out) {
 }
 
 // The trial the rule names next, starting from the best one: a simpler trial (fewer columns)
-// reaching Settings::parsimony of its gain and lying inside its span (kNestedR2) goes first (the
-// data cannot prefer the richer one; it is tested next), in the library's order (simpler
-// effects first), and so on down. If the simpler one is not significant, neither is what the
-// richer one adds to it: the search stops.
+// goes first when the data cannot prefer the richer one: it reaches Settings::parsimony of the
+// richer one's gain and lies inside its span (kNestedR2), or the richer one explains no more
+// force than it by what the recording resolves (Rules::resolved: a spring's free rest position
+// taking a calibration's few hundredths of a newton beside a gain error). The richer one is
+// tested next, in the library's order (simpler effects first), and so on down. If the simpler
+// one is not significant, neither is what the richer one adds to it: the search stops.
 std::size_t preferred(const Search& s, const std::vector<Trial>& trials, std::size_t best) {
   std::size_t pick = best;
   for (std::size_t k = 0; k < trials.size(); ++k) {
     const Trial &a = trials[k], &p = trials[pick];
-    if (a.idx.size() >= p.idx.size() || a.gain < s.st.parsimony * p.gain) continue;
-    if (stats::partial_r2(s.g, s.current, a.idx, a.w, p.idx) > kNestedR2) pick = k;
+    if (a.idx.size() >= p.idx.size() || !(a.gain > 0)) continue;
+    const bool as_good =
+        a.gain >= s.st.parsimony * p.gain || !s.rules.resolved(p, explained_n(s, a.ho, p));
+    if (as_good && stats::partial_r2(s.g, s.current, a.idx, a.w, p.idx) > kNestedR2) pick = k;
   }
   return pick;
 }

@@ -9,6 +9,11 @@
 #include <stdexcept>
 
 namespace maglead::analysis::stats {
+namespace {
+// A column whose sum of squares is below this share of the largest is zero to rounding (double
+// precision: squares of 1e-16 relative; a physical column is far above).
+constexpr double kZeroColumn = 1e-20;
+}  // namespace
 
 double median_of(std::vector<double> x) {
   if (x.empty()) return 0.0;
@@ -141,8 +146,17 @@ Fit solve(const Grams& g, const std::vector<int>& idx, int skip_fold) {
         A(r, c) += g.xx[f](idx[static_cast<std::size_t>(r)], idx[static_cast<std::size_t>(c)]);
     }
   }
-  // A whisper of ridge on the scaled normal equations keeps collinear columns finite.
-  for (Eigen::Index r = 0; r < m; ++r) A(r, r) += 1e-9 * A(r, r) + 1e-300;
+  // A whisper of ridge on the scaled normal equations keeps collinear columns finite. A column
+  // that is zero to rounding (F_m sin θ on a screw held at θ = 2π: 1e-16 of F_m) is left out, its
+  // coefficient 0: scaled up it would fit the noise with any value.
+  const double largest = m ? A.diagonal().maxCoeff() : 0.0;
+  for (Eigen::Index r = 0; r < m; ++r) {
+    if (A(r, r) <= kZeroColumn * largest) {
+      A.row(r).setZero(), A.col(r).setZero(), b[r] = 0;
+      A(r, r) = 1;
+    }
+    A(r, r) += 1e-9 * A(r, r) + 1e-300;
+  }
   Fit fit{idx, m ? Eigen::VectorXd(A.ldlt().solve(b)) : Eigen::VectorXd()};
   return fit;
 }

@@ -35,6 +35,9 @@ struct Scales {
   double force_n = 0;    // the largest force the drive produces (the calibrated peak, an axis's
                          // largest drive force)
   double speed_m_s = 0;  // the largest speed the recording reaches
+  // What the fitted samples cover (max − min of the nut's position and the screw's angle): a
+  // law that repeats over more than that is not seen to repeat (0: not known, not applied).
+  double travel_m = 0, turn_rad = 0;
 };
 
 // Transparent comparison: the twin looks parameters up by name inside the 1 kHz cycle, and a
@@ -79,6 +82,10 @@ class Effect {
   // ---- how the analysis fits it: force_n = Σ c_k x_k(s) for a fixed shape value
   /// Shape values to scan (an empty list: one shape, no value).
   virtual std::vector<double> shapes() const { return {}; }
+  /// Whether samples spanning `scales` can tell this shape's law from others at all (a ripple
+  /// whose period exceeds the travel seen is any smooth function of position there). A law not
+  /// resolved is not named; it may still be listed as an alternative the data cannot rule out.
+  virtual bool resolved_at(double /*shape*/, const Scales& /*scales*/) const { return true; }
   virtual int columns() const = 0;
   virtual void regressors(double shape, const State& s, double* x) const = 0;
   /// Physical parameters from the coefficients; nullopt when they make no physical sense.
