@@ -364,22 +364,9 @@ Rejected refused(const selection::Found& c, const std::string& why) {
       c.id, c.gain_pct, c.t_stat, std::nullopt, std::nullopt, why, parameters_of(c.params)};
 }
 
-// A term whose parameters leave the effect's physical range once the terms taken after it are
-// fitted beside it (collinear columns trading places: on moves against high friction the
-// coupling force is the friction, so a gain and the friction levels can share it) explains
-// nothing plausibly: the first such is refused and the others are chosen again without it.
-std::optional<Rejected> implausible_in_final_fit(const actuator::Selection& fit) {
-  for (const auto& c : fit.terms)
-    if (!c.plausible)
-      return refused(c,
-                     "outside its physical range in the final fit beside the terms taken "
-                     "after it");
-  return std::nullopt;
-}
-
 // The forward selection on the sliding samples; a Stribeck term it takes that the releases do
-// not show, or a term that ends outside its physical range, is rejected (and stays out of `o`),
-// and the others are chosen again without it.
+// not show is rejected and the others chosen again without it. That and the terms the
+// selection refused in the final fit stay out of `o`.
 SlidingFit sliding_fit(const actuator::Prepared& P, const actuator::Baseline& base,
                        actuator::Options& o, const Progress& progress) {
   SlidingFit out;
@@ -391,12 +378,8 @@ SlidingFit sliding_fit(const actuator::Prepared& P, const actuator::Baseline& ba
     o.exclude.emplace_back("stribeck_friction");
     out.fit = actuator::select(P, o, report);
   }
-  // Each pass excludes one more effect, so this ends within the library's size.
-  while (auto r = implausible_in_final_fit(out.fit)) {
-    o.exclude.push_back(r->id);
-    out.rejected.push_back(std::move(*r));
-    out.fit = actuator::select(P, o, report);
-  }
+  for (const auto& r : out.fit.refused) o.exclude.push_back(r.id);
+  out.rejected.insert(out.rejected.end(), out.fit.refused.begin(), out.fit.refused.end());
   return out;
 }
 

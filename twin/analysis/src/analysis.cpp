@@ -596,6 +596,7 @@ std::vector<Rejected> rejected_of(const selection::Result& r) {
   std::vector<Rejected> out;
   if (r.stopped_at) out.push_back(selection::best_left_out(*r.stopped_at));
   out.insert(out.end(), r.dropped.begin(), r.dropped.end());
+  out.insert(out.end(), r.refused.begin(), r.refused.end());
   return out;
 }
 
@@ -807,7 +808,8 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
 }
 
 // Isolated pulses in the corrected residual (the one pulse finder, as on the actuator): events,
-// a force no input explains, above the force sensor's noise. The residual's band limit is the
+// a force no input explains (not a library law's where the axis was: pulses::unexplained), above
+// the force sensor's noise. The residual's band limit is the
 // decimation filter's, or at full rate the position's filter, applied to the residual here.
 void locate_pulses(AxisRun& run, const std::vector<double>& yf) {
   const Signals& S = *run.S;
@@ -825,7 +827,14 @@ void locate_pulses(AxisRun& run, const std::vector<double>& yf) {
     r.push_back(S.y[i] - yf[i]);
   }
   if (!run.P.decimated && r.size() > 12) r = filtfilt_butter4(r, f.filter_hz, f.fs_hz);
-  run.pulses = pulses::find(t, r, f);
+  auto found = pulses::find(t, r, f);
+  run.pulses.clear();
+  if (found.empty()) return;
+  std::vector<effects::State> states;  // only where there is a pulse to judge (a long full-rate
+  states.reserve(t.size());            // recording's states would take hundreds of MB)
+  for (std::size_t i = 0; i < S.size(); ++i)
+    if (S.valid[i]) states.push_back(S.state(i));
+  run.pulses = pulses::unexplained(t, r, states, Form::axis, run.cand, f, std::move(found));
 }
 
 // ---------------------------------------------------------------- localisation

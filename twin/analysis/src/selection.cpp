@@ -249,6 +249,54 @@ void backward_check(Search& s, const std::vector<int>& start, Outcome& out) {
   }
 }
 
+// The forward search from s's model, then the backward check.
+Outcome search(Search& s, const std::vector<int>& start,
+               const std::function<void(double)>& progress) {
+  Outcome out;
+  out.start_ho = s.cur_ho;
+  for (int step = 0; step < s.st.max_terms; ++step) {
+    if (progress) progress(static_cast<double>(step) / s.st.max_terms);
+    const auto trials = trials_of(s, out);
+    if (trials.empty()) break;
+    const auto best = static_cast<std::size_t>(
+        std::min_element(trials.begin(), trials.end(),
+                         [](const Trial& a, const Trial& b) { return total(a.ho) < total(b.ho); }) -
+        trials.begin());
+    const std::size_t pick = preferred(s, trials, best);
+    if (!significant(s, s.cur_ho, trials[pick])) {
+      out.stopped_at = trials[pick];
+      out.stopped_explained_n = explained_n(s, s.cur_ho, trials[pick]);
+      break;
+    }
+    take(s, out, trials, pick, best);
+  }
+  backward_check(s, start, out);
+  out.current = s.current;
+  out.ho = s.cur_ho;
+  return out;
+}
+
+// The first term whose parameters leave its unit's physical range once the others are fitted
+// beside it (collinear columns trading places: on moves against high friction the coupling force
+// is the friction, so a gain taken first and the friction levels taken after it share it), with
+// its parameters there. A unit that gives no value there is not refused.
+std::optional<Trial> implausible_in_final_fit(const Search& s, const std::vector<int>& start,
+                                              const std::vector<Term>& terms) {
+  for (std::size_t k = 0; k < terms.size(); ++k) {
+    auto others = terms;
+    others.erase(others.begin() + static_cast<std::ptrdiff_t>(k));
+    const auto before = rebuild(s, start, others);
+    Trial tr = terms[k].trial;
+    tr.idx = columns_of(s, *tr.var, before);
+    const auto prm =
+        s.rules.parameters(*tr.var, tr.idx, stats::solve(s.g, with(before, tr.idx), -1));
+    if (!prm || effects::plausible(*tr.var->effect, *prm, s.st.scales)) continue;
+    tr.params = *prm;
+    return tr;
+  }
+  return std::nullopt;
+}
+
 Found found_of(const Trial& tr, double explained_n, int folds) {
   Found f;
   f.id = std::string(tr.var->effect->id());
@@ -284,6 +332,16 @@ Rejected dropped_of(const Trial& tr, double explained_n) {
                 "gain of %.2f %% at t = %.2f",
                 tr.gain, tr.t);
   return rejected_of(found_of(tr, explained_n, 0), why);
+}
+
+// A term refused in the final fit, with its parameters there (as it was taken: gain, t).
+Rejected refused_of(const Trial& tr, int folds) {
+  Rejected r = rejected_of(found_of(tr, 0, folds),
+                           "outside its physical range in the final fit beside the terms taken "
+                           "after it");
+  r.worst_segment_pct.reset(), r.explained_rms_n.reset();
+  r.parameters = parameters_of(tr.params);
+  return r;
 }
 
 }  // namespace
@@ -365,6 +423,7 @@ Result result_of(const Outcome& o, int folds, const Span& span) {
     r.steps.push_back(
         {std::string(1, st.sign) + " " + std::string(st.effect->id()), st.current, total(st.ho)});
   for (const auto& [tr, explained] : o.dropped) r.dropped.push_back(dropped_of(tr, explained));
+  for (const auto& tr : o.refused) r.refused.push_back(refused_of(tr, folds));
   if (o.stopped_at) r.stopped_at = found_of(*o.stopped_at, o.stopped_explained_n, folds);
   return r;
 }
@@ -382,30 +441,20 @@ Outcome select(const stats::Grams& g, const Candidates& cand, const Rules& rules
                const Settings& st, const std::vector<int>& start,
                const std::vector<const effects::Effect*>& excluded,
                const std::function<void(double)>& progress) {
-  Search s{g, cand, rules, st, 0, start, stats::heldout(g, start), excluded};
-  for (auto c : g.n) s.n_used += static_cast<double>(c);
-  Outcome out;
-  out.start_ho = s.cur_ho;
-  for (int step = 0; step < st.max_terms; ++step) {
-    if (progress) progress(static_cast<double>(step) / st.max_terms);
-    const auto trials = trials_of(s, out);
-    if (trials.empty()) break;
-    const auto best = static_cast<std::size_t>(
-        std::min_element(trials.begin(), trials.end(),
-                         [](const Trial& a, const Trial& b) { return total(a.ho) < total(b.ho); }) -
-        trials.begin());
-    const std::size_t pick = preferred(s, trials, best);
-    if (!significant(s, s.cur_ho, trials[pick])) {
-      out.stopped_at = trials[pick];
-      out.stopped_explained_n = explained_n(s, s.cur_ho, trials[pick]);
-      break;
+  std::vector<const effects::Effect*> out_of = excluded;
+  std::vector<Trial> refused;
+  for (;;) {  // each pass refuses one more effect, so this ends within the library's size
+    Search s{g, cand, rules, st, 0, start, stats::heldout(g, start), out_of};
+    for (auto c : g.n) s.n_used += static_cast<double>(c);
+    Outcome out = search(s, start, progress);
+    auto bad = implausible_in_final_fit(s, start, out.terms);
+    if (!bad) {
+      out.refused = std::move(refused);
+      return out;
     }
-    take(s, out, trials, pick, best);
+    out_of.push_back(bad->var->effect);
+    refused.push_back(std::move(*bad));
   }
-  backward_check(s, start, out);
-  out.current = s.current;
-  out.ho = s.cur_ho;
-  return out;
 }
 
 }  // namespace maglead::analysis::selection

@@ -94,6 +94,7 @@ struct Outcome {
   std::optional<Trial> stopped_at;  // the trial the rule named next, below the threshold
   double stopped_explained_n = 0;
   std::vector<std::pair<Trial, double>> dropped;  // by the backward check, with explained_n
+  std::vector<Trial> refused;  // taken, then outside their range in the final fit (its params)
   std::optional<ImplausibleFit> implausible;
 };
 
@@ -161,6 +162,7 @@ struct Result {
   std::vector<Found> terms;  // the terms kept, in the order taken
   std::vector<Step> steps;
   std::vector<Rejected> dropped;    // by the backward check
+  std::vector<Rejected> refused;    // outside their physical range in the final fit
   std::optional<Found> stopped_at;  // the next term the rule named, below the threshold
   std::optional<Implausible> implausible;
 };
@@ -189,7 +191,9 @@ Rejected best_left_out(const Found& f);
 std::string describe(const Settings& st);
 
 /// Runs the selection on `g` from the model with columns `start`; effects in `excluded` are not
-/// candidates. `progress` (may be empty) gets the share of the terms tried.
+/// candidates. A term whose parameters leave its unit's physical range in the final fit is
+/// refused and the rest chosen again without it. `progress` (may be empty) gets the share of
+/// the terms tried.
 Outcome select(const stats::Grams& g, const Candidates& cand, const Rules& rules,
                const Settings& st, const std::vector<int>& start,
                const std::vector<const effects::Effect*>& excluded,
