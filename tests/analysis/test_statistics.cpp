@@ -226,6 +226,39 @@ TEST(StopSamples, TakenOutInPlaceAndPutBackExactly) {
   EXPECT_EQ(P.locked_share, before.locked_share);
 }
 
+// 40 s at 100 Hz of the states `at(t)` with the force `law(state)` missing, 1.3 N more for a
+// quarter second at t = 10 s (a pulse no law explains) and 0.02 N of noise. The finder sees two
+// pulses (the law's and that one); only the one at t = 10 s is left once the library's laws in
+// `form` are asked.
+void expect_only_the_pulse_no_law_explains(
+    const std::function<maglead::effects::State(double)>& at,
+    const std::function<double(const maglead::effects::State&)>& law,
+    maglead::analysis::Form form) {
+  namespace ma = maglead::analysis;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  std::vector<double> t, r;
+  std::vector<maglead::effects::State> st;
+  for (int k = 0; k <= 4000; ++k) {
+    st.push_back(at(k * 0.01));
+    t.push_back(st.back().t_s);
+    const bool hit = t.back() >= 10.0 && t.back() < 10.25;
+    r.push_back(law(st.back()) + (hit ? 1.3 : 0.0) + noise(rng));
+  }
+  ma::pulses::Floors f;
+  f.filter_hz = 20.0;
+  f.fs_hz = 100.0;
+  f.step_s = 0.01;
+  f.span_s = 40.0;
+  const auto found = ma::pulses::find(t, r, f);
+  ASSERT_EQ(found.size(), 2u);
+  const auto kept =
+      ma::pulses::unexplained(t, r, st, form, ma::candidate_columns(form, {}), f, found);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_NEAR(kept[0].t_s, 10.0, 0.02);
+  EXPECT_NEAR(kept[0].peak_n, 1.3, 0.1);
+}
+
 }  // namespace
 
 // A nut runs a triangle between 3.5 and 36.5 mm, pushing a steady 1 N through a coupling that
@@ -235,39 +268,25 @@ TEST(StopSamples, TakenOutInPlaceAndPutBackExactly) {
 // where the nut stood, which the other visits show. A 1.3 N pulse mid-stroke at t = 10 s is one
 // no law explains: it stays.
 TEST(Pulses, APulseALibraryLawExplainsIsNotADisturbance) {
-  namespace ma = maglead::analysis;
   const auto* end = maglead::effects::find("end_effect");
   ASSERT_NE(end, nullptr);
-  std::mt19937 rng(3);
-  std::normal_distribution<double> noise(0.0, 0.02);
-  std::vector<double> t, r;
-  std::vector<maglead::effects::State> st;
-  for (int k = 0; k <= 4000; ++k) {
+  const auto at = [](double t_s) {
     maglead::effects::State s;
-    s.t_s = k * 0.01;
-    const double u = std::fmod(s.t_s, 8.0) / 4.0;  // 0 → 2 over a period
+    s.t_s = t_s;
+    const double u = std::fmod(t_s, 8.0) / 4.0;  // 0 → 2 over a period
     s.p_m = 0.0035 + 0.033 * (u <= 1.0 ? u : 2.0 - u);
     s.v_m_s = (u <= 1.0 ? 1.0 : -1.0) * 0.033 / 4.0;
-    s.coupling_n = std::abs(s.t_s - 16.0) < 1.0 ? 12.0 : 1.0;
-    double x = 0;
-    end->regressors(0.005, s, &x);
-    const bool hit = s.t_s >= 10.0 && s.t_s < 10.25;
-    t.push_back(s.t_s);
-    r.push_back(0.5 * x + (hit ? 1.3 : 0.0) + noise(rng));
-    st.push_back(s);
-  }
-  ma::pulses::Floors f;
-  f.filter_hz = 20.0;
-  f.fs_hz = 100.0;
-  f.step_s = 0.01;
-  f.span_s = 40.0;
-  const auto found = ma::pulses::find(t, r, f);
-  ASSERT_EQ(found.size(), 2u);
-  const auto kept = ma::pulses::unexplained(t, r, st, ma::Form::nut,
-                                            ma::candidate_columns(ma::Form::nut, {}), f, found);
-  ASSERT_EQ(kept.size(), 1u);
-  EXPECT_NEAR(kept[0].t_s, 10.0, 0.02);
-  EXPECT_NEAR(kept[0].peak_n, 1.3, 0.1);
+    s.coupling_n = std::abs(t_s - 16.0) < 1.0 ? 12.0 : 1.0;
+    return s;
+  };
+  expect_only_the_pulse_no_law_explains(
+      at,
+      [&](const maglead::effects::State& s) {
+        double x = 0;
+        end->regressors(0.005, s, &x);
+        return 0.5 * x;
+      },
+      maglead::analysis::Form::nut);
 }
 
 // The same check on an axis (its units' axis regressors): a carriage crawls back and forth at
@@ -275,33 +294,15 @@ TEST(Pulses, APulseALibraryLawExplainsIsNotADisturbance) {
 // finder's threshold), except for a quarter second at 100 mm/s at t = 16 s: 1.2 N go missing, a
 // pulse to the finder and the viscous law's force at that speed. The 1.3 N at t = 10 s stays.
 TEST(Pulses, OnAnAxisAPulseALibraryLawExplainsIsNotADisturbance) {
-  namespace ma = maglead::analysis;
-  std::mt19937 rng(3);
-  std::normal_distribution<double> noise(0.0, 0.02);
-  std::vector<double> t, r;
-  std::vector<maglead::effects::State> st;
-  for (int k = 0; k <= 4000; ++k) {
+  const auto at = [](double t_s) {
     maglead::effects::State s;
-    s.t_s = k * 0.01;
-    const bool fast = s.t_s >= 16.0 && s.t_s < 16.25;
-    s.v_m_s = (std::fmod(s.t_s, 8.0) < 4.0 ? 1.0 : -1.0) * (fast ? 0.1 : 0.008);
-    s.p_m = 0.02 + 0.008 * (std::fmod(s.t_s, 8.0) < 4.0 ? std::fmod(s.t_s, 4.0)
-                                                        : 4.0 - std::fmod(s.t_s, 4.0));
-    const bool hit = s.t_s >= 10.0 && s.t_s < 10.25;
-    t.push_back(s.t_s);
-    r.push_back(-12.0 * s.v_m_s + (hit ? 1.3 : 0.0) + noise(rng));
-    st.push_back(s);
-  }
-  ma::pulses::Floors f;
-  f.filter_hz = 20.0;
-  f.fs_hz = 100.0;
-  f.step_s = 0.01;
-  f.span_s = 40.0;
-  const auto found = ma::pulses::find(t, r, f);
-  ASSERT_EQ(found.size(), 2u);
-  const auto kept = ma::pulses::unexplained(t, r, st, ma::Form::axis,
-                                            ma::candidate_columns(ma::Form::axis, {}), f, found);
-  ASSERT_EQ(kept.size(), 1u);
-  EXPECT_NEAR(kept[0].t_s, 10.0, 0.02);
-  EXPECT_NEAR(kept[0].peak_n, 1.3, 0.1);
+    s.t_s = t_s;
+    const bool out = std::fmod(t_s, 8.0) < 4.0, fast = t_s >= 16.0 && t_s < 16.25;
+    s.v_m_s = (out ? 1.0 : -1.0) * (fast ? 0.1 : 0.008);
+    s.p_m = 0.02 + 0.008 * (out ? std::fmod(t_s, 4.0) : 4.0 - std::fmod(t_s, 4.0));
+    return s;
+  };
+  expect_only_the_pulse_no_law_explains(
+      at, [](const maglead::effects::State& s) { return -12.0 * s.v_m_s; },
+      maglead::analysis::Form::axis);
 }
