@@ -383,7 +383,13 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.t0_s = t.front();
   const StateAt state_at{s, cp, act, base, P.t0_s};
   const auto runs = locked_runs(s, P);
-  for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(P.decimation)) {
+  const auto step = static_cast<std::size_t>(P.decimation);
+  std::size_t kept = 0;  // counted first: one allocation each, no regrowth of the large States
+  for (std::size_t i = 0; i < n; i += step) kept += ok[i];
+  P.states.reserve(kept);
+  P.residual.reserve(kept);
+  P.locked_run.reserve(kept);
+  for (std::size_t i = 0; i < n; i += step) {
     if (!ok[i]) continue;
     P.states.push_back(state_at(i));
     P.residual.push_back(missing_force(P.states.back(), base.terms));
