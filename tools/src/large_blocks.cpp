@@ -23,10 +23,10 @@ constexpr std::uintptr_t kPageBytes = 4096;                     // madvise wants
 
 void advise_huge_pages(void* block, std::size_t bytes) {
   const auto begin = reinterpret_cast<std::uintptr_t>(block);
-  const std::uintptr_t first = (begin + kPageBytes - 1) & ~(kPageBytes - 1);
+  const std::uintptr_t lead = (kPageBytes - begin % kPageBytes) % kPageBytes;  // to a page start
   const std::uintptr_t last = (begin + bytes) & ~(kPageBytes - 1);
-  if (last > first)  // advice only: a failure leaves ordinary pages
-    (void)madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+  if (last > begin + lead)  // advice only: a failure leaves ordinary pages
+    (void)madvise(static_cast<char*>(block) + lead, last - (begin + lead), MADV_HUGEPAGE);
 }
 
 }  // namespace
