@@ -624,6 +624,29 @@ TEST(GeneratedSuite, StepOutIsAnEventWithItsTime) {
   EXPECT_EQ(r.findings.effects.size(), 1u) << named_as(r);
 }
 
+// Without a screw-angle column the analysis takes the motor's through the header's gear ratio
+// (angle_column's own buffer, not the recording's column): the same step-outs at the same times.
+TEST(GeneratedSuite, MotorAngleAloneGivesTheSameStepOuts) {
+  const auto run_ = step_out_recording(true);
+  maglead::Recording motor_only = run_.rec;
+  motor_only.names.erase(motor_only.names.begin() + 2);  // screw_angle_rad
+  motor_only.columns.erase(motor_only.columns.begin() + 2);
+  const auto step_outs = [](const AnalysisResult& r) {
+    std::vector<std::pair<double, int>> out;
+    for (const auto& e : r.findings.events)
+      if (e.type == "step_out") out.emplace_back(e.t_s, e.leads.value_or(0));
+    return out;
+  };
+  const auto with_screw = step_outs(analyze(run_.rec));
+  const auto with_motor = step_outs(analyze(motor_only));
+  ASSERT_FALSE(with_screw.empty());
+  ASSERT_EQ(with_motor.size(), with_screw.size());
+  for (std::size_t i = 0; i < with_screw.size(); ++i) {
+    EXPECT_NEAR(with_motor[i].first, with_screw[i].first, 1e-9) << "step-out " << i;
+    EXPECT_EQ(with_motor[i].second, with_screw[i].second) << "step-out " << i;
+  }
+}
+
 TEST(GeneratedSuite, ControlStepOutHandNamesNothing) {
   const auto run_ = step_out_recording(false);
   ASSERT_TRUE(run_.slip_times_s.empty());

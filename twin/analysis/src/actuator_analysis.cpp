@@ -84,14 +84,15 @@ double rising_rate(const std::vector<double>& t, const std::vector<double>& phi,
 
 }  // namespace
 
-std::vector<double> angle_column(const Recording& rec, const ActuatorParams& act) {
+const std::vector<double>& angle_column(const Recording& rec, const ActuatorParams& act,
+                                        std::vector<double>& geared) {
   if (rec.has("screw_angle_rad")) return rec.column("screw_angle_rad");
   if (rec.has("motor_angle_rad")) {
     double gear = act.gear_ratio;
     if (auto g = rec.meta("gear_ratio")) gear = std::stod(*g);
-    auto th = rec.column("motor_angle_rad");
-    for (double& x : th) x /= gear;
-    return th;
+    geared = rec.column("motor_angle_rad");
+    for (double& x : geared) x /= gear;
+    return geared;
   }
   throw RecordingError(rec.path + ": needs column 'screw_angle_rad' or 'motor_angle_rad'");
 }
@@ -104,14 +105,17 @@ struct Signals {
   const std::vector<double>& t;
   const std::vector<double>& pos_raw;
   const std::vector<double>& load_raw;
-  std::vector<double> theta_raw, p, th, load, v, a, jerk, load_rate, phi, phi_raw, phi_rate;
+  const std::vector<double>& theta_raw;
+  std::vector<double> p, th, load, v, a, jerk, load_rate, phi, phi_raw, phi_rate;
 };
 
-Signals filtered_signals(const Recording& rec, const ActuatorParams& act, const Prepared& P) {
+// `geared` holds the screw angle when only the motor's is logged (angle_column).
+Signals filtered_signals(const Recording& rec, const ActuatorParams& act, const Prepared& P,
+                         std::vector<double>& geared) {
   Signals s{rec.column("t_s"),
             rec.column("nut_pos_m"),
             rec.column("load_force_n"),
-            {},
+            angle_column(rec, act, geared),
             {},
             {},
             {},
@@ -122,7 +126,6 @@ Signals filtered_signals(const Recording& rec, const ActuatorParams& act, const 
             {},
             {},
             {}};
-  s.theta_raw = angle_column(rec, act);
   require_finite(rec, s.theta_raw, "screw_angle_rad");
   const double dt = 1.0 / P.fs_hz;
   s.p = filtfilt_butter4(s.pos_raw, P.filter_hz, P.fs_hz);
@@ -133,11 +136,11 @@ Signals filtered_signals(const Recording& rec, const ActuatorParams& act, const 
   s.jerk = central_diff(s.a, dt);  // zero-phase like the filter: a sensor delay's inertial term
   s.load_rate = central_diff(s.load, dt);
   const std::size_t n = s.t.size();
-  s.phi.resize(n);
-  s.phi_raw.resize(n);
+  s.phi.reserve(n);  // appended: no zero-fill to overwrite
+  s.phi_raw.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
-    s.phi[i] = s.th[i] - 2 * kPi * s.p[i] / act.lead_m;
-    s.phi_raw[i] = s.theta_raw[i] - 2 * kPi * s.pos_raw[i] / act.lead_m;
+    s.phi.push_back(s.th[i] - 2 * kPi * s.p[i] / act.lead_m);
+    s.phi_raw.push_back(s.theta_raw[i] - 2 * kPi * s.pos_raw[i] / act.lead_m);
   }
   s.phi_rate = central_diff(s.phi, dt);
   return s;
@@ -215,9 +218,10 @@ LockedRuns locked_runs(const Signals& s, const Prepared& P) {
   const double kept = std::sqrt(std::min(1.0, 2.0 * P.filter_hz / P.fs_hz));
   const auto q_max = static_cast<std::size_t>(std::floor(0.5 * std::sqrt(12.0) / kept));
   LockedRuns out{std::vector<int>(n, -1), {}};
-  std::vector<long> step(n > 0 ? n - 1 : 0);
+  std::vector<long> step;
+  step.reserve(n > 0 ? n - 1 : 0);
   for (std::size_t i = 0; i + 1 < n; ++i)
-    step[i] = std::lround((s.pos_raw[i + 1] - s.pos_raw[i]) / P.count_m);
+    step.push_back(std::lround((s.pos_raw[i + 1] - s.pos_raw[i]) / P.count_m));
   for (std::size_t q = 1; q <= q_max; ++q) {
     std::size_t i = q;
     while (i < step.size()) {
@@ -368,7 +372,8 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.lead_m = act.lead_m;
   P.count_m = act.linear_count_m;
   if (auto c = rec.meta("linear_encoder_m_per_count")) P.count_m = std::stod(*c);
-  const Signals s = filtered_signals(rec, act, P);
+  std::vector<double> geared;
+  const Signals s = filtered_signals(rec, act, P, geared);
   P.slips = find_slips(t, s.phi_raw);
   P.load_noise_n = stats::white_noise_sigma(s.load_raw);  // the load cell's noise
   std::tie(P.load_filtered_noise_n, P.load_rate_noise_n_s) = filtered_noise(P);
@@ -383,7 +388,13 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.t0_s = t.front();
   const StateAt state_at{s, cp, act, base, P.t0_s};
   const auto runs = locked_runs(s, P);
-  for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(P.decimation)) {
+  const auto step = static_cast<std::size_t>(P.decimation);
+  std::size_t kept = 0;  // counted first: one allocation each, no regrowth of the large States
+  for (std::size_t i = 0; i < n; i += step) kept += ok[i];
+  P.states.reserve(kept);
+  P.residual.reserve(kept);
+  P.locked_run.reserve(kept);
+  for (std::size_t i = 0; i < n; i += step) {
     if (!ok[i]) continue;
     P.states.push_back(state_at(i));
     P.residual.push_back(missing_force(P.states.back(), base.terms));

@@ -17,8 +17,10 @@
 
 namespace maglead::analysis::actuator {
 
-/// The screw angle: logged, or the motor angle through the gear (the header's gear_ratio wins).
-std::vector<double> angle_column(const Recording& rec, const ActuatorParams& act);
+/// The screw angle: the logged column itself (not copied), or the motor angle through the gear
+/// (the header's gear_ratio wins) computed into `geared`, which must outlive the result.
+const std::vector<double>& angle_column(const Recording& rec, const ActuatorParams& act,
+                                        std::vector<double>& geared);
 
 using analysis::BaselineTerm;
 

@@ -37,7 +37,8 @@ std::optional<double> twin_force_mae_n(const Recording& rec, const ActuatorParam
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
   if (n < 2 || !(t.back() > t.front())) return std::nullopt;
-  const auto screw = angle_column(rec, act);
+  std::vector<double> geared;
+  const auto& screw = angle_column(rec, act, geared);
   const auto& pos = rec.column("nut_pos_m");
   const auto& load = rec.column("load_force_n");
   const std::vector<double>* fset = rec.has("force_set_n") ? &rec.column("force_set_n") : nullptr;

@@ -33,19 +33,22 @@ std::vector<Biquad> butter4(double cutoff_hz, double fs_hz) {
 // Transposed direct form II, started in the steady state of the ramp through the first two
 // inputs (a level is a ramp without slope): a section passes a ramp delayed by its DC group delay
 // tau, so a signal that starts moving leaves no start-up transient.
-void run(const Biquad& f, std::vector<double>& x) {
-  if (x.size() < 2) return;
+// Over [first, last) in the iterators' direction: a reverse iterator runs the backward pass in
+// place, with the same arithmetic as reversing, running forward and reversing back.
+template <class It>
+void run(const Biquad& f, It first, It last) {
+  if (last - first < 2) return;
   const double tau =
       (f.b1 + 2.0 * f.b2) / (f.b0 + f.b1 + f.b2) - (f.a1 + 2.0 * f.a2) / (1.0 + f.a1 + f.a2);
-  const double u0 = x[0], d = x[1] - x[0], y0 = u0 - d * tau;
+  const double u0 = first[0], d = first[1] - first[0], y0 = u0 - d * tau;
   double z1 = y0 - f.b0 * u0;
   double z2 = (y0 + d) - f.b0 * (u0 + d) - f.b1 * u0 + f.a1 * y0;
-  for (double& v : x) {
-    const double in = v;
+  for (; first != last; ++first) {
+    const double in = *first;
     const double y = f.b0 * in + z1;
     z1 = f.b1 * in - f.a1 * y + z2;
     z2 = f.b2 * in - f.a2 * y;
-    v = y;
+    *first = y;
   }
 }
 
@@ -89,38 +92,45 @@ std::vector<double> filtfilt_butter4(const std::vector<double>& x, double cutoff
   // Padding of about three time constants of the slowest section, continuing the curvature.
   const std::size_t pad = std::min<std::size_t>(
       n - 1, static_cast<std::size_t>(std::ceil(3.0 * sample_rate_hz / cutoff_hz)) + 12);
-  std::vector<double> y(n + 2 * pad);
+  // y is built by appending (no zero-fill of n samples only to overwrite them); only the first
+  // pad + 1 samples from the end are reversed for the tail, which is all lead_in reads.
+  std::vector<double> y;
+  y.reserve(n + 2 * pad);
   const auto head = lead_in(x, pad);
-  std::copy(head.begin(), head.end(), y.begin());
-  std::copy(x.begin(), x.end(), y.begin() + static_cast<std::ptrdiff_t>(pad));
-  const std::vector<double> reversed(x.rbegin(), x.rend());
+  y.insert(y.end(), head.begin(), head.end());
+  y.insert(y.end(), x.begin(), x.end());
+  const std::vector<double> reversed(x.rbegin(), x.rbegin() + static_cast<std::ptrdiff_t>(pad + 1));
   const auto tail = lead_in(reversed, pad);
-  std::copy(tail.rbegin(), tail.rend(), y.begin() + static_cast<std::ptrdiff_t>(pad + n));
-  for (const auto& s : sections) run(s, y);
-  std::reverse(y.begin(), y.end());
-  for (const auto& s : sections) run(s, y);
-  std::reverse(y.begin(), y.end());
-  return {y.begin() + static_cast<std::ptrdiff_t>(pad),
-          y.begin() + static_cast<std::ptrdiff_t>(pad + n)};
+  y.insert(y.end(), tail.rbegin(), tail.rend());
+  for (const auto& s : sections) run(s, y.begin(), y.end());
+  for (const auto& s : sections) run(s, y.rbegin(), y.rend());
+  // Drop the padding in place rather than copy the n samples into a new vector.
+  y.erase(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(pad));
+  y.resize(n);
+  return y;
 }
 
 std::vector<double> central_diff(const std::vector<double>& x, double dt_s) {
   const std::size_t n = x.size();
-  std::vector<double> d(n, 0.0);
-  if (n < 2) return d;
-  for (std::size_t i = 1; i + 1 < n; ++i) d[i] = (x[i + 1] - x[i - 1]) / (2.0 * dt_s);
-  d[0] = (x[1] - x[0]) / dt_s;
-  d[n - 1] = (x[n - 1] - x[n - 2]) / dt_s;
+  if (n < 2) return std::vector<double>(n, 0.0);
+  std::vector<double> d;  // appended in order: no zero-fill to overwrite
+  d.reserve(n);
+  d.push_back((x[1] - x[0]) / dt_s);
+  for (std::size_t i = 1; i + 1 < n; ++i) d.push_back((x[i + 1] - x[i - 1]) / (2.0 * dt_s));
+  d.push_back((x[n - 1] - x[n - 2]) / dt_s);
   return d;
 }
 
 std::vector<double> central_diff2(const std::vector<double>& x, double dt_s) {
   const std::size_t n = x.size();
-  std::vector<double> d(n, 0.0);
-  if (n < 3) return d;
-  for (std::size_t i = 1; i + 1 < n; ++i) d[i] = (x[i + 1] - 2.0 * x[i] + x[i - 1]) / (dt_s * dt_s);
+  if (n < 3) return std::vector<double>(n, 0.0);
+  std::vector<double> d;  // appended in order: no zero-fill to overwrite
+  d.reserve(n);
+  d.push_back(0.0);  // d[1], set below
+  for (std::size_t i = 1; i + 1 < n; ++i)
+    d.push_back((x[i + 1] - 2.0 * x[i] + x[i - 1]) / (dt_s * dt_s));
   d[0] = d[1];
-  d[n - 1] = d[n - 2];
+  d.push_back(d[n - 2]);
   return d;
 }
 

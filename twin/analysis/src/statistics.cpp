@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <numeric>
 #include <stdexcept>
+#include <utility>
 
 namespace maglead::analysis::stats {
 namespace {
@@ -15,18 +16,24 @@ namespace {
 constexpr double kZeroColumn = 1e-20;
 }  // namespace
 
-double median_of(std::vector<double> x) {
+namespace {
+// The median (upper middle), reordering x: the value does not depend on the order it is given.
+double median_reordering(std::vector<double>& x) {
   if (x.empty()) return 0.0;
   const auto mid = x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2);
   std::nth_element(x.begin(), mid, x.end());
   return *mid;
 }
+}  // namespace
+
+double median_of(std::vector<double> x) { return median_reordering(x); }
 
 double robust_sigma(std::vector<double> x) {
   if (x.empty()) return 0.0;
-  const double m = median_of(x);
+  // In place: the deviations' median does not depend on their order either.
+  const double m = median_reordering(x);
   for (double& v : x) v = std::abs(v - m);
-  return 1.4826 * median_of(x);
+  return 1.4826 * median_reordering(x);
 }
 
 double t_statistic(const std::vector<double>& x) {
@@ -78,7 +85,7 @@ double white_noise_sigma(const std::vector<double>& y) {
   std::vector<double> d2;
   d2.reserve(y.size());
   for (std::size_t i = 1; i + 1 < y.size(); ++i) d2.push_back(y[i + 1] - 2 * y[i] + y[i - 1]);
-  return robust_sigma(d2) / std::sqrt(6.0);
+  return robust_sigma(std::move(d2)) / std::sqrt(6.0);
 }
 
 std::size_t fold_of(double since_start_s, double span_s, int folds) {
