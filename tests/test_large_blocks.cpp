@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "large_blocks.hpp"
+
 namespace {
 
 /// The VmFlags of the mapping holding `address`, from /proc/self/smaps ("" if none is found).
@@ -41,13 +43,20 @@ bool has_flag(const std::string& flags, const std::string& flag) {
   return false;
 }
 
-TEST(LargeBlocks, LargeVectorIsAdvisedToHugePages) {
+// Off until a command turns it on (the controller's never do), then on for every large block.
+TEST(LargeBlocks, LargeVectorIsAdvisedToHugePagesOnceTurnedOn) {
   if (!std::filesystem::exists("/sys/kernel/mm/transparent_hugepage/enabled"))
     GTEST_SKIP() << "kernel without transparent huge pages";
-  std::vector<double> column(std::size_t{4} << 20);  // 32 MiB, a recording column's size
-  const std::string flags = vm_flags_at(column.data() + column.size() / 2);
-  ASSERT_FALSE(flags.empty()) << "no mapping found in /proc/self/smaps";
-  EXPECT_TRUE(has_flag(flags, "hg")) << "VmFlags:" << flags;
+  const auto flags_of_a_column = [] {
+    std::vector<double> column(std::size_t{4} << 20);  // 32 MiB, a recording column's size
+    return vm_flags_at(column.data() + column.size() / 2);
+  };
+  const std::string before = flags_of_a_column();
+  ASSERT_FALSE(before.empty()) << "no mapping found in /proc/self/smaps";
+  EXPECT_FALSE(has_flag(before, "hg")) << "VmFlags:" << before;
+  maglead::cli::advise_large_blocks_to_huge_pages();
+  const std::string after = flags_of_a_column();
+  EXPECT_TRUE(has_flag(after, "hg")) << "VmFlags:" << after;
 }
 
 TEST(LargeBlocks, BlocksOfEverySizeHoldTheirValues) {

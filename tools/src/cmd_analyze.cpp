@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "cli_common.hpp"
+#include "large_blocks.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/report/analysis_json.hpp"
 #include "maglead/report/analysis_page.hpp"
@@ -145,7 +146,10 @@ void add_analyze(CLI::App& app) {
                 "Skip the twin's force estimate with the corrected model (it runs the twin over "
                 "the recording two or more times)");
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
-  cmd->callback([o] { run_analyze(*o); });
+  cmd->callback([o] {
+    maglead::cli::advise_large_blocks_to_huge_pages();  // reads whole recordings
+    run_analyze(*o);
+  });
 }
 
 MAGLEAD_COMMAND(60, add_analyze);

@@ -14,6 +14,7 @@
 
 #include "bench_common.hpp"
 #include "cli_common.hpp"
+#include "large_blocks.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/plant/scenario.hpp"
 #include "maglead/report/analysis_page.hpp"
@@ -218,7 +219,10 @@ void add_bench_analyze(CLI::App& app) {
   cmd->add_flag("--quick", o->quick, "Two simulated minutes instead of an hour (CI)");
   cmd->add_option("--out", o->out, "Output directory (default: a temporary one)");
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
-  cmd->callback([o] { run_bench_analyze(*o); });
+  cmd->callback([o] {
+    maglead::cli::advise_large_blocks_to_huge_pages();  // reads whole recordings
+    run_bench_analyze(*o);
+  });
 }
 
 MAGLEAD_COMMAND(95, add_bench_analyze);

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "cli_common.hpp"
+#include "large_blocks.hpp"
 #include "maglead/physics/estimator.hpp"
 #include "maglead/physics/load_observer.hpp"
 #include "maglead/recording/error_stats.hpp"
@@ -200,7 +201,10 @@ void add_estimate(CLI::App& app) {
   cmd->add_option("--calibration", o->calibration,
                   "Calibration file (default: CONFIG/calibration.toml)");
   cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
-  cmd->callback([o] { run_estimate(*o); });
+  cmd->callback([o] {
+    maglead::cli::advise_large_blocks_to_huge_pages();  // reads whole recordings
+    run_estimate(*o);
+  });
 }
 
 MAGLEAD_COMMAND(40, add_estimate);

@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "cli_common.hpp"
+#include "large_blocks.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/anomaly.hpp"
 #include "maglead/report/anomaly_page.hpp"
@@ -73,6 +74,7 @@ void add_report(CLI::App& app) {
                   "Baseline model for the analysis (default: CONFIG/model.toml)");
   cmd->add_flag("--no-analysis", o->no_analysis, "Skip the analysis (quicker)");
   cmd->callback([o] {
+    maglead::cli::advise_large_blocks_to_huge_pages();  // reads whole recordings
     const ActuatorParams act = load_actuator_or_default(o->config);
     const ForceCalibration cal = load_calibration(
         o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration);

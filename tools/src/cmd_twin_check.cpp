@@ -7,6 +7,7 @@
 #include <span>
 
 #include "cli_common.hpp"
+#include "large_blocks.hpp"
 #include "maglead/twin/replay.hpp"
 
 namespace maglead::cli {
@@ -187,7 +188,10 @@ void add_twin_check(CLI::App& app) {
       "statistic, flags and reason codes)");
   cmd->add_flag("--no-load-cell", o->no_load_cell,
                 "Ignore a logged load_force_n column (the flag never reads it; this shows it)");
-  cmd->callback([o] { run_twin_check(*o); });
+  cmd->callback([o] {
+    maglead::cli::advise_large_blocks_to_huge_pages();  // reads whole recordings
+    run_twin_check(*o);
+  });
 }
 
 MAGLEAD_COMMAND(45, add_twin_check);

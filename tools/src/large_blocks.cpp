@@ -1,5 +1,6 @@
 // The maglead command's operator new: large blocks (whole recording columns and the analysis's
-// filtered signals, tens of MB each) are asked to be backed by transparent huge pages.
+// filtered signals, tens of MB each) are asked to be backed by transparent huge pages, once an
+// offline command turns it on (large_blocks.hpp).
 //
 // Why: analysing an hour at 1 kHz touches about 1 GB of freshly allocated memory; in 4 KiB pages
 // that is ~150 k page faults, a fifth of the run (`maglead bench analyze`, perf). With huge
@@ -9,8 +10,11 @@
 // memory: only the speed differs, never a value. Small blocks (the controller's, the
 // parser's) are untouched. Replaces only the plain forms: libstdc++'s array, nothrow and sized
 // forms call these, and free() releases both.
+#include "large_blocks.hpp"
+
 #include <sys/mman.h>
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -20,6 +24,8 @@ namespace {
 
 constexpr std::size_t kLargeBlockBytes = std::size_t{4} << 20;  // two 2 MiB huge pages
 constexpr std::uintptr_t kPageBytes = 4096;                     // madvise wants page alignment
+
+std::atomic<bool> advise_large_blocks{false};
 
 void advise_huge_pages(void* block, std::size_t bytes) {
   const auto begin = reinterpret_cast<std::uintptr_t>(block);
@@ -31,10 +37,15 @@ void advise_huge_pages(void* block, std::size_t bytes) {
 
 }  // namespace
 
+void maglead::cli::advise_large_blocks_to_huge_pages() {
+  advise_large_blocks.store(true, std::memory_order_relaxed);
+}
+
 void* operator new(std::size_t bytes) {
   void* p = std::malloc(bytes == 0 ? 1 : bytes);
   if (p == nullptr) throw std::bad_alloc();
-  if (bytes >= kLargeBlockBytes) advise_huge_pages(p, bytes);
+  if (bytes >= kLargeBlockBytes && advise_large_blocks.load(std::memory_order_relaxed))
+    advise_huge_pages(p, bytes);
   return p;
 }
 
