@@ -14,9 +14,7 @@ namespace {
 // A column whose sum of squares is below this share of the largest is zero to rounding (double
 // precision: squares of 1e-16 relative; a physical column is far above).
 constexpr double kZeroColumn = 1e-20;
-}  // namespace
 
-namespace {
 // The median (upper middle), reordering x: the value does not depend on the order it is given.
 double median_reordering(std::vector<double>& x) {
   if (x.empty()) return 0.0;
