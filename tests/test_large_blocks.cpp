@@ -47,6 +47,7 @@ bool has_flag(const std::string& flags, const std::string& flag) {
 TEST(LargeBlocks, LargeVectorIsAdvisedToHugePagesOnceTurnedOn) {
   if (!std::filesystem::exists("/sys/kernel/mm/transparent_hugepage/enabled"))
     GTEST_SKIP() << "kernel without transparent huge pages";
+  if (!maglead::cli::huge_page_advice_built()) GTEST_SKIP() << "a sanitizer's operator new";
   const auto flags_of_a_column = [] {
     std::vector<double> column(std::size_t{4} << 20);  // 32 MiB, a recording column's size
     return vm_flags_at(column.data() + column.size() / 2);

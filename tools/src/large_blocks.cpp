@@ -9,12 +9,26 @@
 // Where the kernel has THP off (`never`) madvise fails or does nothing and the block is plain
 // memory: only the speed differs, never a value. Small blocks (the controller's, the
 // parser's) are untouched. Replaces only the plain forms: libstdc++'s array, nothrow and sized
-// forms call these, and free() releases both.
+// forms call these, and free() releases both. A sanitizer brings its own operator new in every
+// form (its nothrow new would meet our delete: ASan's alloc-dealloc-mismatch), so sanitized
+// builds keep theirs and give no advice.
 #include "large_blocks.hpp"
 
+#include <atomic>
+
+namespace {
+std::atomic<bool> advise_large_blocks{false};
+}  // namespace
+
+void maglead::cli::advise_large_blocks_to_huge_pages() {
+  advise_large_blocks.store(true, std::memory_order_relaxed);
+}
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+bool maglead::cli::huge_page_advice_built() { return false; }
+#else
 #include <sys/mman.h>
 
-#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -24,8 +38,6 @@ namespace {
 
 constexpr std::size_t kLargeBlockBytes = std::size_t{4} << 20;  // two 2 MiB huge pages
 constexpr std::uintptr_t kPageBytes = 4096;                     // madvise wants page alignment
-
-std::atomic<bool> advise_large_blocks{false};
 
 void advise_huge_pages(void* block, std::size_t bytes) {
   const auto begin = reinterpret_cast<std::uintptr_t>(block);
@@ -37,9 +49,7 @@ void advise_huge_pages(void* block, std::size_t bytes) {
 
 }  // namespace
 
-void maglead::cli::advise_large_blocks_to_huge_pages() {
-  advise_large_blocks.store(true, std::memory_order_relaxed);
-}
+bool maglead::cli::huge_page_advice_built() { return true; }
 
 void* operator new(std::size_t bytes) {
   void* p = std::malloc(bytes == 0 ? 1 : bytes);
@@ -51,3 +61,4 @@ void* operator new(std::size_t bytes) {
 
 void operator delete(void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t /*bytes*/) noexcept { std::free(p); }
+#endif

@@ -7,5 +7,7 @@ namespace maglead::cli {
 
 /// From now on, large blocks are advised to huge pages (only the speed differs, never a value).
 void advise_large_blocks_to_huge_pages();
+/// False in sanitized builds, which keep the sanitizer's operator new (no advice at all).
+bool huge_page_advice_built();
 
 }  // namespace maglead::cli
