@@ -6,8 +6,7 @@
 // (tests/analysis/third_actuator/: 20 mm lead on a direct drive, 512 motor counts, 50 µm linear
 // count, 2.5 kg, 20 N·s/m, 12 N, a coupling 0.6 times the paper's, a bench calibration off by
 // 0.05 N; the scenarios scale their forces to its safe force). Each case prints one row; the
-// suite prints the false-claim count and asserts it is 0 (the third's full matrix still has one:
-// README, "The matrix").
+// suite prints the false-claim count and asserts it is 0.
 //
 // A claim is false when the analysis names an effect (a finding's id) that is not concealed in
 // the plant, unless an alternative it lists (>= 95 %) or an accepted equivalence (offset ~
@@ -233,6 +232,9 @@ const std::vector<Regression>& regressions() {
       // Force steps that turn the screw less than a turn: an angle ripple is not seen to repeat;
       // the backlash (a Coulomb level change while sliding against 12 N) is its alternative.
       {"third", "backlash", 0.5, 1000.0, 0.5},
+      // Beside a 10 % gain error the bench calibration's error is 10 % larger in the model's
+      // force: an offset of 0.057 N explaining 0.076 N was named against the 0.07 N minimum.
+      {"third", "mass_error+coupling_gain_error", 1.0, 2000.0, 0.1},
   };
   return all;
 }

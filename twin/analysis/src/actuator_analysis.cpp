@@ -524,13 +524,15 @@ class NutRules : public selection::Rules {
     const auto k = static_cast<Eigen::Index>(cols.size());
     return var.effect->parameters(var.shape, fit.theta.tail(k).data(), model_);
   }
-  bool resolved(const selection::Trial& tr, double explained_n) const override;
+  bool resolved(const selection::Trial& tr, double explained_n,
+                const std::vector<selection::Term>& model) const override;
   const State& model() const { return model_; }
 
  private:
   const Prepared& P_;
   State model_;
   double beyond_locked_rounding(const selection::Trial& tr) const;
+  double minimum_beside(const std::vector<selection::Term>& model) const;
 };
 
 // RMS of the trial's fitted contribution less its mean over each locked run: the part of it a
@@ -556,13 +558,27 @@ double NutRules::beyond_locked_rounding(const selection::Trial& tr) const {
   return z.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(z.size()));
 }
 
-// A force the recording resolves and a user would act on: beyond the stated minimum and the
-// floor; where the count is locked, beyond what its rounding may hold (Prepared::locked_floor_n)
-// unless the term varies within the locked runs by more than the floor.
-bool NutRules::resolved(const selection::Trial& tr, double explained_n) const {
-  const double floor_n = std::max(P_.floor_n, P_.minimum_n);
+// The stated minimum is how well the calibration is known; its error reaches the model's force
+// through the coupling gain the model holds, so beside a gain g found it is g times that (never
+// less than stated).
+double NutRules::minimum_beside(const std::vector<selection::Term>& model) const {
+  static const effects::Effect* const gain_error = effects::find("coupling_gain_error");
+  double gain = 1.0;
+  for (const auto& t : model)
+    if (t.trial.var->effect == gain_error)
+      if (const auto g = t.trial.params.find("gain"); g != t.trial.params.end()) gain = g->second;
+  return P_.minimum_n * std::max(1.0, gain);
+}
+
+// A force the recording resolves and a user would act on: beyond the minimum and the floor;
+// where the count is locked, beyond what its rounding may hold (Prepared::locked_floor_n) unless
+// the term varies within the locked runs by more than the floor.
+bool NutRules::resolved(const selection::Trial& tr, double explained_n,
+                        const std::vector<selection::Term>& model) const {
+  const double minimum_n = minimum_beside(model);
+  const double floor_n = std::max(P_.floor_n, minimum_n);
   if (explained_n < floor_n) return false;
-  if (P_.locked_share == 0 || explained_n >= std::max(P_.locked_floor_n, P_.minimum_n)) return true;
+  if (P_.locked_share == 0 || explained_n >= std::max(P_.locked_floor_n, minimum_n)) return true;
   return beyond_locked_rounding(tr) >= floor_n;
 }
 

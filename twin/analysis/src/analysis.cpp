@@ -561,7 +561,8 @@ class AxisRules : public selection::Rules {
     return axis_params(run_.g, *var.effect, var.shape, cols, fit.theta.tail(k),
                        fitted_totals(run_, fit, var.effect));
   }
-  bool resolved(const selection::Trial& /*tr*/, double explained_n) const override {
+  bool resolved(const selection::Trial& /*tr*/, double explained_n,
+                const std::vector<selection::Term>& /*model*/) const override {
     return explained_n >= run_.P.noise_floor_n;
   }
 

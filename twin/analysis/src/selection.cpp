@@ -31,6 +31,7 @@ struct Search {
   std::vector<int> current;
   std::vector<double> cur_ho;
   std::vector<const effects::Effect*> used;
+  const std::vector<Term>* terms = nullptr;  // taken so far (the search's outcome)
   bool taken(const effects::Effect* e) const {
     return std::find(used.begin(), used.end(), e) != used.end();
   }
@@ -124,7 +125,7 @@ bool significant(const Search& s, const std::vector<double>& cur, const Trial& t
   const bool consistent =
       tr.t >= s.st.min_t || (tr.gain >= kLocalized * s.st.min_gain_pct && tr.worst > -1.0);
   return tr.gain >= s.st.min_gain_pct && consistent &&
-         s.rules.resolved(tr, explained_n(s, cur, tr));
+         s.rules.resolved(tr, explained_n(s, cur, tr), *s.terms);
 }
 
 // Every effect not taken yet, each at its best variant and scored.
@@ -152,8 +153,8 @@ std::size_t preferred(const Search& s, const std::vector<Trial>& trials, std::si
   for (std::size_t k = 0; k < trials.size(); ++k) {
     const Trial &a = trials[k], &p = trials[pick];
     if (a.idx.size() >= p.idx.size() || !(a.gain > 0)) continue;
-    const bool as_good =
-        a.gain >= s.st.parsimony * p.gain || !s.rules.resolved(p, explained_n(s, a.ho, p));
+    const bool as_good = a.gain >= s.st.parsimony * p.gain ||
+                         !s.rules.resolved(p, explained_n(s, a.ho, p), *s.terms);
     if (as_good && stats::partial_r2(s.g, s.current, a.idx, a.w, p.idx) > kNestedR2) pick = k;
   }
   return pick;
@@ -228,7 +229,7 @@ std::optional<Weakest> weakest_term(const Search& s, const std::vector<int>& sta
     const auto without = stats::heldout(s.g, rebuild(s, start, others));
     score(s, tr, without);
     const double expl = explained_n(s, without, tr);
-    const bool adds = tr.gain >= s.st.min_gain_pct && s.rules.resolved(tr, expl);
+    const bool adds = tr.gain >= s.st.min_gain_pct && s.rules.resolved(tr, expl, others);
     if (adds || (out && out->trial.t <= tr.t)) continue;  // the least consistent goes first
     out = Weakest{k, std::move(tr), expl};
   }
@@ -254,6 +255,7 @@ Outcome search(Search& s, const std::vector<int>& start,
                const std::function<void(double)>& progress) {
   Outcome out;
   out.start_ho = s.cur_ho;
+  s.terms = &out.terms;
   for (int step = 0; step < s.st.max_terms; ++step) {
     if (progress) progress(static_cast<double>(step) / s.st.max_terms);
     const auto trials = trials_of(s, out);

@@ -30,6 +30,8 @@ struct Trial {
   effects::Params params;
 };
 
+struct Term;
+
 /// What an axis and an actuator decide differently (the rest is Settings).
 class Rules {
  public:
@@ -39,8 +41,10 @@ class Rules {
   virtual std::optional<effects::Params> parameters(const Variant& var,
                                                     const std::vector<int>& cols,
                                                     const stats::Fit& fit) const = 0;
-  /// Whether the RMS force a trial explains is one the recording resolves and a user acts on.
-  virtual bool resolved(const Trial& tr, double explained_n) const = 0;
+  /// Whether the RMS force a trial explains is one the recording resolves and a user acts on,
+  /// beside the terms `model` holds (as they were taken).
+  virtual bool resolved(const Trial& tr, double explained_n,
+                        const std::vector<Term>& model) const = 0;
 };
 
 struct Settings {
