@@ -271,9 +271,8 @@ void set_locked_floor(Prepared& P) {
   P.locked_floor_n = std::hypot(P.floor_n, std::sqrt(held2 / n));
 }
 
-// The effect library's view of one filtered sample.
-// Max − min of a state's value over the samples.
-double span_of(const std::vector<State>& states, double State::*value) {
+// Max − min of a state's value over the samples (pulses.cpp's span_of is a time window).
+double spread_of(const std::vector<State>& states, double State::*value) {
   if (states.empty()) return 0.0;
   const auto [lo, hi] =
       std::minmax_element(states.begin(), states.end(),
@@ -281,6 +280,7 @@ double span_of(const std::vector<State>& states, double State::*value) {
   return (*hi).*value - (*lo).*value;
 }
 
+// The effect library's view of one filtered sample.
 struct StateAt {
   const Signals& s;
   const Coupling& cp;
@@ -401,8 +401,8 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
     P.locked_run.push_back(runs.run[i]);
     P.scales.speed_m_s = std::max(P.scales.speed_m_s, std::abs(P.states.back().v_m_s));
   }
-  P.scales.travel_m = span_of(P.states, &State::p_m);
-  P.scales.turn_rad = span_of(P.states, &State::theta_rad);
+  P.scales.travel_m = spread_of(P.states, &State::p_m);
+  P.scales.turn_rad = spread_of(P.states, &State::theta_rad);
   P.locked_period = runs.period;
   set_locked_floor(P);
   P.samples = n;
