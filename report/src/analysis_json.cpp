@@ -30,6 +30,7 @@ Json evidence_json(const Evidence& e) {
   put(j, "events", e.events);
   put(j, "resolution_floor_n", e.resolution_floor_n);
   put(j, "minimum_n", e.minimum_n);
+  put(j, "acting_share_pct", e.acting_share_pct);
   return j;
 }
 

@@ -526,28 +526,37 @@ class NutRules : public selection::Rules {
   }
   bool resolved(const selection::Trial& tr, double explained_n,
                 const std::vector<selection::Term>& model) const override;
+  double acting_share(const selection::Trial& tr) const override;
   const State& model() const { return model_; }
 
  private:
   const Prepared& P_;
   State model_;
+  std::vector<double> contribution(const selection::Trial& tr) const;
   double beyond_locked_rounding(const selection::Trial& tr) const;
   double minimum_beside(const std::vector<selection::Term>& model) const;
 };
 
-// RMS of the trial's fitted contribution less its mean over each locked run: the part of it a
-// locked count's rounding (a constant per run) cannot make.
-double NutRules::beyond_locked_rounding(const selection::Trial& tr) const {
+// The trial's fitted contribution at each sliding sample.
+std::vector<double> NutRules::contribution(const selection::Trial& tr) const {
   const auto k = static_cast<Eigen::Index>(tr.idx.size());
   std::vector<double> z(P_.states.size());
-  std::vector<double> run_sum(P_.locked_period.size(), 0.0), run_n(P_.locked_period.size(), 0.0);
   double x[8];
   for (std::size_t i = 0; i < z.size(); ++i) {
     tr.var->effect->regressors(tr.var->shape, P_.states[i], x);
     z[i] = Eigen::Map<const Eigen::VectorXd>(x, k).dot(tr.w);
+  }
+  return z;
+}
+
+// RMS of the trial's fitted contribution less its mean over each locked run: the part of it a
+// locked count's rounding (a constant per run) cannot make.
+double NutRules::beyond_locked_rounding(const selection::Trial& tr) const {
+  const auto z = contribution(tr);
+  std::vector<double> run_sum(P_.locked_period.size(), 0.0), run_n(P_.locked_period.size(), 0.0);
+  for (std::size_t i = 0; i < z.size(); ++i)
     if (const int r = P_.locked_run[i]; r >= 0)
       run_sum[static_cast<std::size_t>(r)] += z[i], run_n[static_cast<std::size_t>(r)] += 1.0;
-  }
   double ss = 0;
   for (std::size_t i = 0; i < z.size(); ++i) {
     const int r = P_.locked_run[i];
@@ -556,6 +565,17 @@ double NutRules::beyond_locked_rounding(const selection::Trial& tr) const {
     ss += d * d;
   }
   return z.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(z.size()));
+}
+
+// Share of the sliding samples where the trial's fitted law is not zero (beyond a billionth of its
+// largest value): a law with compact support, as an end zone, changes the force only there.
+double NutRules::acting_share(const selection::Trial& tr) const {
+  auto z = contribution(tr);
+  if (z.empty()) return 1.0;
+  for (double& v : z) v = std::abs(v);
+  const double tiny = 1e-9 * *std::max_element(z.begin(), z.end());
+  const auto acting = std::count_if(z.begin(), z.end(), [&](double v) { return v > tiny; });
+  return std::max(1.0, static_cast<double>(acting)) / static_cast<double>(z.size());
 }
 
 // The stated minimum is how well the calibration is known; its error reaches the model's force
@@ -570,11 +590,14 @@ double NutRules::minimum_beside(const std::vector<selection::Term>& model) const
   return P_.minimum_n * std::max(1.0, gain);
 }
 
-// A force the recording resolves and a user would act on: beyond the minimum and the floor;
-// where the count is locked, beyond what its rounding may hold (Prepared::locked_floor_n) unless
-// the term varies within the locked runs by more than the floor.
-bool NutRules::resolved(const selection::Trial& tr, double explained_n,
+// A force the recording resolves and a user would act on, measured where the trial's law acts
+// (a coupling 50 % weaker in the end zones is no smaller for the nut spending little time
+// there): beyond the minimum and the floor; where the count is locked, beyond what its rounding
+// may hold (Prepared::locked_floor_n) unless the term varies within the locked runs by more
+// than the floor.
+bool NutRules::resolved(const selection::Trial& tr, double recording_rms_n,
                         const std::vector<selection::Term>& model) const {
+  const double explained_n = recording_rms_n / std::sqrt(acting_share(tr));  // where it acts
   const double minimum_n = minimum_beside(model);
   const double floor_n = std::max(P_.floor_n, minimum_n);
   if (explained_n < floor_n) return false;

@@ -195,6 +195,13 @@ EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepare
   e.evidence.minimum_n = P.minimum_n;
   e.standard_errors = parameters_of(c.standard_errors);
   e.summary = summary_of(c, P);
+  if (c.acting_share < 1.0) {
+    e.evidence.acting_share_pct = 100.0 * c.acting_share;
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "; it acts on %.0f %% of the sliding samples, %.3f N RMS there",
+                  100.0 * c.acting_share, *e.evidence.explained_rms_n / std::sqrt(c.acting_share));
+    e.summary += buf;
+  }
   e.improvement_pct = 100.0 * (sse_before - sse_after) / baseline_heldout_sse;
   e.where = "sliding samples";
   // Only the plausible alternatives: one outside its physical range explains nothing here.

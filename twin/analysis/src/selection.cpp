@@ -180,6 +180,7 @@ void take(Search& s, Outcome& out, const std::vector<Trial>& trials, std::size_t
   const Trial& tr = trials[pick];
   Term term{tr,
             explained_n(s, s.cur_ho, tr),
+            s.rules.acting_share(tr),
             total(s.cur_ho),
             total(tr.ho),
             pick != best ? trials[best].var->effect : nullptr,
@@ -317,6 +318,7 @@ Found found_of(const Trial& tr, double explained_n, int folds) {
 
 Found found_of(const Term& term, int folds) {
   Found f = found_of(term.trial, term.explained_n, folds);
+  f.acting_share = term.acting_share;
   f.heldout_before = term.before;
   f.heldout_after = term.after;
   f.over = term.over;

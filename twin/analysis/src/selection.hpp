@@ -45,6 +45,8 @@ class Rules {
   /// beside the terms `model` holds (as they were taken).
   virtual bool resolved(const Trial& tr, double explained_n,
                         const std::vector<Term>& model) const = 0;
+  /// Share of the samples where the trial's fitted law is not zero (1: everywhere).
+  virtual double acting_share(const Trial& /*tr*/) const { return 1.0; }
 };
 
 struct Settings {
@@ -70,6 +72,7 @@ struct Alternative {
 struct Term {
   Trial trial;  // as taken; trial.idx: its columns in the final model
   double explained_n = 0;
+  double acting_share = 1;                // Rules::acting_share
   double before = 0, after = 0;           // total held-out error before and after it was taken
   const effects::Effect* over = nullptr;  // the richer best trial it was preferred to, if any
   std::vector<Alternative> alternatives;
@@ -127,6 +130,7 @@ struct Found {
   effects::Params params;                   // as selected; a path sets the final fit's
   effects::Params standard_errors{};        // jackknife over the held-out segments' fits
   bool plausible = true;                    // params inside the unit's physical range
+  double acting_share = 1;                  // samples where its law is not zero (Rules)
   double gain_pct = 0, t_stat = 0;          // held-out gain and its consistency over the segments
   double worst_pct = 0;                     // the worst counted segment's relative gain
   double explained_n = 0;                   // RMS force it explains on top of the model before it

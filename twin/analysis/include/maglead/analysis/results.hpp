@@ -47,6 +47,9 @@ struct Evidence {
   // What a finding must exceed (RMS force it changes): what the recording resolves (one
   // encoder count's rounding and the load-cell noise after the filter) and the stated minimum.
   std::optional<double> resolution_floor_n, minimum_n;
+  // Sliding samples where the effect's law is not zero; below 100 % (an end zone) the force it
+  // changes is measured there: explained_rms_n / sqrt(share) is what the floors were set against.
+  std::optional<double> acting_share_pct;
 };
 
 /// Another effect that reproduces a named effect's contribution (the data cannot tell them apart).
