@@ -450,6 +450,27 @@ TEST(StickSlip, ARecordingThatBarelySlidesSaysSo) {
       << r.findings.effects[0].note;
 }
 
+// Where the nut barely slides, the releases still tell a force the load cell does not see: it
+// lowers the break-away read in +p and raises it in −p by as much (2 N here: 2.6 N against 6.4 N
+// of excess). Before, only the Stribeck hump (the two sides' mean) was named.
+TEST(StickSlip, AnOffsetIsReadFromTheReleasesWhereTheNutBarelySlides) {
+  const auto r =
+      analyze_generated("hand-push", paper().cal, {{"stribeck_friction", 4.5}, {"offset", 2.0}});
+  EXPECT_FALSE(r.findings.sliding_note.empty());
+  ASSERT_EQ(r.findings.effects.size(), 2u);
+  EXPECT_EQ(r.findings.effects[0].id, "stribeck_friction");
+  const auto& e = r.findings.effects[1];
+  std::printf("%s: %s\n", e.id.c_str(), e.summary.c_str());
+  ASSERT_EQ(e.id, "offset");
+  const double offset_n = maglead::analysis::parameter_value(e.parameters, "offset_n");
+  const double se_n = maglead::analysis::parameter_value(e.standard_errors, "offset_n", -1.0);
+  EXPECT_GT(se_n, 0.0);
+  EXPECT_NEAR(offset_n, 2.0, 3 * se_n + 0.1);  // + the first-count lag's model error
+  // The hump is the two sides' mean, which the offset leaves alone.
+  EXPECT_NEAR(maglead::analysis::parameter_value(r.findings.effects[0].parameters, "breakaway_n"),
+              7.5 + 4.5, 0.5);
+}
+
 // The backward check (the one selection's, as on an axis) drops a term the others explain: it
 // adds nothing taken last. Not one that removes most of the error: beside a coupling gain error
 // it is collinear with, a gain drift taken last removed 56 % of the held-out error (the coupling

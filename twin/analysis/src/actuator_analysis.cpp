@@ -842,6 +842,38 @@ std::optional<selection::Found> stribeck_from_breakaway(const Prepared& P, const
   return c;
 }
 
+// At a release in +p the driving force the model sees is B − F_o, in −p it is B + F_o (an offset
+// F_o along +p unseen by the load cell): half the difference of the two sides' excesses, each
+// corrected for its first-count lag, is F_o, whatever the break-away B (Stribeck's hump or none).
+// The phase at each release is known to half a count's force, so the difference must exceed
+// that by opt.breakaway_sigmas standard errors, and the floors a sliding finding must beat.
+std::optional<selection::Found> offset_from_breakaway(const Prepared& P, const Selection& sel,
+                                                      const BreakawayTest& bt, const Options& opt) {
+  if (!sel.too_little_sliding || bt.pos.episodes < 3 || bt.neg.episodes < 3) return std::nullopt;
+  for (const auto& id : opt.exclude)
+    if (id == "offset") return std::nullopt;
+  const double pos = bt.pos.median_excess_n - bt.pos.lag_expected_n;
+  const double neg = bt.neg.median_excess_n - bt.neg.lag_expected_n;
+  const double offset_n = 0.5 * (neg - pos);
+  const double se_n = 0.5 * std::hypot(bt.pos.se_n, bt.neg.se_n);
+  const double margin =
+      (std::abs(offset_n) - 0.5 * std::max(bt.pos.count_force_n, bt.neg.count_force_n)) / se_n;
+  if (!(margin >= opt.breakaway_sigmas) || std::abs(offset_n) < std::max(P.floor_n, P.minimum_n))
+    return std::nullopt;
+  const auto* e = effects::find("offset");
+  const double coef = offset_n;
+  selection::Found c;
+  c.id = "offset";
+  c.effect = e;
+  c.params = *e->parameters(0.0, &coef, State{});
+  c.standard_errors = {{"offset_n", se_n}};
+  c.plausible = effects::plausible(*e, c.params, P.scales);
+  if (!c.plausible) return std::nullopt;
+  c.t_stat = margin;
+  c.segments = static_cast<int>(bt.pos.episodes + bt.neg.episodes);
+  return c;
+}
+
 }  // namespace maglead::analysis::actuator
 
 namespace maglead::analysis::actuator {

@@ -148,6 +148,11 @@ double breakaway_margin(const BreakawayTest::Side& s);
 /// resolves. None: the term stands (or none was chosen, or the releases are too few to tell).
 std::optional<std::string> stribeck_unseen_at_rest(const Prepared& P, const Baseline& base,
                                                    const Selection& sel, const Options& opt);
+/// Where the nut barely slides (no sliding fit), a force along +p the load cell does not see, from
+/// the releases: it lowers the break-away read in +p and raises it in −p by as much. None: too
+/// few releases, or a difference the releases do not resolve.
+std::optional<selection::Found> offset_from_breakaway(const Prepared& P, const Selection& sel,
+                                                      const BreakawayTest& bt, const Options& opt);
 std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt);
 BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
                              const std::vector<selection::Found>& chosen);

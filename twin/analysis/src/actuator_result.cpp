@@ -225,17 +225,26 @@ void add_sliding_findings(Findings& J, const actuator::Selection& sel, const act
         {st.model, es.rms(st.heldout_sse), es.rel(st.heldout_sse), std::nullopt, std::nullopt});
 }
 
-EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator::BreakawayTest& bt,
-                               const actuator::Prepared& P) {
+// A finding read from the releases (the break-away test), with them as its evidence.
+EffectFinding release_finding(const selection::Found& c, const actuator::BreakawayTest& bt,
+                              std::string where) {
   EffectFinding e;
-  e.id = stribeck.id;
-  e.parameters = parameters_of(stribeck.params);
-  e.where = "stuck episodes: the nut breaks away above its sliding friction in both directions";
-  e.evidence.t_stat = stribeck.t_stat;
-  e.evidence.segments_improved = std::to_string(stribeck.segments) + " releases";
+  e.id = c.id;
+  e.parameters = parameters_of(c.params);
+  e.where = std::move(where);
+  e.evidence.t_stat = c.t_stat;
+  e.evidence.segments_improved = std::to_string(c.segments) + " releases";
   e.evidence.breakaway_excess_pos_n = bt.pos.median_excess_n;
   e.evidence.breakaway_excess_neg_n = bt.neg.median_excess_n;
   e.evidence.encoder_count_force_n = bt.pos.count_force_n;
+  return e;
+}
+
+EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator::BreakawayTest& bt,
+                               const actuator::Prepared& P) {
+  auto e = release_finding(
+      stribeck, bt,
+      "stuck episodes: the nut breaks away above its sliding friction in both directions");
   // The break-away's error: the two sides' medians averaged.
   auto c = stribeck;
   c.standard_errors["breakaway_n"] = 0.5 * std::hypot(bt.pos.se_n, bt.neg.se_n);
@@ -277,6 +286,29 @@ void add_stribeck(Findings& J, actuator::Selection& sel, const selection::Found&
   sel.terms.push_back(stribeck);
 }
 
+// An offset the releases show where the nut barely slides (actuator::offset_from_breakaway): a
+// term of the corrected model like a sliding finding, with the releases as its evidence.
+void add_offset(Findings& J, actuator::Selection& sel, const selection::Found& offset,
+                const actuator::BreakawayTest& bt, const actuator::Prepared& P) {
+  auto e = release_finding(
+      offset, bt, "stuck episodes: the nut breaks away at levels that differ by direction");
+  e.evidence.resolution_floor_n = P.floor_n;
+  e.evidence.minimum_n = P.minimum_n;
+  e.standard_errors = parameters_of(offset.standard_errors);
+  e.summary = summary_of(offset, P);
+  // At rest only the break-away is seen: friction lower by F_o in +p and higher in −p is the same.
+  e.alternatives.push_back({"asymmetric_friction", {}, 100.0, std::nullopt});
+  e.identifiable = false;
+  e.note =
+      "from the releases alone (half the difference of the break-away read in −p and +p): "
+      "direction-dependent friction differing by twice as much reads the same at rest";
+  J.effects.push_back(std::move(e));
+  sel.terms.push_back(offset);
+  const auto* law = offset.effect;
+  for (std::size_t i = 0; i < P.states.size(); ++i)
+    sel.final_residual[i] -= law->force_n(offset.params, P.states[i]);
+}
+
 void add_step_outs(Findings& J, const actuator::Prepared& P) {
   for (const auto& s : P.slips) {
     Event ev;
@@ -306,14 +338,15 @@ std::string sliding_note(const actuator::Prepared& P, const actuator::Selection&
   return "the nut barely slides (" + std::to_string(sliding) + " sliding samples of " +
          std::to_string(P.samples) + "): the sliding fit says little; the stuck episodes (" +
          std::to_string(P.stuck.size()) +
-         " releases) still tell the break-away friction, and events (step-outs, pulses) are "
-         "still found";
+         " releases) still tell the break-away friction and, from how it differs by direction, "
+         "an offset; events (step-outs, pulses) are still found";
 }
 
 // The typed findings of the stages' results.
 Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator::Selection& sel,
                      const std::optional<selection::Found>& stribeck,
                      const actuator::BreakawayTest& bt, const actuator::Options& o) {
+  const auto offset = actuator::offset_from_breakaway(P, sel, bt, o);
   Findings J;
   J.system = "actuator";
   J.recording = rec.path;
@@ -333,6 +366,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
                 {}};
   add_sliding_findings(J, sel, P, es);
   if (stribeck) add_stribeck(J, sel, *stribeck, bt, P);
+  if (offset) add_offset(J, sel, *offset, bt, P);
   add_step_outs(J, P);
   pulses::report(J, actuator::find_pulses(P, sel, o));
   add_step_out_finding(J, P);
