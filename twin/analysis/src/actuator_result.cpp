@@ -164,6 +164,16 @@ void fold_in_stribeck(actuator::Selection& sel, const actuator::Prepared& P,
   }
 }
 
+// An offset from the releases acts on the sliding samples too (the few there are).
+void fold_in_offset(actuator::Selection& sel, const actuator::Prepared& P,
+                    const selection::Found& offset) {
+  sel.final_sse = 0;
+  for (std::size_t i = 0; i < P.states.size(); ++i) {
+    sel.final_residual[i] -= offset.effect->force_n(offset.params, P.states[i]);
+    sel.final_sse += sel.final_residual[i] * sel.final_residual[i];
+  }
+}
+
 Method method_of(const actuator::Prepared& P, const actuator::Options& o) {
   Method m;
   m.domain =
@@ -304,9 +314,6 @@ void add_offset(Findings& J, actuator::Selection& sel, const selection::Found& o
       "direction-dependent friction differing by twice as much reads the same at rest";
   J.effects.push_back(std::move(e));
   sel.terms.push_back(offset);
-  const auto* law = offset.effect;
-  for (std::size_t i = 0; i < P.states.size(); ++i)
-    sel.final_residual[i] -= law->force_n(offset.params, P.states[i]);
 }
 
 void add_step_outs(Findings& J, const actuator::Prepared& P) {
@@ -345,8 +352,8 @@ std::string sliding_note(const actuator::Prepared& P, const actuator::Selection&
 // The typed findings of the stages' results.
 Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator::Selection& sel,
                      const std::optional<selection::Found>& stribeck,
+                     const std::optional<selection::Found>& offset,
                      const actuator::BreakawayTest& bt, const actuator::Options& o) {
-  const auto offset = actuator::offset_from_breakaway(P, sel, bt, o);
   Findings J;
   J.system = "actuator";
   J.recording = rec.path;
@@ -461,9 +468,11 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   }
   progress("selection", 1.0);
   if (stribeck) fold_in_stribeck(sel.fit, P, *stribeck);
+  const auto offset = actuator::offset_from_breakaway(P, sel.fit, bt, o);
+  if (offset) fold_in_offset(sel.fit, P, *offset);
 
   AnalysisResult r;
-  r.findings = findings_of(rec, P, sel.fit, stribeck, bt, o);
+  r.findings = findings_of(rec, P, sel.fit, stribeck, offset, bt, o);
   r.findings.not_selected.insert(r.findings.not_selected.begin(), sel.rejected.begin(),
                                  sel.rejected.end());
   r.corrected = corrected_model(model, sel.fit.terms, rec.path);
