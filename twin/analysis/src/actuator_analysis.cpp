@@ -590,14 +590,12 @@ double NutRules::minimum_beside(const std::vector<selection::Term>& model) const
   return P_.minimum_n * std::max(1.0, gain);
 }
 
-// A force the recording resolves and a user would act on, measured where the trial's law acts
-// (a coupling 50 % weaker in the end zones is no smaller for the nut spending little time
-// there): beyond the minimum and the floor; where the count is locked, beyond what its rounding
-// may hold (Prepared::locked_floor_n) unless the term varies within the locked runs by more
-// than the floor.
-bool NutRules::resolved(const selection::Trial& tr, double recording_rms_n,
+// A force the recording resolves and a user would act on (given where the trial's law acts: a
+// coupling 50 % weaker in the end zones is no smaller for the nut spending little time there):
+// beyond the minimum and the floor; where the count is locked, beyond what its rounding may hold
+// (Prepared::locked_floor_n) unless the term varies within the locked runs by more than the floor.
+bool NutRules::resolved(const selection::Trial& tr, double explained_n,
                         const std::vector<selection::Term>& model) const {
-  const double explained_n = recording_rms_n / std::sqrt(acting_share(tr));  // where it acts
   const double minimum_n = minimum_beside(model);
   const double floor_n = std::max(P_.floor_n, minimum_n);
   if (explained_n < floor_n) return false;

@@ -119,13 +119,21 @@ double explained_n(const Search& s, const std::vector<double>& cur, const Trial&
   return std::sqrt(std::max(0.0, total(cur) - total(tr.ho)) / s.n_used);
 }
 
+// The same force measured where the trial's law acts (Rules::acting_share `share` of the
+// samples): a law with compact support, as an end zone, changes the force only there.
+double where_acting_n(const Search& s, const std::vector<double>& cur, const Trial& tr,
+                      double share) {
+  return explained_n(s, cur, tr) / std::sqrt(share);
+}
+
 // Significant: a real share of the held-out error, consistent over the segments, and a force the
-// recording resolves (Rules::resolved); a localized effect (kLocalized) counts as consistent.
-bool significant(const Search& s, const std::vector<double>& cur, const Trial& tr) {
+// recording resolves where the trial acts on `share` of the samples (Rules::resolved); a
+// localized effect (kLocalized) counts as consistent.
+bool significant(const Search& s, const std::vector<double>& cur, const Trial& tr, double share) {
   const bool consistent =
       tr.t >= s.st.min_t || (tr.gain >= kLocalized * s.st.min_gain_pct && tr.worst > -1.0);
   return tr.gain >= s.st.min_gain_pct && consistent &&
-         s.rules.resolved(tr, explained_n(s, cur, tr), *s.terms);
+         s.rules.resolved(tr, where_acting_n(s, cur, tr, share), *s.terms);
 }
 
 // Every effect not taken yet, each at its best variant and scored.
@@ -153,8 +161,9 @@ std::size_t preferred(const Search& s, const std::vector<Trial>& trials, std::si
   for (std::size_t k = 0; k < trials.size(); ++k) {
     const Trial &a = trials[k], &p = trials[pick];
     if (a.idx.size() >= p.idx.size() || !(a.gain > 0)) continue;
-    const bool as_good = a.gain >= s.st.parsimony * p.gain ||
-                         !s.rules.resolved(p, explained_n(s, a.ho, p), *s.terms);
+    const bool as_good =
+        a.gain >= s.st.parsimony * p.gain ||
+        !s.rules.resolved(p, where_acting_n(s, a.ho, p, s.rules.acting_share(p)), *s.terms);
     if (as_good && stats::partial_r2(s.g, s.current, a.idx, a.w, p.idx) > kNestedR2) pick = k;
   }
   return pick;
@@ -174,13 +183,14 @@ std::vector<Alternative> alternatives_of(const Search& s, const Trial& tr) {
   return out;
 }
 
-// Takes trials[pick] as the next term (preferred to trials[best] if they differ).
+// Takes trials[pick], acting on `share` of the samples, as the next term (preferred to
+// trials[best] if they differ).
 void take(Search& s, Outcome& out, const std::vector<Trial>& trials, std::size_t pick,
-          std::size_t best) {
+          std::size_t best, double share) {
   const Trial& tr = trials[pick];
   Term term{tr,
             explained_n(s, s.cur_ho, tr),
-            s.rules.acting_share(tr),
+            share,
             total(s.cur_ho),
             total(tr.ho),
             pick != best ? trials[best].var->effect : nullptr,
@@ -230,7 +240,9 @@ std::optional<Weakest> weakest_term(const Search& s, const std::vector<int>& sta
     const auto without = stats::heldout(s.g, rebuild(s, start, others));
     score(s, tr, without);
     const double expl = explained_n(s, without, tr);
-    const bool adds = tr.gain >= s.st.min_gain_pct && s.rules.resolved(tr, expl, others);
+    const bool adds =
+        tr.gain >= s.st.min_gain_pct &&
+        s.rules.resolved(tr, where_acting_n(s, without, tr, s.rules.acting_share(tr)), others);
     if (adds || (out && out->trial.t <= tr.t)) continue;  // the least consistent goes first
     out = Weakest{k, std::move(tr), expl};
   }
@@ -266,12 +278,13 @@ Outcome search(Search& s, const std::vector<int>& start,
                          [](const Trial& a, const Trial& b) { return total(a.ho) < total(b.ho); }) -
         trials.begin());
     const std::size_t pick = preferred(s, trials, best);
-    if (!significant(s, s.cur_ho, trials[pick])) {
+    const double share = s.rules.acting_share(trials[pick]);  // once per step: a pass over samples
+    if (!significant(s, s.cur_ho, trials[pick], share)) {
       out.stopped_at = trials[pick];
       out.stopped_explained_n = explained_n(s, s.cur_ho, trials[pick]);
       break;
     }
-    take(s, out, trials, pick, best);
+    take(s, out, trials, pick, best, share);
   }
   backward_check(s, start, out);
   out.current = s.current;

@@ -41,8 +41,8 @@ class Rules {
   virtual std::optional<effects::Params> parameters(const Variant& var,
                                                     const std::vector<int>& cols,
                                                     const stats::Fit& fit) const = 0;
-  /// Whether the RMS force a trial explains is one the recording resolves and a user acts on,
-  /// beside the terms `model` holds (as they were taken).
+  /// Whether the RMS force a trial explains, measured where its law acts (acting_share), is one
+  /// the recording resolves and a user acts on, beside the terms `model` holds (as taken).
   virtual bool resolved(const Trial& tr, double explained_n,
                         const std::vector<Term>& model) const = 0;
   /// Share of the samples where the trial's fitted law is not zero (1: everywhere).
