@@ -893,7 +893,7 @@ std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Op
   for (std::size_t i = 0; i < t.size(); ++i) t[i] = P.states[i].t_s;
   const auto& r = sel.final_residual;
   return pulses::unexplained(t, r, P.states, Form::nut, candidate_columns(Form::nut, opt.exclude),
-                             f, pulses::find(t, r, f));
+                             sel.current, f, pulses::find(t, r, f));
 }
 
 }  // namespace maglead::analysis::actuator

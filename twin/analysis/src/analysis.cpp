@@ -812,7 +812,7 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
 // a force no input explains (not a library law's where the axis was: pulses::unexplained), above
 // the force sensor's noise. The residual's band limit is the
 // decimation filter's, or at full rate the position's filter, applied to the residual here.
-void locate_pulses(AxisRun& run, const std::vector<double>& yf) {
+void locate_pulses(AxisRun& run, const std::vector<double>& yf, const std::vector<int>& model) {
   const Signals& S = *run.S;
   pulses::Floors f;
   f.min_n = run.P.noise_floor_n;
@@ -835,7 +835,7 @@ void locate_pulses(AxisRun& run, const std::vector<double>& yf) {
   states.reserve(t.size());            // recording's states would take hundreds of MB)
   for (std::size_t i = 0; i < S.size(); ++i)
     if (S.valid[i]) states.push_back(S.state(i));
-  run.pulses = pulses::unexplained(t, r, states, Form::axis, run.cand, f, std::move(found));
+  run.pulses = pulses::unexplained(t, r, states, Form::axis, run.cand, model, f, std::move(found));
 }
 
 // ---------------------------------------------------------------- localisation
@@ -1140,7 +1140,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   selection::Result sel = select_terms(run);
   const Parameters final_base_se = finish_terms(run, sel);
   const Predictions p = predictions(run, sel);
-  locate_pulses(run, p.yf);
+  locate_pulses(run, p.yf, sel.current);
   AnalysisResult R;
   fill_findings(R.findings, run, sel, p, final_base_se);
   const Signals& S = *run.S;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
 #include <utility>
 
 #include <Eigen/Dense>
@@ -172,14 +173,21 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
 
 std::vector<Pulse> unexplained(const std::vector<double>& t, const std::vector<double>& r,
                                const std::vector<effects::State>& s, Form form,
-                               const Candidates& cand, const Floors& f, std::vector<Pulse> found) {
+                               const Candidates& cand, const std::vector<int>& model,
+                               const Floors& f, std::vector<Pulse> found) {
   if (found.empty()) return found;
   const double thr = threshold(r, f);
   const auto away = away_from(t, found, 2.0 / f.filter_hz);
   std::vector<bool> explained(found.size(), false);
   for (const auto& v : cand.variants) {
+    // The model's own terms refit beside the law: a term the selection took in the law's place
+    // (a Coulomb level for a coupling gain while sliding against friction) leaves the law's
+    // force only where the two differ, which the law alone on the residual cannot predict.
+    std::vector<int> idx = model;
+    for (int j : v.idx)
+      if (std::find(idx.begin(), idx.end(), j) == idx.end()) idx.push_back(j);
     std::vector<Column> cols;
-    for (int j : v.idx) cols.push_back(cand.cols[static_cast<std::size_t>(j)]);
+    for (int j : idx) cols.push_back(cand.cols[static_cast<std::size_t>(j)]);
     const auto theta = fit_away(r, s, form, cols, away);
     for (std::size_t q = 0; q < found.size(); ++q)
       explained[q] = explained[q] || explains(t, r, s, form, cols, theta, found[q], thr);
@@ -192,20 +200,32 @@ std::vector<Pulse> unexplained(const std::vector<double>& t, const std::vector<d
 
 void report(Findings& J, const std::vector<Pulse>& found) {
   if (found.empty()) return;
-  double largest_n = 0;
+  // A pulse's times are sample instants and its force a filtered residual's peak: microseconds
+  // and millinewtons carry every digit they hold (no more than the printout's sum of steps).
+  const auto to = [](double x, double unit) { return std::round(x / unit) * unit; };
+  double largest_n = 0, shortest_s = found.front().duration_s, longest_s = 0;
   for (const auto& q : found) {
     Event ev;
     ev.type = "external_disturbance";
-    ev.t_s = q.t_s;
-    ev.duration_s = q.duration_s;
-    ev.force_n = q.peak_n;
+    ev.t_s = to(q.t_s, 1e-6);
+    ev.duration_s = to(q.duration_s, 1e-6);
+    ev.force_n = to(q.peak_n, 1e-3);
     J.events.push_back(ev);
-    if (std::abs(q.peak_n) > std::abs(largest_n)) largest_n = q.peak_n;
+    if (std::abs(q.peak_n) > std::abs(largest_n)) largest_n = *ev.force_n;
+    shortest_s = std::min(shortest_s, q.duration_s), longest_s = std::max(longest_s, q.duration_s);
   }
   EffectFinding e;
   e.id = "external_disturbance";
   set_parameter(e.parameters, "count", static_cast<double>(found.size()), true);
   set_parameter(e.parameters, "force_n", largest_n);
+  char lengths[64], buf[192];
+  if (std::round(shortest_s * 1e3) == std::round(longest_s * 1e3))
+    std::snprintf(lengths, sizeof lengths, "%.0f ms", longest_s * 1e3);
+  else
+    std::snprintf(lengths, sizeof lengths, "%.0f–%.0f ms", shortest_s * 1e3, longest_s * 1e3);
+  std::snprintf(buf, sizeof buf, "%zu pulse%s, the largest %.2f N, %s long (see events)",
+                found.size(), found.size() == 1 ? "" : "s", largest_n, lengths);
+  e.summary = buf;
   e.where = "isolated force pulses no input explains (see events)";
   e.evidence.events = found.size();
   J.effects.push_back(e);

@@ -29,13 +29,15 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
                         const Floors& f);
 
 /// `found` less the pulses a library law explains: fitted to the residual `r` away from every
-/// pulse (beyond the filter's support on either side, so the law cannot fit a pulse itself), one of
-/// the candidates' laws at the states `s` predicts it back under the threshold. Such a pulse is
-/// a force the motion's state explains (the coupling weakened where the nut stood at a stick-slip
-/// release, say), not one no input explains.
+/// pulse (beyond the filter's support on either side, so the law cannot fit a pulse itself)
+/// together with the model's columns `model` (indices into `cand.cols`, the final model's),
+/// one of the candidates' laws at the states `s` predicts it back under the threshold. Such a
+/// pulse is a force the motion's state explains (the coupling weakened where the nut stood at a
+/// stick-slip release, say), not one no input explains.
 std::vector<Pulse> unexplained(const std::vector<double>& t, const std::vector<double>& r,
                                const std::vector<effects::State>& s, Form form,
-                               const Candidates& cand, const Floors& f, std::vector<Pulse> found);
+                               const Candidates& cand, const std::vector<int>& model,
+                               const Floors& f, std::vector<Pulse> found);
 
 /// The pulses in the report, in the one form of both paths (docs/effects.md's
 /// `external_disturbance`, which the report page and graders read): an event per pulse (start,
