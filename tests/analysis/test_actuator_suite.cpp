@@ -17,8 +17,8 @@
 // CI runs a representative subset (each effect once alone per actuator, on a rotating rate and
 // noise, a chain of pairs, and the full matrix's cases that once made a false claim);
 // MAGLEAD_FULL_MATRIX=1 runs every combination,
-// MAGLEAD_MATRIX_FILTER=ID only the cases with that effect, MAGLEAD_MATRIX_KEEP=1 keeps their
-// recordings (the path is printed).
+// MAGLEAD_MATRIX_FILTER=ID only the cases with that effect, MAGLEAD_MATRIX_SCENARIO=S runs
+// them all in scenario S, MAGLEAD_MATRIX_KEEP=1 keeps their recordings (the path is printed).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -115,6 +115,7 @@ struct Case {
   std::vector<const EffectCase*> effects;
   double scale;  // 1: the larger magnitude, 0.5: the smaller
   double rate_hz, noise_n;
+  std::string scenario = {};  // empty: the first effect's
 };
 
 // Ids that name a concealed effect: its own and its accepted equivalents.
@@ -157,7 +158,10 @@ Outcome judge(const AnalysisResult& r, const std::vector<const EffectCase*>& tru
 
 Outcome run_case(const Case& c, int index) {
   maglead::ScenarioOptions opt;
-  opt.scenario = c.effects.front()->scenario;
+  opt.scenario = c.scenario.empty() ? c.effects.front()->scenario : c.scenario;
+  // MAGLEAD_MATRIX_SCENARIO=S runs every case in scenario S (mixed-moves: force control, hand
+  // pushes and moves in turn, as the practice recordings mix them).
+  if (const char* sc = std::getenv("MAGLEAD_MATRIX_SCENARIO")) opt.scenario = sc;
   opt.duration_s = 40.0;
   opt.seed = 5;
   opt.plant = c.setup->plant;
@@ -199,6 +203,7 @@ Outcome run_case(const Case& c, int index) {
 struct Regression {
   const char *actuator, *effects;
   double scale, rate_hz, noise_n;
+  const char* scenario = "";  // empty: the first effect's
 };
 const std::vector<Regression>& regressions() {
   static const std::vector<Regression> all = {
@@ -235,6 +240,13 @@ const std::vector<Regression>& regressions() {
       // Beside a 10 % gain error the bench calibration's error is 10 % larger in the model's
       // force: an offset of 0.057 N explaining 0.076 N was named against the 0.07 N minimum.
       {"third", "mass_error+coupling_gain_error", 1.0, 2000.0, 0.1},
+      // In mixed-moves (MAGLEAD_MATRIX_SCENARIO) the same pair: the Coulomb level the selection
+      // took for the gain left 0.7 N at force steps, seven pulses to the finder that the gain
+      // explains once the Coulomb level is refitted beside it (pulses::unexplained).
+      {"third", "mass_error+coupling_gain_error", 1.0, 1000.0, 0.1, "mixed-moves"},
+      // A Stribeck hump read from sliding with a Coulomb level 0.11 N above the baseline's
+      // beside it: the level is the Stribeck law's coulomb_n, one finding.
+      {"other", "stribeck_friction", 0.5, 1000.0, 0.1, "mixed-moves"},
   };
   return all;
 }
@@ -247,7 +259,7 @@ const EffectCase& effect_case(const std::string& id) {
 
 // The regression's case on bench `s`.
 Case case_of(const Bench& s, const Regression& r) {
-  Case c{&s, {}, r.scale, r.rate_hz, r.noise_n};
+  Case c{&s, {}, r.scale, r.rate_hz, r.noise_n, r.scenario};
   const std::string ids = r.effects;
   for (std::size_t at = 0; at != std::string::npos;) {
     const std::size_t plus = ids.find('+', at);

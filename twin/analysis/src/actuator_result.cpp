@@ -164,6 +164,30 @@ void fold_in_stribeck(actuator::Selection& sel, const actuator::Prepared& P,
   }
 }
 
+// Stribeck's law holds the kinetic level (its parameters are breakaway_n, coulomb_n and v_s): a
+// Coulomb level the sliding fit took beside a hump it also took is that law's F_c, one finding,
+// not a second effect. The force is the same: the hump's column is its excess over the baseline's
+// level, so the break-away moves with the level.
+void kinetic_level_into_stribeck(actuator::Selection& sel) {
+  auto& terms = sel.terms;
+  const auto named = [&](std::string_view id) {
+    return std::find_if(terms.begin(), terms.end(), [&](const auto& c) { return c.id == id; });
+  };
+  const auto stribeck = named("stribeck_friction"), coulomb = named("coulomb_friction");
+  if (stribeck == terms.end() || coulomb == terms.end()) return;
+  const double level_n = coulomb->params.at("coulomb_n");
+  stribeck->params["breakaway_n"] += level_n - stribeck->params.at("coulomb_n");
+  stribeck->params["coulomb_n"] = level_n;
+  auto& se = stribeck->standard_errors;
+  const double level_se = coulomb->standard_errors.count("coulomb_n") > 0
+                              ? coulomb->standard_errors.at("coulomb_n")
+                              : 0.0;
+  if (se.count("breakaway_n") > 0) se["breakaway_n"] = std::hypot(se["breakaway_n"], level_se);
+  se["coulomb_n"] = level_se;
+  stribeck->idx.insert(stribeck->idx.end(), coulomb->idx.begin(), coulomb->idx.end());
+  terms.erase(coulomb);
+}
+
 // An offset from the releases acts on the sliding samples too (the few there are).
 void fold_in_offset(actuator::Selection& sel, const actuator::Prepared& P,
                     const selection::Found& offset) {
@@ -467,6 +491,7 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
     if (!kept) actuator::put_back(P, aside);
   }
   progress("selection", 1.0);
+  kinetic_level_into_stribeck(sel.fit);
   if (stribeck) fold_in_stribeck(sel.fit, P, *stribeck);
   const auto offset = actuator::offset_from_breakaway(P, sel.fit, bt, o);
   if (offset) fold_in_offset(sel.fit, P, *offset);
