@@ -534,6 +534,7 @@ class NutRules : public selection::Rules {
   State model_;
   std::vector<double> contribution(const selection::Trial& tr) const;
   double beyond_locked_rounding(const selection::Trial& tr) const;
+  double own_force_n(const selection::Trial& tr) const;
   double minimum_beside(const std::vector<selection::Term>& model) const;
 };
 
@@ -599,8 +600,24 @@ bool NutRules::resolved(const selection::Trial& tr, double explained_n,
   const double minimum_n = minimum_beside(model);
   const double floor_n = std::max(P_.floor_n, minimum_n);
   if (explained_n < floor_n) return false;
-  if (P_.locked_share == 0 || explained_n >= std::max(P_.locked_floor_n, minimum_n)) return true;
-  return beyond_locked_rounding(tr) >= floor_n;
+  if (P_.locked_share > 0 && explained_n < std::max(P_.locked_floor_n, minimum_n) &&
+      beyond_locked_rounding(tr) < floor_n)
+    return false;
+  return own_force_n(tr) >= minimum_n;
+}
+
+// RMS of the trial's own fitted law where it acts. What a trial explains counts the other terms
+// refitted beside it too; a law whose own force stays within the calibration's accuracy (an
+// offset of 0.06 N beside a ripple, whose refit made up the rest) is one a calibration error
+// makes as well.
+double NutRules::own_force_n(const selection::Trial& tr) const {
+  auto z = contribution(tr);
+  double top = 0;
+  for (double& v : z) top = std::max(top, v = std::abs(v));
+  double ss = 0, n = 0;
+  for (double v : z)
+    if (v > 1e-9 * top) ss += v * v, n += 1;
+  return n > 0 ? std::sqrt(ss / n) : 0.0;
 }
 
 selection::Settings settings_of(const Options& opt, const effects::Scales& scales = {}) {

@@ -187,6 +187,7 @@ std::vector<Pulse> unexplained(const std::vector<double>& t, const std::vector<d
     for (int j : v.idx)
       if (std::find(idx.begin(), idx.end(), j) == idx.end()) idx.push_back(j);
     std::vector<Column> cols;
+    cols.reserve(idx.size());
     for (int j : idx) cols.push_back(cand.cols[static_cast<std::size_t>(j)]);
     const auto theta = fit_away(r, s, form, cols, away);
     for (std::size_t q = 0; q < found.size(); ++q)
