@@ -252,7 +252,7 @@ const std::vector<Regression>& regressions() {
       {"other", "stribeck_friction", 0.5, 1000.0, 0.1, "mixed-moves"},
       // Force control and hand pushes in turn: an offset of 0.062 N explained 0.071 N beside a
       // position ripple (the ripple's refit made up the rest), against the 0.07 N minimum. A
-      // law's own force must pass the minimum too (NutRules::own_force_n).
+      // law's own force must pass the minimum too (NutRules::resolved).
       {"third", "position_ripple", 1.0, 2000.0, 0.1, "mixed"},
   };
   return all;

@@ -534,7 +534,11 @@ class NutRules : public selection::Rules {
   State model_;
   std::vector<double> contribution(const selection::Trial& tr) const;
   double beyond_locked_rounding(const selection::Trial& tr) const;
-  double own_force_n(const selection::Trial& tr) const;
+  struct Acting {
+    double share = 1.0;    // of the sliding samples where its law is not zero
+    double own_rms_n = 0;  // RMS of its own fitted law there
+  };
+  Acting acting(const selection::Trial& tr) const;
   double minimum_beside(const std::vector<selection::Term>& model) const;
 };
 
@@ -568,16 +572,20 @@ double NutRules::beyond_locked_rounding(const selection::Trial& tr) const {
   return z.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(z.size()));
 }
 
-// Share of the sliding samples where the trial's fitted law is not zero (beyond a billionth of its
-// largest value): a law with compact support, as an end zone, changes the force only there.
-double NutRules::acting_share(const selection::Trial& tr) const {
+// Where the trial's fitted law is not zero (beyond a billionth of its largest value) on the
+// sliding samples: a law with compact support, as an end zone, changes the force only there.
+NutRules::Acting NutRules::acting(const selection::Trial& tr) const {
   auto z = contribution(tr);
-  if (z.empty()) return 1.0;
-  for (double& v : z) v = std::abs(v);
-  const double tiny = 1e-9 * *std::max_element(z.begin(), z.end());
-  const auto acting = std::count_if(z.begin(), z.end(), [&](double v) { return v > tiny; });
-  return std::max(1.0, static_cast<double>(acting)) / static_cast<double>(z.size());
+  if (z.empty()) return {};
+  double top = 0;
+  for (double& v : z) top = std::max(top, v = std::abs(v));
+  double ss = 0, n = 0;
+  for (double v : z)
+    if (v > 1e-9 * top) ss += v * v, n += 1;
+  return {std::max(1.0, n) / static_cast<double>(z.size()), n > 0 ? std::sqrt(ss / n) : 0.0};
 }
+
+double NutRules::acting_share(const selection::Trial& tr) const { return acting(tr).share; }
 
 // The stated minimum is how well the calibration is known; its error reaches the model's force
 // through the coupling gain the model holds, so beside a gain g found it is g times that (never
@@ -603,21 +611,10 @@ bool NutRules::resolved(const selection::Trial& tr, double explained_n,
   if (P_.locked_share > 0 && explained_n < std::max(P_.locked_floor_n, minimum_n) &&
       beyond_locked_rounding(tr) < floor_n)
     return false;
-  return own_force_n(tr) >= minimum_n;
-}
-
-// RMS of the trial's own fitted law where it acts. What a trial explains counts the other terms
-// refitted beside it too; a law whose own force stays within the calibration's accuracy (an
-// offset of 0.06 N beside a ripple, whose refit made up the rest) is one a calibration error
-// makes as well.
-double NutRules::own_force_n(const selection::Trial& tr) const {
-  auto z = contribution(tr);
-  double top = 0;
-  for (double& v : z) top = std::max(top, v = std::abs(v));
-  double ss = 0, n = 0;
-  for (double v : z)
-    if (v > 1e-9 * top) ss += v * v, n += 1;
-  return n > 0 ? std::sqrt(ss / n) : 0.0;
+  // What a trial explains counts the other terms refitted beside it too; a law whose own force
+  // where it acts stays within the calibration's accuracy (an offset of 0.06 N beside a ripple,
+  // whose refit made up the rest) is one a calibration error makes as well.
+  return acting(tr).own_rms_n >= minimum_n;
 }
 
 selection::Settings settings_of(const Options& opt, const effects::Scales& scales = {}) {

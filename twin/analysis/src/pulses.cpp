@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
+#include <string>
 #include <utility>
 
 #include <Eigen/Dense>
@@ -135,6 +136,16 @@ bool explains(const std::vector<double>& t, const std::vector<double>& r,
   return true;
 }
 
+// "40 ms", or "40–60 ms" when the lengths differ at that precision.
+std::string ms_range(double shortest_s, double longest_s) {
+  char out[64];
+  if (std::round(shortest_s * 1e3) == std::round(longest_s * 1e3))
+    std::snprintf(out, sizeof out, "%.0f ms", longest_s * 1e3);
+  else
+    std::snprintf(out, sizeof out, "%.0f–%.0f ms", shortest_s * 1e3, longest_s * 1e3);
+  return out;
+}
+
 }  // namespace
 
 // Short runs of the residual far outside its own spread (robust σ) and above the recording's
@@ -219,13 +230,10 @@ void report(Findings& J, const std::vector<Pulse>& found) {
   e.id = "external_disturbance";
   set_parameter(e.parameters, "count", static_cast<double>(found.size()), true);
   set_parameter(e.parameters, "force_n", largest_n);
-  char lengths[64], buf[192];
-  if (std::round(shortest_s * 1e3) == std::round(longest_s * 1e3))
-    std::snprintf(lengths, sizeof lengths, "%.0f ms", longest_s * 1e3);
-  else
-    std::snprintf(lengths, sizeof lengths, "%.0f–%.0f ms", shortest_s * 1e3, longest_s * 1e3);
+  char buf[192];
   std::snprintf(buf, sizeof buf, "%zu pulse%s, the largest %.2f N, %s long (see events)",
-                found.size(), found.size() == 1 ? "" : "s", largest_n, lengths);
+                found.size(), found.size() == 1 ? "" : "s", largest_n,
+                ms_range(shortest_s, longest_s).c_str());
   e.summary = buf;
   e.where = "isolated force pulses no input explains (see events)";
   e.evidence.events = found.size();
