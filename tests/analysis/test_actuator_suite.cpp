@@ -254,6 +254,10 @@ const std::vector<Regression>& regressions() {
       // position ripple (the ripple's refit made up the rest), against the 0.07 N minimum. A
       // law's own force must pass the minimum too (NutRules::resolved).
       {"third", "position_ripple", 1.0, 2000.0, 0.1, "mixed"},
+      // There an angle ripple seen over part of a screw turn read as direction-dependent
+      // friction (30 % of the held-out error) where the ripple explains 99 %: an unseen period
+      // takes the pick's place when the pick adds nothing beside it (selection.cpp).
+      {"third", "angle_ripple", 1.0, 1000.0, 0.1, "mixed"},
   };
   return all;
 }
