@@ -276,7 +276,7 @@ void backward_check(Search& s, const std::vector<int>& start, Outcome& out) {
 // show, and the law takes its place (in force control and held-screw pushes an angle ripple
 // seen over part of a turn read as direction-dependent friction, 30 % of the held-out error,
 // where the ripple explains 99 %). Returns the law's trial on the model as it is, if so.
-std::optional<Trial> unseen_period_instead(Search& s, Outcome& out, const Trial& pick) {
+std::optional<Trial> unseen_period_instead(const Search& s, Outcome& out, const Trial& pick) {
   std::optional<Trial> u;
   for (const auto* e : effects::library()) {
     if (s.taken(e)) continue;
@@ -287,20 +287,17 @@ std::optional<Trial> unseen_period_instead(Search& s, Outcome& out, const Trial&
   score(s, *u, s.cur_ho);
   if (!s.rules.resolved(*u, where_acting_n(s, pick.ho, *u, s.rules.acting_share(*u)), *s.terms))
     return std::nullopt;
-  // The pick beside it: the same variant fitted on the model with the law in.
-  const auto saved_current = s.current;
-  const auto saved_ho = s.cur_ho;
-  s.current.insert(s.current.end(), u->idx.begin(), u->idx.end());
-  s.cur_ho = u->ho;
-  auto beside = best_variant(s, pick.var->effect, out);
-  bool adds = false;
-  if (beside) {
-    score(s, *beside, s.cur_ho);
-    adds = significant(s, s.cur_ho, *beside, s.rules.acting_share(*beside));
-  }
-  s.current = saved_current;
-  s.cur_ho = saved_ho;
-  if (adds) return std::nullopt;
+  // The pick's effect beside it, on a copy of the search with the law in (and an outcome of
+  // its own: an implausible fit there is not this step's).
+  Search with_law = s;
+  with_law.current = with(s.current, u->idx);
+  with_law.cur_ho = u->ho;
+  Outcome scratch;
+  auto beside = best_variant(with_law, pick.var->effect, scratch);
+  if (!beside) return u;
+  score(with_law, *beside, with_law.cur_ho);
+  if (significant(with_law, with_law.cur_ho, *beside, s.rules.acting_share(*beside)))
+    return std::nullopt;
   return u;
 }
 
