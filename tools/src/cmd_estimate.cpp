@@ -122,20 +122,22 @@ void plot_estimates(const EstimateOptions& o, const Inputs& in, double lead_m, c
     screw_mm[i] = in.screw[i] * lead_m / (2 * std::numbers::pi) * 1e3;
   }
   const auto& t = in.t;
-  plot::save_panels_png(png,
-                        {{"(a) Output force: estimate against load cell",
-                          "time [s]",
-                          "force [N]",
-                          {{"load cell", t, measured}, {o.estimator + " estimate", t, e.force_n}}},
-                         {"(b) Estimation error (estimate - load cell), mean |e| " +
-                              std::to_string(mean_abs_n).substr(0, 4) + " N",
-                          "time [s]",
-                          "error [N]",
-                          {{"error", t, error}}},
-                         {"(c) Nut position and screw angle (as lead travel)",
-                          "time [s]",
-                          "[mm]",
-                          {{"nut position", t, pos_mm}, {"screw angle x L/2pi", t, screw_mm}}}});
+  char mean_text[32];  // rounded as the printout rounds it (a cut string read 1.4399 as 1.43)
+  std::snprintf(mean_text, sizeof mean_text, "%.2f", mean_abs_n);
+  plot::save_panels_png(
+      png,
+      {{"(a) Output force: estimate against load cell",
+        "time [s]",
+        "force [N]",
+        {{"load cell", t, measured}, {o.estimator + " estimate", t, e.force_n}}},
+       {"(b) Estimation error (estimate - load cell), mean |e| " + std::string(mean_text) + " N",
+        "time [s]",
+        "error [N]",
+        {{"error", t, error}}},
+       {"(c) Nut position and screw angle (as lead travel)",
+        "time [s]",
+        "[mm]",
+        {{"nut position", t, pos_mm}, {"screw angle x L/2pi", t, screw_mm}}}});
   std::printf("plot: %s\n", png.c_str());
 }
 
