@@ -524,9 +524,9 @@ class NutRules : public selection::Rules {
     const auto k = static_cast<Eigen::Index>(cols.size());
     return var.effect->parameters(var.shape, fit.theta.tail(k).data(), model_);
   }
-  bool resolved(const selection::Trial& tr, double explained_n,
+  bool resolved(const selection::Trial& tr, double explained_n, const selection::Acting& where,
                 const std::vector<selection::Term>& model) const override;
-  double acting_share(const selection::Trial& tr) const override;
+  selection::Acting acting(const selection::Trial& tr) const override;
   const State& model() const { return model_; }
 
  private:
@@ -534,11 +534,6 @@ class NutRules : public selection::Rules {
   State model_;
   std::vector<double> contribution(const selection::Trial& tr) const;
   double beyond_locked_rounding(const selection::Trial& tr) const;
-  struct Acting {
-    double share = 1.0;    // of the sliding samples where its law is not zero
-    double own_rms_n = 0;  // RMS of its own fitted law there
-  };
-  Acting acting(const selection::Trial& tr) const;
   double minimum_beside(const std::vector<selection::Term>& model) const;
 };
 
@@ -574,9 +569,9 @@ double NutRules::beyond_locked_rounding(const selection::Trial& tr) const {
 
 // Where the trial's fitted law is not zero (beyond a billionth of its largest value) on the
 // sliding samples: a law with compact support, as an end zone, changes the force only there.
-NutRules::Acting NutRules::acting(const selection::Trial& tr) const {
+selection::Acting NutRules::acting(const selection::Trial& tr) const {
   auto z = contribution(tr);
-  if (z.empty()) return {};
+  if (z.empty()) return {1.0, 0.0};
   double top = 0;
   for (double& v : z) top = std::max(top, v = std::abs(v));
   double ss = 0, n = 0;
@@ -584,8 +579,6 @@ NutRules::Acting NutRules::acting(const selection::Trial& tr) const {
     if (v > 1e-9 * top) ss += v * v, n += 1;
   return {std::max(1.0, n) / static_cast<double>(z.size()), n > 0 ? std::sqrt(ss / n) : 0.0};
 }
-
-double NutRules::acting_share(const selection::Trial& tr) const { return acting(tr).share; }
 
 // The stated minimum is how well the calibration is known; its error reaches the model's force
 // through the coupling gain the model holds, so beside a gain g found it is g times that (never
@@ -604,6 +597,7 @@ double NutRules::minimum_beside(const std::vector<selection::Term>& model) const
 // beyond the minimum and the floor; where the count is locked, beyond what its rounding may hold
 // (Prepared::locked_floor_n) unless the term varies within the locked runs by more than the floor.
 bool NutRules::resolved(const selection::Trial& tr, double explained_n,
+                        const selection::Acting& where,
                         const std::vector<selection::Term>& model) const {
   const double minimum_n = minimum_beside(model);
   const double floor_n = std::max(P_.floor_n, minimum_n);
@@ -614,7 +608,7 @@ bool NutRules::resolved(const selection::Trial& tr, double explained_n,
   // What a trial explains counts the other terms refitted beside it too; a law whose own force
   // where it acts stays within the calibration's accuracy (an offset of 0.06 N beside a ripple,
   // whose refit made up the rest) is one a calibration error makes as well.
-  return acting(tr).own_rms_n >= minimum_n;
+  return where.own_rms_n >= minimum_n;
 }
 
 selection::Settings settings_of(const Options& opt, const effects::Scales& scales = {}) {

@@ -562,6 +562,7 @@ class AxisRules : public selection::Rules {
                        fitted_totals(run_, fit, var.effect));
   }
   bool resolved(const selection::Trial& /*tr*/, double explained_n,
+                const selection::Acting& /*where*/,
                 const std::vector<selection::Term>& /*model*/) const override {
     return explained_n >= run_.P.noise_floor_n;
   }

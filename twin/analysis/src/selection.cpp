@@ -125,21 +125,22 @@ double explained_n(const Search& s, const std::vector<double>& cur, const Trial&
   return std::sqrt(std::max(0.0, total(cur) - total(tr.ho)) / s.n_used);
 }
 
-// The same force measured where the trial's law acts (Rules::acting_share `share` of the
-// samples): a law with compact support, as an end zone, changes the force only there.
-double where_acting_n(const Search& s, const std::vector<double>& cur, const Trial& tr,
-                      double share) {
-  return explained_n(s, cur, tr) / std::sqrt(share);
+// Whether the force the trial explains on top of the model with held-out error `cur` is one the
+// recording resolves (Rules::resolved), measured where its law acts (`where`: a law with compact
+// support, as an end zone, changes the force only there), beside the terms `model`.
+bool resolved_where(const Search& s, const std::vector<double>& cur, const Trial& tr,
+                    const Acting& where, const std::vector<Term>& model) {
+  return s.rules.resolved(tr, explained_n(s, cur, tr) / std::sqrt(where.share), where, model);
 }
 
 // Significant: a real share of the held-out error, consistent over the segments, and a force the
-// recording resolves where the trial acts on `share` of the samples (Rules::resolved); a
-// localized effect (kLocalized) counts as consistent.
-bool significant(const Search& s, const std::vector<double>& cur, const Trial& tr, double share) {
+// recording resolves where the trial acts (resolved_where); a localized effect (kLocalized)
+// counts as consistent.
+bool significant(const Search& s, const std::vector<double>& cur, const Trial& tr,
+                 const Acting& where) {
   const bool consistent =
       tr.t >= s.st.min_t || (tr.gain >= kLocalized * s.st.min_gain_pct && tr.worst > -1.0);
-  return tr.gain >= s.st.min_gain_pct && consistent &&
-         s.rules.resolved(tr, where_acting_n(s, cur, tr, share), *s.terms);
+  return tr.gain >= s.st.min_gain_pct && consistent && resolved_where(s, cur, tr, where, *s.terms);
 }
 
 // Every effect not taken yet, each at its best variant and scored.
@@ -167,9 +168,8 @@ std::size_t preferred(const Search& s, const std::vector<Trial>& trials, std::si
   for (std::size_t k = 0; k < trials.size(); ++k) {
     const Trial &a = trials[k], &p = trials[pick];
     if (a.idx.size() >= p.idx.size() || !(a.gain > 0)) continue;
-    const bool as_good =
-        a.gain >= s.st.parsimony * p.gain ||
-        !s.rules.resolved(p, where_acting_n(s, a.ho, p, s.rules.acting_share(p)), *s.terms);
+    const bool as_good = a.gain >= s.st.parsimony * p.gain ||
+                         !resolved_where(s, a.ho, p, s.rules.acting(p), *s.terms);
     if (as_good && stats::partial_r2(s.g, s.current, a.idx, a.w, p.idx) > kNestedR2) pick = k;
   }
   return pick;
@@ -247,8 +247,7 @@ std::optional<Weakest> weakest_term(const Search& s, const std::vector<int>& sta
     score(s, tr, without);
     const double expl = explained_n(s, without, tr);
     const bool adds =
-        tr.gain >= s.st.min_gain_pct &&
-        s.rules.resolved(tr, where_acting_n(s, without, tr, s.rules.acting_share(tr)), others);
+        tr.gain >= s.st.min_gain_pct && resolved_where(s, without, tr, s.rules.acting(tr), others);
     if (adds || (out && out->trial.t <= tr.t)) continue;  // the least consistent goes first
     out = Weakest{k, std::move(tr), expl};
   }
@@ -285,8 +284,7 @@ std::optional<Trial> unseen_period_instead(const Search& s, Outcome& out, const 
   }
   if (!u) return std::nullopt;
   score(s, *u, s.cur_ho);
-  if (!s.rules.resolved(*u, where_acting_n(s, pick.ho, *u, s.rules.acting_share(*u)), *s.terms))
-    return std::nullopt;
+  if (!resolved_where(s, pick.ho, *u, s.rules.acting(*u), *s.terms)) return std::nullopt;
   // The pick's effect beside it, on a copy of the search with the law in (and an outcome of
   // its own: an implausible fit there is not this step's).
   Search with_law = s;
@@ -296,8 +294,7 @@ std::optional<Trial> unseen_period_instead(const Search& s, Outcome& out, const 
   auto beside = best_variant(with_law, pick.var->effect, scratch);
   if (!beside) return u;
   score(with_law, *beside, with_law.cur_ho);
-  if (significant(with_law, with_law.cur_ho, *beside, s.rules.acting_share(*beside)))
-    return std::nullopt;
+  if (significant(with_law, with_law.cur_ho, *beside, s.rules.acting(*beside))) return std::nullopt;
   return u;
 }
 
@@ -320,13 +317,13 @@ Outcome search(Search& s, const std::vector<int>& start,
       trials.push_back(std::move(*u));
       pick = trials.size() - 1;
     }
-    const double share = s.rules.acting_share(trials[pick]);  // once per step: a pass over samples
-    if (!significant(s, s.cur_ho, trials[pick], share)) {
+    const Acting where = s.rules.acting(trials[pick]);  // once per step: a pass over samples
+    if (!significant(s, s.cur_ho, trials[pick], where)) {
       out.stopped_at = trials[pick];
       out.stopped_explained_n = explained_n(s, s.cur_ho, trials[pick]);
       break;
     }
-    take(s, out, trials, pick, best, share);
+    take(s, out, trials, pick, best, where.share);
   }
   backward_check(s, start, out);
   out.current = s.current;

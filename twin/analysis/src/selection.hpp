@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -32,6 +33,12 @@ struct Trial {
 
 struct Term;
 
+/// Where a trial's fitted law acts, as the Rules see it (one pass over the samples).
+struct Acting {
+  double share = 1.0;  // of the samples where its law is not zero
+  double own_rms_n = std::numeric_limits<double>::infinity();  // its own law's RMS there
+};
+
 /// What an axis and an actuator decide differently (the rest is Settings).
 class Rules {
  public:
@@ -41,12 +48,13 @@ class Rules {
   virtual std::optional<effects::Params> parameters(const Variant& var,
                                                     const std::vector<int>& cols,
                                                     const stats::Fit& fit) const = 0;
-  /// Whether the RMS force a trial explains, measured where its law acts (acting_share), is one
-  /// the recording resolves and a user acts on, beside the terms `model` holds (as taken).
-  virtual bool resolved(const Trial& tr, double explained_n,
+  /// Whether the RMS force a trial explains, measured where its law acts (`where`), and its own
+  /// law's force there are ones the recording resolves and a user acts on, beside the terms
+  /// `model` holds (as taken).
+  virtual bool resolved(const Trial& tr, double explained_n, const Acting& where,
                         const std::vector<Term>& model) const = 0;
-  /// Share of the samples where the trial's fitted law is not zero (1: everywhere).
-  virtual double acting_share(const Trial& /*tr*/) const { return 1.0; }
+  /// Where the trial's fitted law acts (default: everywhere, its own force not asked).
+  virtual Acting acting(const Trial& /*tr*/) const { return {}; }
 };
 
 struct Settings {
@@ -72,7 +80,7 @@ struct Alternative {
 struct Term {
   Trial trial;  // as taken; trial.idx: its columns in the final model
   double explained_n = 0;
-  double acting_share = 1;                // Rules::acting_share
+  double acting_share = 1;                // Rules::acting
   double before = 0, after = 0;           // total held-out error before and after it was taken
   const effects::Effect* over = nullptr;  // the richer best trial it was preferred to, if any
   std::vector<Alternative> alternatives;
