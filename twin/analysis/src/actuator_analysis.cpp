@@ -527,6 +527,9 @@ class NutRules : public selection::Rules {
   bool resolved(const selection::Trial& tr, double explained_n, const selection::Acting& where,
                 const std::vector<selection::Term>& model) const override;
   selection::Acting acting(const selection::Trial& tr) const override;
+  double floor_n(const std::vector<selection::Term>& model) const override {
+    return std::max(P_.floor_n, minimum_beside(model));
+  }
   const State& model() const { return model_; }
 
  private:
@@ -600,7 +603,7 @@ bool NutRules::resolved(const selection::Trial& tr, double explained_n,
                         const selection::Acting& where,
                         const std::vector<selection::Term>& model) const {
   const double minimum_n = minimum_beside(model);
-  const double floor_n = std::max(P_.floor_n, minimum_n);
+  const double floor_n = this->floor_n(model);
   if (explained_n < floor_n) return false;
   if (P_.locked_share > 0 && explained_n < std::max(P_.locked_floor_n, minimum_n) &&
       beyond_locked_rounding(tr) < floor_n)

@@ -564,7 +564,10 @@ class AxisRules : public selection::Rules {
   bool resolved(const selection::Trial& /*tr*/, double explained_n,
                 const selection::Acting& /*where*/,
                 const std::vector<selection::Term>& /*model*/) const override {
-    return explained_n >= run_.P.noise_floor_n;
+    return explained_n >= floor_n({});
+  }
+  double floor_n(const std::vector<selection::Term>& /*model*/) const override {
+    return run_.P.noise_floor_n;
   }
 
  private:

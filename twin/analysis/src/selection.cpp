@@ -90,16 +90,22 @@ std::optional<Trial> best_variant(const Search& s, const effects::Effect* e, Out
   return best;
 }
 
-// Whether the trial's fitted contribution carries Settings::acting_share of segment f's error.
+// Whether the trial's fitted contribution carries Settings::acting_share of segment f's error, or
+// of the floor's error there where that is larger (Rules::floor_n): a load-cell delay's column
+// in unloaded moves is the load cell's noise, 0.01 N against a 0.022 N error, both below what
+// the recording resolves; it predicts nothing there (and would count those segments worse, at
+// 0.024 N).
 bool acts_in(const Search& s, const Trial& tr, std::size_t f, double err) {
   if (s.st.acting_share == 0) return true;
+  const double floor_n = s.rules.floor_n(*s.terms);
+  const double floor_err = floor_n * floor_n * static_cast<double>(s.g.n[f]);
   const auto k = static_cast<Eigen::Index>(tr.idx.size());
   Eigen::MatrixXd xx(k, k);
   for (Eigen::Index r = 0; r < k; ++r)
     for (Eigen::Index c = 0; c < k; ++c)
       xx(r, c) =
           s.g.xx[f](tr.idx[static_cast<std::size_t>(r)], tr.idx[static_cast<std::size_t>(c)]);
-  return tr.w.dot(xx * tr.w) >= s.st.acting_share * err;
+  return tr.w.dot(xx * tr.w) >= s.st.acting_share * std::max(err, floor_err);
 }
 
 // Consistency over the segments where the term acts (elsewhere it predicts nothing and tells

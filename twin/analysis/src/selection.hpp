@@ -55,6 +55,9 @@ class Rules {
                         const std::vector<Term>& model) const = 0;
   /// Where the trial's fitted law acts (default: everywhere, its own force not asked).
   virtual Acting acting(const Trial& /*tr*/) const { return {}; }
+  /// The RMS force the recording resolves beside the terms `model` holds: errors below it are
+  /// the floor's (default: none).
+  virtual double floor_n(const std::vector<Term>& /*model*/) const { return 0.0; }
 };
 
 struct Settings {
