@@ -77,16 +77,24 @@ bool clear_of_ends(const Floors& f, double t0, double t1) {
   return t0 >= f.start_s + edge_s && t1 <= f.start_s + f.span_s - edge_s;
 }
 
-// The run of consecutive samples (no gap in time) beyond `thr` from i: its end and peak.
-std::pair<std::size_t, double> run_from(const std::vector<double>& t, const std::vector<double>& r,
-                                        std::size_t i, double thr, double step_s) {
-  std::size_t j = i;
-  double peak = 0;
+// A run of consecutive samples (no gap in time) beyond the threshold.
+struct Run {
+  std::size_t end = 0;  // one past its last sample
+  double peak = 0;      // its residual farthest from zero
+  double area = 0;      // Σ|r| over it [N·sample], its impulse
+};
+
+// The run beyond `thr` from i.
+Run run_from(const std::vector<double>& t, const std::vector<double>& r, std::size_t i, double thr,
+             double step_s) {
+  Run run{i};
+  std::size_t& j = run.end;
   while (j < r.size() && std::abs(r[j]) > thr && (j == i || t[j] - t[j - 1] < 1.5 * step_s)) {
-    if (std::abs(r[j]) > std::abs(peak)) peak = r[j];
+    if (std::abs(r[j]) > std::abs(run.peak)) run.peak = r[j];
+    run.area += std::abs(r[j]);
     ++j;
   }
-  return {j, peak};
+  return run;
 }
 
 // The level a pulse must pass: far outside the residual's own spread and above the floor.
@@ -174,7 +182,9 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
       ++i;
       continue;
     }
-    const auto [j, peak] = run_from(t, r, i, thr, f.step_s);
+    const Run run = run_from(t, r, i, thr, f.step_s);
+    const std::size_t j = run.end;
+    const double peak = run.peak;
     const double duration = t[j - 1] - t[i] + f.step_s;
     // Shorter than the filter resolves is ringing of a transition, not a force that acted.
     if (duration <= f.max_s && duration >= 0.5 / f.filter_hz && clear_of_ends(f, t[i], t[j - 1])) {
@@ -184,10 +194,8 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
       // milliseconds is followed by a 1.4 N swing as the coupling throws it on (the filtered
       // acceleration lags the jump), 3 % of the pulse's impulse.
       const auto u = filter_undershoot(f, duration);
-      double area = 0;
-      for (std::size_t k = i; k < j; ++k) area += std::abs(r[k]);
       const bool one_sign = fl.opposite_n <= std::max(thr, 2.0 * u.of_peak * std::abs(peak)) ||
-                            fl.opposite_area <= 2.0 * u.of_area * area;
+                            fl.opposite_area <= 2.0 * u.of_area * run.area;
       if (stands_out && one_sign) out.push_back({t[i], duration, peak});
     }
     i = j;
