@@ -95,9 +95,8 @@ std::optional<Trial> best_variant(const Search& s, const effects::Effect* e, Out
 // in unloaded moves is the load cell's noise, 0.01 N against a 0.022 N error, both below what
 // the recording resolves; it predicts nothing there (and would count those segments worse, at
 // 0.024 N).
-bool acts_in(const Search& s, const Trial& tr, std::size_t f, double err) {
+bool acts_in(const Search& s, const Trial& tr, std::size_t f, double err, double floor_n) {
   if (s.st.acting_share == 0) return true;
-  const double floor_n = s.rules.floor_n(*s.terms);
   const double floor_err = floor_n * floor_n * static_cast<double>(s.g.n[f]);
   const auto k = static_cast<Eigen::Index>(tr.idx.size());
   Eigen::MatrixXd xx(k, k);
@@ -115,8 +114,9 @@ bool acts_in(const Search& s, const Trial& tr, std::size_t f, double err) {
 void score(const Search& s, Trial& tr, const std::vector<double>& cur) {
   std::vector<double> d, rel;
   tr.improved = 0;
+  const double floor_n = s.rules.floor_n(*s.terms);  // the same for every segment
   for (std::size_t f = 0; f < cur.size(); ++f) {
-    if (!(cur[f] > 0) || !acts_in(s, tr, f, cur[f])) continue;
+    if (!(cur[f] > 0) || !acts_in(s, tr, f, cur[f], floor_n)) continue;
     d.push_back(cur[f] - tr.ho[f]);
     rel.push_back(d.back() / cur[f]);
     tr.improved += d.back() > 0;
