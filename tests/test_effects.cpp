@@ -102,6 +102,19 @@ TEST(Effects, IdsAndParameterNamesAreTheDocumentedOnes) {
   EXPECT_FALSE(plausible(*find("coupling_gain_error"), {{"gain", 3.0}}, {}));
 }
 
+// A play whose lag b/2 lies within half a count of the phase is what the encoders' rounding holds
+// where nothing moves: not a backlash on that actuator, one on an actuator that resolves it.
+TEST(EffectLibrary, APlayBelowACountOfThePhaseIsNotBacklash) {
+  const Effect& backlash = *find("backlash");
+  EXPECT_FALSE(plausible(backlash, {{"backlash_rad", 0.007}}, {.phase_count_rad = 0.0157}));
+  EXPECT_TRUE(plausible(backlash, {{"backlash_rad", 0.007}}, {.phase_count_rad = 0.005}));
+  EXPECT_TRUE(plausible(backlash, {{"backlash_rad", 0.025}}, {.phase_count_rad = 0.0157}));
+  EXPECT_TRUE(plausible(backlash, {{"backlash_rad", 0.007}}, {}));  // the count not known
+  // The bound is the play's own: a negative gain error stays judged by its range alone.
+  EXPECT_TRUE(plausible(*find("offset"), {{"offset_n", -0.2}},
+                        {.force_n = 44.0, .phase_count_rad = 0.0157}));
+}
+
 // A range in the actuator's own scales: the same friction is plausible on a drive that produces
 // more than it, not on one that could never overcome it; no actuator's size sits in a unit.
 TEST(EffectLibrary, RangesScaleWithTheActuator) {

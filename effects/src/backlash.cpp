@@ -12,7 +12,8 @@ struct Backlash final : Effect {
     return "theta_screw = theta_motor/N - (b/2) sign(torque)";
   }
   std::vector<ParamSpec> params() const override {
-    return {{"backlash_rad", "total play b at the screw", 0.0, 0.5}};
+    // A lag b/2 within half a count is what rounding holds where nothing moves: at least a count.
+    return {{"backlash_rad", "total play b at the screw", 0.0, 0.5, Scale::absolute, 1.0}};
   }
   // The screw carries the coupling's reaction: to hold F_m along +p the motor turns it ahead,
   // so the gear's contact side follows sign(F_m). First order in b: F_m(phi - b/2 s) - F_m(phi).

@@ -244,6 +244,8 @@ LockedRuns locked_runs(const Signals& s, const Prepared& P) {
 void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
                 const ActuatorParams& act, const Options& opt) {
   P.count_force_n = std::abs(cp.slope(0.0)) * 2 * kPi * P.count_m / act.lead_m;
+  P.scales.phase_count_rad = std::max(2 * kPi * P.count_m / act.lead_m,
+                                      2 * kPi / (act.motor_counts_per_rev * act.gear_ratio));
   // Rounding to a count is uniform over one count (RMS c/√12); both it and the load-cell noise
   // are broadband, and the filter keeps 2 f_c / f_s of their power.
   const double kept = std::sqrt(std::min(1.0, 2.0 * P.filter_hz / P.fs_hz));

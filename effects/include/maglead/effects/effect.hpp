@@ -28,6 +28,9 @@ struct ParamSpec {
   std::string meaning;
   double min, max;  // plausible range in units of `per`: a fit outside it is not this physics
   Scale per = Scale::absolute;
+  // Below this many counts of the phase (Scales::phase_count_rad) a value is what the encoders'
+  // rounding holds where the nut and screw stand still, not this physics (0: no such bound).
+  double least_counts = 0;
 };
 
 /// The scales of the actuator a fit is judged on (from its configuration and recording).
@@ -38,6 +41,8 @@ struct Scales {
   // What the fitted samples cover (max − min of the nut's position and the screw's angle): a
   // law that repeats over more than that is not seen to repeat (0: not known, not applied).
   double travel_m = 0, turn_rad = 0;
+  // One count of the phase φ: the coarser encoder's count (0: not known, not applied).
+  double phase_count_rad = 0;
 };
 
 // Transparent comparison: the twin looks parameters up by name inside the 1 kHz cycle, and a
