@@ -82,14 +82,27 @@ double rising_rate(const std::vector<double>& t, const std::vector<double>& phi,
   return den > 0 ? (m * stf - st * sf) / den : 0.0;
 }
 
+// A value as the recording's header states it, else the configuration's.
+double stated(const Recording& rec, const char* key, double configured) {
+  const auto v = rec.meta(key);
+  return v ? std::stod(*v) : configured;
+}
+
+// One count of the phase φ = θ − 2π p / lead: the coarser of the linear encoder's and the motor
+// encoder's at the screw, each as the recording's header states it, else the configuration.
+double phase_count_rad(const Recording& rec, const ActuatorParams& act, double linear_count_m) {
+  const double gear = stated(rec, "gear_ratio", act.gear_ratio);
+  const double counts = stated(rec, "motor_encoder_counts_per_rev", act.motor_counts_per_rev);
+  return std::max(2 * kPi * linear_count_m / act.lead_m, 2 * kPi / (counts * gear));
+}
+
 }  // namespace
 
 const std::vector<double>& angle_column(const Recording& rec, const ActuatorParams& act,
                                         std::vector<double>& geared) {
   if (rec.has("screw_angle_rad")) return rec.column("screw_angle_rad");
   if (rec.has("motor_angle_rad")) {
-    double gear = act.gear_ratio;
-    if (auto g = rec.meta("gear_ratio")) gear = std::stod(*g);
+    const double gear = stated(rec, "gear_ratio", act.gear_ratio);
     geared = rec.column("motor_angle_rad");
     for (double& x : geared) x /= gear;
     return geared;
@@ -244,8 +257,6 @@ LockedRuns locked_runs(const Signals& s, const Prepared& P) {
 void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
                 const ActuatorParams& act, const Options& opt) {
   P.count_force_n = std::abs(cp.slope(0.0)) * 2 * kPi * P.count_m / act.lead_m;
-  P.scales.phase_count_rad = std::max(2 * kPi * P.count_m / act.lead_m,
-                                      2 * kPi / (act.motor_counts_per_rev * act.gear_ratio));
   // Rounding to a count is uniform over one count (RMS c/√12); both it and the load-cell noise
   // are broadband, and the filter keeps 2 f_c / f_s of their power.
   const double kept = std::sqrt(std::min(1.0, 2.0 * P.filter_hz / P.fs_hz));
@@ -372,8 +383,8 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   // below a few tens of Hz. The filter keeps those and averages encoder steps and load-cell noise.
   P.filter_hz = std::min(opt.filter_hz, 0.2 * P.fs_hz);
   P.lead_m = act.lead_m;
-  P.count_m = act.linear_count_m;
-  if (auto c = rec.meta("linear_encoder_m_per_count")) P.count_m = std::stod(*c);
+  P.count_m = stated(rec, "linear_encoder_m_per_count", act.linear_count_m);
+  P.scales.phase_count_rad = phase_count_rad(rec, act, P.count_m);
   std::vector<double> geared;
   const Signals s = filtered_signals(rec, act, P, geared);
   P.slips = find_slips(t, s.phi_raw);
