@@ -324,6 +324,39 @@ struct StateAt {
   }
 };
 
+// Sample k of a nut standing still, from unfiltered signals (the filter would smear a release into
+// the stuck part).
+State held_state(const Signals& s, const StateAt& state_at, std::size_t k) {
+  State x = state_at(k);
+  x.coupling_n = state_at.cp.force(s.phi_raw[k]);
+  x.load_n = s.load_raw[k];
+  x.v_m_s = 0;
+  x.a_m_s2 = 0;
+  x.jerk_m_s3 = 0;
+  return x;
+}
+
+// The net force driving a standing nut: coupling, load and the model's terms.
+double net_drive_n(const Baseline& base, const State& x) {
+  double net = x.coupling_n + x.load_n;
+  for (const auto& term : base.terms) net += term.effect->force_n(term.params, x);
+  return net;
+}
+
+// The drive the stand from i to j held for three quarters of it (its lower quartile along the
+// release's direction) and that sample's state.
+void hold_for_most(const Signals& s, const Baseline& base, const StateAt& state_at, std::size_t i,
+                   std::size_t j, StuckEpisode& e) {
+  std::vector<std::pair<double, std::size_t>> held;  // (net along dir, sample)
+  held.reserve(j - i + 1);
+  for (std::size_t k = i; k <= j; ++k)
+    held.emplace_back(e.dir * net_drive_n(base, held_state(s, state_at, k)), k);
+  const auto q = held.begin() + static_cast<std::ptrdiff_t>(held.size() / 4);
+  std::nth_element(held.begin(), q, held.end());
+  e.held_net_n = e.dir * q->first;
+  e.held = held_state(s, state_at, q->second);
+}
+
 // The stuck episode that ends at sample j (the raw count unchanged since sample i), if the nut
 // then slipped on (not encoder chatter) away from any step-out.
 std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, const Baseline& base,
@@ -340,16 +373,13 @@ std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, con
   e.dir = dir;
   // Net force just before release, from unfiltered signals: the filter would smear the release
   // into the stuck part.
-  State x = state_at(j);
-  x.coupling_n = state_at.cp.force(s.phi_raw[j]);
-  x.load_n = s.load_raw[j];
-  x.v_m_s = 0;
-  x.a_m_s2 = 0;
-  x.jerk_m_s3 = 0;
-  e.net_n = x.coupling_n + x.load_n;
-  for (const auto& term : base.terms) e.net_n += term.effect->force_n(term.params, x);
-  e.state = x;
+  e.state = held_state(s, state_at, j);
+  e.net_n = net_drive_n(base, e.state);
   e.net_rate_n_s = dir * rising_rate(s.t, s.phi_raw, s.load_raw, state_at.cp, i, j, 0.05);
+  e.held_s = s.t[j] - s.t[i];
+  const std::size_t k_start = i - std::min(i, static_cast<std::size_t>(0.03 * P.fs_hz) + 1);
+  e.interrupts = dir * (s.pos_raw[i] - s.pos_raw[k_start]) >= 2.5 * P.count_m;
+  if (e.interrupts) hold_for_most(s, base, state_at, i, j, e);  // only a stall can be a pulse's
   return e;
 }
 
@@ -900,6 +930,45 @@ std::optional<selection::Found> offset_from_breakaway(const Prepared& P, const S
 
 namespace maglead::analysis::actuator {
 
+namespace {
+// Pulses that stall a sliding nut leave no sliding sample: friction held it while they acted. A
+// stall (a stop in the middle of a move, no longer than a pulse) whose drive, for three quarters
+// of it, exceeded every break-away the recording's starts from rest show in that direction by more
+// than the pulse threshold, was held by a force no input explains: at least that excess, against
+// the motion. Both are measured with the final model's terms (a spring it names drives the nut
+// too). Stick-slip stalls hold no more than the break-away, so they are not pulses.
+void add_stalls(const Prepared& P, const std::vector<selection::Found>& terms, double thr,
+                const pulses::Floors& f, std::vector<Pulse>& found) {
+  const auto along = [&](double dir, double net_n, const State& x) {
+    for (const auto& c : terms) net_n += c.effect->force_n(c.params, x);
+    return dir * net_n;
+  };
+  std::vector<Pulse> stalls;
+  for (const double dir : {1.0, -1.0}) {
+    std::optional<double> breakaway_n;
+    for (const auto& e : P.stuck)
+      if (e.dir == dir && !e.interrupts)
+        breakaway_n = std::max(breakaway_n.value_or(std::numeric_limits<double>::lowest()),
+                               along(dir, e.net_n, e.state));
+    if (!breakaway_n) continue;  // nothing to tell a stall's hold from friction's
+    for (const auto& e : P.stuck) {
+      if (e.dir != dir || !e.interrupts || e.held_s > f.max_s) continue;
+      const double t0 = e.t_release_s - e.held_s;
+      const double excess = along(dir, e.held_net_n, e.held) - *breakaway_n;
+      const bool seen = std::any_of(found.begin(), found.end(), [&](const Pulse& q) {
+        return q.t_s < e.t_release_s && t0 < q.t_s + q.duration_s;
+      });
+      if (excess > thr && !seen) stalls.push_back({t0, e.held_s, -dir * excess});
+    }
+  }
+  // Isolated, as the residual's pulses: many such stalls are a friction the model lacks.
+  if (static_cast<double>(found.size() + stalls.size()) > f.span_s / f.min_spacing_s) return;
+  found.insert(found.end(), stalls.begin(), stalls.end());
+  std::sort(found.begin(), found.end(),
+            [](const Pulse& a, const Pulse& b) { return a.t_s < b.t_s; });
+}
+}  // namespace
+
 // Force pulses no input explains in the corrected residual on the sliding samples (the one
 // pulse finder), above one encoder count's worth of force and not a library law's force where
 // the nut was (pulses::unexplained).
@@ -916,8 +985,11 @@ std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Op
   std::vector<double> t(P.states.size());
   for (std::size_t i = 0; i < t.size(); ++i) t[i] = P.states[i].t_s;
   const auto& r = sel.final_residual;
-  return pulses::unexplained(t, r, P.states, Form::nut, candidate_columns(Form::nut, opt.exclude),
-                             sel.current, f, pulses::find(t, r, f));
+  auto found =
+      pulses::unexplained(t, r, P.states, Form::nut, candidate_columns(Form::nut, opt.exclude),
+                          sel.current, f, pulses::find(t, r, f));
+  add_stalls(P, sel.terms, pulses::threshold(r, f), f, found);
+  return found;
 }
 
 }  // namespace maglead::analysis::actuator

@@ -62,7 +62,13 @@ struct SlipEvent {
 struct StuckEpisode {
   double t_release_s = 0, dir = 0, net_n = 0;  // net driving force on the nut at release
   double net_rate_n_s = 0;  // how fast that force rose while the nut was held (along dir)
+  double held_s = 0;        // how long the count stood still
+  bool interrupts = false;  // the nut was moving along dir when it stopped (a stall, not a start)
   effects::State state;
+  // The net driving force that three quarters of the stand held (along dir) and its sample: what
+  // friction held for most of it, not a transient at its start.
+  double held_net_n = 0;
+  effects::State held;
 };
 
 /// Per recording sample, its locked-count run (−1: none), and per run its period in samples.

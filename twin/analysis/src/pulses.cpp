@@ -97,11 +97,6 @@ Run run_from(const std::vector<double>& t, const std::vector<double>& r, std::si
   return run;
 }
 
-// The level a pulse must pass: far outside the residual's own spread and above the floor.
-double threshold(const std::vector<double>& r, const Floors& f) {
-  return std::max(f.sigmas * stats::robust_sigma(r), f.min_n);
-}
-
 // The samples from t0 to t1 (t is non-decreasing): their first index and one past the last.
 std::pair<std::size_t, std::size_t> span_of(const std::vector<double>& t, double t0, double t1) {
   const auto a = std::lower_bound(t.begin(), t.end(), t0);
@@ -164,6 +159,10 @@ std::string ms_range(double shortest_s, double longest_s) {
 }
 
 }  // namespace
+
+double threshold(const std::vector<double>& r, const Floors& f) {
+  return std::max(f.sigmas * stats::robust_sigma(r), f.min_n);
+}
 
 // Short runs of the residual far outside its own spread (robust σ) and above the recording's
 // floor, few and far between. A model that is merely wrong leaves structure everywhere, not a

@@ -24,6 +24,9 @@ struct Pulse {
   double t_s, duration_s, peak_n;  // start, length and the residual's peak (the missing force)
 };
 
+/// The level a pulse must pass: far outside the residual's own spread and above the floor.
+double threshold(const std::vector<double>& r, const Floors& f);
+
 /// Pulses in the residual `r` at times `t` (non-decreasing; gaps where samples were left out).
 std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>& r,
                         const Floors& f);
