@@ -357,14 +357,21 @@ void hold_for_most(const Signals& s, const Baseline& base, const StateAt& state_
   e.held = held_state(s, state_at, q->second);
 }
 
+// A move, not encoder chatter: the raw count went two and a half counts along dir from sample a to
+// b, looked for within kMoveWindow_s after a stand (it slipped on) or before it (it was moving).
+constexpr double kMoveWindow_s = 0.03;
+bool moved(const Signals& s, const Prepared& P, std::size_t a, std::size_t b, double dir) {
+  return dir * (s.pos_raw[b] - s.pos_raw[a]) >= 2.5 * P.count_m;
+}
+
 // The stuck episode that ends at sample j (the raw count unchanged since sample i), if the nut
 // then slipped on (not encoder chatter) away from any step-out.
 std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, const Baseline& base,
                                         const StateAt& state_at, std::size_t i, std::size_t j) {
   const std::size_t n = s.t.size();
   const double dir = s.pos_raw[j + 1] > s.pos_raw[i] ? 1.0 : -1.0;
-  const std::size_t k_end = std::min(n - 1, j + static_cast<std::size_t>(0.03 * P.fs_hz) + 1);
-  const bool slipped = dir * (s.pos_raw[k_end] - s.pos_raw[i]) >= 2.5 * P.count_m;
+  const auto w = static_cast<std::size_t>(kMoveWindow_s * P.fs_hz) + 1;
+  const bool slipped = moved(s, P, i, std::min(n - 1, j + w), dir);
   bool near_slip = false;
   for (const auto& sl : P.slips) near_slip |= std::abs(s.t[j] - sl.t_s) < 0.3;
   if (!slipped || near_slip) return std::nullopt;
@@ -377,8 +384,7 @@ std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, con
   e.net_n = net_drive_n(base, e.state);
   e.net_rate_n_s = dir * rising_rate(s.t, s.phi_raw, s.load_raw, state_at.cp, i, j, 0.05);
   e.held_s = s.t[j] - s.t[i];
-  const std::size_t k_start = i - std::min(i, static_cast<std::size_t>(0.03 * P.fs_hz) + 1);
-  e.interrupts = dir * (s.pos_raw[i] - s.pos_raw[k_start]) >= 2.5 * P.count_m;
+  e.interrupts = moved(s, P, i - std::min(i, w), i, dir);
   if (e.interrupts) hold_for_most(s, base, state_at, i, j, e);  // only a stall can be a pulse's
   return e;
 }
