@@ -219,6 +219,35 @@ std::vector<unsigned char> sliding_mask(const Signals& s, const Prepared& P) {
   return ok;
 }
 
+// The nut rings on its coupling faster than the filter, as under a loop that reads it late: its
+// mass M on the coupling's stiffness k_c = F_m'(0) 2π/L (the count's force over the count), at
+// ω = √(k_c/M) with the model's mass.
+double ring_rad_s(const Prepared& P, const Baseline& base) {
+  return std::sqrt(P.count_force_n / P.count_m / std::max(base.nut_mass_kg, 1e-9));
+}
+
+// Per sample, 1 where the nut's ringing reverses it: the ringing's speed, √2 σ ω from the raw
+// count's RMS excursion σ about the filtered position over the filter's support (less the
+// count's own rounding, c²/12), reaches the filtered speed. The nut then runs back and forth
+// each cycle and its friction averages over the cycle, less than F_c sign(v) the slower it goes:
+// no friction law of the filtered speed holds there (a lower Coulomb level, and a sensor delay
+// read 40 % long, took it up on the other actuator). The samples stay for what they show as
+// events; the fits leave them out.
+std::vector<unsigned char> ringing(const Signals& s, const Prepared& P, double omega_rad_s) {
+  const std::size_t n = s.t.size();
+  const auto w = static_cast<std::size_t>(std::ceil(P.fs_hz / P.filter_hz));
+  const double rounding2 = P.count_m * P.count_m / 12.0;
+  std::vector<double> sum2(n + 1, 0.0);  // running sum of the squared excursion
+  for (std::size_t k = 0; k < n; ++k) sum2[k + 1] = sum2[k] + std::pow(s.pos_raw[k] - s.p[k], 2);
+  std::vector<unsigned char> out(n, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t a = k > w ? k - w : 0, b = std::min(n, k + w + 1);
+    const double excursion2 = (sum2[b] - sum2[a]) / static_cast<double>(b - a) - rounding2;
+    out[k] = std::sqrt(2.0 * std::max(0.0, excursion2)) * omega_rad_s > std::abs(s.v[k]);
+  }
+  return out;
+}
+
 // Per sample, the run in which the raw count's advance per sample repeats with a short period q
 // for longer than the filter's support (−1: none), and each run's q: the count rate is locked to
 // the sample clock (a steady move at q samples per whole number of counts). The rounding error
@@ -434,6 +463,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.decimation = std::max(1, static_cast<int>(std::floor(P.fs_hz / (5 * P.filter_hz))));
   const Coupling cp{cal};
   set_floors(P, cp, cal, act, opt);
+  const auto rings = ringing(s, P, ring_rad_s(P, base));
   P.t0_s = t.front();
   const StateAt state_at{s, cp, act, base, P.t0_s};
   const auto runs = locked_runs(s, P);
@@ -448,6 +478,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
     P.states.push_back(state_at(i));
     P.residual.push_back(missing_force(P.states.back(), base.terms));
     P.locked_run.push_back(runs.run[i]);
+    P.ringing.push_back(rings[i]);
     P.scales.speed_m_s = std::max(P.scales.speed_m_s, std::abs(P.states.back().v_m_s));
   }
   P.scales.travel_m = spread_of(P.states, &State::p_m);
@@ -473,17 +504,20 @@ StopSamples take_stops(Prepared& P) {
       aside.states.push_back(P.states[i]);
       aside.residual.push_back(P.residual[i]);
       aside.locked_run.push_back(P.locked_run[i]);
+      aside.ringing.push_back(P.ringing[i]);
       continue;
     }
     // Kept samples close up in place: one pass, nothing else allocated.
     P.states[kept] = P.states[i];
     P.residual[kept] = P.residual[i];
     P.locked_run[kept] = P.locked_run[i];
+    P.ringing[kept] = P.ringing[i];
     ++kept;
   }
   P.states.resize(kept);
   P.residual.resize(kept);
   P.locked_run.resize(kept);
+  P.ringing.resize(kept);
   set_locked_floor(P);
   return aside;
 }
@@ -493,6 +527,7 @@ void put_back(Prepared& P, const StopSamples& aside) {
   P.states.resize(n);
   P.residual.resize(n);
   P.locked_run.resize(n);
+  P.ringing.resize(n);
   // From the back, so every kept sample moves once to its place and none is overwritten first.
   std::size_t from = n - aside.at.size(), k = aside.at.size();
   for (std::size_t i = n; i-- > 0;) {
@@ -501,12 +536,14 @@ void put_back(Prepared& P, const StopSamples& aside) {
       P.states[i] = aside.states[k];
       P.residual[i] = aside.residual[k];
       P.locked_run[i] = aside.locked_run[k];
+      P.ringing[i] = aside.ringing[k];
       continue;
     }
     --from;
     P.states[i] = P.states[from];
     P.residual[i] = P.residual[from];
     P.locked_run[i] = P.locked_run[from];
+    P.ringing[i] = P.ringing[from];
   }
   set_locked_floor(P);
 }
@@ -549,6 +586,7 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
   Grams g(static_cast<std::size_t>(folds), m);
   Eigen::VectorXd x(m);
   for (std::size_t i = 0; i < P.states.size(); ++i) {
+    if (P.ringing[i]) continue;
     const auto& s = P.states[i];
     unit_row(Form::nut, cols, s, x.data());
     g.add_row(stats::fold_of(s.t_s, P.duration_s, folds), x, P.residual[i], s.load_n);

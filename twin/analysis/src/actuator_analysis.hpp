@@ -94,7 +94,8 @@ struct Prepared {
   std::vector<effects::State> states;  // sliding samples (decimated)
   std::vector<double> residual;        // the baseline's missing force at those samples [N]
   std::vector<int> locked_run;  // at those samples, the locked-count run they lie in (−1: none)
-  std::vector<int> locked_period;  // per run, the samples its count pattern repeats after
+  std::vector<unsigned char> ringing;  // at those samples: the nut rings faster than the filter
+  std::vector<int> locked_period;      // per run, the samples its count pattern repeats after
   std::vector<SlipEvent> slips;
   std::vector<StuckEpisode> stuck;
   struct Window {
@@ -132,6 +133,7 @@ struct StopSamples {
   std::vector<effects::State> states;
   std::vector<double> residual;
   std::vector<int> locked_run;
+  std::vector<unsigned char> ringing;
 };
 /// Takes those samples out of `P` (its locked floor follows): the stages see the recording
 /// without them, and no second copy of the sample set is made.
