@@ -22,7 +22,7 @@ constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b);
 
 LoadObserverConfig observer_config(const ControllerConfig& c) {
   LoadObserverConfig o;
-  o.calibration = c.calibration;
+  o.calibration = scaled(c.calibration, c.coupling_gain);
   o.friction = c.friction;
   o.lead_m = c.actuator.lead_m;
   o.linear_count_m = c.actuator.linear_count_m;
@@ -32,6 +32,16 @@ LoadObserverConfig observer_config(const ControllerConfig& c) {
 }
 
 namespace {
+
+// The configuration with the model's coupling gain folded into the calibration, so every use
+// of the calibration in the loop sees the coupling the model describes.
+ControllerConfig served(ControllerConfig c) {
+  if (!(c.coupling_gain > 0) || !std::isfinite(c.coupling_gain))
+    throw std::invalid_argument("controller: the model's coupling gain must be positive");
+  c.calibration = scaled(c.calibration, c.coupling_gain);
+  c.coupling_gain = 1.0;
+  return c;
+}
 
 ForceLoopConfig force_loop_config(const ControllerConfig& c, const LoadForceObserver& obs) {
   ForceLoopConfig f;
@@ -50,12 +60,12 @@ ForceLoopConfig force_loop_config(const ControllerConfig& c, const LoadForceObse
 }  // namespace
 
 Controller::Controller(const ControllerConfig& config, ActuatorHardware& hardware)
-    : cfg_(config),
+    : cfg_(served(config)),
       hw_(hardware),
-      velocity_(1.0 / config.actuator.sample_rate_hz, config.actuator.linear_count_m),
-      estimator_(config.calibration, config.actuator.coulomb_n, 1e-4),
-      observer_(observer_config(config)),
-      force_loop_(force_loop_config(config, observer_)) {
+      velocity_(1.0 / cfg_.actuator.sample_rate_hz, cfg_.actuator.linear_count_m),
+      estimator_(cfg_.calibration, cfg_.actuator.coulomb_n, 1e-4),
+      observer_(observer_config(cfg_)),
+      force_loop_(force_loop_config(cfg_, observer_)) {
   const auto& a = cfg_.actuator;
   const auto& cal = cfg_.calibration;
   if (!(a.sample_rate_hz > 0) || !(a.lead_m > 0) || !(a.gear_ratio > 0) ||

@@ -108,6 +108,15 @@ ForceCalibration paper_calibration() {
   return cal;
 }
 
+ForceCalibration scaled(ForceCalibration cal, double gain) {
+  for (double& c : cal.polynomial.coeffs_ascending) c *= gain;
+  cal.periodic.mean_n *= gain;
+  for (double& c : cal.periodic.cos_n) c *= gain;
+  for (double& c : cal.periodic.sin_n) c *= gain;
+  cal.derive_limits();
+  return cal;
+}
+
 namespace {
 
 std::string join(const std::vector<double>& v) {

@@ -485,16 +485,6 @@ maglead::analysis::AnalysisResult analyze_generated(
   return r;
 }
 
-// A calibration `scale` times another (an exact one for a plant whose coupling is that scale).
-maglead::ForceCalibration scaled(maglead::ForceCalibration cal, double scale) {
-  for (double& c : cal.polynomial.coeffs_ascending) c *= scale;
-  cal.periodic.mean_n *= scale;
-  for (double& c : cal.periodic.cos_n) c *= scale;
-  for (double& c : cal.periodic.sin_n) c *= scale;
-  cal.derive_limits();
-  return cal;
-}
-
 // The first finding: its id, the value of `param` and that value's standard error (printed).
 struct Named {
   std::string id;
@@ -511,7 +501,7 @@ Named first_finding(const AnalysisResult& r, const std::string& param) {
 // follow the coupling with a gain of about 0.33: a broken magnet, not a finding. It is reported
 // as what no library effect explains plausibly, with where and what to check.
 TEST(Plausibility, AGainOutsideItsPhysicalRangeIsNotAFinding) {
-  const auto r = analyze_generated("hand-push", scaled(paper().cal, 3.0), {});
+  const auto r = analyze_generated("hand-push", maglead::scaled(paper().cal, 3.0), {});
   for (const auto& e : r.findings.effects) EXPECT_NE(e.id, "coupling_gain_error");
   ASSERT_TRUE(r.findings.unexplained.has_value()) << "the implausible fit must be reported";
   const auto& u = *r.findings.unexplained;
@@ -612,7 +602,7 @@ TEST(ThirdActuator, AnEndEffectIsMeasuredInItsZones) {
 // the paper's scaled as the plant's coupling is (0.6), so that its own error (0.05 N in the
 // fixture) does not decide what is named.
 TEST(ThirdActuator, SensorDelayOnAHeavyNutIsNamedWithItsDelay) {
-  const auto cal = scaled(paper().cal, 0.6);
+  const auto cal = maglead::scaled(paper().cal, 0.6);
   const auto r = analyze_generated("force-steps", cal, {{"sensor_delay", 0.010}}, third());
   ASSERT_EQ(r.findings.effects.size(), 1u);
   const auto [id, tau, se] = first_finding(r, "delay_s");

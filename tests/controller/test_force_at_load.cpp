@@ -30,6 +30,12 @@ struct LoadCase {
   bool hand = false;  // the anchor wanders like a hand holding against the nut
 };
 
+// The model file's terms the controller is served (as `serve --model` gives them).
+struct ServedModel {
+  FrictionModel friction;
+  double coupling_gain = 1.0;
+};
+
 struct Result {
   double mean_abs_n = 0, max_abs_n = 0;
   int reached_while_off = 0;
@@ -61,12 +67,13 @@ class LoadCellTamper final : public ActuatorHardware {
 
 class Rig {
  public:
-  Rig(const LoadCase& lc, const PlantEffects& fx, const FrictionModel& model_friction,
+  Rig(const LoadCase& lc, const PlantEffects& fx, const ServedModel& model,
       LoadCellTamper::Mode load_cell = LoadCellTamper::Mode::as_measured, std::uint64_t seed = 3)
       : lc_(lc), plant_(make_plant(fx), seed, kAnchor_m), hw_(plant_, load_cell) {
     commands_ = &hw_.commands_rad;
     cfg_.actuator = plant_.params().actuator;
-    cfg_.friction = model_friction;
+    cfg_.friction = model.friction;
+    cfg_.coupling_gain = model.coupling_gain;
     // A hand may change its force while the nut sticks: the observer is told how fast.
     cfg_.load_drift_n_per_s = lc.hand ? 1.0 : 0.0;
     set_load(0.0);
@@ -137,8 +144,8 @@ class Rig {
   double t_s_ = 0.0;
 };
 
-Result run_sequence(const LoadCase& lc, const PlantEffects& fx, const FrictionModel& friction) {
-  Rig rig(lc, fx, friction);
+Result run_sequence(const LoadCase& lc, const PlantEffects& fx, const ServedModel& model) {
+  Rig rig(lc, fx, model);
   Result r;
   double sum = 0;
   const double tol = ControllerConfig{}.force_tol_n;
@@ -190,19 +197,38 @@ void expect_on_the_load(const Result& r) {
   EXPECT_LE(r.settle_10n_s, 0.5);
 }
 
+ServedModel served(const std::string& model_path) {
+  const auto m = twin::load_twin_model(model_path);
+  return {twin::friction_model(m), twin::coupling_gain(m)};
+}
+
+// Record a plant with `effect` as a bench would (force steps, 60 s) and let `maglead analyze`
+// correct config/model.toml from it: what `serve --model` then gives the controller.
+ServedModel corrected_on_a_bench(const std::string& effect) {
+  const std::string dir = test_tmp_dir(), bin = MAGLEAD_BIN, cfg = MAGLEAD_CONFIG_DIR;
+  const std::string sim = bin + " simulate --scenario force-steps --duration 60s --seed 5" +
+                          " --effect " + effect + " --config " + cfg + " --out " + dir +
+                          "/bench.csv > /dev/null";
+  EXPECT_EQ(std::system(sim.c_str()), 0) << sim;
+  const std::string an = bin + " analyze --recording " + dir + "/bench.csv --out " + dir +
+                         "/analysis --config " + cfg + " > /dev/null";
+  EXPECT_EQ(std::system(an.c_str()), 0) << an;
+  return served(dir + "/analysis/model_corrected.toml");
+}
+
 }  // namespace
 
 TEST(ForceAtLoad, SoftSpring600) {
-  expect_on_the_load(run_sequence({"600 N/m", 600}, {}, FrictionModel{}));
+  expect_on_the_load(run_sequence({"600 N/m", 600}, {}, ServedModel{}));
 }
 TEST(ForceAtLoad, Spring2000) {
-  expect_on_the_load(run_sequence({"2000 N/m", 2000}, {}, FrictionModel{}));
+  expect_on_the_load(run_sequence({"2000 N/m", 2000}, {}, ServedModel{}));
 }
 TEST(ForceAtLoad, StiffSpring10000) {
-  expect_on_the_load(run_sequence({"10 kN/m", 10000}, {}, FrictionModel{}));
+  expect_on_the_load(run_sequence({"10 kN/m", 10000}, {}, ServedModel{}));
 }
 TEST(ForceAtLoad, HandThatSways) {
-  expect_on_the_load(run_sequence({"hand", 1500, true}, {}, FrictionModel{}));
+  expect_on_the_load(run_sequence({"hand", 1500, true}, {}, ServedModel{}));
 }
 
 // The load cell is for checking only: replaced by NaN or by 50 N of nonsense, the controller
@@ -214,7 +240,7 @@ TEST(ForceAtLoad, TheLoadCellIsNotRead) {
     std::vector<std::uint16_t> status;
   };
   const auto run = [](Mode mode) {
-    Rig rig({"2000 N/m", 2000}, {}, FrictionModel{}, mode);
+    Rig rig({"2000 N/m", 2000}, {}, ServedModel{}, mode);
     Trace tr;
     for (double sp : {10.0, -5.0, 15.0}) {
       rig.force(sp);
@@ -240,22 +266,28 @@ TEST(ForceAtLoad, TheLoadCellIsNotRead) {
 // steps), let `maglead analyze` correct the model, serve that model: the loop compensates with
 // the corrected friction and the force arrives at the load again.
 TEST(ForceAtLoad, MoreFrictionServedWithTheModelTheAnalysisCorrected) {
-  const std::string dir = test_tmp_dir(), bin = MAGLEAD_BIN, cfg = MAGLEAD_CONFIG_DIR;
-  const std::string sim = bin + " simulate --scenario force-steps --duration 60s --seed 5" +
-                          " --effect coulomb_friction=2 --config " + cfg + " --out " + dir +
-                          "/bench.csv > /dev/null";
-  ASSERT_EQ(std::system(sim.c_str()), 0) << sim;
-  const std::string an = bin + " analyze --recording " + dir + "/bench.csv --out " + dir +
-                         "/analysis --config " + cfg + " > /dev/null";
-  ASSERT_EQ(std::system(an.c_str()), 0) << an;
-  const auto corrected =
-      twin::friction_model(twin::load_twin_model(dir + "/analysis/model_corrected.toml"));
-  std::printf("corrected model: F_c %.2f / %.2f N, break-away %.2f / %.2f N\n",
-              corrected.coulomb_pos_n, corrected.coulomb_neg_n, corrected.breakaway_pos_n,
-              corrected.breakaway_neg_n);
+  const auto corrected = corrected_on_a_bench("coulomb_friction=2");
+  const auto& f = corrected.friction;
+  std::printf("corrected model: F_c %.2f / %.2f N, break-away %.2f / %.2f N\n", f.coulomb_pos_n,
+              f.coulomb_neg_n, f.breakaway_pos_n, f.breakaway_neg_n);
   PlantEffects more;
   more.coulomb_friction_n = 2.0;
   std::printf("served with config/model.toml as it is (for the README, not asserted):\n");
-  run_sequence({"+2 N, old", 2000}, more, FrictionModel{});
+  run_sequence({"+2 N, old", 2000}, more, ServedModel{});
   expect_on_the_load(run_sequence({"+2 N, corr", 2000}, more, corrected));
+}
+
+// A coupling 10 % weaker than the calibration (a magnet that lost strength): served with
+// config/model.toml the loop lands where the calibration puts the setpoint, 10 % short at the
+// load. `maglead analyze` names the gain on a bench recording; served with that model the loop
+// and the observer use the gain times the calibration, and the force arrives at the load.
+TEST(ForceAtLoad, AWeakerCouplingServedWithTheModelTheAnalysisCorrected) {
+  const auto corrected = corrected_on_a_bench("coupling_gain_error=-0.1");
+  std::printf("corrected model: coupling gain %.3f\n", corrected.coupling_gain);
+  EXPECT_NEAR(corrected.coupling_gain, 0.9, 0.01);
+  PlantEffects weaker;
+  weaker.coupling_gain_error = -0.1;
+  std::printf("served with config/model.toml as it is (for the README, not asserted):\n");
+  run_sequence({"-10 %, old", 2000}, weaker, ServedModel{});
+  expect_on_the_load(run_sequence({"-10 %, corr", 2000}, weaker, corrected));
 }

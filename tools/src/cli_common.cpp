@@ -183,6 +183,11 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
 
 namespace maglead::cli {
 
+void serve_model_terms(const twin::TwinModel& model, controller::ControllerConfig& cfg) {
+  cfg.friction = twin::friction_model(model);
+  cfg.coupling_gain = twin::coupling_gain(model);
+}
+
 void load_control_settings(const std::string& config_dir, controller::ControllerConfig& r) {
   const std::string path = config_file(config_dir, "actuator.toml");
   if (!std::filesystem::exists(path)) return;

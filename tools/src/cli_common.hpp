@@ -68,6 +68,7 @@ inline constexpr int kExitBadInput = 2;
 #include "maglead/controller/controller.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/recording/recording.hpp"
+#include "maglead/twin/model.hpp"
 
 namespace maglead::cli {
 /// θ from a recording: `screw_angle_rad`, else `motor_angle_rad` / gear ratio (the recording's
@@ -86,6 +87,9 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
 /// holds, and the force loop's and the load observer's settings (README "Force control").
 /// Absent keys (or no file) keep the values given. Errors name FILE:LINE:COLUMN.
 void load_control_settings(const std::string& config_dir, controller::ControllerConfig& cfg);
+/// The model file's terms the controller compensates with: its friction, offset and mass
+/// (twin::friction_model) and its coupling gain (the twin applies the rest itself).
+void serve_model_terms(const twin::TwinModel& model, controller::ControllerConfig& cfg);
 /// The [reference_move] table of CONFIG/actuator.toml (mode_command 3): the window inside the
 /// actuator's stroke, the two speeds (slow below fast) and the acceleration. Absent keys keep the
 /// values given; a bad value is an error at FILE:LINE:COLUMN and `move` is left unchanged.

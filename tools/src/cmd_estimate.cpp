@@ -43,7 +43,7 @@ twin::TwinModel model_of(const EstimateOptions& o) {
 /// (passive); otherwise loads come and go and rest at zero.
 Estimates observer_estimates(const Inputs& in, controller::ControllerConfig c,
                              const EstimateOptions& o) {
-  c.friction = twin::friction_model(model_of(o));
+  serve_model_terms(model_of(o), c);
   LoadForceObserver obs(controller::observer_config(c));
   const std::size_t n = in.t.size();
   Estimates e{std::vector<double>(n), std::vector<double>(n), std::vector<double>(n)};

@@ -121,7 +121,7 @@ runtime::ServiceConfig service_config(const ServeOptions& o, const modbus::Netwo
   const std::string model_path = o.model.empty() ? config_file(o.config, "model.toml") : o.model;
   if (std::filesystem::exists(model_path)) {
     const twin::TwinModel model = twin::load_twin_model(model_path);
-    cfg.friction = twin::friction_model(model);
+    serve_model_terms(model, cfg);
     sc.model_path = model_path;
   } else {
     cfg.friction = friction_from_actuator(cfg.actuator);
@@ -151,10 +151,11 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
   std::printf("maglead serve: configuration from %s\n",
               std::filesystem::absolute(o.config).lexically_normal().string().c_str());
   std::printf(
-      "maglead serve: friction model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N "
-      "(+p/-p)%s\n",
+      "maglead serve: model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N (+p/-p), "
+      "coupling %.3f x calibration%s\n",
       sc.model_path.empty() ? "[actuator]" : sc.model_path.c_str(), cfg.friction.coulomb_pos_n,
       cfg.friction.coulomb_neg_n, cfg.friction.breakaway_pos_n, cfg.friction.breakaway_neg_n,
+      cfg.coupling_gain,
       o.sim_effects.empty() ? "" : "; the simulated plant differs (--sim-effect)");
   const auto& rm = cfg.reference_move;
   std::printf(

@@ -249,4 +249,9 @@ FrictionModel friction_model(const TwinModel& model) {
   return f;
 }
 
+double coupling_gain(const TwinModel& model) {
+  const auto* t = model.find("coupling_gain_error");
+  return t ? t->get("gain", 1.0) : 1.0;
+}
+
 }  // namespace maglead::twin

@@ -47,6 +47,9 @@ struct ForceCalibration {
 /// The paper's calibration (eq. 7) with a periodic model fitted to it.
 ForceCalibration paper_calibration();
 
+/// `gain` times a calibration (a coupling g times as strong: the model's coupling_gain_error).
+ForceCalibration scaled(ForceCalibration cal, double gain);
+
 /// TOML round trip of a calibration ([calibration] table). Load throws std::runtime_error
 /// naming the file and key on any missing or malformed value.
 void save_calibration(const std::string& path, const ForceCalibration& cal,

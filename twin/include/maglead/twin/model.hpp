@@ -66,5 +66,8 @@ void validate_twin_model(const TwinModel& model);
 /// with: [model] M, C, F_c and the enabled coulomb_friction, viscous_friction,
 /// asymmetric_friction, stribeck_friction, offset and mass_error terms (docs/effects.md).
 FrictionModel friction_model(const TwinModel& model);
+/// The coupling's gain g the model states (coupling_gain_error; 1 without it): F_m is g times
+/// the calibration.
+double coupling_gain(const TwinModel& model);
 
 }  // namespace maglead::twin
