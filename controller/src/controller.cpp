@@ -22,7 +22,8 @@ constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b);
 
 LoadObserverConfig observer_config(const ControllerConfig& c) {
   LoadObserverConfig o;
-  o.calibration = scaled(c.calibration, c.coupling_gain);
+  o.calibration = c.calibration;
+  o.coupling = c.coupling;
   o.friction = c.friction;
   o.lead_m = c.actuator.lead_m;
   o.linear_count_m = c.actuator.linear_count_m;
@@ -36,10 +37,10 @@ namespace {
 // The configuration with the model's coupling gain folded into the calibration, so every use
 // of the calibration in the loop sees the coupling the model describes.
 ControllerConfig served(ControllerConfig c) {
-  if (!(c.coupling_gain > 0) || !std::isfinite(c.coupling_gain))
+  if (!(c.coupling.gain > 0) || !std::isfinite(c.coupling.gain))
     throw std::invalid_argument("controller: the model's coupling gain must be positive");
-  c.calibration = scaled(c.calibration, c.coupling_gain);
-  c.coupling_gain = 1.0;
+  c.calibration = scaled(c.calibration, c.coupling.gain);
+  c.coupling.gain = 1.0;
   return c;
 }
 

@@ -17,11 +17,14 @@ LoadForceObserver::LoadForceObserver(const LoadObserverConfig& config)
     throw std::invalid_argument(
         "load observer: friction levels must be finite, non-negative, break-away >= kinetic");
   if (!(cfg_.lead_m > 0) || !(cfg_.model_uncertainty_n >= 0) || !(cfg_.load_drift_n_per_s >= 0) ||
-      !cfg_.unheld_load.valid())
+      !cfg_.unheld_load.valid() || !(cfg_.coupling.gain > 0) ||
+      !(std::abs(cfg_.coupling.angle_ripple) < 1))
     throw std::invalid_argument(
-        "load observer: lead, uncertainty, drift and load prior must be positive");
+        "load observer: lead, uncertainty, drift, load prior and coupling gain must be positive, "
+        "the ripple below 1");
   const double count_phase_rad = 2.0 * std::numbers::pi * cfg_.linear_count_m / cfg_.lead_m;
-  count_force_n_ = std::abs(cfg_.calibration.polynomial.slope_n_per_rad(0.0)) * count_phase_rad;
+  count_force_n_ = std::abs(cfg_.coupling.gain * cfg_.calibration.polynomial.slope_n_per_rad(0.0)) *
+                   count_phase_rad;
 }
 
 double LoadForceObserver::sliding_half_width_n() const noexcept {
@@ -31,7 +34,8 @@ double LoadForceObserver::sliding_half_width_n() const noexcept {
 double LoadForceObserver::drive_n(double phase_rad) const noexcept {
   const auto& cal = cfg_.calibration;
   const double phi = std::clamp(phase_rad, cal.stable_min_rad, cal.stable_max_rad);
-  return -cal.polynomial.load_force_n(phi) + cfg_.friction.offset_n;
+  return -cfg_.coupling.factor(screw_rad_) * cal.polynomial.load_force_n(phi) +
+         cfg_.friction.offset_n;
 }
 
 void LoadForceObserver::start(double t_s, double nut_pos_m) noexcept {
@@ -106,6 +110,7 @@ void LoadForceObserver::unheld_stuck_sample(double t_s, double band_lo_n, double
 const LoadEstimate& LoadForceObserver::update(double t_s, double phase_rad, double nut_pos_m,
                                               double expected_load_n) noexcept {
   if (!started_) start(t_s, nut_pos_m);
+  screw_rad_ = phase_rad + 2.0 * std::numbers::pi * nut_pos_m / cfg_.lead_m;
   const EdgeEvent ev = nut_.update(t_s, nut_pos_m);
   if (ev == EdgeEvent::stopped) {
     // Stopped: the load keeps the force it had at the last edge, known within a slide's width.

@@ -33,7 +33,7 @@ struct LoadCase {
 // The model file's terms the controller is served (as `serve --model` gives them).
 struct ServedModel {
   FrictionModel friction;
-  double coupling_gain = 1.0;
+  CouplingModel coupling;
 };
 
 struct Result {
@@ -73,7 +73,7 @@ class Rig {
     commands_ = &hw_.commands_rad;
     cfg_.actuator = plant_.params().actuator;
     cfg_.friction = model.friction;
-    cfg_.coupling_gain = model.coupling_gain;
+    cfg_.coupling = model.coupling;
     // A hand may change its force while the nut sticks: the observer is told how fast.
     cfg_.load_drift_n_per_s = lc.hand ? 1.0 : 0.0;
     set_load(0.0);
@@ -199,7 +199,7 @@ void expect_on_the_load(const Result& r) {
 
 ServedModel served(const std::string& model_path) {
   const auto m = twin::load_twin_model(model_path);
-  return {twin::friction_model(m), twin::coupling_gain(m)};
+  return {twin::friction_model(m), twin::coupling_model(m)};
 }
 
 // Record a plant with `effect` as a bench would (force steps, 60 s) and let `maglead analyze`
@@ -283,8 +283,8 @@ TEST(ForceAtLoad, MoreFrictionServedWithTheModelTheAnalysisCorrected) {
 // and the observer use the gain times the calibration, and the force arrives at the load.
 TEST(ForceAtLoad, AWeakerCouplingServedWithTheModelTheAnalysisCorrected) {
   const auto corrected = corrected_on_a_bench("coupling_gain_error=-0.1");
-  std::printf("corrected model: coupling gain %.3f\n", corrected.coupling_gain);
-  EXPECT_NEAR(corrected.coupling_gain, 0.9, 0.01);
+  std::printf("corrected model: coupling gain %.3f\n", corrected.coupling.gain);
+  EXPECT_NEAR(corrected.coupling.gain, 0.9, 0.01);
   PlantEffects weaker;
   weaker.coupling_gain_error = -0.1;
   std::printf("served with config/model.toml as it is (for the README, not asserted):\n");

@@ -185,7 +185,7 @@ namespace maglead::cli {
 
 void serve_model_terms(const twin::TwinModel& model, controller::ControllerConfig& cfg) {
   cfg.friction = twin::friction_model(model);
-  cfg.coupling_gain = twin::coupling_gain(model);
+  cfg.coupling = twin::coupling_model(model);
 }
 
 void load_control_settings(const std::string& config_dir, controller::ControllerConfig& r) {

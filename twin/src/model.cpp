@@ -249,9 +249,14 @@ FrictionModel friction_model(const TwinModel& model) {
   return f;
 }
 
-double coupling_gain(const TwinModel& model) {
-  const auto* t = model.find("coupling_gain_error");
-  return t ? t->get("gain", 1.0) : 1.0;
+CouplingModel coupling_model(const TwinModel& model) {
+  CouplingModel c;
+  if (const auto* t = model.find("coupling_gain_error")) c.gain = t->get("gain", 1.0);
+  if (const auto* t = model.find("angle_ripple")) {
+    c.angle_ripple = t->get("relative_amplitude", 0.0);
+    c.angle_ripple_phase_rad = t->get("phase_rad", 0.0);
+  }
+  return c;
 }
 
 }  // namespace maglead::twin

@@ -53,10 +53,10 @@ struct ControllerConfig {
   // The model's friction, offset and mass (the model file's terms, twin::friction_model): the
   // load observer's force balance and the force loop's feed-forward.
   FrictionModel friction;
-  // The model's coupling_gain_error g: the coupling is g times the calibration (a magnet that
-  // lost strength). The loop, the observer and the static estimate use g times the
-  // calibration; the twin applies the model's term itself.
-  double coupling_gain = 1.0;
+  // The model's coupling_gain_error g (a magnet that lost strength) and angle_ripple: the loop,
+  // the observer and the static estimate use g times the calibration, the observer the ripple
+  // too; the twin applies the model's terms itself.
+  CouplingModel coupling;
   double force_damping_n_s_per_m = 60.0;      // force loop damping D while the nut slides
   double breakaway_ramp_n_per_s = 200.0;      // drive ramp that breaks a stuck nut loose
   double observer_model_uncertainty_n = 0.3;  // the model's force error while sliding

@@ -1,6 +1,7 @@
 #pragma once
 // Coupling force models in the load-cell convention of docs/conventions.md: F̂_s(φ) is the force
 // on the nut from the load that holds it still at phase φ, so the magnetic force is F_m ≈ −F̂_s.
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,16 @@ struct ForceCalibration {
 
 /// The paper's calibration (eq. 7) with a periodic model fitted to it.
 ForceCalibration paper_calibration();
+
+/// The coupling as a model file states it beyond the calibration: a gain (coupling_gain_error)
+/// and a ripple once per screw turn (angle_ripple): F_m = g (1 + a sin(θ + ψ)) F_cal(φ).
+struct CouplingModel {
+  double gain = 1.0;
+  double angle_ripple = 0.0, angle_ripple_phase_rad = 0.0;
+  double factor(double screw_angle_rad) const noexcept {
+    return gain * (1.0 + angle_ripple * std::sin(screw_angle_rad + angle_ripple_phase_rad));
+  }
+};
 
 /// `gain` times a calibration (a coupling g times as strong: the model's coupling_gain_error).
 ForceCalibration scaled(ForceCalibration cal, double gain);

@@ -40,6 +40,7 @@ struct LoadEstimate {
 
 struct LoadObserverConfig {
   ForceCalibration calibration;  // F_m(φ) = −F̂_s(φ) on the stable branch
+  CouplingModel coupling;        // the model's gain and ripple over it (F_m = factor(θ) · …)
   FrictionModel friction;
   double lead_m = 0.006;
   double linear_count_m = 2.16e-5;
@@ -89,6 +90,7 @@ class LoadForceObserver {
   LoadEstimate est_{};
   bool started_ = false;
   double last_t_s_ = 0.0;
+  double screw_rad_ = 0.0;     // the screw angle of this sample (the ripple's argument)
   EdgeTracker nut_;            // position and speed from the encoder's edges
   double edge_force_n_ = 0.0;  // the sliding estimate at the last edge
   // An unheld load while stuck: the filter over F_out − drive, and the drive it last saw.

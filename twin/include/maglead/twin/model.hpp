@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "maglead/physics/force_model.hpp"
 #include "maglead/physics/friction_model.hpp"
 
 namespace maglead::twin {
@@ -66,8 +67,8 @@ void validate_twin_model(const TwinModel& model);
 /// with: [model] M, C, F_c and the enabled coulomb_friction, viscous_friction,
 /// asymmetric_friction, stribeck_friction, offset and mass_error terms (docs/effects.md).
 FrictionModel friction_model(const TwinModel& model);
-/// The coupling's gain g the model states (coupling_gain_error; 1 without it): F_m is g times
-/// the calibration.
-double coupling_gain(const TwinModel& model);
+/// The coupling the model states beyond the calibration: its gain (coupling_gain_error, 1
+/// without it) and its ripple over the screw's turn (angle_ripple).
+CouplingModel coupling_model(const TwinModel& model);
 
 }  // namespace maglead::twin
