@@ -31,6 +31,11 @@ Run run(const std::string& args) {
 
 std::string tmp(const std::string& name) { return test_tmp_dir() + "/" + name; }
 
+/// `maglead simulate ARGS --out FILE`, FILE in the test's directory.
+Run simulate_to(const std::string& args, const std::string& file) {
+  return run("simulate " + args + " --out " + tmp(file));
+}
+
 double number_after(const std::string& text, const std::string& label) {
   const auto at = text.find(label);
   if (at == std::string::npos) return std::nan("");
@@ -101,10 +106,8 @@ TEST(Cli, HandPushObserverWithinOneNewtonOnSeedEleven) {
 // follows the ripple (measured 0.94 N -> 0.59 N against the load cell; without the ripple in the
 // observer the corrected model changed nothing).
 TEST(Cli, TheObserverFollowsTheRippleTheAnalysisNamed) {
-  const auto sim =
-      run("simulate --scenario mixed-moves --duration 42s --seed 3 --effect "
-          "angle_ripple=0.1 --out " +
-          tmp("ar.csv"));
+  const auto sim = simulate_to(
+      "--scenario mixed-moves --duration 42s --seed 3 --effect angle_ripple=0.1", "ar.csv");
   ASSERT_EQ(sim.exit_code, 0) << sim.out;
   const auto an =
       run("analyze --no-twin-check --recording " + tmp("ar.csv") + " --out " + tmp("ar_an"));
@@ -125,10 +128,8 @@ TEST(Cli, TheObserverFollowsTheRippleTheAnalysisNamed) {
 // on the moves is warned while it could be a 3 % error at the rated force (33.8 s, 0.56 N in),
 // never named a gain loss (the moves do not separate the two).
 TEST(Cli, FrictionDriftFromTheCommandLineIsFlaggedWithoutLoadCell) {
-  const auto sim =
-      run("simulate --scenario position-moves --duration 60s --seed 4 --effect "
-          "friction_drift=1 --out " +
-          tmp("fd.csv"));
+  const auto sim = simulate_to(
+      "--scenario position-moves --duration 60s --seed 4 --effect friction_drift=1", "fd.csv");
   ASSERT_EQ(sim.exit_code, 0) << sim.out;
   const auto chk = run("twin-check --no-load-cell --recording " + tmp("fd.csv"));
   ASSERT_EQ(chk.exit_code, 0) << chk.out;
