@@ -501,49 +501,28 @@ StopSamples take_stops(Prepared& P) {
     while (w != P.stops.end() && w->to_s < t) ++w;
     if (w != P.stops.end() && w->from_s <= t) {
       aside.at.push_back(i);
-      aside.states.push_back(P.states[i]);
-      aside.residual.push_back(P.residual[i]);
-      aside.locked_run.push_back(P.locked_run[i]);
-      aside.ringing.push_back(P.ringing[i]);
+      aside.push(P, i);
       continue;
     }
     // Kept samples close up in place: one pass, nothing else allocated.
-    P.states[kept] = P.states[i];
-    P.residual[kept] = P.residual[i];
-    P.locked_run[kept] = P.locked_run[i];
-    P.ringing[kept] = P.ringing[i];
-    ++kept;
+    P.set(kept++, P, i);
   }
-  P.states.resize(kept);
-  P.residual.resize(kept);
-  P.locked_run.resize(kept);
-  P.ringing.resize(kept);
+  P.resize(kept);
   set_locked_floor(P);
   return aside;
 }
 
 void put_back(Prepared& P, const StopSamples& aside) {
   const std::size_t n = P.states.size() + aside.at.size();
-  P.states.resize(n);
-  P.residual.resize(n);
-  P.locked_run.resize(n);
-  P.ringing.resize(n);
+  P.resize(n);
   // From the back, so every kept sample moves once to its place and none is overwritten first.
   std::size_t from = n - aside.at.size(), k = aside.at.size();
   for (std::size_t i = n; i-- > 0;) {
     if (k > 0 && aside.at[k - 1] == i) {
-      --k;
-      P.states[i] = aside.states[k];
-      P.residual[i] = aside.residual[k];
-      P.locked_run[i] = aside.locked_run[k];
-      P.ringing[i] = aside.ringing[k];
+      P.set(i, aside, --k);
       continue;
     }
-    --from;
-    P.states[i] = P.states[from];
-    P.residual[i] = P.residual[from];
-    P.locked_run[i] = P.locked_run[from];
-    P.ringing[i] = P.ringing[from];
+    P.set(i, P, --from);
   }
   set_locked_floor(P);
 }

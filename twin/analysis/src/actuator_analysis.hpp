@@ -76,7 +76,26 @@ struct LockedRuns {
   std::vector<int> run, period;
 };
 
-struct Prepared {
+/// The sliding samples (decimated), one entry per sample in each column; moved together.
+struct SampleColumns {
+  std::vector<effects::State> states;
+  std::vector<double> residual;        // the baseline's missing force at those samples [N]
+  std::vector<int> locked_run;         // the locked-count run each lies in (−1: none)
+  std::vector<unsigned char> ringing;  // 1: the nut rings so that it stops or reverses (no fit)
+  void resize(std::size_t n) {
+    states.resize(n), residual.resize(n), locked_run.resize(n), ringing.resize(n);
+  }
+  void set(std::size_t i, const SampleColumns& from, std::size_t j) {
+    states[i] = from.states[j], residual[i] = from.residual[j];
+    locked_run[i] = from.locked_run[j], ringing[i] = from.ringing[j];
+  }
+  void push(const SampleColumns& from, std::size_t j) {
+    states.push_back(from.states[j]), residual.push_back(from.residual[j]);
+    locked_run.push_back(from.locked_run[j]), ringing.push_back(from.ringing[j]);
+  }
+};
+
+struct Prepared : SampleColumns {
   double fs_hz = 0, filter_hz = 0, lead_m = 0, count_m = 0, v_min_m_s = 0, t0_s = 0;
   double duration_s = 0, load_noise_n = 0;
   double load_filtered_noise_n = 0, load_rate_noise_n_s = 0;  // that noise after the filter
@@ -91,11 +110,7 @@ struct Prepared {
   double locked_floor_n = 0;  // floor_n with what a locked count's rounding may hold there
   int decimation = 1;
   std::size_t samples = 0;
-  std::vector<effects::State> states;  // sliding samples (decimated)
-  std::vector<double> residual;        // the baseline's missing force at those samples [N]
-  std::vector<int> locked_run;  // at those samples, the locked-count run they lie in (−1: none)
-  std::vector<unsigned char> ringing;  // at those samples: the nut rings faster than the filter
-  std::vector<int> locked_period;      // per run, the samples its count pattern repeats after
+  std::vector<int> locked_period;  // per run, the samples its count pattern repeats after
   std::vector<SlipEvent> slips;
   std::vector<StuckEpisode> stuck;
   struct Window {
@@ -128,12 +143,8 @@ struct BreakawayTest {
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
                  const ActuatorParams& act, const Options& opt);
 /// The sliding samples a hidden stop reaches (Prepared::stops), set aside with their places.
-struct StopSamples {
+struct StopSamples : SampleColumns {
   std::vector<std::size_t> at;  // their indices in the whole sample set, increasing
-  std::vector<effects::State> states;
-  std::vector<double> residual;
-  std::vector<int> locked_run;
-  std::vector<unsigned char> ringing;
 };
 /// Takes those samples out of `P` (its locked floor follows): the stages see the recording
 /// without them, and no second copy of the sample set is made.
