@@ -723,6 +723,38 @@ TEST(Emps, DirectionDependentFrictionSpansTheCoulombAndOffsetTakenFirst) {
   std::filesystem::remove(corrected);
 }
 
+// Rows [from, to) of a recording, with its header.
+maglead::Recording rows_of(const maglead::Recording& rec, std::size_t from, std::size_t to) {
+  maglead::Recording part = rec;
+  for (auto& c : part.columns)
+    c = std::vector<double>(c.begin() + static_cast<std::ptrdiff_t>(from),
+                            c.begin() + static_cast<std::ptrdiff_t>(to));
+  return part;
+}
+
+// The cross-test (a model corrected on the estimation record, run on the validation
+// record, ≤ 5.5 %) cannot be run here: the validation record is not in the repository. Its
+// nearest honest stand-in: the model corrected on the first half of the estimation record,
+// fixed as written (no term refitted), predicts the second half. Measured 4.05 % (the second
+// half fitted on itself: 4.00 %); the bar is the issue's.
+TEST(Emps, AModelCorrectedOnTheFirstHalfPredictsTheSecond) {
+  const auto rec = maglead::read_recording(MAGLEAD_EMPS_CSV);
+  const std::size_t half = rec.rows() / 2;
+  const auto model =
+      maglead::analysis::load_model(std::string(MAGLEAD_CONFIG_DIR) + "/emps_baseline.toml");
+  const auto analyze = [](const maglead::Recording& r, const maglead::analysis::ModelFile& m) {
+    return maglead::analysis::analyze_recording(r, m, maglead::paper_calibration(),
+                                                maglead::ActuatorParams{}, {});
+  };
+  const auto first = analyze(rows_of(rec, 0, half), model);
+  const auto second = analyze(rows_of(rec, half, rec.rows()), first.corrected);
+  EXPECT_TRUE(first.corrected.fit.empty()) << "the corrected model is run as written, not refitted";
+  const double cross = second.findings.baseline.relative_error_pct;
+  std::printf("EMPS first half %.3f %% direct, second half with that model %.3f %%\n",
+              first.findings.final_fit.relative_error_pct, cross);
+  EXPECT_LE(cross, 5.5);
+}
+
 // Digits after the decimal point of a printed number ("0.0016" → 4, "241" → 0).
 int decimals(const std::string& number) {
   const auto dot = number.find('.');
