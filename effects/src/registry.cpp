@@ -81,6 +81,15 @@ bool plausible(const Effect& e, const Params& p, const Scales& scales) {
   return true;
 }
 
+bool beyond_least_counts(const Effect& e, const Params& p, const Params& se, const Scales& scales) {
+  for (const auto& s : e.params()) {
+    if (!(s.least_counts > 0)) continue;
+    const double v = param(p, s.name.c_str(), NAN), err = param(se, s.name.c_str(), 0.0);
+    if (std::isfinite(v) && v - err < s.least_counts * scales.phase_count_rad) return false;
+  }
+  return true;
+}
+
 double param(const Params& p, const char* name, double fallback) {
   const auto it = p.find(name);
   return it == p.end() ? fallback : it->second;

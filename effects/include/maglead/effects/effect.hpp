@@ -128,6 +128,9 @@ void check(const Effect& e, const Params& p);
 /// True when every value lies inside its documented plausible range, a range in the actuator's
 /// scales taken in `scales` (a scale not known, 0: that bound is not applied).
 bool plausible(const Effect& e, const Params& p, const Scales& scales);
+/// Whether a value with a least count (ParamSpec::least_counts) still reaches it less its
+/// standard error `se` (a parameter without an error is judged as it is).
+bool beyond_least_counts(const Effect& e, const Params& p, const Params& se, const Scales& scales);
 
 double sgn(double x);
 
