@@ -37,8 +37,9 @@ namespace {
 // The configuration with the model's coupling gain folded into the calibration, so every use
 // of the calibration in the loop sees the coupling the model describes.
 ControllerConfig served(ControllerConfig c) {
-  if (!(c.coupling.gain > 0) || !std::isfinite(c.coupling.gain))
-    throw std::invalid_argument("controller: the model's coupling gain must be positive");
+  if (!c.coupling.valid())
+    throw std::invalid_argument(
+        "controller: the model's coupling gain must be positive, its ripple below 1");
   c.calibration = scaled(c.calibration, c.coupling.gain);
   c.coupling.gain = 1.0;
   return c;

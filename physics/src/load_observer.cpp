@@ -17,8 +17,7 @@ LoadForceObserver::LoadForceObserver(const LoadObserverConfig& config)
     throw std::invalid_argument(
         "load observer: friction levels must be finite, non-negative, break-away >= kinetic");
   if (!(cfg_.lead_m > 0) || !(cfg_.model_uncertainty_n >= 0) || !(cfg_.load_drift_n_per_s >= 0) ||
-      !cfg_.unheld_load.valid() || !(cfg_.coupling.gain > 0) ||
-      !(std::abs(cfg_.coupling.angle_ripple) < 1))
+      !cfg_.unheld_load.valid() || !cfg_.coupling.valid())
     throw std::invalid_argument(
         "load observer: lead, uncertainty, drift, load prior and coupling gain must be positive, "
         "the ripple below 1");

@@ -401,6 +401,14 @@ TEST(Controller, RejectsInconsistentConfiguration) {
   cfg = ControllerConfig{};
   cfg.actuator.safe_force_fraction = 1.5;
   EXPECT_THROW(Controller(cfg, plant), std::invalid_argument);
+  for (double gain : {0.0, -0.9, std::nan("")}) {  // a model's coupling gain: a strength, positive
+    cfg = ControllerConfig{};
+    cfg.coupling.gain = gain;
+    EXPECT_THROW(Controller(cfg, plant), std::invalid_argument) << gain;
+  }
+  cfg = ControllerConfig{};
+  cfg.coupling.angle_ripple = 1.0;  // F_m would vanish once per turn
+  EXPECT_THROW(Controller(cfg, plant), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------------------- fault reactions

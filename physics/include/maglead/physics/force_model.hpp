@@ -53,6 +53,10 @@ ForceCalibration paper_calibration();
 struct CouplingModel {
   double gain = 1.0;
   double angle_ripple = 0.0, angle_ripple_phase_rad = 0.0;
+  bool valid() const noexcept {
+    return gain > 0 && std::isfinite(gain) && std::abs(angle_ripple) < 1 &&
+           std::isfinite(angle_ripple_phase_rad);
+  }
   double factor(double screw_angle_rad) const noexcept {
     return gain * (1.0 + angle_ripple * std::sin(screw_angle_rad + angle_ripple_phase_rad));
   }
