@@ -192,8 +192,9 @@ void add_estimate(CLI::App& app) {
       ->check(CLI::IsMember({"static", "twin", "observer"}))
       ->capture_default_str();
   cmd->add_option("--model", o->model,
-                  "Model file for --estimator twin (default: CONFIG/model.toml), e.g. the "
-                  "model_corrected.toml that maglead analyze wrote")
+                  "Model file for --estimator twin and observer (default: CONFIG/model.toml), "
+                  "e.g. the model_corrected.toml that maglead analyze wrote; the observer takes "
+                  "its friction, offset, mass, coupling gain and angle ripple, as serve does")
       ->check(CLI::ExistingFile);
   cmd->add_option("--plot", o->plot, "PNG to write (default: next to the recording)");
   cmd->add_option("--out", o->out,
