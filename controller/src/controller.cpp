@@ -27,6 +27,8 @@ LoadObserverConfig observer_config(const ControllerConfig& c) {
   o.friction = c.friction;
   o.lead_m = c.actuator.lead_m;
   o.linear_count_m = c.actuator.linear_count_m;
+  o.stroke_min_m = c.actuator.stroke_min_m;
+  o.stroke_max_m = c.actuator.stroke_max_m;
   o.model_uncertainty_n = c.observer_model_uncertainty_n;
   o.load_drift_n_per_s = c.load_drift_n_per_s;
   return o;
@@ -39,7 +41,8 @@ namespace {
 ControllerConfig served(ControllerConfig c) {
   if (!c.coupling.valid())
     throw std::invalid_argument(
-        "controller: the model's coupling gain must be positive, its ripple below 1");
+        "controller: the model's coupling gain must be positive, its ripple and end effect "
+        "below 1");
   c.calibration = scaled(c.calibration, c.coupling.gain);
   c.coupling.gain = 1.0;
   return c;

@@ -20,7 +20,7 @@ LoadForceObserver::LoadForceObserver(const LoadObserverConfig& config)
       !cfg_.unheld_load.valid() || !cfg_.coupling.valid())
     throw std::invalid_argument(
         "load observer: lead, uncertainty, drift, load prior and coupling gain must be positive, "
-        "the ripple below 1");
+        "the ripple and end effect below 1");
   const double count_phase_rad = 2.0 * std::numbers::pi * cfg_.linear_count_m / cfg_.lead_m;
   count_force_n_ = std::abs(cfg_.coupling.gain * cfg_.calibration.polynomial.slope_n_per_rad(0.0)) *
                    count_phase_rad;
@@ -33,7 +33,7 @@ double LoadForceObserver::sliding_half_width_n() const noexcept {
 double LoadForceObserver::drive_n(double phase_rad) const noexcept {
   const auto& cal = cfg_.calibration;
   const double phi = std::clamp(phase_rad, cal.stable_min_rad, cal.stable_max_rad);
-  return -cfg_.coupling.factor(screw_rad_) * cal.polynomial.load_force_n(phi) +
+  return -cfg_.coupling.factor(screw_rad_, end_distance_m_) * cal.polynomial.load_force_n(phi) +
          cfg_.friction.offset_n;
 }
 
@@ -110,6 +110,7 @@ const LoadEstimate& LoadForceObserver::update(double t_s, double phase_rad, doub
                                               double expected_load_n) noexcept {
   if (!started_) start(t_s, nut_pos_m);
   screw_rad_ = phase_rad + 2.0 * std::numbers::pi * nut_pos_m / cfg_.lead_m;
+  end_distance_m_ = std::min(nut_pos_m - cfg_.stroke_min_m, cfg_.stroke_max_m - nut_pos_m);
   const EdgeEvent ev = nut_.update(t_s, nut_pos_m);
   if (ev == EdgeEvent::stopped) {
     // Stopped: the load keeps the force it had at the last edge, known within a slide's width.

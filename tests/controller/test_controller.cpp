@@ -409,6 +409,10 @@ TEST(Controller, RejectsInconsistentConfiguration) {
   cfg = ControllerConfig{};
   cfg.coupling.angle_ripple = 1.0;  // F_m would vanish once per turn
   EXPECT_THROW(Controller(cfg, plant), std::invalid_argument);
+  cfg = ControllerConfig{};
+  cfg.coupling.end_zone_m = 0.005;
+  cfg.coupling.end_max_reduction = 1.0;  // … or at the stroke's ends
+  EXPECT_THROW(Controller(cfg, plant), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------------------- fault reactions

@@ -88,7 +88,8 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
 /// Absent keys (or no file) keep the values given. Errors name FILE:LINE:COLUMN.
 void load_control_settings(const std::string& config_dir, controller::ControllerConfig& cfg);
 /// The model file's terms the controller compensates with: its friction, offset and mass
-/// (twin::friction_model), its coupling's gain and ripple (the twin applies the rest itself).
+/// (twin::friction_model), its coupling's gain, ripple and end effect (the twin applies the rest
+/// itself).
 void serve_model_terms(const twin::TwinModel& model, controller::ControllerConfig& cfg);
 /// The [reference_move] table of CONFIG/actuator.toml (mode_command 3): the window inside the
 /// actuator's stroke, the two speeds (slow below fast) and the acceleration. Absent keys keep the

@@ -152,10 +152,11 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
               std::filesystem::absolute(o.config).lexically_normal().string().c_str());
   std::printf(
       "maglead serve: model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N (+p/-p), "
-      "coupling %.3f x calibration, ripple %.3f%s\n",
+      "coupling %.3f x calibration, ripple %.3f, %.0f %% weaker within %.1f mm of the ends%s\n",
       sc.model_path.empty() ? "[actuator]" : sc.model_path.c_str(), cfg.friction.coulomb_pos_n,
       cfg.friction.coulomb_neg_n, cfg.friction.breakaway_pos_n, cfg.friction.breakaway_neg_n,
-      cfg.coupling.gain, cfg.coupling.angle_ripple,
+      cfg.coupling.gain, cfg.coupling.angle_ripple, 100.0 * cfg.coupling.end_max_reduction,
+      1e3 * cfg.coupling.end_zone_m,
       o.sim_effects.empty() ? "" : "; the simulated plant differs (--sim-effect)");
   const auto& rm = cfg.reference_move;
   std::printf(

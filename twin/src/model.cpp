@@ -256,6 +256,10 @@ CouplingModel coupling_model(const TwinModel& model) {
     c.angle_ripple = t->get("relative_amplitude", 0.0);
     c.angle_ripple_phase_rad = t->get("phase_rad", 0.0);
   }
+  if (const auto* t = model.find("end_effect")) {
+    c.end_zone_m = t->get("zone_m", 0.0);
+    c.end_max_reduction = t->get("max_reduction", 0.0);
+  }
   return c;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // Coupling force models in the load-cell convention of docs/conventions.md: F̂_s(φ) is the force
 // on the nut from the load that holds it still at phase φ, so the magnetic force is F_m ≈ −F̂_s.
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -48,17 +49,26 @@ struct ForceCalibration {
 /// The paper's calibration (eq. 7) with a periodic model fitted to it.
 ForceCalibration paper_calibration();
 
-/// The coupling as a model file states it beyond the calibration: a gain (coupling_gain_error)
-/// and a ripple once per screw turn (angle_ripple): F_m = g (1 + a sin(θ + ψ)) F_cal(φ).
+/// The coupling as a model file states it beyond the calibration: a gain (coupling_gain_error),
+/// a ripple once per screw turn (angle_ripple) and a weaker coupling near the stroke's ends
+/// (end_effect): F_m = g (1 + a sin(θ + ψ)) (1 − D s(x)) F_cal(φ), s(x) = x²(3 − 2x),
+/// x = clip((z − d)/z, 0, 1), d the nut's distance to the nearer stroke end.
 struct CouplingModel {
   double gain = 1.0;
   double angle_ripple = 0.0, angle_ripple_phase_rad = 0.0;
+  double end_zone_m = 0.0, end_max_reduction = 0.0;  // z and D; z = 0: no end effect
   bool valid() const noexcept {
     return gain > 0 && std::isfinite(gain) && std::abs(angle_ripple) < 1 &&
-           std::isfinite(angle_ripple_phase_rad);
+           std::isfinite(angle_ripple_phase_rad) && end_zone_m >= 0 && end_max_reduction >= 0 &&
+           end_max_reduction < 1;
   }
-  double factor(double screw_angle_rad) const noexcept {
-    return gain * (1.0 + angle_ripple * std::sin(screw_angle_rad + angle_ripple_phase_rad));
+  double factor(double screw_angle_rad, double end_distance_m) const noexcept {
+    double f = gain * (1.0 + angle_ripple * std::sin(screw_angle_rad + angle_ripple_phase_rad));
+    if (end_zone_m > 0) {
+      const double x = std::clamp((end_zone_m - end_distance_m) / end_zone_m, 0.0, 1.0);
+      f *= 1.0 - end_max_reduction * x * x * (3.0 - 2.0 * x);
+    }
+    return f;
   }
 };
 

@@ -44,6 +44,7 @@ struct LoadObserverConfig {
   FrictionModel friction;
   double lead_m = 0.006;
   double linear_count_m = 2.16e-5;
+  double stroke_min_m = 0.0, stroke_max_m = 0.04;  // where the coupling's end effect is measured
   // The model's force error while sliding (friction level, mass, calibration) [N]: the
   // half-width of the interval a slide leaves, beside half a count's force.
   double model_uncertainty_n = 0.3;
@@ -91,6 +92,7 @@ class LoadForceObserver {
   bool started_ = false;
   double last_t_s_ = 0.0;
   double screw_rad_ = 0.0;     // the screw angle of this sample (the ripple's argument)
+  double end_distance_m_ = 0;  // the nut's distance to the nearer stroke end (the end effect's)
   EdgeTracker nut_;            // position and speed from the encoder's edges
   double edge_force_n_ = 0.0;  // the sliding estimate at the last edge
   // An unheld load while stuck: the filter over F_out − drive, and the drive it last saw.

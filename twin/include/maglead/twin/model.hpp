@@ -68,7 +68,7 @@ void validate_twin_model(const TwinModel& model);
 /// asymmetric_friction, stribeck_friction, offset and mass_error terms (docs/effects.md).
 FrictionModel friction_model(const TwinModel& model);
 /// The coupling the model states beyond the calibration: its gain (coupling_gain_error, 1
-/// without it) and its ripple over the screw's turn (angle_ripple).
+/// without it), its ripple over the screw's turn (angle_ripple) and its end effect.
 CouplingModel coupling_model(const TwinModel& model);
 
 }  // namespace maglead::twin
