@@ -134,6 +134,28 @@ runtime::ServiceConfig service_config(const ServeOptions& o, const modbus::Netwo
   return sc;
 }
 
+/// The coupling terms the model adds to the calibration, only those it states.
+std::string coupling_text(const CouplingModel& c) {
+  std::vector<std::string> terms;
+  char buf[96];
+  if (c.gain != 1.0) {
+    std::snprintf(buf, sizeof buf, "coupling %.3f x calibration", c.gain);
+    terms.emplace_back(buf);
+  }
+  if (c.angle_ripple != 0.0) {
+    std::snprintf(buf, sizeof buf, "%.1f %% ripple per screw turn", 100.0 * c.angle_ripple);
+    terms.emplace_back(buf);
+  }
+  if (c.end_zone_m > 0 && c.end_max_reduction > 0) {
+    std::snprintf(buf, sizeof buf, "%.0f %% weaker within %.1f mm of the ends",
+                  100.0 * c.end_max_reduction, 1e3 * c.end_zone_m);
+    terms.emplace_back(buf);
+  }
+  std::string out = terms.empty() ? "coupling as calibrated" : terms.front();
+  for (std::size_t i = 1; i < terms.size(); ++i) out += ", " + terms[i];
+  return out;
+}
+
 void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
                   runtime::Service& service) {
   const auto& cfg = sc.controller;
@@ -151,12 +173,10 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
   std::printf("maglead serve: configuration from %s\n",
               std::filesystem::absolute(o.config).lexically_normal().string().c_str());
   std::printf(
-      "maglead serve: model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N (+p/-p), "
-      "coupling %.3f x calibration, ripple %.3f, %.0f %% weaker within %.1f mm of the ends%s\n",
+      "maglead serve: model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N (+p/-p), %s%s\n",
       sc.model_path.empty() ? "[actuator]" : sc.model_path.c_str(), cfg.friction.coulomb_pos_n,
       cfg.friction.coulomb_neg_n, cfg.friction.breakaway_pos_n, cfg.friction.breakaway_neg_n,
-      cfg.coupling.gain, cfg.coupling.angle_ripple, 100.0 * cfg.coupling.end_max_reduction,
-      1e3 * cfg.coupling.end_zone_m,
+      coupling_text(cfg.coupling).c_str(),
       o.sim_effects.empty() ? "" : "; the simulated plant differs (--sim-effect)");
   const auto& rm = cfg.reference_move;
   std::printf(
