@@ -71,14 +71,13 @@ bool plausible(const Effect& e, const Params& p, const Scales& scales) {
     if (it == p.end()) continue;
     const double unit = unit_of(s.per, scales);
     const double v = it->second;
-    if (s.least_counts > 0 && v < s.least_counts * scales.phase_count_rad) return false;
     if (unit > 0) {
       if (v < s.min * unit || v > s.max * unit) return false;
     } else if (s.min >= 0 && v < 0) {  // the scale unknown: only the sign is judged
       return false;
     }
   }
-  return true;
+  return beyond_least_counts(e, p, {}, scales);
 }
 
 bool beyond_least_counts(const Effect& e, const Params& p, const Params& se, const Scales& scales) {

@@ -1,5 +1,7 @@
 #include "maglead/physics/load_observer.hpp"
 
+#include "maglead/physics/actuator.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -109,7 +111,7 @@ void LoadForceObserver::unheld_stuck_sample(double t_s, double band_lo_n, double
 const LoadEstimate& LoadForceObserver::update(double t_s, double phase_rad, double nut_pos_m,
                                               double expected_load_n) noexcept {
   if (!started_) start(t_s, nut_pos_m);
-  screw_rad_ = phase_rad + 2.0 * std::numbers::pi * nut_pos_m / cfg_.lead_m;
+  screw_rad_ = phase_rad + rest_angle_rad(nut_pos_m, cfg_.lead_m);
   end_distance_m_ = std::min(nut_pos_m - cfg_.stroke_min_m, cfg_.stroke_max_m - nut_pos_m);
   const EdgeEvent ev = nut_.update(t_s, nut_pos_m);
   if (ev == EdgeEvent::stopped) {

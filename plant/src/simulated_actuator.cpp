@@ -78,17 +78,14 @@ double SimulatedActuator::coupling_gain(double t_s, double nut_pos_m,
                                         double screw_angle_rad) const noexcept {
   const auto& a = params_.actuator;
   const auto& e = params_.effects;
-  double gain = 1.0 + e.coupling_gain_error;        // coupling_gain_error: g
-  gain *= 1.0 + e.gain_drift_per_min * t_s / 60.0;  // gain_drift: 1 + r t/60, t from the start
-  if (e.angle_ripple != 0.0)                        // angle_ripple: 1 + a sin(θ + ψ)
-    gain *= 1.0 + e.angle_ripple * std::sin(screw_angle_rad + e.angle_ripple_phase_rad);
-  if (e.end_effect_zone_m > 0.0) {  // end_effect: 1 − D s(x)
-    const double z = e.end_effect_zone_m;
-    const double d = std::min(nut_pos_m - a.stroke_min_m, a.stroke_max_m - nut_pos_m);
-    const double x = std::clamp((z - d) / z, 0.0, 1.0);
-    gain *= 1.0 - e.end_effect_max_reduction * x * x * (3.0 - 2.0 * x);
-  }
-  return gain;
+  // coupling_gain_error, angle_ripple and end_effect: the law the controller's observer serves
+  // from a model file; gain_drift (1 + r t/60, t from the start) on top.
+  const CouplingModel coupling{1.0 + e.coupling_gain_error, e.angle_ripple,
+                               e.angle_ripple_phase_rad, e.end_effect_zone_m,
+                               e.end_effect_max_reduction};
+  const double end_distance_m = std::min(nut_pos_m - a.stroke_min_m, a.stroke_max_m - nut_pos_m);
+  return coupling.factor(screw_angle_rad, end_distance_m) *
+         (1.0 + e.gain_drift_per_min * t_s / 60.0);
 }
 
 double SimulatedActuator::coupling_force_n(double t_s, double nut_pos_m,
