@@ -77,14 +77,16 @@ bool plausible(const Effect& e, const Params& p, const Scales& scales) {
       return false;
     }
   }
-  return beyond_least_counts(e, p, {}, scales);
+  return beyond_its_error(e, p, {}, scales);
 }
 
-bool beyond_least_counts(const Effect& e, const Params& p, const Params& se, const Scales& scales) {
+bool beyond_its_error(const Effect& e, const Params& p, const Params& se, const Scales& scales) {
   for (const auto& s : e.params()) {
-    if (!(s.least_counts > 0)) continue;
     const double v = param(p, s.name.c_str(), NAN), err = param(se, s.name.c_str(), 0.0);
-    if (std::isfinite(v) && v - err < s.least_counts * scales.phase_count_rad) return false;
+    if (!std::isfinite(v)) continue;
+    if (s.least_counts > 0 && v - err < s.least_counts * scales.phase_count_rad) return false;
+    // A variant that does not fit a magnitude leaves it at zero: nothing to judge.
+    if (s.min == 0 && v != 0 && v - err <= 0) return false;
   }
   return true;
 }

@@ -593,8 +593,9 @@ class NutRules : public selection::Rules {
   bool resolved(const selection::Trial& tr, double explained_n, const selection::Acting& where,
                 const std::vector<selection::Term>& model) const override;
   selection::Acting acting(const selection::Trial& tr) const override;
+  double minimum_n(const std::vector<selection::Term>& model) const override;
   double floor_n(const std::vector<selection::Term>& model) const override {
-    return std::max(P_.floor_n, minimum_beside(model));
+    return std::max(P_.floor_n, minimum_n(model));
   }
   const State& model() const { return model_; }
 
@@ -604,7 +605,6 @@ class NutRules : public selection::Rules {
   double min_t_;  // the t that makes a trial consistent (Settings::min_t)
   std::vector<double> contribution(const selection::Trial& tr) const;
   double beyond_locked_rounding(const selection::Trial& tr) const;
-  double minimum_beside(const std::vector<selection::Term>& model) const;
 };
 
 // The trial's fitted contribution at each sliding sample.
@@ -653,7 +653,7 @@ selection::Acting NutRules::acting(const selection::Trial& tr) const {
 // The stated minimum is how well the calibration is known; its error reaches the model's force
 // through the coupling gain the model holds, so beside a gain g found it is g times that (never
 // less than stated).
-double NutRules::minimum_beside(const std::vector<selection::Term>& model) const {
+double NutRules::minimum_n(const std::vector<selection::Term>& model) const {
   static const effects::Effect* const gain_error = effects::find("coupling_gain_error");
   double gain = 1.0;
   for (const auto& t : model)
@@ -669,10 +669,10 @@ double NutRules::minimum_beside(const std::vector<selection::Term>& model) const
 bool NutRules::resolved(const selection::Trial& tr, double explained_n,
                         const selection::Acting& where,
                         const std::vector<selection::Term>& model) const {
-  const double minimum_n = minimum_beside(model);
+  const double least_n = minimum_n(model);
   const double floor_n = this->floor_n(model);
   if (explained_n < floor_n) return false;
-  if (P_.locked_share > 0 && explained_n < std::max(P_.locked_floor_n, minimum_n) &&
+  if (P_.locked_share > 0 && explained_n < std::max(P_.locked_floor_n, least_n) &&
       beyond_locked_rounding(tr) < floor_n)
     return false;
   // What a trial explains counts the other terms refitted beside it too; a law whose own force
@@ -682,7 +682,7 @@ bool NutRules::resolved(const selection::Trial& tr, double explained_n,
   // segments; the gain goes as the force squared): an offset of 0.075 ± 0.013 N at t 6.2 against
   // a minimum of 0.070 N does not. A trial consistent by the localized rule has no such t.
   const double sure = tr.t >= min_t_ ? std::sqrt(1.0 - 1.0 / tr.t) : 1.0;
-  return where.own_rms_n * sure >= minimum_n;
+  return where.own_rms_n * sure >= least_n;
 }
 
 selection::Settings settings_of(const Options& opt, const effects::Scales& scales = {}) {

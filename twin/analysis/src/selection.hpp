@@ -58,6 +58,9 @@ class Rules {
   /// The RMS force the recording resolves beside the terms `model` holds: errors below it are
   /// the floor's (default: none).
   virtual double floor_n(const std::vector<Term>& /*model*/) const { return 0.0; }
+  /// The smallest own force of a term a user acts on beside the terms `model` holds (the
+  /// calibration's accuracy; default: none asked).
+  virtual double minimum_n(const std::vector<Term>& /*model*/) const { return 0.0; }
 };
 
 struct Settings {
@@ -112,7 +115,8 @@ struct Outcome {
   std::optional<Trial> stopped_at;  // the trial the rule named next, below the threshold
   double stopped_explained_n = 0;
   std::vector<std::pair<Trial, double>> dropped;  // by the backward check, with explained_n
-  std::vector<Trial> refused;  // taken, then outside their range in the final fit (its params)
+  // Taken, then refused in the final fit (its params there), with why.
+  std::vector<std::pair<Trial, const char*>> refused;
   std::optional<ImplausibleFit> implausible;
 };
 
@@ -181,7 +185,7 @@ struct Result {
   std::vector<Found> terms;  // the terms kept, in the order taken
   std::vector<Step> steps;
   std::vector<Rejected> dropped;    // by the backward check
-  std::vector<Rejected> refused;    // outside their physical range in the final fit
+  std::vector<Rejected> refused;    // outside their range or within their error in the final fit
   std::optional<Found> stopped_at;  // the next term the rule named, below the threshold
   std::optional<Implausible> implausible;
 };

@@ -129,8 +129,10 @@ void check(const Effect& e, const Params& p);
 /// scales taken in `scales` (a scale not known, 0: that bound is not applied).
 bool plausible(const Effect& e, const Params& p, const Scales& scales);
 /// Whether a value with a least count (ParamSpec::least_counts) still reaches it less its
-/// standard error `se` (a parameter without an error is judged as it is).
-bool beyond_least_counts(const Effect& e, const Params& p, const Params& se, const Scales& scales);
+/// standard error `se` (a parameter without an error is judged as it is), and a magnitude (a
+/// range starting at zero: a stiffness, a delay, a friction level) is beyond zero by its error:
+/// a spring of 8.6 ± 9.0 N/m is no spring.
+bool beyond_its_error(const Effect& e, const Params& p, const Params& se, const Scales& scales);
 
 double sgn(double x);
 
