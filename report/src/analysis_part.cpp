@@ -54,6 +54,16 @@ std::string evidence_text(const analysis::EffectFinding& e) {
   return s;
 }
 
+// The force a finding changes beside what it had to exceed, as `analyze` prints it.
+std::string floors_text(const analysis::Evidence& ev) {
+  if (!ev.explained_rms_n) return "";
+  std::string s = "changes the force by " + number(*ev.explained_rms_n) + " N RMS";
+  if (ev.resolution_floor_n)
+    s += "; the recording resolves " + number(*ev.resolution_floor_n) + " N";
+  if (ev.minimum_n) s += ", the stated minimum " + number(*ev.minimum_n) + " N";
+  return s;
+}
+
 std::string effect_row(const analysis::EffectFinding& e) {
   std::string h = "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" +
                   escape_html(e.id) + "</code></td><td>" + escape_html(effect_law(e.id)) +
@@ -61,6 +71,7 @@ std::string effect_row(const analysis::EffectFinding& e) {
                   "</td><td>" + escape_html(e.where);
   if (!e.finding.empty()) h += "<br>" + escape_html(e.finding);
   if (const auto ev = evidence_text(e); !ev.empty()) h += "<br>" + escape_html(ev);
+  if (const auto f = floors_text(e.evidence); !f.empty()) h += "<br>" + escape_html(f);
   for (const auto& alt : e.alternatives)
     h += "<br>alternative: <b>" + escape_html(effect_title(alt.id)) + "</b> " +
          parameters_html(alt.id, alt.parameters) + " (reproduces " + number(alt.explains_pct) +
@@ -114,6 +125,49 @@ std::string fit_table(const analysis::Findings& F) {
          rel(F.final_fit) + "</td>" + heldout_cell(ho_after) + "</tr></table>\n";
 }
 
+// A missing force no library effect explains plausibly: what would, where, what to check.
+std::string unexplained_box(const analysis::Findings& F) {
+  if (!F.unexplained) return "";
+  const auto& u = *F.unexplained;
+  return "<p class=\"bad\" id=\"unexplained\">" + escape_html(u.message) +
+         "<br>where: " + escape_html(u.where) + "<br>check: " + escape_html(u.check) + "</p>\n";
+}
+
+// The candidates the selection weighed and left out, each with why (the best one below the
+// threshold, those the backward check dropped, those refused in the final fit).
+std::string left_out_table(const analysis::Findings& F) {
+  if (F.not_selected.empty()) return "";
+  std::string h =
+      "<p>Considered and left out:</p>\n<table id=\"left-out\"><tr><th>effect</th><th>why</th>"
+      "<th>held-out gain [%]</th><th>t</th><th>force it would explain [N RMS]</th>"
+      "<th>parameters</th></tr>\n";
+  for (const auto& r : F.not_selected)
+    h += "<tr><td>" + escape_html(effect_title(r.id)) + "<br><code>" + escape_html(r.id) +
+         "</code></td><td>" + escape_html(r.reason.value_or("")) + "</td><td>" +
+         number(r.heldout_gain_pct) + "</td><td>" + number(r.t_stat) + "</td><td>" +
+         (r.explained_rms_n ? number(*r.explained_rms_n) : std::string("–")) + "</td><td>" +
+         (r.parameters ? parameters_html(r.id, *r.parameters) : std::string("–")) + "</td></tr>\n";
+  return h + "</table>\n";
+}
+
+// The twin's own force estimate with the model as configured and as corrected (checking only:
+// the live observer never reads the load cell).
+std::string twin_force_text(const analysis::Findings& F) {
+  if (!F.twin_force_check) return "";
+  const auto& c = *F.twin_force_check;
+  if (!c.available)
+    return "<p id=\"twin-force\">The twin's force estimate was not checked (" +
+           escape_html(c.reason) + ").</p>\n";
+  std::string h =
+      "<p id=\"twin-force\">The twin's force estimate against the load cell "
+      "(checking only): mean absolute error " +
+      number(c.baseline_mae_n) + " N with the model as configured, " + number(c.corrected_mae_n) +
+      " N with the corrected model.";
+  for (const auto& d : c.dropped)
+    h += " " + escape_html(d) + " is left out of the corrected model: it raised that error.";
+  return h + "</p>\n";
+}
+
 plot::Panel panel_of(const analysis::Chart& c) {
   plot::Panel p{c.title, c.x_label, c.y_label, {}};
   for (const auto& curve : c.curves) p.series.push_back({curve.label, curve.x, curve.y});
@@ -141,17 +195,24 @@ std::string physics_section(const AnalysisOutcome& o, int number) {
   if (o.status == Status::failed)
     return h + "<p>The analysis could not run on this recording: " + escape_html(o.reason) +
            "</p>\n";
-  const auto& effects = o.result->findings.effects;
+  const auto& F = o.result->findings;
+  const std::string note =
+      F.sliding_note.empty()
+          ? ""
+          : "<p class=\"meaning\">Note: " + escape_html(F.sliding_note) + "</p>\n";
+  const auto& effects = F.effects;
+  if (effects.empty() && F.unexplained)
+    return h + unexplained_box(F) + note + left_out_table(F) + where_list(*o.result);
   if (effects.empty())
     return h +
            "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
            "significant part of the held-out force error, so the model stays as it is.</p>\n" +
-           where_list(*o.result);
+           note + left_out_table(F) + where_list(*o.result);
   h += "<p>The analysis compared the model with the recording in the force domain and names what "
        "it lacks (effects, laws and parameter names of docs/effects.md):</p>\n<table><tr>"
        "<th>effect</th><th>law</th><th>parameters</th><th>where, evidence</th></tr>\n";
   for (const auto& e : effects) h += effect_row(e);
-  return h + "</table>\n" + where_list(*o.result);
+  return h + "</table>\n" + unexplained_box(F) + note + left_out_table(F) + where_list(*o.result);
 }
 
 std::string fit_part(const AnalysisOutcome& o) {
@@ -163,7 +224,8 @@ std::string fit_part(const AnalysisOutcome& o) {
              parameters_html("", fitted.fitted_parameters.value_or(analysis::Parameters{}),
                              fitted.standard_errors) +
              "</p>\n";
-  return fit_table(o.result->findings) + totals + fit_chart(*o.result);
+  return fit_table(o.result->findings) + totals + fit_chart(*o.result) +
+         twin_force_text(o.result->findings);
 }
 
 std::string analysis_events(const AnalysisOutcome& o) {

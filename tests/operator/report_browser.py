@@ -150,6 +150,18 @@ def main():
           "analyze drift: the physics table and the fit before and after, as in the report")
     analyze_physics = text[text.index("What physics is missing"):text.index("2. The fit before")]
     check(analyze_physics == report_physics, "analyze drift: the physics section reads as the report's")
+    floor = found["effects"][0]["evidence"]["resolution_floor_n"]
+    check("the recording resolves" in analyze_physics and f"{floor:.3g} N" in analyze_physics,
+          f"analyze drift: the finding's force beside the floor it had to exceed ({floor:.3g} N)")
+    left_out = [r["id"] for r in found.get("not_selected", [])]
+    check(not left_out or ("Considered and left out" in analyze_physics
+                           and all(i in analyze_physics for i in left_out)),
+          f"analyze drift: the candidates left out, each with why {left_out}")
+    twin = found["twin_force_check"]
+    line = (f"mean absolute error {twin['baseline_mae_n']:.3g} N with the model as configured, "
+            f"{twin['corrected_mae_n']:.3g} N with the corrected model")
+    check(twin["available"] and line in " ".join(text.split()),
+          f"analyze drift: the twin's force error before and after, as analysis.json has it ({line})")
     check(not [w for w in FORBIDDEN if w in text], "analyze drift: no test strings or raw JSON in the text")
     in_browser("analyze drift", page, out_dir, min_charts=1)
 
