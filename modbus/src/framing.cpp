@@ -92,6 +92,12 @@ RtuFrame frame_rtu(const std::uint8_t* buf, std::size_t n, bool silent) {
   return f;
 }
 
+std::size_t rtu_resync_offset(const std::uint8_t* buf, std::size_t n, bool silent) {
+  for (std::size_t k = 1; k + 4 <= n; ++k)
+    if (frame_rtu(buf + k, n - k, silent).status == FrameStatus::frame) return k;
+  return n;
+}
+
 std::uint16_t modbus_crc16(const std::uint8_t* data, std::size_t len) {
   std::uint16_t crc = 0xFFFF;
   for (std::size_t i = 0; i < len; ++i) {

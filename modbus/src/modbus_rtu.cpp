@@ -115,8 +115,17 @@ void RtuServer::run() {
       const RtuFrame f = frame_rtu(buf, n, silent);
       if (f.status == FrameStatus::need_more) break;
       if (f.status == FrameStatus::error) {
-        discard();  // framing is lost: resynchronise on the next silence
-        break;
+        // Framing is lost: a whole request later in the buffer is served (the silence before
+        // it was not seen), else everything goes and the next silence resynchronises.
+        const std::size_t k = rtu_resync_offset(buf, n, silent);
+        if (k == n) {
+          discard();
+          break;
+        }
+        core_.count_comm_error();
+        std::memmove(buf, buf + k, n - k);
+        n -= k;
+        continue;
       }
       const std::size_t frame = f.size;
       const std::uint8_t unit = f.unit_id;

@@ -124,3 +124,23 @@ TEST(RtuFramer, RefusesABadCrcAndAnOversizedFrameWithAReason) {
   const Bytes tiny = {1, 0x41};
   EXPECT_EQ(frame_rtu(tiny.data(), tiny.size(), true).status, FrameStatus::error);
 }
+
+// A reader not scheduled during the silence gets a cut-short frame and the next request in one
+// read (the RTU integration test's 5 + 8 bytes under a loaded sanitizer run): the request after
+// the refused start is found by its CRC; a lone broken frame leaves nothing to serve.
+TEST(RtuFramer, FindsTheWholeRequestAfterACutShortOneReadTogether) {
+  const Bytes good = with_crc({3, 4, 0, 0, 0, 1});
+  Bytes both(good.begin(), good.begin() + 5);
+  both.insert(both.end(), good.begin(), good.end());
+  ASSERT_EQ(frame_rtu(both.data(), both.size(), false).status, FrameStatus::error);
+  const std::size_t k = rtu_resync_offset(both.data(), both.size(), false);
+  ASSERT_EQ(k, 5u);
+  const RtuFrame f = frame_rtu(both.data() + k, both.size() - k, false);
+  ASSERT_EQ(f.status, FrameStatus::frame);
+  EXPECT_EQ(f.size, good.size());
+  Bytes bad = good;
+  bad.back() ^= 1;
+  EXPECT_EQ(rtu_resync_offset(bad.data(), bad.size(), true), bad.size());
+  const Bytes cut(good.begin(), good.begin() + 5);
+  EXPECT_EQ(rtu_resync_offset(cut.data(), cut.size(), true), cut.size());
+}

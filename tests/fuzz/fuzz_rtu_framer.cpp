@@ -1,6 +1,7 @@
 // libFuzzer target: the Modbus RTU request framer (frame_rtu) on bytes that arrive in pieces,
 // some followed by the line's t3.5 silence, framed the way RtuServer does (frames taken from the
-// front; an error discards everything received).
+// front; after an error the next whole request in the buffer is served, rtu_resync_offset, else
+// everything received is discarded).
 //
 // Input: [chunk][silences][stream…]: the stream arrives `chunk % 16 + 1` bytes at a time; bit
 // i % 8 of `silences` says whether the line falls silent after piece i.
@@ -9,7 +10,8 @@
 //    its size the function's length rule (1–6, 8: 8; 15, 16: 9 + byte count; 23: 13 + write
 //    byte count; 43: 7) or, for a function without one, everything up to the silence;
 //  - "need more": never after a silence, never with more than 256 bytes or a complete frame;
-//  - an error: a non-empty reason, and no valid frame was there to take.
+//  - an error: a non-empty reason, and no valid frame was there to take;
+//  - the resync after it: the first later offset where a whole CRC-valid frame starts, none before.
 #include <array>
 #include <vector>
 
@@ -86,6 +88,21 @@ void check_error(const std::uint8_t* p, std::size_t n, bool silent, const RtuFra
     check(silent, "an incomplete frame refused before the silence");
 }
 
+// The offset rtu_resync_offset gives: a valid frame starts there and at no offset before it.
+void check_resync(const std::uint8_t* p, std::size_t n, bool silent, std::size_t k) {
+  check(k >= 1 && k <= n, "resync offset outside the buffer");
+  for (std::size_t j = 1; j < k; ++j) {
+    const long rule = length_rule(p + j, n - j);
+    const std::size_t size = rule > 0 ? static_cast<std::size_t>(rule) : n - j;
+    const bool whole = rule > 0 ? size <= n - j : rule < 0 && silent;
+    check(!(whole && size <= kMaxRtuAdu && n - j <= kMaxRtuAdu && crc_ok(p + j, size)),
+          "resync skipped a whole valid frame");
+  }
+  if (k < n)
+    check(frame_rtu(p + k, n - k, silent).status == FrameStatus::frame,
+          "resync offset where no frame starts");
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -106,8 +123,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       }
       if (f.status == FrameStatus::error) {
         check_error(buf.data(), buf.size(), silent, f);
-        buf.clear();  // the server discards everything received
-        break;
+        const std::size_t k = rtu_resync_offset(buf.data(), buf.size(), silent);
+        check_resync(buf.data(), buf.size(), silent, k);
+        if (k == buf.size()) {
+          buf.clear();  // the server discards everything received
+          break;
+        }
+        buf.erase(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(k));
+        continue;
       }
       check_frame(buf.data(), buf.size(), silent, f);
       buf.erase(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(f.size));

@@ -50,6 +50,12 @@ struct RtuFrame {
 /// next frame starts after the next silence).
 RtuFrame frame_rtu(const std::uint8_t* buf, std::size_t n, bool silent);
 
+/// Where a whole, CRC-valid request starts after a buffer start frame_rtu refused; n when none
+/// does. A reader that was not scheduled during a silence receives a cut-short frame and the
+/// next request in one read (5 + 8 bytes): the silence it never saw cannot separate them, the
+/// CRC can (a false match is a 1 in 65 536 chance per offset, as on a noisy line).
+std::size_t rtu_resync_offset(const std::uint8_t* buf, std::size_t n, bool silent);
+
 /// Modbus CRC-16 (poly 0xA001, init 0xFFFF) as sent on the line (low byte first).
 std::uint16_t modbus_crc16(const std::uint8_t* data, std::size_t len);
 
