@@ -200,19 +200,19 @@ std::string physics_section(const AnalysisOutcome& o, int number) {
       F.sliding_note.empty()
           ? ""
           : "<p class=\"meaning\">Note: " + escape_html(F.sliding_note) + "</p>\n";
-  const auto& effects = F.effects;
-  if (effects.empty() && F.unexplained)
-    return h + unexplained_box(F) + note + left_out_table(F) + where_list(*o.result);
-  if (effects.empty())
+  // What follows the findings on every page: the unexplained force, the note, the left-out.
+  const std::string after = unexplained_box(F) + note + left_out_table(F) + where_list(*o.result);
+  if (F.effects.empty() && F.unexplained) return h + after;
+  if (F.effects.empty())
     return h +
            "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
            "significant part of the held-out force error, so the model stays as it is.</p>\n" +
-           note + left_out_table(F) + where_list(*o.result);
+           after;
   h += "<p>The analysis compared the model with the recording in the force domain and names what "
        "it lacks (effects, laws and parameter names of docs/effects.md):</p>\n<table><tr>"
        "<th>effect</th><th>law</th><th>parameters</th><th>where, evidence</th></tr>\n";
-  for (const auto& e : effects) h += effect_row(e);
-  return h + "</table>\n" + unexplained_box(F) + note + left_out_table(F) + where_list(*o.result);
+  for (const auto& e : F.effects) h += effect_row(e);
+  return h + "</table>\n" + after;
 }
 
 std::string fit_part(const AnalysisOutcome& o) {

@@ -46,8 +46,9 @@ struct RtuFrame {
 
 /// Frames the first request of `n` bytes received on a serial line. `silent`: the line has
 /// been quiet for t3.5 since the last byte, which ends a frame whose function has no length
-/// rule and makes a still incomplete one an error. An error discards the whole buffer (the
-/// next frame starts after the next silence).
+/// rule and makes a still incomplete one an error. After an error the server serves the next
+/// whole request in the buffer (rtu_resync_offset), else discards it all (the next frame starts
+/// after the next silence).
 RtuFrame frame_rtu(const std::uint8_t* buf, std::size_t n, bool silent);
 
 /// Where a whole, CRC-valid request starts after a buffer start frame_rtu refused; n when none
