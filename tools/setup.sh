@@ -20,6 +20,8 @@ packages=(
   tmux                                      # a real terminal for the `maglead watch` test
   dpkg-dev file                             # cpack's .deb: dpkg-shlibdeps for the dependencies (test)
   python3-pandas                            # bench analyze: read_csv as the CSV reading reference
+  python3-jsonschema                        # analysis.json, report.json against docs/schema (test)
+  help2man                                  # the man page maglead(1) from the commands' --help
 )
 missing=()
 for p in "${packages[@]}"; do
