@@ -1,11 +1,14 @@
 """Install as integrators do, and run what was installed, away from the source and build trees:
-1. `cmake --install BUILD --prefix P`: P/bin/maglead finds P/share/maglead by itself;
+1. `cmake --install BUILD --prefix P`: P/bin/maglead finds P/share/maglead by itself; the man
+   page is P/share/man/man1/maglead.1.gz;
 2. `cpack -G DEB`: the package holds the binary, the configuration under /etc/maglead (as
-   conffiles) and a systemd unit for `maglead serve`; extracted into a clean root (dpkg -x), its
-   binary runs `maglead serve --port 0` and `maglead poll` with /etc/maglead as the default
-   configuration (the extracted etc/ laid over /etc in a private mount namespace).
+   conffiles), a systemd unit for `maglead serve` and the man page maglead(1); extracted into a
+   clean root (dpkg -x), its binary runs `maglead serve --port 0` and `maglead poll` with
+   /etc/maglead as the default configuration (the extracted etc/ laid over /etc in a private
+   mount namespace).
 Usage: package_install.py BUILD_DIR WORK_DIR VERSION"""
 import glob
+import gzip
 import os
 import re
 import shutil
@@ -78,6 +81,9 @@ def main():
           "prefix install: poll reads the controller")
     r = sh(binary, "--version")
     check(r.stdout.strip() == f"maglead {VERSION}", f"installed --version: {r.stdout.strip()}")
+    man = os.path.join(prefix, "share", "man", "man1", "maglead.1.gz")
+    page = gzip.open(man, "rt").read() if os.path.exists(man) else ""
+    check(".TH MAGLEAD \"1\"" in page and ".SH COMMANDS" in page, "installed share/man/man1/maglead.1.gz, maglead(1)")
 
     # 2. The .deb.
     pkg = os.path.join(WORK, "pkg")
@@ -95,6 +101,7 @@ def main():
     check(all(f"./etc/maglead/{f}" in contents for f in CONFIG_FILES), "package: /etc/maglead/*.toml")
     check("./usr/share/maglead/" not in contents, "package: no second copy of the configuration in /usr/share")
     check("./usr/lib/systemd/system/maglead.service" in contents, "package: the systemd unit")
+    check("./usr/share/man/man1/maglead.1.gz" in contents, "package: the man page maglead(1)")
     check(re.search(r"Depends:.*libmodbus5", info) is not None, "package: depends on libmodbus (dpkg-shlibdeps)")
     root = os.path.join(WORK, "root")
     os.makedirs(root)

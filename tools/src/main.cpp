@@ -104,7 +104,8 @@ bool explain_unknown(CLI::App& root, int argc, char** argv) {
 int main(int argc, char** argv) {
   CLI::App app{
       "maglead: force-estimating controller for a magnetic lead-screw actuator, with its "
-      "simulated plant and digital twin.\nRun 'maglead COMMAND --help' for a command's options.",
+      "simulated plant and digital twin.\nRun 'maglead COMMAND --help' for a command's options. "
+      "See man maglead for every command.",
       "maglead"};
   app.set_version_flag("--version", "maglead " MAGLEAD_VERSION, "Print the version and exit");
   app.add_flag(
