@@ -21,7 +21,18 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from modbus_common import check, finish, watchdog  # noqa: E402
 
 BUILD, WORK, VERSION = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2]), sys.argv[3]
-CONFIG_FILES = sorted(os.path.basename(p) for p in glob.glob(os.path.join(BUILD, "config", "*.toml")))
+
+
+def source_dir():
+    """The source tree the build was configured from (its config/ is what gets installed)."""
+    with open(os.path.join(BUILD, "CMakeCache.txt")) as f:
+        for line in f:
+            if line.startswith("CMAKE_HOME_DIRECTORY:"):
+                return line.split("=", 1)[1].strip()
+    raise RuntimeError("no CMAKE_HOME_DIRECTORY in CMakeCache.txt")
+
+
+CONFIG_FILES = sorted(os.path.basename(p) for p in glob.glob(os.path.join(source_dir(), "config", "*.toml")))
 CLEAN_ENV = {k: v for k, v in os.environ.items() if k != "MAGLEAD_CONFIG"}
 
 
@@ -61,7 +72,7 @@ def main():
     watchdog(280)
     shutil.rmtree(WORK, ignore_errors=True)
     os.makedirs(WORK)
-    check(len(CONFIG_FILES) >= 4, f"the build tree holds a copy of the configuration: {CONFIG_FILES}")
+    check(len(CONFIG_FILES) >= 4, f"the source tree's config/ holds the configuration: {CONFIG_FILES}")
 
     # 1. cmake --install into a prefix; run from / with no --config and no $MAGLEAD_CONFIG.
     prefix = os.path.join(WORK, "prefix")

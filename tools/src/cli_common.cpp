@@ -37,8 +37,12 @@ std::vector<std::string> config_dir_candidates() {
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   if (!ec) {
+    // A checkout: BIN is <repository>/build*/bin, and <repository>/config is the one the docs
+    // send users to edit (no build-tree copy, so an edit takes effect on the next run).
+    const fs::path repo = fs::weakly_canonical(exe.parent_path() / "../..", ec);
+    if (!ec && fs::exists(repo / "CMakeLists.txt", ec) && fs::exists(repo / "config", ec))
+      out.push_back((repo / "config").string());
     out.push_back(fs::weakly_canonical(exe.parent_path() / "../share/maglead", ec).string());
-    out.push_back(fs::weakly_canonical(exe.parent_path() / "../config", ec).string());
   }
   out.emplace_back("/etc/maglead");
   return out;
@@ -52,6 +56,15 @@ std::string default_config_dir() {
   for (const auto& c : candidates)
     if (std::filesystem::exists(std::filesystem::path(c) / "calibration.toml", ec)) return c;
   return candidates.back();
+}
+
+CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what) {
+  return cmd
+      ->add_option("--config", config,
+                   "Configuration directory" + (what.empty() ? "" : " (" + what + ")") +
+                       ". Default: $MAGLEAD_CONFIG, else the checkout's config/ (when run from "
+                       "<repository>/build/bin), else <prefix>/share/maglead, else /etc/maglead")
+      ->type_name("DIR");
 }
 
 std::string config_file(const std::string& config_dir, const std::string& name) {

@@ -16,13 +16,15 @@ struct CommandRegistration {
 };
 void register_all(CLI::App& app);
 
-/// Where the configuration lives when --config is not given: $MAGLEAD_CONFIG, else next to the
-/// executable (BIN/../share/maglead, then BIN/../config: the build tree's copy), else
-/// /etc/maglead. Nothing of the source or build tree is compiled in.
+/// Where the configuration lives when --config is not given: $MAGLEAD_CONFIG, else the
+/// checkout's config/ (BIN/../../config beside a CMakeLists.txt: the file the user edits), else
+/// an install's BIN/../share/maglead, else /etc/maglead. Nothing of the tree is compiled in.
 std::string default_config_dir();
 /// The candidates default_config_dir() tries after $MAGLEAD_CONFIG, in order (for messages).
 std::vector<std::string> config_dir_candidates();
 std::string config_file(const std::string& config_dir, const std::string& name);
+/// `--config DIR` on a command, its help stating the lookup rule (not a machine's path).
+CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what = "");
 
 /// "30s", "2min", "500ms", "1h" or a plain number of seconds. Throws CLI::ValidationError.
 double parse_duration_s(const std::string& text);

@@ -218,7 +218,7 @@ void add_bench_analyze(CLI::App& app) {
                   "position ripple and an offset concealed)");
   cmd->add_flag("--quick", o->quick, "Two simulated minutes instead of an hour (CI)");
   cmd->add_option("--out", o->out, "Output directory (default: a temporary one)");
-  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  add_config_option(cmd, o->config);
   cmd->callback([o] {
     maglead::cli::advise_large_blocks_to_huge_pages();  // reads whole recordings
     run_bench_analyze(*o);

@@ -278,7 +278,7 @@ void add_bench_modbus(CLI::App& app) {
   cmd->add_option("--seconds", o->seconds, "Seconds per case")
       ->check(CLI::Range(0.1, 600.0))
       ->capture_default_str();
-  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  add_config_option(cmd, o->config);
   cmd->add_flag("--no-twin", o->no_twin, "Run the loop without the digital twin");
   cmd->add_option("--twin-priority", o->twin_priority,
                   "The twin thread's SCHED_FIFO priority (0: SCHED_OTHER)")

@@ -247,7 +247,7 @@ void add_bench_twin(CLI::App& app) {
   cmd->add_flag("--quick", o->quick, "Short run for CI (10 s of simulated time)");
   cmd->add_option("--duration", o->duration_s, "Simulated seconds")->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of the test drive")->capture_default_str();
-  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  add_config_option(cmd, o->config);
   cmd->callback([o] { run_bench_twin(*o); });
 }
 

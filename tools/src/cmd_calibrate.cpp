@@ -29,7 +29,7 @@ void add_calibrate(CLI::App& app) {
          "--order-gain", o->gain_pct,
          "Choose the lowest order that no higher order improves by more than this [% RMSE]")
       ->capture_default_str();
-  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  add_config_option(cmd, o->config);
   cmd->callback([o] {
     const ActuatorParams act = load_actuator_or_default(o->config);
     const Recording rec =

@@ -203,7 +203,7 @@ void add_estimate(CLI::App& app) {
                   "out_force_err_n; the observer adds its bound out_force_lo_n, out_force_hi_n");
   cmd->add_option("--calibration", o->calibration,
                   "Calibration file (default: CONFIG/calibration.toml)");
-  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  add_config_option(cmd, o->config);
   cmd->callback([o] {
     maglead::cli::advise_large_blocks_to_huge_pages();  // reads whole recordings
     run_estimate(*o);

@@ -32,8 +32,7 @@ void add_inspect(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   cmd->add_option("--recording", o->recording, "mls-recording/1 CSV")->required();
-  cmd->add_option("--config", o->config, "Configuration directory (the actuator's stroke)")
-      ->capture_default_str();
+  add_config_option(cmd, o->config, "the actuator's stroke");
   cmd->callback([o] {
     const std::string* path = &o->recording;
     const Recording rec =

@@ -67,7 +67,7 @@ void add_report(CLI::App& app) {
       ->required();
   cmd->add_option("--out", o->out, "Output directory (index.html, report.json, the map's PNG)")
       ->required();
-  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  add_config_option(cmd, o->config);
   cmd->add_option("--calibration", o->calibration,
                   "Force calibration (default: CONFIG/calibration.toml)");
   cmd->add_option("--model", o->model,

@@ -156,6 +156,23 @@ std::string coupling_text(const CouplingModel& c) {
   return out;
 }
 
+/// The configuration files serve reads, as the user would name them: those of the folder that
+/// exist, and the files given by option instead.
+std::string files_read(const ServeOptions& o) {
+  std::string out;
+  const auto add = [&](const std::string& name, const std::string& given) {
+    const std::string path = given.empty() ? config_file(o.config, name) : given;
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) return;
+    out += (out.empty() ? "" : ", ") + (given.empty() ? name : given);
+  };
+  add("actuator.toml", "");
+  add("calibration.toml", o.calibration);
+  add("network.toml", o.network);
+  add("model.toml", o.model);
+  return out.empty() ? "no files: built-in defaults" : "read " + out;
+}
+
 void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
                   runtime::Service& service) {
   const auto& cfg = sc.controller;
@@ -170,8 +187,9 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
           : "free nut",
       service.loop().realtime() ? "SCHED_FIFO" : "normal scheduling",
       service.twin() ? "digital twin running on its own thread" : "no twin");
-  std::printf("maglead serve: configuration from %s\n",
-              std::filesystem::absolute(o.config).lexically_normal().string().c_str());
+  std::printf("maglead serve: configuration from %s (%s)\n",
+              std::filesystem::absolute(o.config).lexically_normal().string().c_str(),
+              files_read(o).c_str());
   std::printf(
       "maglead serve: model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N (+p/-p), %s%s\n",
       sc.model_path.empty() ? "[actuator]" : sc.model_path.c_str(), cfg.friction.coulomb_pos_n,
@@ -194,14 +212,30 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
   std::fflush(stdout);
 }
 
-/// Until Ctrl-C (or SIGTERM), or for duration_s when it is positive.
-void wait_for_stop(double duration_s) {
-  const auto t0 = std::chrono::steady_clock::now();
+/// Until Ctrl-C (or SIGTERM), or for duration_s when it is positive. Loop overruns are reported
+/// as they happen (at most once a second), not only at exit.
+void wait_for_stop(double duration_s, runtime::Service& service) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  auto last_report = t0;
+  std::uint64_t reported = 0;
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    if (duration_s > 0 &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= duration_s)
-      break;
+    const auto now = Clock::now();
+    if (now - last_report >= std::chrono::seconds(1)) {
+      const auto snap = service.controller().snapshot();
+      if (snap.overrun_count > reported) {
+        std::printf(
+            "maglead serve: %llu loop overrun(s) in the last second (%llu in all), latest "
+            "start %.0f us late\n",
+            static_cast<unsigned long long>(snap.overrun_count - reported),
+            static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
+        std::fflush(stdout);
+        reported = snap.overrun_count;
+      }
+      last_report = now;
+    }
+    if (duration_s > 0 && std::chrono::duration<double>(now - t0).count() >= duration_s) break;
   }
 }
 
@@ -214,7 +248,7 @@ void run_serve(const ServeOptions& o) {
   std::signal(SIGTERM, on_signal);
   service.start();
   print_banner(o, sc, service);
-  wait_for_stop(duration_s);
+  wait_for_stop(duration_s, service);
   service.stop();
   const auto snap = service.controller().snapshot();
   std::printf(
@@ -227,7 +261,7 @@ void add_serve(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "serve", "Run the controller on the simulated actuator and serve it over Modbus TCP/RTU");
   auto o = std::make_shared<ServeOptions>();
-  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  add_config_option(cmd, o->config);
   cmd->add_option("--network", o->network, "Network configuration (default: CONFIG/network.toml)");
   cmd->add_option("--calibration", o->calibration,
                   "Force calibration (default: CONFIG/calibration.toml)");

@@ -180,7 +180,7 @@ void add_twin_check(CLI::App& app) {
   cmd->add_option("--recording", o->recording,
                   "mls-recording/1 with t_s, screw or motor angle, nut_pos_m")
       ->required();
-  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  add_config_option(cmd, o->config);
   cmd->add_option("--model", o->model, "Twin model file (default: CONFIG/model.toml)");
   cmd->add_option(
       "--trace", o->trace,
