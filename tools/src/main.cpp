@@ -99,6 +99,16 @@ bool explain_unknown(CLI::App& root, int argc, char** argv) {
   return false;
 }
 
+/// A usage error (a missing or invalid option): the documented exit code 2, the message with
+/// the `maglead: error:` prefix, and what to type for the command's options.
+void usage_error(const CLI::App& root, const CLI::ParseError& e) {
+  const CLI::App* at = &root;
+  for (auto subs = at->get_subcommands(); !subs.empty(); subs = at->get_subcommands())
+    at = subs.front();
+  std::fprintf(stderr, "maglead: error: %s\nrun '%s --help' for the options\n", e.what(),
+               path_of(at).c_str());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -126,8 +136,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::RuntimeError& e) {
     return app.exit(e);  // a command's own exit code; its message is already printed
   } catch (const CLI::ParseError& e) {
-    if (explain_unknown(app, argc, argv)) return maglead::cli::kExitBadInput;
-    return app.exit(e);
+    if (!explain_unknown(app, argc, argv)) usage_error(app, e);
+    return maglead::cli::kExitBadInput;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "maglead: error: %s\n", e.what());
     return maglead::cli::kExitBadInput;
