@@ -235,7 +235,6 @@ def against_a_server():
         rc, _, err = run("set", "--port", port, "position", "45mm", "--config", CONFIG)
         check(rc == 2 and "45 mm" in err and "0 .. 40 mm" in err and "stroke_max_m" in err,
               f"stroke error: value, limit, where: {err.strip()!r}")
-        run("enable", "--port", port)
         rc, _, err = run("set", "--port", port, "force", "25", "--config", CONFIG)
         check(rc == 4 and "force 25.000 N refused by the controller" in err and "exception 03" in err
               and "safe_force_fraction 0.8" in err, f"the controller's refusal names value and limit: {err.strip()!r}")

@@ -92,10 +92,11 @@ def scenario(port):
     check(rc == 4 and "not_stepped_out" in err, f"resync without step-out rejected: {err.strip()}")
 
     rc, out, err = run(MAGLEAD, "enable", *conn, "--hold", "0.3s")
-    check(rc == 0 and "enabled" in out and "held" in out, f"enable --hold: {out.strip()} {err.strip()}")
-    # Control ended with the command: owner loss, a fault with its reaction (hold in idle mode).
+    check(rc == 0 and "enabled" in out and "released" in out and "without a fault" in out,
+          f"enable --hold: {out.strip()} {err.strip()}")
+    # The command said it released control; it did: no fault, the drive ready, nobody owns it.
     w = read_regs(port, 4, 11, 3)
-    check(w[0] == 7 and w[2] == 3, f"after the command: fault owner_lost (raw {w})")
+    check(w[0] == 0 and w[2] == 1, f"after enable --hold: no alarm, drive ready (raw {w})")
     # set claims control itself (clears the owner_lost fault, enable edge) and holds it.
     holder = subprocess.Popen([MAGLEAD, "set", *conn, "force", "10", "--config", CONFIG, "--hold", "8s"],
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -144,21 +145,33 @@ def scenario(port):
     check(rc == 0 and os.path.exists(os.path.join(WORK, "tcp_report", "index.html")),
           f"report reads what record wrote: {out.strip()} {err.strip()[-300:]}")
     hout, herr = holder.communicate(timeout=20)
-    check(holder.returncode == 0 and "done" in hout and "held for 8.0 s" in hout,
+    check(holder.returncode == 0 and "done" in hout and "held for 8.0 s" in hout and "released" in hout,
           f"set force 10 --hold 8s: {hout.strip()} {herr.strip()}")
-    # The holder is gone: owner loss in force mode releases the force (ramp, then zero).
+    # The holder released control as it said: disabled without a fault, nobody owns it.
+    w = read_regs(port, 4, 11, 3)
+    check(w[0] == 0 and w[2] == 1, f"holder done: no alarm, drive ready (raw {w})")
+    # A holder that vanishes while owning control (killed, no release): owner loss in force
+    # mode releases the force (ramp, then zero) and latches owner_lost.
+    holder = subprocess.Popen([MAGLEAD, "set", *conn, "force", "10", "--config", CONFIG],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    end = time.time() + 10
+    while time.time() < end and not (read_regs(port, 4, 10, 1)[0] & (1 << 5)):
+        time.sleep(0.05)
+    holder.kill()
+    holder.communicate(timeout=10)
     end = time.time() + 3
     while time.time() < end and read_regs(port, 4, 54, 1)[0] != 3:
         time.sleep(0.05)
     w = read_regs(port, 4, 11, 1) + read_regs(port, 4, 54, 1)
-    check(w == [7, 3], f"holder gone: alarm owner_lost, force released (raw {w})")
+    check(w == [7, 3], f"holder killed: alarm owner_lost, force released (raw {w})")
 
-    rc, out, err = run(MAGLEAD, "set", *conn, "position", "22mm", "--speed", "10mm/s", "--config", CONFIG)
-    check(rc == 0 and "done" in out, f"set position 22mm: {out.strip()} {err.strip()}")
+    rc, out, err = run(MAGLEAD, "set", *conn, "position", "22mm", "--speed", "10mm/s", "--hold", "0.2s",
+                       "--config", CONFIG)
+    check(rc == 0 and "done" in out and "released" in out, f"set position 22mm: {out.strip()} {err.strip()}")
     pos_um = i32(read_regs(port, 4, 20, 2))
     check(abs(pos_um - 22000) < 100, f"nut at 22 mm ({pos_um} um, raw read)")
     check(i32(read_regs(port, 3, 1008, 2)) == 10000, "speed limit staged as 10 mm/s")
-    rc, out, err = run(MAGLEAD, "set", *conn, "position", "21mm", "--no-wait", "--config", CONFIG)
+    rc, out, err = run(MAGLEAD, "set", *conn, "position", "21mm", "--no-wait", "--hold", "0.2s", "--config", CONFIG)
     check(rc == 0 and "acknowledged" in out, f"set --no-wait returns on ack: {out.strip()} {err.strip()}")
     rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
     check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
@@ -243,8 +256,8 @@ def watch_pty(conn, key, how):
     check(status is not None and os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, f"watch quits on {how}")
     check("\x1b[?1049h" in text and text.rfind("\x1b[?1049l") > text.rfind("\x1b[?1049h") and "\x1b[?25h" in text,
           f"watch ({how}) restores the screen and cursor")
-    # The last one-shot command has ended: the drive is in fault owner_lost.
-    check(re.search(r"drive\s+fault\s+mode\s+idle", text) is not None and "owner_lost" in text
+    # The last command released control as it said: the drive is ready, no alarm.
+    check(re.search(r"drive\s+ready\s+mode\s+idle", text) is not None and "alarm none" in text
           and "force [N]" in text and "* estimate" in text and "now" in text,
           f"watch ({how}) shows state and a trend")
 

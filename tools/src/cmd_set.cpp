@@ -1,7 +1,10 @@
 // maglead set / enable / disable / reset: command a controller over Modbus the way a PLC does
 // (staged setpoint, mode_command, execute edge, ack/done handshake). Every value is checked as
 // the server checks it, before anything is sent.
+#include <chrono>
+#include <csignal>
 #include <cstdio>
+#include <limits>
 #include <optional>
 
 #include "operator_cli.hpp"
@@ -27,8 +30,7 @@ struct CommandFlags {
 
 void add_command_flags(CLI::App* cmd, const std::shared_ptr<CommandFlags>& f, bool limits) {
   if (limits) {
-    cmd->add_option("--config", f->config, "Configuration directory (stroke, safe force fraction)")
-        ->capture_default_str();
+    add_config_option(cmd, f->config, "stroke, safe force fraction");
     cmd->add_option("--calibration", f->calibration,
                     "Force calibration the controller uses (default: CONFIG/calibration.toml)");
   }
@@ -37,9 +39,39 @@ void add_command_flags(CLI::App* cmd, const std::shared_ptr<CommandFlags>& f, bo
 }
 
 constexpr const char* kHoldHelp =
-    "Keep control this long afterwards (e.g. 10s). Control ends with the command: the drive then "
-    "runs its "
-    "owner-loss fault reaction (force released, position held)";
+    "Keep control this long (e.g. 10s), then release it. Default: until Ctrl-C. Release clears "
+    "enable: the drive is disabled without a fault, so the force or position is no longer held";
+
+volatile std::sig_atomic_t g_interrupted = 0;
+void on_interrupt(int) { g_interrupted = 1; }
+void catch_interrupt() {
+  g_interrupted = 0;
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+}
+
+/// Keeps control until Ctrl-C or SIGTERM (or for `hold`), then releases it cleanly: enable
+/// cleared, the drive disabled, no owner-loss fault. Says both, so nothing happens in secret.
+void hold_then_release(op::Client& client, const std::string& hold, const op::CommandOptions& o,
+                       const std::string& held) {
+  const double hold_s =
+      hold.empty() ? std::numeric_limits<double>::infinity() : parse_duration_s(hold);
+  if (hold.empty())
+    std::printf("holding %s: control kept until Ctrl-C, then released (drive disabled)\n",
+                held.c_str());
+  else
+    std::printf("holding %s for %.1f s, then released (drive disabled)\n", held.c_str(), hold_s);
+  std::fflush(stdout);
+  const auto t0 = std::chrono::steady_clock::now();
+  op::hold(client, hold_s, o, [] { return g_interrupted != 0; });
+  const double held_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  op::disable(client, {});
+  std::printf(
+      "held for %.1f s; released: enable cleared, drive disabled without a fault, %s no "
+      "longer held\n",
+      held_s, held.c_str());
+}
 
 struct SetOptions {
   std::string what, value, speed, accel;
@@ -89,9 +121,11 @@ Planned plan_position(const SetOptions& o, const CommandFlags& f) {
 /// A plain register write (limits, watchdog …): checked, written, no execute edge.
 void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
   const std::string& text = value_of(o);
-  const auto* r = reg::find(o.what);
+  const auto* r = op::find_by_any_name(o.what);  // the SI names poll prints, or register names
   if (!r)
-    throw ClientError(Kind::refused_locally, "no register or setpoint named '" + o.what + "'");
+    throw ClientError(Kind::refused_locally,
+                      "no register or setpoint named '" + o.what +
+                          "' ('maglead registers' lists them; 'maglead poll' shows the names)");
   if (r->table != reg::Table::holding_register || r->access != reg::Access::read_write ||
       r->name == "control_word")
     throw ClientError(Kind::refused_locally, "'" + o.what +
@@ -106,7 +140,7 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
   op::Client client(endpoint_of(conn));
   client.check_identity();
   client.write({{std::string(r->name), v}});
-  std::printf("%s = %.9g %s written\n", std::string(r->name).c_str(), v,
+  std::printf("%s = %s %s written\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
               std::string(r->unit).c_str());
 }
 
@@ -114,8 +148,10 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
 /// setpoint, or a reject reason) is said with the value and the limit as this machine's
 /// configuration has it, and where.
 op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags& f) {
+  op::CommandOptions options = f.options();
+  options.stop = [] { return g_interrupted != 0; };
   try {
-    return op::execute(client, p.mode, p.setpoints, f.options());
+    return op::execute(client, p.mode, p.setpoints, options);
   } catch (const ClientError& e) {
     const std::string msg = e.what();
     const bool limit = e.kind() == Kind::exception ? msg.find("exception 03") != std::string::npos
@@ -133,7 +169,24 @@ op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags&
   }
 }
 
+/// send, and when it fails after this client may have claimed control, release it before the
+/// error is reported: a failed command leaves no owner-loss fault behind.
+op::CommandResult send_or_release(op::Client& client, const Planned& p, const CommandFlags& f) {
+  try {
+    return send(client, p, f);
+  } catch (const ClientError& e) {
+    if (f.no_claim || e.kind() == Kind::refused_locally || e.kind() == Kind::connection) throw;
+    try {
+      op::disable(client, {});
+    } catch (const ClientError&) {
+      throw e;  // not the owner (or gone): nothing to release
+    }
+    throw ClientError(e.kind(), std::string(e.what()) + "; control released (drive disabled)");
+  }
+}
+
 void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
+  catch_interrupt();  // Ctrl-C at any time ends in a clean release, never a vanished owner
   // All checks happen before the connection is even opened.
   Planned p{reg::Mode::idle, {}, "idle (stop and hold)"};
   if (o.what == "force") {
@@ -144,20 +197,19 @@ void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions
     write_setting(o, f, conn);
     return;
   }
+  if (!f.hold.empty()) parse_duration_s(f.hold);  // a bad --hold is refused before sending
   op::Client client(endpoint_of(conn));
   client.check_identity();
-  const double hold_s = f.hold.empty() ? 0.0 : parse_duration_s(f.hold);
-  const op::CommandResult res = send(client, p, f);
+  const op::CommandResult res = send_or_release(client, p, f);
   if (res.done)
     std::printf("%s: done (%s) after %.2f s\n", p.summary.c_str(),
                 p.mode == reg::Mode::force ? "force reached" : "in position", res.elapsed_s);
+  else if (g_interrupted)
+    std::printf("%s: acknowledged, interrupted before done\n", p.summary.c_str());
   else
     std::printf("%s: acknowledged by the controller\n", p.summary.c_str());
-  if (hold_s > 0) {
-    std::fflush(stdout);
-    op::hold(client, hold_s, f.options());
-    std::printf("held for %.1f s; control ends now (owner-loss fault reaction)\n", hold_s);
-  }
+  // A claimed control is held, then released; without a claim this client owns nothing.
+  if (!f.no_claim) hold_then_release(client, f.hold, f.options(), p.summary);
 }
 
 void add_set(CLI::App& app) {
@@ -191,17 +243,15 @@ void add_drive_command(CLI::App& app, const char* name, const char* help, Step s
     cmd->add_flag("--resync", *resync,
                   "First re-synchronise the phase (after a step-out: the nut's new lead is zero)");
   if (std::string_view(name) == "enable") cmd->add_option("--hold", *hold, kHoldHelp);
-  cmd->callback([conn, resync, hold, name, step] {
+  const bool holds = std::string_view(name) == "enable";
+  cmd->callback([conn, resync, hold, name, step, holds] {
     run_operator(name, [&] {
-      const double hold_s = hold->empty() ? 0.0 : parse_duration_s(*hold);
+      if (!hold->empty()) parse_duration_s(*hold);
+      if (holds) catch_interrupt();
       op::Client client(endpoint_of(*conn));
       client.check_identity();
       std::printf("%s\n", step(client, *resync).c_str());
-      if (hold_s > 0) {
-        std::fflush(stdout);
-        op::hold(client, hold_s, {});
-        std::printf("held for %.1f s; control ends now (owner-loss fault reaction)\n", hold_s);
-      }
+      if (holds) hold_then_release(client, *hold, {}, "control");
     });
   });
 }
@@ -209,19 +259,17 @@ void add_drive_command(CLI::App& app, const char* name, const char* help, Step s
 void add_enable(CLI::App& app) {
   add_drive_command(
       app, "enable",
-      "Claim control and enable a ready drive (rising edge of the enable bit); control ends with "
-      "the command (see --hold)",
+      "Claim control and enable a ready drive (rising edge of the enable bit); keeps control "
+      "until Ctrl-C (or --hold), then disables the drive cleanly",
       [](op::Client& c, bool) {
         op::enable(c, {});
         return std::string("drive enabled");
       });
 }
 void add_disable(CLI::App& app) {
-  add_drive_command(app, "disable", "Disable the drive (falling edge of the enable bit)",
-                    [](op::Client& c, bool) {
-                      op::disable(c, {});
-                      return std::string("drive disabled");
-                    });
+  add_drive_command(app, "disable",
+                    "Disable the drive (falling edge of the enable bit) and release control",
+                    [](op::Client& c, bool) { return op::disable_and_say(c); });
 }
 void add_reset(CLI::App& app) {
   add_drive_command(app, "reset", "Clear a latched fault (fault_reset edge, ack/done handshake)",

@@ -578,6 +578,7 @@ CommandResult execute(Client& c, reg::Mode mode,
     if (s.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled))
       throw ClientError(Kind::rejected,
                         "execute: the drive was disabled before reaching the target");
+    if (o.stop && o.stop()) break;
     if (since(t0) > o.done_timeout_s)
       throw ClientError(
           Kind::no_reply,
@@ -636,6 +637,16 @@ void disable(Client& c, const CommandOptions& o) {
   }
 }
 
+std::string disable_and_say(Client& c) {
+  disable(c, {});
+  const Status s = read_status(c);
+  if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
+    return "enable cleared; the drive stays in fault (alarm " + alarm_text(s.alarm) +
+           "): run 'maglead reset' to clear it";
+  return "drive disabled: enable cleared, control released (drive_state " +
+         code_name(reg::drive_states(), s.drive_state) + ")";
+}
+
 void reset(Client& c, bool resync_first, const CommandOptions& o) {
   const Image im = read_image(c);
   std::uint16_t cw = static_cast<std::uint16_t>(im.control_word & ~bit(reg::kExecute));
@@ -658,10 +669,10 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
 
 namespace maglead::op {
 
-void hold(Client& c, double seconds, const CommandOptions& o) {
+void hold(Client& c, double seconds, const CommandOptions& o, const std::function<bool()>& stop) {
   const Image im = read_image(c);
   const auto t0 = Clock::now();
-  while (since(t0) < seconds) {
+  while (since(t0) < seconds && !(stop && stop())) {
     const Status s = read_status(c);
     if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
       throw ClientError(Kind::rejected, "hold: the drive faulted: alarm " + alarm_text(s.alarm));

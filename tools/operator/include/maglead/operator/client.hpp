@@ -3,6 +3,7 @@
 // SI values: what the operator commands (poll, watch, set, enable, record …) share. Scaled
 // integers exist only inside this library, through registers::encode / decode.
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -154,6 +155,8 @@ struct CommandOptions {
   double poll_period_s = 0.01;
   /// execute: take control first when nobody has it (clear an owner_lost fault, enable edge).
   bool claim = true;
+  /// execute: stop waiting for done when this returns true (Ctrl-C); done then stays false.
+  std::function<bool()> stop;
 };
 struct CommandResult {
   bool done = false;  // execute done (target reached) seen
@@ -170,11 +173,16 @@ CommandResult execute(Client& client, registers::Mode mode,
 /// Enable (rising edge of the enable level) and wait for drive_state enabled.
 void enable(Client& client, const CommandOptions& options);
 void disable(Client& client, const CommandOptions& options);
+/// disable, then the state the drive is in, in words: "drive disabled …" only when it is not in
+/// fault (a latched fault stays until a reset, and the text says what to type).
+std::string disable_and_say(Client& client);
 /// Fault reset edge (optionally a resync edge first), with the ack/done handshake.
 void reset(Client& client, bool resync_first, const CommandOptions& options);
-/// Keeps control for `seconds` (polling, feeding a watchdog); throws when the drive faults or
-/// is disabled meanwhile. Control ends with the connection: the drive then runs its owner-loss
-/// fault reaction.
-void hold(Client& client, double seconds, const CommandOptions& options);
+/// Keeps control for `seconds` (infinity: for ever) or until `stop` says so (polling, feeding a
+/// watchdog); throws when the drive faults or is disabled meanwhile. A connection that closes
+/// while it owns control makes the drive run its owner-loss fault reaction: release first
+/// (`disable`) to end control without a fault.
+void hold(Client& client, double seconds, const CommandOptions& options,
+          const std::function<bool()>& stop = {});
 
 }  // namespace maglead::op
