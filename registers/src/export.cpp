@@ -110,6 +110,9 @@ std::string to_markdown() {
   code_table(md, "command_reject_reason", reject_codes());
   code_table(md, "fault_reaction", reactions());
   code_table(md, "write_refusal_reason", refusals());
+  for (const char* name : {"twin_drift_reason", "twin_health_reason", "twin_step_out_reason",
+                           "force_loop_state", "force_reached_reason", "observer_basis"})
+    code_table(md, name, codes_of(name));
   return md.str();
 }
 
@@ -121,6 +124,15 @@ std::string to_csv() {
         << ',' << num(r.scale) << ',' << r.unit << ',' << to_string(r.access) << ',' << num(r.min)
         << ',' << num(r.max) << ',' << csv_field(r.description) << '\n';
   return csv.str();
+}
+
+/// {register name: its codes} for every register that holds a code.
+template <class CodesToJson>
+nlohmann::json register_codes(const CodesToJson& codes) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& r : table())
+    if (!codes_of(r.name).empty()) out[std::string(r.name)] = codes(codes_of(r.name));
+  return out;
 }
 
 std::string to_json() {
@@ -153,12 +165,13 @@ std::string to_json() {
     return a;
   };
   nlohmann::json doc{
-      {"format", "maglead-registers/1"},          {"map_version", kMapVersion},
-      {"word_order", "high word first"},          {"registers", regs},
-      {"drive_states", codes(drive_states())},    {"modes", codes(modes())},
-      {"alarm_codes", codes(alarm_codes())},      {"reject_codes", codes(reject_codes())},
-      {"fault_reactions", codes(reactions())},    {"write_refusals", codes(refusals())},
-      {"mapped_ranges", ranges(mapped_ranges())}, {"poll_blocks", ranges(poll_blocks())}};
+      {"format", "maglead-registers/1"},         {"map_version", kMapVersion},
+      {"word_order", "high word first"},         {"registers", regs},
+      {"drive_states", codes(drive_states())},   {"modes", codes(modes())},
+      {"alarm_codes", codes(alarm_codes())},     {"reject_codes", codes(reject_codes())},
+      {"fault_reactions", codes(reactions())},   {"write_refusals", codes(refusals())},
+      {"register_codes", register_codes(codes)}, {"mapped_ranges", ranges(mapped_ranges())},
+      {"poll_blocks", ranges(poll_blocks())}};
   return doc.dump(2) + "\n";
 }
 

@@ -284,6 +284,72 @@ constexpr std::array kModes = std::to_array<Code>({
      "twin judges estimation drift on it (then hold; active_mode reads 1 while it runs)"},
 });
 
+constexpr std::array kDriftReasons = std::to_array<Code>({
+    {0, "none", "no drift warning"},
+    {1, "gain_fell", "the coupling gain fell (gain and friction separated)"},
+    {2, "gain_rose", "the coupling gain rose"},
+    {3, "friction_rose", "the sliding friction rose (separated from the gain)"},
+    {4, "friction_fell", "the sliding friction fell"},
+    {5, "error_rose", "the estimate's error grew: gain fell or friction rose, not separable"},
+    {6, "error_fell", "the error shrank: gain rose or friction fell, not separable"},
+});
+constexpr std::array kHealthReasons = std::to_array<Code>({
+    {0, "none", "twin healthy"},
+    {1, "position_residual", "measured minus predicted position beyond tolerance for a window"},
+    {2, "step_out", "the nut stepped out (until a resync)"},
+    {3, "solver", "a SUNDIALS call failed this tick"},
+});
+constexpr std::array kStepOutReasons = std::to_array<Code>({
+    {0, "none", "no step-out warning"},
+    {1, "lookahead_crosses_edge", "the look-ahead's phase leaves the stable branch"},
+    {2, "setpoint_beyond_peak", "the force setpoint's trend passes the calibrated peak"},
+    {3, "stepped_out", "the nut stepped out (until a resync)"},
+});
+constexpr std::array kForceLoopStates = std::to_array<Code>({
+    {0, "off", "not in force mode"},
+    {1, "breaking_away", "stuck off the setpoint: ramping the drive until the nut moves"},
+    {2, "approaching", "sliding towards the setpoint, friction fed forward"},
+    {3, "landing", "at the setpoint: friction stops the nut"},
+    {4, "holding", "stuck with the load force at the setpoint, coupling mid stick band"},
+    {5, "holding_no_motion", "the setpoint was already inside the known load-force bound"},
+    {6, "blocked", "no motion at twice the model's break-away force"},
+});
+constexpr std::array kReachedReasons = std::to_array<Code>({
+    {0, "reached", "load force within the tolerance for the dwell"},
+    {1, "not_force_mode", "not in force mode"},
+    {2, "load_force_off", "the observer's load force is outside the tolerance"},
+    {3, "bound_unknown", "load force unknown: nothing slid yet, or the load changed while stuck"},
+    {4, "bound_too_wide", "the load-force bound is wider than the tolerance"},
+    {5, "moving", "the nut slides: the load force is still changing"},
+    {6, "settling", "inside the tolerance, the dwell is running"},
+});
+constexpr std::array kObserverBases = std::to_array<Code>({
+    {0, "stick_band", "only the stick band: load force anywhere in drive +- break-away"},
+    {1, "sliding", "the nut slides: force balance"},
+    {2, "stuck_after_slide", "stuck after a slide: the force it had when it stopped"},
+});
+
+/// Every register that holds a code, with its list: poll, watch and the docs name each value.
+struct CodeRegister {
+  std::string_view register_name;
+  std::span<const Code> codes;
+};
+const std::array kCodeRegisters = std::to_array<CodeRegister>({
+    {"drive_state", kStates},
+    {"active_mode", kModes},
+    {"mode_command", kModes},
+    {"alarm_code", kAlarms},
+    {"command_reject_reason", kRejects},
+    {"fault_reaction", kReactions},
+    {"write_refusal_reason", kRefusals},
+    {"twin_drift_reason", kDriftReasons},
+    {"twin_health_reason", kHealthReasons},
+    {"twin_step_out_reason", kStepOutReasons},
+    {"force_loop_state", kForceLoopStates},
+    {"force_reached_reason", kReachedReasons},
+    {"observer_basis", kObserverBases},
+});
+
 constexpr std::array kRanges = std::to_array<AddressRange>({
     {IR, 0, 136, "identity, status, measurements (scaled and float32), twin, loop, load observer"},
     {HR, 1000, 20, "commands and setpoints"},
@@ -316,6 +382,11 @@ std::span<const Code> drive_states() { return kStates; }
 std::span<const Code> modes() { return kModes; }
 std::span<const Code> reactions() { return kReactions; }
 std::span<const Code> refusals() { return kRefusals; }
+std::span<const Code> codes_of(std::string_view register_name) {
+  for (const auto& c : kCodeRegisters)
+    if (c.register_name == register_name) return c.codes;
+  return {};
+}
 
 const Register* find(std::string_view name) {
   for (const auto& r : kTable)

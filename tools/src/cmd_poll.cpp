@@ -23,9 +23,7 @@ std::string meaning(const reg::Register& r, double v) {
   }
   if (r.name == "alarm_code")
     return op::code_name(reg::alarm_codes(), v) + ": " + op::code_meaning(reg::alarm_codes(), v);
-  if (r.name == "command_reject_reason") return op::code_name(reg::reject_codes(), v);
-  if (r.name == "drive_state") return op::code_name(reg::drive_states(), v);
-  if (r.name == "active_mode" || r.name == "mode_command") return op::code_name(reg::modes(), v);
+  if (const auto codes = reg::codes_of(r.name); !codes.empty()) return op::code_name(codes, v);
   if (r.name == "device_type") {
     char b[32];
     std::snprintf(b, sizeof b, "0x%04X%s", static_cast<unsigned>(v),
@@ -49,11 +47,20 @@ std::string meaning(const reg::Register& r, double v) {
   return "";
 }
 
+/// A raw value as a PLC reads it: signed types signed (an INT/DINT of -318, not 4294966978),
+/// float32 as its bit pattern.
+std::string raw_text(const reg::Register& r, std::uint32_t raw_word) {
+  if (r.type == reg::Type::i32) return std::to_string(static_cast<std::int32_t>(raw_word));
+  if (r.type == reg::Type::i16)
+    return std::to_string(static_cast<std::int16_t>(static_cast<std::uint16_t>(raw_word)));
+  return std::to_string(raw_word);
+}
+
 /// The JSON literal of one value: the raw integer, or the SI value at the register's resolution
 /// in plain decimals. nlohmann writes doubles below 1e-4 with an exponent (0.000071 s as
 /// 7.1e-05), so fixed-point registers are written here from si_text (%.*f, zeros trimmed).
 std::string json_literal(const reg::Register& r, double si, std::uint32_t raw_word, bool raw) {
-  if (raw) return nlohmann::json(raw_word).dump();
+  if (raw) return raw_text(r, raw_word);
   if (!std::isfinite(si)) return "null";
   if (r.type == reg::Type::f32) return nlohmann::json(op::si_rounded(r, si)).dump();
   if (op::si_decimals(r) == 0) return nlohmann::json(std::llround(si)).dump();
@@ -113,7 +120,7 @@ struct Shown {
     return raw ? std::string(v.regs[i]->name) : op::si_name(*v.regs[i]);
   }
   std::string text(std::size_t i) const {
-    return raw ? std::to_string(v.raw[i]) : op::si_text(*v.regs[i], v.si[i]);
+    return raw ? raw_text(*v.regs[i], v.raw[i]) : op::si_text(*v.regs[i], v.si[i]);
   }
   std::string unit(std::size_t i) const { return raw ? "raw" : std::string(v.regs[i]->unit); }
 };
@@ -136,7 +143,7 @@ void print_json(const Shown& s, const op::Client& client) {
   j["units"] = units;
   j["status_bits"] = op::status_bits(static_cast<std::uint16_t>(v.at("status_word")));
   j["drive_state"] = op::code_name(reg::drive_states(), v.at("drive_state"));
-  j["alarm"] = {{"code", v.at("alarm_code")},
+  j["alarm"] = {{"code", std::llround(v.at("alarm_code"))},
                 {"name", op::code_name(reg::alarm_codes(), v.at("alarm_code"))},
                 {"meaning", op::code_meaning(reg::alarm_codes(), v.at("alarm_code"))}};
   std::string text = j.dump(2);

@@ -97,6 +97,9 @@ std::span<const Code> drive_states();
 std::span<const Code> modes();
 std::span<const Code> reactions();
 std::span<const Code> refusals();
+/// The codes of a register that holds one (drive_state, alarm_code, force_loop_state …); empty
+/// for a register that holds a quantity.
+std::span<const Code> codes_of(std::string_view register_name);
 
 /// Identity and word-order probe values.
 inline constexpr std::uint16_t kDeviceType = 0x4D4C;  // "ML"
