@@ -116,19 +116,27 @@ def main():
         check(value_after(rows, "setpoint") == 10.0 and value_after(rows, "position") > 0,
               "60x20: the values are still there")
         check(holder.poll() is None, "set force 10 --hold 60s still holds control")
-        # The holder goes away: its connection closes, the drive faults with owner_lost.
-        holder.terminate()
+        bound = re.search(r"\[(-?\d+\.\d), (-?\d+\.\d)\]", "\n".join(rows))
+        check(bound is not None, f"60x20: the estimate's bound keeps both ends: {[r for r in rows if 'est' in r]}")
+        # The holder vanishes (killed, no release): its connection closes while it owns control,
+        # so the drive faults with owner_lost.
+        holder.kill()
         hout, herr = holder.communicate(timeout=10)
         check("force 10.000 N: done" in hout, f"set force 10 reached the force: {hout.strip()} {herr.strip()}")
         rows = wait_screen(lambda r: re.search(r"drive fault\s+mode", "\n".join(r)) is not None
                            and "owner_lost" in "\n".join(r))
         check(re.search(r"drive fault\s+mode", "\n".join(rows)) is not None and "owner_lost" in "\n".join(rows),
               f"60x20: the holder gone, the screen shows the owner_lost fault: {rows[:2]}")
+        # The alarm's meaning is wrapped, never cut: it ends with what to do.
+        alarm = " ".join(r.strip() for r in rows)
+        check("then an enable edge" in alarm, f"60x20: the alarm text is whole: {rows[3:8]}")
 
         # The server restarts on the same port: "reconnecting", then back with fresh values.
         srv.stop()
         rows = wait_screen(lambda r: r[0].startswith("RECONNECTING"))
         check(rows[0].startswith("RECONNECTING to 127.0.0.1:" + str(port)), f"restart: the screen says so: {rows[0]!r}")
+        check(re.search(r"127\.0\.0\.1:%d\b" % port, " ".join(rows[:3])) is not None,
+              f"restart: the port is never cut: {rows[:3]}")
         fits_rows = len(rows) <= 20 and all(len(r) <= 60 for r in rows)
         check(fits_rows, "60x20 while reconnecting")
         srv = Server(MAGLEAD, CONFIG, "--port", str(port))

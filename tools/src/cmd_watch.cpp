@@ -120,6 +120,31 @@ std::string printf_str(const char* format, ...) {
   return b;
 }
 
+/// Words of `text` over lines of at most `width` columns: a line breaks between words, never
+/// inside one (a word longer than a line, such as an address, gets a line of its own and is cut
+/// only if it is wider than the screen).
+std::vector<std::string> wrap(const std::string& text, int width, const std::string& indent = "") {
+  std::vector<std::string> lines;
+  std::string line;
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const std::size_t end = std::min(text.find(' ', i), text.size());
+    const std::string word = text.substr(i, end - i);
+    i = end + 1;
+    if (word.empty()) continue;
+    const std::string next = line.empty() ? word : line + " " + word;
+    if (static_cast<int>(next.size()) <= width || line.empty() ||
+        static_cast<int>(line.size()) <= static_cast<int>(indent.size())) {
+      line = next;
+    } else {
+      lines.push_back(fit(line, width));
+      line = indent + word;
+    }
+  }
+  if (!line.empty()) lines.push_back(fit(line, width));
+  return lines;
+}
+
 std::string set_bits_text(std::uint16_t sw) {
   std::string s;
   for (const auto& n : op::status_bits(sw)) s += (s.empty() ? "" : " ") + n;
@@ -198,12 +223,15 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   const int w = scr.width;
   std::vector<std::string> L;
   *reverse_title = !view.connected;
-  if (view.connected)
+  if (view.connected) {
     L.push_back(fit("maglead watch  " + view.endpoint + "  connected  (q quits)", w));
-  else
-    L.push_back(fit(printf_str("RECONNECTING to %s for %.0f s: %s", view.endpoint.c_str(),
-                               view.now_s - view.down_since_s, view.problem.c_str()),
-                    w));
+  } else {  // the whole reason, wrapped: a port number or an errno text is never cut
+    const auto lines = wrap(printf_str("RECONNECTING to %s for %.0f s: %s", view.endpoint.c_str(),
+                                       view.now_s - view.down_since_s, view.problem.c_str()),
+                            w, "  ");
+    L.insert(L.end(), lines.begin(),
+             lines.begin() + std::min<std::ptrdiff_t>(3, std::ssize(lines)));
+  }
   if (!view.v) {
     L.push_back("no values read yet");
     return L;
@@ -217,54 +245,75 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
                              op::code_name(reg::alarm_codes(), alarm).c_str(),
                              view.connected ? "" : "   (values from before the drop)"),
                   w));
-  // Status bits by name (monochrome terminals too), wrapped over at most two rows.
-  std::string bits = "status " + set_bits_text(static_cast<std::uint16_t>(at("status_word")));
-  std::string row2;
-  if (static_cast<int>(bits.size()) > w) {
-    const auto cut = bits.rfind(' ', static_cast<std::size_t>(w));
-    row2 = "       " + bits.substr(cut + 1);
-    bits.resize(cut);
-  }
-  L.push_back(bits);
-  L.push_back(fit(row2, w));
+  // Status bits by name (monochrome terminals too), wrapped; two rows kept so the layout is
+  // steady.
+  auto bits =
+      wrap("status " + set_bits_text(static_cast<std::uint16_t>(at("status_word"))), w, "       ");
+  bits.resize(std::max<std::size_t>(bits.size(), 2));
+  L.insert(L.end(), bits.begin(), bits.end());
+  // The rejection or the alarm in full, wrapped (what to type is at its end).
   const double rej = at("command_reject_reason");
-  L.push_back(fit(rej != 0 ? "last command rejected: " + op::code_name(reg::reject_codes(), rej) +
-                                 " (" + op::code_meaning(reg::reject_codes(), rej) + ")"
-                  : alarm != 0 ? "alarm: " + op::code_meaning(reg::alarm_codes(), alarm)
-                               : std::string(),
-                  w));
-  // Values in two columns of half the width each.
+  const auto why =
+      wrap(rej != 0 ? "last command rejected: " + op::code_name(reg::reject_codes(), rej) + " (" +
+                          op::code_meaning(reg::reject_codes(), rej) + ")"
+           : alarm != 0 ? "alarm: " + op::code_meaning(reg::alarm_codes(), alarm)
+                        : std::string(),
+           w, "  ");
+  if (why.empty()) L.emplace_back();
+  L.insert(L.end(), why.begin(), why.end());
+  // Values in two columns of half the width each; a label is shortened before a value is, and
+  // a value too wide for its column gets a line of its own.
   const int half = w / 2;
-  const auto cell = [&](const char* label, const std::string& value) {
-    return fit(printf_str("%-11s %s", label, value.c_str()), half - 1);
+  struct Cell {
+    std::string label, short_label, value;
+    std::string in(int width) const {
+      for (const auto* l : {&label, &short_label}) {
+        std::string s = printf_str("%-*s %s", l == &label ? 11 : 0, l->c_str(), value.c_str());
+        if (static_cast<int>(s.size()) <= width) return s;
+      }
+      return {};
+    }
   };
-  const auto pair = [&](const std::string& a, const std::string& b) {
-    std::string s = a;
-    s.resize(static_cast<std::size_t>(half), ' ');
-    L.push_back(fit(s + b, w));
+  const auto cell = [](const char* label, const char* short_label, const std::string& value) {
+    return Cell{label, short_label, value};
+  };
+  const auto pair = [&](const Cell& a, const Cell& b) {
+    std::string left = a.in(half - 1);
+    const std::string right = b.in(w - half);
+    if (left.empty() || right.empty()) {
+      L.push_back(fit(a.in(w).empty() ? a.short_label + " " + a.value : a.in(w), w));
+      L.push_back(fit(b.in(w).empty() ? b.short_label + " " + b.value : b.in(w), w));
+      return;
+    }
+    left.resize(static_cast<std::size_t>(half), ' ');
+    L.push_back(left + right);
   };
   const bool twin = !(at("twin_pred_nut_pos_um") == 0 && at("twin_pred_force_mn") == 0 &&
                       at("twin_residual_pos_um") == 0 && at("twin_dynamic_force_mn") == 0);
   const bool force_mode = at("active_mode") == static_cast<double>(reg::Mode::force);
-  pair(cell("position", printf_str("%.3f mm", at("nut_pos_um") * 1e3)),
-       cell("velocity", printf_str("%.3f mm/s", at("nut_vel_um_s") * 1e3)));
+  pair(cell("position", "pos", printf_str("%.3f mm", at("nut_pos_um") * 1e3)),
+       cell("velocity", "vel", printf_str("%.3f mm/s", at("nut_vel_um_s") * 1e3)));
   // The load observer's output force and the interval it is sure of (no load cell needed).
-  pair(cell("estimate", printf_str("%.2f N in [%.1f, %.1f]", at("load_force_est_mn"),
-                                   at("load_force_lo_mn"), at("load_force_hi_mn"))),
-       cell("load cell", printf_str("%.2f N", at("load_cell_force_mn"))));
-  pair(cell("setpoint", force_mode ? printf_str("%.2f N", at("active_force_setpoint_mn"))
-                                   : std::string("- (not force)")),
-       cell("target", printf_str("%.3f mm", at("active_target_pos_um") * 1e3)));
-  pair(cell("phase", printf_str("%.4f rad", at("phase_urad"))),
-       cell("twin", twin ? printf_str("%.2f N, %.1f um", at("twin_dynamic_force_mn"),
-                                      at("twin_residual_pos_um") * 1e6)
-                         : std::string("not running")));
+  pair(cell("estimate", "est",
+            printf_str("%.2f N in [%.1f, %.1f]", at("load_force_est_mn"), at("load_force_lo_mn"),
+                       at("load_force_hi_mn"))),
+       cell("load cell", "cell", printf_str("%.2f N", at("load_cell_force_mn"))));
+  pair(cell("setpoint", "set",
+            force_mode ? printf_str("%.2f N", at("active_force_setpoint_mn")) : std::string("-")),
+       cell("target", "tgt", printf_str("%.3f mm", at("active_target_pos_um") * 1e3)));
+  pair(cell("phase", "phi", printf_str("%.4f rad", at("phase_urad"))),
+       cell("twin", "twin",
+            twin ? printf_str("%.2f N, %.1f um", at("twin_dynamic_force_mn"),
+                              at("twin_residual_pos_um") * 1e6)
+                 : std::string("not running")));
   // The trend takes what is left: legend, chart rows, two axis rows.
   const int rows = scr.height - static_cast<int>(L.size()) - 3;
   if (rows >= 3) {
-    L.push_back(
-        fit(printf_str("force [N] over %.0f s: * estimate o load cell - setpoint # same", window_s),
-            w));
+    std::string legend =
+        printf_str("force [N] over %.0f s: * estimate o load cell - setpoint # same", window_s);
+    if (static_cast<int>(legend.size()) > w)
+      legend = printf_str("force [N], %.0f s: * estimate o load cell - setpoint # same", window_s);
+    L.push_back(fit(legend, w));
     for (auto& line : trend(samples, view.now_s, window_s, rows, w)) L.push_back(fit(line, w));
   }
   if (static_cast<int>(L.size()) > scr.height) L.resize(static_cast<std::size_t>(scr.height));
