@@ -111,6 +111,7 @@ Json parameters_json(const Parameters& parameters) {
 Json analysis_json(const AnalysisResult& r) {
   const Findings& f = r.findings;
   Json J;
+  J["headline"] = r.headline;
   J["system"] = f.system;
   J["recording"] = f.recording;
   J["samples"] = f.samples;

@@ -61,13 +61,24 @@ std::string method_text(const analysis::Findings& F) {
          escape_html(m.moving_only) + ".</p>\n";
 }
 
+/// The headline at the top, coloured as the anomaly report's: found or misfit, nothing missing,
+/// not judged.
+std::string headline_paragraph(const std::string& headline) {
+  const char* cls = headline.rfind("nothing missing", 0) == 0 ? "ok"
+                    : headline.rfind("not judged", 0) == 0    ? "unjudged"
+                                                              : "bad";
+  return std::string("<p class=\"") + cls + "\" id=\"headline\"><b>" + escape_html(headline) +
+         "</b></p>\n";
+}
+
 std::string page(const AnalysisOutcome& o, const std::string& out_dir) {
   const auto& F = o.result->findings;
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html lang=\"en\"><head>"
     << page_head("maglead analysis: " + fs::path(F.recording).filename().string())
     << "</head>\n<body>\n<h1>Twin versus recording: analysis</h1>\n"
-    << intro(F) << physics_section(o, 1) << "<h2 id=\"fit\">2. The fit before and after</h2>\n"
+    << headline_paragraph(o.result->headline) << intro(F) << physics_section(o, 1)
+    << "<h2 id=\"fit\">2. The fit before and after</h2>\n"
     << fit_part(o) << validation_table(F) << twin_text(F)
     << "<p>The corrected model is written to <code>model_corrected.toml</code>.</p>\n"
     << "<h2 id=\"events\">3. Events</h2>\n";

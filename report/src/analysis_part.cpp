@@ -22,7 +22,7 @@ h1{font-size:1.45em;margin:.6em 0 .3em}
 h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}
 table{border-collapse:collapse;margin:.5em 0;display:block;overflow-x:auto;max-width:100%}
 td,th{border:1px solid #ccc;padding:3px 8px;text-align:left;vertical-align:top}
-.ok{background:#e6f4e6;padding:.6em}.bad{background:#fbe9e7;padding:.6em}
+.ok{background:#e6f4e6;padding:.6em}.bad{background:#fbe9e7;padding:.6em}.unjudged{background:#fff4d6;padding:.6em}
 figure{margin:1em 0;border:1px solid #ddd;padding:8px;box-sizing:border-box;max-width:100%}
 figcaption{color:#444;font-size:.92em;margin-bottom:4px}
 .legend{font-size:.85em;min-height:1.3em;margin:2px 0 4px}

@@ -248,6 +248,7 @@ Json json_of(const std::string& recording, const Anomaly& a, const AnalysisOutco
   if (o.status == AnalysisOutcome::Status::done) {
     const auto& R = o.result->findings;
     v = {{"status", "done"},
+         {"headline", o.result->headline},
          {"conclusion", R.conclusion},
          {"effects", Json::array()},
          {"baseline_relative_error_pct", R.baseline.relative_error_pct},
@@ -269,23 +270,36 @@ void write_text(const fs::path& path, const std::string& text) {
 }  // namespace
 
 std::string anomaly_headline(const Anomaly& a, const AnalysisOutcome& o) {
-  std::vector<std::string> findings;
+  std::vector<std::string> findings, not_judged;
   if (!a.step_outs.empty())
     findings.push_back(std::to_string(a.step_outs.size()) + " step-out event(s)");
   if (!a.drift_windows.empty())
     findings.push_back(
         "calibration drift detected from t = " + number(a.drift_windows.front().start_s) + " s");
   // 3 N: beyond the static estimator's expected mean error against a load cell (2.25 N on
-  // hand-push, README "Estimate the force"): more than its friction band explains.
-  if (a.static_error && a.static_error->mean_abs_n > 3.0)
+  // hand-push, docs/simulation.md): more than its friction band explains.
+  if (!a.static_error)
+    not_judged.emplace_back("force estimate (no load_force_n column)");
+  else if (a.static_error->mean_abs_n > 3.0)
     findings.push_back("static force estimate off by " + number(a.static_error->mean_abs_n) +
                        " N on average");
-  if (o.status == AnalysisOutcome::Status::done && !o.result->findings.effects.empty())
-    findings.push_back("analysis: " + o.result->findings.conclusion);
-  if (findings.empty()) return "no anomaly found";
-  std::string s = "attention: ";
-  for (std::size_t k = 0; k < findings.size(); ++k) s += (k ? "; " : "") + findings[k];
-  return s;
+  if (o.status != AnalysisOutcome::Status::done) {
+    not_judged.push_back("analysis (" + (o.reason.empty() ? std::string("not run") : o.reason) +
+                         ")");
+  } else if (const std::string& h = o.result->headline; h.rfind("not judged: ", 0) == 0) {
+    not_judged.push_back("analysis (" + h.substr(12) + ")");
+  } else if (h.rfind("nothing missing", 0) != 0) {
+    findings.push_back(h);
+  }
+  const auto joined = [](const std::vector<std::string>& parts) {
+    std::string s;
+    for (std::size_t k = 0; k < parts.size(); ++k) s += (k ? "; " : "") + parts[k];
+    return s;
+  };
+  // "No anomaly" is said only of what was judged; what was not is named.
+  const std::string unjudged = not_judged.empty() ? "" : "not judged: " + joined(not_judged);
+  if (findings.empty()) return unjudged.empty() ? "no anomaly found" : unjudged;
+  return "attention: " + joined(findings) + (unjudged.empty() ? "" : "; " + unjudged);
 }
 
 void write_anomaly_report(const std::string& out_dir, const std::string& recording,
@@ -302,8 +316,11 @@ void write_anomaly_report(const std::string& out_dir, const std::string& recordi
     << " s are the start-up "
     << "(the servo aligning the screw, the estimators settling) and are neither plotted nor "
        "scored.</p>\n"
-    << "<p class=\"" << (headline == "no anomaly found" ? "ok" : "bad") << "\" id=\"headline\"><b>"
-    << escape_html(headline)
+    << "<p class=\""
+    << (headline == "no anomaly found"         ? "ok"
+        : headline.rfind("not judged", 0) == 0 ? "unjudged"
+                                               : "bad")
+    << "\" id=\"headline\"><b>" << escape_html(headline)
     << "</b></p>\n<p class=\"hint\">Plots: drag to zoom, shift-drag to pan, double-click "
     << "to reset; every time plot follows the others. Values show on hover.</p>\n"
     << where_section(a, out_dir) << physics_section(o, 2) << fit_section(a, o)

@@ -17,6 +17,7 @@ namespace {
 struct AnalyzeOptions {
   std::string recording, model, out, calibration, config = default_config_dir();
   analysis::AnalysisOptions a;
+  bool no_twin_check = false;
 };
 
 /// The baseline model's path: --model, else CONFIG/model.toml when there is one, else empty
@@ -75,6 +76,7 @@ void print_findings(const analysis::Findings& J) {
 void print_result(const AnalyzeOptions& o, const std::string& model_path,
                   const analysis::AnalysisResult& result) {
   const auto& J = result.findings;
+  std::printf("%s\n", result.headline.c_str());
   std::printf("recording %s (%s), baseline %s\n", o.recording.c_str(), J.system.c_str(),
               model_path.empty() ? "config/actuator.toml" : model_path.c_str());
   std::printf("baseline   RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
@@ -92,6 +94,7 @@ void print_result(const AnalyzeOptions& o, const std::string& model_path,
 }
 
 void run_analyze(AnalyzeOptions o) {
+  o.a.twin_force_check = !o.no_twin_check;
   const ActuatorParams act = load_actuator_or_default(o.config);
   const std::string model_path = baseline_path(o);
   if (!model_path.empty()) twin::check_model_format(model_path);  // the analysis reader does not
@@ -142,10 +145,10 @@ void add_analyze(CLI::App& app) {
                   "a finding must change the force by more. Default: a thousandth of the "
                   "calibrated peak force, at least 0.07 N")
       ->check(CLI::NonNegativeNumber);
-  cmd->add_flag("!--no-twin-check", o->a.twin_force_check,
+  cmd->add_flag("--no-twin-check", o->no_twin_check,
                 "Skip the twin's force estimate with the corrected model (it runs the twin over "
                 "the recording two or more times)");
-  cmd->add_option("--config", o->config, "Configuration directory")->capture_default_str();
+  add_config_option(cmd, o->config);
   cmd->callback([o] {
     maglead::cli::advise_large_blocks_to_huge_pages();  // reads whole recordings
     run_analyze(*o);

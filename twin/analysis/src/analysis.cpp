@@ -1170,8 +1170,10 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
 AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& opt) {
-  if (model.system == "actuator") return analyze_actuator(rec, model, cal, act, opt);
-  return analyze_axis(rec, model, opt);
+  AnalysisResult r = model.system == "actuator" ? analyze_actuator(rec, model, cal, act, opt)
+                                                : analyze_axis(rec, model, opt);
+  r.headline = headline_of(r.findings, model);
+  return r;
 }
 
 }  // namespace maglead::analysis

@@ -41,7 +41,15 @@ struct AnalysisResult {
   // The fit before and after over time: the force the model leaves out, baseline and corrected
   // (actuator recordings; no curves otherwise). NaN separates stretches of sliding samples.
   Chart fit_over_time;
+  // The first line a user reads (headline_of): the findings with the model's values, what is
+  // left unexplained, or why nothing could be judged.
+  std::string headline;
 };
+
+/// The findings in one line: "found: viscous friction viscous_n_s_per_m 22.55 ± 0.12 N·s/m
+/// (model 2 N·s/m)", "not judged: too little sliding …", "a misfit of X N RMS remains …" or
+/// "nothing missing: …"; never "nothing missing" for what was not judged.
+std::string headline_of(const Findings& findings, const ModelFile& baseline);
 
 /// Actuator baseline from config/actuator.toml: mass, viscous and Coulomb friction.
 ModelFile actuator_model_from_config(const ActuatorParams& act);

@@ -1,0 +1,92 @@
+// The analysis's first line: what was found, with its value beside the model's, or what is left
+// unexplained, or why nothing could be judged. `analyze` prints it first and the report puts it
+// at the top of the page.
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "maglead/analysis/analysis.hpp"
+
+namespace maglead::analysis {
+namespace {
+
+/// A finding's unit from its parameter's name (the spec names carry their unit).
+std::string unit_of(const std::string& name) {
+  struct Suffix {
+    const char* suffix;
+    const char* unit;
+  };
+  static constexpr Suffix kSuffixes[] = {
+      {"_n_s_per_m", "N·s/m"}, {"_n_per_m", "N/m"}, {"_per_min", "1/min"}, {"_n", "N"},
+      {"_kg", "kg"},           {"_rad", "rad"},     {"_m_s", "m/s"},       {"_m", "m"},
+      {"_s", "s"}};
+  for (const auto& s : kSuffixes) {
+    const std::string suffix = s.suffix;
+    if (name.size() > suffix.size() &&
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+      return s.unit;
+  }
+  return "";
+}
+
+std::string number(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.4g", v);
+  return b;
+}
+
+/// The baseline's value of a parameter: its [model] value, or an enabled term's of the same id.
+std::string model_value(const ModelFile& m, const std::string& id, const std::string& name) {
+  if (name == "nut_mass_kg") return number(m.nut_mass_kg);
+  if (name == "viscous_n_s_per_m") return number(m.viscous_n_s_per_m);
+  if (name == "coulomb_n") return number(m.coulomb_n);
+  for (const auto& t : m.terms)
+    if (t.enabled && t.id == id)
+      for (const auto& [key, value] : t.parameters)
+        if (key == name) return number(value);
+  return "";
+}
+
+/// "viscous friction 22.55 ± 0.12 N·s/m (model 2 N·s/m)".
+std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
+  std::string name = e.id;
+  for (auto& ch : name)
+    if (ch == '_') ch = ' ';
+  if (e.parameters.empty()) return name;
+  const Parameter& p = e.parameters.front();
+  const std::string unit = unit_of(p.name);
+  const std::string with_unit = unit.empty() ? "" : " " + unit;
+  std::string value = value_with_error(p.value, parameter_value(e.standard_errors, p.name, 0.0));
+  if (value.empty()) value = number(p.value);
+  const std::string model = model_value(baseline, e.id, p.name);
+  std::string s = name + " " + p.name + " " + value + with_unit +
+                  (model.empty() ? " (not in the model)" : " (model " + model + with_unit + ")");
+  if (e.note.rfind("left out of model_corrected.toml", 0) == 0)
+    s += " [left out of the corrected model]";
+  return s;
+}
+
+}  // namespace
+
+std::string headline_of(const Findings& f, const ModelFile& baseline) {
+  // A residual above twice the recording's own floor is a misfit, not noise.
+  constexpr double kMisfitOverFloor = 2.0;
+  if (!f.effects.empty()) {
+    std::string s = "found: ";
+    for (std::size_t k = 0; k < f.effects.size(); ++k)
+      s += (k ? "; " : "") + finding_text(f.effects[k], baseline);
+    return s;
+  }
+  if (f.unexplained) return "not explained: " + f.unexplained->message;
+  if (!f.sliding_note.empty())
+    return "not judged: too little sliding to judge the model (" +
+           std::to_string(f.samples_used) + " sliding samples used of " +
+           std::to_string(f.samples) + "); no finding is not the same as no anomaly";
+  if (f.noise_floor_n > 0 && f.final_fit.rms_n > kMisfitOverFloor * f.noise_floor_n)
+    return "a misfit of " + number(f.final_fit.rms_n) + " N RMS remains (floor " +
+           number(f.noise_floor_n) + " N) that no library effect explains";
+  return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) +
+         " N RMS (floor " + number(f.noise_floor_n) + " N)";
+}
+
+}  // namespace maglead::analysis
