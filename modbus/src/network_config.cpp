@@ -1,5 +1,8 @@
 #include "maglead/modbus/network_config.hpp"
 
+#include <arpa/inet.h>
+
+#include <cstdio>
 #include <initializer_list>
 #include <optional>
 #include <stdexcept>
@@ -12,6 +15,13 @@ namespace maglead::modbus {
 using controller::FaultReaction;
 using controller::parse_realtime_policy;
 namespace {
+
+/// A number as a person writes it: 99999, 0.001, 1e+07 (never 99999.000000).
+std::string as_written(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.10g", v);
+  return b;
+}
 
 struct Reader {
   const std::string& path;
@@ -47,9 +57,8 @@ struct Reader {
       const auto v = node->value<double>();
       if (!v) fail(node, name, "must be a number");
       if (!(*v >= lo && *v <= hi))
-        fail(
-            node, name,
-            std::to_string(*v) + " is outside " + std::to_string(lo) + " .. " + std::to_string(hi));
+        fail(node, name,
+             as_written(*v) + " is outside " + as_written(lo) + " .. " + as_written(hi));
       if constexpr (std::is_integral_v<T>) {
         if (*v != static_cast<double>(static_cast<long long>(*v)))
           fail(node, name, "must be a whole number");
@@ -84,6 +93,9 @@ NetworkConfig load_network_config(const std::string& path) {
                         "frame_timeout_s", "idle_timeout_s", "allow"});
   r.get(tcp, "tcp", "enabled", c.tcp_enabled, 0, 1);
   r.get(tcp, "tcp", "bind_address", c.tcp.bind_address, 0, 0);
+  if (in_addr a{}; inet_pton(AF_INET, c.tcp.bind_address.c_str(), &a) != 1)
+    r.fail(tcp ? tcp->get("bind_address") : nullptr, "tcp.bind_address",
+           "'" + c.tcp.bind_address + "' is not an IPv4 address (e.g. \"127.0.0.1\", \"0.0.0.0\")");
   r.get(tcp, "tcp", "port", c.tcp.port, 0, 65535);
   r.get(tcp, "tcp", "unit_id", c.tcp.unit_id, 0, 255);
   r.get(tcp, "tcp", "max_connections", c.tcp.max_connections, 1, 1024);

@@ -37,7 +37,7 @@ constexpr EffectEntry kEffects[] = {
      "N  constant force on the nut along +p, unseen by the load cell (offset_n)"},
     {"spring", &PlantEffects::spring_n_per_m, -kInf, kInf,
      "N/m  spring −k (p − p₀) on the nut, p₀ mid-stroke (stiffness_n_per_m)"},
-    {"mass_error", &PlantEffects::mass_error_kg, -0.1, kInf,
+    {"mass_error", &PlantEffects::mass_error_kg, -kInf, kInf,
      "kg  added to the moving mass M (nut_mass_kg = M + value)"},
     {"coupling_gain_error", &PlantEffects::coupling_gain_error, -0.9, kInf,
      "1  F_m scaled by g = 1 + value (gain)"},
@@ -96,6 +96,35 @@ void set_plant_effect(PlantEffects& effects, const std::string& name, double val
   std::string known;
   for (const auto& e : kEffects) known += (known.empty() ? "" : ", ") + std::string(e.name);
   throw std::invalid_argument("unknown effect '" + name + "' (known: " + known + ")");
+}
+
+void check_plant_totals(const PlantEffects& e, const ActuatorParams& a) {
+  struct Total {
+    const char* effect;
+    double change, total, least;
+    const char* what;
+  };
+  const double fc = a.coulomb_n + e.coulomb_friction_n;
+  const Total totals[] = {
+      {"coulomb_friction", e.coulomb_friction_n, fc, 0.0, "Coulomb friction F_c + value [N]"},
+      {"viscous_friction", e.viscous_friction_n_s_per_m,
+       a.viscous_n_s_per_m + e.viscous_friction_n_s_per_m, 0.0,
+       "viscous coefficient C + value [N·s/m]"},
+      {"asymmetric_friction", e.asymmetric_friction_n, fc - std::abs(e.asymmetric_friction_n), 0.0,
+       "the weaker side's friction F_c − |value| [N]"},
+      // A moving mass must stay positive: the nut's dynamics divide by it.
+      {"mass_error", e.mass_error_kg, a.nut_mass_kg + e.mass_error_kg, 1e-6,
+       "moving mass M + value [kg]"},
+  };
+  for (const auto& t : totals)
+    if (t.change != 0.0 && !(t.total >= t.least)) {
+      char msg[256];
+      std::snprintf(msg, sizeof msg,
+                    "effect '%s' = %g makes the %s %g on this actuator (configured nominal %g); "
+                    "it must be at least %g",
+                    t.effect, t.change, t.what, t.total, t.total - t.change, t.least);
+      throw std::invalid_argument(msg);
+    }
 }
 
 std::vector<std::pair<std::string, std::string>> plant_effect_help() {

@@ -27,6 +27,7 @@ SimulatedActuator::SimulatedActuator(PlantParams params, std::uint64_t seed, dou
                                      double screw_angle_rad)
     : params_(std::move(params)), rng_(seed) {
   const auto& a = params_.actuator;
+  check_plant_totals(params_.effects, a);
   coupling_zero_rad_ = balancing_phase_rad(params_.coupling, 0.0);  // where F_m = 0
   pos_m_ = nut_pos_m;
   screw_rad_ = screw_angle_rad == -1.0 ? rest_angle_rad(nut_pos_m, a.lead_m) : screw_angle_rad;

@@ -37,20 +37,23 @@ const char* likely_unit(double value, double bound, std::initializer_list<Unit> 
   return nullptr;
 }
 
-/// A position column (`*pos*_m`): every value within ±bound.
+/// A position column (`*pos*_m`): every value within ±bound. The error cites the first row
+/// beyond it (where a reader looks first); the likely unit comes from the largest value.
 void check_position(const Recording& rec, std::size_t c, const PlausibleRanges& r) {
   const auto& v = rec.columns[c];
-  std::size_t worst = v.size();
-  for (std::size_t i = 0; i < v.size(); ++i)
-    if (std::isfinite(v[i]) && (worst == v.size() || std::abs(v[i]) > std::abs(v[worst])))
-      worst = i;
-  if (worst == v.size() || std::abs(v[worst]) <= r.position_bound_m) return;
+  std::size_t first = v.size(), worst = v.size();
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (!std::isfinite(v[i]) || std::abs(v[i]) <= r.position_bound_m) continue;
+    if (first == v.size()) first = i;
+    if (worst == v.size() || std::abs(v[i]) > std::abs(v[worst])) worst = i;
+  }
+  if (first == v.size()) return;
   const char* unit = likely_unit(
       std::abs(v[worst]), r.position_bound_m,
       {{1e3, "millimetres (values 1000x metres)"}, {1e6, "micrometres (values 10^6 x metres)"}});
   throw RecordingError(rec.path + ": column " + rec.names[c] +
-                       " cannot be in metres: " + num(v[worst]) + " at data row " +
-                       std::to_string(worst + 1) + " is beyond +-" + num(r.position_bound_m) +
+                       " cannot be in metres: " + num(v[first]) + " at data row " +
+                       std::to_string(first + 1) + " is beyond +-" + num(r.position_bound_m) +
                        " m (" + r.position_bound_source +
                        "); likely unit: " + (unit ? unit : "not a length in metres"));
 }

@@ -386,6 +386,14 @@ void check_header(const Recording& rec, std::size_t header_line,
         throw RecordingError(where(path, header_line) + "column '" + rec.names[i] +
                              "' appears twice");
   }
+  // A spreadsheet's export with another separator reads as one column: say so, not "missing".
+  if (rec.names.size() == 1)
+    for (const char sep : {';', '\t', ' '})
+      if (rec.names[0].find(sep) != std::string::npos)
+        throw RecordingError(where(path, header_line) + "the header is one column ('" +
+                             rec.names[0].substr(0, 60) + "'): fields are separated by '" +
+                             (sep == '\t' ? std::string("\\t") : std::string(1, sep)) +
+                             "', an mls-recording/1 separates them by commas");
   for (const auto& r : required)
     if (!rec.has(r)) {
       std::string have;

@@ -1,8 +1,10 @@
 #include "maglead/report/plot.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -164,18 +166,28 @@ ColourScale colour_scale(const std::vector<double>& values) {
   return s;
 }
 
+/// The image format the file's name asks for; the bytes always match the name.
+std::string image_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (auto& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (ext == ".png" || ext == ".jpg" || ext == ".jpeg") return ext;
+  throw std::runtime_error(path + ": cannot write an image named '" + ext +
+                           "': give the file a .png (or .jpg) name");
+}
+
 void write_png(const std::string& path, const cv::Mat& img) {
   // Encoded in memory, then written atomically: a report never holds half a figure.
-  std::vector<unsigned char> png;
+  const std::string ext = image_extension(path);
+  std::vector<unsigned char> bytes;
   bool ok = false;
   try {
-    ok = cv::imencode(".png", img, png);
+    ok = cv::imencode(ext, img, bytes);
   } catch (const cv::Exception& e) {
-    throw std::runtime_error(path + ": cannot write PNG: " + e.what());
+    throw std::runtime_error(path + ": cannot write the image: " + e.what());
   }
-  if (!ok) throw std::runtime_error(path + ": cannot write PNG");
-  write_file_atomically(path,
-                        std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+  if (!ok) throw std::runtime_error(path + ": cannot write the image");
+  write_file_atomically(
+      path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 }  // namespace

@@ -78,6 +78,22 @@ void validate_twin_model(const TwinModel& m) {
   }
 }
 
+namespace {
+
+bool has_parameter(const effects::Effect& e, const std::string& key) {
+  for (const auto& p : e.params())
+    if (p.name == key) return true;
+  return false;
+}
+
+std::string parameter_list(const effects::Effect& e) {
+  std::string out;
+  for (const auto& p : e.params()) out += (out.empty() ? "" : ", ") + p.name;
+  return out;
+}
+
+}  // namespace
+
 void check_model_format(const std::string& path) {
   std::ifstream f(path);
   if (!f) throw std::runtime_error(path + ": cannot open");
@@ -139,6 +155,10 @@ TwinModel load_twin_model(const std::string& path) {
         } else if (key == "note") {
           term.note = value.value_or(std::string());
         } else {
+          if (const auto* e = effects::find(term.id); e && !has_parameter(*e, key))
+            config::fail(path, &value,
+                         where + " (" + term.id + ") has no parameter '" + key +
+                             "' (parameters: " + parameter_list(*e) + ")");
           const auto v = value.value<double>();
           if (!v)
             config::fail(path, &value, where + " (" + term.id + ") " + key + " is not a number");

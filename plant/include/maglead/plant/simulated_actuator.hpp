@@ -47,6 +47,10 @@ struct PlantEffects {
 /// Sets the effect `name` (an id, or ID.PARAMETER for a shape parameter such as
 /// angle_ripple.phase_rad) to `value`; throws std::invalid_argument naming the bad word.
 void set_plant_effect(PlantEffects& effects, const std::string& name, double value);
+/// Refuses effects whose total (the nominal actuator's value plus the change) has no physical
+/// meaning: a negative friction or viscous coefficient, a mass at or below zero. Throws
+/// std::invalid_argument naming the effect, the total and the nominal value.
+void check_plant_totals(const PlantEffects& effects, const ActuatorParams& actuator);
 /// Effect keys with units and meaning, for --help and error messages.
 std::vector<std::pair<std::string, std::string>> plant_effect_help();
 
