@@ -1,0 +1,264 @@
+"""What a new user expects of the tools (issue 41), each item tried as that user would:
+the configuration found is the one the user edits (a checkout's config/, no build-tree copy);
+`set` and `enable` say what happens when they end and do it (release without a fault); usage
+errors exit 2 with `maglead: error:` and what to type; poll --raw signed, every code with its
+name, set takes poll's names; the analysis headline names the finding or says what was not
+judged; and the smaller items (negative totals, separators, first bad row, a model file's bad
+key at its line, bind_address with its file, numbers as written, image formats, --help
+defaults, disable in fault, JSON codes as integers).
+Usage: user_expectations.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "controller"))
+from modbus_common import Server, check, finish, watchdog  # noqa: E402
+
+MAGLEAD, CONFIG, WORK = (os.path.abspath(a) for a in sys.argv[1:4])
+ENV = {k: v for k, v in os.environ.items() if k != "MAGLEAD_CONFIG"}
+
+
+def run(*args, binary=MAGLEAD, cwd=None, timeout=120):
+    p = subprocess.run([binary, *args], capture_output=True, text=True, timeout=timeout, cwd=cwd or WORK,
+                       env=ENV)
+    return p.returncode, p.stdout, p.stderr
+
+
+def usage_errors():
+    cases = [(["simulate"], "--scenario is required", "maglead simulate --help"),
+             (["serve", "--port", "99999"], "--port", "maglead serve --help"),
+             (["simulate", "--scenario", "hand-push", "--duration", "0s", "--out", "x.csv"], "0s", "simulate"),
+             (["analyze", "--recording", "x.csv", "--out", "o", "--model", "nosuch.toml"], "nosuch.toml", ""),
+             (["set"], "required", "maglead set --help")]
+    for args, says, hint in cases:
+        rc, _, err = run(*args)
+        check(rc == 2 and err.startswith("maglead: error:") and says in err and hint in err,
+              f"maglead {' '.join(args)}: exit 2, 'maglead: error:', what to type (rc {rc}): {err.strip()!r}")
+    rc, out, _ = run("analyze", "--help")
+    check(rc == 0 and "{false}" not in out and "--no-twin-check" in out, "analyze --help: no '{false}' default")
+    rc, out, _ = run("simulate", "--help")
+    check(rc == 0 and "--config DIR" in out and "=/" not in out and "$MAGLEAD_CONFIG" in out,
+          "--help states the configuration rule, not a build-tree path")
+
+
+def checkout_config():
+    """A checkout laid out as a user has it: the program reads <checkout>/config, so an edit there
+    takes effect on the next run, without a rebuild."""
+    repo = os.path.join(WORK, "checkout")
+    os.makedirs(os.path.join(repo, "build", "bin"))
+    shutil.copytree(CONFIG, os.path.join(repo, "config"))
+    open(os.path.join(repo, "CMakeLists.txt"), "w").close()
+    binary = os.path.join(repo, "build", "bin", "maglead")
+    shutil.copy(MAGLEAD, binary)
+    path = os.path.join(repo, "config", "actuator.toml")
+    with open(path) as f:
+        text = f.read()
+    with open(path, "w") as f:
+        f.write(re.sub(r"stroke_max_m = [0-9.]+", "stroke_max_m = 0.030", text))
+    proc = subprocess.Popen([binary, "serve", "--port", "0", "--duration", "30s"], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, env=ENV, cwd=WORK)
+    lines = []
+    port = None
+    while port is None:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        lines.append(line.rstrip())
+        m = re.search(r"Modbus TCP on [0-9.]+:(\d+)", line)
+        port = m.group(1) if m else None
+    try:
+        check(any("configuration from " + os.path.join(repo, "config") in l and "read actuator.toml" in l
+                  for l in lines), f"serve reads the checkout's config/ and names the files: {lines}")
+        rc, _, err = run("set", "--port", str(port), "position", "35mm", binary=binary)
+        check(rc == 2 and "0 .. 30 mm" in err, f"the edited stroke (30 mm) refuses 35 mm: {err.strip()!r}")
+    finally:
+        proc.terminate()
+        proc.wait(10)
+
+
+def poll_json(port, names):
+    rc, out, err = run("poll", "--port", port, "--json", "--names", names)
+    check(rc == 0, f"poll {names}: {err.strip()}")
+    return json.loads(out) if rc == 0 else {"values": {}, "alarm": {}}
+
+
+def against_a_server():
+    srv = Server(MAGLEAD, CONFIG, "--port", "0")
+    try:
+        port = str(srv.port)
+        # Signed registers signed in --raw: the observer's lower bound at rest is negative.
+        rc, out, _ = run("poll", "--port", port, "--raw", "--json", "--names", "load_force_lo_mn,phase_urad")
+        raw = json.loads(out)["values"]
+        si = poll_json(port, "load_force_lo_mn")["values"]
+        check(raw["load_force_lo_mn"] < 0 and abs(raw["load_force_lo_mn"] - 1000 * si["load_force_lo_n"]) <= 50,
+              f"poll --raw prints a signed register signed: {raw} (SI {si})")
+        rc, out, _ = run("poll", "--port", port)
+        for name, code in (("fault_reaction", "none"), ("write_refusal_reason", "none"),
+                           ("twin_drift_reason", "none"), ("force_loop_state", "off"),
+                           ("force_reached_reason", "not_force_mode"), ("twin_health_reason", ""),
+                           ("twin_step_out_reason", ""), ("observer_basis", "")):
+            row = next((l for l in out.splitlines() if l.split()[:1] == [name]), "")
+            check(len(row.split()) >= 3 and (code in row.split()[2:] if code else True),
+                  f"poll names the code of {name}: {row.strip()!r}")
+        # set takes the names poll prints, with units.
+        for name, value, shown in (("watchdog_s", "0.5s", "watchdog_s = 0.5 s"),
+                                   ("velocity_limit_m_s", "5mm/s", "velocity_limit_m_s = 0.005 m/s")):
+            rc, out, err = run("set", "--port", port, name, value)
+            check(rc == 0 and shown in out, f"set {name} {value}: {out.strip()} {err.strip()}")
+        run("set", "--port", port, "watchdog_s", "0s")
+        # set force: says it holds, then releases cleanly, and the state agrees.
+        rc, out, err = run("set", "--port", port, "force", "8", "--hold", "1s")
+        check(rc == 0 and "done" in out and "holding force 8.000 N for 1.0 s" in out and "released" in out,
+              f"set force 8 --hold 1s says what it does: {out.strip()} {err.strip()}")
+        j = poll_json(port, "drive_state,alarm_code,control_owner")
+        check(j["drive_state"] == "ready" and j["alarm"]["code"] == 0 and isinstance(j["alarm"]["code"], int)
+              and j["values"]["control_owner"] == 0,
+              f"after set exits: drive ready, no alarm (an integer code), nobody owns control: {j}")
+        # Without --hold it holds until Ctrl-C, then releases.
+        holder = subprocess.Popen([MAGLEAD, "set", "--port", port, "force", "6"], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True, env=ENV)
+        end = time.time() + 10
+        while time.time() < end and poll_json(port, "drive_state")["drive_state"] != "enabled":
+            time.sleep(0.1)
+        time.sleep(1.0)
+        check(holder.poll() is None and poll_json(port, "drive_state")["drive_state"] == "enabled",
+              "set force without --hold keeps control")
+        holder.send_signal(2)
+        hout, herr = holder.communicate(timeout=10)
+        check(holder.returncode == 0 and "until Ctrl-C" in hout and "released" in hout,
+              f"Ctrl-C releases: {hout.strip()} {herr.strip()}")
+        check(poll_json(port, "drive_state")["drive_state"] == "ready", "after Ctrl-C: drive ready, no fault")
+        # A drive left in fault: disable says so and what to type, never "drive disabled".
+        holder = subprocess.Popen([MAGLEAD, "enable", "--port", port], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True, env=ENV)
+        end = time.time() + 10
+        while time.time() < end and poll_json(port, "drive_state")["drive_state"] != "enabled":
+            time.sleep(0.1)
+        holder.kill()
+        holder.communicate(timeout=10)
+        end = time.time() + 5
+        while time.time() < end and poll_json(port, "drive_state")["drive_state"] != "fault":
+            time.sleep(0.1)
+        rc, out, err = run("disable", "--port", port)
+        check(rc == 0 and "stays in fault" in out and "owner_lost" in out and "maglead reset" in out
+              and "drive disabled" not in out, f"disable in fault says so: {out.strip()} {err.strip()}")
+        run("reset", "--port", port)
+    finally:
+        srv.stop()
+
+
+def recordings_and_files():
+    rec = os.path.join(WORK, "hand.csv")
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "8s", "--seed", "4", "--out", rec,
+                     "--config", CONFIG)
+    check(rc == 0, f"simulate: {err.strip()}")
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "2s", "--effect", "viscous_friction=-50",
+                     "--out", "neg.csv", "--config", CONFIG)
+    check(rc == 2 and "viscous_friction" in err and "-48" in err, f"a negative viscous total refused: {err.strip()!r}")
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "2s", "--effect", "mass_error=0.05",
+                     "--out", "mass.csv", "--config", CONFIG)
+    check(rc == 0, f"a positive mass change accepted: {err.strip()!r}")
+    with open(rec) as f:
+        lines = f.read().splitlines()
+    header = next(i for i, l in enumerate(lines) if not l.startswith("#"))
+    names = lines[header].split(",")
+    # A semicolon export: the error names the separator.
+    semi = os.path.join(WORK, "semi.csv")
+    with open(semi, "w") as f:
+        f.write("\n".join(l if l.startswith("#") else l.replace(",", ";") for l in lines) + "\n")
+    rc, _, err = run("analyze", "--recording", semi, "--out", "semi_out", "--config", CONFIG)
+    check(rc == 2 and "separated by ';'" in err, f"semicolon CSV: {err.strip()!r}")
+    # Millimetres from row 3 on: the error cites row 3, the first, not the largest.
+    pos = names.index("nut_pos_m")
+    mm = os.path.join(WORK, "mm.csv")
+    out = lines[:header + 1]
+    for k, l in enumerate(lines[header + 1:]):
+        f = l.split(",")
+        if k >= 2:
+            f[pos] = repr(float(f[pos]) * 1000)
+        out.append(",".join(f))
+    with open(mm, "w") as f:
+        f.write("\n".join(out) + "\n")
+    rc, _, err = run("analyze", "--recording", mm, "--out", "mm_out", "--config", CONFIG)
+    check(rc == 2 and "at data row 3 " in err and "millimetres" in err, f"first row beyond the bound: {err.strip()!r}")
+    # No load cell: nothing judged is said so, never "no anomaly found".
+    lc = names.index("load_force_n")
+    nolc = os.path.join(WORK, "nolc.csv")
+    with open(nolc, "w") as f:
+        for l in lines:
+            if l.startswith("#"):
+                f.write(l + "\n")
+            else:
+                parts = l.split(",")
+                del parts[lc]
+                f.write(",".join(parts) + "\n")
+    rc, out, err = run("report", "--recording", nolc, "--out", "nolc_report", "--config", CONFIG)
+    first = out.splitlines()[0] if out else ""
+    check(rc == 0 and first.startswith("not judged") and "load_force_n" in first and "no anomaly" not in first,
+          f"report without a load cell: {first!r}")
+    # A finding is named in the first line, with its value and the model's.
+    vis = os.path.join(WORK, "vis.csv")
+    run("simulate", "--scenario", "mixed-moves", "--duration", "40s", "--seed", "3", "--effect",
+        "viscous_friction=20", "--out", vis, "--config", CONFIG)
+    rc, out, err = run("analyze", "--recording", vis, "--out", "vis_out", "--config", CONFIG)
+    first = out.splitlines()[0] if out else ""
+    m = re.match(r"found: viscous friction viscous_n_s_per_m (\d+\.\d+)( ± [0-9.]+)? N·s/m \(model 2 N·s/m\)", first)
+    check(rc == 0 and m is not None and abs(float(m.group(1)) - 22.0) < 2.0,
+          f"analyze names the finding first, beside the model's value: {first!r} {err.strip()[-200:]}")
+    with open(os.path.join(WORK, "vis_out", "analysis.json")) as f:
+        check(json.load(f)["headline"] == first, "analysis.json carries the same headline")
+    with open(os.path.join(WORK, "vis_out", "index.html")) as f:
+        page = f.read()
+    check(page.find('id="headline"') < page.find("<h2"), "the page puts the headline above the first section")
+    # Images are what their names say.
+    rc, _, err = run("estimate", "--recording", rec, "--plot", "est.jpg", "--config", CONFIG)
+    with open(os.path.join(WORK, "est.jpg"), "rb") as f:
+        check(rc == 0 and f.read(2) == b"\xff\xd8", f"--plot x.jpg writes a JPEG: {err.strip()!r}")
+    rc, _, err = run("estimate", "--recording", rec, "--plot", "est.gif", "--config", CONFIG)
+    check(rc == 2 and ".png" in err, f"--plot x.gif refused with what to type: {err.strip()!r}")
+
+
+def config_files():
+    # A model file's unknown parameter: the error points at the key's own line.
+    model = os.path.join(WORK, "bad_model.toml")
+    with open(model, "w") as f:
+        f.write("# format: maglead-model/1\n[model]\nnut_mass_kg = 0.12\nviscous_n_s_per_m = 2.0\n"
+                "coulomb_n = 7.5\n\n[[term]]\nid = \"offset\"\nofset_n = 1.0\n")
+    rc, _, err = run("twin-check", "--recording", os.path.join(WORK, "hand.csv"), "--model", model,
+                     "--config", CONFIG)
+    check(rc == 2 and f"{model}:9:" in err and "ofset_n" in err and "offset_n" in err,
+          f"bad key at its own line, with the parameters: {err.strip()!r}")
+    cfg = os.path.join(WORK, "cfg_net")
+    shutil.copytree(CONFIG, cfg)
+    net = os.path.join(cfg, "network.toml")
+    with open(net) as f:
+        text = f.read()
+    with open(net, "w") as f:
+        f.write(re.sub(r'bind_address = "[^"]*"', 'bind_address = "localhost:80"', text))
+    rc, _, err = run("serve", "--config", cfg, "--port", "0", "--duration", "1s")
+    check(rc == 2 and "network.toml:" in err and "bind_address" in err and "IPv4" in err,
+          f"bind_address error names the file: {err.strip()!r}")
+    with open(net, "w") as f:
+        f.write(re.sub(r"port = \d+", "port = 99999", text))
+    rc, _, err = run("serve", "--config", cfg, "--duration", "1s")
+    check(rc == 2 and "99999 is outside 0 .. 65535" in err, f"numbers as a person writes them: {err.strip()!r}")
+
+
+def main():
+    watchdog(240)
+    shutil.rmtree(WORK, ignore_errors=True)
+    os.makedirs(WORK)
+    usage_errors()
+    checkout_config()
+    against_a_server()
+    recordings_and_files()
+    config_files()
+    finish()
+
+
+if __name__ == "__main__":
+    main()
