@@ -370,7 +370,7 @@ TEST(Recording, ColumnsThatCannotBeInTheirUnitAreRefused) {
   const std::vector<Case> cases = {
       {"pos_mm",
        "0,20.85,20.0003\n0.001,20.86,20.0105\n",
-       {"pos_mm.csv: column nut_pos_m cannot be in metres", "20.0105 at data row 2",
+       {"pos_mm.csv: column nut_pos_m cannot be in metres", "20.0003 at data row 1",
         "beyond +-10 m", "likely unit: millimetres"}},
       {"angle_urad",
        "0,20854236,0.02\n0.001,20864236,0.02\n0.002,20954236,0.02\n",
