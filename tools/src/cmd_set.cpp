@@ -40,7 +40,8 @@ void add_command_flags(CLI::App* cmd, const std::shared_ptr<CommandFlags>& f, bo
 
 constexpr const char* kHoldHelp =
     "Keep control this long (e.g. 10s), then release it. Default: until Ctrl-C. Release clears "
-    "enable: the drive is disabled without a fault, so the force or position is no longer held";
+    "enable: the drive is disabled without a fault; the screw stays where it is, the force or "
+    "position is no longer controlled";
 
 volatile std::sig_atomic_t g_interrupted = 0;
 void on_interrupt(int) { g_interrupted = 1; }
@@ -68,8 +69,8 @@ void hold_then_release(op::Client& client, const std::string& hold, const op::Co
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   op::disable(client, {});
   std::printf(
-      "held for %.1f s; released: enable cleared, drive disabled without a fault, %s no "
-      "longer held\n",
+      "held for %.1f s; released: enable cleared, drive disabled without a fault (the screw "
+      "stays where it is; %s no longer controlled)\n",
       held_s, held.c_str());
 }
 
