@@ -1,4 +1,5 @@
 #include "maglead/controller/controller.hpp"
+#include "maglead/controller/status_word.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -399,10 +400,41 @@ void Controller::publish_observer() noexcept {
   s_.force_reached_reason = static_cast<std::uint16_t>(force_loop_.reason(load_));
 }
 
+// ---------------------------------------------------------------------------- the cycle
+// step() runs the stages in order: clock, read, commands, twin, supervise, control by state,
+// write, publish. Each stage is one function below.
+
 CycleStatus Controller::step(double now_s, double late_s) noexcept {
-  const auto& a = cfg_.actuator;
-  const auto& cal = cfg_.calibration;
-  const double nominal = 1.0 / a.sample_rate_hz;
+  const double dt = advance_clock(now_s, late_s);
+  SensorSample sample;
+  const HwStatus hs = hw_.read_sensors(now_s, sample);
+  CycleStatus status = CycleStatus::ok;
+  if (hs != HwStatus::ok) {
+    latch_fault(hs == HwStatus::sensor_fault ? Alarm::sensor_fault : Alarm::drive_fault);
+    status = CycleStatus::hardware_error;
+  } else {
+    read_measurements(now_s, sample);
+  }
+  take_commands();
+  step_twin(now_s);
+  if (status == CycleStatus::ok) supervise(now_s);
+  last_phase_rad_ = s_.phase_rad;
+  const Reached reached = control_by_state(dt);
+  if (mode_ != Mode::force || state_ != DriveState::enabled) force_loop_.stop();
+  publish_observer();
+  const bool settled = settle(reached, dt);
+  // Also after a sensor fault: the reaction then works from the last good measurement.
+  if (hs != HwStatus::drive_fault &&
+      hw_.write_motor_angle(screw_cmd_rad_ * cfg_.actuator.gear_ratio) != HwStatus::ok) {
+    latch_fault(Alarm::drive_fault);
+    status = CycleStatus::hardware_error;
+  }
+  publish(settled, reached);
+  return status;
+}
+
+double Controller::advance_clock(double now_s, double late_s) noexcept {
+  const double nominal = 1.0 / cfg_.actuator.sample_rate_hz;
   double dt = synced_ ? now_s - last_t_s_ : nominal;
   if (!(dt > 0.0)) dt = nominal;
   last_t_s_ = now_s;
@@ -411,44 +443,45 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   s_.period_s = dt;
   if (late_s > nominal) s_.overrun_count++;
   s_.late_max_s = std::max(s_.late_max_s, late_s);
+  return dt;
+}
 
-  SensorSample sample;
-  const HwStatus hs = hw_.read_sensors(now_s, sample);
-  CycleStatus status = CycleStatus::ok;
-  if (hs != HwStatus::ok) {
-    latch_fault(hs == HwStatus::sensor_fault ? Alarm::sensor_fault : Alarm::drive_fault);
-    status = CycleStatus::hardware_error;
-  } else {
-    const double screw =
-        screw_angle_rad_from_motor_rad(motor_angle_rad_from_counts(sample.motor_counts, a), a);
-    const double pos = nut_pos_m_from_counts(sample.linear_counts, a);
-    if (!synced_) {
-      // At power-up the coupling is taken to be at rest within its lead.
-      phase_offset_rad_ = kTwoPi * std::round(phase_rad(screw, pos, a.lead_m) / kTwoPi);
-      velocity_.reset(pos);
-      screw_cmd_rad_ = screw;
-      last_heartbeat_s_ = now_s;
-      state_ = DriveState::ready;
-      synced_ = true;
-      if (twin_) twin_->resync(now_s, screw, pos);
-      observer_.reset();
-    }
-    s_.screw_angle_rad = screw;
-    s_.nut_pos_m = pos;
-    s_.phase_rad = phase_rad(screw, pos, a.lead_m) - phase_offset_rad_;
-    s_.nut_vel_m_s = velocity_.update(pos);
-    s_.force_est_n = estimator_.output_force_n(s_.phase_rad, s_.nut_vel_m_s);
-    s_.load_cell_force_n = std::isnan(sample.load_force_n) ? 0.0 : -sample.load_force_n;
-    load_cell_reading_n_ = sample.load_force_n;  // the twin's load-cell check only, never its flag
-    // Under force control the load is what the loop presses; else loads come and go.
-    load_ = observer_.update(now_s, s_.phase_rad, s_.nut_pos_m,
-                             mode_ == Mode::force ? LoadForceObserver::kPassiveLoad : 0.0);
+void Controller::read_measurements(double now_s, const SensorSample& sample) noexcept {
+  const auto& a = cfg_.actuator;
+  const double screw =
+      screw_angle_rad_from_motor_rad(motor_angle_rad_from_counts(sample.motor_counts, a), a);
+  const double pos = nut_pos_m_from_counts(sample.linear_counts, a);
+  if (!synced_) {
+    // At power-up the coupling is taken to be at rest within its lead.
+    phase_offset_rad_ = kTwoPi * std::round(phase_rad(screw, pos, a.lead_m) / kTwoPi);
+    velocity_.reset(pos);
+    screw_cmd_rad_ = screw;
+    last_heartbeat_s_ = now_s;
+    state_ = DriveState::ready;
+    synced_ = true;
+    if (twin_) twin_->resync(now_s, screw, pos);
+    observer_.reset();
   }
+  s_.screw_angle_rad = screw;
+  s_.nut_pos_m = pos;
+  s_.phase_rad = phase_rad(screw, pos, a.lead_m) - phase_offset_rad_;
+  s_.nut_vel_m_s = velocity_.update(pos);
+  s_.force_est_n = estimator_.output_force_n(s_.phase_rad, s_.nut_vel_m_s);
+  s_.load_cell_force_n = std::isnan(sample.load_force_n) ? 0.0 : -sample.load_force_n;
+  load_cell_reading_n_ = sample.load_force_n;  // the twin's load-cell check only, never its flag
+  // Under force control the load is what the loop presses; else loads come and go.
+  load_ = observer_.update(now_s, s_.phase_rad, s_.nut_pos_m,
+                           mode_ == Mode::force ? LoadForceObserver::kPassiveLoad : 0.0);
+}
 
+void Controller::take_commands() noexcept {
   if (owner_lost_flag_.exchange(false, std::memory_order_acquire)) on_owner_lost();
   Command c;
-  for (int i = 0; i < 64 && commands_.pop(c); ++i) apply(c);
+  // A bounded number per cycle: a flood of writes cannot stretch the cycle.
+  for (int i = 0; i < kCommandsPerCycle && commands_.pop(c); ++i) apply(c);
+}
 
+void Controller::step_twin(double now_s) noexcept {
   TwinReport tw{};
   if (twin_) {
     const TwinSample in{
@@ -466,34 +499,38 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     twin_->step(in, tw);
   }
   s_.twin = tw;
+}
 
-  if (status == CycleStatus::ok) {
-    // Supervision, in order of severity.
-    const bool outside = s_.phase_rad < cal.stable_min_rad || s_.phase_rad > cal.stable_max_rad;
-    if (outside && !stepped_out_) {
-      stepped_out_ = true;
-      s_.step_out_count++;
-      latch_fault(std::abs(s_.phase_rad - last_phase_rad_) > std::numbers::pi ? Alarm::phase_jump
-                                                                              : Alarm::step_out);
-    }
-    if (s_.nut_pos_m < a.stroke_min_m - kStrokeMargin_m ||
-        s_.nut_pos_m > a.stroke_max_m + kStrokeMargin_m) {
-      if (state_ == DriveState::enabled) latch_fault(Alarm::stroke_limit);
-    }
-    if (state_ == DriveState::enabled && image_.watchdog_s > 0.0 &&
-        now_s - last_heartbeat_s_ > image_.watchdog_s) {
-      watchdog_expired_ = true;
-      latch_fault(Alarm::watchdog);
-    }
-    const bool stop_bit = image_.control_word & bit(registers::kStop);
-    if (state_ == DriveState::enabled) {
-      if (stop_bit && !stopping_) controlled_stop();
-      stopping_ = stop_bit;
-    }
+/// Supervision, in order of severity: step-out, stroke, watchdog, the stop bit.
+void Controller::supervise(double now_s) noexcept {
+  const auto& a = cfg_.actuator;
+  const auto& cal = cfg_.calibration;
+  const bool outside = s_.phase_rad < cal.stable_min_rad || s_.phase_rad > cal.stable_max_rad;
+  if (outside && !stepped_out_) {
+    stepped_out_ = true;
+    s_.step_out_count++;
+    latch_fault(std::abs(s_.phase_rad - last_phase_rad_) > std::numbers::pi ? Alarm::phase_jump
+                                                                            : Alarm::step_out);
   }
-  last_phase_rad_ = s_.phase_rad;
+  if (s_.nut_pos_m < a.stroke_min_m - kStrokeMargin_m ||
+      s_.nut_pos_m > a.stroke_max_m + kStrokeMargin_m) {
+    if (state_ == DriveState::enabled) latch_fault(Alarm::stroke_limit);
+  }
+  if (state_ == DriveState::enabled && image_.watchdog_s > 0.0 &&
+      now_s - last_heartbeat_s_ > image_.watchdog_s) {
+    watchdog_expired_ = true;
+    latch_fault(Alarm::watchdog);
+  }
+  const bool stop_bit = image_.control_word & bit(registers::kStop);
+  if (state_ == DriveState::enabled) {
+    if (stop_bit && !stopping_) controlled_stop();
+    stopping_ = stop_bit;
+  }
+}
 
-  bool in_position = false, force_reached = false;
+/// The screw command of this cycle by drive state and mode; what the mode reached.
+Controller::Reached Controller::control_by_state(double dt) noexcept {
+  Reached r;
   switch (state_) {
     case DriveState::disabled:
     case DriveState::ready:
@@ -501,34 +538,43 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     case DriveState::enabled:
       if (mode_ == Mode::force) {
         screw_cmd_rad_ = force_command_rad(dt);
-        force_reached = force_loop_.reason(load_) == ForceReachedReason::reached;
+        r.force = force_loop_.reason(load_) == ForceReachedReason::reached;
       } else {
         screw_cmd_rad_ = position_command_rad(dt);
-        in_position = prof_pos_m_ == target_m_ && prof_vel_m_s_ == 0.0 &&
-                      std::abs(target_m_ - s_.nut_pos_m) <= cfg_.in_position_tol_m;
+        r.position = prof_pos_m_ == target_m_ && prof_vel_m_s_ == 0.0 &&
+                     std::abs(target_m_ - s_.nut_pos_m) <= cfg_.in_position_tol_m;
       }
       break;
     case DriveState::fault:
-      if (reaction_ == registers::Reaction::releasing ||
-          reaction_ == registers::Reaction::released) {
-        // Ramp the output force to zero, then keep it there: the screw follows the nut.
-        const double step = cfg_.reactions.release_rate_n_per_s * dt;
-        release_force_n_ = std::abs(release_force_n_) <= step
-                               ? 0.0
-                               : release_force_n_ - std::copysign(step, release_force_n_);
-        if (release_force_n_ == 0.0) reaction_ = registers::Reaction::released;
-        const auto inv = phase_for_output_force(cal, release_force_n_, a.safe_force_fraction);
-        const double phase = inv.status == InverseStatus::ok ? inv.phase_rad : 0.0;
-        screw_cmd_rad_ =
-            rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + lead_rad_ + phase;
-      } else if (fault_position_hold_) {
-        screw_cmd_rad_ = position_command_rad(dt);  // controlled stop continues, then holds
-      }
+      fault_reaction_command(dt);
       break;
   }
-  if (mode_ != Mode::force || state_ != DriveState::enabled) force_loop_.stop();
-  publish_observer();
-  const bool reached = in_position || force_reached;
+  return r;
+}
+
+/// The fault reaction's own state machine: releasing (ramp the output force to zero) →
+/// released (keep it there: the screw follows the nut); or hold (the controlled stop continues,
+/// then holds); none leaves the last command.
+void Controller::fault_reaction_command(double dt) noexcept {
+  const auto& a = cfg_.actuator;
+  if (reaction_ == registers::Reaction::releasing || reaction_ == registers::Reaction::released) {
+    const double step = cfg_.reactions.release_rate_n_per_s * dt;
+    release_force_n_ = std::abs(release_force_n_) <= step
+                           ? 0.0
+                           : release_force_n_ - std::copysign(step, release_force_n_);
+    if (release_force_n_ == 0.0) reaction_ = registers::Reaction::released;
+    const auto inv =
+        phase_for_output_force(cfg_.calibration, release_force_n_, a.safe_force_fraction);
+    const double phase = inv.status == InverseStatus::ok ? inv.phase_rad : 0.0;
+    screw_cmd_rad_ = rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + lead_rad_ + phase;
+  } else if (fault_position_hold_) {
+    screw_cmd_rad_ = position_command_rad(dt);
+  }
+}
+
+/// A target counts as reached once it has held for settle_s; the execute handshake's done then.
+bool Controller::settle(const Reached& r, double dt) noexcept {
+  const bool reached = r.position || r.force;
   settled_s_ = reached ? settled_s_ + dt : 0.0;
   const bool settled = reached && settled_s_ >= cfg_.settle_s;
   if (execute_pending_ && settled) {
@@ -536,33 +582,17 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     execute_pending_ = false;
   }
   if (state_ != DriveState::enabled) execute_pending_ = false;
+  return settled;
+}
 
-  // Also after a sensor fault: the reaction then works from the last good measurement.
-  if (hs != HwStatus::drive_fault &&
-      hw_.write_motor_angle(screw_cmd_rad_ * a.gear_ratio) != HwStatus::ok) {
-    latch_fault(Alarm::drive_fault);
-    status = CycleStatus::hardware_error;
-  }
-
-  std::uint16_t sw = 0;
-  const auto set = [&](int b, bool on) {
-    if (on) sw |= bit(b);
-  };
-  set(registers::kReady, state_ == DriveState::ready);
-  set(registers::kEnabled, state_ == DriveState::enabled);
-  set(registers::kFault, state_ == DriveState::fault);
-  set(registers::kMoving, s_.nut_vel_m_s != 0.0 || prof_vel_m_s_ != 0.0);
-  set(registers::kInPosition, settled && in_position);
-  set(registers::kForceReached, settled && force_reached);
-  set(registers::kStepOut, stepped_out_);
-  set(registers::kDriftWarning, tw.drift_warning);
-  set(registers::kWatchdogExpired, watchdog_expired_);
-  set(registers::kTwinHealthy, tw.healthy);
-  set(registers::kStepOutWarning, tw.step_out_warning);
-  set(registers::kStopped, stopping_);
-  set(registers::kStrokeLimit, s_.nut_pos_m <= a.stroke_min_m || s_.nut_pos_m >= a.stroke_max_m);
-  set(registers::kTwinLagging, tw.lagging);
-  s_.status_word = sw;
+void Controller::publish(bool settled, const Reached& r) noexcept {
+  const auto& a = cfg_.actuator;
+  const auto& tw = s_.twin;
+  s_.status_word = pack_status_word(
+      {state_, s_.nut_vel_m_s != 0.0 || prof_vel_m_s_ != 0.0, settled && r.position,
+       settled && r.force, stepped_out_, tw.drift_warning, watchdog_expired_, tw.healthy,
+       tw.step_out_warning, stopping_,
+       s_.nut_pos_m <= a.stroke_min_m || s_.nut_pos_m >= a.stroke_max_m, tw.lagging});
   s_.drive_state = static_cast<std::uint16_t>(state_);
   s_.active_mode = static_cast<std::uint16_t>(mode_);
   s_.command_status = command_bits_;
@@ -572,7 +602,6 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
       state_ == DriveState::fault ? reaction_ : registers::Reaction::none);
   s_.active_target_pos_m = target_m_;
   published_.store(s_);
-  return status;
 }
 
 }  // namespace maglead::controller

@@ -136,6 +136,22 @@ class Controller {
   double safe_force_limit_n(double force_n) const noexcept;
 
  private:
+  /// What the active mode reached this cycle (before the settle time).
+  struct Reached {
+    bool position = false, force = false;
+  };
+  static constexpr int kCommandsPerCycle = 64;
+  // The cycle's stages, in the order step() runs them.
+  double advance_clock(double now_s, double late_s) noexcept;
+  void read_measurements(double now_s, const SensorSample& sample) noexcept;
+  void take_commands() noexcept;
+  void step_twin(double now_s) noexcept;
+  void supervise(double now_s) noexcept;
+  Reached control_by_state(double dt) noexcept;
+  void fault_reaction_command(double dt) noexcept;
+  bool settle(const Reached& reached, double dt) noexcept;
+  void publish(bool settled, const Reached& reached) noexcept;
+
   void apply(const Command& c) noexcept;
   void on_execute() noexcept;
   void latch_fault(registers::Alarm alarm) noexcept;
