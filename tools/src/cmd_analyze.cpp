@@ -68,7 +68,9 @@ void print_findings(const analysis::Findings& J) {
   if (const auto& c = J.twin_force_check; c && c->available) {
     std::printf("twin force error %.2f → %.2f N (mean absolute, against the load cell)",
                 c->baseline_mae_n, c->corrected_mae_n);
-    for (const auto& d : c->dropped) std::printf("; %s left out (it raised the error)", d.c_str());
+    for (const auto& d : c->dropped)
+      std::printf("; %s left out (it raised the error beyond its noise; in the file, disabled)",
+                  d.c_str());
     std::printf("\n");
   }
 }

@@ -77,42 +77,56 @@ Chart fit_over_time(const actuator::Prepared& P, const actuator::Selection& sel)
   return c;
 }
 
-// The corrected model never makes the twin's force estimate worse on its own recording: terms
-// join in the order they were found, each kept only if the error against the load cell does
-// not rise. `corrected` becomes the model of the kept terms.
+// A term leaves the corrected model only when the twin's force estimate gets worse with it beyond
+// the noise of that difference (actuator::rises_beyond_noise over the scored blocks): terms join
+// in the order they were found. A term left out stays in the file, disabled, with the reason.
+// `corrected` becomes the model of the kept terms; `why` the reason for each dropped one.
 TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
                                const ForceCalibration& cal, const ModelFile& base,
-                               const std::vector<selection::Found>& terms, ModelFile& corrected) {
+                               const std::vector<selection::Found>& terms, ModelFile& corrected,
+                               std::vector<std::string>& why) {
   TwinForceCheck out;
-  const auto before = actuator::twin_force_mae_n(rec, act, cal, base);
+  const auto before = actuator::twin_force_errors(rec, act, cal, base);
   if (!before) {
     out.reason = "maglead_twin (SUNDIALS) not built";
     return out;
   }
   out.available = true;
-  out.baseline_mae_n = out.corrected_mae_n = *before;
+  out.baseline_mae_n = out.corrected_mae_n = before->mae_n;
   if (terms.empty()) return out;
-  const auto all = actuator::twin_force_mae_n(rec, act, cal, corrected);
-  if (all && *all <= *before) {  // the usual case: everything together helps
-    out.corrected_mae_n = *all;
+  const auto all = actuator::twin_force_errors(rec, act, cal, corrected);
+  if (all && !actuator::rises_beyond_noise(*all, *before)) {  // the usual case
+    out.corrected_mae_n = all->mae_n;
     for (const auto& c : terms) out.kept.push_back(c.id);
     return out;
   }
   std::vector<selection::Found> kept;
+  actuator::TwinForceErrors current = *before;
   for (const auto& c : terms) {
     auto trial = kept;
     trial.push_back(c);
-    const auto m = corrected_model(base, trial, rec.path);
-    const auto err = actuator::twin_force_mae_n(rec, act, cal, m);
-    if (err && *err <= out.corrected_mae_n) {
+    const auto err =
+        actuator::twin_force_errors(rec, act, cal, corrected_model(base, trial, rec.path));
+    if (err && !actuator::rises_beyond_noise(*err, current)) {
       kept = std::move(trial);
-      out.corrected_mae_n = *err;
+      current = *err;
       out.kept.push_back(c.id);
     } else {
       out.dropped.push_back(c.id);
+      why.push_back("with it the twin's force error rose beyond its noise: " + fmt(current.mae_n) +
+                    " -> " + fmt(err ? err->mae_n : NAN) + " N");
     }
   }
+  out.corrected_mae_n = current.mae_n;
   corrected = corrected_model(base, kept, rec.path);
+  for (std::size_t k = 0; k < out.dropped.size(); ++k)
+    for (const auto& c : terms)
+      if (c.id == out.dropped[k]) {
+        auto& term = corrected.term(c.id);
+        term.enabled = false;
+        term.parameters.assign(c.params.begin(), c.params.end());
+        term.note = "disabled: " + why[k];
+      }
   return out;
 }
 
@@ -416,6 +430,17 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);
   J.conclusion = selection::conclusion_of(sel);
+  // Nothing named is not nothing missing: a residual above twice the load cell's own noise is a
+  // misfit the library does not explain, said as such.
+  constexpr double kMisfitOverFloor = 2.0;
+  if (sel.terms.empty() && !J.unexplained && J.noise_floor_n > 0 &&
+      J.final_fit.rms_n > kMisfitOverFloor * J.noise_floor_n) {
+    J.conclusion = "a misfit of " + fmt(J.final_fit.rms_n) + " N RMS remains (floor " +
+                   fmt(J.noise_floor_n) +
+                   " N) that no library effect explains; check the calibration, the sensors' "
+                   "timing and loads the recording does not log";
+    J.nothing_missing = false;
+  }
   return J;
 }
 
@@ -502,13 +527,15 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
                                  sel.rejected.end());
   r.corrected = corrected_model(model, sel.fit.terms, rec.path);
   if (opt.twin_force_check) {
-    r.findings.twin_force_check = check_with_twin(rec, act, cal, model, sel.fit.terms, r.corrected);
+    std::vector<std::string> why;
+    r.findings.twin_force_check =
+        check_with_twin(rec, act, cal, model, sel.fit.terms, r.corrected, why);
+    const auto& dropped = r.findings.twin_force_check->dropped;
     for (auto& e : r.findings.effects)
-      for (const auto& d : r.findings.twin_force_check->dropped)
-        if (e.id == d)
+      for (std::size_t k = 0; k < dropped.size(); ++k)
+        if (e.id == dropped[k])
           e.note += std::string(e.note.empty() ? "" : "; ") +
-                    "left out of model_corrected.toml: with it the twin's force estimate was "
-                    "further from the load cell";
+                    "left out of model_corrected.toml (there disabled): " + why[k];
   }
   r.fit_over_time = fit_over_time(P, sel.fit);
   return r;

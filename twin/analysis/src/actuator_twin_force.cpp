@@ -31,9 +31,27 @@ std::vector<SampleWindow> scoring_windows(std::size_t samples, std::size_t budge
   return out;
 }
 
+bool rises_beyond_noise(const TwinForceErrors& with, const TwinForceErrors& without) {
+  const std::size_t n = std::min(with.block_mae_n.size(), without.block_mae_n.size());
+  if (n == 0) return with.mae_n > without.mae_n;
+  double mean = 0;
+  for (std::size_t b = 0; b < n; ++b) mean += with.block_mae_n[b] - without.block_mae_n[b];
+  mean /= static_cast<double>(n);
+  if (!(mean > 0)) return false;
+  if (n < 2) return true;
+  double ss = 0;
+  for (std::size_t b = 0; b < n; ++b) {
+    const double d = with.block_mae_n[b] - without.block_mae_n[b] - mean;
+    ss += d * d;
+  }
+  const double se = std::sqrt(ss / static_cast<double>(n - 1) / static_cast<double>(n));
+  return mean > kRiseBeyondNoise * se;
+}
+
 #ifdef MAGLEAD_HAVE_TWIN
-std::optional<double> twin_force_mae_n(const Recording& rec, const ActuatorParams& act,
-                                       const ForceCalibration& cal, const ModelFile& model) {
+std::optional<TwinForceErrors> twin_force_errors(const Recording& rec, const ActuatorParams& act,
+                                                 const ForceCalibration& cal,
+                                                 const ModelFile& model) {
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
   if (n < 2 || !(t.back() > t.front())) return std::nullopt;
@@ -52,21 +70,31 @@ std::optional<double> twin_force_mae_n(const Recording& rec, const ActuatorParam
   tc.lookahead_every_ticks = std::numeric_limits<int>::max();
   twin::TwinMonitor mon(tc);
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  double sum = 0;
-  std::size_t scored = 0;
+  std::vector<double> abs_err;
+  abs_err.reserve(std::min(n, kTwinCheckSamples));
   for (const auto& w : scoring_windows(n, kTwinCheckSamples, kTwinCheckWindows)) {
     mon.reset(t[w.begin], screw[w.begin], pos[w.begin]);
     for (std::size_t i = w.begin; i < w.end; ++i) {
       const auto out = mon.step({t[i], screw[i], pos[i], fset ? (*fset)[i] : nan});
-      sum += std::abs(out.dynamic_output_force_est_n + load[i]);  // output force = −load
+      abs_err.push_back(std::abs(out.dynamic_output_force_est_n + load[i]));  // output = −load
     }
-    scored += w.end - w.begin;
   }
-  return sum / static_cast<double>(scored);
+  TwinForceErrors e;
+  double sum = 0;
+  for (double x : abs_err) sum += x;
+  e.mae_n = sum / static_cast<double>(abs_err.size());
+  const std::size_t blocks = std::min(kTwinCheckBlocks, abs_err.size());
+  for (std::size_t b = 0; b < blocks; ++b) {
+    const std::size_t lo = abs_err.size() * b / blocks, hi = abs_err.size() * (b + 1) / blocks;
+    double s = 0;
+    for (std::size_t i = lo; i < hi; ++i) s += abs_err[i];
+    e.block_mae_n.push_back(s / static_cast<double>(std::max<std::size_t>(hi - lo, 1)));
+  }
+  return e;
 }
 #else
-std::optional<double> twin_force_mae_n(const Recording&, const ActuatorParams&,
-                                       const ForceCalibration&, const ModelFile&) {
+std::optional<TwinForceErrors> twin_force_errors(const Recording&, const ActuatorParams&,
+                                                 const ForceCalibration&, const ModelFile&) {
   return std::nullopt;
 }
 #endif

@@ -28,9 +28,24 @@ struct SampleWindow {
 std::vector<SampleWindow> scoring_windows(std::size_t samples, std::size_t budget,
                                           std::size_t windows);
 
-/// Mean absolute error of the twin's output-force estimate against the load cell over the
-/// scoring windows [N]; nullopt when the twin is not built or the recording has no time span.
-std::optional<double> twin_force_mae_n(const Recording& rec, const ActuatorParams& act,
-                                       const ForceCalibration& cal, const ModelFile& model);
+/// Blocks the scored samples are cut into (in order) so two models' errors can be compared with
+/// their own spread: eight give a standard error from seven degrees of freedom.
+inline constexpr std::size_t kTwinCheckBlocks = 8;
+
+/// The twin's output-force error against the load cell [N]: the mean absolute error over the
+/// scoring windows, and the same per block of the scored samples (kTwinCheckBlocks of them).
+struct TwinForceErrors {
+  double mae_n = 0.0;
+  std::vector<double> block_mae_n;
+};
+/// nullopt when the twin is not built or the recording has no time span.
+std::optional<TwinForceErrors> twin_force_errors(const Recording& rec, const ActuatorParams& act,
+                                                 const ForceCalibration& cal,
+                                                 const ModelFile& model);
+/// Whether `with` is worse than `without` beyond the noise of the difference: the paired rise
+/// over the blocks is positive and more than kRiseBeyondNoise standard errors.
+bool rises_beyond_noise(const TwinForceErrors& with, const TwinForceErrors& without);
+/// Two standard errors: a rise that chance alone exceeds about one time in forty.
+inline constexpr double kRiseBeyondNoise = 2.0;
 
 }  // namespace maglead::analysis::actuator

@@ -16,10 +16,15 @@ std::string unit_of(const std::string& name) {
     const char* suffix;
     const char* unit;
   };
-  static constexpr Suffix kSuffixes[] = {
-      {"_n_s_per_m", "N·s/m"}, {"_n_per_m", "N/m"}, {"_per_min", "1/min"}, {"_n", "N"},
-      {"_kg", "kg"},           {"_rad", "rad"},     {"_m_s", "m/s"},       {"_m", "m"},
-      {"_s", "s"}};
+  static constexpr Suffix kSuffixes[] = {{"_n_s_per_m", "N·s/m"},
+                                         {"_n_per_m", "N/m"},
+                                         {"_per_min", "1/min"},
+                                         {"_n", "N"},
+                                         {"_kg", "kg"},
+                                         {"_rad", "rad"},
+                                         {"_m_s", "m/s"},
+                                         {"_m", "m"},
+                                         {"_s", "s"}};
   for (const auto& s : kSuffixes) {
     const std::string suffix = s.suffix;
     if (name.size() > suffix.size() &&
@@ -79,9 +84,9 @@ std::string headline_of(const Findings& f, const ModelFile& baseline) {
   }
   if (f.unexplained) return "not explained: " + f.unexplained->message;
   if (!f.sliding_note.empty())
-    return "not judged: too little sliding to judge the model (" +
-           std::to_string(f.samples_used) + " sliding samples used of " +
-           std::to_string(f.samples) + "); no finding is not the same as no anomaly";
+    return "not judged: too little sliding to judge the model (" + std::to_string(f.samples_used) +
+           " sliding samples used of " + std::to_string(f.samples) +
+           "); no finding is not the same as no anomaly";
   if (f.noise_floor_n > 0 && f.final_fit.rms_n > kMisfitOverFloor * f.noise_floor_n)
     return "a misfit of " + number(f.final_fit.rms_n) + " N RMS remains (floor " +
            number(f.noise_floor_n) + " N) that no library effect explains";
