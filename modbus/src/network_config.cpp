@@ -78,6 +78,36 @@ std::optional<FaultReaction> parse_fault_reaction(std::string_view text) {
   return std::nullopt;
 }
 
+namespace {
+
+/// [fault_reaction] and [runtime]: the reaction to each alarm and the realtime policy.
+void read_reactions_and_runtime(const Reader& r, NetworkConfig& c) {
+  const auto* fr = r.section("fault_reaction", {"watchdog", "owner_lost", "sensor_fault",
+                                                "step_out", "release_rate_n_per_s"});
+  for (auto [key, field] : {std::pair{"watchdog", &c.reactions.watchdog},
+                            std::pair{"owner_lost", &c.reactions.owner_lost},
+                            std::pair{"sensor_fault", &c.reactions.sensor_fault},
+                            std::pair{"step_out", &c.reactions.step_out}}) {
+    std::string v;
+    r.get(fr, "fault_reaction", key, v, 0, 0);
+    if (v.empty()) continue;
+    const auto parsed = parse_fault_reaction(v);
+    if (!parsed)
+      r.fail(fr ? fr->get(key) : nullptr, std::string("fault_reaction.") + key,
+             "\"" + v + "\" is not one of mode_default, release, hold, disable");
+    *field = *parsed;
+  }
+  r.get(fr, "fault_reaction", "release_rate_n_per_s", c.reactions.release_rate_n_per_s, 1e-3, 1e6);
+  const auto* rt = r.section("runtime", {"realtime"});
+  std::string realtime;
+  r.get(rt, "runtime", "realtime", realtime, 0, 0);
+  if (!realtime.empty() && !parse_realtime_policy(realtime, c.realtime))
+    r.fail(rt ? rt->get("realtime") : nullptr, "runtime.realtime",
+           "\"" + realtime + "\" is not one of off, try, require");
+}
+
+}  // namespace
+
 NetworkConfig load_network_config(const std::string& path) {
   const toml::table root = config::parse_file(path);
   for (const auto& [k, v] : root)
@@ -135,28 +165,7 @@ NetworkConfig load_network_config(const std::string& path) {
   double wd_ms = 0;
   r.get(server, "server", "watchdog_ms", wd_ms, 0, 60000);
   c.watchdog_s = wd_ms * 1e-3;
-  const auto* fr = r.section("fault_reaction", {"watchdog", "owner_lost", "sensor_fault",
-                                                "step_out", "release_rate_n_per_s"});
-  for (auto [key, field] : {std::pair{"watchdog", &c.reactions.watchdog},
-                            std::pair{"owner_lost", &c.reactions.owner_lost},
-                            std::pair{"sensor_fault", &c.reactions.sensor_fault},
-                            std::pair{"step_out", &c.reactions.step_out}}) {
-    std::string v;
-    r.get(fr, "fault_reaction", key, v, 0, 0);
-    if (v.empty()) continue;
-    const auto parsed = parse_fault_reaction(v);
-    if (!parsed)
-      r.fail(fr ? fr->get(key) : nullptr, std::string("fault_reaction.") + key,
-             "\"" + v + "\" is not one of mode_default, release, hold, disable");
-    *field = *parsed;
-  }
-  r.get(fr, "fault_reaction", "release_rate_n_per_s", c.reactions.release_rate_n_per_s, 1e-3, 1e6);
-  const auto* rt = r.section("runtime", {"realtime"});
-  std::string realtime;
-  r.get(rt, "runtime", "realtime", realtime, 0, 0);
-  if (!realtime.empty() && !parse_realtime_policy(realtime, c.realtime))
-    r.fail(rt ? rt->get("realtime") : nullptr, "runtime.realtime",
-           "\"" + realtime + "\" is not one of off, try, require");
+  read_reactions_and_runtime(r, c);
   return c;
 }
 

@@ -216,6 +216,55 @@ std::vector<std::string> trend(const std::deque<Sample>& samples, double now_s, 
   return out;
 }
 
+/// The values in two columns of half the width each; a label is shortened before a value is,
+/// and a value too wide for its column gets a line of its own.
+void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
+  const auto at = [&](const char* name) { return v.at(name); };
+  const int half = w / 2;
+  struct Cell {
+    std::string label, short_label, value;
+    std::string in(int width) const {
+      for (const auto* l : {&label, &short_label}) {
+        std::string s = printf_str("%-*s %s", l == &label ? 11 : 0, l->c_str(), value.c_str());
+        if (static_cast<int>(s.size()) <= width) return s;
+      }
+      return {};
+    }
+  };
+  const auto cell = [](const char* label, const char* short_label, const std::string& value) {
+    return Cell{label, short_label, value};
+  };
+  const auto pair = [&](const Cell& a, const Cell& b) {
+    std::string left = a.in(half - 1);
+    const std::string right = b.in(w - half);
+    if (left.empty() || right.empty()) {
+      L.push_back(fit(a.in(w).empty() ? a.short_label + " " + a.value : a.in(w), w));
+      L.push_back(fit(b.in(w).empty() ? b.short_label + " " + b.value : b.in(w), w));
+      return;
+    }
+    left.resize(static_cast<std::size_t>(half), ' ');
+    L.push_back(left + right);
+  };
+  const bool twin = !(at("twin_pred_nut_pos_um") == 0 && at("twin_pred_force_mn") == 0 &&
+                      at("twin_residual_pos_um") == 0 && at("twin_dynamic_force_mn") == 0);
+  const bool force_mode = at("active_mode") == static_cast<double>(reg::Mode::force);
+  pair(cell("position", "pos", printf_str("%.3f mm", at("nut_pos_um") * 1e3)),
+       cell("velocity", "vel", printf_str("%.3f mm/s", at("nut_vel_um_s") * 1e3)));
+  // The load observer's output force and the interval it is sure of (no load cell needed).
+  pair(cell("estimate", "est",
+            printf_str("%.2f N in [%.1f, %.1f]", at("load_force_est_mn"), at("load_force_lo_mn"),
+                       at("load_force_hi_mn"))),
+       cell("load cell", "cell", printf_str("%.2f N", at("load_cell_force_mn"))));
+  pair(cell("setpoint", "set",
+            force_mode ? printf_str("%.2f N", at("active_force_setpoint_mn")) : std::string("-")),
+       cell("target", "tgt", printf_str("%.3f mm", at("active_target_pos_um") * 1e3)));
+  pair(cell("phase", "phi", printf_str("%.4f rad", at("phase_urad"))),
+       cell("twin", "twin",
+            twin ? printf_str("%.2f N, %.1f um", at("twin_dynamic_force_mn"),
+                              at("twin_residual_pos_um") * 1e6)
+                 : std::string("not running")));
+}
+
 /// The full screen for a terminal of `scr` size: each line at most scr.width columns, at most
 /// scr.height lines. Styles (bold, reverse) are whole-line prefixes.
 std::vector<std::string> render(const View& view, const std::deque<Sample>& samples,
@@ -261,51 +310,7 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
            w, "  ");
   if (why.empty()) L.emplace_back();
   L.insert(L.end(), why.begin(), why.end());
-  // Values in two columns of half the width each; a label is shortened before a value is, and
-  // a value too wide for its column gets a line of its own.
-  const int half = w / 2;
-  struct Cell {
-    std::string label, short_label, value;
-    std::string in(int width) const {
-      for (const auto* l : {&label, &short_label}) {
-        std::string s = printf_str("%-*s %s", l == &label ? 11 : 0, l->c_str(), value.c_str());
-        if (static_cast<int>(s.size()) <= width) return s;
-      }
-      return {};
-    }
-  };
-  const auto cell = [](const char* label, const char* short_label, const std::string& value) {
-    return Cell{label, short_label, value};
-  };
-  const auto pair = [&](const Cell& a, const Cell& b) {
-    std::string left = a.in(half - 1);
-    const std::string right = b.in(w - half);
-    if (left.empty() || right.empty()) {
-      L.push_back(fit(a.in(w).empty() ? a.short_label + " " + a.value : a.in(w), w));
-      L.push_back(fit(b.in(w).empty() ? b.short_label + " " + b.value : b.in(w), w));
-      return;
-    }
-    left.resize(static_cast<std::size_t>(half), ' ');
-    L.push_back(left + right);
-  };
-  const bool twin = !(at("twin_pred_nut_pos_um") == 0 && at("twin_pred_force_mn") == 0 &&
-                      at("twin_residual_pos_um") == 0 && at("twin_dynamic_force_mn") == 0);
-  const bool force_mode = at("active_mode") == static_cast<double>(reg::Mode::force);
-  pair(cell("position", "pos", printf_str("%.3f mm", at("nut_pos_um") * 1e3)),
-       cell("velocity", "vel", printf_str("%.3f mm/s", at("nut_vel_um_s") * 1e3)));
-  // The load observer's output force and the interval it is sure of (no load cell needed).
-  pair(cell("estimate", "est",
-            printf_str("%.2f N in [%.1f, %.1f]", at("load_force_est_mn"), at("load_force_lo_mn"),
-                       at("load_force_hi_mn"))),
-       cell("load cell", "cell", printf_str("%.2f N", at("load_cell_force_mn"))));
-  pair(cell("setpoint", "set",
-            force_mode ? printf_str("%.2f N", at("active_force_setpoint_mn")) : std::string("-")),
-       cell("target", "tgt", printf_str("%.3f mm", at("active_target_pos_um") * 1e3)));
-  pair(cell("phase", "phi", printf_str("%.4f rad", at("phase_urad"))),
-       cell("twin", "twin",
-            twin ? printf_str("%.2f N, %.1f um", at("twin_dynamic_force_mn"),
-                              at("twin_residual_pos_um") * 1e6)
-                 : std::string("not running")));
+  value_rows(v, w, L);
   // The trend takes what is left: legend, chart rows, two axis rows.
   const int rows = scr.height - static_cast<int>(L.size()) - 3;
   if (rows >= 3) {

@@ -457,16 +457,34 @@ struct TwinMonitor::Impl {
       o.drift_warning_t_s = free_drift.warning_t(), o.drift_at_warning = free_drift.at_warning();
   }
 
+  // One tick in stages: reconstruct the encoder, estimate the force, advance the twin, judge the
+  // step-out, the drift ticks, the outputs.
   TwinOutputs step(const TwinInputs& in) noexcept {
     TwinOutputs o;
     if (!started) reset(in.t_s, in.screw_angle_rad, in.nut_pos_m);
     const double t = in.t_s, theta = in.screw_angle_rad;
     const double h = std::max(t - t_prev, 1e-9);
     ++ticks;
+    reconstruct(t, theta, in.nut_pos_m, h);
+    const double fext_new = estimate_force(in, h);
+    bool ok = advance_twin(o, t, theta, fext_new);
+    const double phi = phase_of(theta, pos_hat);
+    const double rel = judge_step_out(in, t, theta, phi, ok);
+    gain_tick(t, theta, rel, in.load_force_n, h);
+    drift_tick(t, theta, rel, in.force_setpoint_n, in.free_move);
+    if (std::isfinite(in.force_setpoint_n)) fset_prev = in.force_setpoint_n;
+    theta_prev = theta;
+    t_prev = t;
+    solver_ok = ok;
+    fill_outputs(o, in, phi, ok);
+    return o;
+  }
 
-    // --- encoder reconstruction: exact position at edges, bounded extrapolation between ---
+  /// Encoder reconstruction: exact position at edges, bounded extrapolation between; the
+  /// friction mode from the edges; the acceleration while sliding.
+  void reconstruct(double t, double theta, double nut_pos_m, double h) noexcept {
     const int slide_dir = nut.direction();
-    const EdgeEvent ev = nut.update(t, in.nut_pos_m);
+    const EdgeEvent ev = nut.update(t, nut_pos_m);
     pos_hat = nut.position_m();
     vel = nut.velocity_m_s();
     if (ev == EdgeEvent::started || ev == EdgeEvent::edge) {
@@ -483,8 +501,12 @@ struct TwinMonitor::Impl {
       acc = 0.0;
     }
     vel_prev = vel;
+  }
 
-    // --- force: sliding friction is known; stuck, the filter's posterior mean ---
+  /// The force: sliding friction is known; stuck, the filter's posterior mean. Also the rates
+  /// the look-ahead extrapolates (force, screw, nut, setpoint).
+  double estimate_force(const TwinInputs& in, double h) noexcept {
+    const double t = in.t_s, theta = in.screw_angle_rad;
     double n_stick = 0.0;
     if (mode == FrictionMode::stick) {
       const double d0 = model.drive_force_n(t, theta, pos_hat, 0.0, 0.0);
@@ -504,9 +526,13 @@ struct TwinMonitor::Impl {
       fset_rate += ((in.force_setpoint_n - fset_prev) / h - fset_rate) * std::min(1.0, h / 0.050);
     else
       fset_rate = 0.0;
+    return fext_new;
+  }
 
-    // --- the twin: driven by θ and last tick's force estimate, open loop between re-syncs ---
-    bool ok = twin.advance(t, theta, fext_hat) == TwinStatus::ok;
+  /// The twin, driven by θ and last tick's force estimate, open loop between re-syncs; its
+  /// prediction into `o`. False when the solver failed.
+  bool advance_twin(TwinOutputs& o, double t, double theta, double fext_new) noexcept {
+    const bool ok = twin.advance(t, theta, fext_hat) == TwinStatus::ok;
     const NutState& ts = twin.state();
     o.predicted_nut_pos_m = ts.pos_m;
     o.residual_pos_m = pos_hat - ts.pos_m;
@@ -523,45 +549,45 @@ struct TwinMonitor::Impl {
       twin.reset(t, {pos_hat, vel, mode}, theta, fext_hat);
       next_resync_t = t + cfg.resync_s;
     }
+    return ok;
+  }
 
-    // --- step-out: measured φ against the stable branch, and the look-ahead ---
-    const double phi = phase_of(theta, pos_hat);
+  /// Step-out: the measured φ against the stable branch, and the look-ahead every few ticks.
+  /// Returns φ relative to the branch's centre; `ok` false when the look-ahead's solver failed.
+  double judge_step_out(const TwinInputs& in, double t, double theta, double phi,
+                        bool& ok) noexcept {
     double rel = phi - branch_center;
     const double edge_hi = cfg.calibration.stable_max_rad, edge_lo = cfg.calibration.stable_min_rad;
     if (rel > edge_hi || rel < edge_lo) step_out = true;
     while (rel > kPi) branch_center += 2 * kPi, ++slips, rel -= 2 * kPi;
     while (rel < -kPi) branch_center -= 2 * kPi, --slips, rel += 2 * kPi;
-    if (ticks % std::max(1, cfg.lookahead_every_ticks) == 0) {
-      trend.t0 = t, trend.th0 = theta, trend.th_rate = theta_rate, trend.f0 = fext_hat;
-      trend.f_rate = fext_rate;
-      look.reset(t, {pos_hat, vel, mode}, theta, fext_hat);
-      double worst = std::max(rel - edge_hi, edge_lo - rel);  // ≤ 0 inside the branch
-      const int n_out = 10;
-      for (int i = 1; i <= n_out && ok; ++i) {
-        const double tt = t + cfg.lookahead_s * i / n_out;
-        ok = look.integrate_to(tt, trend) == TwinStatus::ok;
-        const double r = phase_of(trend.screw_rad(tt), look.state().pos_m) - branch_center;
-        worst = std::max(worst, std::max(r - edge_hi, edge_lo - r));
-      }
-      margin = -worst;
-      const double worst_only = margin;
-      // A setpoint trend heading beyond the calibrated peak is a warning of its own.
-      if (std::isfinite(in.force_setpoint_n)) {
-        const double f_ahead = in.force_setpoint_n + fset_rate * cfg.lookahead_s;
-        if (f_ahead > cfg.calibration.peak_push_n || f_ahead < cfg.calibration.peak_pull_n)
-          margin = std::min(margin, 0.0);
-      }
-      warn = margin < cfg.step_out_warn_margin_rad;
-      margin_from_setpoint = warn && !(worst_only < cfg.step_out_warn_margin_rad);
+    if (ticks % std::max(1, cfg.lookahead_every_ticks) != 0) return rel;
+    trend.t0 = t, trend.th0 = theta, trend.th_rate = theta_rate, trend.f0 = fext_hat;
+    trend.f_rate = fext_rate;
+    look.reset(t, {pos_hat, vel, mode}, theta, fext_hat);
+    double worst = std::max(rel - edge_hi, edge_lo - rel);  // ≤ 0 inside the branch
+    const int n_out = 10;
+    for (int i = 1; i <= n_out && ok; ++i) {
+      const double tt = t + cfg.lookahead_s * i / n_out;
+      ok = look.integrate_to(tt, trend) == TwinStatus::ok;
+      const double r = phase_of(trend.screw_rad(tt), look.state().pos_m) - branch_center;
+      worst = std::max(worst, std::max(r - edge_hi, edge_lo - r));
     }
-    gain_tick(t, theta, rel, in.load_force_n, h);
-    drift_tick(t, theta, rel, in.force_setpoint_n, in.free_move);
-    if (std::isfinite(in.force_setpoint_n)) fset_prev = in.force_setpoint_n;
-    theta_prev = theta;
-    t_prev = t;
-    solver_ok = ok;
+    margin = -worst;
+    const double worst_only = margin;
+    // A setpoint trend heading beyond the calibrated peak is a warning of its own.
+    if (std::isfinite(in.force_setpoint_n)) {
+      const double f_ahead = in.force_setpoint_n + fset_rate * cfg.lookahead_s;
+      if (f_ahead > cfg.calibration.peak_push_n || f_ahead < cfg.calibration.peak_pull_n)
+        margin = std::min(margin, 0.0);
+    }
+    warn = margin < cfg.step_out_warn_margin_rad;
+    margin_from_setpoint = warn && !(worst_only < cfg.step_out_warn_margin_rad);
+    return rel;
+  }
 
-    // --- outputs ---
+  void fill_outputs(TwinOutputs& o, const TwinInputs& in, double phi, bool ok) noexcept {
+    const double theta = in.screw_angle_rad;
     o.dynamic_output_force_est_n = -fext_hat;
     const double v_static = static_vel.update(in.nut_pos_m);
     o.static_output_force_est_n =
@@ -588,7 +614,6 @@ struct TwinMonitor::Impl {
                         : warn   ? (margin_from_setpoint ? StepOutReason::setpoint_beyond_peak
                                                          : StepOutReason::lookahead_crosses_edge)
                                  : StepOutReason::none;
-    return o;
   }
 };
 
