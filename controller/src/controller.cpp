@@ -16,7 +16,10 @@ using registers::Mode;
 using registers::Reject;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kStrokeMargin_m = 0.5e-3;  // beyond the stroke by this much is a fault
-constexpr double kMaxTrack_rad = 0.5;       // most the phase tracking may add to a command
+// Force mode looks this far ahead at the nut's speed: about the time the position loop takes to
+// stop a sliding nut, so the hold lands inside the window.
+constexpr double kWindowLookahead_s = 0.05;
+constexpr double kMaxTrack_rad = 0.5;  // most the phase tracking may add to a command
 constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b); }
 
 }  // namespace
@@ -88,6 +91,10 @@ Controller::Controller(const ControllerConfig& config, ActuatorHardware& hardwar
   if (!(cfg_.reactions.release_rate_n_per_s > 0) ||
       !std::isfinite(cfg_.reactions.release_rate_n_per_s))
     throw std::invalid_argument("controller: fault reaction release rate must be positive [N/s]");
+  if (!(cfg_.force_stroke_margin_m >= 0) ||
+      !(2.0 * cfg_.force_stroke_margin_m < a.stroke_max_m - a.stroke_min_m))
+    throw std::invalid_argument(
+        "controller: force_stroke_margin_m must leave a force window inside the stroke");
   // Position control may use the phase range of the safe forces, never more.
   const double f = a.safe_force_fraction * 0.999;
   phase_hi_rad_ = phase_for_output_force(cal, f * cal.peak_push_n, a.safe_force_fraction).phase_rad;
@@ -238,11 +245,12 @@ void Controller::on_execute() noexcept {
           phase_for_output_force(cfg_.calibration, image_.force_setpoint_n, a.safe_force_fraction);
       if (inv.status != InverseStatus::ok) return reject(Reject::force_beyond_safe_limit);
       force_set_n_ = image_.force_setpoint_n;
-      if (mode_ != Mode::force) {
-        drive_n_ = load_.drive_n;  // start from the phase the nut has
+      if (mode_ != Mode::force || window_end_ != 0) {  // from a position hold: start afresh
+        drive_n_ = load_.drive_n;                      // start from the phase the nut has
         phase_track_rad_ = 0.0;
       }
       force_loop_.start(force_set_n_, drive_n_, load_);
+      window_end_ = 0;
       mode_ = Mode::force;
       break;
     }
@@ -396,8 +404,10 @@ void Controller::publish_observer() noexcept {
   s_.observer_force_lo_n = load_.lo_n;
   s_.observer_force_hi_n = load_.hi_n;
   s_.observer_basis = static_cast<std::uint16_t>(load_.basis);
-  s_.force_loop_state = static_cast<std::uint16_t>(force_loop_.state());
-  s_.force_reached_reason = static_cast<std::uint16_t>(force_loop_.reason(load_));
+  s_.force_loop_state = static_cast<std::uint16_t>(
+      window_end_ != 0 ? ForceLoopState::held_at_stroke_end : force_loop_.state());
+  s_.force_reached_reason = static_cast<std::uint16_t>(
+      window_end_ != 0 ? ForceReachedReason::stroke_end : force_loop_.reason(load_));
 }
 
 // ---------------------------------------------------------------------------- the cycle
@@ -420,7 +430,10 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   if (status == CycleStatus::ok) supervise(now_s);
   last_phase_rad_ = s_.phase_rad;
   const Reached reached = control_by_state(dt);
-  if (mode_ != Mode::force || state_ != DriveState::enabled) force_loop_.stop();
+  if (mode_ != Mode::force || state_ != DriveState::enabled) {
+    force_loop_.stop();
+    window_end_ = 0;
+  }
   publish_observer();
   const bool settled = settle(reached, dt);
   // Also after a sensor fault: the reaction then works from the last good measurement.
@@ -537,8 +550,7 @@ Controller::Reached Controller::control_by_state(double dt) noexcept {
       break;  // hold the last command
     case DriveState::enabled:
       if (mode_ == Mode::force) {
-        screw_cmd_rad_ = force_command_rad(dt);
-        r.force = force_loop_.reason(load_) == ForceReachedReason::reached;
+        screw_cmd_rad_ = force_mode_command_rad(dt, r);
       } else {
         screw_cmd_rad_ = position_command_rad(dt);
         r.position = prof_pos_m_ == target_m_ && prof_vel_m_s_ == 0.0 &&
@@ -550,6 +562,32 @@ Controller::Reached Controller::control_by_state(double dt) noexcept {
       break;
   }
   return r;
+}
+
+/// Force mode: the force loop, unless the nut heads past the force window's end; then the
+/// position loop holds it there until the next setpoint.
+double Controller::force_mode_command_rad(double dt, Reached& r) noexcept {
+  if (window_end_ == 0) check_force_window();
+  if (window_end_ != 0) return position_command_rad(dt);
+  const double cmd = force_command_rad(dt);
+  r.force = force_loop_.reason(load_) == ForceReachedReason::reached;
+  return cmd;
+}
+
+/// A nut whose position a moment ahead lies past the window, moving outwards, is held where it
+/// is (inside the window): the push ends as a defined outcome, not a stroke_limit fault.
+void Controller::check_force_window() noexcept {
+  const auto& a = cfg_.actuator;
+  const double lo = a.stroke_min_m + cfg_.force_stroke_margin_m;
+  const double hi = a.stroke_max_m - cfg_.force_stroke_margin_m;
+  const double ahead = s_.nut_pos_m + s_.nut_vel_m_s * kWindowLookahead_s;
+  window_end_ = ahead >= hi && s_.nut_vel_m_s > 0.0   ? 1
+                : ahead <= lo && s_.nut_vel_m_s < 0.0 ? -1
+                                                      : 0;
+  if (window_end_ == 0) return;
+  target_m_ = prof_pos_m_ = std::clamp(s_.nut_pos_m, lo, hi);
+  prof_vel_m_s_ = 0.0;
+  integral_rad_ = 0.0;
 }
 
 /// The fault reaction's own state machine: releasing (ramp the output force to zero) →
@@ -588,11 +626,12 @@ bool Controller::settle(const Reached& r, double dt) noexcept {
 void Controller::publish(bool settled, const Reached& r) noexcept {
   const auto& a = cfg_.actuator;
   const auto& tw = s_.twin;
-  s_.status_word = pack_status_word(
-      {state_, s_.nut_vel_m_s != 0.0 || prof_vel_m_s_ != 0.0, settled && r.position,
-       settled && r.force, stepped_out_, tw.drift_warning, watchdog_expired_, tw.healthy,
-       tw.step_out_warning, stopping_,
-       s_.nut_pos_m <= a.stroke_min_m || s_.nut_pos_m >= a.stroke_max_m, tw.lagging});
+  s_.status_word =
+      pack_status_word({state_, s_.nut_vel_m_s != 0.0 || prof_vel_m_s_ != 0.0,
+                        settled && r.position, settled && r.force, stepped_out_, tw.drift_warning,
+                        watchdog_expired_, tw.healthy, tw.step_out_warning, stopping_,
+                        s_.nut_pos_m <= a.stroke_min_m || s_.nut_pos_m >= a.stroke_max_m,
+                        tw.lagging, window_end_ != 0});
   s_.drive_state = static_cast<std::uint16_t>(state_);
   s_.active_mode = static_cast<std::uint16_t>(mode_);
   s_.command_status = command_bits_;

@@ -22,6 +22,7 @@ std::uint16_t pack_status_word(const StatusFacts& f) noexcept {
   set(registers::kStopped, f.stopped);
   set(registers::kStrokeLimit, f.at_stroke_limit);
   set(registers::kTwinLagging, f.twin_lagging);
+  set(registers::kForceLimited, f.force_limited);
   return sw;
 }
 

@@ -146,6 +146,7 @@ const ModbusCore::Binding kBindings[] = {
     {"owned", nullptr, nullptr, nullptr},
     {"stroke_limit", nullptr, nullptr, nullptr},
     {"twin_lagging", nullptr, nullptr, nullptr},
+    {"force_limited", nullptr, nullptr, nullptr},
 };
 #undef SNAP
 #undef TWIN

@@ -151,6 +151,24 @@ def against_a_server():
         srv.stop()
 
 
+def force_at_the_stroke_end():
+    """Force mode on the 40 mm stroke against a soft spring: the push ends at the window's end as
+    a defined outcome (no fault), the client says so, and the next setpoint is taken at once."""
+    srv = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring", "600")
+    try:
+        port = str(srv.port)
+        rc, out, err = run("set", "--port", port, "force", "15", "--config", CONFIG)
+        check(rc == 4 and "stroke window ended before the force" in err and "control released" in err,
+              f"set force 15 on a 600 N/m spring: the stroke end before the force: {err.strip()}")
+        j = poll_json(port, "drive_state,alarm_code,nut_pos_m")
+        check(j["alarm"]["code"] == 0 and j["drive_state"] == "ready" and j["values"]["nut_pos_m"] <= 0.040,
+              f"no stroke_limit fault, the nut inside the stroke: {j}")
+        rc, out, err = run("set", "--port", port, "force", "5", "--hold", "0.5s", "--config", CONFIG)
+        check(rc == 0 and "done (force reached)" in out, f"the next setpoint is reached: {out.strip()} {err.strip()}")
+    finally:
+        srv.stop()
+
+
 def recordings_and_files():
     rec = os.path.join(WORK, "hand.csv")
     rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "8s", "--seed", "4", "--out", rec,
@@ -255,6 +273,7 @@ def main():
     usage_errors()
     checkout_config()
     against_a_server()
+    force_at_the_stroke_end()
     recordings_and_files()
     config_files()
     finish()

@@ -68,8 +68,12 @@ class LoadCellTamper final : public ActuatorHardware {
 class Rig {
  public:
   Rig(const LoadCase& lc, const PlantEffects& fx, const ServedModel& model,
-      LoadCellTamper::Mode load_cell = LoadCellTamper::Mode::as_measured, std::uint64_t seed = 3)
-      : lc_(lc), plant_(make_plant(fx), seed, kAnchor_m), hw_(plant_, load_cell) {
+      LoadCellTamper::Mode load_cell = LoadCellTamper::Mode::as_measured, std::uint64_t seed = 3,
+      double stroke_max_m = 0.1, double anchor_m = kAnchor_m)
+      : lc_(lc),
+        anchor_m_(anchor_m),
+        plant_(make_plant(fx, stroke_max_m), seed, anchor_m),
+        hw_(plant_, load_cell) {
     commands_ = &hw_.commands_rad;
     cfg_.actuator = plant_.params().actuator;
     cfg_.friction = model.friction;
@@ -116,9 +120,9 @@ class Rig {
   static constexpr double kAnchor_m = 0.05;
 
  private:
-  static PlantParams make_plant(const PlantEffects& fx) {
+  static PlantParams make_plant(const PlantEffects& fx, double stroke_max_m) {
     PlantParams p = paper_like_plant();
-    p.actuator.stroke_max_m = 0.1;  // a 600 N/m load needs 33 mm for 20 N
+    p.actuator.stroke_max_m = stroke_max_m;  // 0.1: a 600 N/m load needs 33 mm for 20 N
     p.effects = fx;
     return p;
   }
@@ -128,13 +132,14 @@ class Rig {
     load.stiffness_n_per_m = lc_.stiffness_n_per_m;
     load.damping_n_s_per_m = 5.0;
     // A hand: the arm behind it sways by ±0.5 mm (≈ ±0.75 N at 1500 N/m) over seconds.
-    load.anchor_pos_m = kAnchor_m + (lc_.hand ? 0.5e-3 * std::sin(2.0 * M_PI * t / 7.0) : 0.0);
+    load.anchor_pos_m = anchor_m_ + (lc_.hand ? 0.5e-3 * std::sin(2.0 * M_PI * t / 7.0) : 0.0);
     load.anchor_vel_m_s =
         lc_.hand ? 0.5e-3 * 2.0 * M_PI / 7.0 * std::cos(2.0 * M_PI * t / 7.0) : 0.0;
     plant_.set_load(load);
   }
 
   LoadCase lc_;
+  double anchor_m_;
   SimulatedActuator plant_;
   LoadCellTamper hw_;
   const std::vector<double>* commands_ = nullptr;
@@ -291,3 +296,47 @@ TEST(ForceAtLoad, AWeakerCouplingServedWithTheModelTheAnalysisCorrected) {
   run_sequence({"-10 %, old", 2000}, weaker, ServedModel{});
   expect_on_the_load(run_sequence({"-10 %, corr", 2000}, weaker, corrected));
 }
+
+// Force mode at the edge of its envelope (issue 44): the paper's 40 mm stroke, a 600 N/m spring
+// anchored mid-stroke. ±15 N needs 25 mm of travel, past either end: the loop holds the nut inside
+// the stroke, no fault, force_limited and force_reached_reason stroke_end say why, and the next
+// setpoint (±5 N, 8.3 mm away) is reached at once.
+namespace {
+void push_to_the_end(double far_n, double near_n) {
+  Rig rig({"600-40mm", 600.0}, PlantEffects{}, ServedModel{}, LoadCellTamper::Mode::as_measured, 3,
+          0.040, 0.020);
+  const auto stroke_min = 0.0, stroke_max = 0.040;
+  double lo = 1, hi = -1;
+  rig.force(far_n);
+  rig.run(3.0, [&](const Snapshot& s) {
+    lo = std::min(lo, s.nut_pos_m), hi = std::max(hi, s.nut_pos_m);
+  });
+  const Snapshot held = rig.snap();
+  std::printf("set %.0f N: nut %.2f .. %.2f mm, load %.2f N, state %u, reason %u, alarm %u\n",
+              far_n, lo * 1e3, hi * 1e3, rig.load_out_n(), held.drive_state,
+              held.force_reached_reason, held.alarm_code);
+  EXPECT_GE(lo, stroke_min);
+  EXPECT_LE(hi, stroke_max);
+  EXPECT_EQ(held.drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+  EXPECT_EQ(held.alarm_code, 0);
+  EXPECT_TRUE((held.status_word >> reg::kForceLimited) & 1u);
+  EXPECT_FALSE((held.status_word >> reg::kForceReached) & 1u);
+  EXPECT_EQ(held.force_reached_reason, static_cast<std::uint16_t>(ForceReachedReason::stroke_end));
+  rig.force(near_n);
+  double acc = 0;
+  int n = 0;
+  const double t_end = rig.t_s() + kStep_s;
+  rig.run(kStep_s, [&](const Snapshot& s) {
+    if (s.t_s > t_end - kWindow_s) acc += rig.load_out_n(), ++n;
+  });
+  const Snapshot after = rig.snap();
+  std::printf("then %.0f N: load %.2f N over the last %.1f s, reason %u\n", near_n, acc / n,
+              kWindow_s, after.force_reached_reason);
+  EXPECT_NEAR(acc / n, near_n, 1.0);
+  EXPECT_FALSE((after.status_word >> reg::kForceLimited) & 1u);
+  EXPECT_EQ(after.alarm_code, 0);
+}
+}  // namespace
+
+TEST(ForceEnvelope, StrokeEndBeforeAPush) { push_to_the_end(15.0, 5.0); }
+TEST(ForceEnvelope, StrokeEndBeforeAPull) { push_to_the_end(-15.0, -5.0); }

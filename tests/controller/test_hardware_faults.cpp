@@ -143,11 +143,10 @@ TEST(HardwareFault, RefusedWriteLatchesAlarm6AndTheCommandStaysPut) {
 }
 
 TEST(HardwareFault, StrokeLimitHitLatchesAlarm4AndHoldsTheNut) {
-  FaultRig rig(0.0, 0.036);  // free nut near the upper end
+  // A free nut put beyond the stroke from outside (force mode itself stops inside its window:
+  // ForceEnvelope.*): enabled, the drive latches stroke_limit and holds it there.
+  FaultRig rig(0.0, 0.0408);
   rig.control(bit(reg::kEnable));
-  // A push the free nut cannot hold against its friction only: it runs towards the end.
-  rig.image.force_setpoint_n = 9.0;
-  rig.execute(reg::Mode::force);
   std::uint64_t latched_at = 0;
   for (int i = 0; i < 5000 && latched_at == 0; ++i) {
     rig.loop.run_cycles(1);

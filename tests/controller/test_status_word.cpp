@@ -47,6 +47,7 @@ TEST(StatusWord, EachFactItsNamedBit) {
       {&StatusFacts::stopped, "stopped"},
       {&StatusFacts::at_stroke_limit, "stroke_limit"},
       {&StatusFacts::twin_lagging, "twin_lagging"},
+      {&StatusFacts::force_limited, "force_limited"},
   };
   std::uint16_t all = 0;
   for (const auto& c : cases) {

@@ -579,6 +579,11 @@ CommandResult execute(Client& c, reg::Mode mode,
       throw ClientError(Kind::rejected,
                         "execute: the drive was disabled before reaching the target");
     if (o.stop && o.stop()) break;
+    if (mode == reg::Mode::force && ((s.status_word >> reg::kForceLimited) & 1u))
+      throw ClientError(Kind::rejected,
+                        "execute: the stroke window ended before the force (force_limited, "
+                        "force_reached_reason 7 stroke_end): the nut is held at the window's end; "
+                        "ask for less force or a stiffer load");
     if (since(t0) > o.done_timeout_s)
       throw ClientError(
           Kind::no_reply,

@@ -47,6 +47,9 @@ struct ControllerConfig {
   double in_position_tol_m = 50e-6;  // about two linear-encoder counts
   double force_tol_n = 1.5;          // about one count of phase near φ = 0, plus noise
   double settle_s = 0.05;            // "reached" must hold this long
+  // Force mode's stroke window: this far inside each stroke end a nut heading out is held
+  // (force_limited, no fault); the hard stroke_limit fault stays for a nut pushed beyond.
+  double force_stroke_margin_m = 1e-3;
   // Position loop: phase correction per metre of error, and its integral action.
   double position_gain_rad_per_m = 1500.0;
   double position_integral_rad_per_m_s = 12000.0;
@@ -149,6 +152,8 @@ class Controller {
   void supervise(double now_s) noexcept;
   Reached control_by_state(double dt) noexcept;
   void fault_reaction_command(double dt) noexcept;
+  double force_mode_command_rad(double dt, Reached& reached) noexcept;
+  void check_force_window() noexcept;
   bool settle(const Reached& reached, double dt) noexcept;
   void publish(bool settled, const Reached& reached) noexcept;
 
@@ -205,6 +210,7 @@ class Controller {
   bool fault_position_hold_ = false;  // hold: the position loop keeps running (controlled stop)
   double release_force_n_ = 0.0;      // release: the output force being ramped to zero
   double lead_rad_ = 0.0;             // after a slip: the lead (2π k) the nut sits in now
+  int window_end_ = 0;  // force mode held at its window's end: +1 the far end, -1 the near one
 };
 
 }  // namespace maglead::controller

@@ -18,13 +18,14 @@ namespace maglead::controller {
 
 /// What the force loop is doing (input register force_loop_state).
 enum class ForceLoopState : std::uint8_t {
-  off = 0,                // not in force mode
-  breaking_away = 1,      // stuck off the setpoint (or unknown): ramping the drive until it moves
-  approaching = 2,        // sliding towards the setpoint with friction feed-forward and damping
-  landing = 3,            // at the setpoint: feed-forward off, friction stops the nut
-  holding = 4,            // stuck with the load force at the setpoint: coupling held mid-band
-  holding_no_motion = 5,  // the setpoint was already inside the known load-force bound
-  blocked = 6,            // the ramp reached twice the model's break-away without motion
+  off = 0,                 // not in force mode
+  breaking_away = 1,       // stuck off the setpoint (or unknown): ramping the drive until it moves
+  approaching = 2,         // sliding towards the setpoint with friction feed-forward and damping
+  landing = 3,             // at the setpoint: feed-forward off, friction stops the nut
+  holding = 4,             // stuck with the load force at the setpoint: coupling held mid-band
+  holding_no_motion = 5,   // the setpoint was already inside the known load-force bound
+  blocked = 6,             // the ramp reached twice the model's break-away without motion
+  held_at_stroke_end = 7,  // the controller holds the nut at its force window's end
 };
 
 /// Why force_reached is clear (input register force_reached_reason).
@@ -36,6 +37,7 @@ enum class ForceReachedReason : std::uint8_t {
   bound_too_wide = 4,  // the bound is wider than the tolerance allows (model uncertainty)
   moving = 5,          // the nut slides: the load force is still changing
   settling = 6,        // inside the tolerance, the dwell is running
+  stroke_end = 7,      // the force window ended before the force (the controller holds there)
 };
 
 struct ForceLoopConfig {

@@ -18,9 +18,10 @@ struct StatusFacts {
   bool watchdog_expired = false;
   bool twin_healthy = false;
   bool step_out_warning = false;
-  bool stopped = false;           // the stop bit holds the drive
-  bool at_stroke_limit = false;   // the nut at or beyond a stroke end
+  bool stopped = false;          // the stop bit holds the drive
+  bool at_stroke_limit = false;  // the nut at or beyond a stroke end
   bool twin_lagging = false;
+  bool force_limited = false;  // force mode holds at its stroke window's end
 };
 
 /// The status word's bits for these facts (bit numbers of registers/registers.hpp).

@@ -44,6 +44,7 @@ enum StatusBit : std::uint16_t {
   kOwned,
   kStrokeLimit,
   kTwinLagging,
+  kForceLimited,
 };
 /// Control word bits; also the coil addresses. enable/stop are levels, the rest act on edges.
 enum ControlBit : std::uint16_t { kEnable = 0, kStop, kFaultReset, kResync, kExecute };
