@@ -20,7 +20,13 @@ body{font-family:system-ui,sans-serif;max-width:1150px;margin:0 auto;padding:0 1
   color:#222;line-height:1.4}
 h1{font-size:1.45em;margin:.6em 0 .3em}
 h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}
-table{border-collapse:collapse;margin:.5em 0;display:block;overflow-x:auto;max-width:100%}
+table{border-collapse:collapse;margin:.5em 0;display:block;overflow-x:auto;max-width:100%;
+background:linear-gradient(to right,#fff 30%,rgba(255,255,255,0)),
+linear-gradient(to right,rgba(255,255,255,0),#fff 70%) 100% 0,
+radial-gradient(farthest-side at 0 50%,rgba(0,0,0,.25),rgba(0,0,0,0)),
+radial-gradient(farthest-side at 100% 50%,rgba(0,0,0,.25),rgba(0,0,0,0)) 100% 0;
+background-repeat:no-repeat;background-size:40px 100%,40px 100%,14px 100%,14px 100%;
+background-attachment:local,local,scroll,scroll}
 td,th{border:1px solid #ccc;padding:3px 8px;text-align:left;vertical-align:top}
 .ok{background:#e6f4e6;padding:.6em}.bad{background:#fbe9e7;padding:.6em}.unjudged{background:#fff4d6;padding:.6em}
 figure{margin:1em 0;border:1px solid #ddd;padding:8px;box-sizing:border-box;max-width:100%}

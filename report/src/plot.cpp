@@ -41,13 +41,24 @@ void text(cv::Mat& img, const std::string& s, cv::Point at, double scale = 0.45,
   cv::putText(img, s, at, kFont, scale, kInk, thick, cv::LINE_AA);
 }
 
-void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
-  // The legend's column is as wide as its longest label (up to a third of the panel) so no
-  // label is cut; the title and the y label each have a line of their own above the plot.
+/// The legend's column: as wide as the panel's longest label (up to a third of the width).
+int legend_width_px(const Panel& p, int width_px) {
   int widest = 0, base = 0;
   for (const auto& s : p.series)
     widest = std::max(widest, cv::getTextSize(s.label, kFont, 0.4, 1, &base).width);
-  const int left = 80, right = std::clamp(widest + 50, 60, area.width / 3), top = 48, bottom = 45;
+  return std::clamp(widest + 50, 60, width_px / 3);
+}
+
+/// What stacked panels share so their axes line up: the legend column, and the x range when
+/// they plot the same x (NaN: each panel its own).
+struct PanelFrame {
+  int right_px = 60;
+  double x0 = std::numeric_limits<double>::quiet_NaN(), x1 = x0;
+};
+
+void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area, const PanelFrame& frame) {
+  // The title and the y label each have a line of their own above the plot.
+  const int left = 80, right = frame.right_px, top = 48, bottom = 45;
   const cv::Rect plot(area.x + left, area.y + top, area.width - left - right,
                       area.height - top - bottom);
   double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
@@ -58,6 +69,7 @@ void draw_panel(cv::Mat& img, const Panel& p, cv::Rect area) {
       y0 = std::min(y0, s.y[i]), y1 = std::max(y1, s.y[i]);
     }
   if (!std::isfinite(x0)) x0 = 0, x1 = 1, y0 = 0, y1 = 1;
+  if (std::isfinite(frame.x0) && std::isfinite(frame.x1)) x0 = frame.x0, x1 = frame.x1;
   if (x1 <= x0) x1 = x0 + 1;
   if (y1 <= y0) y1 = y0 + 1, y0 -= 1;
   const double pad = 0.05 * (y1 - y0);
@@ -196,9 +208,21 @@ void save_panels_png(const std::string& path, const std::vector<Panel>& panels, 
                      int panel_height_px) {
   const int n = static_cast<int>(std::max<std::size_t>(1, panels.size()));
   cv::Mat img(n * panel_height_px, width_px, CV_8UC3, cv::Scalar(255, 255, 255));
+  // Stacked panels line up: one legend column, and one x range where they share the x axis.
+  PanelFrame frame;
+  bool same_x = true;
+  double x0 = std::numeric_limits<double>::infinity(), x1 = -x0;
+  for (const auto& p : panels) {
+    frame.right_px = std::max(frame.right_px, legend_width_px(p, width_px));
+    same_x = same_x && p.x_label == panels.front().x_label;
+    for (const auto& s : p.series)
+      for (double x : s.x)
+        if (std::isfinite(x)) x0 = std::min(x0, x), x1 = std::max(x1, x);
+  }
+  if (same_x && x1 > x0) frame.x0 = x0, frame.x1 = x1;
   for (int i = 0; i < static_cast<int>(panels.size()); ++i)
     draw_panel(img, panels[static_cast<std::size_t>(i)],
-               {0, i * panel_height_px, width_px, panel_height_px});
+               {0, i * panel_height_px, width_px, panel_height_px}, frame);
   write_png(path, img);
 }
 
