@@ -519,6 +519,15 @@ Status settle(Client& c, std::uint32_t after, const Image& im, const CommandOpti
   }
 }
 
+/// force_limited with force_reached_reason stroke_end: the window ended before the force (the
+/// reason is checked, not only the bit, so another limit added later does not end a command).
+bool stroke_end_before_force(Client& c) {
+  const auto* r = reg::find("force_reached_reason");
+  const auto v = c.read_range(reg::Table::input_register, r->address, 1);
+  return code_name(reg::codes_of("force_reached_reason"), v.at("force_reached_reason")) ==
+         "stroke_end";
+}
+
 std::string alarm_text(double alarm) {
   return code_name(reg::alarm_codes(), alarm) + ": " + code_meaning(reg::alarm_codes(), alarm);
 }
@@ -579,7 +588,8 @@ CommandResult execute(Client& c, reg::Mode mode,
       throw ClientError(Kind::rejected,
                         "execute: the drive was disabled before reaching the target");
     if (o.stop && o.stop()) break;
-    if (mode == reg::Mode::force && ((s.status_word >> reg::kForceLimited) & 1u))
+    if (mode == reg::Mode::force && ((s.status_word >> reg::kForceLimited) & 1u) &&
+        stroke_end_before_force(c))
       throw ClientError(Kind::rejected,
                         "execute: the stroke window ended before the force (force_limited, "
                         "force_reached_reason 7 stroke_end): the nut is held at the window's end; "
