@@ -6,6 +6,7 @@
 #include <string>
 
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/effects/effect.hpp"
 
 namespace maglead::analysis {
 namespace {
@@ -52,13 +53,24 @@ std::string model_value(const ModelFile& m, const std::string& id, const std::st
   return "";
 }
 
+/// The effect's main parameter (the first its law names: an amplitude before its phase, a zone
+/// before its depth), else the finding's first.
+const Parameter& main_parameter(const EffectFinding& e) {
+  if (const auto* effect = effects::find(e.id); effect && !effect->params().empty()) {
+    const std::string first = effect->params().front().name;
+    for (const auto& p : e.parameters)
+      if (p.name == first) return p;
+  }
+  return e.parameters.front();
+}
+
 /// "viscous friction 22.55 ± 0.12 N·s/m (model 2 N·s/m)".
 std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
   std::string name = e.id;
   for (auto& ch : name)
     if (ch == '_') ch = ' ';
   if (e.parameters.empty()) return name;
-  const Parameter& p = e.parameters.front();
+  const Parameter& p = main_parameter(e);
   const std::string unit = unit_of(p.name);
   const std::string with_unit = unit.empty() ? "" : " " + unit;
   std::string value = value_with_error(p.value, parameter_value(e.standard_errors, p.name, 0.0));
