@@ -91,7 +91,10 @@ void refuse_locally_if(const std::optional<std::string>& why) {
 
 const std::string& value_of(const SetOptions& o) {
   if (o.value.empty())
-    throw ClientError(Kind::refused_locally, "'set " + o.what + "' needs a value");
+    throw ClientError(Kind::refused_locally,
+                      "'set " + o.what +
+                          "' needs a value (e.g. 'maglead set force 12.5', 'maglead set " +
+                          "position 20mm'; 'maglead set --help' lists them)");
   return o.value;
 }
 
