@@ -233,6 +233,27 @@ void load_control_settings(const std::string& config_dir, controller::Controller
   }
 }
 
+controller::ControllerConfig controller_config_of(const std::string& config_dir,
+                                                  const std::string& calibration,
+                                                  const std::string& model,
+                                                  std::string* model_used) {
+  controller::ControllerConfig cfg;
+  cfg.actuator = load_actuator_or_default(config_dir);
+  cfg.calibration = load_calibration(
+      calibration.empty() ? config_file(config_dir, "calibration.toml") : calibration);
+  load_control_settings(config_dir, cfg);
+  load_reference_move(config_dir, cfg.actuator, cfg.reference_move);
+  const std::string model_path = model.empty() ? config_file(config_dir, "model.toml") : model;
+  if (model_used) model_used->clear();
+  if (std::filesystem::exists(model_path)) {
+    serve_model_terms(twin::load_twin_model(model_path), cfg);
+    if (model_used) *model_used = model_path;
+  } else {
+    cfg.friction = friction_from_actuator(cfg.actuator);
+  }
+  return cfg;
+}
+
 void load_reference_move(const std::string& config_dir, const ActuatorParams& actuator,
                          controller::ReferenceMoveConfig& move) {
   const std::string path = config_file(config_dir, "actuator.toml");

@@ -89,6 +89,14 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
 /// holds, and the force loop's and the load observer's settings (README "Force control").
 /// Absent keys (or no file) keep the values given. Errors name FILE:LINE:COLUMN.
 void load_control_settings(const std::string& config_dir, controller::ControllerConfig& cfg);
+/// The controller's settings as `serve` runs them: the actuator, the calibration (CONFIG's or the
+/// file given), [control], [reference_move], and the model file's terms (CONFIG/model.toml or
+/// the file given, when it exists; else the actuator's friction). `model_used` gets the model
+/// file read, empty when none.
+controller::ControllerConfig controller_config_of(const std::string& config_dir,
+                                                  const std::string& calibration,
+                                                  const std::string& model,
+                                                  std::string* model_used);
 /// The model file's terms the controller compensates with: its friction, offset and mass
 /// (twin::friction_model), its coupling's gain, ripple and end effect (the twin applies the rest
 /// itself).

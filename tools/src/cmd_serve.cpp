@@ -109,23 +109,11 @@ modbus::NetworkConfig network_config(const ServeOptions& o) {
 runtime::ServiceConfig service_config(const ServeOptions& o, const modbus::NetworkConfig& net) {
   runtime::ServiceConfig sc;
   auto& cfg = sc.controller;
-  cfg.actuator = load_actuator_or_default(o.config);
-  cfg.calibration = load_calibration(
-      o.calibration.empty() ? config_file(o.config, "calibration.toml") : o.calibration);
+  cfg = controller_config_of(o.config, o.calibration, o.model, &sc.model_path);
   cfg.watchdog_s = net.watchdog_s;
   cfg.reactions = net.reactions;
-  load_control_settings(o.config, cfg);
-  load_reference_move(o.config, cfg.actuator, cfg.reference_move);
   if (!(o.start_pos_m >= cfg.actuator.stroke_min_m && o.start_pos_m <= cfg.actuator.stroke_max_m))
     throw CLI::ValidationError("--sim-start", "must lie within the stroke");
-  const std::string model_path = o.model.empty() ? config_file(o.config, "model.toml") : o.model;
-  if (std::filesystem::exists(model_path)) {
-    const twin::TwinModel model = twin::load_twin_model(model_path);
-    serve_model_terms(model, cfg);
-    sc.model_path = model_path;
-  } else {
-    cfg.friction = friction_from_actuator(cfg.actuator);
-  }
   sc.backend.simulated = {o.seed, o.spring_n_per_m, o.spring_anchor_m, o.start_pos_m, {}};
   apply_plant_effects("--sim-effect", o.sim_effects, sc.backend.simulated.effects);
   sc.twin = !o.no_twin;

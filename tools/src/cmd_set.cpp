@@ -39,9 +39,9 @@ void add_command_flags(CLI::App* cmd, const std::shared_ptr<CommandFlags>& f, bo
 }
 
 constexpr const char* kHoldHelp =
-    "Keep control this long (e.g. 10s), then release it. Default: until Ctrl-C. Release clears "
-    "enable: the drive is disabled without a fault; the screw stays where it is, the force or "
-    "position is no longer controlled";
+    "Keep control this long (e.g. 10s), then release it. Default: until Ctrl-C. Release brings "
+    "a force to 0 N first, then clears enable: the drive is disabled without a fault (a "
+    "position is no longer controlled, the screw stays where it is)";
 
 volatile std::sig_atomic_t g_interrupted = 0;
 void on_interrupt(int) { g_interrupted = 1; }
@@ -51,27 +51,54 @@ void catch_interrupt() {
   std::signal(SIGTERM, on_interrupt);
 }
 
-/// Keeps control until Ctrl-C or SIGTERM (or for `hold`), then releases it cleanly: enable
-/// cleared, the drive disabled, no owner-loss fault. Says both, so nothing happens in secret.
+// How long a release waits for the force loop to bring the load to 0 N before clearing enable.
+constexpr double kReleaseToZero_s = 5.0;
+
+/// Releases control cleanly. In force mode the force is first brought to 0 N by the loop, so the
+/// load is not left pressed and the next command starts from a known load; then enable is
+/// cleared (drive disabled, no owner-loss fault). Returns what was done, in words.
+std::string release(op::Client& client, bool force_mode) {
+  std::string done;
+  if (force_mode) {
+    op::CommandOptions to_zero;
+    to_zero.claim = false;  // this client owns control already
+    to_zero.done_timeout_s = kReleaseToZero_s;
+    try {
+      op::execute(client, reg::Mode::force, {{"force_setpoint_mn", 0.0}}, to_zero);
+      done = "force brought to 0 N, ";
+    } catch (const ClientError&) {
+      done = "force not at 0 N within 5 s, ";
+    }
+  }
+  op::disable(client, {});
+  return done + "enable cleared, drive disabled without a fault";
+}
+
+/// Keeps control until Ctrl-C or SIGTERM (or for `hold`), then releases it cleanly (release).
+/// Says both, so nothing happens in secret.
 void hold_then_release(op::Client& client, const std::string& hold, const op::CommandOptions& o,
-                       const std::string& held) {
+                       const std::string& held, bool force_mode) {
   const double hold_s =
       hold.empty() ? std::numeric_limits<double>::infinity() : parse_duration_s(hold);
   if (hold.empty())
-    std::printf("holding %s: control kept until Ctrl-C, then released (drive disabled)\n",
-                held.c_str());
+    std::printf("holding %s: control kept until Ctrl-C, then released%s\n", held.c_str(),
+                force_mode ? " (force to 0 N, drive disabled)" : " (drive disabled)");
   else
-    std::printf("holding %s for %.1f s, then released (drive disabled)\n", held.c_str(), hold_s);
+    std::printf("holding %s for %.1f s, then released%s\n", held.c_str(), hold_s,
+                force_mode ? " (force to 0 N, drive disabled)" : " (drive disabled)");
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
   op::hold(client, hold_s, o, [] { return g_interrupted != 0; });
   const double held_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  op::disable(client, {});
-  std::printf(
-      "held for %.1f s; released: enable cleared, drive disabled without a fault (the screw "
-      "stays where it is; %s no longer controlled)\n",
-      held_s, held.c_str());
+  const std::string done = release(client, force_mode);
+  if (force_mode)
+    std::printf("held for %.1f s; released: %s\n", held_s, done.c_str());
+  else
+    std::printf(
+        "held for %.1f s; released: %s (the screw stays where it is; %s no longer "
+        "controlled)\n",
+        held_s, done.c_str(), held.c_str());
 }
 
 struct SetOptions {
@@ -180,12 +207,13 @@ op::CommandResult send_or_release(op::Client& client, const Planned& p, const Co
     return send(client, p, f);
   } catch (const ClientError& e) {
     if (f.no_claim || e.kind() == Kind::refused_locally || e.kind() == Kind::connection) throw;
+    std::string done;
     try {
-      op::disable(client, {});
+      done = release(client, p.mode == reg::Mode::force);
     } catch (const ClientError&) {
       throw e;  // not the owner (or gone): nothing to release
     }
-    throw ClientError(e.kind(), std::string(e.what()) + "; control released (drive disabled)");
+    throw ClientError(e.kind(), std::string(e.what()) + "; control released (" + done + ")");
   }
 }
 
@@ -213,7 +241,8 @@ void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions
   else
     std::printf("%s: acknowledged by the controller\n", p.summary.c_str());
   // A claimed control is held, then released; without a claim this client owns nothing.
-  if (!f.no_claim) hold_then_release(client, f.hold, f.options(), p.summary);
+  if (!f.no_claim)
+    hold_then_release(client, f.hold, f.options(), p.summary, p.mode == reg::Mode::force);
 }
 
 void add_set(CLI::App& app) {
@@ -255,7 +284,7 @@ void add_drive_command(CLI::App& app, const char* name, const char* help, Step s
       op::Client client(endpoint_of(*conn));
       client.check_identity();
       std::printf("%s\n", step(client, *resync).c_str());
-      if (holds) hold_then_release(client, *hold, {}, "control");
+      if (holds) hold_then_release(client, *hold, {}, "control", false);
     });
   });
 }

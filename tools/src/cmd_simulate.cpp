@@ -1,10 +1,12 @@
 // maglead simulate: run the simulated actuator through a load scenario and record it.
 #include <cstdio>
+#include <memory>
 #include <sstream>
 
 #include "cli_common.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/plant/scenario.hpp"
+#include "maglead/runtime/scenario_controller.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -19,6 +21,7 @@ void add_simulate(CLI::App& app) {
       "simulate", "Run the simulated actuator through a load scenario; write an mls-recording/1");
   struct Opts {
     std::string scenario, duration = "30s", out, config = default_config_dir(), calibration;
+    std::string controller = "open-loop";
     std::uint64_t seed = 1;
     std::vector<std::string> effects;
   };
@@ -32,6 +35,13 @@ void add_simulate(CLI::App& app) {
   add_config_option(cmd, o->config);
   cmd->add_option("--calibration", o->calibration,
                   "Calibration for the logged force estimate (default: CONFIG/calibration.toml)");
+  cmd->add_option("--controller", o->controller,
+                  "What commands the screw: open-loop (the paper's inverse, the coupling at the "
+                  "setpoint; every scenario, the default) or maglead (maglead's own force loop and "
+                  "load observer on the simulated clock, with CONFIG's [control] and model.toml; "
+                  "force-holds)")
+      ->check(CLI::IsMember({"open-loop", "maglead"}))
+      ->capture_default_str();
   cmd->callback([o] {
     ScenarioOptions opt;
     opt.scenario = o->scenario;
@@ -42,6 +52,20 @@ void add_simulate(CLI::App& app) {
     const std::string cal =
         o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration;
     opt.estimator_calibration = load_calibration(cal);
+    std::unique_ptr<runtime::ScenarioController> loop;
+    if (o->controller == "maglead") {
+      if (o->scenario != "force-holds")
+        throw CLI::ValidationError("--controller",
+                                   "maglead runs force-holds only (setpoints held "
+                                   "as a PLC gives them); '" +
+                                       o->scenario + "' runs open-loop");
+      controller::ControllerConfig cc = controller_config_of(o->config, cal, "", nullptr);
+      cc.actuator = opt.plant.actuator;
+      loop = std::make_unique<runtime::ScenarioController>(cc);
+      opt.force_controller = [&loop](double t, const SensorSample& s, double set_n) {
+        return loop->motor_angle_rad(t, s, set_n);
+      };
+    }
     Progress progress("simulate " + o->scenario);
     opt.progress = [&](double f) { progress(f); };
     const auto summary = run_scenario(opt, o->out);

@@ -24,6 +24,12 @@ struct ScenarioOptions {
   PlantParams plant = paper_like_plant();
   ForceCalibration estimator_calibration = paper_calibration();  // for out_force_est_n
   std::function<void(double fraction)> progress;                 // optional, ~100 calls
+  /// force-holds: what commands the screw instead of the paper's open-loop inverse (the coupling
+  /// at the setpoint): time [s], this sample's sensor reading and the force setpoint [N] in, the
+  /// motor angle command [rad] out (maglead's own loop: runtime::ScenarioController). Empty:
+  /// open loop.
+  std::function<double(double t_s, const SensorSample& sample, double force_set_n)>
+      force_controller;
 };
 
 struct ScenarioSummary {
