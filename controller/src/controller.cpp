@@ -19,6 +19,9 @@ constexpr double kStrokeMargin_m = 0.5e-3;  // beyond the stroke by this much is
 // Force mode looks this far ahead at the nut's speed: about the time the position loop takes to
 // stop a sliding nut, so the hold lands inside the window.
 constexpr double kWindowLookahead_s = 0.05;
+// The look-ahead acts only this close to the window's end: a fast slide mid-stroke (a step of
+// the setpoint) is the force loop's to stop, and its speed projected 50 ms would stop it early.
+constexpr double kWindowNear_m = 5e-3;
 constexpr double kMaxTrack_rad = 0.5;  // most the phase tracking may add to a command
 constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b); }
 
@@ -580,10 +583,11 @@ void Controller::check_force_window() noexcept {
   const auto& a = cfg_.actuator;
   const double lo = a.stroke_min_m + cfg_.force_stroke_margin_m;
   const double hi = a.stroke_max_m - cfg_.force_stroke_margin_m;
-  const double ahead = s_.nut_pos_m + s_.nut_vel_m_s * kWindowLookahead_s;
-  window_end_ = ahead >= hi && s_.nut_vel_m_s > 0.0   ? 1
-                : ahead <= lo && s_.nut_vel_m_s < 0.0 ? -1
-                                                      : 0;
+  const double p = s_.nut_pos_m, v = s_.nut_vel_m_s;
+  const double ahead = p + v * kWindowLookahead_s;
+  window_end_ = ahead >= hi && v > 0.0 && p >= hi - kWindowNear_m   ? 1
+                : ahead <= lo && v < 0.0 && p <= lo + kWindowNear_m ? -1
+                                                                    : 0;
   if (window_end_ == 0) return;
   target_m_ = prof_pos_m_ = std::clamp(s_.nut_pos_m, lo, hi);
   prof_vel_m_s_ = 0.0;
