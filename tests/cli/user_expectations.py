@@ -59,25 +59,14 @@ def checkout_config():
         text = f.read()
     with open(path, "w") as f:
         f.write(re.sub(r"stroke_max_m = [0-9.]+", "stroke_max_m = 0.030", text))
-    proc = subprocess.Popen([binary, "serve", "--port", "0", "--duration", "30s"], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, env=ENV, cwd=WORK)
-    lines = []
-    port = None
-    while port is None:
-        line = proc.stdout.readline()
-        if not line:
-            break
-        lines.append(line.rstrip())
-        m = re.search(r"Modbus TCP on [0-9.]+:(\d+)", line)
-        port = m.group(1) if m else None
+    srv = Server(binary, None, "--port", "0", duration="30s", env=ENV)
     try:
         check(any("configuration from " + os.path.join(repo, "config") in l and "read actuator.toml" in l
-                  for l in lines), f"serve reads the checkout's config/ and names the files: {lines}")
-        rc, _, err = run("set", "--port", str(port), "position", "35mm", binary=binary)
+                  for l in srv.lines), f"serve reads the checkout's config/ and names the files: {srv.lines}")
+        rc, _, err = run("set", "--port", str(srv.port), "position", "35mm", binary=binary)
         check(rc == 2 and "0 .. 30 mm" in err, f"the edited stroke (30 mm) refuses 35 mm: {err.strip()!r}")
     finally:
-        proc.terminate()
-        proc.wait(10)
+        srv.stop()
 
 
 def poll_json(port, names):

@@ -48,9 +48,11 @@ def watchdog(seconds):
 class Server:
     """`maglead serve` as a child process; the port is read from its first lines."""
 
-    def __init__(self, maglead, config, *args, duration="120s"):
-        self.proc = subprocess.Popen([maglead, "serve", "--config", config, "--duration", duration, *args],
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    def __init__(self, maglead, config, *args, duration="120s", env=None):
+        # config None: no --config, the program finds its configuration itself.
+        where = ["--config", config] if config else []
+        self.proc = subprocess.Popen([maglead, "serve", *where, "--duration", duration, *args],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
         self.port = None
         self.lines = []
         deadline = time.time() + 10

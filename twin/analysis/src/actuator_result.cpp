@@ -430,11 +430,8 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);
   J.conclusion = selection::conclusion_of(sel);
-  // Nothing named is not nothing missing: a residual above twice the load cell's own noise is a
-  // misfit the library does not explain, said as such.
-  constexpr double kMisfitOverFloor = 2.0;
-  if (sel.terms.empty() && !J.unexplained && J.noise_floor_n > 0 &&
-      J.final_fit.rms_n > kMisfitOverFloor * J.noise_floor_n) {
+  // Nothing named is not nothing missing: a misfit the library does not explain is said as such.
+  if (sel.terms.empty() && !J.unexplained && misfit_remains(J.final_fit.rms_n, J.noise_floor_n)) {
     J.conclusion = "a misfit of " + fmt(J.final_fit.rms_n) + " N RMS remains (floor " +
                    fmt(J.noise_floor_n) +
                    " N) that no library effect explains; check the calibration, the sensors' "

@@ -86,8 +86,6 @@ std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
 }  // namespace
 
 std::string headline_of(const Findings& f, const ModelFile& baseline) {
-  // A residual above twice the recording's own floor is a misfit, not noise.
-  constexpr double kMisfitOverFloor = 2.0;
   if (!f.effects.empty()) {
     std::string s = "found: ";
     for (std::size_t k = 0; k < f.effects.size(); ++k)
@@ -99,7 +97,7 @@ std::string headline_of(const Findings& f, const ModelFile& baseline) {
     return "not judged: too little sliding to judge the model (" + std::to_string(f.samples_used) +
            " sliding samples used of " + std::to_string(f.samples) +
            "); no finding is not the same as no anomaly";
-  if (f.noise_floor_n > 0 && f.final_fit.rms_n > kMisfitOverFloor * f.noise_floor_n)
+  if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
     return "a misfit of " + number(f.final_fit.rms_n) + " N RMS remains (floor " +
            number(f.noise_floor_n) + " N) that no library effect explains";
   return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) +

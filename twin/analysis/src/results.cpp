@@ -40,6 +40,12 @@ std::string with_error(const std::string& name, double value, double standard_er
   return buf;
 }
 
+bool misfit_remains(double final_rms_n, double noise_floor_n) {
+  // Above twice the load cell's own noise the residual is force the model leaves out.
+  constexpr double kMisfitOverFloor = 2.0;
+  return noise_floor_n > 0 && final_rms_n > kMisfitOverFloor * noise_floor_n;
+}
+
 std::string summary_text(const Parameters& values, const Parameters& standard_errors) {
   std::string s;
   for (const auto& p : values)

@@ -32,6 +32,9 @@ std::string value_with_error(double value, double standard_error);
 /// Every value with its error (`standard_errors` by name; missing: none), in the values' order:
 /// "coulomb_n 20.56 ± 0.05, offset_n 0.008 ± 0.004".
 std::string summary_text(const Parameters& values, const Parameters& standard_errors);
+/// Whether a final residual is a misfit rather than the recording's own noise (the one rule the
+/// conclusion and the headline share).
+bool misfit_remains(double final_rms_n, double noise_floor_n);
 
 /// Why an effect was named: its held-out statistics (sliding fits) or its events.
 struct Evidence {
