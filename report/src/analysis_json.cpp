@@ -175,6 +175,7 @@ Json analysis_json(const AnalysisResult& r) {
     J["twin_force_check"] = c.available ? Json{{"available", true},
                                                {"baseline_mae_n", c.baseline_mae_n},
                                                {"corrected_mae_n", c.corrected_mae_n},
+                                               {"resolved_n", c.resolved_n},
                                                {"kept", c.kept},
                                                {"dropped", c.dropped}}
                                         : Json{{"available", false}, {"reason", c.reason}};

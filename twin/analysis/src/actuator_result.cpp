@@ -78,13 +78,14 @@ Chart fit_over_time(const actuator::Prepared& P, const actuator::Selection& sel)
 }
 
 // A term leaves the corrected model only when the twin's force estimate gets worse with it beyond
-// the noise of that difference (actuator::rises_beyond_noise over the scored blocks): terms join
-// in the order they were found. A term left out stays in the file, disabled, with the reason.
-// `corrected` becomes the model of the kept terms; `why` the reason for each dropped one.
+// the noise of that difference and beyond the force the recording resolves
+// (actuator::rises_beyond_noise over the scored blocks): terms join in the order they were found. A
+// term left out stays in the file, disabled, with the reason. `corrected` becomes the model of the
+// kept terms; `why` the reason for each dropped one.
 TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
-                               const ForceCalibration& cal, const ModelFile& base,
-                               const std::vector<selection::Found>& terms, ModelFile& corrected,
-                               std::vector<std::string>& why) {
+                               const ForceCalibration& cal, double resolved_n,
+                               const ModelFile& base, const std::vector<selection::Found>& terms,
+                               ModelFile& corrected, std::vector<std::string>& why) {
   TwinForceCheck out;
   const auto before = actuator::twin_force_errors(rec, act, cal, base);
   if (!before) {
@@ -92,10 +93,11 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
     return out;
   }
   out.available = true;
+  out.resolved_n = resolved_n;
   out.baseline_mae_n = out.corrected_mae_n = before->mae_n;
   if (terms.empty()) return out;
   const auto all = actuator::twin_force_errors(rec, act, cal, corrected);
-  if (all && !actuator::rises_beyond_noise(*all, *before)) {  // the usual case
+  if (all && !actuator::rises_beyond_noise(*all, *before, resolved_n)) {  // the usual case
     out.corrected_mae_n = all->mae_n;
     for (const auto& c : terms) out.kept.push_back(c.id);
     return out;
@@ -107,7 +109,7 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
     trial.push_back(c);
     const auto err =
         actuator::twin_force_errors(rec, act, cal, corrected_model(base, trial, rec.path));
-    if (err && !actuator::rises_beyond_noise(*err, current)) {
+    if (err && !actuator::rises_beyond_noise(*err, current, resolved_n)) {
       kept = std::move(trial);
       current = *err;
       out.kept.push_back(c.id);
@@ -432,10 +434,9 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   J.conclusion = selection::conclusion_of(sel);
   // Nothing named is not nothing missing: a misfit the library does not explain is said as such.
   if (sel.terms.empty() && !J.unexplained && misfit_remains(J.final_fit.rms_n, J.noise_floor_n)) {
-    J.conclusion = "a misfit of " + fmt(J.final_fit.rms_n) + " N RMS remains (floor " +
-                   fmt(J.noise_floor_n) +
-                   " N) that no library effect explains; check the calibration, the sensors' "
-                   "timing and loads the recording does not log";
+    J.conclusion = misfit_text(J.final_fit.rms_n, J.noise_floor_n, J.not_selected) +
+                   "; check the calibration, the sensors' timing and loads the recording does "
+                   "not log";
     J.nothing_missing = false;
   }
   return J;
@@ -526,7 +527,7 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   if (opt.twin_force_check) {
     std::vector<std::string> why;
     r.findings.twin_force_check =
-        check_with_twin(rec, act, cal, model, sel.fit.terms, r.corrected, why);
+        check_with_twin(rec, act, cal, P.floor_n, model, sel.fit.terms, r.corrected, why);
     const auto& dropped = r.findings.twin_force_check->dropped;
     for (auto& e : r.findings.effects)
       for (std::size_t k = 0; k < dropped.size(); ++k)

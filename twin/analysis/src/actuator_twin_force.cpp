@@ -31,13 +31,14 @@ std::vector<SampleWindow> scoring_windows(std::size_t samples, std::size_t budge
   return out;
 }
 
-bool rises_beyond_noise(const TwinForceErrors& with, const TwinForceErrors& without) {
+bool rises_beyond_noise(const TwinForceErrors& with, const TwinForceErrors& without,
+                        double resolved_n) {
   const std::size_t n = std::min(with.block_mae_n.size(), without.block_mae_n.size());
-  if (n == 0) return with.mae_n > without.mae_n;
+  if (n == 0) return with.mae_n > without.mae_n + resolved_n;
   double mean = 0;
   for (std::size_t b = 0; b < n; ++b) mean += with.block_mae_n[b] - without.block_mae_n[b];
   mean /= static_cast<double>(n);
-  if (!(mean > 0)) return false;
+  if (!(mean > resolved_n) || !(mean > 0)) return false;
   if (n < 2) return true;
   double ss = 0;
   for (std::size_t b = 0; b < n; ++b) {

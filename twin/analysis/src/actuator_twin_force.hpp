@@ -43,8 +43,10 @@ std::optional<TwinForceErrors> twin_force_errors(const Recording& rec, const Act
                                                  const ForceCalibration& cal,
                                                  const ModelFile& model);
 /// Whether `with` is worse than `without` beyond the noise of the difference: the paired rise
-/// over the blocks is positive and more than kRiseBeyondNoise standard errors.
-bool rises_beyond_noise(const TwinForceErrors& with, const TwinForceErrors& without);
+/// over the blocks is more than kRiseBeyondNoise standard errors and more than `resolved_n`, the
+/// force the recording resolves (a rise below it is the estimator's own jitter, not the model's).
+bool rises_beyond_noise(const TwinForceErrors& with, const TwinForceErrors& without,
+                        double resolved_n);
 /// Two standard errors: a rise that chance alone exceeds about one time in forty.
 inline constexpr double kRiseBeyondNoise = 2.0;
 

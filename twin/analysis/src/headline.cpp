@@ -98,8 +98,7 @@ std::string headline_of(const Findings& f, const ModelFile& baseline) {
            " sliding samples used of " + std::to_string(f.samples) +
            "); no finding is not the same as no anomaly";
   if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
-    return "a misfit of " + number(f.final_fit.rms_n) + " N RMS remains (floor " +
-           number(f.noise_floor_n) + " N) that no library effect explains";
+    return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected);
   return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) +
          " N RMS (floor " + number(f.noise_floor_n) + " N)";
 }

@@ -46,6 +46,34 @@ bool misfit_remains(double final_rms_n, double noise_floor_n) {
   return noise_floor_n > 0 && final_rms_n > kMisfitOverFloor * noise_floor_n;
 }
 
+namespace {
+std::string num(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3g", v);
+  return b;
+}
+}  // namespace
+
+std::string misfit_text(double final_rms_n, double noise_floor_n,
+                        const std::vector<Rejected>& not_selected) {
+  // A candidate that would take at least half the held-out error is the misfit's likeliest
+  // account, even short of significance; below half it says little of what is left.
+  constexpr double kMostOfItPct = 50.0;
+  std::string s =
+      "a misfit of " + num(final_rms_n) + " N RMS remains (floor " + num(noise_floor_n) + " N)";
+  for (const auto& r : not_selected) {
+    if (r.reason != std::string(kBelowSignificance) || !(r.heldout_gain_pct >= kMostOfItPct))
+      continue;
+    s += ": " + r.id + " would explain " + num(r.heldout_gain_pct) +
+         " % of it held out, but not consistently over the recording's segments (t = " +
+         num(r.t_stat) + ", below the threshold";
+    if (r.worst_segment_pct && *r.worst_segment_pct < 0)
+      s += ", one segment " + num(-*r.worst_segment_pct) + " % worse with it";
+    return s + "); not settled by this recording: record longer or with more sliding";
+  }
+  return s + " that no library effect explains";
+}
+
 std::string summary_text(const Parameters& values, const Parameters& standard_errors) {
   std::string s;
   for (const auto& p : values)

@@ -463,7 +463,7 @@ Rejected rejected_of(const Found& f, std::string reason) {
 }
 
 Rejected best_left_out(const Found& f) {
-  Rejected r = rejected_of(f, "best remaining candidate, below the significance threshold");
+  Rejected r = rejected_of(f, kBelowSignificance);
   if (!f.params.empty()) r.parameters = parameters_of(f.params);
   return r;
 }
@@ -477,14 +477,17 @@ Parameters parameters_of(const effects::Params& p) {
 namespace {
 // The implausible fit and where the error it leaves is largest (the segment a user should look
 // at first); after a stop, only if it would have stood out (its gain and force beyond what was
-// left untaken).
+// left untaken) and explains more than the plausible candidate the stop left untaken (that one,
+// short of significance, is the better account of the misfit, not an implausible one).
 std::optional<Implausible> implausible_of(const Outcome& o, const Span& span) {
   if (!o.implausible) return std::nullopt;
   const auto& f = *o.implausible;
   const double before = total(f.cur_ho), after = total(f.ho);
   const double gain = 100.0 * (before - after) / before;
   const double explained_n = std::sqrt((before - after) / span.n_used);
-  if (o.stopped_at && (gain < span.min_gain_pct || explained_n < span.floor_n)) return std::nullopt;
+  if (o.stopped_at &&
+      (gain < span.min_gain_pct || explained_n < span.floor_n || o.stopped_at->gain >= gain))
+    return std::nullopt;
   const auto worst =
       static_cast<std::size_t>(std::max_element(f.ho.begin(), f.ho.end()) - f.ho.begin());
   const double seg = span.duration_s / static_cast<double>(f.ho.size());

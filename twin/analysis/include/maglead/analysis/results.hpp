@@ -94,6 +94,7 @@ struct TwinForceCheck {
   bool available = false;
   std::string reason;  // when not available
   double baseline_mae_n = 0.0, corrected_mae_n = 0.0;
+  double resolved_n = 0.0;  // a rise must exceed this force the recording resolves [N]
   std::vector<std::string> kept, dropped;  // terms of the corrected model
 };
 
@@ -107,6 +108,14 @@ struct Rejected {
   std::optional<std::string> reason;
   std::optional<Parameters> parameters;
 };
+/// The reason of the candidate the selection stopped at (short of significance).
+inline constexpr const char* kBelowSignificance =
+    "best remaining candidate, below the significance threshold";
+/// "a misfit of X N RMS remains (floor Y N) …": what no named effect explains, and, when the
+/// candidate the selection stopped at (in `not_selected`) explains most of it held out, that
+/// candidate with why it was not taken, so a near miss is not read as "nothing in the library".
+std::string misfit_text(double final_rms_n, double noise_floor_n,
+                        const std::vector<Rejected>& not_selected);
 
 /// Held-out (and fitted) error after each step of the selection; the first is the baseline.
 struct ValidationStep {
