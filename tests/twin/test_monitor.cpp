@@ -282,6 +282,17 @@ TEST(TwinMonitor, MixedForceStepsAndHandPushesWithoutDriftRaiseNoDriftWarning) {
   EXPECT_LE(std::abs(f.gain_change), c.drift_sigmas * f.gain_change_se);
 }
 
+// A statistic past its margin warns even when the recording ends, or the force-control stretch
+// stops, before two seconds of clock have passed: the window of force control that moved it past
+// is itself those seconds of evidence. Mixed, −6 %/min, 41 s: the statistic passes the margin
+// (1.18) with the window that closes at 40 s; the recording ends at 41 s.
+TEST(TwinMonitor, MixedDriftPastItsMarginAtTheEndWarns) {
+  const MonitorRun r = run_recording("mixed", 41.0, 1, -0.06, {}, false);
+  expect_loss_in_time(r, 0.06, "mixed 41 s, gain -6 %/min");
+  EXPECT_EQ(r.at_drift.drift_reason, DriftReason::gain_fell);
+  EXPECT_GE(r.max_drift_statistic, 1.0);
+}
+
 // Hand pushes, free moves and force control in turn (`simulate --scenario mixed-moves`: 6 s of
 // force control against a spring, 8 s of hand pushes with the screw held, 7 s of point-to-point
 // moves with nothing touching the nut). Each segment starts where the last left the nut, so the

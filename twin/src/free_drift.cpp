@@ -311,22 +311,20 @@ void FreeMoveDrift::end_pass(double t) noexcept {
   evaluate(t);
 }
 
-void FreeMoveDrift::passive(double t, const PassiveEstimate& e) noexcept {
+void FreeMoveDrift::passive(double t, const PassiveEstimate& e, bool new_window) noexcept {
   passive_ = e;
-  evaluate(t);
+  evaluate(t, new_window ? e.window_s : 0.0);
 }
 
-void FreeMoveDrift::evaluate(double t) noexcept {
+// Not judged is not back within the margin: a moment without evidence leaves the sustain running.
+void FreeMoveDrift::evaluate(double t, double evidence_s) noexcept {
   DriftFigures f;
   f.rated_force_n = s_.rated_n;
   const bool free_judged = ref_frozen_ && free_figures(f);
   const bool judged = pool_passive(f, free_judged) || free_judged;
   if (ref_frozen_ || judged || std::isfinite(passive_.zero_load_n)) now_ = f;
-  if (!judged) {
-    cond_since_ = kNaN;
-    return;
-  }
-  judge(t, f);
+  if (!judged) return;
+  judge(t, f, evidence_s);
 }
 
 /// The free moves' figures; false while they cannot be judged yet.
@@ -413,7 +411,10 @@ bool FreeMoveDrift::pool_passive(DriftFigures& f, bool free_judged) const noexce
 /// standard errors and beyond the minimum worth a warning. An estimate too imprecise to resolve
 /// the minimum is still judged (its own margin is the larger one): a fast drift inflates the
 /// standard errors while it runs, and refusing to judge then would hide exactly that drift.
-void FreeMoveDrift::judge(double t, const DriftFigures& f) noexcept {
+/// Sustained: past the margin for sustain_s of time, or on a window of evidence at least that
+/// long (a passive window is seconds of force control that all moved the estimate past it; a
+/// recording that ends, or a stretch that stops, before the clock catches up must not hide it).
+void FreeMoveDrift::judge(double t, const DriftFigures& f, double evidence_s) noexcept {
   const double fr = s_.rated_n + s_.friction_n, k = rated_factor(), m = min_error_n();
   const auto ratio = [&](double d, double se, double floor) {
     return std::abs(d) / std::max(s_.sigmas * se, floor);
@@ -426,7 +427,7 @@ void FreeMoveDrift::judge(double t, const DriftFigures& f) noexcept {
     return;
   }
   if (!std::isfinite(cond_since_)) cond_since_ = t;
-  if (warn_ || t - cond_since_ < s_.sustain_s) return;
+  if (warn_ || std::max(t - cond_since_, evidence_s) < s_.sustain_s) return;
   warn_ = true;
   warn_t_ = t;
   at_warn_ = f;

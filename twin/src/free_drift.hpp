@@ -107,9 +107,10 @@ class FreeMoveDrift {
   void add(double t, double dt, double u, double y, int dir, double vel, double pos_m,
            bool declared = false) noexcept;
 
-  /// New evidence from a passive load revisited in force control (PassiveLoadDrift) at time t:
-  /// pooled with the free moves' and judged with them.
-  void passive(double t, const PassiveEstimate& e) noexcept;
+  /// Evidence from a passive load revisited in force control (PassiveLoadDrift) at time t:
+  /// pooled with the free moves' and judged with them. new_window: `e` has just taken in a
+  /// window, whose force-control time (e.window_s) counts towards the warning's sustain.
+  void passive(double t, const PassiveEstimate& e, bool new_window) noexcept;
 
   DriftObservability observability() const noexcept;
   const DriftFigures& now() const noexcept { return now_; }
@@ -126,11 +127,11 @@ class FreeMoveDrift {
   using Vec = std::array<double, kP>;
   void update_block(double t) noexcept;
   void end_pass(double t) noexcept;
-  void evaluate(double t) noexcept;
+  void evaluate(double t, double evidence_s = 0.0) noexcept;
   bool free_figures(DriftFigures& f) const noexcept;
   bool level_figures(DriftFigures& f) const noexcept;
   bool pool_passive(DriftFigures& f, bool free_judged) const noexcept;
-  void judge(double t, const DriftFigures& f) noexcept;
+  void judge(double t, const DriftFigures& f, double evidence_s) noexcept;
   double rated_factor() const noexcept { return (s_.rated_n + s_.friction_n) / s_.friction_n; }
   double min_error_n() const noexcept { return s_.min_change * s_.rated_n; }
 

@@ -314,11 +314,12 @@ struct TwinMonitor::Impl {
       passive_slide(t, theta, measured);
     }
     // Judged again every block while its evidence stands, as free moves are (their estimate
-    // changes at pass ends): a warning's sustain is measured in time, not in windows.
+    // changes at pass ends): a warning's sustain is measured in time, or by a new window's own
+    // length (FreeMoveDrift::judge).
     const bool due = std::isfinite(passive_drift.estimate().zero_load_n) &&
                      t - passive_judged_t >= cfg.drift_block_s;
     if (passive_drift.updated() || due) {
-      free_drift.passive(t, passive_drift.estimate());
+      free_drift.passive(t, passive_drift.estimate(), passive_drift.updated());
       passive_judged_t = t;
     }
   }

@@ -141,6 +141,7 @@ void PassiveLoadDrift::close_window() noexcept {
   } else if (cmp.ok) {
     map_window(cmp);
     add_window(cmp);
+    est_.window_s = span_s;
   }
   n_blocks_ = 0, slide_first_ = 0;
 }

@@ -48,6 +48,7 @@ struct PassiveEstimate {
   double rated_n = kNaN, rated_se_n = kNaN;          // along the motion, at the rated force
   double gain_change = kNaN, gain_change_se = kNaN;  // Δg relative to the reference
   bool scatter_measured = false;  // three window-to-window differences of each seen
+  double window_s = 0.0;          // force-control time of the newest window compared
 };
 
 class PassiveLoadDrift {
