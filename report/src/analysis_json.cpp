@@ -181,6 +181,15 @@ Json analysis_json(const AnalysisResult& r) {
                                         : Json{{"available", false}, {"reason", c.reason}};
   }
   if (!f.sliding_note.empty()) J["sliding_note"] = f.sliding_note;
+  if (!f.resolvable.empty()) {
+    Json list = Json::array();
+    for (const auto& x : f.resolvable)
+      list.push_back({{"id", x.id},
+                      {"parameter", x.parameter},
+                      {"unit", x.unit},
+                      {"smallest_change", x.smallest_change}});
+    J["resolvable"] = list;
+  }
   return J;
 }
 

@@ -734,6 +734,43 @@ void finish(const Prepared& P, const Grams& g, const Candidates& cand, const Sta
 
 std::string selection_rule(const Options& opt) { return selection::describe(settings_of(opt)); }
 
+namespace {
+// Each one-column effect's smallest change the recording could name beside the final model's
+// terms (Resolvable): the part of its column the model's columns leave (what the fit could give
+// to it alone), as an RMS over the samples used, against what a finding must explain.
+std::vector<Resolvable> resolvable_of(const Grams& g, const Candidates& cand, const State& model,
+                                      const std::vector<int>& current, double floor_n,
+                                      double n_used) {
+  std::vector<Resolvable> out;
+  if (g.xx.empty() || !(n_used > 0)) return out;
+  Eigen::MatrixXd xx = Eigen::MatrixXd::Zero(g.xx.front().rows(), g.xx.front().cols());
+  for (const auto& m : g.xx) xx += m;
+  const auto n = static_cast<Eigen::Index>(current.size());
+  Eigen::MatrixXd a(n, n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < n; ++j) a(i, j) = xx(current[i], current[j]);
+  const auto solver = a.ldlt();
+  for (const auto& v : cand.variants) {
+    if (v.idx.size() != 1 || cand.of(v.effect) != &v || v.effect->params().empty()) continue;
+    const int col = v.idx.front();
+    if (std::find(current.begin(), current.end(), col) != current.end()) continue;
+    Eigen::VectorXd b(n);
+    for (Eigen::Index i = 0; i < n; ++i) b(i) = xx(current[i], col);
+    const double own_ss = xx(col, col) - (n > 0 ? b.dot(solver.solve(b)) : 0.0);
+    if (!(own_ss > 0)) continue;
+    const double c = floor_n / std::sqrt(own_ss / n_used), none = 0.0;
+    const auto at = v.effect->parameters(v.shape, &c, model);
+    const auto at_zero = v.effect->parameters(v.shape, &none, model);
+    const std::string name = v.effect->params().front().name;
+    if (!at || !at_zero || !at->contains(name) || !at_zero->contains(name)) continue;
+    const double change = std::abs(at->at(name) - at_zero->at(name));
+    if (std::isfinite(change))
+      out.push_back({std::string(v.effect->id()), name, unit_of_parameter(name), change});
+  }
+  return out;
+}
+}  // namespace
+
 Selection select(const Prepared& P, const Options& opt,
                  const std::function<void(double)>& progress) {
   Selection out;
@@ -759,6 +796,7 @@ Selection select(const Prepared& P, const Options& opt,
                              .min_gain_pct = opt.min_gain_pct};
   static_cast<selection::Result&>(out) = selection::result_of(o, folds, span);
   finish(P, g, cand, rules.model(), out.current, out);
+  out.resolvable = resolvable_of(g, cand, rules.model(), out.current, span.floor_n, span.n_used);
   return out;
 }
 

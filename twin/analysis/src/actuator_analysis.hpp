@@ -126,6 +126,7 @@ struct Selection : selection::Result {
   std::vector<double> final_residual;  // at Prepared::states, after every chosen term
   std::size_t samples_used = 0;
   bool too_little_sliding = false;
+  std::vector<Resolvable> resolvable;  // beside the final model's terms
 };
 
 using Pulse = pulses::Pulse;  // peak_n: the missing force on the nut

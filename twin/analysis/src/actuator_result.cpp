@@ -431,7 +431,10 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);
+  J.resolvable = sel.resolvable;
   J.conclusion = selection::conclusion_of(sel);
+  if (sel.terms.empty() && !sel.implausible && !J.resolvable.empty())
+    J.conclusion += "; it cannot name changes smaller than: " + resolvable_text(J.resolvable);
   // Nothing named is not nothing missing: a misfit the library does not explain is said as such.
   if (sel.terms.empty() && !J.unexplained && misfit_remains(J.final_fit.rms_n, J.noise_floor_n)) {
     J.conclusion = misfit_text(J.final_fit.rms_n, J.noise_floor_n, J.not_selected) +

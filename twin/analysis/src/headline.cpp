@@ -11,30 +11,6 @@
 namespace maglead::analysis {
 namespace {
 
-/// A finding's unit from its parameter's name (the spec names carry their unit).
-std::string unit_of(const std::string& name) {
-  struct Suffix {
-    const char* suffix;
-    const char* unit;
-  };
-  static constexpr Suffix kSuffixes[] = {{"_n_s_per_m", "N·s/m"},
-                                         {"_n_per_m", "N/m"},
-                                         {"_per_min", "1/min"},
-                                         {"_n", "N"},
-                                         {"_kg", "kg"},
-                                         {"_rad", "rad"},
-                                         {"_m_s", "m/s"},
-                                         {"_m", "m"},
-                                         {"_s", "s"}};
-  for (const auto& s : kSuffixes) {
-    const std::string suffix = s.suffix;
-    if (name.size() > suffix.size() &&
-        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
-      return s.unit;
-  }
-  return "";
-}
-
 std::string number(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%.4g", v);
@@ -71,7 +47,7 @@ std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
     if (ch == '_') ch = ' ';
   if (e.parameters.empty()) return name;
   const Parameter& p = main_parameter(e);
-  const std::string unit = unit_of(p.name);
+  const std::string unit = unit_of_parameter(p.name);
   const std::string with_unit = unit.empty() ? "" : " " + unit;
   std::string value = value_with_error(p.value, parameter_value(e.standard_errors, p.name, 0.0));
   if (value.empty()) value = number(p.value);

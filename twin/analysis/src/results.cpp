@@ -74,6 +74,40 @@ std::string misfit_text(double final_rms_n, double noise_floor_n,
   return s + " that no library effect explains";
 }
 
+std::string unit_of_parameter(const std::string& name) {
+  struct Suffix {
+    const char* suffix;
+    const char* unit;
+  };
+  static constexpr Suffix kSuffixes[] = {{"_n_s_per_m", "N·s/m"},
+                                         {"_n_per_m", "N/m"},
+                                         {"_per_min", "1/min"},
+                                         {"_n", "N"},
+                                         {"_kg", "kg"},
+                                         {"_rad", "rad"},
+                                         {"_m_s", "m/s"},
+                                         {"_m", "m"},
+                                         {"_s", "s"}};
+  for (const auto& s : kSuffixes) {
+    const std::string suffix = s.suffix;
+    if (name.size() > suffix.size() &&
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+      return s.unit;
+  }
+  return "";
+}
+
+std::string resolvable_text(const std::vector<Resolvable>& r) {
+  std::string s;
+  for (const auto& x : r) {
+    char b[160];
+    std::snprintf(b, sizeof b, "%s%s %.2g%s%s", s.empty() ? "" : ", ", x.parameter.c_str(),
+                  x.smallest_change, x.unit.empty() ? "" : " ", x.unit.c_str());
+    s += b;
+  }
+  return s;
+}
+
 std::string summary_text(const Parameters& values, const Parameters& standard_errors) {
   std::string s;
   for (const auto& p : values)

@@ -186,6 +186,21 @@ struct TwinSimulation {
 };
 
 /// Everything analysis.json reports.
+/// The smallest change of an effect's parameter the recording could name (actuator): the change
+/// whose own force beside the model's terms, as an RMS over the samples the fit used, reaches
+/// what the selection requires of a finding (the recording's floor and the stated minimum, the
+/// larger). Smaller changes it cannot name: a model with nothing missing is right only to these
+/// sizes (a change at the size may still fall short of the significance the selection asks).
+struct Resolvable {
+  std::string id, parameter, unit;
+  double smallest_change = 0.0;
+};
+/// "nut_mass_kg 0.9 kg, viscous_n_s_per_m 1.2 N·s/m": each at 2 significant digits.
+std::string resolvable_text(const std::vector<Resolvable>& r);
+/// A parameter's unit from its name (the spec's names carry their unit): "N·s/m" for
+/// `viscous_n_s_per_m`; empty when the name carries none.
+std::string unit_of_parameter(const std::string& name);
+
 struct Findings {
   std::string system;
   std::string recording;
@@ -207,7 +222,8 @@ struct Findings {
   std::optional<TwinSimulation> twin_simulation;
   std::optional<Unexplained> unexplained;
   std::optional<TwinForceCheck> twin_force_check;
-  std::string sliding_note;  // a recording that barely slides says so; empty: not written
+  std::string sliding_note;            // a recording that barely slides says so; empty: not written
+  std::vector<Resolvable> resolvable;  // actuator: the smallest change it would have named
 };
 
 }  // namespace maglead::analysis
