@@ -348,7 +348,7 @@ class ScenarioRun {
                                        force_setpoint_n(t - schedule_.start_s(t), schedule_.force_s)
                           : holds_ ? held_setpoint_n(t)
                                    : force_setpoint_n(t, opt_.duration_s));
-      if (holds_ && opt_.force_controller)
+      if (!mixed_ && opt_.force_controller)
         return {opt_.force_controller(t, s_, set) / act_.gear_ratio, set};
       const auto inv = phase_for_output_force(opt_.estimator_calibration, set, 0.9);
       return {rest_angle_rad(pos_m, L) + inv.phase_rad, set};
@@ -390,10 +390,9 @@ void check_options(const ScenarioOptions& opt) {
   }
   if (!(opt.duration_s > 0.0) || opt.duration_s > 24 * 3600.0)
     throw std::invalid_argument("duration must be between 0 and 24 h");
-  if (opt.force_controller && opt.scenario != "force-holds")
+  if (opt.force_controller && opt.scenario != "force-holds" && opt.scenario != "force-steps")
     throw std::invalid_argument(
-        "a scenario's own controller runs force-holds only (setpoints held "
-        "2.5 s, as a PLC gives them); '" +
+        "a scenario's own controller runs the force scenarios force-holds and force-steps; '" +
         opt.scenario + "' runs open loop");
 }
 

@@ -39,7 +39,8 @@ void add_simulate(CLI::App& app) {
                   "What commands the screw: open-loop (the paper's inverse, the coupling at the "
                   "setpoint; every scenario, the default) or maglead (maglead's own force loop and "
                   "load observer on the simulated clock, with CONFIG's [control] and model.toml; "
-                  "force-holds)")
+                  "force-holds and force-steps, each new setpoint given with an execute edge as "
+                  "a PLC gives it)")
       ->check(CLI::IsMember({"open-loop", "maglead"}))
       ->capture_default_str();
   cmd->callback([o] {
@@ -54,11 +55,13 @@ void add_simulate(CLI::App& app) {
     opt.estimator_calibration = load_calibration(cal);
     std::unique_ptr<runtime::ScenarioController> loop;
     if (o->controller == "maglead") {
-      if (o->scenario != "force-holds")
+      if (o->scenario != "force-holds" && o->scenario != "force-steps")
         throw CLI::ValidationError("--controller",
-                                   "maglead runs force-holds only (setpoints held "
-                                   "as a PLC gives them); '" +
-                                       o->scenario + "' runs open-loop");
+                                   "maglead runs the force scenarios force-holds and "
+                                   "force-steps; '" +
+                                       o->scenario +
+                                       "' runs open loop only: leave out --controller, or use "
+                                       "--scenario force-holds or force-steps");
       controller::ControllerConfig cc = controller_config_of(o->config, cal, "", nullptr);
       cc.actuator = opt.plant.actuator;
       loop = std::make_unique<runtime::ScenarioController>(cc);
