@@ -96,6 +96,16 @@ Json twin_json(const TwinSimulation& t) {
           {"root_events", t.root_events}};
 }
 
+Json resolvable_json(const std::vector<Resolvable>& resolvable) {
+  Json list = Json::array();
+  for (const auto& x : resolvable)
+    list.push_back({{"id", x.id},
+                    {"parameter", x.parameter},
+                    {"unit", x.unit},
+                    {"smallest_change", x.smallest_change}});
+  return list;
+}
+
 }  // namespace
 
 Json parameters_json(const Parameters& parameters) {
@@ -181,15 +191,7 @@ Json analysis_json(const AnalysisResult& r) {
                                         : Json{{"available", false}, {"reason", c.reason}};
   }
   if (!f.sliding_note.empty()) J["sliding_note"] = f.sliding_note;
-  if (!f.resolvable.empty()) {
-    Json list = Json::array();
-    for (const auto& x : f.resolvable)
-      list.push_back({{"id", x.id},
-                      {"parameter", x.parameter},
-                      {"unit", x.unit},
-                      {"smallest_change", x.smallest_change}});
-    J["resolvable"] = list;
-  }
+  if (!f.resolvable.empty()) J["resolvable"] = resolvable_json(f.resolvable);
   return J;
 }
 
