@@ -226,11 +226,11 @@ void SimulatedCia402Drive::on_sync(double now_s) noexcept {
   if (rpdo_pending_) {
     rpdo_pending_ = false;
     std::size_t mapped_bytes = 0;
-    for (std::uint8_t s = 1; s <= get(0x1600, 0); ++s)
-      mapped_bytes += (get(0x1600, s) & 0xFFU) / 8U;
+    const auto entries = static_cast<std::uint8_t>(get(0x1600, 0));
+    for (std::uint8_t s = 1; s <= entries; ++s) mapped_bytes += (get(0x1600, s) & 0xFFU) / 8U;
     // A PDO shorter than its mapping is not processed (CiA 301); the last values stand.
     std::size_t at = 0;
-    for (std::uint8_t s = 1; s <= get(0x1600, 0) && mapped_bytes <= rpdo_.len; ++s) {
+    for (std::uint8_t s = 1; s <= entries && mapped_bytes <= rpdo_.len; ++s) {
       const std::uint32_t m = get(0x1600, s);
       const std::size_t bytes = (m & 0xFFU) / 8U;
       set(static_cast<std::uint16_t>(m >> 16), static_cast<std::uint8_t>(m >> 8),
@@ -314,12 +314,10 @@ void SimulatedCia402Drive::device_control(double now_s) noexcept {
   }
   if (power_ == Power::ready)
     power_ = operate ? Power::enabled : Power::switched_on;  // 3 (+4)
-  else if (power_ == Power::switched_on && operate)
-    power_ = Power::enabled;  // 4
+  else if ((power_ == Power::switched_on || power_ == Power::quick_stop) && operate)
+    power_ = Power::enabled;  // 4, 16
   else if (power_ == Power::enabled && !operate)
     power_ = Power::switched_on;  // 5
-  else if (power_ == Power::quick_stop && operate)
-    power_ = Power::enabled;  // 16
 }
 
 void SimulatedCia402Drive::step_actuator(double now_s) noexcept {
@@ -354,7 +352,8 @@ void SimulatedCia402Drive::send_tpdos(double now_s) noexcept {
     CanFrame f;
     f.id = get(comm, 1) & 0x7FFU;
     std::size_t at = 0;
-    for (std::uint8_t s = 1; s <= get(map, 0); ++s) {
+    const auto entries = static_cast<std::uint8_t>(get(map, 0));
+    for (std::uint8_t s = 1; s <= entries; ++s) {
       const std::uint32_t m = get(map, s);
       const std::size_t bytes = (m & 0xFFU) / 8U;
       const std::uint32_t v =
@@ -436,8 +435,8 @@ std::uint32_t SimulatedCia402Drive::check_mapping(std::uint16_t map_index,
   if (count > 4) return ab_too_high;
   const Pdo direction = map_index < 0x1800 ? Pdo::rx : Pdo::tx;
   std::uint32_t bits = 0;
-  for (std::uint8_t s = 1; s <= count; ++s) {
-    const std::uint32_t m = get(map_index, s);
+  for (std::uint32_t s = 1; s <= count; ++s) {
+    const std::uint32_t m = get(map_index, static_cast<std::uint8_t>(s));
     const Entry* mapped =
         find(static_cast<std::uint16_t>(m >> 16), static_cast<std::uint8_t>(m >> 8));
     if (mapped == nullptr) return ab_no_object;

@@ -292,8 +292,10 @@ MasterFault Cia402Master::cycle(double now_s) noexcept {
 
 const char* Cia402Master::alarm_text() const noexcept {
   const MasterFault f = fault();
-  if (f == MasterFault::drive_fault && last_emcy_.error_code != 0)
-    return emergency_text(last_emcy_.error_code);
+  if (f != MasterFault::drive_fault) return master_fault_text(f);
+  // An EMCY is unconfirmed and may be lost; 0x603F in the TPDO says the same every cycle.
+  if (feedback_.error_code != 0) return emergency_text(feedback_.error_code);
+  if (last_emcy_.error_code != 0) return emergency_text(last_emcy_.error_code);
   return master_fault_text(f);
 }
 

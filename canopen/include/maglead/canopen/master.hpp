@@ -26,7 +26,7 @@ struct DriveConfig {
   double gear_ratio = 6.6;              // motor turns per screw turn
   std::uint16_t second_encoder_index = 0x60E4;  // CiA 402 "additional position actual value"
   std::uint8_t second_encoder_sub = 1;
-  double second_encoder_m_per_count = 1e-6;  // the nut's linear encoder resolution
+  double second_encoder_m_per_count = 0.0254 / 1176.0;  // the nut's encoder (paper: 21.6 µm)
   double sdo_timeout_s = 0.05;
   int sdo_attempts = 3;  // a timed-out SDO is tried again (a frame lost at start-up)
   // Consecutive cycles without the drive's TPDO1 before the master latches a fault: a lost
@@ -100,8 +100,9 @@ class Cia402Master {
   /// time at which it found the drive silent.
   bool heartbeat_lost() const noexcept { return heartbeat_lost_; }
   double heartbeat_lost_at_s() const noexcept { return heartbeat_lost_at_s_; }
-  /// The last EMCY with a code other than 0 (error reset), and its text.
+  /// The last EMCY with a code other than 0 (error reset).
   const Emergency& last_emergency() const noexcept { return last_emcy_; }
+  /// What fault() means: for a drive fault the text of its error code (0x603F, else the EMCY).
   const char* alarm_text() const noexcept;
   std::uint16_t last_controlword() const noexcept { return controlword_; }
 
