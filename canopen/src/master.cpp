@@ -184,6 +184,7 @@ void Cia402Master::start() {
   (void)bus_.send(nmt_frame(NmtCommand::start, cfg_.node_id));
   last_heartbeat_s_ = bus_.now_s();
   tpdo1_seen_ = sync_sent_ = heartbeat_lost_ = false;
+  first_cycle_ = true;
   missed_in_row_ = 0;
   started_ = true;
 }
@@ -262,7 +263,15 @@ void Cia402Master::request(DriveRequest request) noexcept {
 }
 
 MasterFault Cia402Master::cycle(double now_s) noexcept {
+  receive(now_s);
+  return transmit();
+}
+
+MasterFault Cia402Master::receive(double now_s) noexcept {
   ++counters_.cycles;
+  // The loop's clock need not be the bus's: the heartbeat is timed from the first cycle on.
+  if (first_cycle_) last_heartbeat_s_ = now_s;
+  first_cycle_ = false;
   CanFrame f;
   for (;;) {
     const CanStatus s = bus_.receive(f, now_s);
@@ -273,6 +282,10 @@ MasterFault Cia402Master::cycle(double now_s) noexcept {
     if (s == CanStatus::io_error) break;
   }
   if (started_) supervise(now_s);
+  return fault();
+}
+
+MasterFault Cia402Master::transmit() noexcept {
   // A master-side fault stops the axis: quick stop until the controller asks for a reset.
   const bool stop = fault_ != MasterFault::none;
   controlword_ = sequencer_.next(feedback_.state, stop ? DriveRequest::quick_stop : request_);

@@ -83,8 +83,13 @@ class Cia402Master {
   Cia402Master(CanBus& bus, DriveConfig config);
   /// The start-up sequence; throws std::runtime_error saying which step or object failed.
   void start();
-  /// One cycle at loop time `now_s`: reads, supervises, writes. Returns fault().
+  /// One cycle at loop time `now_s`: receive(now_s), then transmit(). Returns fault().
   MasterFault cycle(double now_s) noexcept;
+  /// The cycle's first half: takes what arrived (PDOs, EMCY, heartbeat) and supervises.
+  MasterFault receive(double now_s) noexcept;
+  /// The cycle's second half: the controlword and target in RPDO1, then SYNC. Split from
+  /// receive() so that a loop can compute its command between them, without a cycle's delay.
+  MasterFault transmit() noexcept;
 
   void request(DriveRequest request) noexcept;
   /// The position command [counts], taken in operation enabled. In every other state the
@@ -137,6 +142,7 @@ class Cia402Master {
   double last_heartbeat_s_ = 0.0, heartbeat_lost_at_s_ = 0.0;
   bool heartbeat_lost_ = false;
   bool started_ = false, boot_seen_ = false, tpdo1_seen_ = false, sync_sent_ = false;
+  bool first_cycle_ = true;
   int missed_in_row_ = 0;
 };
 
