@@ -63,7 +63,14 @@ Cia402Hardware::Cia402Hardware(const ActuatorParams& actuator, const Cia402Backe
   enable(opt_.enable_timeout_s);
 }
 
-Cia402Hardware::~Cia402Hardware() = default;
+Cia402Hardware::~Cia402Hardware() {
+  // Leaving, the power stage goes off (disable voltage) rather than holding a position that no
+  // SYNC will update any more.
+  if (master_) {
+    master_->request(DriveRequest::disabled);
+    master_->transmit();
+  }
+}
 
 void Cia402Hardware::wait_cycle(double until_s) {
   if (sim_) {
