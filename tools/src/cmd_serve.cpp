@@ -98,8 +98,8 @@ void add_backend_options(CLI::App* cmd, ServeOptions& o) {
                 "10s)");
 }
 
-/// The cia402 backend's settings: the drive counts as the actuator's encoders do, at the loop's
-/// period.
+/// The cia402 backend's settings: CONFIG/drive.toml where there is one, over a drive that counts
+/// as the actuator's encoders do; the loop's period always.
 void set_cia402(const ServeOptions& o, const ActuatorParams& actuator,
                 canopen::Cia402BackendOptions& c) {
   if (o.backend != "cia402" &&
@@ -115,6 +115,9 @@ void set_cia402(const ServeOptions& o, const ActuatorParams& actuator,
   c.drive.counts_per_motor_turn = actuator.motor_counts_per_rev;
   c.drive.gear_ratio = actuator.gear_ratio;
   c.drive.second_encoder_m_per_count = actuator.linear_count_m;
+  const std::string drive_toml = config_file(o.config, "drive.toml");
+  if (o.backend == "cia402" && std::filesystem::exists(drive_toml))
+    c.drive = canopen::load_drive_config(drive_toml, c.drive);
 }
 
 /// network.toml (when there is one), then the options that override it.
@@ -201,6 +204,7 @@ std::string files_read(const ServeOptions& o) {
   add("calibration.toml", o.calibration);
   add("network.toml", o.network);
   add("model.toml", o.model);
+  if (o.backend == "cia402") add("drive.toml", "");
   return out.empty() ? "no files: built-in defaults" : "read " + out;
 }
 
