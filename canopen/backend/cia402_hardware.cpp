@@ -113,6 +113,10 @@ HwStatus Cia402Hardware::read_sensors(double now_s, SensorSample& out) noexcept 
   // The master keeps time on the bus's clock, as it did at start-up (its heartbeat timing).
   const double bus_now_s = sim_ ? sim_->bus.now_s() : socket_->now_s();
   const MasterFault fault = master_->receive(bus_now_s);
+  // A loop does not write after a drive fault (the controller does not): the cycle's RPDO and
+  // SYNC go now, so the drive keeps its SYNC and the master its supervision and controlword.
+  transmit_pending_ = fault == MasterFault::none;
+  if (!transmit_pending_) master_->transmit();
   const DriveFeedback& f = master_->feedback();
   out.motor_counts = std::llround(f.position_counts * scale_.motor_counts_per_drive_count);
   out.linear_counts =
@@ -126,8 +130,13 @@ HwStatus Cia402Hardware::write_motor_angle(double motor_angle_cmd_rad) noexcept 
   // The drive's target is 32 bits: a command beyond it is a fault, not a wrapped position.
   if (!(std::abs(counts) < 2147483647.0)) return HwStatus::drive_fault;
   master_->set_target_counts(static_cast<std::int32_t>(std::lround(counts)));
+  if (!transmit_pending_)
+    return master_->fault() == MasterFault::none ? HwStatus::ok : HwStatus::drive_fault;
+  transmit_pending_ = false;
   return master_->transmit() == MasterFault::none ? HwStatus::ok : HwStatus::drive_fault;
 }
+
+SimulatedCia402Drive* Cia402Hardware::simulated_drive() { return sim_ ? &sim_->drive : nullptr; }
 
 std::string Cia402Hardware::describe() const {
   const int load_percent = static_cast<int>(std::lround(100.0 * bus_load_fraction(opt_.drive)));

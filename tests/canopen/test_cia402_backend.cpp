@@ -8,6 +8,7 @@
 #include <string>
 
 #include "maglead/canopen/cia402_hardware.hpp"
+#include "maglead/canopen/simulated_drive.hpp"
 
 namespace maglead::canopen {
 namespace {
@@ -59,6 +60,33 @@ TEST(Cia402Backend, ASilentDriveBecomesADriveFaultWithinHalfASecond) {
   EXPECT_LE(fault_s - 0.1, 0.5);
   for (int k = 0; k < 500; ++k) hw.read_sensors(fault_s + k * 1e-3, s);
   EXPECT_TRUE(hw.master().heartbeat_lost());
+}
+
+TEST(Cia402Backend, ADriveFaultKeepsTheBusCyclingWhenTheLoopStopsWriting) {
+  Cia402Hardware hw(ActuatorParams{}, {}, plant());
+  SensorSample s;
+  double t_s = 0.0;
+  for (; t_s < 0.05; t_s += 1e-3) {
+    ASSERT_EQ(hw.read_sensors(t_s, s), HwStatus::ok);
+    hw.write_motor_angle(motor_angle_rad_from_counts(s.motor_counts, ActuatorParams{}));
+  }
+  hw.simulated_drive()->inject_fault(0x2310, 0.0);  // at once: over-current
+  const std::uint64_t missed_before = hw.master().counters().missed_tpdo;
+  // As the controller does: after read_sensors reports a drive fault it does not write.
+  int faulted = 0;
+  for (int k = 0; k < 200; ++k, t_s += 1e-3) {
+    if (hw.read_sensors(t_s, s) == HwStatus::ok) {
+      hw.write_motor_angle(motor_angle_rad_from_counts(s.motor_counts, ActuatorParams{}));
+    } else {
+      ++faulted;
+    }
+  }
+  EXPECT_GE(faulted, 195);
+  // SYNC went on every cycle: the drive's TPDOs kept coming, the fault stays the drive's own.
+  EXPECT_EQ(hw.master().counters().missed_tpdo, missed_before);
+  EXPECT_EQ(hw.master().fault(), MasterFault::drive_fault);
+  EXPECT_STREQ(hw.master().alarm_text(), "continuous over-current");
+  EXPECT_EQ(hw.master().feedback().state, DriveState::fault);
 }
 
 TEST(Cia402Backend, OnePercentLostFramesDoNotStopTheLoop) {

@@ -15,6 +15,8 @@
 
 namespace maglead::canopen {
 
+class SimulatedCia402Drive;
+
 struct Cia402BackendOptions {
   std::string can = "sim";  // a SocketCAN interface (can0), or "sim"
   DriveConfig drive;
@@ -57,6 +59,8 @@ class Cia402Hardware final : public ActuatorHardware {
   std::string describe() const;
   /// The simulated actuator inside the simulated drive ("sim" only, else null): for tests.
   const SimulatedActuator* simulated_plant() const { return plant_.get(); }
+  /// The simulated drive ("sim" only, else null): for tests to inject its faults.
+  SimulatedCia402Drive* simulated_drive();
 
  private:
   struct Sim;
@@ -71,6 +75,7 @@ class Cia402Hardware final : public ActuatorHardware {
   std::unique_ptr<Cia402Master> master_;
   double loop_to_bus_s_ = 0.0;  // sim: the bus's time at the loop's zero
   bool loop_started_ = false;
+  bool transmit_pending_ = false;  // read_sensors ran and the cycle's RPDO and SYNC are still due
   bool silence_set_ = false;
 };
 
