@@ -22,7 +22,7 @@ else
   cmake -S . -B "$dir" --graphviz="$dir/graphviz/maglead.dot" >/dev/null
 fi
 # Module names without the maglead_ prefix; libraries as boxes, the program in bold; no legend.
-sed -e 's/"maglead_\([a-z_]*\)"/"\1"/' \
+sed -e 's/"maglead_\([a-z0-9_]*\)"/"\1"/' \
     -e 's/shape = egg/shape = box, style = bold/; s/shape = octagon/shape = box/' \
     -e 's/^digraph "maglead" {/digraph "maglead" {\n  node [fontname = "sans-serif"];/' \
     -e '/^subgraph clusterLegend {/,/^}/d' \

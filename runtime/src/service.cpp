@@ -16,8 +16,8 @@
 namespace maglead::runtime {
 namespace {
 
-std::unique_ptr<ActuatorHardware> make_simulated(const ActuatorParams& actuator,
-                                                 const BackendOptions& options) {
+std::unique_ptr<SimulatedActuator> make_simulated_actuator(const ActuatorParams& actuator,
+                                                           const BackendOptions& options) {
   const SimulatedOptions& o = options.simulated;
   if (!(o.start_pos_m >= actuator.stroke_min_m && o.start_pos_m <= actuator.stroke_max_m))
     throw std::invalid_argument(
@@ -39,9 +39,23 @@ std::unique_ptr<ActuatorHardware> make_simulated(const ActuatorParams& actuator,
   return sim;
 }
 
+std::unique_ptr<ActuatorHardware> make_simulated(const ActuatorParams& actuator,
+                                                 const BackendOptions& options) {
+  return make_simulated_actuator(actuator, options);
+}
+
+/// A CiA 402 drive over CANopen; with --can sim the simulated actuator inside a simulated drive.
+std::unique_ptr<ActuatorHardware> make_cia402(const ActuatorParams& actuator,
+                                              const BackendOptions& options) {
+  std::unique_ptr<SimulatedActuator> plant;
+  if (options.cia402.can == "sim") plant = make_simulated_actuator(actuator, options);
+  return std::make_unique<canopen::Cia402Hardware>(actuator, options.cia402, std::move(plant));
+}
+
 struct Registry {
   std::mutex mutex;
-  std::map<std::string, BackendFactory> factories{{"simulated", make_simulated}};
+  std::map<std::string, BackendFactory> factories{{"simulated", make_simulated},
+                                                  {"cia402", make_cia402}};
 };
 Registry& registry() {
   static Registry r;
@@ -182,6 +196,11 @@ void Service::stop() {
 }
 
 int Service::tcp_port() const { return servers_->tcp ? servers_->tcp->port() : -1; }
+
+std::string Service::hardware_description() const {
+  const auto* drive = dynamic_cast<const canopen::Cia402Hardware*>(hardware_.get());
+  return drive != nullptr ? drive->describe() : std::string();
+}
 
 std::string Service::refused() const {
   std::string r = loop_->realtime_grant().refused;

@@ -1,5 +1,5 @@
-// maglead serve: run the 1 kHz controller on an actuator (the simulated one) and serve it over
-// Modbus TCP and/or RTU until interrupted (or for --duration).
+// maglead serve: run the 1 kHz controller on an actuator (the simulated one, or a CiA 402 drive
+// over CANopen) and serve it over Modbus TCP and/or RTU until interrupted (or for --duration).
 #include <csignal>
 #include <cstdio>
 #include <memory>
@@ -28,6 +28,8 @@ struct ServeOptions {
   bool read_only = false, no_tcp = false, rs485 = false, no_twin = false;
   std::uint64_t seed = 1;
   double spring_n_per_m = 2000.0, spring_anchor_m = 0.02, start_pos_m = 0.02;
+  std::string backend = "simulated", can = "sim", sim_can_silence_at;
+  double sim_can_drop = 0.0;
 };
 
 void add_network_options(CLI::App* cmd, ServeOptions& o) {
@@ -76,6 +78,48 @@ void add_sim_options(CLI::App* cmd, ServeOptions& o) {
   s->add_option("--sim-effect", o.sim_effects, effects_help);
 }
 
+void add_backend_options(CLI::App* cmd, ServeOptions& o) {
+  auto* b = cmd->add_option_group("Hardware backend");
+  b->add_option("--backend", o.backend,
+                "simulated: the simulated actuator; cia402: a CiA 402 servo drive over CANopen "
+                "(see --can)")
+      ->check(CLI::IsMember(runtime::backend_names()))
+      ->capture_default_str();
+  b->add_option("--can", o.can,
+                "cia402: the SocketCAN interface of the drive (e.g. can0), or sim: the simulated "
+                "CiA 402 drive in-process around the simulated actuator")
+      ->capture_default_str();
+  b->add_option("--sim-can-drop", o.sim_can_drop,
+                "cia402 --can sim: fraction of CAN frames lost on the simulated bus")
+      ->check(CLI::Range(0.0, 0.5))
+      ->capture_default_str();
+  b->add_option("--sim-can-silence-at", o.sim_can_silence_at,
+                "cia402 --can sim: the simulated drive falls silent this long after start (e.g. "
+                "10s)");
+}
+
+/// The cia402 backend's settings: CONFIG/drive.toml where there is one, over a drive that counts
+/// as the actuator's encoders do; the loop's period always.
+void set_cia402(const ServeOptions& o, const ActuatorParams& actuator,
+                canopen::Cia402BackendOptions& c) {
+  if (o.backend != "cia402" &&
+      (o.can != "sim" || o.sim_can_drop > 0.0 || !o.sim_can_silence_at.empty()))
+    throw CLI::ValidationError("--can", "applies to --backend cia402 only");
+  if (o.can != "sim" && (o.sim_can_drop > 0.0 || !o.sim_can_silence_at.empty()))
+    throw CLI::ValidationError("--sim-can-drop", "applies to --can sim only");
+  c.can = o.can;
+  c.sim_drop_fraction = o.sim_can_drop;
+  c.sim_seed = o.seed;
+  if (!o.sim_can_silence_at.empty()) c.sim_silence_at_s = parse_duration_s(o.sim_can_silence_at);
+  c.drive.loop_period_s = 1.0 / actuator.sample_rate_hz;
+  c.drive.counts_per_motor_turn = actuator.motor_counts_per_rev;
+  c.drive.gear_ratio = actuator.gear_ratio;
+  c.drive.second_encoder_m_per_count = actuator.linear_count_m;
+  const std::string drive_toml = config_file(o.config, "drive.toml");
+  if (o.backend == "cia402" && std::filesystem::exists(drive_toml))
+    c.drive = canopen::load_drive_config(drive_toml, c.drive);
+}
+
 /// network.toml (when there is one), then the options that override it.
 modbus::NetworkConfig network_config(const ServeOptions& o) {
   const std::string net_path =
@@ -116,6 +160,8 @@ runtime::ServiceConfig service_config(const ServeOptions& o, const modbus::Netwo
     throw CLI::ValidationError("--sim-start", "must lie within the stroke");
   sc.backend.simulated = {o.seed, o.spring_n_per_m, o.spring_anchor_m, o.start_pos_m, {}};
   apply_plant_effects("--sim-effect", o.sim_effects, sc.backend.simulated.effects);
+  sc.backend.name = o.backend;
+  set_cia402(o, cfg.actuator, sc.backend.cia402);
   sc.twin = !o.no_twin;
   sc.twin_config_dir = o.config;
   sc.network = net;
@@ -158,6 +204,7 @@ std::string files_read(const ServeOptions& o) {
   add("calibration.toml", o.calibration);
   add("network.toml", o.network);
   add("model.toml", o.model);
+  if (o.backend == "cia402") add("drive.toml", "");
   return out.empty() ? "no files: built-in defaults" : "read " + out;
 }
 
@@ -167,13 +214,20 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
   const auto& net = sc.network;
   if (!service.refused().empty())
     std::printf("maglead serve: realtime \"try\": not granted: %s\n", service.refused().c_str());
+  const std::string drive = service.hardware_description();
+  const bool real_drive = o.backend == "cia402" && o.can != "sim";
+  const std::string load =
+      real_drive ? "the load it drives"
+      : o.spring_n_per_m > 0
+          ? "spring " + std::to_string(static_cast<int>(o.spring_n_per_m)) + " N/m"
+          : "free nut";
+  if (!drive.empty()) std::printf("maglead serve: %s\n", drive.c_str());
   std::printf(
-      "maglead serve: control loop %.0f Hz on the simulated actuator (%s), %s, %s\n",
-      cfg.actuator.sample_rate_hz,
-      o.spring_n_per_m > 0
-          ? ("spring " + std::to_string(static_cast<int>(o.spring_n_per_m)) + " N/m").c_str()
-          : "free nut",
-      service.loop().realtime() ? "SCHED_FIFO" : "normal scheduling",
+      "maglead serve: control loop %.0f Hz on the %s (%s), %s, %s\n", cfg.actuator.sample_rate_hz,
+      o.backend == "cia402"
+          ? (real_drive ? "CiA 402 drive" : "simulated actuator through a simulated CiA 402 drive")
+          : "simulated actuator",
+      load.c_str(), service.loop().realtime() ? "SCHED_FIFO" : "normal scheduling",
       service.twin() ? "digital twin running on its own thread" : "no twin");
   std::printf("maglead serve: configuration from %s (%s)\n",
               std::filesystem::absolute(o.config).lexically_normal().string().c_str(),
@@ -247,7 +301,9 @@ void run_serve(const ServeOptions& o) {
 
 void add_serve(CLI::App& app) {
   auto* cmd = app.add_subcommand(
-      "serve", "Run the controller on the simulated actuator and serve it over Modbus TCP/RTU");
+      "serve",
+      "Run the controller on the simulated actuator or a CiA 402 drive and serve it over Modbus "
+      "TCP/RTU");
   auto o = std::make_shared<ServeOptions>();
   add_config_option(cmd, o->config);
   cmd->add_option("--network", o->network, "Network configuration (default: CONFIG/network.toml)");
@@ -265,6 +321,7 @@ void add_serve(CLI::App& app) {
   cmd->add_option("--watchdog", o->watchdog_ms, "Communication watchdog at start [ms], 0 = off")
       ->check(CLI::Range(0.0, 60000.0));
   add_sim_options(cmd, *o);
+  add_backend_options(cmd, *o);
   cmd->callback([o] { run_serve(*o); });
 }
 

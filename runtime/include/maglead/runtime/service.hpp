@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "maglead/canopen/cia402_hardware.hpp"
 #include "maglead/controller/controller.hpp"
 #include "maglead/controller/loop_runner.hpp"
 #include "maglead/controller/ports/hardware.hpp"
@@ -28,7 +29,8 @@ struct SimulatedOptions {
 
 struct BackendOptions {
   std::string name = "simulated";
-  SimulatedOptions simulated;
+  SimulatedOptions simulated;  // also the plant inside the simulated drive of cia402 --can sim
+  canopen::Cia402BackendOptions cia402;
 };
 
 /// Builds the hardware port for an actuator. Throws std::invalid_argument on bad options.
@@ -78,6 +80,8 @@ class Service {
   const TwinRunner* twin() const { return twin_.get(); }
   /// -1 without TCP.
   int tcp_port() const;
+  /// What the backend says of itself at start (a drive's identity and bus load); "" if nothing.
+  std::string hardware_description() const;
   /// What of the realtime settings was not granted, loop and twin ("" = everything asked for).
   std::string refused() const;
   /// The core the loop is pinned to (-1: not pinned).
