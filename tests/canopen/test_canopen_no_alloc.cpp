@@ -1,9 +1,8 @@
 // The CANopen cycle allocates nothing: the master's cycle and the virtual bus with the simulated
 // drive, over enable, a moving target, 1 % lost frames, a late TPDO, an EMCY fault and its
-// reset. The global operator new is replaced in this binary (its own executable: the
-// replacement is process-wide) and counts while armed. libstdc++'s other forms (new[],
-// nothrow) call this one, and its operator delete frees with free(), so one replacement is
-// enough.
+// reset. Every global operator new and delete is replaced in this binary (its own executable:
+// the replacement is process-wide); the news count while armed. All of them, with malloc and
+// free, so that a sanitizer's allocator (which brings its own) sees each block paired.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -19,12 +18,44 @@ std::atomic<bool> g_counting{false};
 std::atomic<std::uint64_t> g_news{0};
 }  // namespace
 
-void* operator new(std::size_t bytes) {
+// GCC sees free() on what it takes for a new-expression's pointer in the replacements below
+// (they are that allocator): not a mismatch here.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+
+namespace {
+void* counted(std::size_t bytes, std::size_t align = 0) {
   if (g_counting.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
-  void* p = std::malloc(bytes == 0 ? 1 : bytes);
-  if (p == nullptr) throw std::bad_alloc();
-  return p;
+  if (bytes == 0) bytes = 1;
+  return align > alignof(std::max_align_t)
+             ? std::aligned_alloc(align, (bytes + align - 1) / align * align)
+             : std::malloc(bytes);
 }
+void* counted_or_throw(std::size_t bytes, std::size_t align = 0) {
+  if (void* p = counted(bytes, align)) return p;
+  throw std::bad_alloc();
+}
+}  // namespace
+
+void* operator new(std::size_t n) { return counted_or_throw(n); }
+void* operator new[](std::size_t n) { return counted_or_throw(n); }
+void* operator new(std::size_t n, std::align_val_t a) {
+  return counted_or_throw(n, static_cast<std::size_t>(a));
+}
+void* operator new[](std::size_t n, std::align_val_t a) {
+  return counted_or_throw(n, static_cast<std::size_t>(a));
+}
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept { return counted(n); }
+void* operator new[](std::size_t n, const std::nothrow_t&) noexcept { return counted(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
 
 namespace maglead::canopen {
 namespace {
