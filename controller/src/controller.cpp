@@ -61,6 +61,7 @@ ForceLoopConfig force_loop_config(const ControllerConfig& c, const LoadForceObse
   f.damping_n_s_per_m = c.force_damping_n_s_per_m;
   f.breakaway_ramp_n_per_s = c.breakaway_ramp_n_per_s;
   f.tolerance_n = c.force_tol_n;
+  f.speed_limit_m_s = c.force_speed_limit_m_s;
   // Land where a slide's bound still fits inside the tolerance, with room for the stop.
   f.land_tolerance_n = std::max(0.1, 0.5 * (c.force_tol_n - obs.sliding_half_width_n()));
   const double frac = c.actuator.safe_force_fraction;
@@ -630,12 +631,12 @@ bool Controller::settle(const Reached& r, double dt) noexcept {
 void Controller::publish(bool settled, const Reached& r) noexcept {
   const auto& a = cfg_.actuator;
   const auto& tw = s_.twin;
-  s_.status_word =
-      pack_status_word({state_, s_.nut_vel_m_s != 0.0 || prof_vel_m_s_ != 0.0,
-                        settled && r.position, settled && r.force, stepped_out_, tw.drift_warning,
-                        watchdog_expired_, tw.healthy, tw.step_out_warning, stopping_,
-                        s_.nut_pos_m <= a.stroke_min_m || s_.nut_pos_m >= a.stroke_max_m,
-                        tw.lagging, window_end_ != 0});
+  s_.status_word = pack_status_word(
+      {state_, s_.nut_vel_m_s != 0.0 || prof_vel_m_s_ != 0.0, settled && r.position,
+       settled && r.force, stepped_out_, tw.drift_warning, watchdog_expired_, tw.healthy,
+       tw.step_out_warning, stopping_,
+       s_.nut_pos_m <= a.stroke_min_m || s_.nut_pos_m >= a.stroke_max_m, tw.lagging,
+       window_end_ != 0 || force_loop_.state() == ForceLoopState::speed_limited});
   s_.drive_state = static_cast<std::uint16_t>(state_);
   s_.active_mode = static_cast<std::uint16_t>(mode_);
   s_.command_status = command_bits_;

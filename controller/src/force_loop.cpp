@@ -9,14 +9,19 @@ namespace {
 // A bound inside the tolerance is good enough; a landing within the land tolerance is better.
 // The loop tries this many times for the better one, then holds what it has.
 constexpr int kRefineAttempts = 3;
+// The speed counts as at the limit from this share of it on: the estimate moves in steps of one
+// encoder count per sample, so the limited speed dithers just below the limit.
+constexpr double kAtLimitShare = 0.9;
 }  // namespace
 
 ForceLoop::ForceLoop(const ForceLoopConfig& config) : cfg_(config) {
   if (!(cfg_.damping_n_s_per_m > 0) || !(cfg_.breakaway_ramp_n_per_s > 0) ||
       !(cfg_.tolerance_n > 0) || !(cfg_.land_tolerance_n > 0) ||
-      !(cfg_.drive_max_n > cfg_.drive_min_n) || !cfg_.friction.valid())
+      !(cfg_.drive_max_n > cfg_.drive_min_n) || !cfg_.friction.valid() ||
+      !(cfg_.speed_limit_m_s > 0) || !std::isfinite(cfg_.speed_limit_m_s))
     throw std::invalid_argument(
-        "force loop: damping, ramp and tolerances must be positive, the friction model valid");
+        "force loop: damping, ramp, tolerances and speed limit must be positive, the friction "
+        "model valid");
 }
 
 bool ForceLoop::bound_inside_tolerance(const LoadEstimate& est) const noexcept {
@@ -25,6 +30,7 @@ bool ForceLoop::bound_inside_tolerance(const LoadEstimate& est) const noexcept {
 
 ForceReachedReason ForceLoop::reason(const LoadEstimate& est) const noexcept {
   if (state_ == ForceLoopState::off) return ForceReachedReason::not_force_mode;
+  if (state_ == ForceLoopState::speed_limited) return ForceReachedReason::speed_limit;
   if (est.motion != 0) return ForceReachedReason::moving;
   if (bound_inside_tolerance(est)) return ForceReachedReason::reached;
   if (est.basis == ObserverBasis::band) return ForceReachedReason::bound_unknown;
@@ -77,7 +83,20 @@ double ForceLoop::sliding_drive_n(const LoadEstimate& est) noexcept {
   // Feed friction forward only while the nut moves the way the load force must go; moving
   // the other way, friction and damping brake it.
   const bool towards = (e > 0.0) == (est.motion > 0);
-  return setpoint_n_ - damping + (towards ? cfg_.friction.sliding_n(est.nut_vel_m_s) : 0.0);
+  if (!towards) return setpoint_n_ - damping;
+  return speed_limited_n(setpoint_n_ - damping + cfg_.friction.sliding_n(est.nut_vel_m_s), est);
+}
+
+/// The gentler of `drive_n` and the drive that holds the nut at the speed limit: the load force
+/// and friction it slides against, plus D times the speed still allowed (negative past it).
+double ForceLoop::speed_limited_n(double drive_n, const LoadEstimate& est) noexcept {
+  const double v = est.nut_vel_m_s;
+  const double dir = v >= 0.0 ? 1.0 : -1.0;
+  const double at_limit_n = est.force_n + cfg_.friction.sliding_n(v) +
+                            cfg_.damping_n_s_per_m * (dir * cfg_.speed_limit_m_s - v);
+  if ((drive_n - at_limit_n) * dir <= 0.0) return drive_n;
+  if (std::abs(v) >= kAtLimitShare * cfg_.speed_limit_m_s) state_ = ForceLoopState::speed_limited;
+  return at_limit_n;
 }
 
 double ForceLoop::drive_n(const LoadEstimate& est, double dt_s) noexcept {

@@ -96,12 +96,12 @@ constexpr std::array kTable = std::to_array<Register>({
     {"twin_step_out_reason", IR, 58, Type::u16, 1, "", RO, 0, 3,
      "Twin: why step_out_warning is set: 0 none, 1 look-ahead leaves the stable branch, "
      "2 setpoint trend beyond the calibrated peak, 3 stepped out"},
-    {"force_loop_state", IR, 59, Type::u16, 1, "", RO, 0, 7,
+    {"force_loop_state", IR, 59, Type::u16, 1, "", RO, 0, 8,
      "Force loop: 0 off (not force mode), 1 breaking a stuck nut loose, 2 approaching the "
      "setpoint (sliding, friction fed forward), 3 landing, 4 holding (load force at the "
      "setpoint, coupling mid stick band), 5 holding without motion (the setpoint was already "
      "inside the known load-force bound), 6 blocked (no motion at twice the model's break-away), "
-     "7 held at the end of the force mode's stroke window"},
+     "7 held at the end of the force mode's stroke window, 8 sliding at the force speed limit"},
     {"load_force_est_mn", IR, 60, Type::i32, 1e-3, "N", RO, -1e6, 1e6,
      "Load observer: output force at the load, from phase and encoder only (no load cell): the "
      "force balance while the nut slides, the force it had when it stopped while it sticks"},
@@ -109,11 +109,11 @@ constexpr std::array kTable = std::to_array<Register>({
      "Load observer: lowest output force consistent with what it has seen (the bound)"},
     {"load_force_hi_mn", IR, 64, Type::i32, 1e-3, "N", RO, -1e6, 1e6,
      "Load observer: highest output force consistent with what it has seen"},
-    {"force_reached_reason", IR, 66, Type::u16, 1, "", RO, 0, 7,
+    {"force_reached_reason", IR, 66, Type::u16, 1, "", RO, 0, 8,
      "Why force_reached is clear: 0 reached, 1 not in force mode, 2 load force outside the "
      "tolerance, 3 load force unknown (nothing slid since start-up, or the load changed while "
      "the nut stuck), 4 bound wider than the tolerance, 5 nut sliding, 6 dwell running, 7 the "
-     "stroke window ended before the force"},
+     "stroke window ended before the force, 8 sliding at the force speed limit"},
     {"observer_basis", IR, 67, Type::u16, 1, "", RO, 0, 2,
      "Load observer: what pins the estimate down: 0 only the stick band (load force anywhere in "
      "drive +- break-away), 1 sliding (force balance), 2 stuck after a slide"},
@@ -236,8 +236,9 @@ constexpr std::array kTable = std::to_array<Register>({
      "Twin behind the loop: its input queue overflowed, or its results are older than the bound "
      "(5 cycles); the loop never waits for it"},
     {"force_limited", DI, kForceLimited, Type::bit, 1, "", RO, 0, 1,
-     "Force mode holds the nut at the end of its stroke window before the force was reached "
-     "(force_reached_reason 7); no fault: the next setpoint is taken at once"},
+     "Force mode at its envelope: the nut held at the end of its stroke window before the force "
+     "was reached (force_reached_reason 7), or sliding at the force speed limit (reason 8); no "
+     "fault: the next setpoint is taken at once"},
 });
 
 constexpr std::array kAlarms = std::to_array<Code>({
@@ -319,6 +320,7 @@ constexpr std::array kForceLoopStates = std::to_array<Code>({
     {5, "holding_no_motion", "the setpoint was already inside the known load-force bound"},
     {6, "blocked", "no motion at twice the model's break-away force"},
     {7, "held_at_stroke_end", "the nut reached the force mode's stroke window end: held there"},
+    {8, "speed_limited", "sliding towards the setpoint at the force mode's speed limit"},
 });
 constexpr std::array kReachedReasons = std::to_array<Code>({
     {0, "reached", "load force within the tolerance for the dwell"},
@@ -329,6 +331,7 @@ constexpr std::array kReachedReasons = std::to_array<Code>({
     {5, "moving", "the nut slides: the load force is still changing"},
     {6, "settling", "inside the tolerance, the dwell is running"},
     {7, "stroke_end", "the stroke window ended before the force: the nut is held there"},
+    {8, "speed_limit", "the nut slides towards the setpoint at the force mode's speed limit"},
 });
 constexpr std::array kObserverBases = std::to_array<Code>({
     {0, "stick_band", "only the stick band: load force anywhere in drive +- break-away"},

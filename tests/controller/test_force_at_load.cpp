@@ -70,7 +70,8 @@ class Rig {
  public:
   Rig(const LoadCase& lc, const PlantEffects& fx, const ServedModel& model,
       LoadCellTamper::Mode load_cell = LoadCellTamper::Mode::as_measured, std::uint64_t seed = 3,
-      double stroke_max_m = 0.1, double anchor_m = kAnchor_m)
+      double stroke_max_m = 0.1, double anchor_m = kAnchor_m,
+      double force_speed_limit_m_s = ControllerConfig{}.force_speed_limit_m_s)
       : lc_(lc),
         anchor_m_(anchor_m),
         plant_(make_plant(fx, stroke_max_m), seed, anchor_m),
@@ -81,6 +82,7 @@ class Rig {
     cfg_.coupling = model.coupling;
     // A hand may change its force while the nut sticks: the observer is told how fast.
     cfg_.load_drift_n_per_s = lc.hand ? 1.0 : 0.0;
+    cfg_.force_speed_limit_m_s = force_speed_limit_m_s;
     set_load(0.0);
     ctl_ = std::make_unique<Controller>(cfg_, hw_);
     image_ = ctl_->initial_image();
@@ -89,6 +91,7 @@ class Rig {
     post();
   }
   double load_out_n() const { return -plant_.truth().load_force_n; }
+  double nut_vel_m_s() const { return plant_.truth().nut_vel_m_s; }
   Snapshot snap() const { return ctl_->snapshot(); }
   void post() {
     ASSERT_TRUE(ctl_->post(Command{image_, false}));
@@ -343,3 +346,61 @@ void push_to_the_end(double far_n, double near_n) {
 
 TEST(ForceEnvelope, StrokeEndBeforeAPush) { push_to_the_end(15.0, 5.0); }
 TEST(ForceEnvelope, StrokeEndBeforeAPull) { push_to_the_end(-15.0, -5.0); }
+
+// Force mode's speed limit (issue 44): a 12 N setpoint on a 600 N/m spring needs 20 mm of travel;
+// the loop slides the nut there at no more than the configured limit (the plant's true speed),
+// says so (force_limited, force_reached_reason speed_limit, no fault) and still lands within
+// 1.0 N. The same move without a low limit runs faster: the limit is what holds it.
+namespace {
+struct SpeedRun {
+  double max_speed_m_s = 0, mean_speed_m_s = 0, load_n = 0;
+  int limited = 0, reason_speed = 0;
+  std::uint16_t alarm = 0;
+};
+
+SpeedRun push_at_speed(double setpoint_n, double limit_m_s) {
+  Rig rig({"600", 600.0}, PlantEffects{}, ServedModel{}, LoadCellTamper::Mode::as_measured, 3, 0.1,
+          Rig::kAnchor_m, limit_m_s);
+  SpeedRun r;
+  rig.force(setpoint_n);
+  double acc = 0, moved = 0;
+  int n = 0, sliding = 0;
+  const double t_end = rig.t_s() + kStep_s;
+  rig.run(kStep_s, [&](const Snapshot& s) {
+    const double v = std::abs(rig.nut_vel_m_s());
+    r.max_speed_m_s = std::max(r.max_speed_m_s, v);
+    if (v > 1e-3) moved += v * 1e-3, ++sliding;
+    if ((s.status_word >> reg::kForceLimited) & 1u) ++r.limited;
+    if (s.force_reached_reason == static_cast<std::uint16_t>(ForceReachedReason::speed_limit))
+      ++r.reason_speed;
+    if (s.t_s > t_end - kWindow_s) acc += rig.load_out_n(), ++n;
+  });
+  r.mean_speed_m_s = sliding ? moved / (sliding * 1e-3) : 0.0;
+  r.load_n = acc / n;
+  r.alarm = rig.snap().alarm_code;
+  std::printf(
+      "set %.0f N, limit %.3f m/s: speed max %.4f m/s, mean while sliding %.4f m/s, "
+      "limited %d cycles (reason speed_limit %d), load %.2f N, alarm %u\n",
+      setpoint_n, limit_m_s, r.max_speed_m_s, r.mean_speed_m_s, r.limited, r.reason_speed, r.load_n,
+      r.alarm);
+  return r;
+}
+
+void expect_speed_limited(double setpoint_n) {
+  constexpr double kLimit_m_s = 0.02;
+  // The loop acts on the observer's edge-timed speed, a little behind the truth.
+  constexpr double kOvershoot = 1.1;
+  const SpeedRun fast = push_at_speed(setpoint_n, ControllerConfig{}.force_speed_limit_m_s);
+  ASSERT_GT(fast.max_speed_m_s, 2.0 * kLimit_m_s);  // else this case would not test the limit
+  const SpeedRun r = push_at_speed(setpoint_n, kLimit_m_s);
+  EXPECT_LE(r.max_speed_m_s, kOvershoot * kLimit_m_s);
+  EXPECT_GT(r.mean_speed_m_s, 0.5 * kLimit_m_s);  // it slides at the limit, not far below
+  EXPECT_GT(r.limited, 200);                      // 20 mm at 20 mm/s: most of a second at the limit
+  EXPECT_GT(r.reason_speed, 200);
+  EXPECT_EQ(r.alarm, 0);
+  EXPECT_NEAR(r.load_n, setpoint_n, 1.0);
+}
+}  // namespace
+
+TEST(ForceEnvelope, SpeedLimitOnAPush) { expect_speed_limited(12.0); }
+TEST(ForceEnvelope, SpeedLimitOnAPull) { expect_speed_limited(-12.0); }

@@ -211,7 +211,7 @@ void load_control_settings(const std::string& config_dir, controller::Controller
       path, *t, "[control]",
       {"force_reached_tolerance_n", "in_position_tolerance_m", "reached_dwell_s",
        "force_damping_n_s_per_m", "breakaway_ramp_n_per_s", "observer_model_uncertainty_n",
-       "load_drift_n_per_s", "force_stroke_margin_m"});
+       "load_drift_n_per_s", "force_stroke_margin_m", "force_speed_limit_m_s"});
   const struct {
     const char* key;
     double* out;
@@ -223,7 +223,8 @@ void load_control_settings(const std::string& config_dir, controller::Controller
               {"breakaway_ramp_n_per_s", &r.breakaway_ramp_n_per_s, 1e-3, 1e5},
               {"observer_model_uncertainty_n", &r.observer_model_uncertainty_n, 0.0, 100.0},
               {"load_drift_n_per_s", &r.load_drift_n_per_s, 0.0, 1000.0},
-              {"force_stroke_margin_m", &r.force_stroke_margin_m, 0.0, 1.0}};
+              {"force_stroke_margin_m", &r.force_stroke_margin_m, 0.0, 1.0},
+              {"force_speed_limit_m_s", &r.force_speed_limit_m_s, 1e-4, 10.0}};
   for (const auto& key : keys) {
     char range[64];
     std::snprintf(range, sizeof range, "a number in %g .. %g", key.lo, key.hi);

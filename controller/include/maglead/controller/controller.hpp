@@ -50,6 +50,9 @@ struct ControllerConfig {
   // Force mode's stroke window: this far inside each stroke end a nut heading out is held
   // (force_limited, no fault); the hard stroke_limit fault stays for a nut pushed beyond.
   double force_stroke_margin_m = 1e-3;
+  // Force mode's speed limit: the fastest the force loop lets the nut slide towards its
+  // setpoint (force_limited, force_reached_reason speed_limit while it acts).
+  double force_speed_limit_m_s = 0.1;
   // Position loop: phase correction per metre of error, and its integral action.
   double position_gain_rad_per_m = 1500.0;
   double position_integral_rad_per_m_s = 12000.0;

@@ -8,7 +8,10 @@
 // Stuck, the load keeps that force whatever the phase does inside the stick band, so the loop
 // holds the coupling at the observer's load force (the band's centre: most margin both ways).
 // A stuck nut whose load force is off, or unknown, is broken loose by a ramp that starts at the
-// lowest drive that could move it towards the setpoint. No allocation: loop thread.
+// lowest drive that could move it towards the setpoint. Sliding towards the setpoint, the drive
+// never exceeds the one that keeps the nut at the speed limit (the load force plus friction,
+// with the damping D acting on the speed's distance from the limit), so a push into nothing does
+// not race to the stroke's end. No allocation: loop thread.
 #include <cstdint>
 
 #include "maglead/physics/friction_model.hpp"
@@ -26,6 +29,7 @@ enum class ForceLoopState : std::uint8_t {
   holding_no_motion = 5,   // the setpoint was already inside the known load-force bound
   blocked = 6,             // the ramp reached twice the model's break-away without motion
   held_at_stroke_end = 7,  // the controller holds the nut at its force window's end
+  speed_limited = 8,       // sliding towards the setpoint at the force mode's speed limit
 };
 
 /// Why force_reached is clear (input register force_reached_reason).
@@ -38,6 +42,7 @@ enum class ForceReachedReason : std::uint8_t {
   moving = 5,          // the nut slides: the load force is still changing
   settling = 6,        // inside the tolerance, the dwell is running
   stroke_end = 7,      // the force window ended before the force (the controller holds there)
+  speed_limit = 8,     // the nut slides at the force mode's speed limit towards the setpoint
 };
 
 struct ForceLoopConfig {
@@ -47,6 +52,7 @@ struct ForceLoopConfig {
   double tolerance_n = 1.5;               // force_reached tolerance
   double land_tolerance_n = 0.4;          // drop the feed-forward within this of the setpoint
   double drive_min_n = -35.0, drive_max_n = 35.0;  // safe coupling forces
+  double speed_limit_m_s = 0.1;  // the fastest the loop lets the nut slide towards the setpoint
 };
 
 class ForceLoop {
@@ -68,6 +74,7 @@ class ForceLoop {
  private:
   double breakaway_drive_n(const LoadEstimate& est, double dt_s) noexcept;
   double sliding_drive_n(const LoadEstimate& est) noexcept;
+  double speed_limited_n(double drive_n, const LoadEstimate& est) noexcept;
 
   ForceLoopConfig cfg_;
   ForceLoopState state_ = ForceLoopState::off;

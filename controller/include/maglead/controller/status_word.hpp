@@ -21,7 +21,7 @@ struct StatusFacts {
   bool stopped = false;          // the stop bit holds the drive
   bool at_stroke_limit = false;  // the nut at or beyond a stroke end
   bool twin_lagging = false;
-  bool force_limited = false;  // force mode holds at its stroke window's end
+  bool force_limited = false;  // force mode holds at its stroke window's end, or its speed limit
 };
 
 /// The status word's bits for these facts (bit numbers of registers/registers.hpp).
