@@ -145,6 +145,15 @@ struct MoveProfile {
       at = to;
     }
   }
+  /// The move under way or last made at t (nullptr before the first).
+  const Move* move_at(double t) const {
+    const Move* at = nullptr;
+    for (const auto& m : moves) {
+      if (t < m.t0) break;
+      at = &m;
+    }
+    return at;
+  }
   double pos_m(double t) const {
     double p = start_m;
     for (const auto& m : moves) {
@@ -348,16 +357,32 @@ class ScenarioRun {
                                        force_setpoint_n(t - schedule_.start_s(t), schedule_.force_s)
                           : holds_ ? held_setpoint_n(t)
                                    : force_setpoint_n(t, opt_.duration_s));
-      if (!mixed_ && opt_.force_controller)
-        return {opt_.force_controller(t, s_, set) / act_.gear_ratio, set};
+      if (!mixed_ && opt_.controller) {
+        ScenarioSetpoint sp;
+        sp.force_n = set;
+        return {opt_.controller(t, s_, sp) / act_.gear_ratio, set};
+      }
       const auto inv = phase_for_output_force(opt_.estimator_calibration, set, 0.9);
       return {rest_angle_rad(pos_m, L) + inv.phase_rad, set};
     }
     if (move_mode_) {
       const double set = moves_.pos_m(t);
+      if (opt_.controller)
+        return {opt_.controller(t, s_, move_setpoint(t)) / act_.gear_ratio, 0.0, set};
       return {rest_angle_rad(set, L), 0.0, set};
     }
     return {screw0_};
+  }
+
+  /// The move a PLC gives at t: the target, speed and acceleration of the move under way.
+  ScenarioSetpoint move_setpoint(double t) const {
+    ScenarioSetpoint sp;
+    if (const auto* m = moves_.move_at(t)) {
+      sp.target_m = m->to;
+      sp.speed_m_s = m->v;
+      sp.accel_m_s2 = m->a;
+    }
+    return sp;
   }
 
   const ScenarioOptions& opt_;
@@ -390,13 +415,17 @@ void check_options(const ScenarioOptions& opt) {
   }
   if (!(opt.duration_s > 0.0) || opt.duration_s > 24 * 3600.0)
     throw std::invalid_argument("duration must be between 0 and 24 h");
-  if (opt.force_controller && opt.scenario != "force-holds" && opt.scenario != "force-steps")
+  if (opt.controller && !scenario_takes_controller(opt.scenario))
     throw std::invalid_argument(
-        "a scenario's own controller runs the force scenarios force-holds and force-steps; '" +
+        "a scenario's own controller runs force-holds, force-steps and position-moves; '" +
         opt.scenario + "' runs open loop");
 }
 
 }  // namespace
+
+bool scenario_takes_controller(const std::string& scenario) {
+  return scenario == "force-holds" || scenario == "force-steps" || scenario == "position-moves";
+}
 
 ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_path) {
   check_options(opt);

@@ -18,8 +18,26 @@ void ScenarioController::post(std::uint16_t control_word) {
     throw std::logic_error("scenario controller: command queue full");
 }
 
+bool ScenarioController::take(const ScenarioSetpoint& sp) {
+  using registers::Mode;
+  if (std::isfinite(sp.force_n) && sp.force_n != applied_.force_n) {
+    image_.force_setpoint_n = sp.force_n;
+    image_.mode_command = static_cast<std::uint16_t>(Mode::force);
+  } else if (std::isfinite(sp.target_m) &&
+             (sp.target_m != applied_.target_m || sp.speed_m_s != applied_.speed_m_s)) {
+    image_.position_setpoint_m = sp.target_m;
+    image_.velocity_limit_m_s = sp.speed_m_s;
+    image_.accel_limit_m_s2 = sp.accel_m_s2;
+    image_.mode_command = static_cast<std::uint16_t>(Mode::position);
+  } else {
+    return false;
+  }
+  applied_ = sp;
+  return true;
+}
+
 double ScenarioController::motor_angle_rad(double t_s, const SensorSample& sample,
-                                           double force_set_n) {
+                                           const ScenarioSetpoint& setpoint) {
   hw_.sample = sample;
   const std::uint16_t enable = bit(registers::kEnable);
   // Cycle 0 synchronises (drive ready); cycle 1 enables; then execute edges, one cycle high
@@ -29,12 +47,9 @@ double ScenarioController::motor_angle_rad(double t_s, const SensorSample& sampl
   } else if (execute_high_) {
     post(enable);
     execute_high_ = false;
-  } else if (cycles_ > 1 && std::isfinite(force_set_n) && force_set_n != applied_n_) {
-    image_.force_setpoint_n = force_set_n;
-    image_.mode_command = static_cast<std::uint16_t>(registers::Mode::force);
+  } else if (cycles_ > 1 && take(setpoint)) {
     post(enable | bit(registers::kExecute));
     execute_high_ = true;
-    applied_n_ = force_set_n;
   }
   ctl_.step(t_s);
   ++cycles_;

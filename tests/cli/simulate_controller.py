@@ -4,8 +4,11 @@ same scenario open loop (the paper's inverse) misses by several newtons, which s
 can fail. `force-steps` with maglead's loop: over its steps and ramps (the first 65 % of the run)
 the load follows the setpoint within 1.0 N mean absolute, where the open loop is several newtons
 off; the sweep's last third (above 1.4 Hz) is beyond the loop's bandwidth, and the test prints
-its error without judging it (docs/simulation.md says so). The load cell is read here for
-checking only.
+its error without judging it (docs/simulation.md says so). `position-moves` with maglead's
+position loop: at the end of each move's 0.5 s pause the nut rests within 3 linear-encoder counts
+of the target (the loop integrates only errors beyond 1.5 counts; a count more is the encoder's
+own quantization, half a count the noise), where the open loop rests up to 10 counts off. The load
+cell is read here for checking only.
 Usage: simulate_controller.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
 import csv
 import os
@@ -68,6 +71,37 @@ def check_force_steps():
           f"open loop {tracking_error(theirs, 0.883, 1.0):.2f} N mean absolute (beyond the loop's bandwidth)")
 
 
+COUNT_M = 2.15986e-5  # the linear encoder's count (config/actuator.toml)
+REST_TOLERANCE_M = 3 * COUNT_M
+
+
+def rest_errors(path):
+    """|nut - target| [m], mean over the last 0.1 s of each 0.5 s pause after a move."""
+    with open(path) as f:
+        rows = list(csv.DictReader(l for l in f if not l.startswith("#")))
+    t = [float(r["t_s"]) for r in rows]
+    target = [float(r["pos_set_m"]) for r in rows]
+    pos = [float(r["nut_pos_m"]) for r in rows]
+    moving = [False] + [abs(b - a) > 1e-12 for a, b in zip(target, target[1:])]
+    out = []
+    for i in range(1, len(t) - 501):
+        if moving[i] and not moving[i + 1] and not any(moving[i + 1:i + 501]):
+            window = range(i + 400, i + 500)
+            out.append(sum(abs(pos[k] - target[k]) for k in window) / len(window))
+    return out
+
+
+def check_position_moves():
+    ours, theirs = (rest_errors(run_simulate("position-moves", c, "40s")) for c in ("maglead", "open-loop"))
+    check(len(ours) >= 10, f"position-moves: {len(ours)} moves ended in the run")
+    worst = max(ours)
+    check(worst <= REST_TOLERANCE_M,
+          f"position-moves with maglead's loop: rests within {worst * 1e3:.4f} mm of each target "
+          f"(tolerance {REST_TOLERANCE_M * 1e3:.3f} mm)")
+    check(max(theirs) > REST_TOLERANCE_M, f"position-moves open loop rests up to {max(theirs) * 1e3:.4f} mm off "
+          "(the check can fail)")
+
+
 def main():
     watchdog(120)
     os.makedirs(WORK, exist_ok=True)
@@ -78,9 +112,10 @@ def main():
     worst = max(abs(load - setpoint) for setpoint, load in open_loop)
     check(worst > TOLERANCE_N, f"open loop misses by up to {worst:.2f} N (the check can fail)")
     check_force_steps()
+    check_position_moves()
     p = subprocess.run([MAGLEAD, "simulate", "--scenario", "hand-push", "--controller", "maglead", "--out",
                         os.path.join(WORK, "x.csv"), "--config", CONFIG], capture_output=True, text=True)
-    check(p.returncode == 2 and "force-holds" in p.stderr and "force-steps" in p.stderr,
+    check(p.returncode == 2 and "force-holds" in p.stderr and "position-moves" in p.stderr,
           f"other scenarios say they run open loop: {p.stderr.strip()}")
     finish()
 

@@ -37,10 +37,11 @@ void add_simulate(CLI::App& app) {
                   "Calibration for the logged force estimate (default: CONFIG/calibration.toml)");
   cmd->add_option("--controller", o->controller,
                   "What commands the screw: open-loop (the paper's inverse, the coupling at the "
-                  "setpoint; every scenario, the default) or maglead (maglead's own force loop and "
-                  "load observer on the simulated clock, with CONFIG's [control] and model.toml; "
-                  "force-holds and force-steps, each new setpoint given with an execute edge as "
-                  "a PLC gives it)")
+                  "setpoint, the screw at the move's profile; every scenario, the default) or "
+                  "maglead (maglead's own loop on the simulated clock, with CONFIG's [control] and "
+                  "model.toml: the force loop and load observer on force-holds and force-steps, "
+                  "the position loop and its profile on position-moves; each new setpoint or move "
+                  "given with an execute edge as a PLC gives it)")
       ->check(CLI::IsMember({"open-loop", "maglead"}))
       ->capture_default_str();
   cmd->callback([o] {
@@ -55,18 +56,17 @@ void add_simulate(CLI::App& app) {
     opt.estimator_calibration = load_calibration(cal);
     std::unique_ptr<runtime::ScenarioController> loop;
     if (o->controller == "maglead") {
-      if (o->scenario != "force-holds" && o->scenario != "force-steps")
+      if (!scenario_takes_controller(o->scenario))
         throw CLI::ValidationError("--controller",
-                                   "maglead runs the force scenarios force-holds and "
-                                   "force-steps; '" +
+                                   "maglead runs force-holds, force-steps and position-moves; '" +
                                        o->scenario +
                                        "' runs open loop only: leave out --controller, or use "
-                                       "--scenario force-holds or force-steps");
+                                       "--scenario force-holds, force-steps or position-moves");
       controller::ControllerConfig cc = controller_config_of(o->config, cal, "", nullptr);
       cc.actuator = opt.plant.actuator;
       loop = std::make_unique<runtime::ScenarioController>(cc);
-      opt.force_controller = [&loop](double t, const SensorSample& s, double set_n) {
-        return loop->motor_angle_rad(t, s, set_n);
+      opt.controller = [&loop](double t, const SensorSample& s, const ScenarioSetpoint& sp) {
+        return loop->motor_angle_rad(t, s, sp);
       };
     }
     Progress progress("simulate " + o->scenario);

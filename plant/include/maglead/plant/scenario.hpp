@@ -3,6 +3,7 @@
 // sample rate, logs what a test bench would log and streams it as an mls-recording/1.
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,18 @@ struct ScenarioInfo {
 };
 const std::vector<ScenarioInfo>& scenario_list();
 
+/// What a scenario asks of a controller at a sample, as a PLC would: a force [N], or a move to
+/// target_m [m] at speed_m_s [m/s] and accel_m_s2 [m/s²]; NaN where it asks neither.
+struct ScenarioSetpoint {
+  double force_n = std::numeric_limits<double>::quiet_NaN();
+  double target_m = std::numeric_limits<double>::quiet_NaN();
+  double speed_m_s = 0.0, accel_m_s2 = 0.0;
+};
+
+/// The scenarios a controller other than the open loop can run: the force scenarios and the
+/// point-to-point moves (one mode each, as a PLC runs them).
+bool scenario_takes_controller(const std::string& scenario);
+
 struct ScenarioOptions {
   std::string scenario;
   double duration_s = 30.0;
@@ -24,12 +37,12 @@ struct ScenarioOptions {
   PlantParams plant = paper_like_plant();
   ForceCalibration estimator_calibration = paper_calibration();  // for out_force_est_n
   std::function<void(double fraction)> progress;                 // optional, ~100 calls
-  /// force-holds: what commands the screw instead of the paper's open-loop inverse (the coupling
-  /// at the setpoint): time [s], this sample's sensor reading and the force setpoint [N] in, the
-  /// motor angle command [rad] out (maglead's own loop: runtime::ScenarioController). Empty:
-  /// open loop.
-  std::function<double(double t_s, const SensorSample& sample, double force_set_n)>
-      force_controller;
+  /// What commands the screw instead of the open loop (the paper's inverse, the coupling at the
+  /// force setpoint; the screw at the move's profile): time [s], this sample's sensor reading
+  /// and the setpoint in, the motor angle command [rad at the motor shaft] out (maglead's own
+  /// loop: runtime::ScenarioController). Only where scenario_takes_controller; empty: open loop.
+  std::function<double(double t_s, const SensorSample& sample, const ScenarioSetpoint& setpoint)>
+      controller;
 };
 
 struct ScenarioSummary {

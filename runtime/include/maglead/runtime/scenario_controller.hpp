@@ -1,10 +1,9 @@
 #pragma once
 // maglead's own controller driving a simulated scenario (`simulate --controller maglead`): the
-// 1 kHz loop on the scenario's clock, fed the scenario's sensor samples, its force setpoints
-// given as a PLC gives them (enable once, then an execute edge for each new setpoint).
-#include <limits>
-
+// 1 kHz loop on the scenario's clock, fed the scenario's sensor samples, its setpoints given as
+// a PLC gives them (enable once, then an execute edge for each new force setpoint or move).
 #include "maglead/controller/controller.hpp"
+#include "maglead/plant/scenario.hpp"
 
 namespace maglead::runtime {
 
@@ -15,9 +14,9 @@ class ScenarioController {
   ScenarioController(const ScenarioController&) = delete;
   ScenarioController& operator=(const ScenarioController&) = delete;
 
-  /// One loop cycle at t_s on this sample, towards the output force `force_set_n` [N]; the
-  /// motor angle command [rad at the motor shaft].
-  double motor_angle_rad(double t_s, const SensorSample& sample, double force_set_n);
+  /// One loop cycle at t_s on this sample, towards the setpoint (a force, or a move); the motor
+  /// angle command [rad at the motor shaft].
+  double motor_angle_rad(double t_s, const SensorSample& sample, const ScenarioSetpoint& setpoint);
 
  private:
   /// The scenario's sample in, the loop's motor command out.
@@ -34,13 +33,15 @@ class ScenarioController {
     }
   };
   void post(std::uint16_t control_word);
+  /// The setpoint into the command image when it is new (true: execute it).
+  bool take(const ScenarioSetpoint& setpoint);
 
   SampleHardware hw_;
   controller::Controller ctl_;
   controller::CommandImage image_;
   long cycles_ = 0;
   bool execute_high_ = false;
-  double applied_n_ = std::numeric_limits<double>::quiet_NaN();
+  ScenarioSetpoint applied_;
 };
 
 }  // namespace maglead::runtime
