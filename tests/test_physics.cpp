@@ -14,6 +14,7 @@
 #include "maglead/physics/estimator.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/physics/stick_filter.hpp"
+#include "maglead/settings/settings.hpp"
 
 using namespace maglead;
 constexpr double kPi = std::numbers::pi;

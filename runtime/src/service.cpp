@@ -139,11 +139,10 @@ Service::Service(const ServiceConfig& config)
   hardware_ = make_hardware(cfg_.controller.actuator, cfg_.backend);
   controller_ = std::make_unique<controller::Controller>(cfg_.controller, *hardware_);
   if (cfg_.twin) {
-    twin::TwinMonitorConfig tc = twin::load_monitor_config(cfg_.twin_config_dir);
+    twin::TwinMonitorConfig tc = cfg_.twin_config;
     tc.actuator = cfg_.controller.actuator;  // the twin sees the same actuator and calibration
     tc.calibration = cfg_.controller.calibration;
     tc.stop_force_sd_n = cfg_.controller.observer_model_uncertainty_n;
-    if (!cfg_.model_path.empty()) tc.model = twin::load_twin_model(cfg_.model_path);
     tc.integrator.max_step_s = 1.0 / cfg_.controller.actuator.sample_rate_hz;
     twin_ = std::make_unique<TwinRunner>(tc, cfg_.twin_options);
     controller_->attach_twin(twin_.get());

@@ -37,6 +37,7 @@
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/model_file.hpp"
 #include "maglead/plant/scenario.hpp"
+#include "maglead/settings/settings.hpp"
 
 namespace {
 

@@ -36,6 +36,7 @@
 #include "maglead/analysis/signal.hpp"
 #include "maglead/effects/effect.hpp"
 #include "maglead/plant/scenario.hpp"
+#include "maglead/settings/settings.hpp"
 
 namespace {
 

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "maglead/modbus/network_config.hpp"
+#include "maglead/settings/settings.hpp"
 
 using namespace maglead::controller;
 using namespace maglead::modbus;

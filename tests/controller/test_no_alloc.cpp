@@ -17,6 +17,7 @@
 #include "maglead/modbus/modbus_core.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
 #include "maglead/runtime/twin_runner.hpp"
+#include "maglead/settings/settings.hpp"
 #include "maglead/twin/monitor.hpp"
 
 // GCC sees free() on what it takes for a new-expression's pointer in the replacements below

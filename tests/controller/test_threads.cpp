@@ -15,6 +15,7 @@
 #include "maglead/modbus/modbus_tcp.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
 #include "maglead/runtime/twin_runner.hpp"
+#include "maglead/settings/settings.hpp"
 #include "maglead/twin/monitor.hpp"
 
 using namespace maglead;

@@ -14,6 +14,7 @@
 #include "maglead/physics/force_model.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
 #include "maglead/runtime/twin_runner.hpp"
+#include "maglead/settings/settings.hpp"
 #include "maglead/twin/monitor.hpp"
 
 using namespace maglead;

@@ -15,6 +15,7 @@
 #include "maglead/modbus/network_config.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
+#include "maglead/settings/settings.hpp"
 #include "maglead/twin/model.hpp"
 
 namespace {

@@ -17,6 +17,7 @@
 
 #include "maglead/controller/controller.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
+#include "maglead/settings/settings.hpp"
 #include "maglead/twin/model.hpp"
 #include "maglead/twin/monitor.hpp"
 

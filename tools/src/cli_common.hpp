@@ -22,7 +22,6 @@ void register_all(CLI::App& app);
 std::string default_config_dir();
 /// The candidates default_config_dir() tries after $MAGLEAD_CONFIG, in order (for messages).
 std::vector<std::string> config_dir_candidates();
-std::string config_file(const std::string& config_dir, const std::string& name);
 /// `--config DIR` on a command, its help stating the lookup rule (not a machine's path).
 CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what = "");
 
@@ -70,14 +69,13 @@ inline constexpr int kExitBadInput = 2;
 #include "maglead/controller/controller.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/recording/recording.hpp"
+#include "maglead/settings/settings.hpp"
 #include "maglead/twin/model.hpp"
 
 namespace maglead::cli {
 /// θ from a recording: `screw_angle_rad`, else `motor_angle_rad` / gear ratio (the recording's
 /// `# gear_ratio:` if given, else the actuator's). Throws RecordingError if neither is there.
 std::vector<double> screw_angle_of(const Recording& rec, const ActuatorParams& act);
-/// Loads config/actuator.toml (defaults when the file is absent).
-ActuatorParams load_actuator_or_default(const std::string& config_dir);
 /// Reads a recording as read_recording does and, for the actuator (a nut_pos_m column), also
 /// refuses positions beyond the configured stroke widened by ten strokes each way: millimetres
 /// where metres belong pass the reader's machine-independent 10 m bound on a short stroke.
@@ -85,25 +83,12 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
                                   const std::string& config_dir,
                                   const std::vector<std::string>& required = {});
 
-/// The [control] table of CONFIG/actuator.toml into the controller's settings: when "reached"
-/// holds, and the force loop's and the load observer's settings (README "Force control").
-/// Absent keys (or no file) keep the values given. Errors name FILE:LINE:COLUMN.
-void load_control_settings(const std::string& config_dir, controller::ControllerConfig& cfg);
-/// The controller's settings as `serve` runs them: the actuator, the calibration (CONFIG's or the
-/// file given), [control], [reference_move], and the model file's terms (CONFIG/model.toml or
-/// the file given, when it exists; else the actuator's friction). `model_used` gets the model
-/// file read, empty when none.
-controller::ControllerConfig controller_config_of(const std::string& config_dir,
-                                                  const std::string& calibration,
-                                                  const std::string& model,
-                                                  std::string* model_used);
-/// The model file's terms the controller compensates with: its friction, offset and mass
-/// (twin::friction_model), its coupling's gain, ripple and end effect (the twin applies the rest
-/// itself).
-void serve_model_terms(const twin::TwinModel& model, controller::ControllerConfig& cfg);
-/// The [reference_move] table of CONFIG/actuator.toml (mode_command 3): the window inside the
-/// actuator's stroke, the two speeds (slow below fast) and the acceleration. Absent keys keep the
-/// values given; a bad value is an error at FILE:LINE:COLUMN and `move` is left unchanged.
-void load_reference_move(const std::string& config_dir, const ActuatorParams& actuator,
-                         controller::ReferenceMoveConfig& move);
+// The configuration readers (maglead/settings) by their short names, as every command uses them.
+using settings::config_file;
+using settings::controller_config_of;
+using settings::load_actuator_or_default;
+using settings::load_control_settings;
+using settings::load_reference_move;
+using settings::serve_model_terms;
+
 }  // namespace maglead::cli

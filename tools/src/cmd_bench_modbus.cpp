@@ -246,7 +246,7 @@ runtime::ServiceConfig bench_service(const std::string& config_dir, bool twin) {
   sc.controller.calibration = load_calibration(config_file(config_dir, "calibration.toml"));
   sc.backend.simulated.spring_n_per_m = 0.0;  // a free nut, at rest: the network is the load here
   sc.twin = twin;
-  sc.twin_config_dir = config_dir;
+  if (twin) sc.twin_config = twin::load_monitor_config(config_dir);
   sc.network.tcp.port = 0;
   sc.network.tcp.max_connections = 64;
   sc.network.realtime = controller::RealtimePolicy::attempt;

@@ -150,10 +150,12 @@ modbus::NetworkConfig network_config(const ServeOptions& o) {
 }
 
 /// What the service runs: the configuration folder, the model file and the simulated plant.
-runtime::ServiceConfig service_config(const ServeOptions& o, const modbus::NetworkConfig& net) {
+/// `model_used` gets the model file served (empty: none, the actuator's friction).
+runtime::ServiceConfig service_config(const ServeOptions& o, const modbus::NetworkConfig& net,
+                                      std::string& model_used) {
   runtime::ServiceConfig sc;
   auto& cfg = sc.controller;
-  cfg = controller_config_of(o.config, o.calibration, o.model, &sc.model_path);
+  cfg = controller_config_of(o.config, o.calibration, o.model, &model_used);
   cfg.watchdog_s = net.watchdog_s;
   cfg.reactions = net.reactions;
   if (!(o.start_pos_m >= cfg.actuator.stroke_min_m && o.start_pos_m <= cfg.actuator.stroke_max_m))
@@ -163,7 +165,8 @@ runtime::ServiceConfig service_config(const ServeOptions& o, const modbus::Netwo
   sc.backend.name = o.backend;
   set_cia402(o, cfg.actuator, sc.backend.cia402);
   sc.twin = !o.no_twin;
-  sc.twin_config_dir = o.config;
+  sc.twin_config = twin::load_monitor_config(o.config);
+  if (!model_used.empty()) sc.twin_config.model = twin::load_twin_model(model_used);
   sc.network = net;
   return sc;
 }
@@ -209,7 +212,7 @@ std::string files_read(const ServeOptions& o) {
 }
 
 void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
-                  runtime::Service& service) {
+                  const std::string& model_used, runtime::Service& service) {
   const auto& cfg = sc.controller;
   const auto& net = sc.network;
   if (!service.refused().empty())
@@ -234,7 +237,7 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
               files_read(o).c_str());
   std::printf(
       "maglead serve: model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N (+p/-p), %s%s\n",
-      sc.model_path.empty() ? "[actuator]" : sc.model_path.c_str(), cfg.friction.coulomb_pos_n,
+      model_used.empty() ? "[actuator]" : model_used.c_str(), cfg.friction.coulomb_pos_n,
       cfg.friction.coulomb_neg_n, cfg.friction.breakaway_pos_n, cfg.friction.breakaway_neg_n,
       coupling_text(cfg.coupling).c_str(),
       o.sim_effects.empty() ? "" : "; the simulated plant differs (--sim-effect)");
@@ -284,12 +287,13 @@ void wait_for_stop(double duration_s, runtime::Service& service) {
 void run_serve(const ServeOptions& o) {
   const modbus::NetworkConfig net = network_config(o);
   const double duration_s = o.duration.empty() ? 0.0 : parse_duration_s(o.duration);
-  const runtime::ServiceConfig sc = service_config(o, net);
+  std::string model_used;
+  const runtime::ServiceConfig sc = service_config(o, net, model_used);
   runtime::Service service(sc);  // "require" makes start() throw
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   service.start();
-  print_banner(o, sc, service);
+  print_banner(o, sc, model_used, service);
   wait_for_stop(duration_s, service);
   service.stop();
   const auto snap = service.controller().snapshot();

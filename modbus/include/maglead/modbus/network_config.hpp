@@ -1,5 +1,6 @@
 #pragma once
-// config/network.toml: the Modbus server's options (every one is also on the command line).
+// The Modbus server's options (config/network.toml, read by maglead/settings; every one is also
+// on the command line).
 #include <optional>
 #include <string>
 #include <string_view>
@@ -21,11 +22,5 @@ struct NetworkConfig {
   controller::RealtimePolicy realtime =
       controller::RealtimePolicy::attempt;  // [runtime] realtime: "off" | "try" | "require"
 };
-
-/// Reads [tcp], [rtu], [server], [fault_reaction] and [runtime]; absent keys keep their defaults.
-/// Throws std::runtime_error naming the file and key on a malformed value or an unknown key.
-NetworkConfig load_network_config(const std::string& path);
-/// "mode_default", "release", "hold" or "disable"; nothing otherwise.
-std::optional<controller::FaultReaction> parse_fault_reaction(std::string_view text);
 
 }  // namespace maglead::modbus

@@ -22,10 +22,6 @@ struct ActuatorParams {
   double safe_force_fraction = 0.8;         // largest commandable |F_out| / peak force
 };
 
-/// Reads the [actuator] table of a TOML file; absent keys keep their defaults.
-/// Throws std::runtime_error naming the file and key on a bad value.
-ActuatorParams load_actuator_params(const std::string& path);
-
 inline double motor_angle_rad_from_counts(std::int64_t counts, const ActuatorParams& a) {
   return 2.0 * std::numbers::pi * static_cast<double>(counts) / a.motor_counts_per_rev;
 }

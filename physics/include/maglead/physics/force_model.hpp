@@ -75,10 +75,4 @@ struct CouplingModel {
 /// `gain` times a calibration (a coupling g times as strong: the model's coupling_gain_error).
 ForceCalibration scaled(ForceCalibration cal, double gain);
 
-/// TOML round trip of a calibration ([calibration] table). Load throws std::runtime_error
-/// naming the file and key on any missing or malformed value.
-void save_calibration(const std::string& path, const ForceCalibration& cal,
-                      const std::string& header_comment = "");
-ForceCalibration load_calibration(const std::string& path);
-
 }  // namespace maglead

@@ -15,6 +15,7 @@
 #include "maglead/modbus/network_config.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
 #include "maglead/runtime/twin_runner.hpp"
+#include "maglead/twin/monitor.hpp"
 
 namespace maglead::runtime {
 
@@ -49,9 +50,9 @@ struct ServiceConfig {
   controller::ControllerConfig controller;
   BackendOptions backend;
   bool twin = true;
-  std::string twin_config_dir;  // actuator/calibration/model.toml for the twin
-  std::string model_path;       // the model file (serve --model): the twin runs it and the
-                                // controller's friction comes from it; "" = CONFIG/model.toml
+  // The twin's monitor (settings::load_monitor_config, or built in code); the service gives it
+  // the controller's actuator and calibration. Its model is the one the controller is served.
+  twin::TwinMonitorConfig twin_config;
   TwinRunnerOptions twin_options;
   // The twin thread's SCHED_FIFO priority when realtime is not "off": below the loop's (50),
   // above every SCHED_OTHER thread (network, clients), so a busy network cannot starve the

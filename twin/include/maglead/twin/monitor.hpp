@@ -173,9 +173,6 @@ std::string drift_message(const TwinOutputs& o);
 /// The same figures for any DriftFigures (twin-check prints the state at the end of a run).
 std::string drift_figures_text(const DriftFigures& f);
 
-/// Loads config/model.toml, calibration.toml and actuator.toml from a config directory.
-TwinMonitorConfig load_monitor_config(const std::string& config_dir);
-
 class TwinMonitor {
  public:
   explicit TwinMonitor(const TwinMonitorConfig& config);

@@ -1,4 +1,4 @@
-#include "maglead/physics/actuator.hpp"
+#include "maglead/settings/settings.hpp"
 
 #include <cmath>
 #include <stdexcept>

@@ -1,4 +1,4 @@
-#include "maglead/modbus/network_config.hpp"
+#include "maglead/settings/settings.hpp"
 
 #include <arpa/inet.h>
 
