@@ -141,8 +141,9 @@ def against_a_server():
 
 
 def force_at_the_stroke_end():
-    """Force mode on the 40 mm stroke against a soft spring: the push ends at the window's end as
-    a defined outcome (no fault), the client says so, and the next setpoint is taken at once."""
+    """Force mode on the 40 mm stroke against a soft spring: a push (then a pull) ends at the
+    window's end as a defined outcome (no fault), the client says so, and the next setpoint is
+    taken at once."""
     srv = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring", "600")
     try:
         port = str(srv.port)
@@ -156,6 +157,13 @@ def force_at_the_stroke_end():
         # controller takes it (acknowledged, force mode again, no fault).
         rc, out, err = run("set", "--port", port, "force", "5", "--no-wait", "--hold", "0.2s", "--config", CONFIG)
         check(rc == 0 and "acknowledged" in out, f"the next setpoint is taken: {out.strip()} {err.strip()}")
+        # The other way: a pull of 15 N needs 25 mm below the anchor, past the stroke's start.
+        rc, out, err = run("set", "--port", port, "force", "-15", "--config", CONFIG)
+        check(rc == 4 and "stroke window ended before the force" in err,
+              f"set force -15: the stroke's start before the force: {err.strip()}")
+        j = poll_json(port, "drive_state,alarm_code,nut_pos_m")
+        check(j["alarm"]["code"] == 0 and j["values"]["nut_pos_m"] >= 0.0,
+              f"pulling: no stroke_limit fault, the nut inside the stroke: {j}")
     finally:
         srv.stop()
 
