@@ -24,6 +24,7 @@ TEST(Cia402Backend, ReadsTheEncodersAndFollowsTheCommandThroughTheDrive) {
   EXPECT_NE(hw.describe().find("40 % of the bus at 1000000 bit/s"), std::string::npos);
   SensorSample s;
   const double t0_s = 7.0;  // the loop's clock has an origin of its own
+  ASSERT_EQ(hw.set_power(PowerRequest::enable), HwStatus::ok);
   ASSERT_EQ(hw.read_sensors(t0_s, s), HwStatus::ok);
   EXPECT_TRUE(std::isnan(s.load_force_n));
   const double start_rad = motor_angle_rad_from_counts(s.motor_counts, a);
@@ -96,6 +97,7 @@ TEST(Cia402Backend, OnePercentLostFramesDoNotStopTheLoop) {
   const ActuatorParams a;
   Cia402Hardware hw(a, o, plant());
   SensorSample s;
+  ASSERT_EQ(hw.set_power(PowerRequest::enable), HwStatus::ok);
   ASSERT_EQ(hw.read_sensors(0.0, s), HwStatus::ok);
   const double start_rad = motor_angle_rad_from_counts(s.motor_counts, a);
   for (int k = 1; k <= 5000; ++k) {

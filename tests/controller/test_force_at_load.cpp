@@ -59,6 +59,7 @@ class LoadCellTamper final : public ActuatorHardware {
     commands_rad.push_back(motor_angle_cmd_rad);
     return hw_.write_motor_angle(motor_angle_cmd_rad);
   }
+  HwStatus set_power(PowerRequest request) noexcept override { return hw_.set_power(request); }
   std::vector<double> commands_rad;
 
  private:

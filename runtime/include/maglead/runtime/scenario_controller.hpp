@@ -32,6 +32,7 @@ class ScenarioController {
       motor_cmd_rad = angle_rad;
       return HwStatus::ok;
     }
+    HwStatus set_power(PowerRequest) noexcept override { return HwStatus::ok; }
   };
   void post(std::uint16_t control_word);
 
