@@ -129,7 +129,7 @@ HwStatus Cia402Hardware::set_power(PowerRequest request) noexcept {
     if (!resetting_) master_->request(drive_request(request));  // else once the reset is done
   }
   power_since_s_ = bus_now_s_;
-  return status();
+  return command_status();
 }
 
 void Cia402Hardware::supervise_power(double bus_now_s) noexcept {
@@ -156,8 +156,17 @@ HwStatus Cia402Hardware::status() const noexcept {
   const MasterFault f = master_->fault();
   // During a reset the drive's fault is the one being cleared, not a new one.
   const bool held_off = resetting_ && f == MasterFault::drive_fault;
-  return (f == MasterFault::none || held_off) && !enable_timed_out_ ? HwStatus::ok
-                                                                    : HwStatus::drive_fault;
+  if ((f != MasterFault::none && !held_off) || enable_timed_out_) return HwStatus::drive_fault;
+  // Bit 13 means following error only in operation enabled (cyclic synchronous position).
+  const DriveFeedback& fb = master_->feedback();
+  const bool following_error =
+      fb.state == DriveState::operation_enabled && (fb.statusword & sw_following_error) != 0;
+  return following_error ? HwStatus::following_error : HwStatus::ok;
+}
+
+HwStatus Cia402Hardware::command_status() const noexcept {
+  // A following error is read_sensors' to report; a command is refused only by a drive fault.
+  return status() == HwStatus::drive_fault ? HwStatus::drive_fault : HwStatus::ok;
 }
 
 HwStatus Cia402Hardware::read_sensors(double now_s, SensorSample& out) noexcept {
@@ -179,7 +188,7 @@ HwStatus Cia402Hardware::read_sensors(double now_s, SensorSample& out) noexcept 
   const HwStatus st = status();
   // A loop does not write after a drive fault (the controller does not): the cycle's RPDO and
   // SYNC go now, so the drive keeps its SYNC and the master its supervision and controlword.
-  transmit_pending_ = st == HwStatus::ok;
+  transmit_pending_ = st != HwStatus::drive_fault;
   if (!transmit_pending_) master_->transmit();
   const DriveFeedback& f = master_->feedback();
   out.motor_counts = std::llround(f.position_counts * scale_.motor_counts_per_drive_count);
@@ -198,7 +207,7 @@ HwStatus Cia402Hardware::write_motor_angle(double motor_angle_cmd_rad) noexcept 
     transmit_pending_ = false;
     master_->transmit();
   }
-  return status();
+  return command_status();
 }
 
 SimulatedCia402Drive* Cia402Hardware::simulated_drive() { return sim_ ? &sim_->drive : nullptr; }

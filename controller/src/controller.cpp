@@ -200,8 +200,9 @@ void Controller::latch_fault(Alarm alarm) noexcept {
         mode_ = Mode::idle;
         prof_pos_m_ = target_m_ = s_.nut_pos_m;
         prof_vel_m_s_ = 0.0;
-      } else if (alarm == Alarm::sensor_fault || alarm == Alarm::drive_fault) {
-        // Nothing measured: keep the last command.
+      } else if (alarm == Alarm::sensor_fault || alarm == Alarm::drive_fault ||
+                 alarm == Alarm::following_error) {
+        // Nothing measured, or a motor that does not follow: keep the last command.
       } else {
         controlled_stop();
         stopping_ = true;
@@ -424,7 +425,9 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   const HwStatus hs = hw_.read_sensors(now_s, sample);
   CycleStatus status = CycleStatus::ok;
   if (hs != HwStatus::ok) {
-    latch_fault(hs == HwStatus::sensor_fault ? Alarm::sensor_fault : Alarm::drive_fault);
+    latch_fault(hs == HwStatus::sensor_fault      ? Alarm::sensor_fault
+                : hs == HwStatus::following_error ? Alarm::following_error
+                                                  : Alarm::drive_fault);
     status = CycleStatus::hardware_error;
   } else {
     read_measurements(now_s, sample);

@@ -51,6 +51,20 @@ struct ControllerOnDrive {
     return ::testing::AssertionSuccess();
   }
 
+  ::testing::AssertionResult enables() {
+    return reaches(bit(reg::kEnable), DriveState::operation_enabled, reg::DriveState::enabled);
+  }
+  /// Enable low and a fault reset edge: the drive in switch on disabled, the controller ready;
+  /// then an enable edge enables both again.
+  ::testing::AssertionResult resets_and_enables() {
+    post(0);
+    ::testing::AssertionResult reset =
+        reaches(bit(reg::kFaultReset), DriveState::switch_on_disabled, reg::DriveState::ready);
+    if (!reset) return reset << " after the reset";
+    post(0);
+    return enables();
+  }
+
   Cia402Hardware hw;
   controller::Controller ctl;
   controller::CommandImage image;
@@ -63,39 +77,50 @@ TEST(Cia402Power, TheControllersEnableReachesOperationEnabledAndItsDisableLeaves
   // Ready, not enabled: the power stage stays off until the controller's enable.
   EXPECT_EQ(r.state(), reg::DriveState::ready);
   EXPECT_EQ(r.drive(), DriveState::switch_on_disabled);
-  EXPECT_TRUE(
-      r.reaches(bit(reg::kEnable), DriveState::operation_enabled, reg::DriveState::enabled));
+  EXPECT_TRUE(r.enables());
   EXPECT_TRUE(r.reaches(0, DriveState::switch_on_disabled, reg::DriveState::ready));
 }
 
 TEST(Cia402Power, ADriveFaultIsClearedByTheControllersResetWithoutARestart) {
   ControllerOnDrive r;
-  ASSERT_TRUE(
-      r.reaches(bit(reg::kEnable), DriveState::operation_enabled, reg::DriveState::enabled));
+  ASSERT_TRUE(r.enables());
   r.hw.simulated_drive()->inject_fault(0x2310, 0.0);  // at once: over-current
   r.cycles(20);
   EXPECT_EQ(r.drive(), DriveState::fault);
   EXPECT_EQ(r.state(), reg::DriveState::fault);
   EXPECT_EQ(r.ctl.snapshot().alarm_code, static_cast<std::uint16_t>(reg::Alarm::drive_fault));
   // The operator's reset: enable low, a fault reset edge. The drive leaves fault (controlword
-  // bit 7's rising edge) for switch on disabled, and the fault is not reported meanwhile.
-  r.post(0);
-  EXPECT_TRUE(
-      r.reaches(bit(reg::kFaultReset), DriveState::switch_on_disabled, reg::DriveState::ready));
-  // And the controller can enable again.
-  r.post(0);
-  EXPECT_TRUE(
-      r.reaches(bit(reg::kEnable), DriveState::operation_enabled, reg::DriveState::enabled));
+  // bit 7's rising edge) for switch on disabled, and the fault is not reported meanwhile; then
+  // the controller can enable again.
+  EXPECT_TRUE(r.resets_and_enables());
 }
 
 TEST(Cia402Power, TheStopBitIsTheDrivesQuickStopAndItsReleaseEnablesAgain) {
   ControllerOnDrive r;
-  ASSERT_TRUE(
-      r.reaches(bit(reg::kEnable), DriveState::operation_enabled, reg::DriveState::enabled));
+  ASSERT_TRUE(r.enables());
   EXPECT_TRUE(r.reaches(bit(reg::kEnable) | bit(reg::kStop), DriveState::quick_stop_active,
                         reg::DriveState::enabled));
-  EXPECT_TRUE(
-      r.reaches(bit(reg::kEnable), DriveState::operation_enabled, reg::DriveState::enabled));
+  EXPECT_TRUE(r.enables());
+}
+
+// The drive's following error (statusword bit 13 in cyclic synchronous position) is maglead's
+// alarm following_error, the drive itself not in fault; the controller's reset clears it once the
+// motor can follow again.
+TEST(Cia402Power, TheDrivesFollowingErrorIsAnAlarm) {
+  ControllerOnDrive r;
+  ASSERT_TRUE(r.enables());
+  // A window of one count for 2 ms: a move at 10 mm/s leaves it.
+  r.hw.simulated_drive()->set_following_error_window(1, 2);
+  r.image.mode_command = static_cast<std::uint16_t>(reg::Mode::position);
+  r.image.position_setpoint_m = 0.03;
+  r.post(bit(reg::kEnable) | bit(reg::kExecute));
+  r.post(bit(reg::kEnable));
+  for (int i = 0; i < 500 && r.ctl.snapshot().alarm_code == 0; ++i) r.cycles(1);
+  EXPECT_EQ(r.ctl.snapshot().alarm_code, static_cast<std::uint16_t>(reg::Alarm::following_error));
+  EXPECT_EQ(r.state(), reg::DriveState::fault);
+  EXPECT_EQ(r.drive(), DriveState::operation_enabled);
+  r.hw.simulated_drive()->set_following_error_window(0xFFFFFFFFU, 10);  // off again
+  EXPECT_TRUE(r.resets_and_enables());
 }
 
 }  // namespace

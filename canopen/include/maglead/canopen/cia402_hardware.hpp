@@ -81,6 +81,7 @@ class Cia402Hardware final : public ActuatorHardware {
   void wait_cycle(double until_s);
   void supervise_power(double bus_now_s) noexcept;
   HwStatus status() const noexcept;
+  HwStatus command_status() const noexcept;
 
   Cia402BackendOptions opt_;
   Cia402Scaling scale_;

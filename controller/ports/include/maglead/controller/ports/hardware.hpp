@@ -13,7 +13,12 @@ struct SensorSample {
   double load_force_n = 0.0;       // load cell if fitted (force on the nut from the load), else NaN
 };
 
-enum class HwStatus : std::uint8_t { ok, sensor_fault, drive_fault };
+enum class HwStatus : std::uint8_t {
+  ok,
+  sensor_fault,
+  drive_fault,
+  following_error,  // the drive's motor does not follow the command (the drive itself has no fault)
+};
 
 /// What the controller asks of the drive's power stage (CiA 402: the controlword's target).
 enum class PowerRequest : std::uint8_t {
