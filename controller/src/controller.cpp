@@ -556,8 +556,9 @@ void Controller::supervise(double now_s) noexcept {
 }
 
 /// The power stage follows the drive state: enabled → enable (quick stop while the stop bit
-/// holds), ready → disable. A fault keeps what it had (its reaction needs the motor); the fault
-/// reset passes on to the drive, which then stays disabled until the next enable.
+/// holds), ready → disable. A fault keeps what the stage had but ends a quick stop: its reaction
+/// (release, hold) needs the motor. The fault reset passes on to the drive, which then stays
+/// disabled until the next enable.
 HwStatus Controller::update_power() noexcept {
   PowerRequest want = power_;
   const bool reset = drive_reset_pending_;  // every reset goes on, a repeated one too
@@ -566,7 +567,9 @@ HwStatus Controller::update_power() noexcept {
     want = PowerRequest::fault_reset;
   } else if (state_ == DriveState::enabled) {
     want = stopping_ ? PowerRequest::quick_stop : PowerRequest::enable;
-  } else if (state_ != DriveState::fault && power_ != PowerRequest::fault_reset) {
+  } else if (state_ == DriveState::fault) {
+    if (power_ == PowerRequest::quick_stop) want = PowerRequest::enable;
+  } else if (power_ != PowerRequest::fault_reset) {
     want = PowerRequest::disable;
   }
   if (want == power_ && !reset) return HwStatus::ok;

@@ -103,6 +103,21 @@ TEST(Cia402Power, TheStopBitIsTheDrivesQuickStopAndItsReleaseEnablesAgain) {
   EXPECT_TRUE(r.enables());
 }
 
+// A fault while the drive holds in quick stop: the fault reaction needs the motor, so the drive
+// goes back to operation enabled; the reset then disables it like any other.
+TEST(Cia402Power, AFaultDuringAQuickStopGivesTheMotorToTheFaultReaction) {
+  ControllerOnDrive r;
+  ASSERT_TRUE(r.enables());
+  ASSERT_TRUE(r.reaches(bit(reg::kEnable) | bit(reg::kStop), DriveState::quick_stop_active,
+                        reg::DriveState::enabled));
+  ASSERT_TRUE(r.ctl.post(controller::Command{r.image, false, true}));  // the owner is gone
+  r.cycles(20);
+  EXPECT_EQ(r.state(), reg::DriveState::fault);
+  EXPECT_EQ(r.ctl.snapshot().alarm_code, static_cast<std::uint16_t>(reg::Alarm::owner_lost));
+  EXPECT_EQ(r.drive(), DriveState::operation_enabled);
+  EXPECT_TRUE(r.resets_and_enables());
+}
+
 // The drive's following error (statusword bit 13 in cyclic synchronous position) is maglead's
 // alarm following_error, the drive itself not in fault; the controller's reset clears it once the
 // motor can follow again.

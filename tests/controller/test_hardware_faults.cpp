@@ -172,8 +172,9 @@ TEST(HardwareFault, StrokeLimitHitLatchesAlarm4AndHoldsTheNut) {
 }
 
 // The power stage follows the controller's drive state through the port: enable and disable
-// with the enable bit, quick stop while the stop bit holds, nothing new while a fault's reaction
-// runs, the fault reset passed on; each request once, when the state changes.
+// with the enable bit, quick stop while the stop bit holds, enabled while a fault's reaction
+// runs (out of a quick stop too), the fault reset passed on; each request once, when the state
+// changes.
 TEST(HardwareFault, ThePowerStageFollowsTheDriveState) {
   using P = PowerRequest;
   FaultRig rig;
@@ -189,9 +190,16 @@ TEST(HardwareFault, ThePowerStageFollowsTheDriveState) {
   rig.control(bit(reg::kFaultReset));
   EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
   rig.control(0);
+  rig.control(bit(reg::kEnable) | bit(reg::kStop));
+  rig.hw.inject(Fault::sensor);  // a fault while stopped: its reaction takes the motor
+  rig.loop.run_cycles(20);
+  rig.hw.inject(Fault::none);
+  rig.control(0);
+  rig.control(bit(reg::kFaultReset));
+  rig.control(0);
   rig.control(bit(reg::kEnable));
   rig.control(0);
-  const std::vector<P> want = {P::enable,      P::quick_stop, P::enable,
-                               P::fault_reset, P::enable,     P::disable};
+  const std::vector<P> want = {P::enable, P::quick_stop,  P::enable, P::fault_reset, P::quick_stop,
+                               P::enable, P::fault_reset, P::enable, P::disable};
   EXPECT_EQ(rig.hw.power_requests(), want);
 }
