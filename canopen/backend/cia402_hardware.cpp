@@ -80,7 +80,7 @@ Cia402Hardware::Cia402Hardware(const ActuatorParams& actuator, const Cia402Backe
   }
   master_ = std::make_unique<Cia402Master>(*bus, opt_.drive);
   master_->start();
-  await_process_data(opt_.enable_timeout_s);
+  await_process_data(opt_.drive.boot_timeout_s);
 }
 
 Cia402Hardware::~Cia402Hardware() {

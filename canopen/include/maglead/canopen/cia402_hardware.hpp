@@ -26,7 +26,7 @@ struct Cia402BackendOptions {
   double sim_silence_at_s = -1.0;  // sim: the drive falls silent this long after start; < 0 never
   std::uint64_t sim_seed = 1;      // sim: the virtual bus's seed for lost frames
   // An enable request reaches operation enabled by then (and the drive stays there while it
-  // holds), else drive_fault. Also start-up's wait for the drive's first process data.
+  // holds), else drive_fault.
   double enable_timeout_s = 0.5;
   // A fault reset brings the drive out of fault by then; until then its fault is not reported.
   double reset_timeout_s = 0.5;
