@@ -27,6 +27,24 @@ struct Cia402Hardware::Sim {
   VirtualCanPort& port;
 };
 
+namespace {
+
+DriveRequest drive_request(PowerRequest request) noexcept {
+  switch (request) {
+    case PowerRequest::enable:
+      return DriveRequest::enabled;
+    case PowerRequest::quick_stop:
+      return DriveRequest::quick_stop;
+    case PowerRequest::fault_reset:
+      return DriveRequest::fault_reset;
+    case PowerRequest::disable:
+      break;
+  }
+  return DriveRequest::disabled;
+}
+
+}  // namespace
+
 Cia402Scaling cia402_scaling(const DriveConfig& drive, const ActuatorParams& actuator) {
   Cia402Scaling s;
   s.motor_counts_per_drive_count = actuator.motor_counts_per_rev / drive.counts_per_motor_turn;
@@ -55,12 +73,14 @@ Cia402Hardware::Cia402Hardware(const ActuatorParams& actuator, const Cia402Backe
     sim_ = std::make_unique<Sim>(*plant_, opt_, d);
     bus = &sim_->port;
   } else {
-    socket_ = std::make_unique<SocketCanBus>(opt_.can);
+    auto socket = std::make_unique<SocketCanBus>(opt_.can);
+    socket->set_receive_filter(drive_receive_filter(opt_.drive.node_id));
+    socket_ = std::move(socket);
     bus = socket_.get();
   }
   master_ = std::make_unique<Cia402Master>(*bus, opt_.drive);
   master_->start();
-  enable(opt_.enable_timeout_s);
+  await_process_data(opt_.drive.boot_timeout_s);
 }
 
 Cia402Hardware::~Cia402Hardware() {
@@ -81,21 +101,74 @@ void Cia402Hardware::wait_cycle(double until_s) {
   if (wait_s > 0) std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
 }
 
-void Cia402Hardware::enable(double timeout_s) {
-  // Set-up, before the loop runs: cycles on the bus's clock until the drive is enabled, so the
-  // loop's first cycle finds it ready and holding where it stands.
+void Cia402Hardware::await_process_data(double timeout_s) {
+  // Set-up, before the loop runs: cycles on the bus's clock until the drive's TPDOs say where
+  // it stands, so the loop's first cycle has its positions. The drive stays disabled: the
+  // controller's enable powers it. A drive in fault is the controller's to reset.
   CanBus& bus = sim_ ? static_cast<CanBus&>(sim_->port) : *socket_;
   const double period_s = opt_.drive.loop_period_s;
   const double deadline_s = bus.now_s() + timeout_s;
-  master_->request(DriveRequest::enabled);
-  while (master_->feedback().state != DriveState::operation_enabled) {
-    if (bus.now_s() > deadline_s || master_->fault() != MasterFault::none)
-      throw std::runtime_error(std::string("cia402: the drive did not reach operation enabled (") +
-                               drive_state_text(master_->feedback().state) + "; " +
-                               master_->alarm_text() + ")");
+  master_->request(DriveRequest::disabled);
+  while (master_->feedback().state == DriveState::unknown) {
+    const MasterFault f = master_->fault();
+    if (bus.now_s() > deadline_s || (f != MasterFault::none && f != MasterFault::drive_fault))
+      throw std::runtime_error(std::string("cia402: no process data from the drive within ") +
+                               std::to_string(timeout_s) + " s (" + master_->alarm_text() + ")");
     wait_cycle(bus.now_s() + period_s);
     master_->cycle(bus.now_s());
   }
+}
+
+HwStatus Cia402Hardware::set_power(PowerRequest request) noexcept {
+  if (request == PowerRequest::fault_reset) {
+    // The drive leaves fault for switch on disabled and stays disabled until an enable.
+    resetting_ = true;
+    enable_timed_out_ = false;
+    wanted_ = PowerRequest::disable;
+    master_->request(DriveRequest::fault_reset);
+  } else {
+    wanted_ = request;
+    if (!resetting_) master_->request(drive_request(request));  // else once the reset is done
+  }
+  power_since_s_ = bus_now_s_;
+  return command_status();
+}
+
+void Cia402Hardware::supervise_power(double bus_now_s) noexcept {
+  const bool in_fault = master_->fault() != MasterFault::none;
+  if (resetting_) {
+    if (!in_fault) {
+      resetting_ = false;
+      master_->request(drive_request(wanted_));
+      power_since_s_ = bus_now_s;
+    } else if (bus_now_s - power_since_s_ > opt_.reset_timeout_s) {
+      resetting_ = false;  // the drive kept its fault: reported again
+    }
+    return;
+  }
+  if (wanted_ != PowerRequest::enable || in_fault ||
+      master_->feedback().state == DriveState::operation_enabled) {
+    power_since_s_ = bus_now_s;
+    return;
+  }
+  if (bus_now_s - power_since_s_ > opt_.enable_timeout_s) enable_timed_out_ = true;
+}
+
+HwStatus Cia402Hardware::status() const noexcept {
+  const MasterFault f = master_->fault();
+  // During a reset the drive's fault is the one being cleared, not a new one.
+  const bool held_off = resetting_ && f == MasterFault::drive_fault;
+  if ((f != MasterFault::none && !held_off) || enable_timed_out_) return HwStatus::drive_fault;
+  // Bit 13 means following error only in operation enabled (cyclic synchronous position).
+  const DriveFeedback& fb = master_->feedback();
+  const bool following_error =
+      fb.state == DriveState::operation_enabled && (fb.statusword & sw_following_error) != 0;
+  return following_error ? HwStatus::following_error : HwStatus::ok;
+}
+
+HwStatus Cia402Hardware::command_status() const noexcept {
+  // A following error is read_sensors' to report; a command is refused only by a drive fault.
+  return status() == HwStatus::drive_fault ? HwStatus::drive_fault : HwStatus::ok;
 }
 
 HwStatus Cia402Hardware::read_sensors(double now_s, SensorSample& out) noexcept {
@@ -111,18 +184,20 @@ HwStatus Cia402Hardware::read_sensors(double now_s, SensorSample& out) noexcept 
   }
   loop_started_ = true;
   // The master keeps time on the bus's clock, as it did at start-up (its heartbeat timing).
-  const double bus_now_s = sim_ ? sim_->bus.now_s() : socket_->now_s();
-  const MasterFault fault = master_->receive(bus_now_s);
+  bus_now_s_ = sim_ ? sim_->bus.now_s() : socket_->now_s();
+  master_->receive(bus_now_s_);
+  supervise_power(bus_now_s_);
+  const HwStatus st = status();
   // A loop does not write after a drive fault (the controller does not): the cycle's RPDO and
   // SYNC go now, so the drive keeps its SYNC and the master its supervision and controlword.
-  transmit_pending_ = fault == MasterFault::none;
+  transmit_pending_ = st != HwStatus::drive_fault;
   if (!transmit_pending_) master_->transmit();
   const DriveFeedback& f = master_->feedback();
   out.motor_counts = std::llround(f.position_counts * scale_.motor_counts_per_drive_count);
   out.linear_counts =
       std::llround(f.second_encoder_counts * scale_.linear_counts_per_encoder_count);
   out.load_force_n = std::numeric_limits<double>::quiet_NaN();  // no load cell on this path
-  return fault == MasterFault::none ? HwStatus::ok : HwStatus::drive_fault;
+  return st;
 }
 
 HwStatus Cia402Hardware::write_motor_angle(double motor_angle_cmd_rad) noexcept {
@@ -130,10 +205,11 @@ HwStatus Cia402Hardware::write_motor_angle(double motor_angle_cmd_rad) noexcept 
   // The drive's target is 32 bits: a command beyond it is a fault, not a wrapped position.
   if (!(std::abs(counts) < 2147483647.0)) return HwStatus::drive_fault;
   master_->set_target_counts(static_cast<std::int32_t>(std::lround(counts)));
-  if (!transmit_pending_)
-    return master_->fault() == MasterFault::none ? HwStatus::ok : HwStatus::drive_fault;
-  transmit_pending_ = false;
-  return master_->transmit() == MasterFault::none ? HwStatus::ok : HwStatus::drive_fault;
+  if (transmit_pending_) {
+    transmit_pending_ = false;
+    master_->transmit();
+  }
+  return command_status();
 }
 
 SimulatedCia402Drive* Cia402Hardware::simulated_drive() { return sim_ ? &sim_->drive : nullptr; }

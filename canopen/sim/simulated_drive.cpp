@@ -23,6 +23,8 @@ constexpr std::uint32_t ab_toggle = 0x05030000, ab_command = 0x05040001, ab_read
 constexpr std::uint32_t device_type_servo = 0x00020192;
 // Quick stop option code 6: ramp down and stay in quick stop active (transition 16 allowed).
 constexpr std::uint32_t quick_stop_stay = 6;
+// 0x6065 at its largest: the following error check is off.
+constexpr std::uint32_t following_error_off = 0xFFFFFFFFU;
 constexpr std::size_t max_domain_bytes = 64;  // 0x2001, the scratch domain for segmented writes
 
 std::uint32_t le(const std::uint8_t* b, std::size_t n) {
@@ -68,11 +70,18 @@ void SimulatedCia402Drive::build_dictionary() {
     for (std::uint8_t s = 1; s <= 4; ++s) od_.push_back({map, s, 4, A::rw, P::none, 0, {}});
   }
   const std::vector<Entry> device{
-      {0x603F, 0, 2, A::ro, P::tx, 0, {}},      {0x6040, 0, 2, A::rw, P::rx, 0, {}},
-      {0x6041, 0, 2, A::ro, P::tx, 0, {}},      {0x605A, 0, 2, A::ro, P::none, quick_stop_stay, {}},
-      {0x6060, 0, 1, A::rw, P::none, 0, {}},    {0x6061, 0, 1, A::ro, P::tx, 0, {}},
-      {0x6064, 0, 4, A::ro, P::tx, 0, {}},      {0x607A, 0, 4, A::rw, P::rx, 0, {}},
-      {0x60C2, 0, 1, A::ro, P::none, 2, {}},    {0x60C2, 1, 1, A::rw, P::none, 1, {}},
+      {0x603F, 0, 2, A::ro, P::tx, 0, {}},
+      {0x6040, 0, 2, A::rw, P::rx, 0, {}},
+      {0x6041, 0, 2, A::ro, P::tx, 0, {}},
+      {0x605A, 0, 2, A::ro, P::none, quick_stop_stay, {}},
+      {0x6060, 0, 1, A::rw, P::none, 0, {}},
+      {0x6061, 0, 1, A::ro, P::tx, 0, {}},
+      {0x6064, 0, 4, A::ro, P::tx, 0, {}},
+      {0x607A, 0, 4, A::rw, P::rx, 0, {}},
+      {0x6065, 0, 4, A::rw, P::none, following_error_off, {}},
+      {0x6066, 0, 2, A::rw, P::none, 10, {}},
+      {0x60C2, 0, 1, A::ro, P::none, 2, {}},
+      {0x60C2, 1, 1, A::rw, P::none, 1, {}},
       {0x60C2, 2, 1, A::rw, P::none, 0xFD, {}},  // 1·10^-3 s
   };
   od_.insert(od_.end(), device.begin(), device.end());
@@ -275,6 +284,8 @@ std::uint16_t SimulatedCia402Drive::statusword() const noexcept {
       sw = 0x0008;
       break;
   }
+  constexpr std::uint16_t following_error = 1U << 13;
+  if (following_error_ && power_ == Power::enabled) sw |= following_error;
   return static_cast<std::uint16_t>(sw | remote);
 }
 
@@ -332,10 +343,34 @@ void SimulatedCia402Drive::step_actuator(double now_s) noexcept {
   // Cyclic synchronous position: the target is the servo's command only with the power stage
   // enabled and the mode in force; otherwise the servo holds where the motor is.
   const bool follow = power_ == Power::enabled && get(0x6061, 0) == 8;
+  check_following_error(follow, counts, now_s);
   const double target_counts =
       follow ? static_cast<double>(static_cast<std::int32_t>(get(0x607A, 0))) : counts;
+  demand_counts_ = target_counts;
   (void)actuator_.write_motor_angle(2.0 * std::numbers::pi * target_counts /
                                     opt_.counts_per_motor_turn);
+}
+
+void SimulatedCia402Drive::check_following_error(bool follow, double actual_counts,
+                                                 double now_s) noexcept {
+  // CiA 402: the actual position outside the window around the demand for longer than the time
+  // out sets statusword bit 13; it clears once the position is back inside.
+  const std::uint32_t window = get(0x6065, 0);
+  const bool outside = follow && window != following_error_off &&
+                       std::abs(demand_counts_ - actual_counts) > static_cast<double>(window);
+  if (!outside) {
+    outside_since_s_ = -1.0;
+    following_error_ = false;
+    return;
+  }
+  if (outside_since_s_ < 0.0) outside_since_s_ = now_s;
+  following_error_ = now_s - outside_since_s_ >= 1e-3 * get(0x6066, 0);
+}
+
+void SimulatedCia402Drive::set_following_error_window(std::uint32_t window_counts,
+                                                      std::uint16_t timeout_ms) noexcept {
+  set(0x6065, 0, window_counts);
+  set(0x6066, 0, timeout_ms);
 }
 
 void SimulatedCia402Drive::send_tpdos(double now_s) noexcept {

@@ -256,6 +256,7 @@ void Cia402Master::request(DriveRequest request) noexcept {
   // A reset clears the master's own latch once its cause is gone; the drive's fault clears
   // through the controlword sequence.
   if (request == DriveRequest::fault_reset) {
+    sequencer_.restart_fault_reset();
     fault_ = MasterFault::none;
     heartbeat_lost_ = false;
     missed_in_row_ = 0;

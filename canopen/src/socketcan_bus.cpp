@@ -15,6 +15,9 @@
 #include <cstring>
 #include <ctime>
 #include <stdexcept>
+#include <vector>
+
+#include "maglead/canopen/protocol.hpp"
 
 namespace maglead::canopen {
 namespace {
@@ -31,7 +34,28 @@ CanStatus classify_error_frame(std::uint32_t can_id) noexcept {
   return (can_id & CAN_ERR_BUSOFF) != 0 ? CanStatus::bus_off : CanStatus::error_frame;
 }
 
-SocketCanBus::SocketCanBus(const std::string& interface) {
+std::array<CanIdFilter, 5> drive_receive_filter(std::uint8_t node_id) noexcept {
+  // The full 11-bit id, and the extended-frame and remote-request flags that must be clear.
+  constexpr std::uint32_t exact = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG;
+  std::array<CanIdFilter, 5> filters{};
+  const std::array<std::uint32_t, 5> function_codes{cob_emcy, cob_tpdo1, cob_tpdo2, cob_sdo_tx,
+                                                    cob_heartbeat};
+  for (std::size_t i = 0; i < filters.size(); ++i)
+    filters[i] = {function_codes[i] + node_id, exact};
+  return filters;
+}
+
+void SocketCanBus::set_receive_filter(std::span<const CanIdFilter> filters) {
+  std::vector<can_filter> raw;
+  raw.reserve(filters.size());
+  for (const CanIdFilter& f : filters) raw.push_back({f.id, f.mask});
+  const auto bytes = static_cast<socklen_t>(raw.size() * sizeof(can_filter));
+  if (setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FILTER, raw.data(), bytes) != 0)
+    throw std::runtime_error("CAN interface \"" + interface_ +
+                             "\": the receive filter was refused (" + std::strerror(errno) + ")");
+}
+
+SocketCanBus::SocketCanBus(const std::string& interface) : interface_(interface) {
   if (interface.empty() || interface.size() >= IFNAMSIZ)
     throw std::runtime_error("CAN interface name \"" + interface + "\" is not valid");
   const unsigned index = if_nametoindex(interface.c_str());

@@ -201,8 +201,9 @@ void Controller::latch_fault(Alarm alarm) noexcept {
         mode_ = Mode::idle;
         prof_pos_m_ = target_m_ = s_.nut_pos_m;
         prof_vel_m_s_ = 0.0;
-      } else if (alarm == Alarm::sensor_fault || alarm == Alarm::drive_fault) {
-        // Nothing measured: keep the last command.
+      } else if (alarm == Alarm::sensor_fault || alarm == Alarm::drive_fault ||
+                 alarm == Alarm::following_error) {
+        // Nothing measured, or a motor that does not follow: keep the last command.
       } else {
         controlled_stop();
         stopping_ = true;
@@ -337,6 +338,7 @@ void Controller::apply(const Command& c) noexcept {
         fault_position_hold_ = false;
         lead_rad_ = 0.0;
         last_heartbeat_s_ = s_.t_s;
+        drive_reset_pending_ = true;  // the drive's own fault clears with ours
       }
       command_bits_ |=
           static_cast<std::uint16_t>(bit(registers::kResetAck) | bit(registers::kResetDone));
@@ -424,7 +426,9 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   const HwStatus hs = hw_.read_sensors(now_s, sample);
   CycleStatus status = CycleStatus::ok;
   if (hs != HwStatus::ok) {
-    latch_fault(hs == HwStatus::sensor_fault ? Alarm::sensor_fault : Alarm::drive_fault);
+    latch_fault(hs == HwStatus::sensor_fault      ? Alarm::sensor_fault
+                : hs == HwStatus::following_error ? Alarm::following_error
+                                                  : Alarm::drive_fault);
     status = CycleStatus::hardware_error;
   } else {
     read_measurements(now_s, sample);
@@ -440,6 +444,10 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   }
   publish_observer();
   const bool settled = settle(reached, dt);
+  if (update_power() != HwStatus::ok) {
+    latch_fault(Alarm::drive_fault);
+    status = CycleStatus::hardware_error;
+  }
   // Also after a sensor fault: the reaction then works from the last good measurement.
   if (hs != HwStatus::drive_fault &&
       hw_.write_motor_angle(screw_cmd_rad_ * cfg_.actuator.gear_ratio) != HwStatus::ok) {
@@ -541,8 +549,33 @@ void Controller::supervise(double now_s) noexcept {
   const bool stop_bit = image_.control_word & bit(registers::kStop);
   if (state_ == DriveState::enabled) {
     if (stop_bit && !stopping_) controlled_stop();
+    // A drive's quick stop may have stopped the nut short of the profile's end: hold where it
+    // stands rather than pull it there unprofiled.
+    if (!stop_bit && stopping_ && prof_vel_m_s_ == 0.0) prof_pos_m_ = target_m_ = s_.nut_pos_m;
     stopping_ = stop_bit;
   }
+}
+
+/// The power stage follows the drive state: enabled → enable (quick stop while the stop bit
+/// holds), ready → disable. A fault keeps what the stage had but ends a quick stop: its reaction
+/// (release, hold) needs the motor. The fault reset passes on to the drive, which then stays
+/// disabled until the next enable.
+HwStatus Controller::update_power() noexcept {
+  PowerRequest want = power_;
+  const bool reset = drive_reset_pending_;  // every reset goes on, a repeated one too
+  drive_reset_pending_ = false;
+  if (reset) {
+    want = PowerRequest::fault_reset;
+  } else if (state_ == DriveState::enabled) {
+    want = stopping_ ? PowerRequest::quick_stop : PowerRequest::enable;
+  } else if (state_ == DriveState::fault) {
+    if (power_ == PowerRequest::quick_stop) want = PowerRequest::enable;
+  } else if (power_ != PowerRequest::fault_reset) {
+    want = PowerRequest::disable;
+  }
+  if (want == power_ && !reset) return HwStatus::ok;
+  power_ = want;
+  return hw_.set_power(want);
 }
 
 /// The screw command of this cycle by drive state and mode; what the mode reached.

@@ -252,6 +252,9 @@ constexpr std::array kAlarms = std::to_array<Code>({
     {7, "owner_lost",
      "the connection that owned control closed: fault reaction; claim again with "
      "fault_reset, then an enable edge"},
+    {8, "following_error",
+     "the drive's motor did not follow the command within the drive's following error window "
+     "(CiA 402 statusword bit 13): the last command is kept"},
 });
 constexpr std::array kReactions = std::to_array<Code>({
     {0, "none", "no fault reaction running"},

@@ -1,8 +1,10 @@
 // The CANopen cycle allocates nothing: the master's cycle and the virtual bus with the simulated
 // drive, over enable, a moving target, 1 % lost frames, a late TPDO, an EMCY fault and its
-// reset. Every global operator new and delete is replaced in this binary (its own executable:
-// the replacement is process-wide); the news count while armed. All of them, with malloc and
-// free, so that a sanitizer's allocator (which brings its own) sees each block paired.
+// reset; and the controller's cycle on the backend "cia402" through its power requests (enable,
+// quick stop, a drive fault and the controller's reset, enable again). Every global operator new
+// and delete is replaced in this binary (its own executable: the replacement is process-wide); the
+// news count while armed. All of them, with malloc and free, so that a sanitizer's allocator (which
+// brings its own) sees each block paired.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -11,6 +13,8 @@
 #include <cstring>
 #include <new>
 
+#include "maglead/canopen/cia402_hardware.hpp"
+#include "maglead/controller/controller.hpp"
 #include "rig.hpp"
 
 namespace {
@@ -95,6 +99,51 @@ TEST(CanopenNoAlloc, TheCycleAllocatesNothingThroughFaultsAndTheirReset) {
   EXPECT_TRUE(alarm_said);
   EXPECT_EQ(rig.master.feedback().state, DriveState::operation_enabled);
   EXPECT_GT(rig.bus.dropped(), 0U);
+}
+
+TEST(CanopenNoAlloc, TheControllersPowerRequestsThroughTheBackendAllocateNothing) {
+  namespace reg = maglead::registers;
+  const auto bit = [](int b) { return static_cast<std::uint16_t>(1U << b); };
+  Cia402BackendOptions o;
+  o.sim_drop_fraction = 0.01;
+  Cia402Hardware hw(paper_like_plant().actuator, o,
+                    std::make_unique<SimulatedActuator>(paper_like_plant(), 3, 0.02));
+  controller::ControllerConfig c;
+  c.actuator = paper_like_plant().actuator;
+  controller::Controller ctl(c, hw);
+  controller::CommandImage image = ctl.initial_image();
+  // The control words posted at these cycles: enable, stop, release, (a drive fault at 400),
+  // enable low and reset, enable again.
+  struct Post {
+    int cycle;
+    std::uint16_t control_word;
+  };
+  const Post posts[] = {{10, bit(reg::kEnable)},
+                        {100, static_cast<std::uint16_t>(bit(reg::kEnable) | bit(reg::kStop))},
+                        {200, bit(reg::kEnable)},
+                        {500, 0},
+                        {501, bit(reg::kFaultReset)},
+                        {600, 0},
+                        {601, bit(reg::kEnable)}};
+  std::uint64_t cycles_in_fault = 0;
+  g_news = 0;
+  g_counting = true;
+  for (int k = 0; k < 800; ++k) {
+    for (const Post& p : posts) {
+      if (p.cycle != k) continue;
+      image.control_word = p.control_word;
+      (void)ctl.post(controller::Command{image, false});
+    }
+    if (k == 400) hw.simulated_drive()->inject_fault(0x2310, 0.0);  // at once: over-current
+    ctl.step(k * 1e-3);
+    cycles_in_fault +=
+        ctl.snapshot().drive_state == static_cast<std::uint16_t>(reg::DriveState::fault);
+  }
+  g_counting = false;
+  EXPECT_EQ(g_news.load(), 0U);
+  EXPECT_GT(cycles_in_fault, 0U);
+  EXPECT_EQ(ctl.snapshot().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+  EXPECT_EQ(hw.master().feedback().state, DriveState::operation_enabled);
 }
 
 }  // namespace

@@ -47,6 +47,10 @@ TEST(Cia402, TheSequencerTakesOneTransitionPerCycleTowardEnabled) {
   EXPECT_EQ(s.next(DriveState::fault, DriveRequest::fault_reset), cw_disable_voltage);
   EXPECT_EQ(s.next(DriveState::fault, DriveRequest::fault_reset), cw_fault_reset);
   EXPECT_EQ(s.next(DriveState::fault, DriveRequest::fault_reset), cw_fault_reset);
+  // The drive kept its fault: a second reset starts with bit 7 low again, a fresh edge.
+  s.restart_fault_reset();
+  EXPECT_EQ(s.next(DriveState::fault, DriveRequest::fault_reset), cw_disable_voltage);
+  EXPECT_EQ(s.next(DriveState::fault, DriveRequest::fault_reset), cw_fault_reset);
   EXPECT_EQ(s.next(DriveState::switch_on_disabled, DriveRequest::fault_reset), cw_disable_voltage);
 }
 

@@ -24,6 +24,7 @@ TEST(Cia402Backend, ReadsTheEncodersAndFollowsTheCommandThroughTheDrive) {
   EXPECT_NE(hw.describe().find("40 % of the bus at 1000000 bit/s"), std::string::npos);
   SensorSample s;
   const double t0_s = 7.0;  // the loop's clock has an origin of its own
+  ASSERT_EQ(hw.set_power(PowerRequest::enable), HwStatus::ok);
   ASSERT_EQ(hw.read_sensors(t0_s, s), HwStatus::ok);
   EXPECT_TRUE(std::isnan(s.load_force_n));
   const double start_rad = motor_angle_rad_from_counts(s.motor_counts, a);
@@ -96,6 +97,7 @@ TEST(Cia402Backend, OnePercentLostFramesDoNotStopTheLoop) {
   const ActuatorParams a;
   Cia402Hardware hw(a, o, plant());
   SensorSample s;
+  ASSERT_EQ(hw.set_power(PowerRequest::enable), HwStatus::ok);
   ASSERT_EQ(hw.read_sensors(0.0, s), HwStatus::ok);
   const double start_rad = motor_angle_rad_from_counts(s.motor_counts, a);
   for (int k = 1; k <= 5000; ++k) {
@@ -103,6 +105,27 @@ TEST(Cia402Backend, OnePercentLostFramesDoNotStopTheLoop) {
     ASSERT_EQ(hw.read_sensors(k * 1e-3, s), HwStatus::ok) << k << ": " << hw.master().alarm_text();
   }
   EXPECT_GT(hw.master().counters().missed_tpdo, 0U);
+}
+
+// A drive that does not reach operation enabled in time is a drive fault, though the drive
+// reports none: here a timeout shorter than the three transitions enabling takes.
+TEST(Cia402Backend, AnEnableNotReachedInTimeIsADriveFaultUntilTheReset) {
+  Cia402BackendOptions o;
+  o.enable_timeout_s = 0.002;
+  Cia402Hardware hw(ActuatorParams{}, o, plant());
+  SensorSample s;
+  ASSERT_EQ(hw.set_power(PowerRequest::enable), HwStatus::ok);
+  HwStatus last = HwStatus::ok;
+  for (int k = 0; k < 10; ++k) {
+    last = hw.read_sensors(k * 1e-3, s);
+    hw.write_motor_angle(motor_angle_rad_from_counts(s.motor_counts, ActuatorParams{}));
+  }
+  EXPECT_EQ(last, HwStatus::drive_fault);
+  EXPECT_TRUE(hw.enable_timed_out());
+  EXPECT_EQ(hw.master().fault(), MasterFault::none);
+  EXPECT_EQ(hw.set_power(PowerRequest::fault_reset), HwStatus::ok);
+  EXPECT_FALSE(hw.enable_timed_out());
+  EXPECT_EQ(hw.read_sensors(0.011, s), HwStatus::ok);
 }
 
 TEST(Cia402Backend, RefusesWhatCannotWork) {

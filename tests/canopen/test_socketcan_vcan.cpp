@@ -34,6 +34,22 @@ TEST(SocketCanVcan, AFrameSentOnOneSocketArrivesOnAnother) {
   EXPECT_EQ(b.counters().received, 1U);
 }
 
+TEST(SocketCanVcan, TheReceiveFilterKeepsOtherNodesFramesOut) {
+  SocketCanBus a(interface_name());
+  SocketCanBus b(interface_name());
+  b.set_receive_filter(drive_receive_filter(1));
+  CanFrame f;
+  f.len = 1;
+  for (std::uint32_t id : {0x182U, 0x601U, 0x181U}) {  // another drive's TPDO, an SDO request
+    f.id = id;
+    ASSERT_EQ(a.send(f), CanStatus::ok);
+  }
+  CanFrame got;
+  ASSERT_EQ(b.receive(got, b.now_s() + 0.1), CanStatus::ok);
+  EXPECT_EQ(got.id, 0x181U);
+  EXPECT_EQ(b.receive(got, b.now_s() + 0.02), CanStatus::timeout);
+}
+
 TEST(SocketCanVcan, AnEmptyBusTimesOutAtTheDeadline) {
   SocketCanBus a(interface_name());
   CanFrame got;

@@ -141,6 +141,22 @@ TEST(SocketCan, ErrorFramesAreReportedAndBusOffTellsItself) {
             CanStatus::error_frame);
 }
 
+// The kernel's filter on a shared bus: the drive's own frames pass, whole ids only (a frame of
+// another node differs in the low bits), standard frames only, no remote requests.
+TEST(SocketCan, TheReceiveFilterPassesTheDrivesFramesOnly) {
+  const auto filters = drive_receive_filter(5);
+  const auto passes = [&](std::uint32_t can_id) {
+    for (const CanIdFilter& f : filters)
+      if ((can_id & f.mask) == (f.id & f.mask)) return true;
+    return false;
+  };
+  for (std::uint32_t id : {0x085U, 0x185U, 0x285U, 0x585U, 0x705U}) EXPECT_TRUE(passes(id)) << id;
+  for (std::uint32_t id : {0x086U, 0x184U, 0x186U, 0x385U, 0x605U, 0x080U, 0x000U, 0x705U | 0x10U})
+    EXPECT_FALSE(passes(id)) << id;
+  EXPECT_FALSE(passes(0x185U | CAN_EFF_FLAG));
+  EXPECT_FALSE(passes(0x185U | CAN_RTR_FLAG));
+}
+
 TEST(CanFrames, WorstCaseLengthsAreTheLiterature) {
   // Davis et al. 2007: 135 bits for 8 data bytes, 55 for none (stuff bits and IFS included).
   EXPECT_EQ(frame_bits_worst(8), 135);

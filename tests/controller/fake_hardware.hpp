@@ -23,6 +23,7 @@ class FaultInjectingHardware final : public ActuatorHardware {
 
   explicit FaultInjectingHardware(SimulatedActuator& plant) : plant_(plant) {
     commands_.reserve(1 << 16);
+    power_requests_.reserve(256);
   }
 
   /// Injects `fault` from the next access on, until inject(Fault::none).
@@ -42,6 +43,12 @@ class FaultInjectingHardware final : public ActuatorHardware {
     if (commands_.size() < commands_.capacity()) commands_.push_back(motor_angle_cmd_rad);
     return plant_.write_motor_angle(motor_angle_cmd_rad);
   }
+  HwStatus set_power(PowerRequest request) noexcept override {
+    if (power_requests_.size() < power_requests_.capacity()) power_requests_.push_back(request);
+    return plant_.set_power(request);
+  }
+  /// Every power request the controller made, in order.
+  const std::vector<PowerRequest>& power_requests() const { return power_requests_; }
 
   /// Motor commands the plant accepted, in order.
   const std::vector<double>& commands() const { return commands_; }
@@ -53,6 +60,7 @@ class FaultInjectingHardware final : public ActuatorHardware {
   SimulatedActuator& plant_;
   Fault fault_ = Fault::none;
   std::vector<double> commands_;
+  std::vector<PowerRequest> power_requests_;
   std::uint64_t reads_ = 0, refused_writes_ = 0;
 };
 

@@ -457,6 +457,7 @@ struct FlakySensor final : ActuatorHardware {
     return now_s >= fail_from_s && now_s < fail_until_s ? HwStatus::sensor_fault : s;
   }
   HwStatus write_motor_angle(double a) noexcept override { return plant.write_motor_angle(a); }
+  HwStatus set_power(PowerRequest request) noexcept override { return plant.set_power(request); }
 };
 
 }  // namespace

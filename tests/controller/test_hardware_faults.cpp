@@ -170,3 +170,36 @@ TEST(HardwareFault, StrokeLimitHitLatchesAlarm4AndHoldsTheNut) {
   const auto [lo, hi] = std::minmax_element(c.end() - 100, c.end());
   EXPECT_LT(*hi - *lo, 1e-6);
 }
+
+// The power stage follows the controller's drive state through the port: enable and disable
+// with the enable bit, quick stop while the stop bit holds, enabled while a fault's reaction
+// runs (out of a quick stop too), the fault reset passed on; each request once, when the state
+// changes.
+TEST(HardwareFault, ThePowerStageFollowsTheDriveState) {
+  using P = PowerRequest;
+  FaultRig rig;
+  EXPECT_TRUE(rig.hw.power_requests().empty()) << "ready at start: the stage stays disabled";
+  rig.control(bit(reg::kEnable));
+  rig.control(bit(reg::kEnable) | bit(reg::kStop));
+  rig.loop.run_cycles(20);
+  rig.control(bit(reg::kEnable));
+  rig.hw.inject(Fault::drive_on_read);
+  rig.loop.run_cycles(20);
+  rig.hw.inject(Fault::none);
+  rig.control(0);
+  rig.control(bit(reg::kFaultReset));
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+  rig.control(0);
+  rig.control(bit(reg::kEnable) | bit(reg::kStop));
+  rig.hw.inject(Fault::sensor);  // a fault while stopped: its reaction takes the motor
+  rig.loop.run_cycles(20);
+  rig.hw.inject(Fault::none);
+  rig.control(0);
+  rig.control(bit(reg::kFaultReset));
+  rig.control(0);
+  rig.control(bit(reg::kEnable));
+  rig.control(0);
+  const std::vector<P> want = {P::enable, P::quick_stop,  P::enable, P::fault_reset, P::quick_stop,
+                               P::enable, P::fault_reset, P::enable, P::disable};
+  EXPECT_EQ(rig.hw.power_requests(), want);
+}

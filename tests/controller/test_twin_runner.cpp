@@ -61,6 +61,7 @@ class RampedLoad final : public ActuatorHardware {
   HwStatus write_motor_angle(double motor_angle_cmd_rad) noexcept override {
     return plant_.write_motor_angle(motor_angle_cmd_rad);
   }
+  HwStatus set_power(PowerRequest request) noexcept override { return plant_.set_power(request); }
 
  private:
   SimulatedActuator plant_;

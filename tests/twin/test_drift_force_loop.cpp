@@ -43,6 +43,7 @@ class NoLoadCell final : public ActuatorHardware {
   HwStatus write_motor_angle(double motor_angle_cmd_rad) noexcept override {
     return hw_.write_motor_angle(motor_angle_cmd_rad);
   }
+  HwStatus set_power(PowerRequest request) noexcept override { return hw_.set_power(request); }
 
  private:
   ActuatorHardware& hw_;

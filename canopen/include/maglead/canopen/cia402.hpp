@@ -42,6 +42,9 @@ enum class DriveRequest : std::uint8_t { disabled, enabled, quick_stop, fault_re
 class Cia402Sequencer {
  public:
   std::uint16_t next(DriveState state, DriveRequest request) noexcept;
+  /// A new reset request: bit 7 goes low again first, so a drive that kept its fault after an
+  /// earlier reset sees a fresh rising edge.
+  void restart_fault_reset() noexcept { reset_low_sent_ = false; }
 
  private:
   bool reset_low_sent_ = false;

@@ -40,6 +40,9 @@ class SimulatedCia402Drive final : public VirtualDevice {
   void inject_fault(std::uint16_t error_code, double at_s) noexcept;
   /// The TPDOs answering the first SYNC at or after `at_s` go out `late_s` late.
   void delay_tpdo(double at_s, double late_s) noexcept;
+  /// The following error window 0x6065 [counts] and time out 0x6066 [ms], as a drive's set-up
+  /// tool writes them (the master does not); 0xFFFFFFFF switches the check off (the default).
+  void set_following_error_window(std::uint32_t window_counts, std::uint16_t timeout_ms) noexcept;
   /// SDO writes to this object are acknowledged but not stored (a drive that ignores them).
   void ignore_writes_to(std::uint16_t index, std::uint8_t sub) noexcept;
 
@@ -80,6 +83,7 @@ class SimulatedCia402Drive final : public VirtualDevice {
   void send_tpdos(double now_s) noexcept;
   void device_control(double now_s) noexcept;
   void step_actuator(double now_s) noexcept;
+  void check_following_error(bool follow, double actual_counts, double now_s) noexcept;
   void enter_fault(std::uint16_t error_code, double now_s) noexcept;
   void emergency(std::uint16_t error_code) noexcept;
   void heartbeat() noexcept;
@@ -113,6 +117,11 @@ class SimulatedCia402Drive final : public VirtualDevice {
   double next_heartbeat_s_ = 0.0;
   Power power_ = Power::not_ready;
   bool fault_reset_bit_ = false;
+  // Following error (CiA 402, cyclic synchronous position): the demand the servo had a cycle to
+  // reach, and since when the actual position has been outside the window.
+  double demand_counts_ = 0.0;
+  double outside_since_s_ = -1.0;
+  bool following_error_ = false;
   std::uint16_t pending_error_ = 0;
   double fault_at_s_ = -1.0, fault_reaction_until_s_ = 0.0;
   CanFrame rpdo_{};

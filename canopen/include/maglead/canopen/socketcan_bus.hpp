@@ -2,11 +2,22 @@
 // SocketCAN (Linux CAN_RAW): a non-blocking socket on one interface, waits bounded by poll, the
 // controller's error frames and bus-off reported as statuses. Opening checks the interface and
 // throws with how to bring one up; after that nothing throws or allocates.
+#include <array>
+#include <cstdint>
+#include <span>
 #include <string>
 
 #include "maglead/canopen/can_bus.hpp"
 
 namespace maglead::canopen {
+
+/// One receive filter of CAN_RAW: a frame passes when (its id & mask) == (id & mask).
+struct CanIdFilter {
+  std::uint32_t id = 0, mask = 0;
+};
+/// What the master for drive `node_id` receives: its EMCY, TPDO1, TPDO2, SDO responses and
+/// heartbeat, standard frames only, no remote frames. Pure, so tested without an interface.
+std::array<CanIdFilter, 5> drive_receive_filter(std::uint8_t node_id) noexcept;
 
 class SocketCanBus final : public CanBus {
  public:
@@ -17,6 +28,11 @@ class SocketCanBus final : public CanBus {
   SocketCanBus(const SocketCanBus&) = delete;
   SocketCanBus& operator=(const SocketCanBus&) = delete;
 
+  /// Set-up: the kernel passes only frames that match one of `filters` (error frames keep
+  /// coming), so traffic of other nodes on a shared bus never reaches the cycle's receive.
+  /// Throws std::runtime_error when the socket refuses them.
+  void set_receive_filter(std::span<const CanIdFilter> filters);
+
   CanStatus send(const CanFrame& frame) noexcept override;
   CanStatus receive(CanFrame& out, double deadline_s) noexcept override;
   double now_s() noexcept override;
@@ -24,6 +40,7 @@ class SocketCanBus final : public CanBus {
 
  private:
   CanStatus read_one(CanFrame& out) noexcept;
+  std::string interface_;
   int fd_ = -1;
   CanCounters counters_;
 };

@@ -158,6 +158,7 @@ class Controller {
   double force_mode_command_rad(double dt, Reached& reached) noexcept;
   void check_force_window() noexcept;
   bool settle(const Reached& reached, double dt) noexcept;
+  HwStatus update_power() noexcept;
   void publish(bool settled, const Reached& reached) noexcept;
 
   void apply(const Command& c) noexcept;
@@ -214,6 +215,9 @@ class Controller {
   double release_force_n_ = 0.0;      // release: the output force being ramped to zero
   double lead_rad_ = 0.0;             // after a slip: the lead (2π k) the nut sits in now
   int window_end_ = 0;  // force mode held at its window's end: +1 the far end, -1 the near one
+  // The power stage: the last request made of the hardware, and a reset it still has to pass on.
+  PowerRequest power_ = PowerRequest::disable;
+  bool drive_reset_pending_ = false;
 };
 
 }  // namespace maglead::controller

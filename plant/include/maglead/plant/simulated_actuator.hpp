@@ -89,6 +89,8 @@ class SimulatedActuator final : public ActuatorHardware {
                     double screw_angle_rad = -1.0);  // default: screw at rest w.r.t. the nut
   HwStatus read_sensors(double now_s, SensorSample& out) noexcept override;
   HwStatus write_motor_angle(double motor_angle_cmd_rad) noexcept override;
+  /// The simulated servo is always powered: ready and stopped hold the last command.
+  HwStatus set_power(PowerRequest) noexcept override { return HwStatus::ok; }
 
   void set_load(const LoadSetting& load) { load_ = load; }
   void advance_to(double t_s) noexcept;

@@ -70,6 +70,7 @@ enum class Alarm : std::uint16_t {
   sensor_fault = 5,
   drive_fault = 6,
   owner_lost = 7,
+  following_error = 8,
 };
 /// The fault reaction the drive is carrying out (register fault_reaction).
 enum class Reaction : std::uint16_t { none = 0, releasing = 1, holding = 2, released = 3 };

@@ -31,6 +31,7 @@ class ScenarioController {
       motor_cmd_rad = angle_rad;
       return HwStatus::ok;
     }
+    HwStatus set_power(PowerRequest) noexcept override { return HwStatus::ok; }
   };
   void post(std::uint16_t control_word);
   /// The setpoint into the command image when it is new (true: execute it).

@@ -1,7 +1,8 @@
 #pragma once
 // The hardware port: the seam between the control loop and an actuator. The loop owns time and
-// calls these two narrow methods each cycle. The controller owns this interface; the simulated
-// plant (plant/) and real drivers implement it, and runtime/ chooses one.
+// calls these narrow methods: the sensors and the motor command each cycle, the power stage when
+// the controller's drive state changes. The controller owns this interface; the simulated plant
+// (plant/) and real drivers implement it, and runtime/ chooses one.
 #include <cstdint>
 
 namespace maglead {
@@ -12,7 +13,20 @@ struct SensorSample {
   double load_force_n = 0.0;       // load cell if fitted (force on the nut from the load), else NaN
 };
 
-enum class HwStatus : std::uint8_t { ok, sensor_fault, drive_fault };
+enum class HwStatus : std::uint8_t {
+  ok,
+  sensor_fault,
+  drive_fault,
+  following_error,  // the drive's motor does not follow the command (the drive itself has no fault)
+};
+
+/// What the controller asks of the drive's power stage (CiA 402: the controlword's target).
+enum class PowerRequest : std::uint8_t {
+  disable,      // power stage off (the controller is ready or disabled)
+  enable,       // operation enabled: the motor follows write_motor_angle
+  quick_stop,   // the drive stops the motor itself and holds it (the controller's stop bit)
+  fault_reset,  // clear the drive's fault after the controller's own reset, then stay disabled
+};
 
 class ActuatorHardware {
  public:
@@ -21,6 +35,10 @@ class ActuatorHardware {
   virtual HwStatus read_sensors(double now_s, SensorSample& out) noexcept = 0;
   /// Motor position command for the drive's servo [rad at the motor shaft].
   virtual HwStatus write_motor_angle(double motor_angle_cmd_rad) noexcept = 0;
+  /// Asks the power stage for `request`, from the loop thread, in the cycle before
+  /// write_motor_angle. Takes effect over the next cycles: must not block or allocate. A drive
+  /// that then does not get there reports drive_fault from read_sensors.
+  virtual HwStatus set_power(PowerRequest request) noexcept = 0;
 };
 
 }  // namespace maglead
