@@ -387,7 +387,7 @@ void add_step_out_finding(Findings& J, const actuator::Prepared& P) {
 std::string sliding_note(const actuator::Prepared& P, const actuator::Selection& sel) {
   // Sliding samples are counted after decimation; the recording's samples before.
   const std::size_t sliding = sel.samples_used * static_cast<std::size_t>(P.decimation);
-  if (!sel.too_little_sliding && sliding >= P.samples / 20) return {};
+  if (!sel.too_little_sliding && sliding >= P.samples / rules::kBarelySlidesOneIn) return {};
   return "the nut barely slides (" + std::to_string(sliding) + " sliding samples of " +
          std::to_string(P.samples) + "): the sliding fit says little; the stuck episodes (" +
          std::to_string(P.stuck.size()) +
