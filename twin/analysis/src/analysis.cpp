@@ -18,6 +18,7 @@
 
 #include "candidates.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/rules.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "maglead/effects/effect.hpp"
 #include "pulses.hpp"
@@ -202,9 +203,10 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
                              double x_scale, double overall_rms) {
   std::vector<int> hot;
   for (std::size_t k = 0; k < b.centre.size(); ++k) {
-    if (b.count[k] < 20) continue;
+    if (b.count[k] < rules::kWhereMinBinSamples) continue;
     const double se = std::sqrt(std::max(b.m2[k], 1e-12) / b.count[k]);
-    if (std::abs(b.mean[k]) > 0.5 * overall_rms && std::abs(b.mean[k]) > 4 * se)
+    if (std::abs(b.mean[k]) > rules::kWhereBinOfRms * overall_rms &&
+        std::abs(b.mean[k]) > rules::kWhereBinSigmas * se)
       hot.push_back(static_cast<int>(k));
   }
   if (hot.empty()) return "";
@@ -308,12 +310,13 @@ int bandwidth_decimation(Prepared& P) {
     const auto af = filtfilt_butter4(a, f, P.fs_hz);
     double lost = 0;
     for (std::size_t i = 0; i < a.size(); ++i) lost += (a[i] - af[i]) * (a[i] - af[i]);
-    if (lost <= 0.01 * ea) {
+    if (lost <= rules::kAxisBandwidthEnergyLost * ea) {
       P.bandwidth_hz = f;
       break;
     }
   }
-  return std::max(1, static_cast<int>(std::floor(0.4 * P.fs_hz / P.bandwidth_hz)));
+  return std::max(
+      1, static_cast<int>(std::floor(rules::kAxisDecimationOfRate * P.fs_hz / P.bandwidth_hz)));
 }
 
 // Decimation to the identification bandwidth: parallel filtering of every signal.
@@ -345,7 +348,7 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   const auto& t = rec.column("t_s");
   P.fs_hz = stats::sample_rate_hz(rec);
   const double dt = 1.0 / P.fs_hz;
-  P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : 100.0;
+  P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : rules::kAxisFilterHz;
   Signals& s = P.full;
   s.t = t;
   s.start_s = t.front();
@@ -364,8 +367,9 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   s.y = P.y_raw;
   fixed_force(s, model);
   // Slow smooth motion has a narrow bandwidth: every held-out segment keeps 100 samples still.
-  const auto keep =
-      static_cast<int>(s.size() / (100 * static_cast<std::size_t>(std::max(3, opt.folds))));
+  const auto keep = static_cast<int>(
+      s.size() / (rules::kAxisMinSegmentSamples *
+                  static_cast<std::size_t>(std::max(rules::kAxisMinFolds, opt.folds))));
   decimate_signals(P, opt.decimation > 0
                           ? opt.decimation
                           : std::clamp(bandwidth_decimation(P), 1, std::max(1, keep)));
@@ -534,9 +538,10 @@ void accumulate_all(AxisRun& run) {
     run.yy_total += run.g.yy[f];
     run.n_total += static_cast<double>(run.g.n[f]);
   }
-  if (run.n_total < 100)
-    throw std::invalid_argument(run.rec.path +
-                                ": fewer than 100 usable samples (the axis hardly moves)");
+  if (run.n_total < rules::kAxisMinUsableSamples)
+    throw std::invalid_argument(run.rec.path + ": fewer than " +
+                                std::to_string(static_cast<int>(rules::kAxisMinUsableSamples)) +
+                                " usable samples (the axis hardly moves)");
 }
 
 // ---------------------------------------------------------------- forward selection
@@ -582,7 +587,7 @@ selection::Settings settings_of(const AnalysisOptions& opt, const effects::Scale
           .min_gain_pct = opt.min_gain_pct,
           .min_t = opt.min_t,
           .acting_share = 0,
-          .parsimony = 0.5,
+          .parsimony = rules::kAxisParsimony,
           .leave_out_spanned = true,
           .scales = scales};
 }
@@ -881,7 +886,8 @@ std::string direction_text(const Signals& S, const Residuals& res) {
   o.precision(3);
   o << "by direction: mean residual " << std::showpos << sp / np << " N moving +, " << sn / nn
     << " N moving −" << std::noshowpos;
-  if (std::abs(sp / np - sn / nn) > 0.3 * res.rms0) o << " (jumps at velocity reversals)";
+  if (std::abs(sp / np - sn / nn) > rules::kWhereReversalJumpOfRms * res.rms0)
+    o << " (jumps at velocity reversals)";
   return o.str();
 }
 
@@ -938,7 +944,7 @@ void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& re
                         static_cast<double>(q);
     std::ostringstream o;
     o.precision(3);
-    if (last > 1.5 * first && last > 0.3 * res.rms0) {
+    if (last > rules::kWhereGrowthFactor * first && last > rules::kWhereGrowthOfRms * res.rms0) {
       o << "over time: the residual grows (RMS " << first << " N in the first third, " << last
         << " N in the last)";
       R.where.push_back(o.str());
@@ -950,7 +956,8 @@ void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& re
     std::ostringstream w2;
     w2.precision(4);
     for (std::size_t k = 0; k < wr.size() && shown < 6; ++k)
-      if (wr[k] > 3 * med && wr[k] > noise_floor_n * 3) {
+      if (wr[k] > rules::kWhereWindowOverMedian * med &&
+          wr[k] > noise_floor_n * rules::kWhereWindowOverMedian) {
         w2 << (shown ? ", " : "") << w.before.x[k] - win / 2 << "–" << w.before.x[k] + win / 2
            << " s";
         Event ev;
@@ -1028,7 +1035,7 @@ Onsets input_edges(const std::vector<double>& x, int decimation) {
   Onsets edges;
   for (std::size_t i = 1; i < x.size(); ++i) {
     const double d = x[i] - x[i - 1];
-    if (std::isfinite(d) && std::abs(d) > 0.05 * (hi - lo) && hi > lo)
+    if (std::isfinite(d) && std::abs(d) > rules::kWhereEdgeOfRange * (hi - lo) && hi > lo)
       edges.emplace_back(i / static_cast<std::size_t>(decimation), sgn(d));
   }
   return edges;
@@ -1137,7 +1144,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   run.progress("prepare", 0.0);
   run.P = prepare(rec, model, opt);
   run.S = run.P.decimated ? &run.P.id : &run.P.full;
-  run.folds = std::max(3, opt.folds);
+  run.folds = std::max(rules::kAxisMinFolds, opt.folds);
   run.progress("prepare", 1.0);
   baseline_columns(run);
   accumulate_all(run);
