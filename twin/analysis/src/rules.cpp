@@ -23,6 +23,7 @@ std::string rules_markdown() {
 
 std::string rules_tests() {
   std::vector<std::string_view> tests;
+  tests.reserve(kTable.size());
   for (const auto& r : kTable) tests.push_back(r.test);
   std::sort(tests.begin(), tests.end());
   tests.erase(std::unique(tests.begin(), tests.end()), tests.end());

@@ -29,7 +29,7 @@ struct AnalysisOptions {
   // actuator: how well the calibration is known [N]; a finding must change the force by more
   // (0: not stated: a thousandth of the calibrated peak force, at least 0.07 N).
   double calibration_accuracy_n = 0.0;
-  int max_terms = 8;
+  int max_terms = rules::kAxisMaxTerms;  // the axis path's; the actuator's is its own
   // actuator: run the twin's force estimate with the corrected model against the load cell and
   // keep only terms that do not raise its error (several twin runs over the recording).
   bool twin_force_check = true;

@@ -114,6 +114,9 @@ inline constexpr std::array kTable = {
     Rule{"max_terms", 6.0, "terms",
          "actuator: most terms the forward selection adds",
          "GeneratedSuite.StribeckFrictionAndViscousFrictionInMovesWithStops", "select"},
+    Rule{"axis_max_terms", 8.0, "terms",
+         "linear axis: most terms the forward selection adds",
+         "Emps.DirectionDependentFrictionSpansTheCoulombAndOffsetTakenFirst", "select"},
     Rule{"min_effect_of_peak", 1e-3, "1",
          "unless stated, the minimum a finding must change is this share of the calibrated peak force …",
          "Actuators/Calibration.IsOffByAFewHundredthsOfANewton/Other", "select"},
@@ -281,6 +284,7 @@ inline constexpr double kNestedR2 = value_of("nested_r2");
 inline constexpr double kAlternativeR2 = value_of("alternative_r2");
 inline constexpr double kSpannedR2 = value_of("spanned_r2");
 inline constexpr int kMaxTerms = static_cast<int>(value_of("max_terms"));
+inline constexpr int kAxisMaxTerms = static_cast<int>(value_of("axis_max_terms"));
 inline constexpr double kMinEffectOfPeak = value_of("min_effect_of_peak");
 inline constexpr double kBenchAccuracyN = value_of("bench_accuracy_n");
 inline constexpr double kActingLawShare = value_of("acting_law_share");
