@@ -25,6 +25,10 @@ namespace maglead::analysis::actuator {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+// The filter's impulse response has died out within this many filter periods either side.
+constexpr double kResponseFilterPeriods = 8.0;
+// A mass no model has: guards the ringing frequency against a zero mass.
+constexpr double kLeastMass_kg = 1e-9;
 using effects::State;
 using stats::median_of;
 using stats::require_finite;
@@ -164,7 +168,8 @@ Signals filtered_signals(const Recording& rec, const ActuatorParams& act, const 
 // The standard deviation of white load-cell noise after the filter, and of its rate (the
 // filter's and the derivative's impulse response, summed in squares).
 std::pair<double, double> filtered_noise(const Prepared& P) {
-  const auto half = static_cast<std::size_t>(8.0 * std::ceil(P.fs_hz / P.filter_hz));
+  const auto half =
+      static_cast<std::size_t>(kResponseFilterPeriods * std::ceil(P.fs_hz / P.filter_hz));
   std::vector<double> x(2 * half + 1, 0.0);
   x[half] = 1.0;
   const auto h = filtfilt_butter4(x, P.filter_hz, P.fs_hz);
@@ -228,7 +233,7 @@ std::vector<unsigned char> sliding_mask(const Signals& s, const Prepared& P) {
 // mass M on the coupling's stiffness k_c = F_m'(0) 2π/L (the count's force over the count), at
 // ω = √(k_c/M) with the model's mass.
 double ring_rad_s(const Prepared& P, const Baseline& base) {
-  return std::sqrt(P.count_force_n / P.count_m / std::max(base.nut_mass_kg, 1e-9));
+  return std::sqrt(P.count_force_n / P.count_m / std::max(base.nut_mass_kg, kLeastMass_kg));
 }
 
 // Per sample, 1 where the nut's ringing reverses it: the ringing's speed, √2 σ ω from the raw

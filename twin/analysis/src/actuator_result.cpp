@@ -66,7 +66,9 @@ Chart fit_over_time(const actuator::Prepared& P, const actuator::Selection& sel)
           "missing force [N]",
           {{added ? "before (the model as configured)" : "the model (nothing added)", {}, {}}}};
   if (added) c.curves.push_back({"after (with the effects found)", {}, {}});
-  const double gap_s = 2.0 * P.decimation / P.fs_hz;
+  // A gap of more than two kept samples ends a stretch of sliding samples (the chart breaks).
+  constexpr double kGapSamples = 2.0;
+  const double gap_s = kGapSamples * P.decimation / P.fs_hz;
   for (std::size_t i = 0; i < P.states.size(); ++i) {
     const double t = P.states[i].t_s + P.t0_s;
     if (i > 0 && P.states[i].t_s - P.states[i - 1].t_s > gap_s)
