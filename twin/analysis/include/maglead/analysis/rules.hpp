@@ -191,7 +191,7 @@ inline constexpr std::array kTable = {
     // twin check
     Rule{"twin_check_blocks", 8.0, "blocks",
          "the scored samples are cut into this many blocks: a standard error from seven degrees of freedom",
-         "TwinCheck.ScoresTheWholeRecordingOrWindowsSpreadOverIt", "twin check"},
+         "analysis_twin_round_trip", "twin check"},
     Rule{"twin_rise_sigmas", 2.0, "standard errors",
          "a term leaves the corrected model when the twin's error rises by more than this (chance: one time in forty)",
          "analysis_twin_round_trip", "twin check"},
