@@ -15,6 +15,7 @@
 #include <tuple>
 
 #include "candidates.hpp"
+#include "maglead/analysis/rules.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "pulses.hpp"
 #include "selection.hpp"
@@ -24,6 +25,10 @@ namespace maglead::analysis::actuator {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+// The filter's impulse response has died out within this many filter periods either side.
+constexpr double kResponseFilterPeriods = 8.0;
+// A mass no model has: guards the ringing frequency against a zero mass.
+constexpr double kLeastMass_kg = 1e-9;
 using effects::State;
 using stats::median_of;
 using stats::require_finite;
@@ -71,7 +76,8 @@ double rising_rate(const std::vector<double>& t, const std::vector<double>& phi,
                    std::size_t last, double window_s) {
   std::size_t k = last;
   while (k > first && t[last] - t[k - 1] <= window_s) --k;
-  if (last - k < 3) return 0.0;
+  constexpr std::size_t kMinSlopeSteps = 3;  // a slope from fewer samples is noise
+  if (last - k < kMinSlopeSteps) return 0.0;
   double st = 0, sf = 0, stt = 0, stf = 0;
   const auto m = static_cast<double>(last - k + 1);
   for (std::size_t q = k; q <= last; ++q) {
@@ -162,7 +168,8 @@ Signals filtered_signals(const Recording& rec, const ActuatorParams& act, const 
 // The standard deviation of white load-cell noise after the filter, and of its rate (the
 // filter's and the derivative's impulse response, summed in squares).
 std::pair<double, double> filtered_noise(const Prepared& P) {
-  const auto half = static_cast<std::size_t>(8.0 * std::ceil(P.fs_hz / P.filter_hz));
+  const auto half =
+      static_cast<std::size_t>(kResponseFilterPeriods * std::ceil(P.fs_hz / P.filter_hz));
   std::vector<double> x(2 * half + 1, 0.0);
   x[half] = 1.0;
   const auto h = filtfilt_butter4(x, P.filter_hz, P.fs_hz);
@@ -183,10 +190,12 @@ std::vector<Prepared::Window> hidden_stops(const Signals& s, const Prepared& P) 
   std::size_t i = 0;
   while (i < n) {
     std::size_t j = i;
-    while (j + 1 < n && std::abs(s.pos_raw[j + 1] - s.pos_raw[i]) < 0.5 * P.count_m) ++j;
+    while (j + 1 < n &&
+           std::abs(s.pos_raw[j + 1] - s.pos_raw[i]) < rules::kHeldCountCounts * P.count_m)
+      ++j;
     // The count was held at least from sample i to sample j (sampling adds, never removes).
     const double held_s = s.t[j] - s.t[i];
-    if (std::abs(s.v[(i + j) / 2]) * held_s > 2.0 * P.count_m)
+    if (std::abs(s.v[(i + j) / 2]) * held_s > rules::kHiddenStopCounts * P.count_m)
       out.push_back({s.t[i] - P.t0_s - reach_s, s.t[j] - P.t0_s + reach_s});
     i = j + 1;
   }
@@ -215,7 +224,8 @@ std::vector<unsigned char> sliding_mask(const Signals& s, const Prepared& P) {
   }
   for (const auto& sl : P.slips)
     for (std::size_t k = 0; k < n; ++k)
-      if (s.t[k] > sl.start_s - 0.1 && s.t[k] < sl.t_s + 0.3) ok[k] = 0;
+      if (s.t[k] > sl.start_s - rules::kStepOutBefore_s && s.t[k] < sl.t_s + rules::kStepOutAfter_s)
+        ok[k] = 0;
   return ok;
 }
 
@@ -223,7 +233,7 @@ std::vector<unsigned char> sliding_mask(const Signals& s, const Prepared& P) {
 // mass M on the coupling's stiffness k_c = F_m'(0) 2π/L (the count's force over the count), at
 // ω = √(k_c/M) with the model's mass.
 double ring_rad_s(const Prepared& P, const Baseline& base) {
-  return std::sqrt(P.count_force_n / P.count_m / std::max(base.nut_mass_kg, 1e-9));
+  return std::sqrt(P.count_force_n / P.count_m / std::max(base.nut_mass_kg, kLeastMass_kg));
 }
 
 // Per sample, 1 where the nut's ringing reverses it: the ringing's speed, √2 σ ω from the raw
@@ -380,17 +390,18 @@ void hold_for_most(const Signals& s, const Baseline& base, const StateAt& state_
   held.reserve(j - i + 1);
   for (std::size_t k = i; k <= j; ++k)
     held.emplace_back(e.dir * net_drive_n(base, held_state(s, state_at, k)), k);
-  const auto q = held.begin() + static_cast<std::ptrdiff_t>(held.size() / 4);
+  constexpr std::size_t kQuartile = 4;  // the lower quartile: held for three quarters
+  const auto q = held.begin() + static_cast<std::ptrdiff_t>(held.size() / kQuartile);
   std::nth_element(held.begin(), q, held.end());
   e.held_net_n = e.dir * q->first;
   e.held = held_state(s, state_at, q->second);
 }
 
-// A move, not encoder chatter: the raw count went two and a half counts along dir from sample a to
-// b, looked for within kMoveWindow_s after a stand (it slipped on) or before it (it was moving).
-constexpr double kMoveWindow_s = 0.03;
+// A move, not encoder chatter: the raw count went rules::kReleaseMoveCounts along dir from sample
+// a to b, looked for within rules::kReleaseWindow_s after a stand (it slipped on) or before it (it
+// was moving).
 bool moved(const Signals& s, const Prepared& P, std::size_t a, std::size_t b, double dir) {
-  return dir * (s.pos_raw[b] - s.pos_raw[a]) >= 2.5 * P.count_m;
+  return dir * (s.pos_raw[b] - s.pos_raw[a]) >= rules::kReleaseMoveCounts * P.count_m;
 }
 
 // The stuck episode that ends at sample j (the raw count unchanged since sample i), if the nut
@@ -399,10 +410,10 @@ std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, con
                                         const StateAt& state_at, std::size_t i, std::size_t j) {
   const std::size_t n = s.t.size();
   const double dir = s.pos_raw[j + 1] > s.pos_raw[i] ? 1.0 : -1.0;
-  const auto w = static_cast<std::size_t>(kMoveWindow_s * P.fs_hz) + 1;
+  const auto w = static_cast<std::size_t>(rules::kReleaseWindow_s * P.fs_hz) + 1;
   const bool slipped = moved(s, P, i, std::min(n - 1, j + w), dir);
   bool near_slip = false;
-  for (const auto& sl : P.slips) near_slip |= std::abs(s.t[j] - sl.t_s) < 0.3;
+  for (const auto& sl : P.slips) near_slip |= std::abs(s.t[j] - sl.t_s) < rules::kStepOutAfter_s;
   if (!slipped || near_slip) return std::nullopt;
   StuckEpisode e;
   e.t_release_s = s.t[j] - P.t0_s;
@@ -411,7 +422,8 @@ std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, con
   // into the stuck part.
   e.state = held_state(s, state_at, j);
   e.net_n = net_drive_n(base, e.state);
-  e.net_rate_n_s = dir * rising_rate(s.t, s.phi_raw, s.load_raw, state_at.cp, i, j, 0.05);
+  e.net_rate_n_s =
+      dir * rising_rate(s.t, s.phi_raw, s.load_raw, state_at.cp, i, j, rules::kReleaseRateWindow_s);
   e.held_s = s.t[j] - s.t[i];
   e.interrupts = moved(s, P, i - std::min(i, w), i, dir);
   if (e.interrupts) hold_for_most(s, base, state_at, i, j, e);  // only a stall can be a pulse's
@@ -423,11 +435,13 @@ std::vector<StuckEpisode> stuck_episodes(const Signals& s, const Prepared& P, co
                                          const StateAt& state_at) {
   std::vector<StuckEpisode> out;
   const std::size_t n = s.t.size();
-  const double hold_s = std::max(0.02, 4.0 / P.fs_hz);
+  const double hold_s = std::max(rules::kMinHold_s, rules::kMinHoldSamples / P.fs_hz);
   std::size_t i = 0;
   while (i < n) {
     std::size_t j = i;
-    while (j + 1 < n && std::abs(s.pos_raw[j + 1] - s.pos_raw[i]) < 0.5 * P.count_m) ++j;
+    while (j + 1 < n &&
+           std::abs(s.pos_raw[j + 1] - s.pos_raw[i]) < rules::kHeldCountCounts * P.count_m)
+      ++j;
     if (s.t[j] - s.t[i] >= hold_s && j + 1 < n)
       if (auto e = released_at(s, P, base, state_at, i, j)) out.push_back(*e);
     i = j + 1;
@@ -446,7 +460,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.fs_hz = stats::sample_rate_hz(rec);
   // The nut's mechanics (mass on the coupling stiffness) sit near 100 Hz; the effects live
   // below a few tens of Hz. The filter keeps those and averages encoder steps and load-cell noise.
-  P.filter_hz = std::min(opt.filter_hz, 0.2 * P.fs_hz);
+  P.filter_hz = std::min(opt.filter_hz, rules::kFilterMaxOfRate * P.fs_hz);
   P.lead_m = act.lead_m;
   P.count_m = stated(rec, "linear_encoder_m_per_count", act.linear_count_m);
   P.scales.phase_count_rad = phase_count_rad(rec, act, P.count_m);
@@ -460,7 +474,8 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
 
   // Keep every `decim`-th sliding sample: the signals are band-limited to filter_hz, so samples
   // closer than a fifth of its period add no information, only work.
-  P.decimation = std::max(1, static_cast<int>(std::floor(P.fs_hz / (5 * P.filter_hz))));
+  P.decimation = std::max(
+      1, static_cast<int>(std::floor(P.fs_hz / (rules::kSamplesPerFilterPeriod * P.filter_hz))));
   const Coupling cp{cal};
   set_floors(P, cp, cal, act, opt);
   const auto rings = ringing(s, P, ring_rad_s(P, base));
@@ -543,7 +558,8 @@ using stats::total;
 Eigen::VectorXd column_noise(const Prepared& P, const std::vector<Column>& cols) {
   const auto m = static_cast<Eigen::Index>(cols.size());
   Eigen::VectorXd out = Eigen::VectorXd::Zero(m);
-  const std::size_t n = P.states.size(), step = std::max<std::size_t>(1, n / 2000);
+  constexpr std::size_t kProbeSamples = 2000;  // enough for a noise scale, little work
+  const std::size_t n = P.states.size(), step = std::max<std::size_t>(1, n / kProbeSamples);
   std::size_t used = 0;
   Eigen::VectorXd x0(m), x1(m), x2(m);
   for (std::size_t i = 0; i < n; i += step, ++used) {
@@ -646,7 +662,7 @@ selection::Acting NutRules::acting(const selection::Trial& tr) const {
   for (double& v : z) top = std::max(top, v = std::abs(v));
   double ss = 0, n = 0;
   for (double v : z)
-    if (v > 1e-9 * top) ss += v * v, n += 1;
+    if (v > rules::kActingLawShare * top) ss += v * v, n += 1;
   return {std::max(1.0, n) / static_cast<double>(z.size()), n > 0 ? std::sqrt(ss / n) : 0.0};
 }
 
@@ -775,7 +791,7 @@ Selection select(const Prepared& P, const Options& opt,
                  const std::function<void(double)>& progress) {
   Selection out;
   const Candidates cand = candidate_columns(Form::nut, opt.exclude);
-  const int folds = std::max(4, opt.folds);
+  const int folds = std::max(rules::kMinFolds, opt.folds);
   const Grams g = accumulate(P, cand.cols, folds);
   std::size_t n_used = 0;
   for (auto c : g.n) n_used += c;
@@ -783,7 +799,7 @@ Selection select(const Prepared& P, const Options& opt,
   out.baseline_sse = out.final_sse = total(g.rr);
   out.measured_ss = total(g.yy);
   out.final_residual = P.residual;  // nothing fitted yet: what the baseline leaves
-  if (n_used < 50) {
+  if (n_used < rules::kMinSlidingSamples) {
     out.too_little_sliding = true;
     return out;
   }
@@ -828,7 +844,7 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
     }
     auto& s = side == 0 ? out.pos : out.neg;
     s.episodes = excess.size();
-    if (excess.size() < 3) continue;
+    if (excess.size() < rules::kMinReleases) continue;
     s.median_excess_n = median_of(excess);
     s.count_force_n = median_of(count_force);
     // The release is seen once the nut has moved one count; meanwhile the driving force keeps
@@ -839,10 +855,11 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
     const double rdot = median_of(rate), M = base.nut_mass_kg, c = P.count_m;
     s.lag_bound_n = std::cbrt(6.0 * M * c * rdot * rdot);
     s.lag_expected_n =
-        std::min(0.75 * s.lag_bound_n,
+        std::min(rules::kExpectedLagOfBound * s.lag_bound_n,
                  rdot * std::sqrt(M * c / std::max(s.median_excess_n, 0.5 * s.count_force_n)));
     // Spread of the median: 1.25 σ/√n for a normal sample, σ from the median deviation.
-    s.se_n = 1.2533 * robust_sigma(excess) / std::sqrt(static_cast<double>(excess.size()));
+    s.se_n = rules::kMedianSeFactor * robust_sigma(excess) /
+             std::sqrt(static_cast<double>(excess.size()));
   }
   return out;
 }
@@ -852,8 +869,10 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
 namespace maglead::analysis::actuator {
 
 double breakaway_margin(const BreakawayTest::Side& s) {
-  if (s.episodes < 3 || !(s.se_n > 0)) return -std::numeric_limits<double>::infinity();
-  return (s.median_excess_n - s.lag_bound_n - 0.5 * s.count_force_n) / s.se_n;
+  if (s.episodes < rules::kMinReleases || !(s.se_n > 0))
+    return -std::numeric_limits<double>::infinity();
+  return (s.median_excess_n - s.lag_bound_n - rules::kReleasePhaseCounts * s.count_force_n) /
+         s.se_n;
 }
 
 // Stribeck's law is a break-away above the kinetic level; the sliding fit sees only friction
@@ -868,7 +887,8 @@ std::optional<std::string> stribeck_unseen_at_rest(const Prepared& P, const Base
   std::erase_if(without, [](const selection::Found& c) { return c.id == "stribeck_friction"; });
   if (without.size() == n_before) return std::nullopt;
   const auto bt = breakaway_test(P, base, without);
-  if (bt.pos.episodes < 3 || bt.neg.episodes < 3) return std::nullopt;
+  if (bt.pos.episodes < rules::kMinReleases || bt.neg.episodes < rules::kMinReleases)
+    return std::nullopt;
   const double t = std::min(breakaway_margin(bt.pos), breakaway_margin(bt.neg));
   if (t >= opt.breakaway_sigmas) return std::nullopt;
   char buf[320];
@@ -877,7 +897,8 @@ std::optional<std::string> stribeck_unseen_at_rest(const Prepared& P, const Base
                 "break-away above the kinetic level beyond the first-count lag (excess %.2f / "
                 "%.2f N, lag up to %.2f / %.2f N, half a count %.2f N): not Stribeck's law",
                 bt.pos.episodes, bt.neg.episodes, bt.pos.median_excess_n, bt.neg.median_excess_n,
-                bt.pos.lag_bound_n, bt.neg.lag_bound_n, 0.5 * bt.pos.count_force_n);
+                bt.pos.lag_bound_n, bt.neg.lag_bound_n,
+                rules::kReleasePhaseCounts * bt.pos.count_force_n);
   return std::string(buf);
 }
 
@@ -911,7 +932,7 @@ StribeckVelocity stribeck_velocity(const Prepared& P, const Selection& sel,
   StribeckVelocity out{0, INFINITY, 0, false};
   int allowed = 0;
   for (std::size_t k = 0; k < shapes.size(); ++k) {
-    if (sse[k] - best > 0.01 * worst) continue;
+    if (sse[k] - best > rules::kStribeckVelocityFitShare * worst) continue;
     ++allowed;
     out.low = std::min(out.low, shapes[k]);
     out.high = std::max(out.high, shapes[k]);
@@ -967,7 +988,9 @@ std::optional<selection::Found> stribeck_from_breakaway(const Prepared& P, const
 // that by opt.breakaway_sigmas standard errors, and the floors a sliding finding must beat.
 std::optional<selection::Found> offset_from_breakaway(const Prepared& P, const Selection& sel,
                                                       const BreakawayTest& bt, const Options& opt) {
-  if (!sel.too_little_sliding || bt.pos.episodes < 3 || bt.neg.episodes < 3) return std::nullopt;
+  if (!sel.too_little_sliding || bt.pos.episodes < rules::kMinReleases ||
+      bt.neg.episodes < rules::kMinReleases)
+    return std::nullopt;
   for (const auto& id : opt.exclude)
     if (id == "offset") return std::nullopt;
   const double pos = bt.pos.median_excess_n - bt.pos.lag_expected_n;
@@ -975,7 +998,9 @@ std::optional<selection::Found> offset_from_breakaway(const Prepared& P, const S
   const double offset_n = 0.5 * (neg - pos);
   const double se_n = 0.5 * std::hypot(bt.pos.se_n, bt.neg.se_n);
   const double margin =
-      (std::abs(offset_n) - 0.5 * std::max(bt.pos.count_force_n, bt.neg.count_force_n)) / se_n;
+      (std::abs(offset_n) -
+       rules::kReleasePhaseCounts * std::max(bt.pos.count_force_n, bt.neg.count_force_n)) /
+      se_n;
   if (!(margin >= opt.breakaway_sigmas) || std::abs(offset_n) < std::max(P.floor_n, P.minimum_n))
     return std::nullopt;
   const auto* e = effects::find("offset");

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "maglead/analysis/results.hpp"
+#include "maglead/analysis/rules.hpp"
 #include "maglead/effects/effect.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
@@ -31,26 +32,28 @@ struct Baseline {
 };
 
 struct Options {
-  int folds = 10;             // contiguous held-out time segments
-  double filter_hz = 20.0;    // zero-phase low-pass of every signal
-  double min_gain_pct = 1.0;  // held-out mean-square error a term must remove …
-  double min_t = 3.0;         // … consistently over the segments (t of per-segment gains)
-  double acting_share = 0.1;  // segments where the term carries this share of the error count
+  // The defaults are the rule table's (maglead/analysis/rules.hpp), which says why.
+  int folds = rules::kFolds;            // contiguous held-out time segments
+  double filter_hz = rules::kFilterHz;  // zero-phase low-pass of every signal
+  double min_gain_pct =
+      rules::kMinHeldOutGainPct;  // held-out mean-square error a term must remove …
+  double min_t = rules::kMinT;    // … consistently over the segments (t of per-segment gains)
+  double acting_share = rules::kActingShare;  // segments where the term carries this share count
   // … and change the force by more than the recording resolves (Prepared::floor_n) and than a
   // stated minimum: how well the calibration is known. Unless the user states it, a bench
   // calibration's: a thousandth of its range, and not better than a bench's absolute error (a
   // load cell and a fixture: the bench calibrations are off by up to 0.07 N, our own
   // `calibrate` on a bench with an unseen 0.05 N force by 0.070 N); below that nobody can act.
-  double min_effect_of_peak = 1e-3;
-  double bench_accuracy_n = 0.07;
-  double calibration_accuracy_n = 0;  // stated by the user: the minimum instead (0: not stated)
-  double parsimony = 0.99;            // a simpler term reaching this share of the best gain wins
-  double breakaway_sigmas = 3.0;      // break-away excess significance (standard errors)
-  int max_terms = 6;
-  double pulse_sigmas = 8.0;         // a disturbance pulse stands this far out of the residual …
-  double pulse_max_s = 1.0;          // … for at most this long …
-  double pulse_min_spacing_s = 2.0;  // … and pulses are at least this far apart on average
-  std::vector<std::string> exclude;  // ids already in the baseline model
+  double min_effect_of_peak = rules::kMinEffectOfPeak;
+  double bench_accuracy_n = rules::kBenchAccuracyN;
+  double calibration_accuracy_n = 0;     // stated by the user: the minimum instead (0: not stated)
+  double parsimony = rules::kParsimony;  // a simpler term reaching this share of the best gain wins
+  double breakaway_sigmas = rules::kBreakawaySigmas;  // break-away excess significance
+  int max_terms = rules::kMaxTerms;
+  double pulse_sigmas = rules::kPulseSigmas;  // a disturbance pulse stands this far out …
+  double pulse_max_s = rules::kPulseMax_s;    // … for at most this long …
+  double pulse_min_spacing_s = rules::kPulseMinSpacing_s;  // … and this far apart on average
+  std::vector<std::string> exclude;                        // ids already in the baseline model
 };
 
 struct SlipEvent {

@@ -66,7 +66,9 @@ Chart fit_over_time(const actuator::Prepared& P, const actuator::Selection& sel)
           "missing force [N]",
           {{added ? "before (the model as configured)" : "the model (nothing added)", {}, {}}}};
   if (added) c.curves.push_back({"after (with the effects found)", {}, {}});
-  const double gap_s = 2.0 * P.decimation / P.fs_hz;
+  // A gap of more than two kept samples ends a stretch of sliding samples (the chart breaks).
+  constexpr double kGapSamples = 2.0;
+  const double gap_s = kGapSamples * P.decimation / P.fs_hz;
   for (std::size_t i = 0; i < P.states.size(); ++i) {
     const double t = P.states[i].t_s + P.t0_s;
     if (i > 0 && P.states[i].t_s - P.states[i - 1].t_s > gap_s)
@@ -387,7 +389,7 @@ void add_step_out_finding(Findings& J, const actuator::Prepared& P) {
 std::string sliding_note(const actuator::Prepared& P, const actuator::Selection& sel) {
   // Sliding samples are counted after decimation; the recording's samples before.
   const std::size_t sliding = sel.samples_used * static_cast<std::size_t>(P.decimation);
-  if (!sel.too_little_sliding && sliding >= P.samples / 20) return {};
+  if (!sel.too_little_sliding && sliding >= P.samples / rules::kBarelySlidesOneIn) return {};
   return "the nut barely slides (" + std::to_string(sliding) + " sliding samples of " +
          std::to_string(P.samples) + "): the sliding fit says little; the stuck episodes (" +
          std::to_string(P.stuck.size()) +

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "maglead/analysis/model_file.hpp"
+#include "maglead/analysis/rules.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/recording/recording.hpp"
@@ -29,8 +30,8 @@ std::vector<SampleWindow> scoring_windows(std::size_t samples, std::size_t budge
                                           std::size_t windows);
 
 /// Blocks the scored samples are cut into (in order) so two models' errors can be compared with
-/// their own spread: eight give a standard error from seven degrees of freedom.
-inline constexpr std::size_t kTwinCheckBlocks = 8;
+/// their own spread (the rule twin_check_blocks).
+inline constexpr std::size_t kTwinCheckBlocks = rules::kTwinCheckBlocks;
 
 /// The twin's output-force error against the load cell [N]: the mean absolute error over the
 /// scoring windows, and the same per block of the scored samples (kTwinCheckBlocks of them).
@@ -47,7 +48,7 @@ std::optional<TwinForceErrors> twin_force_errors(const Recording& rec, const Act
 /// force the recording resolves (a rise below it is the estimator's own jitter, not the model's).
 bool rises_beyond_noise(const TwinForceErrors& with, const TwinForceErrors& without,
                         double resolved_n);
-/// Two standard errors: a rise that chance alone exceeds about one time in forty.
-inline constexpr double kRiseBeyondNoise = 2.0;
+/// The rule twin_rise_sigmas: a rise that chance alone exceeds about one time in forty.
+inline constexpr double kRiseBeyondNoise = rules::kTwinRiseSigmas;
 
 }  // namespace maglead::analysis::actuator

@@ -18,6 +18,7 @@
 
 #include "candidates.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/rules.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "maglead/effects/effect.hpp"
 #include "pulses.hpp"
@@ -31,6 +32,27 @@ using stats::Fit;
 using stats::partial_r2;
 using stats::robust_sigma;
 using stats::sse;
+
+// Plumbing of the "where" maps and charts (what they show, not what the analysis decides).
+// Samples the percentile ranges are read from, and the charts' points: quick on an hour.
+constexpr std::size_t kPercentileProbe = 200000, kChartPoints = 6000;
+// A map's bin is drawn from this many samples; at most this many regions and windows are listed.
+constexpr double kMinCurveBinSamples = 5;
+constexpr int kMostRegionsListed = 4, kMostWindowsListed = 6;
+constexpr double kTinyVariance = 1e-12;  // N²: a bin of equal residuals still has an error
+// The maps' bins over velocity (its extreme tails left out) and over position.
+constexpr int kVelocityBins = 60, kPositionBins = 80;
+constexpr double kVelocityTail = 0.005;
+// Time windows: at most this many over the recording, at least 1 s; one is shown with more than
+// this many samples; growth and outliers need this many windows (thirds of them compared).
+constexpr double kMostTimeWindows = 400.0;
+constexpr std::size_t kMinWindowSamples = 10, kMinWindows = 6, kThirds = 3;
+// The event-locked average spans this long either side of each event.
+constexpr double kLockedHalfSpan_s = 0.15;
+// The bandwidth scan: from this frequency up by this factor, below this share of the rate.
+constexpr double kBandwidthScanStartHz = 0.5, kBandwidthScanStep = 1.1, kBandwidthScanTop = 0.25;
+// A residual shorter than this is left unfiltered (the filter's padding needs more).
+constexpr std::size_t kMinFilteredSamples = 12;
 
 // ---------------------------------------------------------------- columns from the effect units
 // A column of the axis fit is one of an effect unit's axis columns at one shape value
@@ -176,7 +198,7 @@ Binned bin(const std::vector<double>& x, const std::vector<double>& r,
 std::pair<double, double> percentile_range(const std::vector<double>& x,
                                            const std::vector<unsigned char>& valid, double q) {
   std::vector<double> v;
-  const std::size_t step = std::max<std::size_t>(1, x.size() / 200000);
+  const std::size_t step = std::max<std::size_t>(1, x.size() / kPercentileProbe);
   for (std::size_t i = 0; i < x.size(); i += step)
     if (valid[i]) v.push_back(x[i]);
   if (v.empty()) return {0, 1};
@@ -190,7 +212,7 @@ std::pair<double, double> percentile_range(const std::vector<double>& x,
 Curve to_series(const std::string& label, const Binned& b, double x_scale = 1.0) {
   Curve s{label, {}, {}};
   for (std::size_t k = 0; k < b.centre.size(); ++k)
-    if (b.count[k] >= 5) {
+    if (b.count[k] >= kMinCurveBinSamples) {
       s.x.push_back(b.centre[k] * x_scale);
       s.y.push_back(b.mean[k]);
     }
@@ -202,9 +224,10 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
                              double x_scale, double overall_rms) {
   std::vector<int> hot;
   for (std::size_t k = 0; k < b.centre.size(); ++k) {
-    if (b.count[k] < 20) continue;
-    const double se = std::sqrt(std::max(b.m2[k], 1e-12) / b.count[k]);
-    if (std::abs(b.mean[k]) > 0.5 * overall_rms && std::abs(b.mean[k]) > 4 * se)
+    if (b.count[k] < rules::kWhereMinBinSamples) continue;
+    const double se = std::sqrt(std::max(b.m2[k], kTinyVariance) / b.count[k]);
+    if (std::abs(b.mean[k]) > rules::kWhereBinOfRms * overall_rms &&
+        std::abs(b.mean[k]) > rules::kWhereBinSigmas * se)
       hot.push_back(static_cast<int>(k));
   }
   if (hot.empty()) return "";
@@ -214,7 +237,7 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
   std::size_t i = 0;
   int shown = 0;
   const double w = b.centre.size() > 1 ? b.centre[1] - b.centre[0] : 0.0;
-  while (i < hot.size() && shown < 4) {
+  while (i < hot.size() && shown < kMostRegionsListed) {
     std::size_t j = i;
     while (j + 1 < hot.size() && hot[j + 1] == hot[j] + 1 &&
            sgn(b.mean[hot[j + 1]]) == sgn(b.mean[hot[i]]))
@@ -303,17 +326,18 @@ int bandwidth_decimation(Prepared& P) {
   const auto& a = P.full.a;
   double ea = 0;
   for (double x : a) ea += x * x;
-  P.bandwidth_hz = 0.25 * P.fs_hz;
-  for (double f = 0.5; f < 0.25 * P.fs_hz; f *= 1.1) {
+  P.bandwidth_hz = kBandwidthScanTop * P.fs_hz;
+  for (double f = kBandwidthScanStartHz; f < kBandwidthScanTop * P.fs_hz; f *= kBandwidthScanStep) {
     const auto af = filtfilt_butter4(a, f, P.fs_hz);
     double lost = 0;
     for (std::size_t i = 0; i < a.size(); ++i) lost += (a[i] - af[i]) * (a[i] - af[i]);
-    if (lost <= 0.01 * ea) {
+    if (lost <= rules::kAxisBandwidthEnergyLost * ea) {
       P.bandwidth_hz = f;
       break;
     }
   }
-  return std::max(1, static_cast<int>(std::floor(0.4 * P.fs_hz / P.bandwidth_hz)));
+  return std::max(
+      1, static_cast<int>(std::floor(rules::kAxisDecimationOfRate * P.fs_hz / P.bandwidth_hz)));
 }
 
 // Decimation to the identification bandwidth: parallel filtering of every signal.
@@ -345,7 +369,7 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   const auto& t = rec.column("t_s");
   P.fs_hz = stats::sample_rate_hz(rec);
   const double dt = 1.0 / P.fs_hz;
-  P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : 100.0;
+  P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : rules::kAxisFilterHz;
   Signals& s = P.full;
   s.t = t;
   s.start_s = t.front();
@@ -364,8 +388,9 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   s.y = P.y_raw;
   fixed_force(s, model);
   // Slow smooth motion has a narrow bandwidth: every held-out segment keeps 100 samples still.
-  const auto keep =
-      static_cast<int>(s.size() / (100 * static_cast<std::size_t>(std::max(3, opt.folds))));
+  const auto keep = static_cast<int>(
+      s.size() / (rules::kAxisMinSegmentSamples *
+                  static_cast<std::size_t>(std::max(rules::kAxisMinFolds, opt.folds))));
   decimate_signals(P, opt.decimation > 0
                           ? opt.decimation
                           : std::clamp(bandwidth_decimation(P), 1, std::max(1, keep)));
@@ -534,9 +559,10 @@ void accumulate_all(AxisRun& run) {
     run.yy_total += run.g.yy[f];
     run.n_total += static_cast<double>(run.g.n[f]);
   }
-  if (run.n_total < 100)
-    throw std::invalid_argument(run.rec.path +
-                                ": fewer than 100 usable samples (the axis hardly moves)");
+  if (run.n_total < rules::kAxisMinUsableSamples)
+    throw std::invalid_argument(run.rec.path + ": fewer than " +
+                                std::to_string(static_cast<int>(rules::kAxisMinUsableSamples)) +
+                                " usable samples (the axis hardly moves)");
 }
 
 // ---------------------------------------------------------------- forward selection
@@ -582,7 +608,7 @@ selection::Settings settings_of(const AnalysisOptions& opt, const effects::Scale
           .min_gain_pct = opt.min_gain_pct,
           .min_t = opt.min_t,
           .acting_share = 0,
-          .parsimony = 0.5,
+          .parsimony = rules::kAxisParsimony,
           .leave_out_spanned = true,
           .scales = scales};
 }
@@ -831,7 +857,8 @@ void locate_pulses(AxisRun& run, const std::vector<double>& yf, const std::vecto
     t.push_back(S.t[i]);
     r.push_back(S.y[i] - yf[i]);
   }
-  if (!run.P.decimated && r.size() > 12) r = filtfilt_butter4(r, f.filter_hz, f.fs_hz);
+  if (!run.P.decimated && r.size() > kMinFilteredSamples)
+    r = filtfilt_butter4(r, f.filter_hz, f.fs_hz);
   auto found = pulses::find(t, r, f);
   run.pulses.clear();
   if (found.empty()) return;
@@ -881,16 +908,17 @@ std::string direction_text(const Signals& S, const Residuals& res) {
   o.precision(3);
   o << "by direction: mean residual " << std::showpos << sp / np << " N moving +, " << sn / nn
     << " N moving −" << std::noshowpos;
-  if (std::abs(sp / np - sn / nn) > 0.3 * res.rms0) o << " (jumps at velocity reversals)";
+  if (std::abs(sp / np - sn / nn) > rules::kWhereReversalJumpOfRms * res.rms0)
+    o << " (jumps at velocity reversals)";
   return o.str();
 }
 
 void residual_maps(AnalysisResult& R, const Signals& S, const Residuals& res) {
   add_map(R, S, res, "velocity", S.v, "velocity", "mm/s", 1e3,
-          percentile_range(S.v, S.valid, 0.005), 60);
+          percentile_range(S.v, S.valid, kVelocityTail), kVelocityBins);
   if (auto d = direction_text(S, res); !d.empty()) R.where.push_back(d);
   add_map(R, S, res, "position", S.p, "position", "mm", 1e3, percentile_range(S.p, S.valid, 0.0),
-          80);
+          kPositionBins);
 }
 
 // Residual RMS in time windows, before and after.
@@ -901,7 +929,7 @@ struct Windows {
 
 Windows windowed_rms(const Signals& S, const Residuals& res) {
   Windows w;
-  w.win_s = std::max(1.0, (S.t.back() - S.t.front()) / 400.0);
+  w.win_s = std::max(1.0, (S.t.back() - S.t.front()) / kMostTimeWindows);
   for (std::size_t i = 0; i < S.size();) {
     const double t0 = S.t[i];
     double e0 = 0, e1 = 0;
@@ -912,7 +940,7 @@ Windows windowed_rms(const Signals& S, const Residuals& res) {
         e1 += res.after[j] * res.after[j];
         ++c;
       }
-    if (c > 10) {
+    if (c > kMinWindowSamples) {
       w.before.x.push_back(t0 + w.win_s / 2);
       w.before.y.push_back(std::sqrt(e0 / static_cast<double>(c)));
       w.after.x.push_back(t0 + w.win_s / 2);
@@ -929,8 +957,8 @@ void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& re
   const Windows w = windowed_rms(S, res);
   const auto& wr = w.before.y;
   const double win = w.win_s;
-  if (wr.size() >= 6) {
-    const std::size_t q = wr.size() / 3;
+  if (wr.size() >= kMinWindows) {
+    const std::size_t q = wr.size() / kThirds;
     const double first =
         std::accumulate(wr.begin(), wr.begin() + static_cast<std::ptrdiff_t>(q), 0.0) /
         static_cast<double>(q);
@@ -938,7 +966,7 @@ void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& re
                         static_cast<double>(q);
     std::ostringstream o;
     o.precision(3);
-    if (last > 1.5 * first && last > 0.3 * res.rms0) {
+    if (last > rules::kWhereGrowthFactor * first && last > rules::kWhereGrowthOfRms * res.rms0) {
       o << "over time: the residual grows (RMS " << first << " N in the first third, " << last
         << " N in the last)";
       R.where.push_back(o.str());
@@ -949,8 +977,9 @@ void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& re
     int shown = 0;
     std::ostringstream w2;
     w2.precision(4);
-    for (std::size_t k = 0; k < wr.size() && shown < 6; ++k)
-      if (wr[k] > 3 * med && wr[k] > noise_floor_n * 3) {
+    for (std::size_t k = 0; k < wr.size() && shown < kMostWindowsListed; ++k)
+      if (wr[k] > rules::kWhereWindowOverMedian * med &&
+          wr[k] > noise_floor_n * rules::kWhereWindowOverMedian) {
         w2 << (shown ? ", " : "") << w.before.x[k] - win / 2 << "–" << w.before.x[k] + win / 2
            << " s";
         Event ev;
@@ -976,7 +1005,7 @@ using Onsets = std::vector<std::pair<std::size_t, double>>;  // sample, signed d
 // The residual averaged around events (signed by the new direction), before and after.
 void locked_average(AnalysisResult& R, const Signals& S, const Residuals& res, double fs_id,
                     const Onsets& at, const std::string& file, const std::string& what) {
-  const int half = static_cast<int>(0.15 * fs_id);
+  const int half = static_cast<int>(kLockedHalfSpan_s * fs_id);
   std::vector<double> acc0(static_cast<std::size_t>(2 * half + 1), 0.0), acc1(acc0.size(), 0.0),
       cnt(acc0.size(), 0.0);
   for (const auto& [i, d] : at)
@@ -1028,7 +1057,7 @@ Onsets input_edges(const std::vector<double>& x, int decimation) {
   Onsets edges;
   for (std::size_t i = 1; i < x.size(); ++i) {
     const double d = x[i] - x[i - 1];
-    if (std::isfinite(d) && std::abs(d) > 0.05 * (hi - lo) && hi > lo)
+    if (std::isfinite(d) && std::abs(d) > rules::kWhereEdgeOfRange * (hi - lo) && hi > lo)
       edges.emplace_back(i / static_cast<std::size_t>(decimation), sgn(d));
   }
   return edges;
@@ -1058,7 +1087,7 @@ void event_locked(AnalysisResult& R, const AxisRun& run, const Residuals& res) {
 // (the page's interactive chart, as the actuator path gives it).
 void time_figures(AnalysisResult& R, const Signals& S, const Predictions& p, const Residuals& res,
                   bool added) {
-  const std::size_t step = std::max<std::size_t>(1, S.size() / 6000);
+  const std::size_t step = std::max<std::size_t>(1, S.size() / kChartPoints);
   Curve m{"measured", {}, {}}, b{"baseline", {}, {}}, c{"corrected", {}, {}},
       rb{"baseline", {}, {}}, rc{"corrected", {}, {}};
   for (std::size_t i = 0; i < S.size(); i += step) {
@@ -1137,7 +1166,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   run.progress("prepare", 0.0);
   run.P = prepare(rec, model, opt);
   run.S = run.P.decimated ? &run.P.id : &run.P.full;
-  run.folds = std::max(3, opt.folds);
+  run.folds = std::max(rules::kAxisMinFolds, opt.folds);
   run.progress("prepare", 1.0);
   baseline_columns(run);
   accumulate_all(run);

@@ -22,6 +22,14 @@ constexpr double kSettleS = 0.2;
 // Velocity for the map: central difference over ±20 ms, so one encoder count (21.6 µm) is
 // about 0.5 mm/s rather than 20 mm/s of quantisation noise.
 constexpr double kVelocityHalfWindowS = 0.020;
+// A short recording settles within this share of its duration.
+constexpr double kSettleShareOfDuration = 0.1;
+// The space map: its cells over velocity and position, the velocity tails left out on either
+// side (a few samples at the fastest would squeeze the rest into a few cells), and the fewest
+// samples of a cell shown (fewer is one noisy reading, not a place).
+constexpr int kMapVelocityCells = 40, kMapPositionCells = 30;
+constexpr double kMapVelocityTail = 0.005;
+constexpr double kMapMinCellSamples = 3;
 
 std::span<const double> optional_column(const Recording& rec, const char* name) {
   return rec.has(name) ? std::span<const double>(rec.column(name)) : std::span<const double>();
@@ -157,9 +165,9 @@ Grid space_map(const Anomaly& a) {
   g.x_label = "velocity [mm/s]";
   g.y_label = "position [mm]";
   g.value_label = a.has_load_cell ? "twin - load cell [N]" : "measured - twin [um]";
-  g.nx = 40;
-  g.ny = 30;
-  std::tie(g.x_min, g.x_max) = central_range(v_mm_s, 0.005);
+  g.nx = kMapVelocityCells;
+  g.ny = kMapPositionCells;
+  std::tie(g.x_min, g.x_max) = central_range(v_mm_s, kMapVelocityTail);
   std::vector<double> pos_mm(tr.nut_pos_m.begin() + static_cast<std::ptrdiff_t>(a.first_settled),
                              tr.nut_pos_m.end());
   for (double& p : pos_mm) p *= 1e3;
@@ -178,9 +186,8 @@ Grid space_map(const Anomaly& a) {
     count[cell] += 1;
   }
   g.values.resize(sum.size());
-  // A cell of fewer than 3 samples is one noisy reading, not a place.
   for (std::size_t k = 0; k < sum.size(); ++k)
-    g.values[k] = count[k] >= 3 ? sum[k] / count[k] : kNaN;
+    g.values[k] = count[k] >= kMapMinCellSamples ? sum[k] / count[k] : kNaN;
   return g;
 }
 
@@ -217,7 +224,7 @@ Anomaly inspect_recording(const Recording& rec, const twin::TwinMonitorConfig& m
   logged_step_outs(rec, a);
   static_estimate(rec, monitor, screw, a);
 
-  a.settle_s = std::min(kSettleS, 0.1 * a.duration_s);
+  a.settle_s = std::min(kSettleS, kSettleShareOfDuration * a.duration_s);
   while (a.first_settled + 1 < n && tr.t_s[a.first_settled] - tr.t_s[0] < a.settle_s)
     ++a.first_settled;
   if (a.has_load_cell) {

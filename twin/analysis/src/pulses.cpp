@@ -22,7 +22,8 @@ struct Undershoot {
   double of_peak = 0, of_area = 0;
 };
 Undershoot filter_undershoot(const Floors& f, double duration_s) {
-  const double edge_s = 4.0 / f.filter_hz;  // the filter's response has died out by then
+  const double edge_s =
+      rules::kPulseEdgeFilterPeriods / f.filter_hz;  // the filter's response has died out by then
   const auto n = static_cast<std::size_t>(std::ceil((duration_s + 2 * edge_s) * f.fs_hz));
   const auto k0 = static_cast<std::size_t>(edge_s * f.fs_hz);
   const auto k1 = k0 + static_cast<std::size_t>(std::max(1.0, duration_s * f.fs_hz));
@@ -36,12 +37,12 @@ Undershoot filter_undershoot(const Floors& f, double duration_s) {
   return {std::max(0.0, -*std::min_element(y.begin(), y.end())) / top, below / above};
 }
 
-// The stretch around sample i: samples no further apart than 1.5 sample steps.
+// The stretch around sample i: samples no further apart than rules::kPulseGapSteps sample steps.
 std::pair<std::size_t, std::size_t> stretch_of(const std::vector<double>& t, std::size_t i,
                                                double step_s) {
   std::size_t a = i, b = i + 1;
-  while (a > 0 && t[a] - t[a - 1] < 1.5 * step_s) --a;
-  while (b < t.size() && t[b] - t[b - 1] < 1.5 * step_s) ++b;
+  while (a > 0 && t[a] - t[a - 1] < rules::kPulseGapSteps * step_s) --a;
+  while (b < t.size() && t[b] - t[b - 1] < rules::kPulseGapSteps * step_s) ++b;
   return {a, b};
 }
 
@@ -73,7 +74,7 @@ Flanks flanks_of(const std::vector<double>& t, const std::vector<double>& r, std
 // over the recording's ends (and derivatives there are one-sided), so its first and last
 // settling times (as filter_undershoot's) cannot tell a pulse from an edge.
 bool clear_of_ends(const Floors& f, double t0, double t1) {
-  const double edge_s = 4.0 / f.filter_hz;
+  const double edge_s = rules::kPulseEdgeFilterPeriods / f.filter_hz;
   return t0 >= f.start_s + edge_s && t1 <= f.start_s + f.span_s - edge_s;
 }
 
@@ -89,7 +90,8 @@ Run run_from(const std::vector<double>& t, const std::vector<double>& r, std::si
              double step_s) {
   Run run{i};
   std::size_t& j = run.end;
-  while (j < r.size() && std::abs(r[j]) > thr && (j == i || t[j] - t[j - 1] < 1.5 * step_s)) {
+  while (j < r.size() && std::abs(r[j]) > thr &&
+         (j == i || t[j] - t[j - 1] < rules::kPulseGapSteps * step_s)) {
     if (std::abs(r[j]) > std::abs(run.peak)) run.peak = r[j];
     run.area += std::abs(r[j]);
     ++j;
@@ -173,7 +175,7 @@ double threshold(const std::vector<double>& r, const Floors& f) {
 std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>& r,
                         const Floors& f) {
   std::vector<Pulse> out;
-  if (r.size() < 100) return out;
+  if (r.size() < rules::kPulseMinSamples) return out;
   const double thr = threshold(r, f);
   std::size_t i = 0;
   while (i < r.size()) {
@@ -186,15 +188,19 @@ std::vector<Pulse> find(const std::vector<double>& t, const std::vector<double>&
     const double peak = run.peak;
     const double duration = t[j - 1] - t[i] + f.step_s;
     // Shorter than the filter resolves is ringing of a transition, not a force that acted.
-    if (duration <= f.max_s && duration >= 0.5 / f.filter_hz && clear_of_ends(f, t[i], t[j - 1])) {
-      const auto fl = flanks_of(t, r, i, j, peak, duration + 2.0 / f.filter_hz, f.step_s, thr);
+    if (duration <= f.max_s && duration >= rules::kPulseMinFilterPeriods / f.filter_hz &&
+        clear_of_ends(f, t[i], t[j - 1])) {
+      const auto fl =
+          flanks_of(t, r, i, j, peak, duration + rules::kPulseFlankFilterPeriods / f.filter_hz,
+                    f.step_s, thr);
       const bool stands_out = std::abs(peak - fl.level_n) > thr;
       // One sign by its peak, or by its impulse: an 8 N pulse that stalls a moving nut for a few
       // milliseconds is followed by a 1.4 N swing as the coupling throws it on (the filtered
       // acceleration lags the jump), 3 % of the pulse's impulse.
       const auto u = filter_undershoot(f, duration);
-      const bool one_sign = fl.opposite_n <= std::max(thr, 2.0 * u.of_peak * std::abs(peak)) ||
-                            fl.opposite_area <= 2.0 * u.of_area * run.area;
+      const bool one_sign = fl.opposite_n <= std::max(thr, rules::kPulseOppositeFactor * u.of_peak *
+                                                               std::abs(peak)) ||
+                            fl.opposite_area <= rules::kPulseOppositeFactor * u.of_area * run.area;
       if (stands_out && one_sign) out.push_back({t[i], duration, peak});
     }
     i = j;
@@ -210,7 +216,7 @@ std::vector<Pulse> unexplained(const std::vector<double>& t, const std::vector<d
                                const Floors& f, std::vector<Pulse> found) {
   if (found.empty()) return found;
   const double thr = threshold(r, f);
-  const auto away = away_from(t, found, 2.0 / f.filter_hz);
+  const auto away = away_from(t, found, rules::kPulseFlankFilterPeriods / f.filter_hz);
   std::vector<bool> explained(found.size(), false);
   for (const auto& v : cand.variants) {
     // The model's own terms refit beside the law: a term the selection took in the law's place

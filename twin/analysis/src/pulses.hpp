@@ -5,15 +5,16 @@
 
 #include "candidates.hpp"
 #include "maglead/analysis/results.hpp"
+#include "maglead/analysis/rules.hpp"
 
 namespace maglead::analysis::pulses {
 
 /// What the recording resolves and how its residual was made; each path passes its own.
 struct Floors {
-  double min_n = 0;                // the smallest force it resolves (a count's force, sensor noise)
-  double sigmas = 8.0;             // a pulse stands this many robust σ out of the residual …
-  double max_s = 1.0;              // … for at most this long …
-  double min_spacing_s = 2.0;      // … and pulses are at least this far apart on average
+  double min_n = 0;  // the smallest force it resolves (a count's force, sensor noise)
+  double sigmas = rules::kPulseSigmas;  // a pulse stands this many robust σ out of the residual …
+  double max_s = rules::kPulseMax_s;    // … for at most this long …
+  double min_spacing_s = rules::kPulseMinSpacing_s;  // … and this far apart on average
   double filter_hz = 0;            // the residual's band limit (zero-phase Butterworth) …
   double fs_hz = 0;                // … run at this rate
   double step_s = 0;               // the residual's sample spacing: a larger gap ends a stretch

@@ -1,5 +1,6 @@
 // Look-up, update and printing of named parameter values (maglead/analysis/results.hpp).
 #include "maglead/analysis/results.hpp"
+#include "maglead/analysis/rules.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -42,8 +43,7 @@ std::string with_error(const std::string& name, double value, double standard_er
 
 bool misfit_remains(double final_rms_n, double noise_floor_n) {
   // Above twice the load cell's own noise the residual is force the model leaves out.
-  constexpr double kMisfitOverFloor = 2.0;
-  return noise_floor_n > 0 && final_rms_n > kMisfitOverFloor * noise_floor_n;
+  return noise_floor_n > 0 && final_rms_n > rules::kMisfitOverFloor * noise_floor_n;
 }
 
 namespace {
@@ -58,7 +58,7 @@ std::string misfit_text(double final_rms_n, double noise_floor_n,
                         const std::vector<Rejected>& not_selected) {
   // A candidate that would take at least half the held-out error is the misfit's likeliest
   // account, even short of significance; below half it says little of what is left.
-  constexpr double kMostOfItPct = 50.0;
+  constexpr double kMostOfItPct = rules::kMostOfItPct;
   std::string s =
       "a misfit of " + num(final_rms_n) + " N RMS remains (floor " + num(noise_floor_n) + " N)";
   for (const auto& r : not_selected) {

@@ -7,19 +7,18 @@
 #include <cstdio>
 #include <sstream>
 
+#include "maglead/analysis/rules.hpp"
+
 namespace maglead::analysis::selection {
 namespace {
 
 using stats::Fit;
 using stats::total;
 
-// A simpler trial lying this much inside a richer one's span is the same explanation, nested.
-constexpr double kNestedR2 = 0.98;
-// Another effect reproducing this share of a taken term's contribution is named beside it.
-constexpr double kAlternativeR2 = 0.95;
-// An effect that improves only the segments where it occurs is consistent when its total gain
-// is this many times the minimum and no segment gets worse by more than 1 %.
-constexpr double kLocalized = 10.0;
+// The rules (maglead/analysis/rules.hpp): nested_r2, alternative_r2, localized_gain_factor and
+// localized_worst_segment_pct, spanned_r2.
+using rules::kAlternativeR2;
+using rules::kNestedR2;
 
 // The search's state: the model so far and its held-out error.
 struct Search {
@@ -45,7 +44,8 @@ std::vector<int> columns_of(const Search& s, const Variant& var, const std::vect
   std::vector<int> kept;
   for (int c : var.idx) {
     const auto others = with(current, kept);
-    if (others.empty() || stats::partial_r2(s.g, {}, {c}, Eigen::VectorXd::Ones(1), others) < 0.999)
+    if (others.empty() ||
+        stats::partial_r2(s.g, {}, {c}, Eigen::VectorXd::Ones(1), others) < rules::kSpannedR2)
       kept.push_back(c);
   }
   return kept;
@@ -140,12 +140,14 @@ bool resolved_where(const Search& s, const std::vector<double>& cur, const Trial
 }
 
 // Significant: a real share of the held-out error, consistent over the segments, and a force the
-// recording resolves where the trial acts (resolved_where); a localized effect (kLocalized)
-// counts as consistent.
+// recording resolves where the trial acts (resolved_where); a localized effect (its gain
+// rules::kLocalizedGainFactor times the minimum, no segment worse beyond
+// rules::kLocalizedWorstSegmentPct) counts as consistent.
 bool significant(const Search& s, const std::vector<double>& cur, const Trial& tr,
                  const Acting& where) {
   const bool consistent =
-      tr.t >= s.st.min_t || (tr.gain >= kLocalized * s.st.min_gain_pct && tr.worst > -1.0);
+      tr.t >= s.st.min_t || (tr.gain >= rules::kLocalizedGainFactor * s.st.min_gain_pct &&
+                             tr.worst > rules::kLocalizedWorstSegmentPct);
   return tr.gain >= s.st.min_gain_pct && consistent && resolved_where(s, cur, tr, where, *s.terms);
 }
 
@@ -546,7 +548,8 @@ std::string describe(const Settings& st) {
   std::ostringstream o;
   o << "forward, by held-out error on contiguous time segments; a term must cut the held-out "
        "mean square error by >= "
-    << st.min_gain_pct << " % with t >= " << st.min_t << " over the segments (or >= " << kLocalized
+    << st.min_gain_pct << " % with t >= " << st.min_t
+    << " over the segments (or >= " << rules::kLocalizedGainFactor
     << "x that gain with no segment worse)";
   return o.str();
 }

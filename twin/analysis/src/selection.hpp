@@ -14,6 +14,7 @@
 
 #include "candidates.hpp"
 #include "maglead/analysis/results.hpp"
+#include "maglead/analysis/rules.hpp"
 #include "maglead/effects/effect.hpp"
 #include "statistics.hpp"
 
@@ -64,13 +65,14 @@ class Rules {
 };
 
 struct Settings {
-  int max_terms = 6;
-  double min_gain_pct = 1.0;  // held-out error a term must remove …
-  double min_t = 3.0;         // … consistently over the segments
+  int max_terms = rules::kMaxTerms;
+  double min_gain_pct = rules::kMinHeldOutGainPct;  // held-out error a term must remove …
+  double min_t = rules::kMinT;                      // … consistently over the segments
   // Segments where the term's fitted contribution carries less than this share of the error are
   // not counted (it predicts nothing there); 0: every segment counts.
   double acting_share = 0;
-  double parsimony = 0.5;          // a simpler term reaching this share of the best gain goes first
+  double parsimony =
+      rules::kAxisParsimony;       // a simpler term reaching this share of the best gain goes first
   bool leave_out_spanned = false;  // a variant's columns the model already spans are left out
   effects::Scales scales{};        // the actuator's, that the units' plausible ranges are in
 };

@@ -9,11 +9,22 @@
 #include <stdexcept>
 #include <utility>
 
+#include "maglead/analysis/rules.hpp"
+
 namespace maglead::analysis::stats {
 namespace {
 // A column whose sum of squares is below this share of the largest is zero to rounding (double
 // precision: squares of 1e-16 relative; a physical column is far above).
 constexpr double kZeroColumn = 1e-20;
+// σ from the median absolute deviation, for normal data.
+constexpr double kMadToSigma = 1.4826;
+// The t of gains with no spread at all: certain when positive.
+constexpr double kTWithoutSpread = 1e9;
+// Steps of t_s the median sample step is taken from: enough, and quick on an hour's recording.
+constexpr std::size_t kRateProbeSteps = 20000;
+// Ridge on the normal equations (relative, and absolute below any data's scale): collinear
+// columns stay finite.
+constexpr double kRidge = 1e-9, kTinyRidge = 1e-300, kPartialRidge = 1e-12;
 
 // The median (upper middle), reordering x: the value does not depend on the order it is given.
 double median_reordering(std::vector<double>& x) {
@@ -31,7 +42,7 @@ double robust_sigma(std::vector<double> x) {
   // In place: the deviations' median does not depend on their order either.
   const double m = median_reordering(x);
   for (double& v : x) v = std::abs(v - m);
-  return 1.4826 * median_reordering(x);
+  return kMadToSigma * median_reordering(x);
 }
 
 double t_statistic(const std::vector<double>& x) {
@@ -41,7 +52,7 @@ double t_statistic(const std::vector<double>& x) {
   double var = 0;
   for (double v : x) var += (v - mean) * (v - mean);
   var /= n - 1;
-  return var > 0 ? mean / std::sqrt(var / n) : (mean > 0 ? 1e9 : 0.0);
+  return var > 0 ? mean / std::sqrt(var / n) : (mean > 0 ? kTWithoutSpread : 0.0);
 }
 
 double total(const std::vector<double>& x) { return std::accumulate(x.begin(), x.end(), 0.0); }
@@ -56,7 +67,7 @@ void require_finite(const Recording& rec, const std::vector<double>& x, const st
 void require_analysable(const Recording& rec, const std::vector<std::string>& columns) {
   for (const auto& c : columns) require_finite(rec, rec.column(c), c);  // column(): names it
   const std::size_t n = rec.column("t_s").size();
-  if (n < 200)
+  if (n < rules::kMinRows)
     throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(n) +
                                 " rows)");
 }
@@ -73,7 +84,8 @@ double sample_rate_hz(const Recording& rec) {
   }
   const auto& t = rec.column("t_s");
   std::vector<double> d;
-  for (std::size_t i = 1; i < t.size() && d.size() < 20000; ++i) d.push_back(t[i] - t[i - 1]);
+  for (std::size_t i = 1; i < t.size() && d.size() < kRateProbeSteps; ++i)
+    d.push_back(t[i] - t[i - 1]);
   const double dt = median_of(std::move(d));
   if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
   return 1.0 / dt;
@@ -160,7 +172,7 @@ Fit solve(const Grams& g, const std::vector<int>& idx, int skip_fold) {
       A.row(r).setZero(), A.col(r).setZero(), b[r] = 0;
       A(r, r) = 1;
     }
-    A(r, r) += 1e-9 * A(r, r) + 1e-300;
+    A(r, r) += kRidge * A(r, r) + kTinyRidge;
   }
   Fit fit{idx, m ? Eigen::VectorXd(A.ldlt().solve(b)) : Eigen::VectorXd()};
   return fit;
@@ -210,8 +222,8 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   Eigen::MatrixXd R = S;
   if (nb > 0) {
     Eigen::MatrixXd Sbr = S.topRows(nb);
-    Eigen::LDLT<Eigen::MatrixXd> ld(Sbb + 1e-12 * Eigen::MatrixXd::Identity(nb, nb) *
-                                              (Sbb.trace() / static_cast<double>(nb) + 1e-300));
+    Eigen::LDLT<Eigen::MatrixXd> ld(Sbb + kPartialRidge * Eigen::MatrixXd::Identity(nb, nb) *
+                                              (Sbb.trace() / static_cast<double>(nb) + kTinyRidge));
     R = S - Sbr.transpose() * ld.solve(Sbr);
   }
   const Eigen::MatrixXd Raa = R.block(nb, nb, na, na), Rab = R.block(nb, nb + na, na, nn),
@@ -219,8 +231,8 @@ double partial_r2(const Grams& g, const std::vector<int>& base, const std::vecto
   const double zz = wa.dot(Raa * wa);
   if (!(zz > 0)) return 0.0;
   const Eigen::VectorXd bz = Rab.transpose() * wa;
-  Eigen::LDLT<Eigen::MatrixXd> lb(Rbb + 1e-12 * Eigen::MatrixXd::Identity(nn, nn) *
-                                            (Rbb.trace() / static_cast<double>(nn) + 1e-300));
+  Eigen::LDLT<Eigen::MatrixXd> lb(Rbb + kPartialRidge * Eigen::MatrixXd::Identity(nn, nn) *
+                                            (Rbb.trace() / static_cast<double>(nn) + kTinyRidge));
   return std::clamp(bz.dot(lb.solve(bz)) / zz, 0.0, 1.0);
 }
 

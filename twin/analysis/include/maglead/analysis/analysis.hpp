@@ -10,6 +10,7 @@
 #include "maglead/analysis/figures.hpp"
 #include "maglead/analysis/model_file.hpp"
 #include "maglead/analysis/results.hpp"
+#include "maglead/analysis/rules.hpp"
 #include "maglead/physics/actuator.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "maglead/recording/recording.hpp"
@@ -17,16 +18,18 @@
 namespace maglead::analysis {
 
 struct AnalysisOptions {
-  int folds = 10;               // contiguous held-out time segments
-  double filter_hz = 0.0;       // zero-phase low-pass of position (0: 100 Hz axis, 20 Hz actuator)
-  int decimation = 0;           // 0: down to the identification bandwidth (axis), 1: none
-  double min_gain_pct = 1.0;    // a term must cut the held-out mean square error this much …
-  double min_t = 3.0;           // … consistently over the segments (t statistic of the gains)
-  double min_speed_m_s = 2e-4;  // actuator: slower samples stick, their friction is unknown
+  // The defaults are the rule table's (maglead/analysis/rules.hpp), which says why.
+  int folds = rules::kFolds;  // contiguous held-out time segments
+  double filter_hz = 0.0;     // zero-phase low-pass of position (0: 100 Hz axis, 20 Hz actuator)
+  int decimation = 0;         // 0: down to the identification bandwidth (axis), 1: none
+  double min_gain_pct =
+      rules::kMinHeldOutGainPct;  // a term must cut the held-out error this much …
+  double min_t = rules::kMinT;    // … consistently over the segments (t statistic of the gains)
+  double min_speed_m_s = 2e-4;    // actuator: slower samples stick, their friction is unknown
   // actuator: how well the calibration is known [N]; a finding must change the force by more
   // (0: not stated: a thousandth of the calibrated peak force, at least 0.07 N).
   double calibration_accuracy_n = 0.0;
-  int max_terms = 8;
+  int max_terms = rules::kAxisMaxTerms;  // the axis path's; the actuator's is its own
   // actuator: run the twin's force estimate with the corrected model against the load cell and
   // keep only terms that do not raise its error (several twin runs over the recording).
   bool twin_force_check = true;
