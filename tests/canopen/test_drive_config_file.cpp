@@ -6,6 +6,7 @@
 #include <string>
 
 #include "maglead/canopen/cia402_hardware.hpp"
+#include "maglead/settings/settings.hpp"
 
 namespace maglead::canopen {
 namespace {

@@ -1,6 +1,5 @@
 #include "cli_common.hpp"
 
-#include "maglead/physics/toml_config.hpp"
 
 #include <unistd.h>
 

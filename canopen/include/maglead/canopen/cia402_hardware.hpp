@@ -41,11 +41,6 @@ struct Cia402Scaling {
 };
 Cia402Scaling cia402_scaling(const DriveConfig& drive, const ActuatorParams& actuator);
 
-/// Reads the [drive] table of `path` (config/drive.toml) over `base`: absent keys keep base's
-/// values. Throws std::runtime_error "FILE:LINE:COLUMN: drive.KEY: why" on a bad or unknown key,
-/// and at the table for what needs more than one key (check_drive_config).
-DriveConfig load_drive_config(const std::string& path, DriveConfig base);
-
 class Cia402Hardware final : public ActuatorHardware {
  public:
   /// Opens the bus (or builds the simulated drive around `plant`, which "sim" needs), starts

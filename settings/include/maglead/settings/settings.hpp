@@ -7,6 +7,7 @@
 // analysis writes, not configuration.)
 #include <string>
 
+#include "maglead/canopen/cia402_hardware.hpp"
 #include "maglead/controller/controller.hpp"
 #include "maglead/modbus/network_config.hpp"
 #include "maglead/physics/actuator.hpp"
@@ -34,6 +35,14 @@ NetworkConfig load_network_config(const std::string& path);
 std::optional<controller::FaultReaction> parse_fault_reaction(std::string_view text);
 
 }  // namespace maglead::modbus
+
+namespace maglead::canopen {
+
+/// Reads the [drive] table of `path` (config/drive.toml) over `base`: absent keys keep base's
+/// values; what needs more than one key is checked at the table (check_drive_config).
+DriveConfig load_drive_config(const std::string& path, DriveConfig base);
+
+}  // namespace maglead::canopen
 
 namespace maglead::twin {
 

@@ -3,8 +3,8 @@
 #include <string>
 #include <type_traits>
 
-#include "maglead/canopen/cia402_hardware.hpp"
 #include "maglead/physics/toml_config.hpp"
+#include "maglead/settings/settings.hpp"
 
 namespace maglead::canopen {
 namespace {
