@@ -1,6 +1,5 @@
 #include "cli_common.hpp"
 
-
 #include <unistd.h>
 
 #include <algorithm>
