@@ -1,18 +1,17 @@
 // The 1 kHz cycle allocates nothing: global operator new/delete are replaced in this test binary
-// and count while armed. Armed from the first cycle on, over thousands of cycles of the
-// controller, the simulated plant, the digital twin (runtime::TwinRunner: the loop's push into
-// its queue and read of its results, and, drained on this thread between cycles, CVODE with its
-// look-ahead and the publication of results) and the Modbus snapshot exchange (requests through
+// (counting_new.cpp) and count while armed. Armed from the first cycle on, over thousands of cycles
+// of the controller, the simulated plant, the digital twin (runtime::TwinRunner: the loop's push
+// into its queue and read of its results, and, drained on this thread between cycles, CVODE with
+// its look-ahead and the publication of results) and the Modbus snapshot exchange (requests through
 // ModbusCore, which posts commands to the loop's queue and reads its seqlock), through enable,
 // position moves, force mode, a fault and its reset. One allocation fails the test. Own executable:
 // the replacement is process-wide.
 #include <gtest/gtest.h>
 
-#include <atomic>
 #include <cstdint>
-#include <cstdlib>
 #include <new>
 
+#include "counting_new.hpp"
 #include "maglead/controller/controller.hpp"
 #include "maglead/modbus/modbus_core.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
@@ -20,83 +19,12 @@
 #include "maglead/settings/settings.hpp"
 #include "maglead/twin/monitor.hpp"
 
-// GCC sees free() on what it takes for a new-expression's pointer in the replacements below
-// (they are that allocator): not a mismatch here.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-
-namespace {
-
-std::atomic<bool> g_armed{false};
-std::atomic<std::uint64_t> g_allocations{0};
-std::atomic<std::size_t> g_first_size{0};
-
-void* counted_alloc(std::size_t n, std::size_t align = 0) {
-  if (g_armed.load(std::memory_order_relaxed)) {
-    g_allocations.fetch_add(1, std::memory_order_relaxed);
-    std::size_t none = 0;
-    g_first_size.compare_exchange_strong(none, n, std::memory_order_relaxed);
-  }
-  if (n == 0) n = 1;
-  void* p = align > alignof(std::max_align_t)
-                ? std::aligned_alloc(align, (n + align - 1) / align * align)
-                : std::malloc(n);
-  return p;
-}
-
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (void* p = counted_alloc(n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) {
-  if (void* p = counted_alloc(n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new(std::size_t n, std::align_val_t a) {
-  if (void* p = counted_alloc(n, static_cast<std::size_t>(a))) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n, std::align_val_t a) {
-  if (void* p = counted_alloc(n, static_cast<std::size_t>(a))) return p;
-  throw std::bad_alloc();
-}
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept { return counted_alloc(n); }
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept { return counted_alloc(n); }
-void* operator new(std::size_t n, std::align_val_t a, const std::nothrow_t&) noexcept {
-  return counted_alloc(n, static_cast<std::size_t>(a));
-}
-void* operator new[](std::size_t n, std::align_val_t a, const std::nothrow_t&) noexcept {
-  return counted_alloc(n, static_cast<std::size_t>(a));
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
-
 using namespace maglead;
 using namespace maglead::controller;
 using namespace maglead::modbus;
 namespace reg = maglead::registers;
 
 namespace {
-
-/// Counts the allocations made between construction and count() (this thread or any other).
-struct Armed {
-  std::uint64_t start;
-  Armed() : start(g_allocations.load()) {
-    g_first_size.store(0);
-    g_armed.store(true);
-  }
-  ~Armed() { g_armed.store(false); }
-  std::uint64_t count() const { return g_allocations.load() - start; }
-};
 
 /// The loop as `maglead serve` wires it, with a Modbus client speaking through ModbusCore.
 struct Rig {
@@ -186,7 +114,7 @@ constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b);
 // The counter itself: an allocation made while armed is seen (a counter that sees nothing
 // would pass every test below).
 TEST(NoAllocation, CounterSeesAnAllocation) {
-  Armed armed;
+  test_support::AllocationCount armed;
   void* volatile p = ::operator new(24);
   ::operator delete(p);
   EXPECT_EQ(armed.count(), 1u);
@@ -203,7 +131,7 @@ TEST(NoAllocation, AnAllocationInsideTheCycleIsCaught) {
   } twin;
   Rig rig(false);
   rig.ctl->attach_twin(&twin);
-  Armed armed;
+  test_support::AllocationCount armed;
   for (int i = 0; i < 10; ++i) rig.cycle();
   EXPECT_GE(armed.count(), 10u);  // one per cycle from the hook (more if something else allocates)
 }
@@ -223,7 +151,7 @@ TEST(NoAllocation, ThousandsOfCyclesWithTwinAndModbusAllocateNothing) {
   std::uint16_t seen_states = 0;  // drive states visited (bit per state)
   std::uint16_t max_twin_healthy = 0;
   bool lagged = false;  // drained every cycle, the twin is never behind
-  Armed armed;
+  test_support::AllocationCount armed;
   constexpr int kCycles = 8000;
   for (int i = 1; i <= kCycles; ++i) {
     const std::uint64_t before = armed.count();
@@ -298,7 +226,7 @@ TEST(NoAllocation, ThousandsOfCyclesWithTwinAndModbusAllocateNothing) {
     if (first_cycle == 0 && armed.count() != before) first_cycle = static_cast<std::uint64_t>(i);
   }
   const std::uint64_t allocations = armed.count();
-  const std::size_t first_size = g_first_size.load();
+  const std::size_t first_size = armed.first_size_bytes();
   const Snapshot s = rig.ctl->snapshot();
   EXPECT_EQ(allocations, 0u) << "first in cycle " << first_cycle << ", " << first_size << " bytes";
   // The run went where it was meant to: it is not a loop idling in one state.
@@ -320,7 +248,7 @@ TEST(NoAllocation, ModelTermsInTheTwinAllocateNothing) {
   const std::uint16_t mode = reg::find("mode_command")->address;
   const std::uint16_t pos = reg::find("position_setpoint_um")->address;
   for (int i = 0; i < 20; ++i) rig.cycle();  // set-up (first snapshots) before arming
-  Armed armed;
+  test_support::AllocationCount armed;
   for (int i = 1; i <= 3000; ++i) {
     switch (i) {
       case 10:
@@ -344,5 +272,5 @@ TEST(NoAllocation, ModelTermsInTheTwinAllocateNothing) {
     rig.cycle();
     if (i % 10 == 0) rig.poll();
   }
-  EXPECT_EQ(armed.count(), 0u) << "first allocation of " << g_first_size.load() << " bytes";
+  EXPECT_EQ(armed.count(), 0u) << "first allocation of " << armed.first_size_bytes() << " bytes";
 }
