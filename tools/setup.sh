@@ -8,7 +8,8 @@ packages=(
   libmodbus-dev                             # Modbus TCP/RTU framing, CRC, serial line
   libeigen3-dev                             # least squares for calibration and analysis
   libsundials-dev                           # CVODE: the twin's hybrid ODE integration
-  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev  # plots and maps as PNG
+  libopencv-core-dev libopencv-imgproc-dev  # drawing plots and maps
+  libpng-dev libjpeg62-turbo-dev            # encoding them as PNG and JPEG
   libcli11-dev                              # command-line parsing
   libtomlplusplus-dev                       # config files (TOML)
   nlohmann-json3-dev                        # JSON output

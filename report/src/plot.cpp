@@ -7,12 +7,12 @@
 #include <filesystem>
 #include <limits>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string_view>
 #include <vector>
 
+#include "image_encode.hpp"
 #include "maglead/fileio/atomic_file.hpp"
 
 namespace maglead::plot {
@@ -187,19 +187,20 @@ std::string image_extension(const std::string& path) {
                            "': give the file a .png (or .jpg) name");
 }
 
+// A JPEG's quality: OpenCV's default, where a figure's lines and text show no artefacts.
+constexpr int kJpegQuality = 95;
+
 void write_png(const std::string& path, const cv::Mat& img) {
   // Encoded in memory, then written atomically: a report never holds half a figure.
   const std::string ext = image_extension(path);
-  std::vector<unsigned char> bytes;
-  bool ok = false;
+  const BgrImage pixels{img.ptr<unsigned char>(0), img.cols, img.rows, img.step[0]};
+  std::string bytes;
   try {
-    ok = cv::imencode(ext, img, bytes);
-  } catch (const cv::Exception& e) {
+    bytes = ext == ".png" ? encode_png(pixels) : encode_jpeg(pixels, kJpegQuality);
+  } catch (const std::runtime_error& e) {
     throw std::runtime_error(path + ": cannot write the image: " + e.what());
   }
-  if (!ok) throw std::runtime_error(path + ": cannot write the image");
-  write_file_atomically(
-      path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  write_file_atomically(path, bytes);
 }
 
 }  // namespace

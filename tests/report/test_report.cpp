@@ -4,12 +4,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <set>
 #include <string>
 #include <vector>
 
 #include "effect_text.hpp"
+#include "image_encode.hpp"
 #include "maglead/effects/effect.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/time_chart.hpp"
@@ -126,3 +128,53 @@ TEST(EffectText, ParameterWithItsStandardErrorAtItsDigits) {
 
 }  // namespace
 }  // namespace maglead::report
+
+namespace {
+
+// A 5×3 BGR image, a row padded to 16 bytes as OpenCV pads a sub-matrix's rows.
+struct SmallImage {
+  std::vector<unsigned char> bytes = std::vector<unsigned char>(std::size_t{3} * 16, 200);
+  maglead::plot::BgrImage view() const { return {bytes.data(), 5, 3, 16}; }
+};
+
+std::uint32_t big_endian_at(const std::string& s, std::size_t at) {
+  std::uint32_t v = 0;
+  for (std::size_t i = 0; i < 4; ++i) v = v << 8 | static_cast<unsigned char>(s[at + i]);
+  return v;
+}
+
+}  // namespace
+
+TEST(ImageEncode, PngCarriesTheImagesSize) {
+  const std::string png = maglead::plot::encode_png(SmallImage{}.view());
+  ASSERT_GT(png.size(), 33U);
+  EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  EXPECT_EQ(png.substr(12, 4), "IHDR");
+  EXPECT_EQ(big_endian_at(png, 16), 5U);  // width
+  EXPECT_EQ(big_endian_at(png, 20), 3U);  // height
+}
+
+TEST(ImageEncode, JpegIsAJpeg) {
+  const std::string jpg = maglead::plot::encode_jpeg(SmallImage{}.view(), 95);
+  ASSERT_GT(jpg.size(), 4U);
+  EXPECT_EQ(jpg.substr(0, 2), "\xff\xd8");            // start of image
+  EXPECT_EQ(jpg.substr(jpg.size() - 2), "\xff\xd9");  // end of image
+}
+
+TEST(ImageEncode, AnEmptyImageIsRefusedWithTheLibrarysReason) {
+  const maglead::plot::BgrImage empty{nullptr, 0, 0, 0};
+  const auto message_of = [&](auto encode) -> std::string {
+    try {
+      (void)encode();
+    } catch (const std::runtime_error& e) {
+      return e.what();
+    }
+    return "(no error)";
+  };
+  const std::string png = message_of([&] { return maglead::plot::encode_png(empty); });
+  const std::string jpg = message_of([&] { return maglead::plot::encode_jpeg(empty, 95); });
+  EXPECT_EQ(png.rfind("PNG encoding failed: ", 0), 0U) << png;
+  EXPECT_GT(png.size(), std::string("PNG encoding failed: ").size()) << png;
+  EXPECT_EQ(jpg.rfind("JPEG encoding failed: ", 0), 0U) << jpg;
+  EXPECT_GT(jpg.size(), std::string("JPEG encoding failed: ").size()) << jpg;
+}
