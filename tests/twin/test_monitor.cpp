@@ -320,6 +320,44 @@ TEST(TwinMonitor, HandMovesAndForceControlWithoutDriftRaiseNoDriftWarning) {
   EXPECT_GT(r.max_drift_statistic, 0.0) << "never judged";
 }
 
+/// Seconds from the gain crossing 3 % below its value at t = 0 (stricter than from the
+/// reference) to the warning, printed; NaN when not warned.
+double crossing_to_warning_s(const MonitorRun& r, double loss_per_min, const char* what) {
+  const double t_cross = 60.0 * 0.03 / loss_per_min;
+  const double delay_s = r.first_drift_s - t_cross;
+  std::printf("%s: 3 %% crossed at %.1f s, warning at %.1f s: %+.1f s after the crossing\n  %s\n",
+              what, t_cross, r.first_drift_s, delay_s, drift_message(r.at_drift).c_str());
+  return delay_s;
+}
+
+// A slow drift over mixed moves (`simulate --scenario mixed-moves`, no offset): the gain falls by
+// 6 % over 154 s, crossing 3 % at 76.9 s, and is flagged within 30 s of that crossing. Seeds
+// change the hand segments, and with them where the spring's anchor lies in each force segment.
+TEST(TwinMonitor, MixedMovesSlowDriftFlaggedWithin30sOfTheCrossing) {
+  constexpr double kLossPerMin = 0.06 * 60.0 / 154.0;
+  for (const std::uint64_t seed : {2, 3}) {
+    const MonitorRun r = run_recording("mixed-moves", 154.0, seed, -kLossPerMin, {}, false);
+    const std::string what = "mixed-moves 154 s, gain -6 %, seed " + std::to_string(seed);
+    ASSERT_TRUE(std::isfinite(r.first_drift_s)) << what << ": not flagged";
+    EXPECT_LE(crossing_to_warning_s(r, kLossPerMin, what.c_str()), 30.0) << what;
+    EXPECT_TRUE(r.at_drift.drift_reason == DriftReason::gain_fell ||
+                r.at_drift.drift_reason == DriftReason::error_rose)
+        << what;
+  }
+}
+
+// Documents a known lag (issue 44): the same scenario losing 10 % over 154 s crosses 3 % at
+// 46.2 s, while the force segments compare their windows at an anchor ~18 mm from the map and the
+// free moves have few repeated passes; it is flagged only with the first force segment back near
+// the map, at 86.0 s (+39.8 s). Asserted: flagged, as a weaker coupling, within the run.
+TEST(TwinMonitor, MixedMovesFasterDriftFlaggedLateKnownGap) {
+  constexpr double kLossPerMin = 0.10 * 60.0 / 154.0;
+  const MonitorRun r = run_recording("mixed-moves", 154.0, 2, -kLossPerMin, {}, false);
+  ASSERT_TRUE(std::isfinite(r.first_drift_s)) << "not flagged";
+  crossing_to_warning_s(r, kLossPerMin, "mixed-moves 154 s, gain -10 %, seed 2 (known lag)");
+  EXPECT_GT(r.at_drift.drift_at_warning.zero_load_n, 0.0);  // a weaker coupling: overstated
+}
+
 // Every effect of docs/effects.md that is not a drift (of the size found on the bench), on the
 // moves: no warning, and the flag really compared (reference formed), so "none" means "none".
 // With a 5 % angle ripple the reference forms late (45 s) and too few passes of one condition
