@@ -34,7 +34,8 @@ std::string rotary_name(std::string_view n) {
   for (const auto& [from, to] : kQuantities)
     if (n == from) return std::string(to);
   for (const auto& [from, to] : kUnits)
-    if (ends_with(n, from)) return std::string(n.substr(0, n.size() - from.size())) + std::string(to);
+    if (ends_with(n, from))
+      return std::string(n.substr(0, n.size() - from.size())) + std::string(to);
   return std::string(n);
 }
 

@@ -20,9 +20,9 @@ struct RotaryDrive {
   double inertia_kg_m2 = 1.2e-3;        // J: motor and load
   double viscous_n_m_s_per_rad = 2e-3;  // b
   double coulomb_n_m = 0.08;            // c
-  double offset_n_m = 0.0;              // τ_0: a constant load torque (gravity on a balanced arm: 0)
-  double noise_n_m = 0.005;             // RMS of the logged torque's noise
-  double counts_per_turn = 131072.0;    // 2^17
+  double offset_n_m = 0.0;            // τ_0: a constant load torque (gravity on a balanced arm: 0)
+  double noise_n_m = 0.005;           // RMS of the logged torque's noise
+  double counts_per_turn = 131072.0;  // 2^17
   double duration_s = 40.0;
   double start_rad = 3000.0;  // where the absolute encoder starts: beyond any length's bound
   unsigned seed = 1;
@@ -90,9 +90,9 @@ inline Recording rotary_recording(const RotaryDrive& d, bool axis_header = true)
     for (int s = 0; s < kSubsteps; ++s) {
       const double h = kDt_s / kSubsteps, drive = tau - d.offset_n_m;
       if (omega == 0.0 && std::abs(drive) <= d.coulomb_n_m) continue;  // stuck
-      const double friction = d.viscous_n_m_s_per_rad * omega +
-                              d.coulomb_n_m * (omega != 0.0 ? std::copysign(1.0, omega)
-                                                            : std::copysign(1.0, drive));
+      const double friction =
+          d.viscous_n_m_s_per_rad * omega +
+          d.coulomb_n_m * (omega != 0.0 ? std::copysign(1.0, omega) : std::copysign(1.0, drive));
       const double next = omega + h * (drive - friction) / d.inertia_kg_m2;
       omega = (omega != 0.0 && next * omega < 0.0) ? 0.0 : next;  // stops rather than reverses
       theta += h * omega;

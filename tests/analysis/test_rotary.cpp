@@ -64,8 +64,8 @@ void expect_found(const AnalysisResult& r, const std::string& id, const std::str
 
 TEST(Rotary, MissingViscousFrictionIsNamedInRotaryUnits) {
   const RotaryDrive d;
-  const auto r = analyze(maglead::test::rotary_recording(d),
-                         rotary_model({"nut_mass_kg", "coulomb_n"}));
+  const auto r =
+      analyze(maglead::test::rotary_recording(d), rotary_model({"nut_mass_kg", "coulomb_n"}));
   expect_found(r, "viscous_friction", "viscous_n_m_s_per_rad", d.viscous_n_m_s_per_rad);
   EXPECT_NE(r.headline.find("viscous_n_m_s_per_rad"), std::string::npos) << r.headline;
   EXPECT_NE(r.headline.find("N·m·s/rad (model 0 N·m·s/rad)"), std::string::npos) << r.headline;
@@ -106,8 +106,7 @@ TEST(Rotary, AHeaderOrColumnsThatDoNotSayRotaryAreAClearError) {
   };
   // The header line missing: says to add it.
   const std::string no_header = message(maglead::test::rotary_recording(d, false), model);
-  EXPECT_NE(no_header.find("add the header line '# axis: rotary'"), std::string::npos)
-      << no_header;
+  EXPECT_NE(no_header.find("add the header line '# axis: rotary'"), std::string::npos) << no_header;
   // A rotary header on a linear axis's columns: says which columns a rotary axis needs.
   auto linear_columns = maglead::test::rotary_recording(d);
   linear_columns.names = {"t_s", "pos_m", "drive_force_n", "ref_pos_m"};

@@ -246,7 +246,8 @@ void save_twin_model(const std::string& path, const TwinModel& m,
   if (!m.fit.empty()) {
     out << "fit = [";
     bool first = true;
-    for (const auto& k : m.fit) out << (first ? "" : ", ") << quoted(kind.name_of(k)), first = false;
+    for (const auto& k : m.fit)
+      out << (first ? "" : ", ") << quoted(kind.name_of(k)), first = false;
     out << "]\n";
   }
   for (const auto& t : m.terms) {

@@ -881,8 +881,8 @@ void locate_pulses(AxisRun& run, const std::vector<double>& yf, const std::vecto
 // Residuals before and after at the identification samples, and what the maps draw on.
 struct Residuals {
   std::vector<double> before, after;
-  double rms0 = 0;                                  // baseline RMS
-  const effects::AxisKind* kind = nullptr;          // what the residual and the motion are in
+  double rms0 = 0;                          // baseline RMS
+  const effects::AxisKind* kind = nullptr;  // what the residual and the motion are in
   std::string unit() const { return std::string(kind->drive_unit); }  // the residual's
 };
 
@@ -1007,7 +1007,8 @@ void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& re
   Figure ft;
   ft.file = "residual_time.png";
   ft.caption = "Residual RMS in time windows";
-  ft.charts.push_back({"Residual RMS over time", "time [s]", "RMS [" + res.unit() + "]", {w.before, w.after}});
+  ft.charts.push_back(
+      {"Residual RMS over time", "time [s]", "RMS [" + res.unit() + "]", {w.before, w.after}});
   R.figures.push_back(ft);
 }
 
@@ -1044,9 +1045,10 @@ void locked_average(AnalysisResult& R, const Signals& S, const Residuals& res, d
       s1.x.push_back(tt * 1e3);
       s1.y.push_back(acc1[k] / cnt[k]);
     }
-  fr.charts.push_back(
-      {"Residual locked to " + what, "time from event [ms]",
-       "residual x direction [" + res.unit() + "]", {s0, s1}});
+  fr.charts.push_back({"Residual locked to " + what,
+                       "time from event [ms]",
+                       "residual x direction [" + res.unit() + "]",
+                       {s0, s1}});
   R.figures.push_back(fr);
 }
 
@@ -1197,12 +1199,15 @@ const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
   const bool rotary = kind->name == "rotary";
   if (modelled && modelled != kind)
     throw std::invalid_argument(
-        rotary ? rec.path + ": the recording is a rotary axis ('# axis: rotary') but the model is "
-                            "a linear axis's (system = \"axis\"): give a rotary model (system = "
-                            "\"rotary\", inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m)"
-               : rec.path + ": the model is a rotary axis's (system = \"rotary\") but the "
-                            "recording does not say so: add the header line '# axis: rotary' "
-                            "(columns " + kind_columns(effects::rotary_axis()) + ")");
+        rotary ? rec.path +
+                     ": the recording is a rotary axis ('# axis: rotary') but the model is "
+                     "a linear axis's (system = \"axis\"): give a rotary model (system = "
+                     "\"rotary\", inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m)"
+               : rec.path +
+                     ": the model is a rotary axis's (system = \"rotary\") but the "
+                     "recording does not say so: add the header line '# axis: rotary' "
+                     "(columns " +
+                     kind_columns(effects::rotary_axis()) + ")");
   if (has_columns(rec, *kind)) return *kind;
   const effects::AxisKind& other = rotary ? effects::linear_axis() : effects::rotary_axis();
   std::string msg = rec.path + ": a " + std::string(kind->name) + " axis needs the columns " +
@@ -1210,8 +1215,8 @@ const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
   for (const auto c : kind->setpoints) msg += " " + std::string(c);
   msg += ")";
   if (has_columns(rec, other))
-    msg += "; this recording has a " + std::string(other.name) + " axis's (" +
-           kind_columns(other) + "): " +
+    msg += "; this recording has a " + std::string(other.name) + " axis's (" + kind_columns(other) +
+           "): " +
            (rotary ? "remove the header line '# axis: rotary' and use a linear model"
                    : "add the header line '# axis: rotary' and use a rotary model");
   throw RecordingError(msg);
@@ -1260,8 +1265,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   AnalysisResult R;
   fill_findings(R.findings, run, sel, p, final_base_se);
   const Signals& S = *run.S;
-  Residuals res{std::vector<double>(S.size()), std::vector<double>(S.size()), p.eb.rms,
-                &run.kind};
+  Residuals res{std::vector<double>(S.size()), std::vector<double>(S.size()), p.eb.rms, &run.kind};
   for (std::size_t i = 0; i < S.size(); ++i) {
     res.before[i] = S.y[i] - p.yb[i];
     res.after[i] = S.y[i] - p.yf[i];

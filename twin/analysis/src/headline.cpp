@@ -89,8 +89,8 @@ std::string headline_of(const Findings& f, const ModelFile& baseline) {
   const std::string unit = kind ? std::string(kind->drive_unit) : "N";
   if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
     return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, unit);
-  return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) +
-         " " + unit + " RMS (floor " + number(f.noise_floor_n) + " " + unit + ")";
+  return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) + " " +
+         unit + " RMS (floor " + number(f.noise_floor_n) + " " + unit + ")";
 }
 
 }  // namespace maglead::analysis

@@ -12,16 +12,16 @@
 namespace maglead::effects {
 
 struct AxisKind {
-  std::string_view name;          // the recording's `# axis:` value ("linear", "rotary")
-  std::string_view system;        // the model file's [model] system ("axis", "rotary")
-  std::string_view position;      // the measured position column
-  std::string_view drive;         // the measured drive force (torque) column
-  std::string_view drive_unit;    // "N", "N·m"
-  std::string_view quantity;      // "force", "torque": what the drive gives, in words
-  std::string_view motion;        // "position", "angle": what the position is, in words
-  std::string_view map_unit;      // the residual maps' position unit ("mm", "rad") …
-  std::string_view map_rate_unit; // … and velocity unit ("mm/s", "rad/s") …
-  double map_scale = 1.0;         // … the SI value times this
+  std::string_view name;                    // the recording's `# axis:` value ("linear", "rotary")
+  std::string_view system;                  // the model file's [model] system ("axis", "rotary")
+  std::string_view position;                // the measured position column
+  std::string_view drive;                   // the measured drive force (torque) column
+  std::string_view drive_unit;              // "N", "N·m"
+  std::string_view quantity;                // "force", "torque": what the drive gives, in words
+  std::string_view motion;                  // "position", "angle": what the position is, in words
+  std::string_view map_unit;                // the residual maps' position unit ("mm", "rad") …
+  std::string_view map_rate_unit;           // … and velocity unit ("mm/s", "rad/s") …
+  double map_scale = 1.0;                   // … the SI value times this
   std::vector<std::string_view> setpoints;  // columns whose steps are input edges, first found
   // Effect units whose law or range is stated in a lead screw's lengths and speeds only (a
   // ripple period scanned in millimetres): not offered on this kind until restated.
