@@ -7,7 +7,8 @@ The generated servo drive (rotary_drive.hpp: J, b, c known; angle in rad, torque
 analysed with a rotary baseline lacking viscous friction: analysis.json names it as
 viscous_n_m_s_per_rad, the headline prints N·m·s/rad, and model_corrected.toml holds the rotary's
 names (inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m) and is read back by the analysis. The
-same file without its '# axis: rotary' line is refused with what to add.
+same file without its '# axis: rotary' line is refused with what to add. analysis.json keeps to
+its schema (docs/schema/analysis.schema.json, system "rotary").
 """
 import json, os, subprocess, sys
 
@@ -43,6 +44,13 @@ else:
     if value is None or abs(value - VISCOUS) > 2 * error + 0.04 * VISCOUS:
         failures.append(f"viscous_n_m_s_per_rad {value} ± {error}, true {VISCOUS}")
     print(f"found viscous_n_m_s_per_rad {value} ± {error} (true {VISCOUS})")
+import jsonschema  # tools/setup.sh installs it (validate_schemas needs it too)
+schema = json.load(open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..",
+                                     "docs", "schema", "analysis.schema.json")))
+try:
+    jsonschema.Draft202012Validator(schema).validate(j)
+except jsonschema.ValidationError as e:
+    failures.append(f"analysis.json against its schema: {e.message}")
 if "N·m·s/rad" not in j["headline"]:
     failures.append("headline without N·m·s/rad: " + j["headline"])
 if "inertia_kg_m2" not in j["final"].get("fitted_parameters", {}):
