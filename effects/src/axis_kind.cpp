@@ -100,4 +100,9 @@ const AxisKind* axis_kind_of_system(std::string_view system) {
   return nullptr;
 }
 
+std::string_view drive_unit_of_system(std::string_view system) {
+  const AxisKind* k = axis_kind_of_system(system);
+  return k ? k->drive_unit : linear_axis().drive_unit;
+}
+
 }  // namespace maglead::effects

@@ -83,8 +83,7 @@ void print_result(const AnalyzeOptions& o, const std::string& model_path,
   std::printf("recording %s (%s), baseline %s\n", o.recording.c_str(), J.system.c_str(),
               model_path.empty() ? "config/actuator.toml" : model_path.c_str());
   // A rotary axis's errors are torques (effects/axis_kind.hpp).
-  const auto* kind = effects::axis_kind_of_system(J.system);
-  const std::string u = kind ? std::string(kind->drive_unit) : "N";
+  const std::string u(effects::drive_unit_of_system(J.system));
   std::printf("baseline   RMS %8.4f %s   relative error %7.3f %%   (full rate %7.3f %%)\n",
               J.baseline.rms_n, u.c_str(), J.baseline.relative_error_pct,
               J.baseline.full_rate_relative_error_pct);

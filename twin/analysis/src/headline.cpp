@@ -85,8 +85,7 @@ std::string headline_of(const Findings& f, const ModelFile& baseline) {
            " sliding samples used of " + std::to_string(f.samples) +
            "); no finding is not the same as no anomaly";
   // A rotary axis's residual is a torque (effects/axis_kind.hpp).
-  const effects::AxisKind* kind = effects::axis_kind_of_system(baseline.system);
-  const std::string unit = kind ? std::string(kind->drive_unit) : "N";
+  const std::string unit(effects::drive_unit_of_system(baseline.system));
   if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
     return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, unit);
   return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) + " " +

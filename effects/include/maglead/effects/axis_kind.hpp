@@ -41,5 +41,7 @@ const AxisKind& rotary_axis();
 const AxisKind* axis_kind(std::string_view name);
 /// The kind a model file's system names ("axis": linear, "rotary"); nullptr otherwise.
 const AxisKind* axis_kind_of_system(std::string_view system);
+/// The unit a system's forces are in: a rotary axis's torques in N·m, every other's in N.
+std::string_view drive_unit_of_system(std::string_view system);
 
 }  // namespace maglead::effects
