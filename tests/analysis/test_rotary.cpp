@@ -166,6 +166,11 @@ TEST(Rotary, AHeaderOrColumnsThatDoNotSayRotaryAreAClearError) {
   linear.system = "axis";
   const std::string mixed = message(maglead::test::rotary_recording(d), linear);
   EXPECT_NE(mixed.find("give a rotary model"), std::string::npos) << mixed;
+  // A rotary recording with the actuator's model (no --model): says which model it needs.
+  ModelFile actuator = model;
+  actuator.system = "actuator";
+  const std::string no_model = message(maglead::test::rotary_recording(d), actuator);
+  EXPECT_NE(no_model.find("give the axis's baseline with --model"), std::string::npos) << no_model;
   // An angle of thousands of radians is an angle, not a length: the unit checks pass it.
   EXPECT_NO_THROW(maglead::check_plausible_units(maglead::test::rotary_recording(d)));
 }

@@ -1288,6 +1288,13 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
 AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& opt) {
+  // A recording that states an axis kind is no actuator's: say which model it needs rather than
+  // which actuator column it lacks.
+  if (model.system == "actuator" && rec.meta("axis"))
+    throw std::invalid_argument(rec.path +
+                                ": the recording is an axis ('# axis: " + *rec.meta("axis") +
+                                "') and the model the magnetic actuator's: give the axis's "
+                                "baseline with --model (system = \"rotary\" or \"axis\")");
   AnalysisResult r = model.system == "actuator" ? analyze_actuator(rec, model, cal, act, opt)
                                                 : analyze_axis(rec, model, opt);
   r.headline = headline_of(r.findings, model);
