@@ -139,6 +139,27 @@ TEST(Rotary, TheModelFileCarriesRotaryNames) {
   }
 }
 
+// A torque logged with the wrong sign is a missing torque no library law explains plausibly:
+// said so with the rotary's names and columns (Axis.AForceOfTheWrongSignIsNotExplainedPlausibly
+// on a linear axis).
+TEST(Rotary, ATorqueOfTheWrongSignIsNotExplainedPlausibly) {
+  const RotaryDrive d;
+  const auto rec = maglead::test::rotary_recording(d);
+  const auto first = analyze(rec, rotary_model({"nut_mass_kg", "viscous_n_s_per_m", "coulomb_n"}));
+  auto flipped = rec;
+  for (double& tau : flipped.columns[2]) tau = -tau;
+  const auto r = analyze(flipped, first.corrected);
+  EXPECT_TRUE(r.findings.effects.empty()) << named(r);
+  ASSERT_TRUE(r.findings.unexplained.has_value()) << r.findings.conclusion;
+  const auto& u = *r.findings.unexplained;
+  EXPECT_NE(u.check.find("sign of drive_torque_n_m and angle_rad"), std::string::npos) << u.check;
+  for (const auto& p : u.parameters)
+    EXPECT_NE(u.message.find(" " + p.name + " = "), std::string::npos) << u.message;
+  EXPECT_EQ(u.message.find("_n_s_per_m"), std::string::npos) << u.message;
+  EXPECT_EQ(u.message.find("nut_mass_kg"), std::string::npos) << u.message;
+  std::printf("rotary, torque of the wrong sign: %s\n", u.message.c_str());
+}
+
 TEST(Rotary, AHeaderOrColumnsThatDoNotSayRotaryAreAClearError) {
   const RotaryDrive d;
   const ModelFile model = rotary_model({"nut_mass_kg", "coulomb_n"});

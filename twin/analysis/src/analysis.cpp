@@ -1237,7 +1237,16 @@ void name_in_kind(Findings& J, const effects::AxisKind& kind) {
   }
   for (auto& r : J.not_selected)
     if (r.parameters) rename(*r.parameters);
-  if (J.unexplained) rename(J.unexplained->parameters);
+  if (J.unexplained) {
+    // Its message quotes the parameters as "name = value" (selection::unexplained_of).
+    std::string& m = J.unexplained->message;
+    for (const auto& p : J.unexplained->parameters) {
+      const std::string from = " " + p.name + " = ", to = " " + kind.name_of(p.name) + " = ";
+      for (auto at = m.find(from); at != std::string::npos; at = m.find(from, at + to.size()))
+        m.replace(at, from.size(), to);
+    }
+    rename(J.unexplained->parameters);
+  }
   for (FitErrors* f : {&J.baseline, &J.final_fit}) {
     if (!f->fitted_parameters) continue;
     rename(*f->fitted_parameters);
