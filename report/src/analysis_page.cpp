@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "analysis_part.hpp"
+#include "maglead/effects/axis_kind.hpp"
 #include "maglead/fileio/atomic_file.hpp"
 #include "maglead/report/analysis_json.hpp"
 #include "maglead/report/html.hpp"
@@ -35,9 +36,9 @@ std::string intro(const analysis::Findings& F) {
 
 std::string validation_table(const analysis::Findings& F) {
   if (F.validation.size() < 2) return "";
-  std::string h =
-      "<table><tr><th>model</th><th>held-out RMS [N]</th><th>held-out relative error "
-      "[%]</th></tr>\n";
+  std::string h = "<table><tr><th>model</th><th>held-out RMS [" +
+                  std::string(effects::drive_unit_of_system(F.system)) +
+                  "]</th><th>held-out relative error [%]</th></tr>\n";
   for (const auto& v : F.validation)
     h += "<tr><td>" + escape_html(v.model) + "</td><td>" + number(v.heldout_rms_n) + "</td><td>" +
          number(v.heldout_relative_error_pct) + "</td></tr>\n";

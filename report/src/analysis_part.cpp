@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "effect_text.hpp"
+#include "maglead/effects/axis_kind.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/plot.hpp"
 #include "maglead/report/time_chart.hpp"
@@ -121,12 +122,14 @@ std::string fit_table(const analysis::Findings& F) {
     ho_before = F.validation.front().heldout_rms_n;
     ho_after = F.validation.back().heldout_rms_n;
   }
+  const std::string u(effects::drive_unit_of_system(F.system));  // a rotary axis's: N·m
   if (F.effects.empty())
     return "<p>One fit, since nothing was added: the model's force error is " + rms(F.baseline) +
-           " N RMS (" + rel(F.baseline) + " % of the force).</p>\n";
-  return "<table><tr><th>model</th><th>force error RMS [N]</th><th>relative error [%]</th>"
-         "<th>held-out RMS [N]</th></tr>\n<tr><td>before (the model as configured)</td><td>" +
-         rms(F.baseline) + "</td><td>" + rel(F.baseline) + "</td>" + heldout_cell(ho_before) +
+           " " + u + " RMS (" + rel(F.baseline) + " % of the force).</p>\n";
+  return "<table><tr><th>model</th><th>force error RMS [" + u +
+         "]</th><th>relative error [%]</th><th>held-out RMS [" + u +
+         "]</th></tr>\n<tr><td>before (the model as configured)</td><td>" + rms(F.baseline) +
+         "</td><td>" + rel(F.baseline) + "</td>" + heldout_cell(ho_before) +
          "</tr>\n<tr><td>after (with the effects above)</td><td>" + rms(F.final_fit) + "</td><td>" +
          rel(F.final_fit) + "</td>" + heldout_cell(ho_after) + "</tr></table>\n";
 }
@@ -243,8 +246,9 @@ std::string analysis_events(const AnalysisOutcome& o) {
          "</td><td>" + number(e.force_n.value_or(NAN)) + "</td></tr>\n";
   }
   if (h.empty()) return "";
-  return "<table><tr><th>force pulse at [s]</th><th>lasting [s]</th><th>force [N]</th></tr>\n" + h +
-         "</table>\n";
+  const std::string u(effects::drive_unit_of_system(o.result->findings.system));
+  return "<table><tr><th>force pulse at [s]</th><th>lasting [s]</th><th>force [" + u +
+         "]</th></tr>\n" + h + "</table>\n";
 }
 
 std::string analysis_figures(const AnalysisOutcome& o, const std::string& out_dir) {

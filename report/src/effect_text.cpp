@@ -1,44 +1,20 @@
 #include "effect_text.hpp"
 
-#include <array>
-
 #include "maglead/analysis/results.hpp"
+#include "maglead/effects/axis_kind.hpp"
 #include "maglead/effects/effect.hpp"
 #include "maglead/report/html.hpp"
 
 namespace maglead::report {
 namespace {
 
-// The unit is the end of a parameter's name (docs/effects.md); longest suffixes first.
-struct UnitSuffix {
-  const char* suffix;
-  const char* unit;
-};
-constexpr std::array<UnitSuffix, 9> kUnitSuffixes{{{"_n_s_per_m", "N·s/m"},
-                                                   {"_n_per_m", "N/m"},
-                                                   {"_per_min", "1/min"},
-                                                   {"_m_s", "m/s"},
-                                                   {"_rad", "rad"},
-                                                   {"_kg", "kg"},
-                                                   {"_n", "N"},
-                                                   {"_m", "m"},
-                                                   {"_s", "s"}}};
-
-std::string unit_of(const std::string& name) {
-  for (const auto& [suffix, unit] : kUnitSuffixes) {
-    const std::string s = suffix;
-    if (name.size() > s.size() && name.compare(name.size() - s.size(), s.size(), s) == 0)
-      return unit;
-  }
-  return "";
-}
-
 // The library's meaning without a trailing "[unit]" (the unit is printed with the value).
 std::string meaning_of(const std::string& effect_id, const std::string& name) {
   const auto* e = effects::find(effect_id);
   if (!e) return "";
   for (const auto& p : e->params()) {
-    if (p.name != name) continue;
+    // A rotary axis names the parameter in its own units (effects/axis_kind.hpp).
+    if (p.name != name && effects::rotary_axis().name_of(p.name) != name) continue;
     std::string m = p.meaning;
     if (const auto bracket = m.find(" ["); bracket != std::string::npos) m.erase(bracket);
     return m;
@@ -62,7 +38,7 @@ std::string effect_law(const std::string& id) {
 
 std::string parameter_html(const std::string& effect_id, const std::string& name, double value,
                            double standard_error) {
-  const std::string unit = unit_of(name), meaning = meaning_of(effect_id, name);
+  const std::string unit = analysis::unit_of_parameter(name), meaning = meaning_of(effect_id, name);
   std::string shown = analysis::value_with_error(value, standard_error);
   if (shown.empty()) shown = number(value, 3);
   if (shown.front() == '-') shown.replace(0, 1, "−");

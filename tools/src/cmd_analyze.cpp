@@ -7,6 +7,7 @@
 #include "cli_common.hpp"
 #include "large_blocks.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/effects/axis_kind.hpp"
 #include "maglead/report/analysis_json.hpp"
 #include "maglead/report/analysis_page.hpp"
 #include "maglead/twin/model.hpp"
@@ -81,17 +82,20 @@ void print_result(const AnalyzeOptions& o, const std::string& model_path,
   std::printf("%s\n", result.headline.c_str());
   std::printf("recording %s (%s), baseline %s\n", o.recording.c_str(), J.system.c_str(),
               model_path.empty() ? "config/actuator.toml" : model_path.c_str());
-  std::printf("baseline   RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
-              J.baseline.rms_n, J.baseline.relative_error_pct,
+  // A rotary axis's errors are torques (effects/axis_kind.hpp).
+  const std::string u(effects::drive_unit_of_system(J.system));
+  std::printf("baseline   RMS %8.4f %s   relative error %7.3f %%   (full rate %7.3f %%)\n",
+              J.baseline.rms_n, u.c_str(), J.baseline.relative_error_pct,
               J.baseline.full_rate_relative_error_pct);
   for (const auto& w : result.where) std::printf("  where: %s\n", w.c_str());
   print_findings(J);
   if (!J.final_fit.summary.empty()) std::printf("fitted     %s\n", J.final_fit.summary.c_str());
-  std::printf("final      RMS %8.4f N   relative error %7.3f %%   (full rate %7.3f %%)\n",
-              J.final_fit.rms_n, J.final_fit.relative_error_pct,
+  std::printf("final      RMS %8.4f %s   relative error %7.3f %%   (full rate %7.3f %%)\n",
+              J.final_fit.rms_n, u.c_str(), J.final_fit.relative_error_pct,
               J.final_fit.full_rate_relative_error_pct);
   std::printf("held-out:");
-  for (const auto& v : J.validation) std::printf("  %s %.4g N", v.model.c_str(), v.heldout_rms_n);
+  for (const auto& v : J.validation)
+    std::printf("  %s %.4g %s", v.model.c_str(), v.heldout_rms_n, u.c_str());
   std::printf("\nwrote %s/index.html, analysis.json, model_corrected.toml\n", o.out.c_str());
 }
 
@@ -126,7 +130,8 @@ void add_analyze(CLI::App& app) {
   auto o = std::make_shared<AnalyzeOptions>();
   cmd->add_option("--recording", o->recording,
                   "mls-recording/1: actuator (t_s, screw or motor angle, nut_pos_m, "
-                  "load_force_n) or force-driven axis (t_s, pos_m, drive_force_n)")
+                  "load_force_n), force-driven axis (t_s, pos_m, drive_force_n) or rotary axis "
+                  "('# axis: rotary'; t_s, angle_rad, drive_torque_n_m)")
       ->required();
   cmd->add_option("--model", o->model,
                   "Baseline model file (default: CONFIG/model.toml, else CONFIG/actuator.toml); "

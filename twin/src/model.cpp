@@ -3,6 +3,7 @@
 #include "maglead/fileio/atomic_file.hpp"
 #include "maglead/physics/toml_config.hpp"
 
+#include "maglead/effects/axis_kind.hpp"
 #include "maglead/effects/effect.hpp"
 
 #include <algorithm>
@@ -45,18 +46,23 @@ ModelTerm& TwinModel::term(const std::string& id) {
 }
 
 void validate_twin_model(const TwinModel& m) {
-  if (m.system != "actuator" && m.system != "axis")
+  if (m.system != "actuator" && !effects::axis_kind_of_system(m.system))
     throw std::invalid_argument("[model] system = '" + m.system +
-                                "' (expected \"actuator\" or \"axis\")");
+                                "' (expected \"actuator\", \"axis\" or \"rotary\")");
+  // The messages name the values as the file does (a rotary model's inertia_kg_m2, …).
+  const effects::AxisKind* kind = effects::axis_kind_of_system(m.system);
+  const auto file_name = [&](const char* n) { return kind ? kind->name_of(n) : std::string(n); };
+  const std::string mass = file_name("nut_mass_kg"), viscous = file_name("viscous_n_s_per_m"),
+                    coulomb = file_name("coulomb_n");
   if (!(m.nut_mass_kg >= 0.0) || !std::isfinite(m.nut_mass_kg) ||
       (m.system == "actuator" && !(m.nut_mass_kg > 0.0)))
-    throw std::invalid_argument("nut_mass_kg must be positive");
+    throw std::invalid_argument(mass + " must be positive");
   if (!(m.viscous_n_s_per_m >= 0.0) || !(m.coulomb_n >= 0.0))
-    throw std::invalid_argument("viscous_n_s_per_m and coulomb_n must be >= 0");
+    throw std::invalid_argument(viscous + " and " + coulomb + " must be >= 0");
   for (const auto& k : m.fit)
     if (k != "nut_mass_kg" && k != "viscous_n_s_per_m" && k != "coulomb_n")
-      throw std::invalid_argument("[model] fit: '" + k +
-                                  "' (expected nut_mass_kg, viscous_n_s_per_m or coulomb_n)");
+      throw std::invalid_argument("[model] fit: '" + k + "' (expected " + mass + ", " + viscous +
+                                  " or " + coulomb + ")");
   for (std::size_t i = 0; i < m.terms.size(); ++i) {
     const auto& t = m.terms[i];
     const auto* e = effects::find(t.id);
@@ -80,16 +86,55 @@ void validate_twin_model(const TwinModel& m) {
 
 namespace {
 
+// The file's names of the units' parameters: a rotary axis's carry its units
+// (`inertia_kg_m2` for `nut_mass_kg`, effects/axis_kind.hpp); every other system's are the units'.
+const effects::AxisKind& kind_of(const std::string& system) {
+  const effects::AxisKind* k = effects::axis_kind_of_system(system);
+  return k ? *k : effects::linear_axis();
+}
+
 bool has_parameter(const effects::Effect& e, const std::string& key) {
   for (const auto& p : e.params())
     if (p.name == key) return true;
   return false;
 }
 
-std::string parameter_list(const effects::Effect& e) {
+std::string parameter_list(const effects::Effect& e, const effects::AxisKind& kind) {
   std::string out;
-  for (const auto& p : e.params()) out += (out.empty() ? "" : ", ") + p.name;
+  for (const auto& p : e.params()) out += (out.empty() ? "" : ", ") + kind.name_of(p.name);
   return out;
+}
+
+// One [[term]] of the file, its parameter names read in the kind's (`where`: "[[term]] N").
+ModelTerm read_term(const std::string& path, const toml::node& node, const std::string& where,
+                    const effects::AxisKind& kind) {
+  const toml::table* t = node.as_table();
+  if (!t) config::fail(path, &node, where + " is not a table");
+  ModelTerm term;
+  const auto id = (*t)["id"].value<std::string>();
+  if (!id) config::fail(path, t->get("id") ? t->get("id") : &node, where + " has no id (a string)");
+  term.id = *id;
+  for (const auto& [k, value] : *t) {
+    const std::string key(k.str());
+    if (key == "id") continue;
+    if (key == "enabled") {
+      const auto b = value.value<bool>();
+      if (!b) config::fail(path, &value, where + " enabled must be true or false");
+      term.enabled = *b;
+    } else if (key == "note") {
+      term.note = value.value_or(std::string());
+    } else {
+      const std::string name = kind.name == "linear" ? key : kind.unit_name_of(key);
+      if (const auto* e = effects::find(term.id); e && (name.empty() || !has_parameter(*e, name)))
+        config::fail(path, &value,
+                     where + " (" + term.id + ") has no parameter '" + key +
+                         "' (parameters: " + parameter_list(*e, kind) + ")");
+      const auto v = value.value<double>();
+      if (!v) config::fail(path, &value, where + " (" + term.id + ") " + key + " is not a number");
+      term.parameters.emplace_back(name.empty() ? key : name, *v);
+    }
+  }
+  return term;
 }
 
 }  // namespace
@@ -120,52 +165,29 @@ TwinModel load_twin_model(const std::string& path) {
   TwinModel m;
   m.source = (*mt)["source"].value_or(std::string(path));
   m.system = (*mt)["system"].value_or(std::string("actuator"));
+  const effects::AxisKind& kind = kind_of(m.system);
+  const std::string mass = kind.name_of("nut_mass_kg"), viscous = kind.name_of("viscous_n_s_per_m"),
+                    coulomb = kind.name_of("coulomb_n");
   if (const toml::node* f = mt->get("fit")) {
     const toml::array* arr = f->as_array();
     if (!arr) config::fail(path, f, "[model] fit must be a list of key names");
-    for (const auto& e : *arr) m.fit.insert(e.value_or(std::string("?")));
+    for (const auto& e : *arr) {
+      const std::string key = e.value_or(std::string("?"));
+      const std::string name = kind.name == "linear" ? key : kind.unit_name_of(key);
+      m.fit.insert(name.empty() ? key : name);
+    }
   }
-  config::read_number(path, *mt, "[model]", "nut_mass_kg", m.nut_mass_kg);
-  config::read_number(path, *mt, "[model]", "viscous_n_s_per_m", m.viscous_n_s_per_m);
-  config::read_number(path, *mt, "[model]", "coulomb_n", m.coulomb_n);
-  config::check_keys(path, *mt, "[model]",
-                     {"source", "system", "fit", "nut_mass_kg", "viscous_n_s_per_m", "coulomb_n"});
+  config::read_number(path, *mt, "[model]", mass.c_str(), m.nut_mass_kg);
+  config::read_number(path, *mt, "[model]", viscous.c_str(), m.viscous_n_s_per_m);
+  config::read_number(path, *mt, "[model]", coulomb.c_str(), m.coulomb_n);
+  config::check_keys(path, *mt, "[model]", {"source", "system", "fit", mass, viscous, coulomb});
   std::vector<const toml::node*> term_nodes;  // for errors found by validation
   if (const toml::node* terms = root.get("term")) {
     const toml::array* arr = terms->as_array();
     if (!arr) config::fail(path, terms, "'term' must be an array of tables ([[term]])");
     for (std::size_t i = 0; i < arr->size(); ++i) {
-      const toml::node& node = (*arr)[i];
-      const toml::table* t = node.as_table();
-      const std::string where = "[[term]] " + std::to_string(i + 1);
-      if (!t) config::fail(path, &node, where + " is not a table");
-      term_nodes.push_back(&node);
-      ModelTerm term;
-      const auto id = (*t)["id"].value<std::string>();
-      if (!id)
-        config::fail(path, t->get("id") ? t->get("id") : &node, where + " has no id (a string)");
-      term.id = *id;
-      for (const auto& [k, value] : *t) {
-        const std::string key(k.str());
-        if (key == "id") continue;
-        if (key == "enabled") {
-          const auto b = value.value<bool>();
-          if (!b) config::fail(path, &value, where + " enabled must be true or false");
-          term.enabled = *b;
-        } else if (key == "note") {
-          term.note = value.value_or(std::string());
-        } else {
-          if (const auto* e = effects::find(term.id); e && !has_parameter(*e, key))
-            config::fail(path, &value,
-                         where + " (" + term.id + ") has no parameter '" + key +
-                             "' (parameters: " + parameter_list(*e) + ")");
-          const auto v = value.value<double>();
-          if (!v)
-            config::fail(path, &value, where + " (" + term.id + ") " + key + " is not a number");
-          term.parameters.emplace_back(key, *v);
-        }
-      }
-      m.terms.push_back(std::move(term));
+      term_nodes.push_back(&(*arr)[i]);
+      m.terms.push_back(read_term(path, (*arr)[i], "[[term]] " + std::to_string(i + 1), kind));
     }
   }
   try {
@@ -216,14 +238,16 @@ void save_twin_model(const std::string& path, const TwinModel& m,
     out << "# " << line << "\n";
   out << std::setprecision(17) << "[model]\n";
   if (m.system != "actuator") out << "system = " << quoted(m.system) << "\n";
+  const effects::AxisKind& kind = kind_of(m.system);
   out << "source = " << quoted(m.source) << "\n"
-      << "nut_mass_kg = " << m.nut_mass_kg << "\n"
-      << "viscous_n_s_per_m = " << m.viscous_n_s_per_m << "\n"
-      << "coulomb_n = " << m.coulomb_n << "\n";
+      << kind.name_of("nut_mass_kg") << " = " << m.nut_mass_kg << "\n"
+      << kind.name_of("viscous_n_s_per_m") << " = " << m.viscous_n_s_per_m << "\n"
+      << kind.name_of("coulomb_n") << " = " << m.coulomb_n << "\n";
   if (!m.fit.empty()) {
     out << "fit = [";
     bool first = true;
-    for (const auto& k : m.fit) out << (first ? "" : ", ") << quoted(k), first = false;
+    for (const auto& k : m.fit)
+      out << (first ? "" : ", ") << quoted(kind.name_of(k)), first = false;
     out << "]\n";
   }
   for (const auto& t : m.terms) {
@@ -233,7 +257,7 @@ void save_twin_model(const std::string& path, const TwinModel& m,
     for (const auto& [k, v] : t.parameters) {
       // TOML floats need a dot or exponent to stay floats on re-read; setprecision prints
       // integers bare, which toml++ still reads as a number (value<double> converts).
-      out << k << " = " << v << "\n";
+      out << kind.name_of(k) << " = " << v << "\n";
     }
   }
   write_file_atomically(path, out.str());

@@ -6,6 +6,7 @@
 // forward selection is a small solve on sums of those matrices, whatever the recording's length.
 #include <Eigen/Dense>
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -20,6 +21,7 @@
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/rules.hpp"
 #include "maglead/analysis/signal.hpp"
+#include "maglead/effects/axis_kind.hpp"
 #include "maglead/effects/effect.hpp"
 #include "pulses.hpp"
 #include "selection.hpp"
@@ -221,7 +223,7 @@ Curve to_series(const std::string& label, const Binned& b, double x_scale = 1.0)
 
 // Regions of a binned residual map that stand out, in words.
 std::string describe_regions(const Binned& b, const std::string& what, const std::string& unit,
-                             double x_scale, double overall_rms) {
+                             double x_scale, double overall_rms, std::string_view drive_unit) {
   std::vector<int> hot;
   for (std::size_t k = 0; k < b.centre.size(); ++k) {
     if (b.count[k] < rules::kWhereMinBinSamples) continue;
@@ -247,7 +249,7 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
       if (std::abs(b.mean[hot[k]]) > std::abs(peak)) peak = b.mean[hot[k]];
     o << (shown ? "; " : "") << (b.centre[hot[i]] - w / 2) * x_scale << " … "
       << (b.centre[hot[j]] + w / 2) * x_scale << " " << unit << " (up to " << std::showpos << peak
-      << std::noshowpos << " N)";
+      << std::noshowpos << " " << drive_unit << ")";
     ++shown;
     i = j + 1;
   }
@@ -363,9 +365,11 @@ void decimate_signals(Prepared& P, int nd) {
 
 // A force-driven axis: position filtered zero-phase, velocity and acceleration by central
 // differences, the drive force as logged, the baseline's fixed part at every sample.
-Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOptions& opt) {
+Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOptions& opt,
+                 const effects::AxisKind& kind) {
   Prepared P;
-  stats::require_analysable(rec, {"t_s", "pos_m", "drive_force_n"});
+  const std::string position(kind.position), drive(kind.drive);
+  stats::require_analysable(rec, {"t_s", position, drive});
   const auto& t = rec.column("t_s");
   P.fs_hz = stats::sample_rate_hz(rec);
   const double dt = 1.0 / P.fs_hz;
@@ -374,10 +378,10 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   s.t = t;
   s.start_s = t.front();
   s.span_s = t.back() - t.front();
-  s.p = filtfilt_butter4(rec.column("pos_m"), P.filter_hz, P.fs_hz);
+  s.p = filtfilt_butter4(rec.column(position), P.filter_hz, P.fs_hz);
   s.v = central_diff(s.p, dt);
   s.a = central_diff2(s.p, dt);
-  P.y_raw = rec.column("drive_force_n");
+  P.y_raw = rec.column(drive);
   P.noise_floor_n = stats::white_noise_sigma(P.y_raw);  // the force sensor's noise
   P.scales = {max_abs(P.y_raw), max_abs(s.v)};          // what the drive produced and reached
   s.valid.assign(s.size(), 1);
@@ -492,6 +496,7 @@ struct AxisRun {
   const Recording& rec;
   const ModelFile& model;
   const AnalysisOptions& opt;
+  const effects::AxisKind& kind;  // its columns, units and parameter names
   Prepared P;
   Signals* S = nullptr;  // P.id when decimated, else P.full (no copy: an hour is 3.6 M samples)
   int folds = 3;
@@ -501,8 +506,9 @@ struct AxisRun {
   std::vector<pulses::Pulse> pulses;
   Grams g;
   double yy_total = 0, n_total = 0;
-  AxisRun(const Recording& r, const ModelFile& m, const AnalysisOptions& o)
-      : rec(r), model(m), opt(o), cand(candidate_columns(Form::axis, {})) {}
+  AxisRun(const Recording& r, const ModelFile& m, const AnalysisOptions& o,
+          const effects::AxisKind& k)
+      : rec(r), model(m), opt(o), kind(k), cand(candidate_columns(Form::axis, k.not_offered)) {}
   void progress(const std::string& stage, double f) const {
     if (opt.progress) opt.progress(stage, f);
   }
@@ -822,8 +828,10 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
   if (sel.implausible)
     J.unexplained = selection::unexplained_of(
         *sel.implausible,
-        "units and sign of drive_force_n and pos_m, the drive's force constant, the encoder "
-        "scale and the model file's values (is it this axis's?)");
+        "units and sign of " + std::string(run.kind.drive) + " and " +
+            std::string(run.kind.position) +
+            ", the drive's force constant, the encoder scale and the model file's values (is it "
+            "this axis's?)");
   J.final_fit = {p.ef.rms,
                  p.ef.rel_pct,
                  p.ef_full.rms,
@@ -873,7 +881,9 @@ void locate_pulses(AxisRun& run, const std::vector<double>& yf, const std::vecto
 // Residuals before and after at the identification samples, and what the maps draw on.
 struct Residuals {
   std::vector<double> before, after;
-  double rms0 = 0;  // baseline RMS
+  double rms0 = 0;                          // baseline RMS
+  const effects::AxisKind* kind = nullptr;  // what the residual and the motion are in
+  std::string unit() const { return std::string(kind->drive_unit); }  // the residual's
 };
 
 void add_map(AnalysisResult& R, const Signals& S, const Residuals& res, const std::string& name,
@@ -881,7 +891,7 @@ void add_map(AnalysisResult& R, const Signals& S, const Residuals& res, const st
              double scale, std::pair<double, double> range, int nb) {
   const auto b0 = bin(x, res.before, S.valid, range.first, range.second, nb);
   const auto b1 = bin(x, res.after, S.valid, range.first, range.second, nb);
-  const std::string text = describe_regions(b0, label, unit, scale, res.rms0);
+  const std::string text = describe_regions(b0, label, unit, scale, res.rms0, res.unit());
   if (!text.empty()) R.where.push_back(text);
   Figure fig;
   fig.file = "map_" + name + ".png";
@@ -890,7 +900,7 @@ void add_map(AnalysisResult& R, const Signals& S, const Residuals& res, const st
                              : "Mean residual (measured - model) " + text;
   fig.charts.push_back({"Mean residual over " + label,
                         label + " [" + unit + "]",
-                        "residual [N]",
+                        "residual [" + res.unit() + "]",
                         {to_series("baseline", b0, scale), to_series("corrected", b1, scale)}});
   R.figures.push_back(fig);
 }
@@ -906,19 +916,20 @@ std::string direction_text(const Signals& S, const Residuals& res) {
   if (!(np > 0 && nn > 0)) return "";
   std::ostringstream o;
   o.precision(3);
-  o << "by direction: mean residual " << std::showpos << sp / np << " N moving +, " << sn / nn
-    << " N moving −" << std::noshowpos;
+  o << "by direction: mean residual " << std::showpos << sp / np << " " << res.unit()
+    << " moving +, " << sn / nn << " " << res.unit() << " moving −" << std::noshowpos;
   if (std::abs(sp / np - sn / nn) > rules::kWhereReversalJumpOfRms * res.rms0)
     o << " (jumps at velocity reversals)";
   return o.str();
 }
 
 void residual_maps(AnalysisResult& R, const Signals& S, const Residuals& res) {
-  add_map(R, S, res, "velocity", S.v, "velocity", "mm/s", 1e3,
+  const effects::AxisKind& k = *res.kind;
+  add_map(R, S, res, "velocity", S.v, "velocity", std::string(k.map_rate_unit), k.map_scale,
           percentile_range(S.v, S.valid, kVelocityTail), kVelocityBins);
   if (auto d = direction_text(S, res); !d.empty()) R.where.push_back(d);
-  add_map(R, S, res, "position", S.p, "position", "mm", 1e3, percentile_range(S.p, S.valid, 0.0),
-          kPositionBins);
+  add_map(R, S, res, "position", S.p, std::string(k.motion), std::string(k.map_unit), k.map_scale,
+          percentile_range(S.p, S.valid, 0.0), kPositionBins);
 }
 
 // Residual RMS in time windows, before and after.
@@ -967,8 +978,8 @@ void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& re
     std::ostringstream o;
     o.precision(3);
     if (last > rules::kWhereGrowthFactor * first && last > rules::kWhereGrowthOfRms * res.rms0) {
-      o << "over time: the residual grows (RMS " << first << " N in the first third, " << last
-        << " N in the last)";
+      o << "over time: the residual grows (RMS " << first << " " << res.unit()
+        << " in the first third, " << last << " " << res.unit() << " in the last)";
       R.where.push_back(o.str());
     }
     std::vector<double> sorted = wr;
@@ -996,7 +1007,8 @@ void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& re
   Figure ft;
   ft.file = "residual_time.png";
   ft.caption = "Residual RMS in time windows";
-  ft.charts.push_back({"Residual RMS over time", "time [s]", "RMS [N]", {w.before, w.after}});
+  ft.charts.push_back(
+      {"Residual RMS over time", "time [s]", "RMS [" + res.unit() + "]", {w.before, w.after}});
   R.figures.push_back(ft);
 }
 
@@ -1033,8 +1045,10 @@ void locked_average(AnalysisResult& R, const Signals& S, const Residuals& res, d
       s1.x.push_back(tt * 1e3);
       s1.y.push_back(acc1[k] / cnt[k]);
     }
-  fr.charts.push_back(
-      {"Residual locked to " + what, "time from event [ms]", "residual x direction [N]", {s0, s1}});
+  fr.charts.push_back({"Residual locked to " + what,
+                       "time from event [ms]",
+                       "residual x direction [" + res.unit() + "]",
+                       {s0, s1}});
   R.figures.push_back(fr);
 }
 
@@ -1071,12 +1085,12 @@ void event_locked(AnalysisResult& R, const AxisRun& run, const Residuals& res) {
   locked_average(R, S, res, fs_id, rev, "reversal_locked.png", "velocity reversals");
   R.findings.reversals = rev.size();
   // Input edges: steps in a setpoint column, if the recording has one.
-  for (const char* col : {"force_set_n", "pos_set_m", "ref_pos_m"}) {
+  for (const std::string_view name : run.kind.setpoints) {
+    const std::string col(name);
     if (!run.rec.has(col)) continue;
     const Onsets edges = input_edges(run.rec.column(col), run.P.decimation);
     if (!edges.empty()) {
-      locked_average(R, S, res, fs_id, edges, std::string("edge_locked_") + col + ".png",
-                     std::string("steps of ") + col);
+      locked_average(R, S, res, fs_id, edges, "edge_locked_" + col + ".png", "steps of " + col);
       R.findings.input_edges = edges.size();
     }
     break;
@@ -1100,9 +1114,13 @@ void time_figures(AnalysisResult& R, const Signals& S, const Predictions& p, con
   }
   Figure f;
   f.file = "force_time.png";
-  f.caption = "Measured force and the models' predictions from measured motion; residuals below";
-  f.charts.push_back({"Force", "time [s]", "force [N]", {m, b, c}});
-  f.charts.push_back({"Residual (measured - model)", "time [s]", "residual [N]", {rb, rc}});
+  f.caption = "Measured " + std::string(res.kind->quantity) +
+              " and the models' predictions from measured motion; residuals below";
+  const std::string u = "[" + res.unit() + "]", quantity(res.kind->quantity);
+  std::string title = quantity;
+  title.front() = static_cast<char>(std::toupper(static_cast<unsigned char>(title.front())));
+  f.charts.push_back({title, "time [s]", quantity + " " + u, {m, b, c}});
+  f.charts.push_back({"Residual (measured - model)", "time [s]", "residual " + u, {rb, rc}});
   R.figures.insert(R.figures.begin(), f);
   Figure v;
   v.file = "heldout.png";
@@ -1112,11 +1130,11 @@ void time_figures(AnalysisResult& R, const Signals& S, const Predictions& p, con
     hs.x.push_back(static_cast<double>(k));
     hs.y.push_back(R.findings.validation[k].heldout_rms_n);
   }
-  v.charts.push_back({"Held-out error per step (0 = baseline)", "terms added", "RMS [N]", {hs}});
+  v.charts.push_back({"Held-out error per step (0 = baseline)", "terms added", "RMS " + u, {hs}});
   R.figures.insert(R.figures.begin() + 1, v);
   R.fit_over_time = {"The fit before and after",
                      "time [s]",
-                     "missing force [N]",
+                     "missing " + quantity + " " + u,
                      {{added ? "before (the model as configured)" : "the model (nothing added)",
                        S.t, res.before}}};
   if (added) R.fit_over_time.curves.push_back({"after (with the effects found)", S.t, res.after});
@@ -1159,12 +1177,91 @@ ModelFile corrected_model(const AxisRun& run, const Findings& J, const Fit& fina
   return M;
 }
 
-// A force-driven axis (EMPS): prepare → columns → select → findings, maps, corrected model.
+// ---------------------------------------------------------------- the axis's kind
+bool has_columns(const Recording& rec, const effects::AxisKind& k) {
+  return rec.has(std::string(k.position)) && rec.has(std::string(k.drive));
+}
+
+std::string kind_columns(const effects::AxisKind& k) {
+  return "t_s, " + std::string(k.position) + ", " + std::string(k.drive);
+}
+
+// The kind the recording states (`# axis: rotary`; none: linear) must be the model's (system
+// "axis" or "rotary") and its columns must be there; an error says what to type, since a
+// recording with the other kind's columns is most likely a header line missing or too many.
+const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
+  const std::string stated = rec.meta("axis").value_or("");
+  const effects::AxisKind* kind = effects::axis_kind(stated);
+  if (!kind)
+    throw std::invalid_argument(rec.path + ": header '# axis: " + stated +
+                                "' names no axis kind (expected linear or rotary)");
+  const effects::AxisKind* modelled = effects::axis_kind_of_system(model.system);
+  const bool rotary = kind->name == "rotary";
+  if (modelled && modelled != kind)
+    throw std::invalid_argument(
+        rotary ? rec.path +
+                     ": the recording is a rotary axis ('# axis: rotary') but the model is "
+                     "a linear axis's (system = \"axis\"): give a rotary model (system = "
+                     "\"rotary\", inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m)"
+               : rec.path +
+                     ": the model is a rotary axis's (system = \"rotary\") but the "
+                     "recording does not say so: add the header line '# axis: rotary' "
+                     "(columns " +
+                     kind_columns(effects::rotary_axis()) + ")");
+  if (has_columns(rec, *kind)) return *kind;
+  const effects::AxisKind& other = rotary ? effects::linear_axis() : effects::rotary_axis();
+  std::string msg = rec.path + ": a " + std::string(kind->name) + " axis needs the columns " +
+                    kind_columns(*kind) + " (optional:";
+  for (const auto c : kind->setpoints) msg += " " + std::string(c);
+  msg += ")";
+  if (has_columns(rec, other))
+    msg += "; this recording has a " + std::string(other.name) + " axis's (" + kind_columns(other) +
+           "): " +
+           (rotary ? "remove the header line '# axis: rotary' and use a linear model"
+                   : "add the header line '# axis: rotary' and use a rotary model");
+  throw RecordingError(msg);
+}
+
+// The findings in the kind's names (a rotary axis's carry its units: inertia_kg_m2, …): the
+// selection and the fits work on the units' own names throughout, so this is the one renaming.
+void name_in_kind(Findings& J, const effects::AxisKind& kind) {
+  if (kind.name == "linear") return;
+  const auto rename = [&](Parameters& ps) {
+    for (auto& p : ps) p.name = kind.name_of(p.name);
+  };
+  for (auto& e : J.effects) {
+    rename(e.parameters);
+    rename(e.standard_errors);
+    for (auto& a : e.alternatives) rename(a.parameters);
+    e.summary = summary_text(e.parameters, e.standard_errors);
+  }
+  for (auto& r : J.not_selected)
+    if (r.parameters) rename(*r.parameters);
+  if (J.unexplained) {
+    // Its message quotes the parameters as "name = value" (selection::unexplained_of).
+    std::string& m = J.unexplained->message;
+    for (const auto& p : J.unexplained->parameters) {
+      const std::string from = " " + p.name + " = ", to = " " + kind.name_of(p.name) + " = ";
+      for (auto at = m.find(from); at != std::string::npos; at = m.find(from, at + to.size()))
+        m.replace(at, from.size(), to);
+    }
+    rename(J.unexplained->parameters);
+  }
+  for (FitErrors* f : {&J.baseline, &J.final_fit}) {
+    if (!f->fitted_parameters) continue;
+    rename(*f->fitted_parameters);
+    rename(f->standard_errors);
+    if (!f->summary.empty()) f->summary = summary_text(*f->fitted_parameters, f->standard_errors);
+  }
+}
+
+// A force-driven axis (EMPS; a rotary one alike): prepare → columns → select → findings, maps,
+// corrected model.
 AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
                             const AnalysisOptions& opt) {
-  AxisRun run(rec, model, opt);
+  AxisRun run(rec, model, opt, kind_of(rec, model));
   run.progress("prepare", 0.0);
-  run.P = prepare(rec, model, opt);
+  run.P = prepare(rec, model, opt, run.kind);
   run.S = run.P.decimated ? &run.P.id : &run.P.full;
   run.folds = std::max(rules::kAxisMinFolds, opt.folds);
   run.progress("prepare", 1.0);
@@ -1177,7 +1274,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   AnalysisResult R;
   fill_findings(R.findings, run, sel, p, final_base_se);
   const Signals& S = *run.S;
-  Residuals res{std::vector<double>(S.size()), std::vector<double>(S.size()), p.eb.rms};
+  Residuals res{std::vector<double>(S.size()), std::vector<double>(S.size()), p.eb.rms, &run.kind};
   for (std::size_t i = 0; i < S.size(); ++i) {
     res.before[i] = S.y[i] - p.yb[i];
     res.after[i] = S.y[i] - p.yf[i];
@@ -1190,6 +1287,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   R.findings.twin_simulation = TwinSimulation{};
   R.findings.twin_simulation->reason =
       "the twin models the magnetic actuator; this is a force-driven axis";
+  name_in_kind(R.findings, run.kind);
   run.progress("done", 1.0);
   return R;
 }
@@ -1199,6 +1297,13 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
 AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& opt) {
+  // A recording that states an axis kind is no actuator's: say which model it needs rather than
+  // which actuator column it lacks.
+  if (model.system == "actuator" && rec.meta("axis"))
+    throw std::invalid_argument(rec.path +
+                                ": the recording is an axis ('# axis: " + *rec.meta("axis") +
+                                "') and the model the magnetic actuator's: give the axis's "
+                                "baseline with --model (system = \"rotary\" or \"axis\")");
   AnalysisResult r = model.system == "actuator" ? analyze_actuator(rec, model, cal, act, opt)
                                                 : analyze_axis(rec, model, opt);
   r.headline = headline_of(r.findings, model);

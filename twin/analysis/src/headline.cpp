@@ -6,6 +6,7 @@
 #include <string>
 
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/effects/axis_kind.hpp"
 #include "maglead/effects/effect.hpp"
 
 namespace maglead::analysis {
@@ -17,8 +18,18 @@ std::string number(double v) {
   return b;
 }
 
+// A finding's parameter name as the effect unit calls it: a rotary axis's findings carry its own
+// (inertia_kg_m2 for nut_mass_kg), the model file holds the units' (effects/axis_kind.hpp).
+std::string unit_name(const ModelFile& m, const std::string& name) {
+  const effects::AxisKind* kind = effects::axis_kind_of_system(m.system);
+  if (!kind || kind->name == "linear") return name;
+  const std::string n = kind->unit_name_of(name);
+  return n.empty() ? name : n;
+}
+
 /// The baseline's value of a parameter: its [model] value, or an enabled term's of the same id.
-std::string model_value(const ModelFile& m, const std::string& id, const std::string& name) {
+std::string model_value(const ModelFile& m, const std::string& id, const std::string& kind_name) {
+  const std::string name = unit_name(m, kind_name);
   if (name == "nut_mass_kg") return number(m.nut_mass_kg);
   if (name == "viscous_n_s_per_m") return number(m.viscous_n_s_per_m);
   if (name == "coulomb_n") return number(m.coulomb_n);
@@ -31,11 +42,11 @@ std::string model_value(const ModelFile& m, const std::string& id, const std::st
 
 /// The effect's main parameter (the first its law names: an amplitude before its phase, a zone
 /// before its depth), else the finding's first.
-const Parameter& main_parameter(const EffectFinding& e) {
+const Parameter& main_parameter(const EffectFinding& e, const ModelFile& baseline) {
   if (const auto* effect = effects::find(e.id); effect && !effect->params().empty()) {
     const std::string first = effect->params().front().name;
     for (const auto& p : e.parameters)
-      if (p.name == first) return p;
+      if (unit_name(baseline, p.name) == first) return p;
   }
   return e.parameters.front();
 }
@@ -46,7 +57,7 @@ std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
   for (auto& ch : name)
     if (ch == '_') ch = ' ';
   if (e.parameters.empty()) return name;
-  const Parameter& p = main_parameter(e);
+  const Parameter& p = main_parameter(e, baseline);
   const std::string unit = unit_of_parameter(p.name);
   const std::string with_unit = unit.empty() ? "" : " " + unit;
   std::string value = value_with_error(p.value, parameter_value(e.standard_errors, p.name, 0.0));
@@ -73,10 +84,12 @@ std::string headline_of(const Findings& f, const ModelFile& baseline) {
     return "not judged: too little sliding to judge the model (" + std::to_string(f.samples_used) +
            " sliding samples used of " + std::to_string(f.samples) +
            "); no finding is not the same as no anomaly";
+  // A rotary axis's residual is a torque (effects/axis_kind.hpp).
+  const std::string unit(effects::drive_unit_of_system(baseline.system));
   if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
-    return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected);
-  return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) +
-         " N RMS (floor " + number(f.noise_floor_n) + " N)";
+    return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, unit);
+  return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) + " " +
+         unit + " RMS (floor " + number(f.noise_floor_n) + " " + unit + ")";
 }
 
 }  // namespace maglead::analysis

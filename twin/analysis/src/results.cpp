@@ -55,12 +55,12 @@ std::string num(double v) {
 }  // namespace
 
 std::string misfit_text(double final_rms_n, double noise_floor_n,
-                        const std::vector<Rejected>& not_selected) {
+                        const std::vector<Rejected>& not_selected, const std::string& unit) {
   // A candidate that would take at least half the held-out error is the misfit's likeliest
   // account, even short of significance; below half it says little of what is left.
   constexpr double kMostOfItPct = rules::kMostOfItPct;
-  std::string s =
-      "a misfit of " + num(final_rms_n) + " N RMS remains (floor " + num(noise_floor_n) + " N)";
+  std::string s = "a misfit of " + num(final_rms_n) + " " + unit + " RMS remains (floor " +
+                  num(noise_floor_n) + " " + unit + ")";
   for (const auto& r : not_selected) {
     if (r.reason != std::string(kBelowSignificance) || !(r.heldout_gain_pct >= kMostOfItPct))
       continue;
@@ -79,7 +79,13 @@ std::string unit_of_parameter(const std::string& name) {
     const char* suffix;
     const char* unit;
   };
-  static constexpr Suffix kSuffixes[] = {{"_n_s_per_m", "N·s/m"},
+  // A rotary axis's names first (effects/axis_kind.hpp): `_n_m_s_per_rad` ends in `_rad` too.
+  static constexpr Suffix kSuffixes[] = {{"_n_m_s_per_rad", "N·m·s/rad"},
+                                         {"_n_m_per_rad", "N·m/rad"},
+                                         {"_rad_s", "rad/s"},
+                                         {"_n_m", "N·m"},
+                                         {"_kg_m2", "kg·m²"},
+                                         {"_n_s_per_m", "N·s/m"},
                                          {"_n_per_m", "N/m"},
                                          {"_per_min", "1/min"},
                                          {"_n", "N"},

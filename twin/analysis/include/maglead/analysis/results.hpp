@@ -114,8 +114,9 @@ inline constexpr const char* kBelowSignificance =
 /// "a misfit of X N RMS remains (floor Y N) …": what no named effect explains, and, when the
 /// candidate the selection stopped at (in `not_selected`) explains most of it held out, that
 /// candidate with why it was not taken, so a near miss is not read as "nothing in the library".
+/// `unit`: the residual's ("N·m" on a rotary axis).
 std::string misfit_text(double final_rms_n, double noise_floor_n,
-                        const std::vector<Rejected>& not_selected);
+                        const std::vector<Rejected>& not_selected, const std::string& unit = "N");
 
 /// Held-out (and fitted) error after each step of the selection; the first is the baseline.
 struct ValidationStep {

@@ -1,0 +1,78 @@
+#!/usr/bin/python3
+"""`maglead analyze` on a rotary axis writes rotary units (docs/analysis.md, a rotary axis).
+
+usage: rotary_cli.py MAGLEAD ROTARY_DRIVE WORK_DIR
+
+The generated servo drive (rotary_drive.hpp: J, b, c known; angle in rad, torque in N·m) is
+analysed with a rotary baseline lacking viscous friction: analysis.json names it as
+viscous_n_m_s_per_rad, the headline prints N·m·s/rad, and model_corrected.toml holds the rotary's
+names (inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m) and is read back by the analysis. The
+same file without its '# axis: rotary' line is refused with what to add. analysis.json keeps to
+its schema (docs/schema/analysis.schema.json, system "rotary").
+"""
+import json, os, subprocess, sys
+
+exe, drive, work = sys.argv[1:4]
+os.makedirs(work, exist_ok=True)
+VISCOUS = 2e-3  # the drive's b, N·m·s/rad (rotary_drive.hpp's default)
+rec = os.path.join(work, "servo.csv")
+subprocess.run([drive, rec, repr(VISCOUS)], check=True)
+model = os.path.join(work, "rotary_baseline.toml")
+with open(model, "w") as f:
+    f.write('# format: maglead-model/1\n[model]\nsystem = "rotary"\nsource = "servo baseline"\n'
+            'inertia_kg_m2 = 0.0\nviscous_n_m_s_per_rad = 0.0\ncoulomb_n_m = 0.0\n'
+            'fit = ["inertia_kg_m2", "coulomb_n_m"]\n')
+
+
+def analyse(recording, out, baseline):
+    return subprocess.run([exe, "analyze", "--recording", recording, "--model", baseline,
+                           "--out", out], capture_output=True, text=True)
+
+
+failures = []
+out = os.path.join(work, "out")
+r = analyse(rec, out, model)
+if r.returncode != 0:
+    sys.exit("analyze failed: " + r.stderr)
+j = json.load(open(os.path.join(out, "analysis.json")))
+ids = [e["id"] for e in j["effects"]]
+if ids != ["viscous_friction"]:
+    failures.append(f"named {ids}, expected viscous_friction alone")
+else:
+    p, se = j["effects"][0]["parameters"], j["effects"][0]["standard_errors"]
+    value, error = p.get("viscous_n_m_s_per_rad"), se.get("viscous_n_m_s_per_rad")
+    if value is None or abs(value - VISCOUS) > 2 * error + 0.04 * VISCOUS:
+        failures.append(f"viscous_n_m_s_per_rad {value} ± {error}, true {VISCOUS}")
+    print(f"found viscous_n_m_s_per_rad {value} ± {error} (true {VISCOUS})")
+import jsonschema  # tools/setup.sh installs it (validate_schemas needs it too)
+schema = json.load(open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..",
+                                     "docs", "schema", "analysis.schema.json")))
+try:
+    jsonschema.Draft202012Validator(schema).validate(j)
+except jsonschema.ValidationError as e:
+    failures.append(f"analysis.json against its schema: {e.message}")
+if "N·m·s/rad" not in j["headline"]:
+    failures.append("headline without N·m·s/rad: " + j["headline"])
+if "inertia_kg_m2" not in j["final"].get("fitted_parameters", {}):
+    failures.append(f"final fitted parameters {j['final'].get('fitted_parameters')}")
+corrected = open(os.path.join(out, "model_corrected.toml")).read()
+for key in ("system = \"rotary\"", "inertia_kg_m2 =", "viscous_n_m_s_per_rad =", "coulomb_n_m ="):
+    if key not in corrected:
+        failures.append(f"model_corrected.toml lacks '{key}'")
+again = analyse(rec, os.path.join(work, "again"), os.path.join(out, "model_corrected.toml"))
+if again.returncode != 0:
+    failures.append("the corrected model is not read back: " + again.stderr)
+elif json.load(open(os.path.join(work, "again", "analysis.json")))["effects"]:
+    failures.append("the corrected model still misses something: " + again.stdout)
+
+# Without the header line: refused, saying what to add.
+bare = os.path.join(work, "servo_no_header.csv")
+with open(rec) as src, open(bare, "w") as dst:
+    dst.writelines(line for line in src if not line.startswith("# axis:"))
+r = analyse(bare, os.path.join(work, "bare"), model)
+if r.returncode == 0 or "add the header line '# axis: rotary'" not in r.stderr:
+    failures.append(f"no header: exit {r.returncode}, {r.stderr.strip()}")
+
+for f in failures:
+    print("FAIL:", f)
+sys.exit(1 if failures else 0)

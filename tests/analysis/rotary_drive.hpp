@@ -1,0 +1,104 @@
+#pragma once
+// A generated rotary drive (a servo motor with its load), made here for the tests: nothing in it
+// comes from a recording. J θ̈ = τ − b θ̇ − c sign θ̇ − τ_0, the torque τ from a PD position loop
+// at 1 kHz that follows a reference sweeping hundreds of radians (a multi-turn absolute
+// encoder, so the angle reaches thousands of radians), integrated at 10 kHz with stiction
+// (stuck while |τ − τ_0| ≤ c), the angle logged at 2^17 counts per turn and the torque with
+// noise. The columns are the rotary axis's: t_s, angle_rad, drive_torque_n_m, ref_angle_rad.
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "maglead/recording/recording.hpp"
+
+namespace maglead::test {
+
+struct RotaryDrive {
+  double inertia_kg_m2 = 1.2e-3;        // J: motor and load
+  double viscous_n_m_s_per_rad = 2e-3;  // b
+  double coulomb_n_m = 0.08;            // c
+  double offset_n_m = 0.0;            // τ_0: a constant load torque (gravity on a balanced arm: 0)
+  double noise_n_m = 0.005;           // RMS of the logged torque's noise
+  double counts_per_turn = 131072.0;  // 2^17
+  double duration_s = 40.0;
+  double start_rad = 3000.0;  // where the absolute encoder starts: beyond any length's bound
+  unsigned seed = 1;
+};
+
+// The reference: a sum of three sines of random phase (0.2–1.3 Hz; speeds up to about
+// 400 rad/s, accelerations up to about 1500 rad/s²), so every reversal passes at an acceleration
+// whose feed-forward torque is far beyond c. A reversal at rest (a move's end) would let the PD
+// hold the shaft against stiction with any torque up to c, which no sliding law gives: the axis
+// path reports such holds as external_disturbance events (docs/analysis.md, a rotary axis).
+struct Sine {
+  double amplitude_rad, rate_rad_s, phase_rad;
+};
+
+inline std::vector<Sine> rotary_sines(std::mt19937& rng) {
+  std::uniform_real_distribution<double> phase(0.0, 2 * std::numbers::pi);
+  const double w = 2 * std::numbers::pi;
+  return {{200.0, w * 0.2, phase(rng)}, {40.0, w * 0.7, phase(rng)}, {8.0, w * 1.3, phase(rng)}};
+}
+
+// Reference angle, speed and acceleration at t.
+inline void reference_at(const std::vector<Sine>& sines, double start_rad, double t, double* ref) {
+  ref[0] = start_rad, ref[1] = 0.0, ref[2] = 0.0;
+  for (const Sine& s : sines) {
+    const double x = s.rate_rad_s * t + s.phase_rad;
+    ref[0] += s.amplitude_rad * (std::sin(x) - std::sin(s.phase_rad));
+    ref[1] += s.amplitude_rad * s.rate_rad_s * std::cos(x);
+    ref[2] -= s.amplitude_rad * s.rate_rad_s * s.rate_rad_s * std::sin(x);
+  }
+}
+
+/// The recording (`# axis: rotary` in its header unless `axis_header` is false).
+inline Recording rotary_recording(const RotaryDrive& d, bool axis_header = true) {
+  std::mt19937 rng(d.seed);
+  const auto sines = rotary_sines(rng);
+  std::normal_distribution<double> noise(0.0, d.noise_n_m);
+  constexpr int kSubsteps = 10;
+  constexpr double kDt_s = 1e-3, kBandwidth_rad_s = 2 * std::numbers::pi * 30.0;
+  const double kp = d.inertia_kg_m2 * kBandwidth_rad_s * kBandwidth_rad_s;
+  const double kd = 2 * 0.7 * d.inertia_kg_m2 * kBandwidth_rad_s;
+  const double count_rad = 2 * std::numbers::pi / d.counts_per_turn;
+  Recording rec;
+  rec.path = "generated rotary drive";
+  if (axis_header) rec.metadata = {{"axis", "rotary"}};
+  rec.metadata.emplace_back("sample_rate_hz", "1000");
+  rec.names = {"t_s", "angle_rad", "drive_torque_n_m", "ref_angle_rad"};
+  rec.columns.assign(4, {});
+  double start[3];
+  reference_at(sines, d.start_rad, 0.0, start);
+  // The shaft is already on the reference (no start-up transient: the logger starts mid-run).
+  double theta = d.start_rad, omega = start[1], last_q = d.start_rad - start[1] * kDt_s;
+  for (int k = 0; k * kDt_s < d.duration_s; ++k) {
+    const double t = k * kDt_s;
+    double ref[3];
+    reference_at(sines, d.start_rad, t, ref);
+    const double q = std::round(theta / count_rad) * count_rad;  // the encoder's count
+    const double speed = (q - last_q) / kDt_s;
+    last_q = q;
+    // The drive's torque: PD on the counted angle with the reference's acceleration fed forward.
+    const double tau = kp * (ref[0] - q) + kd * (ref[1] - speed) + d.inertia_kg_m2 * ref[2];
+    rec.columns[0].push_back(t);
+    rec.columns[1].push_back(q);
+    rec.columns[2].push_back(tau + noise(rng));
+    rec.columns[3].push_back(ref[0]);
+    for (int s = 0; s < kSubsteps; ++s) {
+      const double h = kDt_s / kSubsteps, drive = tau - d.offset_n_m;
+      if (omega == 0.0 && std::abs(drive) <= d.coulomb_n_m) continue;  // stuck
+      const double friction =
+          d.viscous_n_m_s_per_rad * omega +
+          d.coulomb_n_m * (omega != 0.0 ? std::copysign(1.0, omega) : std::copysign(1.0, drive));
+      const double next = omega + h * (drive - friction) / d.inertia_kg_m2;
+      omega = (omega != 0.0 && next * omega < 0.0) ? 0.0 : next;  // stops rather than reverses
+      theta += h * omega;
+    }
+  }
+  return rec;
+}
+
+}  // namespace maglead::test

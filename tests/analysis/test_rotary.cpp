@@ -1,0 +1,199 @@
+// The axis path on a rotary axis (docs/analysis.md, a rotary axis): a generated servo drive
+// (rotary_drive.hpp: angle in rad, torque in N·m) analysed with a baseline that lacks one
+// friction term. The analysis names it in the rotary's units, within two standard errors and a
+// few per cent of the truth, names nothing else, and a recording whose header or columns do not
+// say rotary gets an error that says what to type.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <set>
+#include <string>
+#include <utility>
+
+#include "maglead/analysis/analysis.hpp"
+#include "maglead/physics/force_model.hpp"
+#include "rotary_drive.hpp"
+
+namespace {
+
+using maglead::analysis::AnalysisResult;
+using maglead::analysis::ModelFile;
+using maglead::analysis::parameter_value;
+using maglead::test::RotaryDrive;
+
+// A bias the whole recording shares is not in the jackknife's error (docs/analysis.md, how to
+// read a finding): the filter and the decimation's few per cent on a viscous coefficient.
+constexpr double kBiasShare = 0.04;
+
+ModelFile rotary_model(std::set<std::string> fit) {
+  ModelFile m;
+  m.system = "rotary";
+  m.nut_mass_kg = m.viscous_n_s_per_m = m.coulomb_n = 0.0;  // the units' names, in SI: J, b, c
+  m.fit = std::move(fit);
+  return m;
+}
+
+AnalysisResult analyze(const maglead::Recording& rec, const ModelFile& model) {
+  return maglead::analysis::analyze_recording(rec, model, maglead::paper_calibration(),
+                                              maglead::ActuatorParams{}, {});
+}
+
+std::string named(const AnalysisResult& r) {
+  std::string s = r.headline;
+  for (const auto& e : r.findings.effects) s += "\n  " + e.id + ": " + e.summary;
+  for (const auto& ev : r.findings.events)
+    s += "\n  event " + ev.type + " at " + std::to_string(ev.t_s) + " s";
+  return s;
+}
+
+// The one finding `id` with its parameter `name` near `truth`: within 2 standard errors and
+// kBiasShare of it.
+void expect_found(const AnalysisResult& r, const std::string& id, const std::string& name,
+                  double truth) {
+  ASSERT_EQ(r.findings.effects.size(), 1u) << named(r);
+  const auto& e = r.findings.effects[0];
+  EXPECT_EQ(e.id, id) << named(r);
+  const double v = parameter_value(e.parameters, name, NAN);
+  const double se = parameter_value(e.standard_errors, name, NAN);
+  ASSERT_TRUE(std::isfinite(v) && std::isfinite(se)) << named(r);
+  EXPECT_LE(std::abs(v - truth), 2 * se + kBiasShare * std::abs(truth)) << named(r);
+  // No event names a disturbance (a misfit window is where the residual is larger, not a claim).
+  for (const auto& ev : r.findings.events) EXPECT_NE(ev.type, "external_disturbance") << named(r);
+  std::printf("rotary: %s (true %s %g)\n", r.headline.c_str(), name.c_str(), truth);
+}
+
+TEST(Rotary, MissingViscousFrictionIsNamedInRotaryUnits) {
+  const RotaryDrive d;
+  const auto r =
+      analyze(maglead::test::rotary_recording(d), rotary_model({"nut_mass_kg", "coulomb_n"}));
+  expect_found(r, "viscous_friction", "viscous_n_m_s_per_rad", d.viscous_n_m_s_per_rad);
+  EXPECT_NE(r.headline.find("viscous_n_m_s_per_rad"), std::string::npos) << r.headline;
+  EXPECT_NE(r.headline.find("N·m·s/rad (model 0 N·m·s/rad)"), std::string::npos) << r.headline;
+  // The baseline's fitted totals carry the rotary's names and units too.
+  const auto& base = r.findings.final_fit.fitted_parameters.value();
+  EXPECT_NEAR(parameter_value(base, "inertia_kg_m2", NAN), d.inertia_kg_m2,
+              kBiasShare * d.inertia_kg_m2)
+      << r.findings.final_fit.summary;
+  EXPECT_NEAR(parameter_value(base, "coulomb_n_m", NAN), d.coulomb_n_m, kBiasShare * d.coulomb_n_m)
+      << r.findings.final_fit.summary;
+  // The corrected model holds the values it found: analysed with it, nothing is missing.
+  EXPECT_NEAR(r.corrected.viscous_n_s_per_m, d.viscous_n_m_s_per_rad,
+              kBiasShare * d.viscous_n_m_s_per_rad + 1e-4);
+  EXPECT_EQ(r.corrected.system, "rotary");
+  const auto again = analyze(maglead::test::rotary_recording(d), r.corrected);
+  EXPECT_TRUE(again.findings.effects.empty()) << named(again);
+}
+
+TEST(Rotary, MissingCoulombFrictionIsNamedInRotaryUnits) {
+  RotaryDrive d;
+  d.seed = 2;
+  const auto r = analyze(maglead::test::rotary_recording(d),
+                         rotary_model({"nut_mass_kg", "viscous_n_s_per_m"}));
+  expect_found(r, "coulomb_friction", "coulomb_n_m", d.coulomb_n_m);
+  EXPECT_NE(r.headline.find(" N·m (model 0 N·m)"), std::string::npos) << r.headline;
+}
+
+// A constant load torque (an unbalanced arm held level would be one) beside a model whose J, b
+// and c are all fitted: named as an offset in N·m.
+TEST(Rotary, ALoadTorqueIsAnOffsetInNewtonMetres) {
+  RotaryDrive d;
+  d.offset_n_m = 0.03;
+  d.seed = 3;
+  const auto r = analyze(maglead::test::rotary_recording(d),
+                         rotary_model({"nut_mass_kg", "viscous_n_s_per_m", "coulomb_n"}));
+  // The drive supplies the load torque: the offset the axis names is the torque the drive adds,
+  // the load's with its sign turned.
+  expect_found(r, "offset", "offset_n_m", -d.offset_n_m);
+}
+
+// The model file of a rotary axis names its values and its terms' parameters in rotary units,
+// and reads them back as the units' own.
+TEST(Rotary, TheModelFileCarriesRotaryNames) {
+  ModelFile m = rotary_model({"nut_mass_kg"});
+  m.viscous_n_s_per_m = 2e-3;
+  m.term("offset").set("offset_n", -0.03);
+  const std::string path = ::testing::TempDir() + "rotary_model.toml";
+  maglead::analysis::save_model(path, m, "");
+  std::ifstream in(path);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const char* key :
+       {"system = \"rotary\"", "inertia_kg_m2 = 0", "viscous_n_m_s_per_rad = 0.002",
+        "coulomb_n_m = 0", "fit = [\"inertia_kg_m2\"]", "offset_n_m = -0.0"})
+    EXPECT_NE(text.find(key), std::string::npos) << key << " in\n" << text;
+  const ModelFile back = maglead::analysis::load_model(path);
+  EXPECT_EQ(back.fit, m.fit);
+  EXPECT_DOUBLE_EQ(back.viscous_n_s_per_m, 2e-3);
+  ASSERT_NE(back.find("offset"), nullptr);
+  EXPECT_DOUBLE_EQ(back.find("offset")->get("offset_n", 0.0), -0.03);
+  // A linear name in a rotary model is a typo the error names with the rotary's.
+  std::ofstream(path) << "# format: maglead-model/1\n[model]\nsystem = \"rotary\"\n"
+                         "viscous_n_s_per_m = 0.002\n";
+  try {
+    maglead::analysis::load_model(path);
+    ADD_FAILURE() << "a linear name was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("viscous_n_m_s_per_rad"), std::string::npos) << e.what();
+  }
+}
+
+// A torque logged with the wrong sign is a missing torque no library law explains plausibly:
+// said so with the rotary's names and columns (Axis.AForceOfTheWrongSignIsNotExplainedPlausibly
+// on a linear axis).
+TEST(Rotary, ATorqueOfTheWrongSignIsNotExplainedPlausibly) {
+  const RotaryDrive d;
+  const auto rec = maglead::test::rotary_recording(d);
+  const auto first = analyze(rec, rotary_model({"nut_mass_kg", "viscous_n_s_per_m", "coulomb_n"}));
+  auto flipped = rec;
+  for (double& tau : flipped.columns[2]) tau = -tau;
+  const auto r = analyze(flipped, first.corrected);
+  EXPECT_TRUE(r.findings.effects.empty()) << named(r);
+  ASSERT_TRUE(r.findings.unexplained.has_value()) << r.findings.conclusion;
+  const auto& u = *r.findings.unexplained;
+  EXPECT_NE(u.check.find("sign of drive_torque_n_m and angle_rad"), std::string::npos) << u.check;
+  for (const auto& p : u.parameters)
+    EXPECT_NE(u.message.find(" " + p.name + " = "), std::string::npos) << u.message;
+  EXPECT_EQ(u.message.find("_n_s_per_m"), std::string::npos) << u.message;
+  EXPECT_EQ(u.message.find("nut_mass_kg"), std::string::npos) << u.message;
+  std::printf("rotary, torque of the wrong sign: %s\n", u.message.c_str());
+}
+
+TEST(Rotary, AHeaderOrColumnsThatDoNotSayRotaryAreAClearError) {
+  const RotaryDrive d;
+  const ModelFile model = rotary_model({"nut_mass_kg", "coulomb_n"});
+  const auto message = [&](const maglead::Recording& rec, const ModelFile& m) -> std::string {
+    try {
+      analyze(rec, m);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  // The header line missing: says to add it.
+  const std::string no_header = message(maglead::test::rotary_recording(d, false), model);
+  EXPECT_NE(no_header.find("add the header line '# axis: rotary'"), std::string::npos) << no_header;
+  // A rotary header on a linear axis's columns: says which columns a rotary axis needs.
+  auto linear_columns = maglead::test::rotary_recording(d);
+  linear_columns.names = {"t_s", "pos_m", "drive_force_n", "ref_pos_m"};
+  const std::string wrong = message(linear_columns, model);
+  EXPECT_NE(wrong.find("a rotary axis needs the columns t_s, angle_rad, drive_torque_n_m"),
+            std::string::npos)
+      << wrong;
+  EXPECT_NE(wrong.find("remove the header line '# axis: rotary'"), std::string::npos) << wrong;
+  // A rotary recording with a linear model: says which model it needs.
+  ModelFile linear = model;
+  linear.system = "axis";
+  const std::string mixed = message(maglead::test::rotary_recording(d), linear);
+  EXPECT_NE(mixed.find("give a rotary model"), std::string::npos) << mixed;
+  // A rotary recording with the actuator's model (no --model): says which model it needs.
+  ModelFile actuator = model;
+  actuator.system = "actuator";
+  const std::string no_model = message(maglead::test::rotary_recording(d), actuator);
+  EXPECT_NE(no_model.find("give the axis's baseline with --model"), std::string::npos) << no_model;
+  // An angle of thousands of radians is an angle, not a length: the unit checks pass it.
+  EXPECT_NO_THROW(maglead::check_plausible_units(maglead::test::rotary_recording(d)));
+}
+
+}  // namespace
