@@ -26,13 +26,17 @@ struct RotaryDrive {
   double duration_s = 40.0;
   double start_rad = 3000.0;  // where the absolute encoder starts: beyond any length's bound
   unsigned seed = 1;
+  // > 0: point-to-point moves (move_s each, to random targets) with this long a stop after each,
+  // the PD holding the shaft against stiction; 0: the sweep of three sines below.
+  double dwell_s = 0.0;
+  double move_s = 1.5;
 };
 
 // The reference: a sum of three sines of random phase (0.2–1.3 Hz; speeds up to about
 // 400 rad/s, accelerations up to about 1500 rad/s²), so every reversal passes at an acceleration
-// whose feed-forward torque is far beyond c. A reversal at rest (a move's end) would let the PD
-// hold the shaft against stiction with any torque up to c, which no sliding law gives: the axis
-// path reports such holds as external_disturbance events (docs/analysis.md, a rotary axis).
+// whose feed-forward torque is far beyond c. With dwell_s the shaft stops after each move and
+// the PD holds it against stiction with any torque up to c, which no sliding law gives: the axis
+// path leaves such holds out of the fit (docs/analysis.md, a rotary axis).
 struct Sine {
   double amplitude_rad, rate_rad_s, phase_rad;
 };
@@ -54,10 +58,45 @@ inline void reference_at(const std::vector<Sine>& sines, double start_rad, doubl
   }
 }
 
+// Point-to-point moves: minimum-jerk profiles from one target to the next (50–200 rad either
+// way), each followed by a stop.
+struct Moves {
+  std::vector<double> targets_rad;  // targets_rad[k] is where move k starts
+  double move_s = 1.5, dwell_s = 1.0;
+};
+
+inline Moves rotary_moves(const RotaryDrive& d, std::mt19937& rng) {
+  std::uniform_real_distribution<double> length(50.0, 200.0);
+  Moves m{{d.start_rad}, d.move_s, d.dwell_s};
+  const auto count = static_cast<int>(d.duration_s / (d.move_s + d.dwell_s)) + 2;
+  for (int k = 0; k < count; ++k)
+    m.targets_rad.push_back(m.targets_rad.back() + (k % 2 == 0 ? 1.0 : -1.0) * length(rng));
+  return m;
+}
+
+inline void reference_at(const Moves& m, double t, double* ref) {
+  const double cycle = m.move_s + m.dwell_s;
+  const auto k = static_cast<std::size_t>(t / cycle);
+  const double a = m.targets_rad[k], b = m.targets_rad[k + 1];
+  const double u = std::min(1.0, (t - static_cast<double>(k) * cycle) / m.move_s);
+  const double T = m.move_s, d = b - a;
+  ref[0] = a + d * u * u * u * (10 - 15 * u + 6 * u * u);
+  ref[1] = d * 30 * u * u * (1 - u) * (1 - u) / T;
+  ref[2] = d * 60 * u * (1 - u) * (1 - 2 * u) / (T * T);
+}
+
 /// The recording (`# axis: rotary` in its header unless `axis_header` is false).
 inline Recording rotary_recording(const RotaryDrive& d, bool axis_header = true) {
   std::mt19937 rng(d.seed);
   const auto sines = rotary_sines(rng);
+  const Moves moves =
+      d.dwell_s > 0 ? rotary_moves(d, rng) : Moves{};  // the sweep's draws as before
+  const auto reference = [&](double t, double* ref) {
+    if (d.dwell_s > 0)
+      reference_at(moves, t, ref);
+    else
+      reference_at(sines, d.start_rad, t, ref);
+  };
   std::normal_distribution<double> noise(0.0, d.noise_n_m);
   constexpr int kSubsteps = 10;
   constexpr double kDt_s = 1e-3, kBandwidth_rad_s = 2 * std::numbers::pi * 30.0;
@@ -71,13 +110,13 @@ inline Recording rotary_recording(const RotaryDrive& d, bool axis_header = true)
   rec.names = {"t_s", "angle_rad", "drive_torque_n_m", "ref_angle_rad"};
   rec.columns.assign(4, {});
   double start[3];
-  reference_at(sines, d.start_rad, 0.0, start);
+  reference(0.0, start);
   // The shaft is already on the reference (no start-up transient: the logger starts mid-run).
   double theta = d.start_rad, omega = start[1], last_q = d.start_rad - start[1] * kDt_s;
   for (int k = 0; k * kDt_s < d.duration_s; ++k) {
     const double t = k * kDt_s;
     double ref[3];
-    reference_at(sines, d.start_rad, t, ref);
+    reference(t, ref);
     const double q = std::round(theta / count_rad) * count_rad;  // the encoder's count
     const double speed = (q - last_q) / kDt_s;
     last_q = q;

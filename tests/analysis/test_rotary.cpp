@@ -87,6 +87,22 @@ TEST(Rotary, MissingViscousFrictionIsNamedInRotaryUnits) {
   EXPECT_TRUE(again.findings.effects.empty()) << named(again);
 }
 
+// Moves with stops between them, the PD holding the shaft against stiction with whatever torque
+// up to c it settled at: the holds are left out of the fit (and said so), so no hold is an
+// event, and the viscous friction the baseline lacks is still named within its error.
+TEST(Rotary, AShaftHeldBetweenMovesIsNoEvent) {
+  RotaryDrive d;
+  d.dwell_s = 1.0;
+  const auto r =
+      analyze(maglead::test::rotary_recording(d), rotary_model({"nut_mass_kg", "coulomb_n"}));
+  bool said = false;
+  for (const auto& w : r.where) said |= w.rfind("held still ", 0) == 0;
+  EXPECT_TRUE(said) << "the holds are not said; where: " << r.where.size() << " lines";
+  expect_found(r, "viscous_friction", "viscous_n_m_s_per_rad", d.viscous_n_m_s_per_rad);
+  for (const auto& w : r.where)
+    if (w.rfind("held still ", 0) == 0) std::printf("rotary with stops: %s\n", w.c_str());
+}
+
 TEST(Rotary, MissingCoulombFrictionIsNamedInRotaryUnits) {
   RotaryDrive d;
   d.seed = 2;

@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <optional>
@@ -264,9 +265,61 @@ struct Prepared {
   Eigen::MatrixXd id_columns;  // decimated: parallel-filtered columns (n × columns)
   int decimation = 1;
   double fs_hz = 0, filter_hz = 0, noise_floor_n = 0, bandwidth_hz = 0;
-  std::vector<double> y_raw;  // full-rate measured force, unfiltered
-  effects::Scales scales;     // the units' plausible ranges are stated in these
+  std::vector<double> y_raw;        // full-rate measured force, unfiltered
+  effects::Scales scales;           // the units' plausible ranges are stated in these
+  std::vector<unsigned char> held;  // full rate: the axis held still (holds(), not widened)
+  double held_s = 0;                // their total time
 };
+
+// ---------------------------------------------------------------- holds
+// A held axis (stopped between moves, a servo holding it against stiction) takes any force up to
+// its break-away, which no sliding law gives: such samples are left out of the fit, as the
+// actuator leaves out its stuck ones. The encoder's count, from the data: its smallest step.
+double position_count(const std::vector<double>& p) {
+  double c = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 1; i < p.size(); ++i) {
+    const double d = std::abs(p[i] - p[i - 1]);
+    if (d > 0 && d < c) c = d;  // NaN compares false
+  }
+  return std::isfinite(c) ? c : 0.0;
+}
+
+// Stretches of at least `min_len` samples whose raw position stays within `tol` of the
+// stretch's first sample (an unquantised position has a tiny count: nothing is held).
+std::vector<unsigned char> holds(const std::vector<double>& raw, double tol, std::size_t min_len) {
+  const std::size_t n = raw.size();
+  std::vector<unsigned char> held(n, 0);
+  for (std::size_t i = 0; i < n;) {
+    std::size_t j = i + 1;
+    while (j < n && std::abs(raw[j] - raw[i]) <= tol) ++j;
+    if (j - i >= min_len)
+      std::fill(held.begin() + static_cast<std::ptrdiff_t>(i),
+                held.begin() + static_cast<std::ptrdiff_t>(j), 1);
+    i = j;
+  }
+  return held;
+}
+
+// Valid samples at every `step`-th full-rate sample: none within `margin` samples of a hold (a
+// filter spreads the hold's force that far). All valid when nothing is held.
+std::vector<unsigned char> valid_outside(const std::vector<unsigned char>& held, std::size_t margin,
+                                         std::size_t step) {
+  const std::size_t n = held.size();
+  std::vector<std::size_t> before(n + 1, 0);  // held samples before i
+  for (std::size_t i = 0; i < n; ++i) before[i + 1] = before[i] + held[i];
+  std::vector<unsigned char> valid;
+  valid.reserve(n / step + 1);
+  for (std::size_t i = 0; i < n; i += step) {
+    const std::size_t lo = i > margin ? i - margin : 0, hi = std::min(n, i + margin + 1);
+    valid.push_back(before[hi] == before[lo] ? 1 : 0);
+  }
+  return valid;
+}
+
+// Samples of `periods` periods of a filter with corner `hz`.
+std::size_t filter_samples(double periods, double hz, double fs_hz) {
+  return static_cast<std::size_t>(std::lround(periods * fs_hz / hz));
+}
 
 double max_abs(const std::vector<double>& x) {
   double m = 0;
@@ -360,7 +413,10 @@ void decimate_signals(Prepared& P, int nd) {
   d.a = decimate(s.a, nd, P.fs_hz);
   d.y = decimate(s.y, nd, P.fs_hz);
   d.y_fixed = decimate(s.y_fixed, nd, P.fs_hz);
-  d.valid.assign(d.t.size(), 1);
+  d.valid = valid_outside(
+      P.held,
+      filter_samples(rules::kAxisRestFilterPeriods, decimation_cutoff_hz(nd, P.fs_hz), P.fs_hz),
+      static_cast<std::size_t>(nd));
 }
 
 // A force-driven axis: position filtered zero-phase, velocity and acceleration by central
@@ -384,7 +440,11 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   P.y_raw = rec.column(drive);
   P.noise_floor_n = stats::white_noise_sigma(P.y_raw);  // the force sensor's noise
   P.scales = {max_abs(P.y_raw), max_abs(s.v)};          // what the drive produced and reached
-  s.valid.assign(s.size(), 1);
+  const std::size_t hold_len = filter_samples(rules::kAxisRestFilterPeriods, P.filter_hz, P.fs_hz);
+  P.held = holds(rec.column(position),
+                 rules::kAxisRestCounts * position_count(rec.column(position)), hold_len);
+  P.held_s = static_cast<double>(std::count(P.held.begin(), P.held.end(), 1)) * dt;
+  s.valid = valid_outside(P.held, hold_len, 1);
   // The travel the recording covers stands for the stroke (the spring's mid-stroke).
   s.stroke_min_m = *std::min_element(s.p.begin(), s.p.end());
   s.stroke_max_m = *std::max_element(s.p.begin(), s.p.end());
@@ -424,15 +484,17 @@ Grams accumulate_matrix(const Prepared& P, const std::vector<Column>& cols, int 
   for (int f = 0; f < folds; ++f) {
     const std::size_t lo = starts[static_cast<std::size_t>(f)];
     const std::size_t hi = starts[static_cast<std::size_t>(f) + 1];
-    Eigen::VectorXd r(static_cast<Eigen::Index>(hi - lo));
+    std::vector<Eigen::Index> rows;  // the segment's valid samples (holds left out)
+    for (std::size_t i = lo; i < hi; ++i)
+      if (s.valid[i]) rows.push_back(static_cast<Eigen::Index>(i));
+    Eigen::VectorXd r(static_cast<Eigen::Index>(rows.size()));
     double yy = 0;
-    for (std::size_t i = lo; i < hi; ++i) {
-      r[static_cast<Eigen::Index>(i - lo)] = s.y[i] - s.y_fixed[i];
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      const auto i = static_cast<std::size_t>(rows[k]);
+      r[static_cast<Eigen::Index>(k)] = s.y[i] - s.y_fixed[i];
       yy += s.y[i] * s.y[i];
     }
-    g.add_segment(
-        P.id_columns.middleRows(static_cast<Eigen::Index>(lo), static_cast<Eigen::Index>(hi - lo)),
-        r, yy);
+    g.add_segment(P.id_columns(rows, Eigen::all), r, yy);
   }
   return g;
 }
@@ -1255,6 +1317,23 @@ void name_in_kind(Findings& J, const effects::AxisKind& kind) {
   }
 }
 
+// What the holds took out of the fit, in words ("" when the axis never stood still).
+std::string held_text(const AxisRun& run) {
+  if (!(run.P.held_s > 0)) return "";
+  const auto& kind = run.kind;
+  const double count = position_count(run.rec.column(std::string(kind.position)));
+  const double span_s = run.P.full.span_s,
+               hold_ms = 1e3 * rules::kAxisRestFilterPeriods / run.P.filter_hz;
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "held still %.1f s of %.1f s (within %g encoder counts of %.3g %s for %.0f ms or "
+                "longer): not fitted, nor the filters' spread around each hold; a held axis "
+                "takes any %s up to its break-away",
+                run.P.held_s, span_s, rules::kAxisRestCounts, count * kind.map_scale,
+                std::string(kind.map_unit).c_str(), hold_ms, std::string(kind.quantity).c_str());
+  return buf;
+}
+
 // A force-driven axis (EMPS; a rotary one alike): prepare → columns → select → findings, maps,
 // corrected model.
 AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
@@ -1273,6 +1352,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   locate_pulses(run, p.yf, sel.current);
   AnalysisResult R;
   fill_findings(R.findings, run, sel, p, final_base_se);
+  if (auto h = held_text(run); !h.empty()) R.where.push_back(std::move(h));
   const Signals& S = *run.S;
   Residuals res{std::vector<double>(S.size()), std::vector<double>(S.size()), p.eb.rms, &run.kind};
   for (std::size_t i = 0; i < S.size(); ++i) {

@@ -77,6 +77,12 @@ inline constexpr std::array kTable = {
     Rule{"axis_min_usable_samples", 100.0, "samples",
          "linear axis: with fewer usable samples the axis hardly moves and the recording is refused",
          "Axis.AForceOfTheWrongSignIsNotExplainedPlausibly", "prepare"},
+    Rule{"axis_rest_counts", 2.0, "counts",
+         "axis: a stretch whose position stays within this many encoder counts of its start is held (an encoder dithers by one), its friction unknown: not fitted",
+         "Rotary.AShaftHeldBetweenMovesIsNoEvent", "prepare"},
+    Rule{"axis_rest_filter_periods", 2.0, "periods",
+         "axis: a hold counts from this many periods of the position filter, and as many either side of it are left out too (the filters spread its force)",
+         "Rotary.AShaftHeldBetweenMovesIsNoEvent", "prepare"},
     Rule{"barely_slides_one_in", 20.0, "samples",
          "with fewer than one sample in this many sliding, the result says the nut barely slides",
          "StickSlip.ARecordingThatBarelySlidesSaysSo", "prepare"},
@@ -272,6 +278,8 @@ inline constexpr double kAxisDecimationOfRate = value_of("axis_decimation_of_rat
 inline constexpr std::size_t kAxisMinSegmentSamples = static_cast<std::size_t>(value_of("axis_min_segment_samples"));
 inline constexpr int kAxisMinFolds = static_cast<int>(value_of("axis_min_folds"));
 inline constexpr double kAxisMinUsableSamples = value_of("axis_min_usable_samples");
+inline constexpr double kAxisRestCounts = value_of("axis_rest_counts");
+inline constexpr double kAxisRestFilterPeriods = value_of("axis_rest_filter_periods");
 inline constexpr std::size_t kBarelySlidesOneIn = static_cast<std::size_t>(value_of("barely_slides_one_in"));
 inline constexpr double kMinHeldOutGainPct = value_of("min_held_out_gain_pct");
 inline constexpr double kMinT = value_of("min_t");
