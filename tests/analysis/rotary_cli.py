@@ -8,7 +8,8 @@ analysed with a rotary baseline lacking viscous friction: analysis.json names it
 viscous_n_m_s_per_rad, the headline prints N·m·s/rad, and model_corrected.toml holds the rotary's
 names (inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m) and is read back by the analysis. The
 same file without its '# axis: rotary' line is refused with what to add. analysis.json keeps to
-its schema (docs/schema/analysis.schema.json, system "rotary").
+its schema (docs/schema/analysis.schema.json, system "rotary"). `report`, `twin-check` and
+`estimate`, the actuator's, refuse it with the analyze command to run instead.
 """
 import json, os, subprocess, sys
 
@@ -72,6 +73,13 @@ with open(rec) as src, open(bare, "w") as dst:
 r = analyse(bare, os.path.join(work, "bare"), model)
 if r.returncode == 0 or "add the header line '# axis: rotary'" not in r.stderr:
     failures.append(f"no header: exit {r.returncode}, {r.stderr.strip()}")
+
+# The actuator's commands refuse an axis's recording with what to run instead (exit 2).
+for command in (["report", "--out", os.path.join(work, "report")], ["twin-check"], ["estimate"]):
+    r = subprocess.run([exe, command[0], "--recording", rec] + command[1:], capture_output=True,
+                       text=True)
+    if r.returncode != 2 or "maglead analyze --recording " + rec not in r.stderr:
+        failures.append(f"{command[0]} on a rotary axis: exit {r.returncode}, {r.stderr.strip()}")
 
 for f in failures:
     print("FAIL:", f)

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <vector>
 
 namespace maglead::cli {
@@ -161,10 +162,42 @@ std::vector<double> screw_angle_of(const Recording& rec, const ActuatorParams& a
   return out;
 }
 
+namespace {
+
+// An axis's recording (`# axis:`, or an axis's position column and no nut): not the actuator's.
+bool is_axis_recording(const Recording& rec) {
+  return rec.meta("axis").has_value() ||
+         (!rec.has("nut_pos_m") && (rec.has("pos_m") || rec.has("angle_rad")));
+}
+
+// The reader's own error for a recording that lacks an actuator column, unless the recording is
+// an axis's: then what to run on it instead.
+Recording read_with_columns(const std::string& path, const std::vector<std::string>& required) {
+  try {
+    return read_recording(path, required);
+  } catch (const RecordingError&) {
+    if (required.empty()) throw;
+    std::optional<Recording> whole;
+    try {
+      whole = read_recording(path);
+    } catch (const RecordingError&) {  // malformed as well: the first error says it
+    }
+    if (!whole || !is_axis_recording(*whole)) throw;
+    const std::string kind = whole->meta("axis").value_or("linear");
+    throw RecordingError(path + ": a " + kind +
+                         " axis's recording; this command reads the magnetic actuator's "
+                         "(nut_pos_m and the motor or screw angle). Analyse an axis with: "
+                         "maglead analyze --recording " +
+                         path + " --model BASELINE.toml (docs/analysis.md)");
+  }
+}
+
+}  // namespace
+
 Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
                                   const std::string& config_dir,
                                   const std::vector<std::string>& required) {
-  Recording rec = read_recording(path, required);
+  Recording rec = read_with_columns(path, required);
   if (!rec.has("nut_pos_m")) return rec;  // another machine (pos_m): its stroke is not ours
   const double stroke_m = act.stroke_max_m - act.stroke_min_m;
   PlausibleRanges r;
