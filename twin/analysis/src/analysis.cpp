@@ -269,6 +269,7 @@ struct Prepared {
   effects::Scales scales;           // the units' plausible ranges are stated in these
   std::vector<unsigned char> held;  // full rate: the axis held still (holds(), not widened)
   double held_s = 0;                // their total time
+  double count = 0;                 // the position's encoder count (its smallest step)
 };
 
 // ---------------------------------------------------------------- holds
@@ -441,8 +442,8 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   P.noise_floor_n = stats::white_noise_sigma(P.y_raw);  // the force sensor's noise
   P.scales = {max_abs(P.y_raw), max_abs(s.v)};          // what the drive produced and reached
   const std::size_t hold_len = filter_samples(rules::kAxisRestFilterPeriods, P.filter_hz, P.fs_hz);
-  P.held = holds(rec.column(position),
-                 rules::kAxisRestCounts * position_count(rec.column(position)), hold_len);
+  P.count = position_count(rec.column(position));
+  P.held = holds(rec.column(position), rules::kAxisRestCounts * P.count, hold_len);
   P.held_s = static_cast<double>(std::count(P.held.begin(), P.held.end(), 1)) * dt;
   s.valid = valid_outside(P.held, hold_len, 1);
   // The travel the recording covers stands for the stroke (the spring's mid-stroke).
@@ -494,7 +495,11 @@ Grams accumulate_matrix(const Prepared& P, const std::vector<Column>& cols, int 
       r[static_cast<Eigen::Index>(k)] = s.y[i] - s.y_fixed[i];
       yy += s.y[i] * s.y[i];
     }
-    g.add_segment(P.id_columns(rows, Eigen::all), r, yy);
+    const auto n = static_cast<Eigen::Index>(hi - lo);
+    if (static_cast<Eigen::Index>(rows.size()) == n)  // nothing held: the block as it stands
+      g.add_segment(P.id_columns.middleRows(static_cast<Eigen::Index>(lo), n), r, yy);
+    else
+      g.add_segment(P.id_columns(rows, Eigen::all), r, yy);
   }
   return g;
 }
@@ -1321,7 +1326,6 @@ void name_in_kind(Findings& J, const effects::AxisKind& kind) {
 std::string held_text(const AxisRun& run) {
   if (!(run.P.held_s > 0)) return "";
   const auto& kind = run.kind;
-  const double count = position_count(run.rec.column(std::string(kind.position)));
   const double span_s = run.P.full.span_s,
                hold_ms = 1e3 * rules::kAxisRestFilterPeriods / run.P.filter_hz;
   char buf[320];
@@ -1329,7 +1333,7 @@ std::string held_text(const AxisRun& run) {
                 "held still %.1f s of %.1f s (within %g encoder counts of %.3g %s for %.0f ms or "
                 "longer): not fitted, nor the filters' spread around each hold; a held axis "
                 "takes any %s up to its break-away",
-                run.P.held_s, span_s, rules::kAxisRestCounts, count * kind.map_scale,
+                run.P.held_s, span_s, rules::kAxisRestCounts, run.P.count * kind.map_scale,
                 std::string(kind.map_unit).c_str(), hold_ms, std::string(kind.quantity).c_str());
   return buf;
 }
