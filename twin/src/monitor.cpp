@@ -519,6 +519,12 @@ struct TwinMonitor::Impl {
   /// The twin, driven by θ and last tick's force estimate, open loop between re-syncs; its
   /// prediction into `o`. False when the solver failed.
   bool advance_twin(TwinOutputs& o, double t, double theta, double fext_new) noexcept {
+    if (!cfg.open_loop_twin) {
+      constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+      o.predicted_nut_pos_m = o.residual_pos_m = o.predicted_output_force_n = nan;
+      fext_hat = fext_new;
+      return true;
+    }
     const bool ok = twin.advance(t, theta, fext_hat) == TwinStatus::ok;
     const NutState& ts = twin.state();
     o.predicted_nut_pos_m = ts.pos_m;
@@ -548,7 +554,7 @@ struct TwinMonitor::Impl {
     if (rel > edge_hi || rel < edge_lo) step_out = true;
     while (rel > kPi) branch_center += 2 * kPi, ++slips, rel -= 2 * kPi;
     while (rel < -kPi) branch_center -= 2 * kPi, --slips, rel += 2 * kPi;
-    if (ticks % std::max(1, cfg.lookahead_every_ticks) != 0) return rel;
+    if (!cfg.open_loop_twin || ticks % std::max(1, cfg.lookahead_every_ticks) != 0) return rel;
     trend.t0 = t, trend.th0 = theta, trend.th_rate = theta_rate, trend.f0 = fext_hat;
     trend.f_rate = fext_rate;
     look.reset(t, {pos_hat, vel, mode}, theta, fext_hat);

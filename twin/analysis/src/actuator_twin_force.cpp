@@ -67,8 +67,9 @@ std::optional<TwinForceErrors> twin_force_errors(const Recording& rec, const Act
   tc.integrator.max_step_s = 1.0 / tc.actuator.sample_rate_hz;
   tc.calibration = cal;
   tc.model = model;
-  // The estimate does not depend on the step-out look-ahead, which is most of the twin's cost.
-  tc.lookahead_every_ticks = std::numeric_limits<int>::max();
+  // The force estimate is the observer's: the open-loop twin beside it (prediction, health,
+  // look-ahead) is most of a tick's cost and changes nothing scored here.
+  tc.open_loop_twin = false;
   twin::TwinMonitor mon(tc);
   const double nan = std::numeric_limits<double>::quiet_NaN();
   std::vector<double> abs_err;

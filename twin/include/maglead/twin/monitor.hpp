@@ -164,6 +164,10 @@ struct TwinMonitorConfig {
   // measured position by more than this many linear counts, in this many intervals in a row.
   double healthy_residual_counts = 3.0;
   int healthy_intervals = 3;
+  // The open-loop twin (CVODE): the predicted nut position and force, the health verdict and the
+  // step-out look-ahead. The force estimate is the observer's and does not need it; off, those
+  // outputs read NaN / healthy and a tick costs the observer alone (the analysis's twin check).
+  bool open_loop_twin = true;
 };
 
 /// What an operator reads for a raised drift warning, e.g. "force estimate error +0.45 ± 0.05 N
