@@ -51,9 +51,10 @@ struct Coupling {
 };
 
 // Step-outs from the raw phase: a slip carries φ past ±π from the branch it sat on.
-std::vector<SlipEvent> find_slips(const std::vector<double>& t, const std::vector<double>& phi) {
+template <class Phase>
+std::vector<SlipEvent> find_slips(const std::vector<double>& t, const Phase& phi) {
   std::vector<SlipEvent> out;
-  if (phi.empty()) return out;
+  if (phi.size() == 0) return out;
   double branch = 2 * kPi * std::round(phi[0] / (2 * kPi));
   std::size_t left_stable = 0;  // last sample inside the stable branch
   for (std::size_t i = 0; i < phi.size(); ++i) {
@@ -71,9 +72,9 @@ std::vector<SlipEvent> find_slips(const std::vector<double>& t, const std::vecto
 
 // Least-squares slope of the raw net driving force (coupling + load) over the last `window_s`
 // of a stuck episode [first, last]: how fast the force that will break the nut loose rises.
-double rising_rate(const std::vector<double>& t, const std::vector<double>& phi,
-                   const std::vector<double>& load, const Coupling& cp, std::size_t first,
-                   std::size_t last, double window_s) {
+template <class Phase>
+double rising_rate(const std::vector<double>& t, const Phase& phi, const std::vector<double>& load,
+                   const Coupling& cp, std::size_t first, std::size_t last, double window_s) {
   std::size_t k = last;
   while (k > first && t[last] - t[k - 1] <= window_s) --k;
   constexpr std::size_t kMinSlopeSteps = 3;  // a slope from fewer samples is noise
@@ -119,51 +120,82 @@ const std::vector<double>& angle_column(const Recording& rec, const ActuatorPara
 // ------------------------------------------------------------------------------- prepare
 namespace {
 
+// Signals derived from stored ones where they are read: each full-rate array would cost 8 bytes
+// a sample (29 MB for an hour at 1 kHz), a read costs a subtraction or two. The arithmetic is
+// central_diff's and central_diff2's (signal.hpp), so the values are theirs to the bit.
+struct PhaseOf {  // φ = θ − 2π p / lead
+  const std::vector<double>& theta_rad;
+  const std::vector<double>& pos_m;
+  double lead_m;
+  double operator[](std::size_t i) const noexcept {
+    return theta_rad[i] - 2 * kPi * pos_m[i] / lead_m;
+  }
+  std::size_t size() const noexcept { return pos_m.size(); }
+};
+template <class X>
+struct RateOf {  // central difference, one-sided at the ends
+  const X& x;
+  double dt_s;
+  double operator[](std::size_t i) const noexcept {
+    const std::size_t n = x.size();
+    if (n < 2) return 0.0;
+    if (i == 0) return (x[1] - x[0]) / dt_s;
+    if (i + 1 == n) return (x[n - 1] - x[n - 2]) / dt_s;
+    return (x[i + 1] - x[i - 1]) / (2.0 * dt_s);
+  }
+  std::size_t size() const noexcept { return x.size(); }
+};
+struct CurvatureOf {  // second central difference, the ends take their neighbour's
+  const std::vector<double>& x;
+  double dt_s;
+  double operator[](std::size_t i) const noexcept {
+    const std::size_t n = x.size();
+    if (n < 3) return 0.0;
+    const std::size_t k = std::clamp<std::size_t>(i, 1, n - 2);
+    return (x[k + 1] - 2.0 * x[k] + x[k - 1]) / (dt_s * dt_s);
+  }
+  std::size_t size() const noexcept { return x.size(); }
+};
+
+const std::vector<double>& finite_angle(const Recording& rec, const ActuatorParams& act,
+                                        std::vector<double>& geared) {
+  const auto& theta = angle_column(rec, act, geared);
+  require_finite(rec, theta, "screw_angle_rad");
+  return theta;
+}
+
 // The recording's signals, raw and filtered, with the derivatives the force balance needs.
+// `geared` holds the screw angle when only the motor's is logged (angle_column). The derived
+// signals refer to the stored ones: a Signals is built in place and never copied.
 struct Signals {
+  Signals(const Recording& rec, const ActuatorParams& act, const Prepared& P,
+          std::vector<double>& geared);
+  Signals(const Signals&) = delete;
+  Signals& operator=(const Signals&) = delete;
   const std::vector<double>& t;
   const std::vector<double>& pos_raw;
   const std::vector<double>& load_raw;
   const std::vector<double>& theta_raw;
-  std::vector<double> p, th, load, v, a, jerk, load_rate, phi, phi_raw, phi_rate;
+  const double dt_s, lead_m;
+  const std::vector<double> p, th, load;  // filtered
+  const RateOf<std::vector<double>> v{p, dt_s}, load_rate{load, dt_s};
+  const CurvatureOf a{p, dt_s};
+  const RateOf<CurvatureOf> jerk{a, dt_s};  // zero-phase like the filter: a sensor delay's term
+  const PhaseOf phi{th, p, lead_m}, phi_raw{theta_raw, pos_raw, lead_m};
+  const RateOf<PhaseOf> phi_rate{phi, dt_s};
 };
 
-// `geared` holds the screw angle when only the motor's is logged (angle_column).
-Signals filtered_signals(const Recording& rec, const ActuatorParams& act, const Prepared& P,
-                         std::vector<double>& geared) {
-  Signals s{rec.column("t_s"),
-            rec.column("nut_pos_m"),
-            rec.column("load_force_n"),
-            angle_column(rec, act, geared),
-            {},
-            {},
-            {},
-            {},
-            {},
-            {},
-            {},
-            {},
-            {},
-            {}};
-  require_finite(rec, s.theta_raw, "screw_angle_rad");
-  const double dt = 1.0 / P.fs_hz;
-  s.p = filtfilt_butter4(s.pos_raw, P.filter_hz, P.fs_hz);
-  s.th = filtfilt_butter4(s.theta_raw, P.filter_hz, P.fs_hz);
-  s.load = filtfilt_butter4(s.load_raw, P.filter_hz, P.fs_hz);
-  s.v = central_diff(s.p, dt);
-  s.a = central_diff2(s.p, dt);
-  s.jerk = central_diff(s.a, dt);  // zero-phase like the filter: a sensor delay's inertial term
-  s.load_rate = central_diff(s.load, dt);
-  const std::size_t n = s.t.size();
-  s.phi.reserve(n);  // appended: no zero-fill to overwrite
-  s.phi_raw.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    s.phi.push_back(s.th[i] - 2 * kPi * s.p[i] / act.lead_m);
-    s.phi_raw.push_back(s.theta_raw[i] - 2 * kPi * s.pos_raw[i] / act.lead_m);
-  }
-  s.phi_rate = central_diff(s.phi, dt);
-  return s;
-}
+Signals::Signals(const Recording& rec, const ActuatorParams& act, const Prepared& P,
+                 std::vector<double>& geared)
+    : t(rec.column("t_s")),
+      pos_raw(rec.column("nut_pos_m")),
+      load_raw(rec.column("load_force_n")),
+      theta_raw(finite_angle(rec, act, geared)),
+      dt_s(1.0 / P.fs_hz),
+      lead_m(act.lead_m),
+      p(filtfilt_butter4(pos_raw, P.filter_hz, P.fs_hz)),
+      th(filtfilt_butter4(theta_raw, P.filter_hz, P.fs_hz)),
+      load(filtfilt_butter4(load_raw, P.filter_hz, P.fs_hz)) {}
 
 // The standard deviation of white load-cell noise after the filter, and of its rate (the
 // filter's and the derivative's impulse response, summed in squares).
@@ -465,7 +497,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.count_m = stated(rec, "linear_encoder_m_per_count", act.linear_count_m);
   P.scales.phase_count_rad = phase_count_rad(rec, act, P.count_m);
   std::vector<double> geared;
-  const Signals s = filtered_signals(rec, act, P, geared);
+  const Signals s(rec, act, P, geared);
   P.slips = find_slips(t, s.phi_raw);
   P.load_noise_n = stats::white_noise_sigma(s.load_raw);  // the load cell's noise
   std::tie(P.load_filtered_noise_n, P.load_rate_noise_n_s) = filtered_noise(P);
