@@ -56,6 +56,8 @@ Json effect_json(const EffectFinding& e) {
   if (!e.finding.empty()) j["finding"] = e.finding;
   if (!e.note.empty()) j["note"] = e.note;
   if (!e.standard_errors.empty()) j["standard_errors"] = parameters_json(e.standard_errors);
+  if (!e.calibration_errors.empty())
+    j["calibration_errors"] = parameters_json(e.calibration_errors);
   if (!e.summary.empty()) j["summary"] = e.summary;
   return j;
 }

@@ -498,6 +498,50 @@ Named first_finding(const AnalysisResult& r, const std::string& param) {
           maglead::analysis::parameter_value(e.standard_errors, param, -1.0)};
 }
 
+// Issue 43, item 5: over 20 seeds per effect the truth lies within two standard errors, the
+// calibration's share and 1 % of the value (the bound a user is told to read) in at least 85 %
+// of the runs; a run that does not name the effect counts as a miss. Printed per effect.
+TEST(Uncertainty, CoversTheTruthOverTwentySeeds) {
+  struct Truth {
+    const char* effect;
+    double added;
+    const char* param;
+    double value;
+  };
+  const auto& s = paper();
+  for (const Truth& c :
+       {Truth{"viscous_friction", 20.0, "viscous_n_s_per_m", 22.0},
+        Truth{"coulomb_friction", 2.0, "coulomb_n", 9.5}, Truth{"offset", 1.0, "offset_n", 1.0}}) {
+    int covered = 0, named = 0, stat_only = 0;
+    constexpr int kSeeds = 20;
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+      auto opt = scenario_on(s, "position-moves", 40.0);
+      opt.seed = static_cast<std::uint64_t>(seed);
+      maglead::set_plant_effect(opt.plant.effects, c.effect, c.added);
+      const std::string path = test_tmp_dir() + "/cover_" + std::to_string(seed) + ".csv";
+      maglead::run_scenario(opt, path);
+      maglead::analysis::AnalysisOptions aopt;
+      aopt.twin_force_check = false;
+      const auto r = maglead::analysis::analyze_recording(maglead::read_recording(path), s.model,
+                                                          s.cal, s.act, aopt);
+      std::filesystem::remove(path);
+      for (const auto& e : r.findings.effects) {
+        if (e.id != c.effect) continue;
+        const double v = maglead::analysis::parameter_value(e.parameters, c.param);
+        const double se = maglead::analysis::parameter_value(e.standard_errors, c.param);
+        const double cal = maglead::analysis::parameter_value(e.calibration_errors, c.param);
+        const double off = std::abs(v - c.value);
+        ++named;
+        stat_only += off <= 2 * se + 0.01 * std::abs(c.value);
+        covered += off <= 2 * se + cal + 0.01 * std::abs(c.value);
+      }
+    }
+    std::printf("%s: named %d/%d, truth within 2 SE + 1 %%: %d, + the calibration's share: %d\n",
+                c.effect, named, kSeeds, stat_only, covered);
+    EXPECT_GE(covered, kSeeds * 85 / 100) << c.effect;
+  }
+}
+
 // A calibration three times too strong (a wrong file, a unit slip) makes the missing force
 // follow the coupling with a gain of about 0.33: a broken magnet, not a finding. It is reported
 // as what no library effect explains plausibly, with where and what to check.

@@ -223,8 +223,11 @@ def recordings_and_files():
         "viscous_friction=20", "--out", vis, "--config", CONFIG)
     rc, out, err = run("analyze", "--recording", vis, "--out", "vis_out", "--config", CONFIG)
     first = out.splitlines()[0] if out else ""
-    m = re.match(r"found: viscous friction viscous_n_s_per_m (\d+\.\d+)( ± [0-9.]+)? N·s/m \(model 2 N·s/m\)", first)
-    check(rc == 0 and m is not None and abs(float(m.group(1)) - 22.0) < 2.0,
+    m = re.match(r"found: viscous friction viscous_n_s_per_m (\d+\.\d+) ± ([0-9.]+) N·s/m, "
+                 r"calibration ± ([0-9.]+) N·s/m \(model 2 N·s/m\)", first)
+    # The truth (2 + 20) within two standard errors and the calibration's share of the error.
+    check(rc == 0 and m is not None and
+          abs(float(m.group(1)) - 22.0) <= 2 * float(m.group(2)) + float(m.group(3)),
           f"analyze names the finding first, beside the model's value: {first!r} {err.strip()[-200:]}")
     with open(os.path.join(WORK, "vis_out", "analysis.json")) as f:
         check(json.load(f)["headline"] == first, "analysis.json carries the same headline")

@@ -756,6 +756,50 @@ std::vector<std::optional<stats::Named>> term_parameters(
   return out;
 }
 
+// The most a force error of at most `error_n` on every sample moves each fitted column: the
+// fit moves by A⁻¹ Σ xᵢ eᵢ (A = Σ xᵢxᵢᵀ over the samples it used), so column j moves by at most
+// error_n Σ |(A⁻¹ xᵢ)ⱼ|, each column's worst error taking the sign of its own weights. A
+// calibration error is one function of φ for the whole recording, which the jackknife over
+// segments cannot see; φ differs by direction, so that worst sign is within its reach.
+Eigen::VectorXd calibration_shift(const Prepared& P, const Grams& g,
+                                  const std::vector<Column>& cols, const std::vector<int>& current,
+                                  double error_n) {
+  const auto m = static_cast<Eigen::Index>(current.size());
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m, m);
+  for (const auto& xx : g.xx)
+    for (Eigen::Index i = 0; i < m; ++i)
+      for (Eigen::Index j = 0; j < m; ++j) a(i, j) += xx(current[i], current[j]);
+  const Eigen::MatrixXd a_inv = a.completeOrthogonalDecomposition().pseudoInverse();
+  Eigen::VectorXd x(m), weight_sum = Eigen::VectorXd::Zero(m);
+  for (std::size_t i = 0; i < P.states.size(); ++i) {
+    if (P.ringing[i]) continue;  // the samples accumulate() used
+    unit_row(Form::nut, cols, P.states[i], x.data());
+    weight_sum += (a_inv * x).cwiseAbs();
+  }
+  return error_n * weight_sum;
+}
+
+// Each term's calibration errors: the change of its parameters when each of its columns moves
+// by its calibration shift, summed over its columns (linear in the shifts, as the fit is).
+void set_calibration_errors(const Eigen::VectorXd& theta, const Eigen::VectorXd& shift,
+                            const State& model, std::vector<selection::Found>& terms) {
+  Eigen::Index off = 0;
+  for (auto& c : terms) {
+    const auto k = static_cast<Eigen::Index>(c.effect->columns());
+    const auto at = c.effect->parameters(c.shape, theta.segment(off, k).data(), model);
+    for (Eigen::Index j = 0; at && j < k; ++j) {
+      Eigen::VectorXd moved = theta.segment(off, k);
+      moved[j] += shift[off + j];
+      const auto to = c.effect->parameters(c.shape, moved.data(), model);
+      if (!to) continue;
+      for (const auto& [name, value] : *at)  // a value on a scanned grid does not move here
+        if (const auto q = to->find(name); q != to->end() && q->second != value)
+          c.calibration_errors[name] += std::abs(q->second - value);
+    }
+    off += k;
+  }
+}
+
 // Final fit on everything: the corrected residual, the parameters and their standard errors.
 void finish(const Prepared& P, const Grams& g, const Candidates& cand, const State& model,
             const std::vector<int>& current, Selection& out) {
@@ -776,6 +820,10 @@ void finish(const Prepared& P, const Grams& g, const Candidates& cand, const Sta
     term.plausible = effects::plausible(*term.effect, term.params, P.scales);
     term.standard_errors = est.standard_errors[k];
   }
+  if (!current.empty())
+    set_calibration_errors(final_fit.theta,
+                           calibration_shift(P, g, used_cols, current, P.minimum_n), model,
+                           out.terms);
 }
 
 }  // namespace

@@ -140,8 +140,21 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
   return out;
 }
 
+// "; a calibration error within the minimum moves viscous_n_s_per_m by up to 3.6" (empty: none).
+std::string calibration_text(const effects::Params& errors) {
+  std::string s;
+  for (const auto& [name, error] : errors) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%s%s by up to %.2g", s.empty() ? "" : ", ", name.c_str(),
+                  error);
+    s += buf;
+  }
+  return s.empty() ? s : "; a calibration error within the minimum moves " + s;
+}
+
 std::string summary_of(const selection::Found& c, const actuator::Prepared& P) {
-  const std::string s = summary_text(parameters_of(c.params), parameters_of(c.standard_errors));
+  const std::string s = summary_text(parameters_of(c.params), parameters_of(c.standard_errors)) +
+                        calibration_text(c.calibration_errors);
   char buf[224];
   if (P.locked_share > 0)
     std::snprintf(buf, sizeof buf,
@@ -252,6 +265,7 @@ EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepare
   e.evidence.resolution_floor_n = P.floor_n;
   e.evidence.minimum_n = P.minimum_n;
   e.standard_errors = parameters_of(c.standard_errors);
+  e.calibration_errors = parameters_of(c.calibration_errors);
   e.summary = summary_of(c, P);
   if (c.acting_share < 1.0) {
     e.evidence.acting_share_pct = 100.0 * c.acting_share;

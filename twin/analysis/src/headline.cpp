@@ -51,7 +51,7 @@ const Parameter& main_parameter(const EffectFinding& e, const ModelFile& baselin
   return e.parameters.front();
 }
 
-/// "viscous friction 22.55 ± 0.12 N·s/m (model 2 N·s/m)".
+/// "viscous friction 22.55 ± 0.12 N·s/m, calibration ± 3.6 N·s/m (model 2 N·s/m)".
 std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
   std::string name = e.id;
   for (auto& ch : name)
@@ -62,8 +62,13 @@ std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
   const std::string with_unit = unit.empty() ? "" : " " + unit;
   std::string value = value_with_error(p.value, parameter_value(e.standard_errors, p.name, 0.0));
   if (value.empty()) value = number(p.value);
+  const double calibration = parameter_value(e.calibration_errors, p.name, 0.0);
+  char from_calibration[64] = "";  // a bound: two digits say it
+  if (calibration > 0)
+    std::snprintf(from_calibration, sizeof from_calibration, ", calibration ± %.2g%s", calibration,
+                  with_unit.c_str());
   const std::string model = model_value(baseline, e.id, p.name);
-  std::string s = name + " " + p.name + " " + value + with_unit +
+  std::string s = name + " " + p.name + " " + value + with_unit + from_calibration +
                   (model.empty() ? " (not in the model)" : " (model " + model + with_unit + ")");
   if (e.note.rfind("left out of model_corrected.toml", 0) == 0)
     s += " [left out of the corrected model]";

@@ -146,6 +146,7 @@ struct Found {
   std::vector<int> idx;                     // its columns in the final model (none: not selected)
   effects::Params params;                   // as selected; a path sets the final fit's
   effects::Params standard_errors{};        // jackknife over the held-out segments' fits
+  effects::Params calibration_errors{};     // most a calibration error moves each (see finish)
   bool plausible = true;                    // params inside the unit's physical range
   double acting_share = 1;                  // samples where its law is not zero (Rules)
   double gain_pct = 0, t_stat = 0;          // held-out gain and its consistency over the segments

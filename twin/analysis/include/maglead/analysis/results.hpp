@@ -75,7 +75,11 @@ struct EffectFinding {
   std::string finding;                    // empty: not written
   std::string note;                       // empty: not written
   Parameters standard_errors;             // from the held-out segments; none: not written
-  std::string summary;                    // "gain 0.94 ± 0.01", at the digits the error allows
+  // The most a coupling error within the calibration's accuracy (Evidence::minimum_n) moves each
+  // value, same units: a bias the whole recording shares, which standard_errors cannot see.
+  // Sliding fits of the actuator only; none: not written.
+  Parameters calibration_errors;
+  std::string summary;  // "gain 0.94 ± 0.01", at the digits the error allows
 };
 
 /// A missing force that only an effect outside its physical range would explain: reported as
