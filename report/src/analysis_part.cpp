@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <sstream>
 #include <vector>
@@ -41,14 +42,23 @@ using Status = AnalysisOutcome::Status;
 
 // One line per parameter, by name (as analysis.json has them), with its standard error if any.
 std::string parameters_html(const std::string& id, const analysis::Parameters& params,
-                            const analysis::Parameters& errors = {}) {
+                            const analysis::Parameters& errors = {},
+                            const analysis::Parameters& calibration_errors = {}) {
   std::vector<const analysis::Parameter*> sorted;
   for (const auto& p : params) sorted.push_back(&p);
   std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->name < b->name; });
   std::string h;
-  for (const auto* p : sorted)
+  for (const auto* p : sorted) {
     h += (h.empty() ? "" : "<br>") +
          parameter_html(id, p->name, p->value, analysis::parameter_value(errors, p->name, 0.0));
+    if (const double c = analysis::parameter_value(calibration_errors, p->name, 0.0); c > 0) {
+      const std::string unit = analysis::unit_of_parameter(p->name);
+      char buf[48];  // a bound: two digits say it
+      std::snprintf(buf, sizeof buf, " (calibration ± %.2g%s%s)", c, unit.empty() ? "" : " ",
+                    unit.c_str());
+      h += buf;
+    }
+  }
   return h;
 }
 
@@ -74,7 +84,8 @@ std::string floors_text(const analysis::Evidence& ev) {
 std::string effect_row(const analysis::EffectFinding& e) {
   std::string h = "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" +
                   escape_html(e.id) + "</code></td><td>" + escape_html(effect_law(e.id)) +
-                  "</td><td>" + parameters_html(e.id, e.parameters, e.standard_errors) +
+                  "</td><td>" +
+                  parameters_html(e.id, e.parameters, e.standard_errors, e.calibration_errors) +
                   "</td><td>" + escape_html(e.where);
   if (!e.finding.empty()) h += "<br>" + escape_html(e.finding);
   if (const auto ev = evidence_text(e); !ev.empty()) h += "<br>" + escape_html(ev);
