@@ -60,6 +60,9 @@ void print_findings(const analysis::Findings& J) {
                   *e.evidence.heldout_gain_pct, e.evidence.t_stat.value_or(NAN),
                   e.evidence.segments_improved.value_or("?").c_str(), e.improvement_pct);
     if (!e.finding.empty()) std::printf("     %s\n", e.finding.c_str());
+    for (const auto& a : e.alternatives)
+      std::printf("     or %s: %s (reproduces %.2f %% of it)\n", a.id.c_str(),
+                  analysis::summary_text(a.parameters, {}).c_str(), a.explains_pct);
   }
   if (J.effects.empty()) std::printf("%s\n", J.conclusion.c_str());
   if (J.unexplained)

@@ -280,8 +280,16 @@ EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepare
   for (const auto& a : c.alternatives)
     if (a.plausible)
       e.alternatives.push_back({a.id, parameters_of(*a.params), a.explains_pct, std::nullopt});
-  if (!e.alternatives.empty())
-    e.finding = "the data cannot tell these apart here; " + c.id + " is preferred";
+  if (!e.alternatives.empty()) {
+    std::string others;  // "a", "a or b", "a, b or c"
+    for (std::size_t k = 0; k < e.alternatives.size(); ++k)
+      others += (k == 0                           ? ""
+                 : k + 1 == e.alternatives.size() ? " or "
+                                                  : ", ") +
+                e.alternatives[k].id;
+    e.finding = "the data cannot tell " + c.id + " from " + others + " here; " + c.id +
+                " is preferred (alternatives below)";
+  }
   return e;
 }
 
