@@ -87,6 +87,13 @@ def version_and_usage():
     check(rc == 2 and "did you mean 'maglead bench modbus'?" in err, f"unknown subcommand of bench: {err.strip()!r}")
     rc, out, err = run("simulate", "--scenario", "hand-push", "--duraton", "1s", "--out", os.path.join(WORK, "x.csv"))
     check(rc == 2 and "did you mean '--duration'?" in err, f"option typo after valid ones: {err.strip()!r}")
+    # Every command that writes a file or a folder takes -o for it, as most command-line tools do.
+    for cmd in ("simulate", "analyze", "report", "estimate", "calibrate", "record", "bench analyze"):
+        rc, out, err = run(*cmd.split(), "--help")
+        check(rc == 0 and "-o,--out" in out, f"{cmd} takes -o for --out")
+    rc, out, err = run("simulate", "--scenario", "hand-push", "--duration", "1s", "-o",
+                       os.path.join(WORK, "short_o.csv"))
+    check(rc == 0 and os.path.exists(os.path.join(WORK, "short_o.csv")), f"simulate -o FILE: {err.strip()!r}")
 
 
 def relative_paths_and_progress():

@@ -284,7 +284,7 @@ void add_bench_analyze(CLI::App& app) {
                   "Recording to analyse (default: generate position-moves with a spring, a "
                   "position ripple and an offset concealed)");
   cmd->add_flag("--quick", o->quick, "Two simulated minutes instead of an hour (CI)");
-  cmd->add_option("--out", o->out, "Output directory (default: a temporary one)");
+  cmd->add_option("-o,--out", o->out, "Output directory (default: a temporary one)");
   add_config_option(cmd, o->config);
   cmd->callback([o] {
     maglead::cli::advise_large_blocks_to_huge_pages();  // reads whole recordings

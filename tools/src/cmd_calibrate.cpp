@@ -23,7 +23,7 @@ void add_calibrate(CLI::App& app) {
                   "mls-recording/1 with t_s, screw or motor angle, nut_pos_m, load_force_n "
                   "(screw held, nut moved through the stable range)")
       ->required();
-  cmd->add_option("--out", o->out, "Calibration file to write (TOML)")->required();
+  cmd->add_option("-o,--out", o->out, "Calibration file to write (TOML)")->required();
   cmd->add_option("--plot", o->plot, "Also draw data and fit into this PNG");
   cmd->add_option(
          "--order-gain", o->gain_pct,

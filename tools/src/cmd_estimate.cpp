@@ -197,7 +197,7 @@ void add_estimate(CLI::App& app) {
                   "its friction, offset, mass, coupling gain and angle ripple, as serve does")
       ->check(CLI::ExistingFile);
   cmd->add_option("--plot", o->plot, "PNG to write (default: next to the recording)");
-  cmd->add_option("--out", o->out,
+  cmd->add_option("-o,--out", o->out,
                   "Also write the estimate as a recording (mls-recording/1): t_s, "
                   "out_force_est_n, out_force_meas_n (the load cell's output force), "
                   "out_force_err_n; the observer adds its bound out_force_lo_n, out_force_hi_n");

@@ -215,7 +215,7 @@ void add_record(CLI::App& app) {
   auto conn = add_connection_options(cmd);
   auto o = std::make_shared<RecordOptions>();
   cmd->add_option("--duration", o->duration, "How long to record (e.g. 60s, 2min)")->required();
-  cmd->add_option("--out", o->out,
+  cmd->add_option("-o,--out", o->out,
                   "Recording to write (CSV). Each row is written to the file whole as soon as it "
                   "is polled (so flushed well within 100 ms) and the file is synced to disk at "
                   "least every second: a crash or SIGKILL loses no row already polled, a power "

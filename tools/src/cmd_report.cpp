@@ -65,7 +65,7 @@ void add_report(CLI::App& app) {
                   "mls-recording/1 (t_s, screw or motor angle, nut_pos_m; "
                   "load_force_n, out_force_est_n, force_set_n if logged)")
       ->required();
-  cmd->add_option("--out", o->out, "Output directory (index.html, report.json, the map's PNG)")
+  cmd->add_option("-o,--out", o->out, "Output directory (index.html, report.json, the map's PNG)")
       ->required();
   add_config_option(cmd, o->config);
   cmd->add_option("--calibration", o->calibration,

@@ -31,7 +31,7 @@ void add_simulate(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", o->seed, "Random seed (hand profile, noise)")->capture_default_str();
   cmd->add_option("--effect", o->effects, effects_help);
-  cmd->add_option("--out", o->out, "Output recording (CSV)")->required();
+  cmd->add_option("-o,--out", o->out, "Output recording (CSV)")->required();
   add_config_option(cmd, o->config);
   cmd->add_option("--calibration", o->calibration,
                   "Calibration for the logged force estimate (default: CONFIG/calibration.toml)");
