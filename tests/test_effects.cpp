@@ -85,6 +85,34 @@ TEST(Effects, AxisRegressorsAreTheSameLaw) {
   EXPECT_FALSE(find("load_cell_delay")->on_axis());
 }
 
+// The analysis asks a unit for its row in a buffer of kMaxColumns: a unit with more is refused
+// by name when the library is built, not written past the buffer's end at the first sample.
+struct Wide final : Effect {
+  explicit Wide(int n) : n_(n) {}
+  std::string_view id() const override { return "wide"; }
+  std::string_view law() const override { return "a law in many columns"; }
+  std::vector<ParamSpec> params() const override { return {}; }
+  double force_n(const Params&, const State&) const override { return 0.0; }
+  int columns() const override { return n_; }
+  void regressors(double, const State&, double*) const override {}
+  std::optional<Params> parameters(double, const double*, const State&) const override {
+    return Params{};
+  }
+  int n_;
+};
+
+TEST(Effects, AUnitWithMoreColumnsThanTheCapIsRefused) {
+  EXPECT_NO_THROW(check_columns(Wide(kMaxColumns)));
+  try {
+    check_columns(Wide(kMaxColumns + 1));
+    ADD_FAILURE() << "a unit of " << kMaxColumns + 1 << " columns was accepted";
+  } catch (const std::logic_error& e) {
+    EXPECT_NE(std::string(e.what()).find("'wide' has 9 regressor columns"), std::string::npos)
+        << e.what();
+  }
+  for (const Effect* e : library()) EXPECT_LE(e->columns(), kMaxColumns) << e->id();
+}
+
 TEST(Effects, IdsAndParameterNamesAreTheDocumentedOnes) {
   std::ifstream f(MAGLEAD_EFFECTS_DOC);
   ASSERT_TRUE(f) << "docs/effects.md not found at " << MAGLEAD_EFFECTS_DOC;

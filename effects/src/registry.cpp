@@ -10,24 +10,27 @@ namespace maglead::effects {
 
 double sgn(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : 0.0); }
 
+void check_columns(const Effect& e) {
+  for (const int n : {e.columns(), e.axis_columns()})
+    if (n < 0 || n > kMaxColumns)
+      throw std::logic_error("effect '" + std::string(e.id()) + "' has " + std::to_string(n) +
+                             " regressor columns; a unit has 0 (an event) to " +
+                             std::to_string(kMaxColumns) + " (effects::kMaxColumns)");
+}
+
+namespace {
+std::vector<const Effect*> checked(std::vector<const Effect*> units) {
+  for (const Effect* e : units) check_columns(*e);
+  return units;
+}
+}  // namespace
+
 const std::vector<const Effect*>& library() {
-  static const std::vector<const Effect*> all = {&coulomb_friction(),
-                                                 &viscous_friction(),
-                                                 &offset(),
-                                                 &asymmetric_friction(),
-                                                 &stribeck_friction(),
-                                                 &spring(),
-                                                 &mass_error(),
-                                                 &gain_drift(),
-                                                 &angle_ripple(),
-                                                 &position_ripple(),
-                                                 &end_effect(),
-                                                 &backlash(),
-                                                 &load_cell_delay(),
-                                                 &coupling_gain_error(),
-                                                 &sensor_delay(),
-                                                 &external_disturbance(),
-                                                 &step_out()};
+  static const std::vector<const Effect*> all =
+      checked({&coulomb_friction(), &viscous_friction(), &offset(), &asymmetric_friction(),
+               &stribeck_friction(), &spring(), &mass_error(), &gain_drift(), &angle_ripple(),
+               &position_ripple(), &end_effect(), &backlash(), &load_cell_delay(),
+               &coupling_gain_error(), &sensor_delay(), &external_disturbance(), &step_out()});
   return all;
 }
 

@@ -54,7 +54,7 @@ void ask(Form form, const Column& c, const Column*& last, const effects::State& 
 }  // namespace
 
 void unit_row(Form form, const std::vector<Column>& cols, const effects::State& s, double* row) {
-  double buf[8];
+  double buf[effects::kMaxColumns];
   const Column* last = nullptr;
   for (std::size_t j = 0; j < cols.size(); ++j) {
     ask(form, cols[j], last, s, buf);
@@ -64,7 +64,7 @@ void unit_row(Form form, const std::vector<Column>& cols, const effects::State& 
 
 double less_fitted(Form form, const std::vector<Column>& cols, const effects::State& s,
                    const Eigen::VectorXd& theta, double start) {
-  double buf[8];
+  double buf[effects::kMaxColumns];
   const Column* last = nullptr;
   for (std::size_t j = 0; j < cols.size(); ++j) {
     ask(form, cols[j], last, s, buf);

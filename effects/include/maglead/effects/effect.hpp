@@ -118,7 +118,13 @@ class Effect {
   }
 };
 
-/// Every effect, in the order the analysis prefers among explanations it cannot tell apart.
+/// The most regressor columns a unit may have (columns() and axis_columns()): the analysis asks
+/// a unit for its row in a buffer of this size, once per sample, with no allocation.
+inline constexpr int kMaxColumns = 8;
+/// Throws std::logic_error naming the unit when it has more columns than kMaxColumns.
+void check_columns(const Effect& e);
+/// Every effect, in the order the analysis prefers among explanations it cannot tell apart; each
+/// passed check_columns when the library was first asked for.
 const std::vector<const Effect*>& library();
 /// nullptr if unknown.
 const Effect* find(std::string_view id);
