@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "actuator_analysis.hpp"
+#include "actuator_path.hpp"
 #include "actuator_twin_force.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "statistics.hpp"

@@ -18,6 +18,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "actuator_path.hpp"
 #include "candidates.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/rules.hpp"

@@ -25,7 +25,6 @@ struct AnalysisOptions {
   double min_gain_pct =
       rules::kMinHeldOutGainPct;  // a term must cut the held-out error this much …
   double min_t = rules::kMinT;    // … consistently over the segments (t statistic of the gains)
-  double min_speed_m_s = 2e-4;    // actuator: slower samples stick, their friction is unknown
   // actuator: how well the calibration is known [N]; a finding must change the force by more
   // (0: not stated: a thousandth of the calibrated peak force, at least 0.07 N).
   double calibration_accuracy_n = 0.0;
@@ -62,10 +61,5 @@ ModelFile actuator_model_from_config(const ActuatorParams& act);
 AnalysisResult analyze_recording(const Recording& rec, const ModelFile& baseline,
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& options);
-
-/// The actuator path of analyze_recording (stages over the effect library).
-AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& baseline,
-                                const ForceCalibration& cal, const ActuatorParams& act,
-                                const AnalysisOptions& options);
 
 }  // namespace maglead::analysis
