@@ -63,6 +63,10 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& baseline
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& options);
 
+/// The columns analyze_recording may read of a recording with this header (names, metadata; no
+/// rows needed): a reader stores only these (read_recording's ColumnChoice).
+std::vector<std::string> columns_read(const Recording& header);
+
 /// The actuator path of analyze_recording (stages over the effect library).
 AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& baseline,
                                 const ForceCalibration& cal, const ActuatorParams& act,
