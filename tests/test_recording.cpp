@@ -73,6 +73,47 @@ TEST(Recording, NonNumericFieldNamesLineAndColumn) {
   EXPECT_NE(e.find("'abc'"), std::string::npos) << e;
 }
 
+TEST(Recording, ColumnsNotKeptAreCheckedButNotStored) {
+  const std::string head = "# format: mls-recording/1\n# axis: linear\nt_s,a_m,b_n,c_rad\n";
+  const std::string rows = "0,1,2,3\n0.001,4,5,6\n";
+  const auto keep_a = [](const Recording& header) {
+    EXPECT_EQ(header.meta("axis"), "linear");  // the chooser sees the metadata …
+    EXPECT_EQ(header.names.size(), 4u);        // … and every name
+    return std::vector<std::string>{"a_m", "not_in_the_file"};
+  };
+  const Recording r = read_recording(write_file("keep.csv", head + rows), {"c_rad"}, keep_a);
+  EXPECT_EQ(r.names, (std::vector<std::string>{"a_m", "c_rad"}));  // required ones are stored
+  ASSERT_EQ(r.columns.size(), 2u);
+  EXPECT_EQ(r.rows(), 2u);
+  EXPECT_FALSE(r.has("b_n"));
+  EXPECT_FALSE(r.has("t_s"));
+  EXPECT_DOUBLE_EQ(r.column("a_m")[1], 4.0);
+  EXPECT_DOUBLE_EQ(r.column("c_rad")[1], 6.0);
+
+  // A required column is required whatever is kept.
+  const auto p = write_file("keep_missing.csv", head + rows);
+  try {
+    read_recording(p, {"d_n"}, keep_a);
+    ADD_FAILURE() << "no error";
+  } catch (const RecordingError& e) {
+    EXPECT_EQ(std::string(e.what()), error_of(p, {"d_n"}));
+  }
+
+  // A skipped column's malformed value, a ragged row naming a skipped column and a decreasing
+  // skipped t_s are the same errors, at the same line, as when every column is stored.
+  for (const std::string bad : {"0.002,7,x8,9\n", "0.002,7\n", "0.0005,7,8,9\n"}) {
+    const auto q = write_file("keep_bad.csv", head + rows + bad + "0.003,1,2,3\n");
+    const std::string all = error_of(q);
+    ASSERT_NE(all.find("keep_bad.csv:6: "), std::string::npos) << all;
+    try {
+      read_recording(q, {}, keep_a);
+      ADD_FAILURE() << "no error for " << bad;
+    } catch (const RecordingError& e) {
+      EXPECT_EQ(std::string(e.what()), all);
+    }
+  }
+}
+
 TEST(Recording, DecreasingTimeIsAnError) {
   const auto p = write_file("back.csv", "t_s,x_m\n0,0\n0.002,0\n0.001,0\n");
   const std::string e = error_of(p);

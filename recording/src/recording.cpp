@@ -177,15 +177,26 @@ class LineBlocks {
   std::string tail_;
 };
 
+/// A column's slot when it is checked but not stored.
+constexpr std::size_t kSkipped = std::numeric_limits<std::size_t>::max();
+
 /// The numeric rows after the header. Well-formed rows (no spaces, no '+', no comment) take a
 /// fast path straight through the block with std::from_chars; any other line, and every
 /// malformed one, goes through parse_line, which alone decides what is an error and says so.
 class RowParser {
  public:
-  RowParser(Recording& rec, std::size_t line_no)
-      : rec_(rec), ncol_(rec.names.size()), line_no_(line_no), row_(ncol_) {
+  /// `header` names every column of the file; `slot` says where each is stored in rec.columns
+  /// (kSkipped: checked, not stored).
+  RowParser(Recording& rec, std::vector<std::string> header, std::vector<std::size_t> slot,
+            std::size_t line_no)
+      : rec_(rec),
+        header_(std::move(header)),
+        slot_(std::move(slot)),
+        ncol_(header_.size()),
+        line_no_(line_no),
+        row_(ncol_) {
     for (std::size_t i = 0; i < ncol_; ++i)
-      if (rec.names[i] == "t_s") t_col_ = i;
+      if (header_[i] == "t_s") t_col_ = i;
   }
 
   /// Parses whole lines; `block` ends with '\n'.
@@ -240,7 +251,7 @@ class RowParser {
         if (c + 1 != ncol_)
           throw RecordingError(where(path, line_no_) + "has " + std::to_string(c + 1) +
                                " fields, header has " + std::to_string(ncol_) + ": column " +
-                               std::to_string(c + 2) + " (" + rec_.names[c + 1] + ") is missing");
+                               std::to_string(c + 2) + " (" + header_[c + 1] + ") is missing");
         comma = line.size();
       } else if (c + 1 == ncol_) {
         throw RecordingError(where(path, line_no_) + "has more fields than the header's " +
@@ -256,7 +267,7 @@ class RowParser {
         auto [p, ec] = std::from_chars(field.data(), field.data() + field.size(), v);
         if (ec != std::errc() || p != field.data() + field.size() || !std::isfinite(v))
           throw RecordingError(where(path, line_no_) + "column " + std::to_string(c + 1) + " (" +
-                               rec_.names[c] + "): '" + std::string(field) + "' is not a number");
+                               header_[c] + "): '" + std::string(field) + "' is not a number");
       }
       if (c == t_col_) {
         if (std::isnan(v))
@@ -304,10 +315,13 @@ class RowParser {
 
   void keep_row() {
     if (t_col_ < ncol_) last_t_ = row_[t_col_];
-    for (std::size_t c = 0; c < ncol_; ++c) rec_.columns[c].push_back(row_[c]);
+    for (std::size_t c = 0; c < ncol_; ++c)
+      if (slot_[c] != kSkipped) rec_.columns[slot_[c]].push_back(row_[c]);
   }
 
   Recording& rec_;
+  std::vector<std::string> header_;
+  std::vector<std::size_t> slot_;
   std::size_t ncol_;
   std::size_t t_col_ = std::numeric_limits<std::size_t>::max();
   std::size_t line_no_;
@@ -403,9 +417,31 @@ void check_header(const Recording& rec, std::size_t header_line,
     }
 }
 
+/// Narrows rec.names to the columns `keep` chooses and the required ones (all when no `keep`);
+/// returns each header column's slot in rec.columns, kSkipped for one not stored.
+std::vector<std::size_t> choose_columns(Recording& rec, const std::vector<std::string>& required,
+                                        const ColumnChoice& keep) {
+  std::vector<std::size_t> slot(rec.names.size());
+  if (!keep) {
+    for (std::size_t c = 0; c < slot.size(); ++c) slot[c] = c;
+    return slot;
+  }
+  std::vector<std::string> wanted = keep(rec);
+  wanted.insert(wanted.end(), required.begin(), required.end());
+  std::vector<std::string> kept;
+  for (std::size_t c = 0; c < slot.size(); ++c) {
+    const bool wants = std::find(wanted.begin(), wanted.end(), rec.names[c]) != wanted.end();
+    slot[c] = wants ? kept.size() : kSkipped;
+    if (wants) kept.push_back(rec.names[c]);
+  }
+  rec.names = std::move(kept);
+  return slot;
+}
+
 }  // namespace
 
-Recording read_recording(const std::string& path, const std::vector<std::string>& required) {
+Recording read_recording(const std::string& path, const std::vector<std::string>& required,
+                         const ColumnChoice& keep) {
   LineBlocks blocks(path);
   Recording rec;
   rec.path = path;
@@ -413,12 +449,13 @@ Recording read_recording(const std::string& path, const std::vector<std::string>
   const std::size_t header_line = read_head(rec, blocks, block);
   check_header(rec, header_line, required);
 
-  const std::size_t ncol = rec.names.size();
-  rec.columns.assign(ncol, {});
-  const std::size_t estimate = estimate_rows(blocks.size(), block, ncol);
+  std::vector<std::string> header = rec.names;  // every column: rows are checked against it
+  std::vector<std::size_t> slot = choose_columns(rec, required, keep);
+  rec.columns.assign(rec.names.size(), {});
+  const std::size_t estimate = estimate_rows(blocks.size(), block, header.size());
   for (auto& c : rec.columns) c.reserve(estimate);
 
-  RowParser rows(rec, header_line);
+  RowParser rows(rec, std::move(header), std::move(slot), header_line);
   rows.parse_block(block);
   while (blocks.next(block)) rows.parse_block(block);
   const std::string& tail = blocks.unterminated_tail();

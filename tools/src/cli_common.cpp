@@ -172,9 +172,10 @@ bool is_axis_recording(const Recording& rec) {
 
 // The reader's own error for a recording that lacks an actuator column, unless the recording is
 // an axis's: then what to run on it instead.
-Recording read_with_columns(const std::string& path, const std::vector<std::string>& required) {
+Recording read_with_columns(const std::string& path, const std::vector<std::string>& required,
+                            const ColumnChoice& keep) {
   try {
-    return read_recording(path, required);
+    return read_recording(path, required, keep);
   } catch (const RecordingError&) {
     if (required.empty()) throw;
     std::optional<Recording> whole;
@@ -196,8 +197,9 @@ Recording read_with_columns(const std::string& path, const std::vector<std::stri
 
 Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
                                   const std::string& config_dir,
-                                  const std::vector<std::string>& required) {
-  Recording rec = read_with_columns(path, required);
+                                  const std::vector<std::string>& required,
+                                  const ColumnChoice& keep) {
+  Recording rec = read_with_columns(path, required, keep);
   if (!rec.has("nut_pos_m")) return rec;  // another machine (pos_m): its stroke is not ours
   const double stroke_m = act.stroke_max_m - act.stroke_min_m;
   PlausibleRanges r;

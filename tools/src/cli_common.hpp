@@ -79,9 +79,11 @@ std::vector<double> screw_angle_of(const Recording& rec, const ActuatorParams& a
 /// Reads a recording as read_recording does and, for the actuator (a nut_pos_m column), also
 /// refuses positions beyond the configured stroke widened by ten strokes each way: millimetres
 /// where metres belong pass the reader's machine-independent 10 m bound on a short stroke.
+/// `keep` stores only the columns it chooses (read_recording).
 Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
                                   const std::string& config_dir,
-                                  const std::vector<std::string>& required = {});
+                                  const std::vector<std::string>& required = {},
+                                  const ColumnChoice& keep = {});
 
 // The configuration readers (maglead/settings) by their short names, as every command uses them.
 using settings::config_file;

@@ -234,7 +234,7 @@ void run_bench_analyze(const BenchAnalyzeOptions& o) {
   warm_page_cache(path);
   const auto t_all = Clock::now();
   const double c_read0 = thread_cpu_s();
-  const Recording rec = read_recording(path);
+  const Recording rec = read_recording(path, {}, analysis::columns_read);  // as analyze reads
   const ReadTime read{seconds_since(t_all), thread_cpu_s() - c_read0, rec.rows()};
   analysis::AnalysisOptions aopt;
   std::string last;

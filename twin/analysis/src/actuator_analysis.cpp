@@ -481,6 +481,17 @@ std::vector<StuckEpisode> stuck_episodes(const Signals& s, const Prepared& P, co
   return out;
 }
 
+// Every `step`-th element of `full`, which is freed: the per-sample masks and runs are read only
+// at the decimated samples, and at full rate (an hour at 1 kHz: 3.6 MB each mask, 14 MB the
+// runs) they would sit beside the States at the analysis's peak of memory.
+template <class T>
+std::vector<T> every_nth(std::vector<T> full, std::size_t step) {
+  std::vector<T> out;
+  out.reserve((full.size() + step - 1) / step);
+  for (std::size_t i = 0; i < full.size(); i += step) out.push_back(full[i]);
+  return out;
+}
+
 }  // namespace
 
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
@@ -502,30 +513,31 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.load_noise_n = stats::white_noise_sigma(s.load_raw);  // the load cell's noise
   std::tie(P.load_filtered_noise_n, P.load_rate_noise_n_s) = filtered_noise(P);
   P.v_min_m_s = P.count_m * P.filter_hz;
-  const auto ok = sliding_mask(s, P);
-
   // Keep every `decim`-th sliding sample: the signals are band-limited to filter_hz, so samples
   // closer than a fifth of its period add no information, only work.
   P.decimation = std::max(
       1, static_cast<int>(std::floor(P.fs_hz / (rules::kSamplesPerFilterPeriod * P.filter_hz))));
+  const auto step = static_cast<std::size_t>(P.decimation);
+  // Per decimated sample (k at sample k * step), as the loop below reads them.
+  const auto ok = every_nth(sliding_mask(s, P), step);
   const Coupling cp{cal};
   set_floors(P, cp, cal, act, opt);
-  const auto rings = ringing(s, P, ring_rad_s(P, base));
+  const auto rings = every_nth(ringing(s, P, ring_rad_s(P, base)), step);
   P.t0_s = t.front();
   const StateAt state_at{s, cp, act, base, P.t0_s};
-  const auto runs = locked_runs(s, P);
-  const auto step = static_cast<std::size_t>(P.decimation);
+  LockedRuns runs = locked_runs(s, P);
+  const auto run_of = every_nth(std::move(runs.run), step);
   std::size_t kept = 0;  // counted first: one allocation each, no regrowth of the large States
-  for (std::size_t i = 0; i < n; i += step) kept += ok[i];
+  for (const unsigned char k : ok) kept += k;
   P.states.reserve(kept);
   P.residual.reserve(kept);
   P.locked_run.reserve(kept);
-  for (std::size_t i = 0; i < n; i += step) {
-    if (!ok[i]) continue;
-    P.states.push_back(state_at(i));
+  for (std::size_t k = 0; k < ok.size(); ++k) {
+    if (!ok[k]) continue;
+    P.states.push_back(state_at(k * step));
     P.residual.push_back(missing_force(P.states.back(), base.terms));
-    P.locked_run.push_back(runs.run[i]);
-    P.ringing.push_back(rings[i]);
+    P.locked_run.push_back(run_of[k]);
+    P.ringing.push_back(rings[k]);
     P.scales.speed_m_s = std::max(P.scales.speed_m_s, std::abs(P.states.back().v_m_s));
   }
   P.scales.travel_m = spread_of(P.states, &State::p_m);

@@ -1395,4 +1395,25 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   return r;
 }
 
+std::vector<std::string> columns_read(const Recording& header) {
+  std::vector<std::string> cols;
+  // The actuator path's (actuator_analysis.cpp, and force_set_n for the twin's check): the
+  // motor's angle only where the screw's is missing. An axis's recording never takes it.
+  if (!header.meta("axis"))
+    cols = {"t_s", "nut_pos_m", "load_force_n", "force_set_n",
+            header.has("screw_angle_rad") ? "screw_angle_rad" : "motor_angle_rad"};
+  // Every axis kind's, not only the stated one's: kind_of names the other kind's columns when
+  // the stated kind's are missing, and without `# axis:` the model decides the path. Setpoints
+  // only where the kind's own columns are, as only then does the axis path get to them: an
+  // actuator's pos_set_m (a linear axis's setpoint) is not read.
+  cols.emplace_back("t_s");
+  for (const effects::AxisKind* kind : {&effects::linear_axis(), &effects::rotary_axis()}) {
+    cols.emplace_back(kind->position);
+    cols.emplace_back(kind->drive);
+    if (has_columns(header, *kind))
+      cols.insert(cols.end(), kind->setpoints.begin(), kind->setpoints.end());
+  }
+  return cols;
+}
+
 }  // namespace maglead::analysis

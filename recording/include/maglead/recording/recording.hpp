@@ -3,6 +3,7 @@
 // metadata, one header row of `<quantity>_<unit>` names, numeric rows, empty field = missing.
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -35,9 +36,16 @@ struct Recording {
   void set_meta(const std::string& key, const std::string& value);
 };
 
+/// The columns a reader stores, chosen from the header: `header` has the path, metadata and
+/// every name, no rows yet. Names the header lacks are ignored.
+using ColumnChoice = std::function<std::vector<std::string>(const Recording& header)>;
+
 /// Reads and validates a recording; `required` columns must be present. Time (`t_s`) must be
-/// non-decreasing. Throws RecordingError on any malformed content.
-Recording read_recording(const std::string& path, const std::vector<std::string>& required = {});
+/// non-decreasing. Throws RecordingError on any malformed content. With `keep`, only the columns
+/// it chooses (and the required ones) are stored, in the file's order; the others are checked
+/// for syntax as every column is, but take no memory and no units check (check_plausible_units).
+Recording read_recording(const std::string& path, const std::vector<std::string>& required = {},
+                         const ColumnChoice& keep = {});
 
 /// Bounds a column's values must keep to be in its unit at all (not a fit to any actuator).
 struct PlausibleRanges {

@@ -62,4 +62,8 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& baseline
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& options);
 
+/// The columns analyze_recording may read of a recording with this header (names, metadata; no
+/// rows needed): a reader stores only these (read_recording's ColumnChoice).
+std::vector<std::string> columns_read(const Recording& header);
+
 }  // namespace maglead::analysis
