@@ -507,15 +507,20 @@ TEST(Uncertainty, CoversTheTruthOverTwentySeeds) {
     double added;
     const char* param;
     double value;
+    const char* scenario = "position-moves";
   };
   const auto& s = paper();
   for (const Truth& c :
        {Truth{"viscous_friction", 20.0, "viscous_n_s_per_m", 22.0},
-        Truth{"coulomb_friction", 2.0, "coulomb_n", 9.5}, Truth{"offset", 1.0, "offset_n", 1.0}}) {
+        Truth{"coulomb_friction", 2.0, "coulomb_n", 9.5}, Truth{"offset", 1.0, "offset_n", 1.0},
+        Truth{"coupling_gain_error", -0.05, "gain", 0.95},
+        Truth{"spring", 300.0, "stiffness_n_per_m", 300.0},
+        Truth{"position_ripple", 1.0, "amplitude_n", 1.0},
+        Truth{"mass_error", 2.0, "nut_mass_kg", 2.12, "mixed-moves"}}) {
     int covered = 0, named = 0, stat_only = 0;
     constexpr int kSeeds = 20;
     for (int seed = 1; seed <= kSeeds; ++seed) {
-      auto opt = scenario_on(s, "position-moves", 40.0);
+      auto opt = scenario_on(s, c.scenario, 40.0);
       opt.seed = static_cast<std::uint64_t>(seed);
       maglead::set_plant_effect(opt.plant.effects, c.effect, c.added);
       const std::string path = test_tmp_dir() + "/cover_" + std::to_string(seed) + ".csv";
