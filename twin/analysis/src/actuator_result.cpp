@@ -252,7 +252,7 @@ Method method_of(const actuator::Prepared& P, const actuator::Options& o) {
 }
 
 EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepared& P,
-                              double baseline_heldout_sse, const ErrorScale& es) {
+                              const ErrorScale& es) {
   const double sse_before = c.heldout_before, sse_after = c.heldout_after;
   EffectFinding e;
   e.id = c.id;
@@ -275,7 +275,7 @@ EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepare
                   100.0 * c.acting_share, *e.evidence.explained_rms_n / std::sqrt(c.acting_share));
     e.summary += buf;
   }
-  e.improvement_pct = 100.0 * (sse_before - sse_after) / baseline_heldout_sse;
+  e.improvement_pct = c.improvement_pct;
   e.where = "sliding samples";
   // Only the plausible alternatives: one outside its physical range explains nothing here.
   for (const auto& a : c.alternatives)
@@ -299,8 +299,7 @@ void add_sliding_findings(Findings& J, const actuator::Selection& sel, const act
                           const ErrorScale& es) {
   J.validation.push_back({"baseline", es.rms(sel.start_heldout_sse), es.rel(sel.start_heldout_sse),
                           std::nullopt, std::nullopt});
-  for (const auto& c : sel.terms)
-    J.effects.push_back(sliding_finding(c, P, sel.start_heldout_sse, es));
+  for (const auto& c : sel.terms) J.effects.push_back(sliding_finding(c, P, es));
   for (const auto& st : sel.steps)
     J.validation.push_back(
         {st.model, es.rms(st.heldout_sse), es.rel(st.heldout_sse), std::nullopt, std::nullopt});

@@ -799,7 +799,7 @@ EffectFinding finding_of(const AxisRun& run, const selection::Found& f) {
   e.evidence.worst_segment_pct = f.worst_pct;
   e.evidence.noise_floor_n = run.P.noise_floor_n;
   e.evidence.plausible = f.plausible;
-  e.improvement_pct = 100.0 * (1.0 - std::sqrt(f.heldout_after / f.heldout_before));
+  e.improvement_pct = f.improvement_pct;
   e.identifiable = f.alternatives.empty();
   if (!f.alternatives.empty()) {
     e.alternatives = alternatives_of(f);

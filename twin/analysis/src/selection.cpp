@@ -534,7 +534,12 @@ Result result_of(const Outcome& o, int folds, const Span& span) {
   r.implausible = implausible_of(o, span);
   r.current = o.current;
   r.start_heldout_sse = total(o.start_ho);
-  for (const auto& term : o.terms) r.terms.push_back(found_of(term, folds));
+  const double final_sse = total(o.ho);
+  for (const auto& term : o.terms) {
+    r.terms.push_back(found_of(term, folds));
+    if (r.start_heldout_sse > 0)
+      r.terms.back().improvement_pct = 100.0 * (term.left_out - final_sse) / r.start_heldout_sse;
+  }
   for (const auto& st : o.steps)
     r.steps.push_back(
         {std::string(1, st.sign) + " " + std::string(st.effect->id()), st.current, total(st.ho)});
@@ -554,6 +559,19 @@ std::string describe(const Settings& st) {
   return o.str();
 }
 
+namespace {
+// Each kept term's left_out: the final model's held-out error without its columns.
+void set_left_out(const stats::Grams& g, Outcome& out) {
+  for (auto& term : out.terms) {
+    std::vector<int> without;
+    for (int c : out.current)
+      if (std::find(term.trial.idx.begin(), term.trial.idx.end(), c) == term.trial.idx.end())
+        without.push_back(c);
+    term.left_out = total(stats::heldout(g, without));
+  }
+}
+}  // namespace
+
 Outcome select(const stats::Grams& g, const Candidates& cand, const Rules& rules,
                const Settings& st, const std::vector<int>& start,
                const std::vector<const effects::Effect*>& excluded,
@@ -567,6 +585,7 @@ Outcome select(const stats::Grams& g, const Candidates& cand, const Rules& rules
     auto bad = refused_in_final_fit(s, start, out.terms);
     if (!bad) {
       out.refused = std::move(refused);
+      set_left_out(g, out);
       return out;
     }
     out_of.push_back(bad->first.var->effect);

@@ -92,6 +92,7 @@ struct Term {
   double before = 0, after = 0;           // total held-out error before and after it was taken
   const effects::Effect* over = nullptr;  // the richer best trial it was preferred to, if any
   std::vector<Alternative> alternatives;
+  double left_out = 0;  // total held-out error of the final model without it (set by select)
 };
 
 /// A step of the validation: a term taken (+) or dropped (−) and the model it leaves.
@@ -154,6 +155,9 @@ struct Found {
   double explained_n = 0;                   // RMS force it explains on top of the model before it
   int segments_improved = 0, segments = 0;  // held-out segments (from releases: the releases)
   double heldout_before = 0, heldout_after = 0;  // total held-out error before and after it
+  // The share of the baseline's held-out squared error the final model loses without it [%]
+  // (its part in the final model, whatever was taken before it or dropped after).
+  double improvement_pct = 0;
   const effects::Effect* over = nullptr;  // the richer best trial it was preferred to, if any
   std::vector<Alternative> alternatives;
   std::optional<FromReleases> from_releases;

@@ -69,6 +69,7 @@ struct EffectFinding {
   Parameters parameters;
   std::string where;  // in words
   Evidence evidence;
+  // Its part in the final model [%]: the baseline's held-out mean square error lost without it.
   double improvement_pct = 0.0;
   std::optional<bool> identifiable;
   std::vector<Alternative> alternatives;  // none: written not at all
