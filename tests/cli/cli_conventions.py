@@ -5,6 +5,7 @@ and --quiet, errors in config and model files with FILE:LINE:COLUMN, poll's SI n
 rounded to each register's resolution, and limit errors that say the value, the limit and where
 the limit is set.
 Usage: cli_conventions.py MAGLEAD_BIN CONFIG_DIR WORK_DIR VERSION"""
+import fcntl
 import json
 import os
 import pty
@@ -14,6 +15,7 @@ import shutil
 import struct
 import subprocess
 import sys
+import termios
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "controller"))
@@ -29,12 +31,15 @@ def run(*args, cwd=None, env=None, timeout=120):
     return p.returncode, p.stdout, p.stderr
 
 
-def run_in_pty(*args, cwd=None):
-    """Runs maglead with stdout and stderr on a pseudo-terminal; returns (exit code, output)."""
+def run_in_pty(*args, cwd=None, columns=None):
+    """Runs maglead with stdout and stderr on a pseudo-terminal (`columns` wide if given);
+    returns (exit code, output)."""
     pid, fd = pty.fork()
     if pid == 0:
         if cwd:
             os.chdir(cwd)
+        if columns:
+            fcntl.ioctl(1, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
         os.execv(MAGLEAD, [MAGLEAD, *args])
     out = b""
     while True:
@@ -94,6 +99,21 @@ def version_and_usage():
     rc, out, err = run("simulate", "--scenario", "hand-push", "--duration", "1s", "-o",
                        os.path.join(WORK, "short_o.csv"))
     check(rc == 0 and os.path.exists(os.path.join(WORK, "short_o.csv")), f"simulate -o FILE: {err.strip()!r}")
+    # analyze on an 80-column terminal breaks its long lines at spaces, under their own text; into
+    # a pipe every line stays whole (scripts read them).
+    moved = os.path.join(WORK, "moved.csv")
+    run("simulate", "--scenario", "position-moves", "--duration", "20s", "--effect", "viscous_friction=20",
+        "-o", moved)
+    rc, text = run_in_pty("analyze", "--recording", moved, "-o", os.path.join(WORK, "moved_out"),
+                          "--no-twin-check", columns=80)
+    lines = [l for l in text.replace("\r", "").split("\n") if l and "[#" not in l]
+    finding = next((i for i, l in enumerate(lines) if l.startswith("1. viscous_friction")), None)
+    check(rc == 0 and finding is not None and all(len(l) <= 80 for l in lines)
+          and lines[finding + 1].startswith("     ") and not lines[finding + 1].startswith("      "),
+          f"analyze wraps to 80 columns on a terminal: {lines[:8]!r}")
+    rc, out, _ = run("analyze", "--recording", moved, "-o", os.path.join(WORK, "moved_out2"), "--no-twin-check")
+    check(rc == 0 and any(l.startswith("1. viscous_friction") and len(l) > 80 for l in out.splitlines()),
+          "analyze into a pipe keeps each line whole")
 
 
 def relative_paths_and_progress():

@@ -1,5 +1,6 @@
 #include "cli_common.hpp"
 
+#include <sys/ioctl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <optional>
+#include <string_view>
 #include <vector>
 
 namespace maglead::cli {
@@ -96,6 +98,46 @@ bool& quiet() {
 }
 
 bool show_progress() { return !quiet() && isatty(STDERR_FILENO) != 0; }
+
+std::size_t terminal_columns() {
+  winsize ws{};
+  if (isatty(STDOUT_FILENO) == 0 || ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) != 0) return 0;
+  return ws.ws_col;
+}
+
+namespace {
+std::size_t columns_of(std::string_view s) {  // UTF-8: continuation bytes take no column
+  std::size_t n = 0;
+  for (const char c : s) n += (static_cast<unsigned char>(c) & 0xC0U) != 0x80U;
+  return n;
+}
+}  // namespace
+
+std::string wrapped(const std::string& text, std::size_t indent, std::size_t width) {
+  constexpr std::size_t kLeastLine = 20;  // narrower than this, wrapping helps no one
+  if (width < indent + kLeastLine) return text;
+  const std::size_t lead = std::min(text.find_first_not_of(' '), text.size());
+  std::string out = text.substr(0, lead);  // the first line's own indentation, as given
+  std::size_t used = lead;
+  std::size_t pos = lead;
+  while (pos < text.size()) {
+    const std::size_t space = text.find(' ', pos);
+    const std::string_view word(text.data() + pos,
+                                (space == std::string::npos ? text.size() : space) - pos);
+    const std::size_t w = columns_of(word);
+    if (used > indent && used + 1 + w > width) {
+      out += '\n' + std::string(indent, ' ');
+      used = indent;
+    } else if (pos > lead) {
+      out += ' ';
+      ++used;
+    }
+    out += word;
+    used += w;
+    pos = space == std::string::npos ? text.size() : space + 1;
+  }
+  return out;
+}
 
 void note(const std::string& text) {
   if (show_progress()) std::fprintf(stderr, "%s\n", text.c_str());

@@ -36,6 +36,12 @@ void apply_plant_effects(const std::string& option, const std::vector<std::strin
 bool& quiet();
 /// Progress and notes go to stderr only when it is a terminal and --quiet is not given.
 bool show_progress();
+/// The terminal's width in columns when standard output is one, else 0 (a pipe or a file gets
+/// every line whole, for the scripts that read it).
+std::size_t terminal_columns();
+/// `text` broken at spaces into lines of at most `width` columns (UTF-8 characters), every
+/// line after the first indented by `indent` spaces; whole when `width` is 0 or too small.
+std::string wrapped(const std::string& text, std::size_t indent, std::size_t width);
 /// A note on stderr (e.g. "reading FILE"), shown only when show_progress().
 void note(const std::string& text);
 

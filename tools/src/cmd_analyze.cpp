@@ -49,57 +49,83 @@ class StageProgress {
   std::unique_ptr<Progress> bar_;
 };
 
-void print_findings(const analysis::Findings& J) {
-  int k = 1;
-  for (const auto& e : J.effects) {
-    std::printf("%d. %-22s %s\n", k++, e.id.c_str(),
-                e.summary.empty() ? report::parameters_json(e.parameters).dump().c_str()
-                                  : e.summary.c_str());
-    if (e.evidence.heldout_gain_pct)
-      std::printf("     held-out gain %.2f %% (t = %.1f, %s segments), improvement %.2f %%\n",
+// One line of the report, broken at spaces to the terminal's width (whole into a pipe or file),
+// its continuation lines indented by `indent`.
+void say(const std::string& text, std::size_t indent) {
+  static const std::size_t width = terminal_columns();
+  std::printf("%s\n", wrapped(text, indent, width).c_str());
+}
+
+void print_finding(const analysis::EffectFinding& e, int k) {
+  constexpr std::size_t kIndent = 5;  // under the effect's name
+  char head[48];
+  std::snprintf(head, sizeof head, "%d. %-22s ", k, e.id.c_str());
+  say(head + (e.summary.empty() ? report::parameters_json(e.parameters).dump() : e.summary),
+      kIndent);
+  if (e.evidence.heldout_gain_pct) {
+    char evidence[160];
+    std::snprintf(evidence, sizeof evidence,
+                  "     held-out gain %.2f %% (t = %.1f, %s segments), improvement %.2f %%",
                   *e.evidence.heldout_gain_pct, e.evidence.t_stat.value_or(NAN),
                   e.evidence.segments_improved.value_or("?").c_str(), e.improvement_pct);
-    if (!e.finding.empty()) std::printf("     %s\n", e.finding.c_str());
-    for (const auto& a : e.alternatives)
-      std::printf("     or %s: %s (reproduces %.2f %% of it)\n", a.id.c_str(),
-                  analysis::summary_text(a.parameters, {}).c_str(), a.explains_pct);
+    say(evidence, kIndent);
   }
-  if (J.effects.empty()) std::printf("%s\n", J.conclusion.c_str());
-  if (J.unexplained)
-    std::printf("%s\n  where: %s\n  check: %s\n", J.unexplained->message.c_str(),
-                J.unexplained->where.c_str(), J.unexplained->check.c_str());
-  if (!J.sliding_note.empty()) std::printf("note: %s\n", J.sliding_note.c_str());
+  if (!e.finding.empty()) say("     " + e.finding, kIndent);
+  for (const auto& a : e.alternatives) {
+    char share[48];
+    std::snprintf(share, sizeof share, " (reproduces %.2f %% of it)", a.explains_pct);
+    say("     or " + a.id + ": " + analysis::summary_text(a.parameters, {}) + share, kIndent + 3);
+  }
+}
+
+void print_findings(const analysis::Findings& J) {
+  int k = 1;
+  for (const auto& e : J.effects) print_finding(e, k++);
+  if (J.effects.empty()) say(J.conclusion, 2);
+  if (J.unexplained) {
+    say(J.unexplained->message, 2);
+    say("  where: " + J.unexplained->where, 9);
+    say("  check: " + J.unexplained->check, 9);
+  }
+  if (!J.sliding_note.empty()) say("note: " + J.sliding_note, 6);
   if (const auto& c = J.twin_force_check; c && c->available) {
-    std::printf("twin force error %.2f → %.2f N (mean absolute, against the load cell)",
-                c->baseline_mae_n, c->corrected_mae_n);
+    char errors[96];
+    std::snprintf(errors, sizeof errors,
+                  "twin force error %.2f → %.2f N (mean absolute, against the load cell)",
+                  c->baseline_mae_n, c->corrected_mae_n);
+    std::string line = errors;
     for (const auto& d : c->dropped)
-      std::printf("; %s left out (it raised the error beyond its noise; in the file, disabled)",
-                  d.c_str());
-    std::printf("\n");
+      line += "; " + d + " left out (it raised the error beyond its noise; in the file, disabled)";
+    say(line, 2);
   }
 }
 
 void print_result(const AnalyzeOptions& o, const std::string& model_path,
                   const analysis::AnalysisResult& result) {
   const auto& J = result.findings;
-  std::printf("%s\n", result.headline.c_str());
-  std::printf("recording %s (%s), baseline %s\n", o.recording.c_str(), J.system.c_str(),
-              model_path.empty() ? "config/actuator.toml" : model_path.c_str());
+  say(result.headline, 2);
+  say("recording " + o.recording + " (" + J.system + "), baseline " +
+          (model_path.empty() ? std::string("config/actuator.toml") : model_path),
+      2);
   // A rotary axis's errors are torques (effects/axis_kind.hpp).
   const std::string u(effects::drive_unit_of_system(J.system));
   std::printf("baseline   RMS %8.4f %s   relative error %7.3f %%   (full rate %7.3f %%)\n",
               J.baseline.rms_n, u.c_str(), J.baseline.relative_error_pct,
               J.baseline.full_rate_relative_error_pct);
-  for (const auto& w : result.where) std::printf("  where: %s\n", w.c_str());
+  for (const auto& w : result.where) say("  where: " + w, 9);
   print_findings(J);
-  if (!J.final_fit.summary.empty()) std::printf("fitted     %s\n", J.final_fit.summary.c_str());
+  if (!J.final_fit.summary.empty()) say("fitted     " + J.final_fit.summary, 11);
   std::printf("final      RMS %8.4f %s   relative error %7.3f %%   (full rate %7.3f %%)\n",
               J.final_fit.rms_n, u.c_str(), J.final_fit.relative_error_pct,
               J.final_fit.full_rate_relative_error_pct);
-  std::printf("held-out:");
-  for (const auto& v : J.validation)
-    std::printf("  %s %.4g %s", v.model.c_str(), v.heldout_rms_n, u.c_str());
-  std::printf("\nwrote %s/index.html, analysis.json, model_corrected.toml\n", o.out.c_str());
+  std::string held_out = "held-out:";
+  for (const auto& v : J.validation) {
+    char rms[32];
+    std::snprintf(rms, sizeof rms, " %.4g ", v.heldout_rms_n);
+    held_out += "  " + v.model + rms + u;
+  }
+  say(held_out, 11);
+  say("wrote " + o.out + "/index.html, analysis.json, model_corrected.toml", 6);
 }
 
 void run_analyze(AnalyzeOptions o) {
