@@ -777,11 +777,8 @@ Eigen::VectorXd calibration_shift(const Prepared& P, const Grams& g,
                                   const std::vector<Column>& cols, const std::vector<int>& current,
                                   double error_n) {
   const auto m = static_cast<Eigen::Index>(current.size());
-  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m, m);
-  for (const auto& xx : g.xx)
-    for (Eigen::Index i = 0; i < m; ++i)
-      for (Eigen::Index j = 0; j < m; ++j) a(i, j) += xx(current[i], current[j]);
-  const Eigen::MatrixXd a_inv = a.completeOrthogonalDecomposition().pseudoInverse();
+  const Eigen::MatrixXd a_inv =
+      stats::summed_gram(g, current).completeOrthogonalDecomposition().pseudoInverse();
   Eigen::VectorXd x(m), weight_sum = Eigen::VectorXd::Zero(m);
   for (std::size_t i = 0; i < P.states.size(); ++i) {
     if (P.ringing[i]) continue;  // the samples accumulate() used
@@ -854,10 +851,7 @@ std::vector<Resolvable> resolvable_of(const Grams& g, const Candidates& cand, co
   Eigen::MatrixXd xx = Eigen::MatrixXd::Zero(g.xx.front().rows(), g.xx.front().cols());
   for (const auto& m : g.xx) xx += m;
   const auto n = static_cast<Eigen::Index>(current.size());
-  Eigen::MatrixXd a(n, n);
-  for (Eigen::Index i = 0; i < n; ++i)
-    for (Eigen::Index j = 0; j < n; ++j) a(i, j) = xx(current[i], current[j]);
-  const auto solver = a.ldlt();
+  const auto solver = stats::summed_gram(g, current).ldlt();
   for (const auto& v : cand.variants) {
     if (v.idx.size() != 1 || cand.of(v.effect) != &v || v.effect->params().empty()) continue;
     const int col = v.idx.front();

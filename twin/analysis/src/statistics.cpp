@@ -199,16 +199,22 @@ std::vector<double> heldout(const Grams& g, const std::vector<int>& idx) {
   return out;
 }
 
+Eigen::MatrixXd summed_gram(const Grams& g, const std::vector<int>& idx) {
+  const auto m = static_cast<Eigen::Index>(idx.size());
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(m, m);
+  for (const auto& xx : g.xx)
+    for (Eigen::Index r = 0; r < m; ++r)
+      for (Eigen::Index c = 0; c < m; ++c) S(r, c) += xx(idx[r], idx[c]);
+  return S;
+}
+
 double partial_r2(const Grams& g, const std::vector<int>& base, const std::vector<int>& a,
                   const Eigen::VectorXd& wa, const std::vector<int>& b) {
   std::vector<int> all = base;
   all.insert(all.end(), a.begin(), a.end());
   all.insert(all.end(), b.begin(), b.end());
   const auto m = static_cast<Eigen::Index>(all.size());
-  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(m, m);
-  for (const auto& xx : g.xx)
-    for (Eigen::Index r = 0; r < m; ++r)
-      for (Eigen::Index c = 0; c < m; ++c) S(r, c) += xx(all[r], all[c]);
+  Eigen::MatrixXd S = summed_gram(g, all);
   // Noise independent of the signal adds its sum of squares to its own column's and, in
   // expectation, nothing to the cross terms. A column whose sum of squares the noise would
   // exhaust carries no signal to correct.

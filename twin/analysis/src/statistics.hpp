@@ -110,6 +110,8 @@ struct Estimates {
   std::vector<Named> standard_errors;
 };
 Estimates estimate(const Grams& g, const std::vector<int>& idx, const GroupValues& values);
+/// X'X of the columns `idx` (in that order) over every segment.
+Eigen::MatrixXd summed_gram(const Grams& g, const std::vector<int>& idx);
 /// Share of `a`'s fitted contribution wa (beyond `base`) that columns `b` reproduce, between
 /// the columns' noise-free parts (Grams::noise_ss taken off their sums of squares): a column
 /// made from a noisy measurement reproduces a law no worse for the noise it carries.
