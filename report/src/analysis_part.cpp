@@ -51,13 +51,8 @@ std::string parameters_html(const std::string& id, const analysis::Parameters& p
   for (const auto* p : sorted) {
     h += (h.empty() ? "" : "<br>") +
          parameter_html(id, p->name, p->value, analysis::parameter_value(errors, p->name, 0.0));
-    if (const double c = analysis::parameter_value(calibration_errors, p->name, 0.0); c > 0) {
-      const std::string unit = analysis::unit_of_parameter(p->name);
-      char buf[48];  // a bound: two digits say it
-      std::snprintf(buf, sizeof buf, " (calibration ± %.2g%s%s)", c, unit.empty() ? "" : " ",
-                    unit.c_str());
-      h += buf;
-    }
+    if (const double c = analysis::parameter_value(calibration_errors, p->name, 0.0); c > 0)
+      h += " (calibration ± " + analysis::calibration_bound_text(p->name, c) + ")";
   }
   return h;
 }

@@ -141,15 +141,12 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
   return out;
 }
 
-// "; a calibration error within the minimum moves viscous_n_s_per_m by up to 3.6" (empty: none).
+// "; a calibration error within the minimum moves viscous_n_s_per_m by up to 3.6 N·s/m" (empty:
+// none).
 std::string calibration_text(const effects::Params& errors) {
   std::string s;
-  for (const auto& [name, error] : errors) {
-    char buf[96];
-    std::snprintf(buf, sizeof buf, "%s%s by up to %.2g", s.empty() ? "" : ", ", name.c_str(),
-                  error);
-    s += buf;
-  }
+  for (const auto& [name, error] : errors)
+    s += (s.empty() ? "" : ", ") + name + " by up to " + calibration_bound_text(name, error);
   return s.empty() ? s : "; a calibration error within the minimum moves " + s;
 }
 

@@ -63,10 +63,8 @@ std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
   std::string value = value_with_error(p.value, parameter_value(e.standard_errors, p.name, 0.0));
   if (value.empty()) value = number(p.value);
   const double calibration = parameter_value(e.calibration_errors, p.name, 0.0);
-  char from_calibration[64] = "";  // a bound: two digits say it
-  if (calibration > 0)
-    std::snprintf(from_calibration, sizeof from_calibration, ", calibration ± %.2g%s", calibration,
-                  with_unit.c_str());
+  const std::string from_calibration =
+      calibration > 0 ? ", calibration ± " + calibration_bound_text(p.name, calibration) : "";
   const std::string model = model_value(baseline, e.id, p.name);
   std::string s = name + " " + p.name + " " + value + with_unit + from_calibration +
                   (model.empty() ? " (not in the model)" : " (model " + model + with_unit + ")");

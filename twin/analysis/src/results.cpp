@@ -34,6 +34,13 @@ std::string value_with_error(double value, double standard_error) {
   return buf;
 }
 
+std::string calibration_bound_text(const std::string& name, double bound) {
+  const std::string unit = unit_of_parameter(name);
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.2g%s%s", bound, unit.empty() ? "" : " ", unit.c_str());
+  return buf;
+}
+
 std::string with_error(const std::string& name, double value, double standard_error) {
   if (auto v = value_with_error(value, standard_error); !v.empty()) return name + " " + v;
   char buf[96];
@@ -116,9 +123,12 @@ std::string resolvable_text(const std::vector<Resolvable>& r) {
 
 std::string summary_text(const Parameters& values, const Parameters& standard_errors) {
   std::string s;
-  for (const auto& p : values)
+  for (const auto& p : values) {
+    const std::string unit = unit_of_parameter(p.name);
     s += (s.empty() ? "" : ", ") +
-         with_error(p.name, p.value, parameter_value(standard_errors, p.name, 0.0));
+         with_error(p.name, p.value, parameter_value(standard_errors, p.name, 0.0)) +
+         (unit.empty() ? "" : " " + unit);
+  }
   return s;
 }
 

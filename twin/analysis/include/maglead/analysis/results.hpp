@@ -29,8 +29,11 @@ void set_parameter(Parameters& p, const std::string& name, double value, bool is
 std::string with_error(const std::string& name, double value, double standard_error);
 /// The same without the name ("0.94 ± 0.01"); empty when there is no error.
 std::string value_with_error(double value, double standard_error);
+/// A calibration error's bound on parameter `name`, with the parameter's unit: "3.6 N·s/m".
+/// Two significant digits: it is a worst case, not a measurement.
+std::string calibration_bound_text(const std::string& name, double bound);
 /// Every value with its error (`standard_errors` by name; missing: none), in the values' order:
-/// "coulomb_n 20.56 ± 0.05, offset_n 0.008 ± 0.004".
+/// "coulomb_n 20.56 ± 0.05 N, offset_n 0.008 ± 0.004 N".
 std::string summary_text(const Parameters& values, const Parameters& standard_errors);
 /// Whether a final residual is a misfit rather than the recording's own noise (the one rule the
 /// conclusion and the headline share).
