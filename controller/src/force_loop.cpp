@@ -43,6 +43,7 @@ void ForceLoop::start(double setpoint_n, double drive_now_n, const LoadEstimate&
   hold_drive_n_ = ramp_n_ = drive_now_n;
   // A setpoint the known bound already covers needs no motion: say so and stay.
   attempts_ = 0;
+  slid_ = false;
   held_by_bound_ = est.motion == 0 && bound_inside_tolerance(est);
   state_ = held_by_bound_ ? ForceLoopState::holding_no_motion : ForceLoopState::approaching;
   // No motion needed: still move the coupling to the stick band's centre (the nut stays put,
@@ -103,12 +104,16 @@ double ForceLoop::drive_n(const LoadEstimate& est, double dt_s) noexcept {
   if (state_ == ForceLoopState::off) return hold_drive_n_;
   double drive;
   if (est.motion != 0) {
+    slid_ = true;
     drive = sliding_drive_n(est);
   } else {
     const bool holding =
         state_ == ForceLoopState::holding || state_ == ForceLoopState::holding_no_motion;
     const bool inside = bound_inside_tolerance(est);
-    const bool landed = est.basis == ObserverBasis::stuck &&
+    // Landed: stopped at the setpoint after a slide of this approach. A stop from before the
+    // setpoint came (a disable since may have widened the bound to the stick band) is no landing:
+    // standing still, the loop would never learn the load again.
+    const bool landed = slid_ && est.basis == ObserverBasis::stuck &&
                         std::abs(setpoint_n_ - est.force_n) <= cfg_.land_tolerance_n;
     // Hold while what made us hold still holds: the bound inside the tolerance (it widens if
     // the load may change on its own: then land again), or a landing the bound cannot refine.

@@ -136,6 +136,11 @@ class Rig {
     image_.control_word = bit(reg::kEnable);
     post();
   }
+  /// The enable bit cleared (drive disabled without a fault), or set again (a rising edge).
+  void enable(bool on) {
+    image_.control_word = on ? bit(reg::kEnable) : 0;
+    post();
+  }
   template <class F>
   void run(double seconds, F&& each) {
     const int n = static_cast<int>(std::lround(seconds * 1000.0));

@@ -81,6 +81,7 @@ class ForceLoop {
   double setpoint_n_ = 0.0, hold_drive_n_ = 0.0, ramp_n_ = 0.0;
   int dir_ = 1;
   bool held_by_bound_ = false;
+  bool slid_ = false;  // the nut slid since the setpoint came
   int attempts_ = 0;  // break-aways since the setpoint came: after a few, a bound inside will do //
                       // holding because the bound fits the tolerance (else: landed)
 };
