@@ -173,6 +173,22 @@ def scenario(port):
     check(i32(read_regs(port, 3, 1008, 2)) == 10000, "speed limit staged as 10 mm/s")
     rc, out, err = run(MAGLEAD, "set", *conn, "position", "21mm", "--no-wait", "--hold", "0.2s", "--config", CONFIG)
     check(rc == 0 and "acknowledged" in out, f"set --no-wait returns on ack: {out.strip()} {err.strip()}")
+    # Not done within --wait: exit 4 with the controller's own state and reason; control released.
+    rc, out, err = run(MAGLEAD, "set", *conn, "force", "12", "--wait", "0.05s", "--config", CONFIG)
+    check(rc == 4 and "force not reached within 0.05 s" in err and "force_reached_reason" in err
+          and "control released" in err and one_line(err), f"set --wait too short: {err.strip()}")
+    w = read_regs(port, 4, 11, 3)
+    check(w[0] == 0 and w[2] == 1, f"after the timeout: no alarm, drive ready (raw {w})")
+    # Ctrl-C before done: exit 130, no "holding" line, control released and said so.
+    mover = subprocess.Popen([MAGLEAD, "set", *conn, "position", "30mm", "--speed", "0.5mm/s",
+                              "--config", CONFIG], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1.5)
+    mover.send_signal(signal.SIGINT)
+    mout, merr = mover.communicate(timeout=20)
+    check(mover.returncode == 130 and "interrupted before done" in merr and "holding" not in mout
+          and "control released" in merr, f"Ctrl-C before done: rc {mover.returncode} {mout.strip()} {merr.strip()}")
+    w = read_regs(port, 4, 11, 3)
+    check(w[0] == 0 and w[2] == 1, f"after Ctrl-C: no alarm, drive ready (raw {w})")
     rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
     check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
 

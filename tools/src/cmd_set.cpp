@@ -95,10 +95,8 @@ void hold_then_release(op::Client& client, const std::string& hold, const op::Co
   if (force_mode)
     std::printf("held for %.1f s; released: %s\n", held_s, done.c_str());
   else
-    std::printf(
-        "held for %.1f s; released: %s (the screw stays where it is; %s no longer "
-        "controlled)\n",
-        held_s, done.c_str(), held.c_str());
+    std::printf("held for %.1f s; released: %s (the screw stays where it is)\n", held_s,
+                done.c_str());
 }
 
 struct SetOptions {
@@ -236,8 +234,12 @@ void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions
   if (res.done)
     std::printf("%s: done (%s) after %.2f s\n", p.summary.c_str(),
                 p.mode == reg::Mode::force ? "force reached" : "in position", res.elapsed_s);
-  else if (g_interrupted)
-    std::printf("%s: acknowledged, interrupted before done\n", p.summary.c_str());
+  else if (g_interrupted)  // not done: no "holding" follows, the exit code says so
+    throw ClientError(Kind::interrupted,
+                      p.summary + ": acknowledged, interrupted before done" +
+                          (f.no_claim ? std::string()
+                                      : "; control released (" +
+                                            release(client, p.mode == reg::Mode::force) + ")"));
   else
     std::printf("%s: acknowledged by the controller\n", p.summary.c_str());
   // A claimed control is held, then released; without a claim this client owns nothing.
@@ -249,7 +251,7 @@ void add_set(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "set",
       "Apply a setpoint: 'set force 12.5' [N], 'set position 20mm', 'set idle' (stop and hold), or "
-      "'set NAME VALUE' for a writable holding register (e.g. watchdog_ms 0.5s)");
+      "'set NAME VALUE' for a writable holding register (e.g. watchdog_s 0.5s)");
   auto conn = add_connection_options(cmd);
   auto f = std::make_shared<CommandFlags>();
   auto o = std::make_shared<SetOptions>();

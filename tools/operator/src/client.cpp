@@ -55,6 +55,8 @@ int ClientError::exit_code() const {
     case Kind::exception:
     case Kind::rejected:
       return 4;
+    case Kind::interrupted:
+      return 130;
   }
   return 3;
 }
@@ -528,6 +530,28 @@ bool stroke_end_before_force(Client& c) {
          "stroke_end";
 }
 
+/// Why a force is not reached yet, from the controller's own registers: "force_loop_state 4
+/// holding, force_reached_reason 4 bound_too_wide (the load-force bound is wider than the
+/// tolerance): the load force is known only within -8.04 .. 8.03 N".
+std::string force_not_reached_text(Client& c) {
+  const auto read = [&](const char* name) {
+    const auto* r = reg::find(name);
+    return c
+        .read_range(reg::Table::input_register, r->address,
+                    static_cast<std::uint16_t>(reg::word_count(r->type)))
+        .at(name);
+  };
+  const double state = read("force_loop_state"), why = read("force_reached_reason");
+  const auto codes = reg::codes_of("force_reached_reason");
+  char bound[96];
+  std::snprintf(bound, sizeof bound, ": the load force is known only within %.2f .. %.2f N",
+                read("load_force_lo_mn"), read("load_force_hi_mn"));
+  return "force_loop_state " + fmt(state) + " " +
+         code_name(reg::codes_of("force_loop_state"), state) + ", force_reached_reason " +
+         fmt(why) + " " + code_name(codes, why) + " (" + code_meaning(codes, why) + ")" +
+         (code_name(codes, why) == "bound_too_wide" ? bound : "");
+}
+
 std::string alarm_text(double alarm) {
   return code_name(reg::alarm_codes(), alarm) + ": " + code_meaning(reg::alarm_codes(), alarm);
 }
@@ -594,11 +618,13 @@ CommandResult execute(Client& c, reg::Mode mode,
                         "execute: the stroke window ended before the force (force_limited, "
                         "force_reached_reason 7 stroke_end): the nut is held at the window's end; "
                         "ask for less force or a stiffer load");
-    if (since(t0) > o.done_timeout_s)
+    if (since(t0) > o.done_timeout_s)  // the controller answers: it is its answer, not the line
       throw ClientError(
-          Kind::no_reply,
-          "execute: acknowledged, but not done (in position / force reached) within " +
-              fmt(o.done_timeout_s) + " s");
+          Kind::rejected,
+          "execute: acknowledged, but " +
+              std::string(mode == reg::Mode::force ? "force not reached" : "not in position") +
+              " within " + fmt(o.done_timeout_s) + " s" +
+              (mode == reg::Mode::force ? ": " + force_not_reached_text(c) : std::string()));
     if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});
     std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
     s = read_status(c);

@@ -40,10 +40,12 @@ class ClientError : public std::runtime_error {
     exception,        // the controller answered with a Modbus exception
     rejected,         // the controller rejected an edge command (command_reject_reason)
     protocol,         // a malformed or mismatched reply, or not a maglead controller
+    interrupted,      // Ctrl-C or SIGTERM before the command was done
   };
   ClientError(Kind kind, const std::string& message) : std::runtime_error(message), kind_(kind) {}
   Kind kind() const { return kind_; }
-  /// Exit codes: 2 refused locally, 3 communication, 4 refused by the controller.
+  /// Exit codes: 2 refused locally, 3 communication, 4 refused by the controller, 130
+  /// interrupted before done (the shell's code for Ctrl-C).
   int exit_code() const;
 
  private:
