@@ -123,8 +123,8 @@ def force(srv):
         e.lines.append(("build/bin/maglead set force 10 --hold 60s &",
                         "claims control, mode force + execute edge, keeps control"))
         e.wait_until("execute done and force reached", lambda w: w[5] & 2 and w[0] & 32)
-        e.mbpoll("-0 -1 -t 3:float -B -r 108", "estimated output force [N]: the setpoint within "
-                 "force_reached_tolerance_n")
+        e.mbpoll("-0 -1 -t 3:float -B -r 128", "load observer's force at the load [N]: the "
+                 "setpoint within force_reached_tolerance_n")
         w = e.mbpoll("-0 -1 -t 3 -r 10 -c 8", "")
         e.lines[-1] = (e.lines[-1][0], status_text([int(x) for x in w]))
     finally:
