@@ -111,7 +111,8 @@ std::string to_markdown() {
   code_table(md, "fault_reaction", reactions());
   code_table(md, "write_refusal_reason", refusals());
   for (const char* name : {"twin_drift_reason", "twin_health_reason", "twin_step_out_reason",
-                           "force_loop_state", "force_reached_reason", "observer_basis"})
+                           "force_loop_state", "force_reached_reason", "observer_basis",
+                           "twin_drift_observability", "twin_drift_separable"})
     code_table(md, name, codes_of(name));
   return md.str();
 }

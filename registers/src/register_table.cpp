@@ -341,6 +341,15 @@ constexpr std::array kObserverBases = std::to_array<Code>({
     {1, "sliding", "the nut slides: force balance"},
     {2, "stuck_after_slide", "stuck after a slide: the force it had when it stopped"},
 });
+constexpr std::array kDriftObservability = std::to_array<Code>({
+    {0, "not_observable", "no stretch with a known external force yet"},
+    {1, "reference_forming", "known-force stretches seen, the reference is being formed"},
+    {2, "tracking", "the reference is formed: drift is tracked against it"},
+});
+constexpr std::array kDriftSeparable = std::to_array<Code>({
+    {0, "not_separable", "the moves do not tell coupling gain from friction"},
+    {1, "separable", "the moves tell coupling gain from friction"},
+});
 
 /// Every register that holds a code, with its list: poll, watch and the docs name each value.
 struct CodeRegister {
@@ -361,6 +370,8 @@ const std::array kCodeRegisters = std::to_array<CodeRegister>({
     {"force_loop_state", kForceLoopStates},
     {"force_reached_reason", kReachedReasons},
     {"observer_basis", kObserverBases},
+    {"twin_drift_observability", kDriftObservability},
+    {"twin_drift_separable", kDriftSeparable},
 });
 
 constexpr std::array kRanges = std::to_array<AddressRange>({
