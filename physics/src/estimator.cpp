@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 namespace maglead {
@@ -20,8 +21,17 @@ double StaticForceEstimator::load_force_n(double phase_rad, double nut_vel_m_s) 
 EncoderVelocityEstimator::EncoderVelocityEstimator(double sample_period_s, double count_m,
                                                    double hold_s)
     : period_s_(sample_period_s), count_m_(count_m), hold_s_(hold_s) {
-  if (!(sample_period_s > 0.0) || !(count_m > 0.0) || !(hold_s > sample_period_s))
+  if (!(sample_period_s > 0.0) || !(count_m > 0.0) || !(hold_s > 0.0))
     throw std::invalid_argument("velocity estimator: period, count and hold must be positive");
+  // A recording sampled this slowly has no two encoder readings within one hold: say it as such.
+  if (!(hold_s > sample_period_s)) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "sampled every %.3g s (%.3g Hz): the nut's velocity needs a sample within "
+                  "%.3g s, so more than %.3g Hz (record at 100 Hz or more)",
+                  sample_period_s, 1.0 / sample_period_s, hold_s, 1.0 / hold_s);
+    throw std::invalid_argument(buf);
+  }
 }
 
 void EncoderVelocityEstimator::reset(double pos_m) {

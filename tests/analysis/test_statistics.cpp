@@ -135,7 +135,7 @@ TEST(RequireAnalysable, RefusesShortRecordsMissingColumnsAndNonNumbers) {
   EXPECT_EQ(message_of([] {
               require_analysable(two_columns(199), {"t_s", "x"});
             }),
-            "r.csv: too short to analyse (199 rows)");
+            "r.csv: too short to analyse (199 rows; the analysis needs at least 200)");
   EXPECT_NE(message_of([] {
               require_analysable(two_columns(300), {"t_s", "y"});
             }).find("'y'"),

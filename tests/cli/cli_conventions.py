@@ -157,6 +157,20 @@ def file_errors():
                      "--config", CONFIG)
     check(rc == 2 and f"{no_fmt}:1:1:" in err, f"analyze refuses it too: {err.strip()[-200:]!r}")
 
+    # A recording taken at 1 Hz (record --rate allows it): the twin's commands say the rate it needs.
+    with open(rec) as f:
+        lines = f.read().splitlines()
+    head = [("# sample_rate_hz: 1" if l.startswith("# sample_rate_hz") else l) for l in lines if l.startswith("#")]
+    data = [l for l in lines if not l.startswith("#")]
+    slow = os.path.join(WORK, "slow.csv")
+    with open(slow, "w") as f:
+        f.write("\n".join(head + [data[0]] + data[1::1000]) + "\n")
+    for cmd in ("twin-check", "report", "estimate"):
+        out = [] if cmd == "twin-check" else ["--out", os.path.join(WORK, "slow_" + cmd)]
+        rc, _, err = run(cmd, "--recording", slow, "--config", CONFIG, *out)
+        check(rc == 2 and "(1 Hz)" in err and "record at 100 Hz or more" in err,
+              f"{cmd} on a 1 Hz recording says the rate it needs: {err.strip()[-200:]!r}")
+
     cfg = copy_config("cfg_bad_net")
     with open(os.path.join(cfg, "network.toml"), "a") as f:
         f.write("\n[server]\nread_only = tru\n")

@@ -69,7 +69,8 @@ void require_analysable(const Recording& rec, const std::vector<std::string>& co
   const std::size_t n = rec.column("t_s").size();
   if (n < rules::kMinRows)
     throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(n) +
-                                " rows)");
+                                " rows; the analysis needs at least " +
+                                std::to_string(rules::kMinRows) + ")");
 }
 
 double sample_rate_hz(const Recording& rec) {
