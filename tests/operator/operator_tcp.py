@@ -77,7 +77,16 @@ def scenario(port):
     check(rc == 2 and "safe limit" in err and "nothing sent" in err and one_line(err),
           f"set force 60 refused with the reason: {err.strip()}")
     rc, _, err = run(MAGLEAD, "set", *conn, "force", "150N", "--config", CONFIG)
-    check(rc == 2 and "outside its range -100 .. 100 N" in err, f"set force 150N: register range: {err.strip()}")
+    check(rc == 2 and "beyond the safe limit" in err and "mN" not in err,
+          f"set force 150N: the safe limit, not the register's wider range: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "20", "--config", CONFIG)
+    check(rc == 2 and "type '20mm' for millimetres" in err and one_line(err),
+          f"set position 20 (metres): says what to type: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "20mm", "--speed", "5", "--config", CONFIG)
+    check(rc == 2 and "velocity_limit_m_s = 5 m/s" in err and "type '5mm/s'" in err,
+          f"--speed 5 (m/s): SI name, what to type: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "forse", "12", "--config", CONFIG)
+    check(rc == 2 and "did you mean 'force'?" in err, f"set forse: {err.strip()}")
     rc, _, err = run(MAGLEAD, "set", *conn, "position", "45mm", "--config", CONFIG)
     check(rc == 2 and "outside" in err and one_line(err), f"set position 45mm refused: {err.strip()}")
     rc, _, err = run(MAGLEAD, "set", *conn, "position", "20 furlongs", "--config", CONFIG)

@@ -123,6 +123,19 @@ const std::string& value_of(const SetOptions& o) {
   return o.value;
 }
 
+/// A refusal of a number typed without a unit says which unit it was read in and what to type
+/// for the usual one ("20" read as 20 m: "type '20mm' for millimetres").
+std::optional<std::string> with_unit_hint(std::optional<std::string> why, const std::string& text,
+                                          const char* si_unit, const char* usual_unit,
+                                          const char* usual_name) {
+  const bool bare =
+      !text.empty() && text.find_first_not_of("+-.0123456789eE ") == std::string::npos;
+  if (why && bare)
+    *why += std::string("; a number without a unit is in ") + si_unit + ": type '" + text +
+            usual_unit + "' for " + usual_name;
+  return why;
+}
+
 Planned plan_force(const SetOptions& o, const CommandFlags& f) {
   const double force_n = op::parse_quantity(value_of(o), "N");
   refuse_locally_if(op::check_force(load_limits(f.config, f.calibration), force_n));
@@ -133,14 +146,21 @@ Planned plan_force(const SetOptions& o, const CommandFlags& f) {
 
 Planned plan_position(const SetOptions& o, const CommandFlags& f) {
   const double pos_m = op::parse_quantity(value_of(o), "m");
-  refuse_locally_if(op::check_position(load_limits(f.config, f.calibration), pos_m));
+  refuse_locally_if(with_unit_hint(op::check_position(load_limits(f.config, f.calibration), pos_m),
+                                   o.value, "m", "mm", "millimetres"));
   Planned p{reg::Mode::position, {{"position_setpoint_um", pos_m}}, {}};
-  if (!o.speed.empty())
-    p.setpoints.emplace_back("velocity_limit_um_s", op::parse_quantity(o.speed, "m/s"));
-  if (!o.accel.empty())
-    p.setpoints.emplace_back("accel_limit_um_s2", op::parse_quantity(o.accel, "m/s^2"));
-  for (const auto& [name, v] : p.setpoints)
-    refuse_locally_if(op::check_register(*reg::find(name), v));
+  if (!o.speed.empty()) {
+    const double v = op::parse_quantity(o.speed, "m/s");
+    refuse_locally_if(with_unit_hint(op::check_register(*reg::find("velocity_limit_um_s"), v),
+                                     o.speed, "m/s", "mm/s", "millimetres per second"));
+    p.setpoints.emplace_back("velocity_limit_um_s", v);
+  }
+  if (!o.accel.empty()) {
+    const double a = op::parse_quantity(o.accel, "m/s^2");
+    refuse_locally_if(with_unit_hint(op::check_register(*reg::find("accel_limit_um_s2"), a),
+                                     o.accel, "m/s^2", "mm/s^2", "millimetres per second squared"));
+    p.setpoints.emplace_back("accel_limit_um_s2", a);
+  }
   char buf[64];
   std::snprintf(buf, sizeof buf, "position %.3f mm", pos_m * 1e3);
   p.summary = buf;
@@ -151,10 +171,17 @@ Planned plan_position(const SetOptions& o, const CommandFlags& f) {
 void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
   const std::string& text = value_of(o);
   const auto* r = op::find_by_any_name(o.what);  // the SI names poll prints, or register names
-  if (!r)
+  if (!r) {
+    std::vector<std::string> names{"force", "position", "idle"};
+    for (const auto& x : reg::table())
+      if (x.table == reg::Table::holding_register && x.access == reg::Access::read_write)
+        names.push_back(op::si_name(x));
+    const std::string guess = closest_match(o.what, names);
     throw ClientError(Kind::refused_locally,
-                      "no register or setpoint named '" + o.what +
-                          "' ('maglead registers' lists them; 'maglead poll' shows the names)");
+                      "no register or setpoint named '" + o.what + "'" +
+                          (guess.empty() ? "" : "; did you mean '" + guess + "'?") +
+                          " ('maglead registers' lists them; 'maglead poll' shows the names)");
+  }
   if (r->table != reg::Table::holding_register || r->access != reg::Access::read_write ||
       r->name == "control_word")
     throw ClientError(Kind::refused_locally, "'" + o.what +

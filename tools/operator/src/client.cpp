@@ -422,20 +422,20 @@ std::vector<std::string> status_bits(std::uint16_t status_word) {
 
 std::optional<std::string> check_register(const reg::Register& r, double v) {
   if (reg::in_range(r, v)) return std::nullopt;
-  return std::string(r.name) + " = " + fmt(v) + (r.unit.empty() ? "" : " ") + std::string(r.unit) +
+  return si_name(r) + " = " + fmt(v) + (r.unit.empty() ? "" : " ") + std::string(r.unit) +
          " is outside its range " + fmt(r.min) + " .. " + fmt(r.max) + (r.unit.empty() ? "" : " ") +
          std::string(r.unit) + " (the register map: docs/registers.md, maglead registers)";
 }
 
 std::optional<std::string> check_force(const Limits& limits, double force_n) {
-  if (auto why = check_register(*reg::find("force_setpoint_mn"), force_n)) return why;
-  // The server's own check: the calibrated inverse refuses beyond safe_fraction × peak.
+  // The server's own check first: the calibrated inverse refuses beyond safe_fraction × peak,
+  // a limit well inside the register's range, so it is the one worth saying.
   const auto inv =
       phase_for_output_force(limits.calibration, force_n, limits.actuator.safe_force_fraction);
   if (inv.status != InverseStatus::ok)
     return "force " + fmt(force_n) + " N is beyond the safe limit " + fmt(inv.limit_n) +
            " N; allowed " + force_limit_text(limits);
-  return std::nullopt;
+  return check_register(*reg::find("force_setpoint_mn"), force_n);
 }
 
 std::string force_limit_text(const Limits& limits) {
