@@ -210,7 +210,8 @@ def scenario(port):
         plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, 1000, 1))  # FC6 control_word = enable
         plc.recv(64)
         rc, _, err = run(MAGLEAD, "set", *conn, "force", "5", "--config", CONFIG)
-        check(rc == 4 and "exception 04" in err and "owns control" in err and one_line(err),
+        check(rc == 4 and "exception 04" in err and "not_owner: another client owns control" in err
+              and "owner 127.0.0.1" in err and one_line(err),
               f"another owner: {err.strip()}")
     time.sleep(0.1)
 

@@ -275,6 +275,28 @@ Values Client::read_tables(const std::vector<reg::Table>& tables) {
   return all;
 }
 
+/// Exception 04 on a write: the controller says why in write_refusal_reason and who owns control
+/// in control_owner_ipv4 (reads are never refused), so the message can say what to do.
+void Client::refused_write(const std::string& what) {
+  std::string why = "another client owns control, or a state change sent by broadcast";
+  try {
+    const Values v = read_range(reg::Table::input_register, 18, 2);
+    const Values r = read_range(reg::Table::input_register, 55, 1);
+    const double code = r.at("write_refusal_reason");
+    const auto ip = static_cast<std::uint32_t>(v.at("control_owner_ipv4"));
+    why = code_name(reg::refusals(), code) + ": " + code_meaning(reg::refusals(), code);
+    if (ip != 0)
+      why += " (owner " + std::to_string(ip >> 24) + "." + std::to_string((ip >> 16) & 255) + "." +
+             std::to_string((ip >> 8) & 255) + "." + std::to_string(ip & 255) +
+             "; stop its command there, e.g. Ctrl-C on its 'maglead set', or 'maglead disable' "
+             "from it, then try again)";
+  } catch (const ClientError&) {
+    // The reason could not be read: the generic text stands.
+  }
+  throw ClientError(Kind::exception, what + ": controller at " + ep_.describe() +
+                                         " refused it (exception 04): " + why);
+}
+
 void Client::write(const std::vector<std::pair<std::string, double>>& values) {
   // Check everything first: a refused value must leave the controller untouched.
   struct Item {
@@ -301,10 +323,13 @@ void Client::write(const std::vector<std::pair<std::string, double>>& values) {
       std::uint16_t w[2];
       reg::encode(*items[j].r, items[j].v, w);
       words.insert(words.end(), w, w + reg::word_count(items[j].r->type));
-      names += (names.empty() ? "" : ", ") + std::string(items[j].r->name);
+      names += (names.empty() ? "" : ", ") + si_name(*items[j].r);
     }
     const int n = static_cast<int>(words.size());
-    if (modbus_write_registers(ctx_of(ctx_), start, n, words.data()) != n) fail("writing " + names);
+    if (modbus_write_registers(ctx_of(ctx_), start, n, words.data()) != n) {
+      if (errno == EMBXSFAIL) refused_write("writing " + names);
+      fail("writing " + names);
+    }
     i = j;
   }
 }

@@ -97,6 +97,7 @@ class Client {
 
  private:
   [[noreturn]] void fail(const std::string& what) const;
+  [[noreturn]] void refused_write(const std::string& what);
   Endpoint ep_;
   void* ctx_ = nullptr;  // modbus_t*
 };
