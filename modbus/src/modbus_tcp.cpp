@@ -95,8 +95,14 @@ TcpServer::TcpServer(ModbusCore& core, TcpOptions options)
   const int one = 1;
   setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
   if (bind(listen_fd_, reinterpret_cast<sockaddr*>(&sa), sizeof sa) != 0) {
-    const std::string msg =
+    const bool in_use = errno == EADDRINUSE;
+    std::string msg =
         sys_error("bind " + options_.bind_address + ":" + std::to_string(options_.port));
+    if (in_use)  // most often a second `maglead serve`: say how to run one beside it
+      msg +=
+          " (another program, perhaps another 'maglead serve', listens there: stop it, or "
+          "give this one another port: --port " +
+          std::to_string(options_.port + 1) + ")";
     close(listen_fd_);
     throw std::runtime_error(msg);
   }

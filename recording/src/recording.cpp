@@ -118,7 +118,7 @@ class LineBlocks {
  public:
   explicit LineBlocks(const std::string& path) : path_(path) {
     f_ = std::fopen(path.c_str(), "rb");
-    if (!f_) throw RecordingError(path + ": cannot open");
+    if (!f_) throw RecordingError(path + ": cannot open (" + std::strerror(errno) + ")");
   }
   ~LineBlocks() { std::fclose(f_); }
   LineBlocks(const LineBlocks&) = delete;

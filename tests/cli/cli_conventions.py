@@ -171,6 +171,22 @@ def file_errors():
         check(rc == 2 and "(1 Hz)" in err and "record at 100 Hz or more" in err,
               f"{cmd} on a 1 Hz recording says the rate it needs: {err.strip()[-200:]!r}")
 
+    afile = os.path.join(WORK, "a_file")
+    with open(afile, "w") as f:
+        f.write("x\n")
+    for cmd in ("analyze", "report"):
+        rc, _, err = run(cmd, "--recording", rec, "--config", CONFIG, "--out", afile)
+        check(rc == 2 and "is a file; --out takes a directory" in err and open(afile).read() == "x\n",
+              f"{cmd} --out a file: refused before any work, the file untouched: {err.strip()[-200:]!r}")
+    cfg = copy_config("cfg_unit_in_value")
+    with open(os.path.join(cfg, "actuator.toml")) as f:
+        text = f.read()
+    with open(os.path.join(cfg, "actuator.toml"), "w") as f:
+        f.write(re.sub(r"(?m)^stroke_max_m = .*$", "stroke_max_m = 40mm", text))
+    rc, _, err = run("serve", "--config", cfg, "--port", "0", "--duration", "1s")
+    check(rc == 2 and "key 'stroke_max_m'" in err and "without a unit" in err,
+          f"a unit in a configured number names the key: {err.strip()[-200:]!r}")
+
     cfg = copy_config("cfg_bad_net")
     with open(os.path.join(cfg, "network.toml"), "a") as f:
         f.write("\n[server]\nread_only = tru\n")
@@ -229,6 +245,9 @@ def against_a_server():
     try:
         port = str(srv.port)
         check(any("configuration from " + tight in l for l in srv.lines), f"serve names its configuration: {srv.lines}")
+        rc, _, err = run("serve", "--config", tight, "--port", port, "--duration", "1s")
+        check(rc != 0 and "Address already in use" in err and f"--port {int(port) + 1}" in err,
+              f"a second serve on the same port says what to type: {err.strip()[-200:]!r}")
         # FC43 device identification: revision = --version, vendor URL names the project.
         rsp = raw_request(srv.port, bytes([43, 14, 2, 0]))
         objs, p = {}, 7

@@ -2,6 +2,7 @@
 // Shared pieces of the `maglead` command line. Each subcommand lives in its own cmd_*.cpp and
 // registers itself with a static MAGLEAD_COMMAND(order, fn), so adding one touches no other file.
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
@@ -61,6 +62,15 @@ class Progress {
 /// The candidate closest to `word` by edit distance, if it is close enough to be a likely typo
 /// (at most a third of the word's length, at least 1); empty otherwise.
 std::string closest_match(const std::string& word, const std::vector<std::string>& candidates);
+
+/// For `--out DIR`: a directory, or nothing there yet (it is created); a file there is refused
+/// before any work, in the option's own words.
+inline std::string output_directory_problem(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_directory(path, ec))
+    return "'" + path + "' is a file; --out takes a directory (created when missing)";
+  return {};
+}
 
 /// Exit code for errors the user can fix (bad input, bad file).
 inline constexpr int kExitBadInput = 2;

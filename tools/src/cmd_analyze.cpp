@@ -167,7 +167,9 @@ void add_analyze(CLI::App& app) {
   cmd->add_option("--model", o->model,
                   "Baseline model file (default: CONFIG/model.toml, else CONFIG/actuator.toml); "
                   "e.g. config/emps_baseline.toml for the EMPS data");
-  cmd->add_option("-o,--out", o->out, "Output directory")->required();
+  cmd->add_option("-o,--out", o->out, "Output directory")
+      ->required()
+      ->check(CLI::Validator(output_directory_problem, "DIR"));
   cmd->add_option("--calibration", o->calibration,
                   "Coupling calibration (actuator; default: CONFIG/calibration.toml)");
   cmd->add_option("--folds", o->a.folds, "Held-out time segments")->capture_default_str();

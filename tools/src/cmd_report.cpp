@@ -66,7 +66,8 @@ void add_report(CLI::App& app) {
                   "load_force_n, out_force_est_n, force_set_n if logged)")
       ->required();
   cmd->add_option("-o,--out", o->out, "Output directory (index.html, report.json, the map's PNG)")
-      ->required();
+      ->required()
+      ->check(CLI::Validator(output_directory_problem, "DIR"));
   add_config_option(cmd, o->config);
   cmd->add_option("--calibration", o->calibration,
                   "Force calibration (default: CONFIG/calibration.toml)");

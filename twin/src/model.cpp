@@ -7,9 +7,11 @@
 #include "maglead/effects/effect.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -141,7 +143,7 @@ ModelTerm read_term(const std::string& path, const toml::node& node, const std::
 
 void check_model_format(const std::string& path) {
   std::ifstream f(path);
-  if (!f) throw std::runtime_error(path + ": cannot open");
+  if (!f) throw std::runtime_error(path + ": cannot open (" + std::strerror(errno) + ")");
   std::string first;
   std::getline(f, first);
   while (!first.empty() && (first.back() == '\r' || first.back() == ' ')) first.pop_back();

@@ -7,6 +7,7 @@
 #include <toml++/toml.h>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
@@ -28,6 +29,23 @@ inline std::string where(const std::string& path, const toml::source_region& r) 
   throw std::runtime_error((node ? where(path, node->source()) : path + ":1:1") + ": " + what);
 }
 
+/// A number written with a unit ("stroke_max_m = 40mm") is a syntax error to TOML; say which key
+/// and that the name's ending is the unit (empty for other errors).
+inline std::string unit_hint(const std::string& path, const toml::parse_error& e) {
+  if (std::string(e.description()).find("digit") == std::string::npos) return {};
+  std::ifstream f(path);
+  std::string line;
+  for (auto n = e.source().begin.line; n > 0 && std::getline(f, line);) --n;
+  const auto eq = line.find('=');
+  if (eq == std::string::npos) return {};
+  std::string key = line.substr(0, eq);
+  key.erase(key.find_last_not_of(" \t") + 1);
+  key.erase(0, key.find_first_not_of(" \t"));
+  return " (key '" + key +
+         "': a number is written without a unit, in the SI unit its name ends with, e.g. _m: "
+         "metres, _n: newtons)";
+}
+
 /// Parses a file; a syntax error names FILE:LINE:COLUMN and what toml++ found wrong.
 inline toml::table parse_file(const std::string& path) {
   std::error_code ec;
@@ -36,7 +54,8 @@ inline toml::table parse_file(const std::string& path) {
   try {
     return toml::parse_file(path);
   } catch (const toml::parse_error& e) {
-    throw std::runtime_error(where(path, e.source()) + ": " + std::string(e.description()));
+    throw std::runtime_error(where(path, e.source()) + ": " + std::string(e.description()) +
+                             unit_hint(path, e));
   }
 }
 
