@@ -65,7 +65,16 @@ CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::st
                    "Configuration directory" + (what.empty() ? "" : " (" + what + ")") +
                        ". Default: $MAGLEAD_CONFIG, else the checkout's config/ (when run from "
                        "<repository>/build/bin), else <prefix>/share/maglead, else /etc/maglead")
-      ->type_name("DIR");
+      ->type_name("DIR")
+      ->check(CLI::Validator(
+          [](const std::string& dir) {
+            std::error_code ec;
+            return std::filesystem::is_directory(dir, ec)
+                       ? std::string()
+                       : "no configuration directory '" + dir +
+                             "' (from here; leave --config out to use the default)";
+          },
+          "DIR"));
 }
 
 double parse_duration_s(const std::string& text) {
