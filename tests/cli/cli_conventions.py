@@ -111,6 +111,16 @@ def version_and_usage():
     check(rc == 0 and finding is not None and all(len(l) <= 80 for l in lines)
           and lines[finding + 1].startswith("     ") and not lines[finding + 1].startswith("      "),
           f"analyze wraps to 80 columns on a terminal: {lines[:8]!r}")
+    # Every command's --help on an 80-column terminal: no line wider, no word broken in two.
+    for cmd in ("serve", "simulate", "analyze", "set", "report"):
+        rc, text = run_in_pty(cmd, "--help", columns=80)
+        lines = text.replace("\r", "").split("\n")
+        wide = [l for l in lines if len(l) > 80]
+        check(rc == 0 and not wide and len(lines) > 5, f"{cmd} --help fits 80 columns: {wide[:2]!r}")
+        rc, piped, _ = run(cmd, "--help")
+        words = lambda t: t.split()
+        check(words(piped) == words(text.replace("\r", "")),
+              f"{cmd} --help wraps only at spaces (the same words as into a pipe)")
     rc, out, _ = run("analyze", "--recording", moved, "-o", os.path.join(WORK, "moved_out2"), "--no-twin-check")
     check(rc == 0 and any(l.startswith("1. viscous_friction") and len(l) > 80 for l in out.splitlines()),
           "analyze into a pipe keeps each line whole")

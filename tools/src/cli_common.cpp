@@ -74,7 +74,7 @@ CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::st
                        : "no configuration directory '" + dir +
                              "' (from here; leave --config out to use the default)";
           },
-          "DIR"));
+          ""));  // no name: the type stays DIR in --help
 }
 
 double parse_duration_s(const std::string& text) {

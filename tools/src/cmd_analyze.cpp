@@ -169,7 +169,7 @@ void add_analyze(CLI::App& app) {
                   "e.g. config/emps_baseline.toml for the EMPS data");
   cmd->add_option("-o,--out", o->out, "Output directory")
       ->required()
-      ->check(CLI::Validator(output_directory_problem, "DIR"));
+      ->check(CLI::Validator(output_directory_problem, ""));
   cmd->add_option("--calibration", o->calibration,
                   "Coupling calibration (actuator; default: CONFIG/calibration.toml)");
   cmd->add_option("--folds", o->a.folds, "Held-out time segments")->capture_default_str();

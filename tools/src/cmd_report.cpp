@@ -67,7 +67,7 @@ void add_report(CLI::App& app) {
       ->required();
   cmd->add_option("-o,--out", o->out, "Output directory (index.html, report.json, the map's PNG)")
       ->required()
-      ->check(CLI::Validator(output_directory_problem, "DIR"));
+      ->check(CLI::Validator(output_directory_problem, ""));
   add_config_option(cmd, o->config);
   cmd->add_option("--calibration", o->calibration,
                   "Force calibration (default: CONFIG/calibration.toml)");

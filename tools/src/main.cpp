@@ -1,6 +1,8 @@
 // maglead: the command line of the magnetic lead-screw actuator controller and its twin.
+#include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -109,6 +111,39 @@ void usage_error(const CLI::App& root, const CLI::ParseError& e) {
                path_of(at).c_str());
 }
 
+/// One help line at most `width` columns: broken at spaces, each continuation under the line's
+/// description (the text after the first run of two or more spaces), else two columns in.
+std::string wrap_help_line(const std::string& line, std::size_t width) {
+  constexpr std::size_t kLeastDescription = 24;  // a narrower column reads worse than a wide one
+  const std::size_t lead = line.find_first_not_of(' ');
+  if (lead == std::string::npos) return line;
+  const std::size_t gap = line.find("  ", lead);
+  const std::size_t desc = gap == std::string::npos ? gap : line.find_first_not_of(' ', gap);
+  std::size_t indent = lead + 2;
+  if (desc != std::string::npos && desc + kLeastDescription <= width) indent = desc;
+  return maglead::cli::wrapped(line, indent, width);
+}
+
+/// CLI11 2.1 does not wrap its help: at 80 columns a terminal broke descriptions mid-word. On a
+/// terminal each line is wrapped to its width; into a pipe (man page, tests) lines stay whole.
+class WrappingFormatter : public CLI::Formatter {
+ public:
+  std::string make_help(const CLI::App* app, std::string name,
+                        CLI::AppFormatMode mode) const override {
+    const std::string text = CLI::Formatter::make_help(app, std::move(name), mode);
+    const std::size_t width = maglead::cli::terminal_columns();
+    if (width == 0) return text;
+    std::string out;
+    std::size_t pos = 0;
+    while (pos < text.size()) {
+      const std::size_t end = std::min(text.find('\n', pos), text.size());
+      out += wrap_help_line(text.substr(pos, end - pos), width) + "\n";
+      pos = end + 1;
+    }
+    return out;
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -117,6 +152,7 @@ int main(int argc, char** argv) {
       "simulated plant and digital twin.\nRun 'maglead COMMAND --help' for a command's options. "
       "See man maglead for every command.",
       "maglead"};
+  app.formatter(std::make_shared<WrappingFormatter>());  // before the commands: they inherit it
   app.set_version_flag("--version", "maglead " MAGLEAD_VERSION, "Print the version and exit");
   app.add_flag(
       "-q,--quiet", maglead::cli::quiet(),

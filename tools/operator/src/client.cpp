@@ -280,8 +280,10 @@ Values Client::read_tables(const std::vector<reg::Table>& tables) {
 void Client::refused_write(const std::string& what) {
   std::string why = "another client owns control, or a state change sent by broadcast";
   try {
-    const Values v = read_range(reg::Table::input_register, 18, 2);
-    const Values r = read_range(reg::Table::input_register, 55, 1);
+    const auto* owner = reg::find("control_owner_ipv4");
+    const auto* reason = reg::find("write_refusal_reason");
+    const Values v = read_range(reg::Table::input_register, owner->address, 2);
+    const Values r = read_range(reg::Table::input_register, reason->address, 1);
     const double code = r.at("write_refusal_reason");
     const auto ip = static_cast<std::uint32_t>(v.at("control_owner_ipv4"));
     why = code_name(reg::refusals(), code) + ": " + code_meaning(reg::refusals(), code);
