@@ -86,7 +86,8 @@ constexpr std::array kTable = std::to_array<Register>({
     {"write_refusal_reason", IR, 55, Type::u16, 1, "", RO, 0, kU16Max,
      "Why the last write was refused with exception 04, see write refusals (0 none)"},
     {"twin_drift_reason", IR, 56, Type::u16, 1, "", RO, 0, 6,
-     "Twin: why drift_warning is set, judged on free moves only (never the load cell): 0 none, "
+     "Twin: why drift_warning is set, judged on free moves and on a passive load the force loop "
+     "revisits (never the load cell): 0 none, "
      "1 coupling gain fell, 2 gain rose, 3 friction rose, 4 friction fell, 5 estimate error rose "
      "(gain fell or friction rose: not separable), 6 error fell (gain rose or friction fell) "
      "(latched with the warning; fault_reset clears both)"},
