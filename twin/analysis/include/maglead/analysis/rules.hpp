@@ -89,7 +89,7 @@ inline constexpr std::array kTable = {
     // select
     Rule{"min_held_out_gain_pct", 1.0, "%",
          "a term must cut the held-out mean square error this much to be named",
-         "GeneratedSuite.ControlHandPushNamesNothing", "select"},
+         "Selection.ATermIsNamedFromAHeldOutGainOfOnePercent", "select"},
     Rule{"min_t", 3.0, "1",
          "… consistently: t statistic of the per-segment gains, about one chance in a hundred over ten segments",
          "MixedRecordings.APlayBelowACountOfThePhaseIsNotClaimed", "select"},
@@ -104,7 +104,7 @@ inline constexpr std::array kTable = {
          "GeneratedSuite.LoadCellDelay", "select"},
     Rule{"parsimony", 0.99, "1",
          "actuator: a simpler term reaching this share of the best one's gain, nested in it, goes first",
-         "BackwardCheck.KeepsCollinearTermsThatEachRemoveMostOfTheError", "select"},
+         "Selection.ANestedSimplerTermGoesFirstFromNinetyNinePercentOfTheGain", "select"},
     Rule{"axis_parsimony", 0.5, "1",
          "linear axis: a simpler term reaching this share of the best one's gain, nested in it, goes first",
          "Axis.GeneratedSpringIsNamedWithTheUnitsParameters", "select"},
@@ -169,7 +169,7 @@ inline constexpr std::array kTable = {
     // events
     Rule{"pulse_sigmas", 8.0, "robust σ",
          "a disturbance pulse stands this far out of the residual's own spread …",
-         "GeneratedSuite.ExternalDisturbancePulsesAreEvents", "events"},
+         "Pulses.APulseIsAnEventFromEightRobustSigmas", "events"},
     Rule{"pulse_max_s", 1.0, "s",
          "… for at most this long (longer is a misfit, not a pulse) …",
          "GeneratedSuite.ExternalDisturbancePulsesAreEvents", "events"},
