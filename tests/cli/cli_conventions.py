@@ -99,6 +99,15 @@ def version_and_usage():
     rc, out, err = run("simulate", "--scenario", "hand-push", "--duration", "1s", "-o",
                        os.path.join(WORK, "short_o.csv"))
     check(rc == 0 and os.path.exists(os.path.join(WORK, "short_o.csv")), f"simulate -o FILE: {err.strip()!r}")
+    # An effect's value may carry its own unit, as set's values do; another unit says which.
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "2s", "--effect", "offset=2N",
+                     "-o", os.path.join(WORK, "unit_ok.csv"))
+    check(rc == 0, f"simulate --effect offset=2N: {err.strip()!r}")
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "2s", "--effect", "offset=2kN",
+                     "-o", os.path.join(WORK, "unit_bad.csv"))
+    check(rc == 2 and "offset is in N, e.g. offset=2" in err, f"simulate --effect offset=2kN: {err.strip()!r}")
+    rc, _, err = run("record", "--rate", "5000", "--duration", "1s", "-o", os.path.join(WORK, "r5k.csv"))
+    check(rc == 2 and "5000 Hz is outside 1 .. 1000 Hz" in err, f"record --rate 5000: {err.strip()!r}")
     # analyze on an 80-column terminal breaks its long lines at spaces, under their own text; into
     # a pipe every line stays whole (scripts read them).
     moved = os.path.join(WORK, "moved.csv")

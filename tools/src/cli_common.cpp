@@ -276,16 +276,28 @@ void apply_plant_effects(const std::string& option, const std::vector<std::strin
     const auto eq = e.find('=');
     if (eq == std::string::npos)
       throw CLI::ValidationError(option, "'" + e + "' is not NAME=VALUE");
+    const std::string name = e.substr(0, eq), text = e.substr(eq + 1);
+    // The effect's unit is the first word of its help ("N  50 ms force pulses …"); a value may
+    // carry exactly that unit (offset=2N), as set's values carry theirs.
+    std::string unit;
+    for (const auto& [n, help] : plant_effect_help())
+      if (n == name) unit = help.substr(0, help.find("  "));
     double v = 0;
+    std::size_t used = 0;
     try {
-      std::size_t used = 0;
-      v = std::stod(e.substr(eq + 1), &used);
-      if (used != e.size() - eq - 1) throw std::invalid_argument("trailing");
+      v = std::stod(text, &used);
     } catch (const std::exception&) {
-      throw CLI::ValidationError(option,
-                                 "'" + e.substr(eq + 1) + "' in '" + e + "' is not a number");
+      used = 0;
     }
-    set_plant_effect(effects, e.substr(0, eq), v);
+    std::string rest = used > 0 ? text.substr(used) : text;
+    rest.erase(std::remove(rest.begin(), rest.end(), ' '), rest.end());
+    if (used == 0 || (!rest.empty() && rest != unit))
+      throw CLI::ValidationError(
+          option, "'" + text + "' in '" + e + "' is not a number" +
+                      (unit.empty() || unit == "1" ? std::string()
+                                                   : ": " + name + " is in " + unit + ", e.g. " +
+                                                         name + "=2 or " + name + "=2" + unit));
+    set_plant_effect(effects, name, v);
   }
 }
 

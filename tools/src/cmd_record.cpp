@@ -5,6 +5,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <optional>
 #include <thread>
@@ -222,8 +223,15 @@ void add_record(CLI::App& app) {
                   "cut at most the last second, and neither tears an earlier row (readers drop a "
                   "torn last line with a warning)")
       ->required();
-  cmd->add_option("--rate", o->rate_hz, "Polls per second")
-      ->check(CLI::Range(1.0, 1000.0))
+  cmd->add_option("--rate", o->rate_hz, "Polls per second [Hz], 1 .. 1000")
+      ->check(CLI::Validator(
+          [](const std::string& text) {
+            const double hz = std::strtod(text.c_str(), nullptr);
+            return hz >= 1.0 && hz <= 1000.0  // the controller's loop runs at 1 kHz
+                       ? std::string()
+                       : text + " Hz is outside 1 .. 1000 Hz (the loop runs at 1 kHz)";
+          },
+          ""))
       ->capture_default_str();
   cmd->add_option("--load-cell", o->load_cell,
                   "Log load_force_n: auto (if the controller reports a non-zero load cell at "
