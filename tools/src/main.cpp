@@ -130,7 +130,7 @@ class WrappingFormatter : public CLI::Formatter {
  public:
   std::string make_help(const CLI::App* app, std::string name,
                         CLI::AppFormatMode mode) const override {
-    const std::string text = CLI::Formatter::make_help(app, std::move(name), mode);
+    std::string text = CLI::Formatter::make_help(app, std::move(name), mode);
     const std::size_t width = maglead::cli::terminal_columns();
     if (width == 0) return text;
     std::string out;
