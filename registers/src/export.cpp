@@ -38,7 +38,7 @@ std::string md_cell(std::string_view s) {
   return out;
 }
 
-void code_table(std::ostringstream& md, const char* title, std::span<const Code> codes) {
+void code_table(std::ostringstream& md, const std::string& title, std::span<const Code> codes) {
   md << "\n### " << title << "\n\n| value | name | meaning |\n|---|---|---|\n";
   for (const auto& c : codes)
     md << "| " << c.value << " | `" << c.name << "` | " << c.description << " |\n";
@@ -104,16 +104,7 @@ std::string to_markdown() {
     }
   }
   md << "\n## Codes\n";
-  code_table(md, "drive_state", drive_states());
-  code_table(md, "active_mode / mode_command", modes());
-  code_table(md, "alarm_code", alarm_codes());
-  code_table(md, "command_reject_reason", reject_codes());
-  code_table(md, "fault_reaction", reactions());
-  code_table(md, "write_refusal_reason", refusals());
-  for (const char* name : {"twin_drift_reason", "twin_health_reason", "twin_step_out_reason",
-                           "force_loop_state", "force_reached_reason", "observer_basis",
-                           "twin_drift_observability", "twin_drift_separable"})
-    code_table(md, name, codes_of(name));
+  for (const auto& [names, codes] : code_lists()) code_table(md, names, codes);
   return md.str();
 }
 

@@ -413,6 +413,17 @@ std::span<const Code> codes_of(std::string_view register_name) {
   return {};
 }
 
+std::vector<std::pair<std::string, std::span<const Code>>> code_lists() {
+  std::vector<std::pair<std::string, std::span<const Code>>> out;
+  for (const auto& c : kCodeRegisters) {
+    if (!out.empty() && out.back().second.data() == c.codes.data())
+      out.back().first += " / " + std::string(c.register_name);  // one list, two registers
+    else
+      out.emplace_back(std::string(c.register_name), c.codes);
+  }
+  return out;
+}
+
 const Register* find(std::string_view name) {
   for (const auto& r : kTable)
     if (r.name == name) return &r;

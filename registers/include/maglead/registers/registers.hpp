@@ -5,6 +5,8 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 namespace maglead::registers {
 
@@ -102,6 +104,9 @@ std::span<const Code> refusals();
 /// The codes of a register that holds one (drive_state, alarm_code, force_loop_state …); empty
 /// for a register that holds a quantity.
 std::span<const Code> codes_of(std::string_view register_name);
+/// Every code list once, named by the registers that hold it ("active_mode / mode_command"), in
+/// the table's order: what the docs list.
+std::vector<std::pair<std::string, std::span<const Code>>> code_lists();
 
 /// Identity and word-order probe values.
 inline constexpr std::uint16_t kDeviceType = 0x4D4C;  // "ML"
