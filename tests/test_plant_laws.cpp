@@ -567,7 +567,9 @@ TEST(PlantLaws, EffectKeysUseTheSpecsIdsAndCheckTheirRanges) {
   EXPECT_THROW(set_plant_effect(e, "angle_ripple.amplitude", 0.1), std::invalid_argument);
   // Every plant id is an id of the spec's library, but friction_drift: a plant condition for the
   // drift flag (a friction rising in time), which the analysis's vocabulary does not have.
-  for (const auto& [key, help] : plant_effect_help()) {
+  for (const auto& k : plant_effect_keys()) {
+    const std::string& key = k.name;
+    EXPECT_FALSE(k.unit.empty()) << key << ": every key names its unit (\"1\" for a ratio)";
     if (key == "friction_drift") continue;
     const std::string id = key.substr(0, key.find('.'));
     EXPECT_NE(effects::find(id), nullptr) << key;

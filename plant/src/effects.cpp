@@ -16,61 +16,63 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 struct EffectEntry {
   const char* name;
   double PlantEffects::*field;
-  double min, max;  // accepted values (inclusive)
-  const char* help;
+  double min, max;   // accepted values (inclusive)
+  const char* unit;  // "1" for a ratio
+  const char* meaning;
 };
 
 constexpr EffectEntry kEffects[] = {
-    {"coulomb_friction", &PlantEffects::coulomb_friction_n, -kInf, kInf,
-     "N  added to the Coulomb friction F_c, kinetic and break-away (coulomb_n = F_c + value)"},
-    {"viscous_friction", &PlantEffects::viscous_friction_n_s_per_m, -kInf, kInf,
-     "N·s/m  added to the viscous coefficient C (viscous_n_s_per_m = C + value)"},
-    {"asymmetric_friction", &PlantEffects::asymmetric_friction_n, -kInf, kInf,
-     "N  kinetic and break-away friction F_c + value moving +p, F_c − value moving −p "
+    {"coulomb_friction", &PlantEffects::coulomb_friction_n, -kInf, kInf, "N",
+     "added to the Coulomb friction F_c, kinetic and break-away (coulomb_n = F_c + value)"},
+    {"viscous_friction", &PlantEffects::viscous_friction_n_s_per_m, -kInf, kInf, "N·s/m",
+     "added to the viscous coefficient C (viscous_n_s_per_m = C + value)"},
+    {"asymmetric_friction", &PlantEffects::asymmetric_friction_n, -kInf, kInf, "N",
+     "kinetic and break-away friction F_c + value moving +p, F_c − value moving −p "
      "(coulomb_pos_n, coulomb_neg_n)"},
-    {"stribeck_friction", &PlantEffects::stribeck_friction_n, 0.0, kInf,
-     "N  break-away excess F_s − F_c: F_k(v) = F_c + value·exp(−(v/v_s)²), stuck while "
+    {"stribeck_friction", &PlantEffects::stribeck_friction_n, 0.0, kInf, "N",
+     "break-away excess F_s − F_c: F_k(v) = F_c + value·exp(−(v/v_s)²), stuck while "
      "|F_m + F_ext| ≤ F_c + value (breakaway_n = F_c + value)"},
     {"stribeck_friction.stribeck_velocity_m_s", &PlantEffects::stribeck_velocity_m_s, 1e-6, kInf,
-     "m/s  Stribeck velocity v_s (default 0.002)"},
-    {"offset", &PlantEffects::offset_n, -kInf, kInf,
-     "N  constant force on the nut along +p, unseen by the load cell (offset_n)"},
-    {"spring", &PlantEffects::spring_n_per_m, -kInf, kInf,
-     "N/m  spring −k (p − p₀) on the nut, p₀ mid-stroke (stiffness_n_per_m)"},
-    {"mass_error", &PlantEffects::mass_error_kg, -kInf, kInf,
-     "kg  added to the moving mass M (nut_mass_kg = M + value)"},
-    {"coupling_gain_error", &PlantEffects::coupling_gain_error, -0.9, kInf,
-     "1  F_m scaled by g = 1 + value (gain)"},
-    {"gain_drift", &PlantEffects::gain_drift_per_min, -kInf, kInf,
-     "1/min  F_m scaled by 1 + value·t/60, t from the start (gain_change_per_min)"},
-    {"angle_ripple", &PlantEffects::angle_ripple, 0.0, 0.99,
-     "1  F_m scaled by 1 + value·sin(θ + ψ), θ the screw angle (relative_amplitude)"},
-    {"angle_ripple.phase_rad", &PlantEffects::angle_ripple_phase_rad, -kInf, kInf,
-     "rad  ψ of angle_ripple (default 0)"},
-    {"position_ripple", &PlantEffects::position_ripple_n, -kInf, kInf,
-     "N  extra force value·sin(2πp/λ + ψ) on the nut (amplitude_n)"},
-    {"position_ripple.period_m", &PlantEffects::position_ripple_period_m, 1e-6, kInf,
-     "m  λ of position_ripple (default 0.005)"},
-    {"position_ripple.phase_rad", &PlantEffects::position_ripple_phase_rad, -kInf, kInf,
-     "rad  ψ of position_ripple (default 0)"},
-    {"end_effect", &PlantEffects::end_effect_zone_m, 0.0, kInf,
-     "m  zone z: F_m scaled by 1 − D·s(x), s(x) = x²(3 − 2x), x = clip((z − d)/z, 0, 1), d the "
+     "m/s", "Stribeck velocity v_s (default 0.002)"},
+    {"offset", &PlantEffects::offset_n, -kInf, kInf, "N",
+     "constant force on the nut along +p, unseen by the load cell (offset_n)"},
+    {"spring", &PlantEffects::spring_n_per_m, -kInf, kInf, "N/m",
+     "spring −k (p − p₀) on the nut, p₀ mid-stroke (stiffness_n_per_m)"},
+    {"mass_error", &PlantEffects::mass_error_kg, -kInf, kInf, "kg",
+     "added to the moving mass M (nut_mass_kg = M + value)"},
+    {"coupling_gain_error", &PlantEffects::coupling_gain_error, -0.9, kInf, "1",
+     "F_m scaled by g = 1 + value (gain)"},
+    {"gain_drift", &PlantEffects::gain_drift_per_min, -kInf, kInf, "1/min",
+     "F_m scaled by 1 + value·t/60, t from the start (gain_change_per_min)"},
+    {"angle_ripple", &PlantEffects::angle_ripple, 0.0, 0.99, "1",
+     "F_m scaled by 1 + value·sin(θ + ψ), θ the screw angle (relative_amplitude)"},
+    {"angle_ripple.phase_rad", &PlantEffects::angle_ripple_phase_rad, -kInf, kInf, "rad",
+     "ψ of angle_ripple (default 0)"},
+    {"position_ripple", &PlantEffects::position_ripple_n, -kInf, kInf, "N",
+     "extra force value·sin(2πp/λ + ψ) on the nut (amplitude_n)"},
+    {"position_ripple.period_m", &PlantEffects::position_ripple_period_m, 1e-6, kInf, "m",
+     "λ of position_ripple (default 0.005)"},
+    {"position_ripple.phase_rad", &PlantEffects::position_ripple_phase_rad, -kInf, kInf, "rad",
+     "ψ of position_ripple (default 0)"},
+    {"end_effect", &PlantEffects::end_effect_zone_m, 0.0, kInf, "m",
+     "zone z: F_m scaled by 1 − D·s(x), s(x) = x²(3 − 2x), x = clip((z − d)/z, 0, 1), d the "
      "distance to the nearer stroke end (zone_m)"},
-    {"end_effect.max_reduction", &PlantEffects::end_effect_max_reduction, 0.0, 1.0,
-     "1  D of end_effect (default 0.5)"},
-    {"backlash", &PlantEffects::backlash_rad, 0.0, kInf,
-     "rad  total gear play b at the screw: the screw lags the motor by b/2 on the side of the "
+    {"end_effect.max_reduction", &PlantEffects::end_effect_max_reduction, 0.0, 1.0, "1",
+     "D of end_effect (default 0.5)"},
+    {"backlash", &PlantEffects::backlash_rad, 0.0, kInf, "rad",
+     "total gear play b at the screw: the screw lags the motor by b/2 on the side of the "
      "transmitted torque (backlash_rad)"},
-    {"load_cell_delay", &PlantEffects::load_cell_delay_s, 0.0, 1.0,
-     "s  the load-cell reading lags the true force (delay_s)"},
-    {"sensor_delay", &PlantEffects::sensor_delay_s, 0.0, 1.0,
-     "s  the linear and motor encoder readings lag the true position and angle (delay_s)"},
-    {"external_disturbance", &PlantEffects::external_disturbance_n, -kInf, kInf,
-     "N  50 ms force pulses on the nut at random times (force_n)"},
+    {"load_cell_delay", &PlantEffects::load_cell_delay_s, 0.0, 1.0, "s",
+     "the load-cell reading lags the true force (delay_s)"},
+    {"sensor_delay", &PlantEffects::sensor_delay_s, 0.0, 1.0, "s",
+     "the linear and motor encoder readings lag the true position and angle (delay_s)"},
+    {"external_disturbance", &PlantEffects::external_disturbance_n, -kInf, kInf, "N",
+     "50 ms force pulses on the nut at random times (force_n)"},
     // Not an id of docs/effects.md (the analysis does not look for it): a plant condition for
     // the twin's drift flag, which issue 23 asks to show live for "a friction change" too.
-    {"friction_drift", &PlantEffects::coulomb_drift_n_per_min, -kInf, kInf,
-     "N/min  kinetic and break-away friction F_c + value·t/60, t from the start (wear, "
+    {"friction_drift", &PlantEffects::coulomb_drift_n_per_min, -kInf, kInf, "N/min",
+     "kinetic and break-away friction F_c + value·t/60, t from the start (wear, "
+     ", "
      "temperature; for the twin's drift flag, not an effect the analysis names)"},
 };
 
@@ -127,9 +129,9 @@ void check_plant_totals(const PlantEffects& e, const ActuatorParams& a) {
     }
 }
 
-std::vector<std::pair<std::string, std::string>> plant_effect_help() {
-  std::vector<std::pair<std::string, std::string>> out;
-  for (const auto& e : kEffects) out.emplace_back(e.name, e.help);
+std::vector<PlantEffectKey> plant_effect_keys() {
+  std::vector<PlantEffectKey> out;
+  for (const auto& e : kEffects) out.push_back({e.name, e.unit, e.meaning});
   return out;
 }
 

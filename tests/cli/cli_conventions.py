@@ -108,6 +108,9 @@ def version_and_usage():
     check(rc == 2 and "offset is in N, e.g. offset=2" in err, f"simulate --effect offset=2kN: {err.strip()!r}")
     rc, _, err = run("record", "--rate", "5000", "--duration", "1s", "-o", os.path.join(WORK, "r5k.csv"))
     check(rc == 2 and "5000 Hz is outside 1 .. 1000 Hz" in err, f"record --rate 5000: {err.strip()!r}")
+    rc, _, err = run("record", "--rate", "abc", "--duration", "1s", "-o", os.path.join(WORK, "rabc.csv"))
+    check(rc == 2 and "'abc' is not a number" in err and "--rate 100" in err,
+          f"record --rate abc: {err.strip()!r}")
     # analyze on an 80-column terminal breaks its long lines at spaces, under their own text; into
     # a pipe every line stays whole (scripts read them).
     moved = os.path.join(WORK, "moved.csv")
@@ -130,6 +133,13 @@ def version_and_usage():
         words = lambda t: t.split()
         check(words(piped) == words(text.replace("\r", "")),
               f"{cmd} --help wraps only at spaces (the same words as into a pipe)")
+    # serve's own lines on an 80-column terminal: wrapped under their text, the same words.
+    rc, text = run_in_pty("serve", "--port", "0", "--duration", "1s", columns=80)
+    lines = [l for l in text.replace("\r", "").split("\n") if l]
+    wide = [l for l in lines if len(l) > 80]
+    check(rc == 0 and not wide and any(l.startswith("maglead serve: configuration from") for l in lines)
+          and all(l.startswith("maglead serve: ") or (l[:15].isspace() and l[15] != " ") for l in lines),
+          f"serve's start-up lines fit 80 columns, wrapped under their text: {wide[:2]!r} {lines[:4]!r}")
     rc, out, _ = run("analyze", "--recording", moved, "-o", os.path.join(WORK, "moved_out2"), "--no-twin-check")
     check(rc == 0 and any(l.startswith("1. viscous_friction") and len(l) > 80 for l in out.splitlines()),
           "analyze into a pipe keeps each line whole")

@@ -270,6 +270,13 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
 
 namespace maglead::cli {
 
+std::string plant_effects_help(const std::string& intro) {
+  std::string help = intro;
+  for (const auto& k : plant_effect_keys())
+    help += "\n  " + k.name + "  " + k.unit + "  " + k.meaning;
+  return help;
+}
+
 void apply_plant_effects(const std::string& option, const std::vector<std::string>& words,
                          PlantEffects& effects) {
   for (const auto& e : words) {
@@ -277,11 +284,10 @@ void apply_plant_effects(const std::string& option, const std::vector<std::strin
     if (eq == std::string::npos)
       throw CLI::ValidationError(option, "'" + e + "' is not NAME=VALUE");
     const std::string name = e.substr(0, eq), text = e.substr(eq + 1);
-    // The effect's unit is the first word of its help ("N  50 ms force pulses …"); a value may
-    // carry exactly that unit (offset=2N), as set's values carry theirs.
+    // A value may carry exactly its effect's unit (offset=2N), as set's values carry theirs.
     std::string unit;
-    for (const auto& [n, help] : plant_effect_help())
-      if (n == name) unit = help.substr(0, help.find("  "));
+    for (const auto& k : plant_effect_keys())
+      if (k.name == name) unit = k.unit;
     double v = 0;
     std::size_t used = 0;
     try {

@@ -30,6 +30,8 @@ CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::st
 double parse_duration_s(const std::string& text);
 /// Applies repeated `--effect NAME=VALUE` words (simulate, serve --sim-effect) to the plant's
 /// effects; throws CLI::ValidationError naming the option and the bad word.
+/// The --effect / --sim-effect help: `intro`, then a line per key with its unit and meaning.
+std::string plant_effects_help(const std::string& intro);
 void apply_plant_effects(const std::string& option, const std::vector<std::string>& words,
                          PlantEffects& effects);
 

@@ -226,7 +226,10 @@ void add_record(CLI::App& app) {
   cmd->add_option("--rate", o->rate_hz, "Polls per second [Hz], 1 .. 1000")
       ->check(CLI::Validator(
           [](const std::string& text) {
-            const double hz = std::strtod(text.c_str(), nullptr);
+            char* end = nullptr;
+            const double hz = std::strtod(text.c_str(), &end);
+            if (end == text.c_str() || *end != '\0')
+              return "'" + text + "' is not a number of polls per second: type e.g. --rate 100";
             return hz >= 1.0 && hz <= 1000.0  // the controller's loop runs at 1 kHz
                        ? std::string()
                        : text + " Hz is outside 1 .. 1000 Hz (the loop runs at 1 kHz)";

@@ -71,10 +71,9 @@ void add_sim_options(CLI::App* cmd, ServeOptions& o) {
   s->add_option("--sim-spring-anchor", o.spring_anchor_m, "Load: spring free length position [m]")
       ->capture_default_str();
   s->add_option("--sim-start", o.start_pos_m, "Nut position at start [m]")->capture_default_str();
-  std::string effects_help =
+  const std::string effects_help = plant_effects_help(
       "Where the simulated plant differs from the model, NAME=VALUE as simulate --effect "
-      "(repeatable):";
-  for (const auto& [name, help] : plant_effect_help()) effects_help += "\n  " + name + "  " + help;
+      "(repeatable):");
   s->add_option("--sim-effect", o.sim_effects, effects_help);
 }
 
@@ -211,12 +210,24 @@ std::string files_read(const ServeOptions& o) {
   return out.empty() ? "no files: built-in defaults" : "read " + out;
 }
 
+/// One line of serve's own, "maglead serve: …", wrapped at spaces under its text on a terminal
+/// (80 columns and up stay readable); into a pipe or a log each line stays whole.
+template <typename... Args>
+void say(const char* format, Args... args) {
+  constexpr std::string_view kPrefix = "maglead serve: ";
+  char text[512];
+  std::snprintf(text, sizeof text, format, args...);
+  std::printf("%s\n",
+              wrapped(std::string(kPrefix) + text, kPrefix.size(), terminal_columns()).c_str());
+  std::fflush(stdout);
+}
+
 void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
                   const std::string& model_used, runtime::Service& service) {
   const auto& cfg = sc.controller;
   const auto& net = sc.network;
   if (!service.refused().empty())
-    std::printf("maglead serve: realtime \"try\": not granted: %s\n", service.refused().c_str());
+    say("realtime \"try\": not granted: %s", service.refused().c_str());
   const std::string drive = service.hardware_description();
   const bool real_drive = o.backend == "cia402" && o.can != "sim";
   const std::string load =
@@ -224,36 +235,33 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
       : o.spring_n_per_m > 0
           ? "spring " + std::to_string(static_cast<int>(o.spring_n_per_m)) + " N/m"
           : "free nut";
-  if (!drive.empty()) std::printf("maglead serve: %s\n", drive.c_str());
-  std::printf(
-      "maglead serve: control loop %.0f Hz on the %s (%s), %s, %s\n", cfg.actuator.sample_rate_hz,
+  if (!drive.empty()) say("%s", drive.c_str());
+  say("control loop %.0f Hz on the %s (%s), %s, %s", cfg.actuator.sample_rate_hz,
       o.backend == "cia402"
           ? (real_drive ? "CiA 402 drive" : "simulated actuator through a simulated CiA 402 drive")
           : "simulated actuator",
       load.c_str(), service.loop().realtime() ? "SCHED_FIFO" : "normal scheduling",
       service.twin() ? "digital twin running on its own thread" : "no twin");
-  std::printf("maglead serve: configuration from %s (%s)\n",
-              std::filesystem::absolute(o.config).lexically_normal().string().c_str(),
-              files_read(o).c_str());
-  std::printf(
-      "maglead serve: model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N (+p/-p), %s%s\n",
+  say("configuration from %s (%s)",
+      std::filesystem::absolute(o.config).lexically_normal().string().c_str(),
+      files_read(o).c_str());
+  say("model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N (+p/-p), %s%s",
       model_used.empty() ? "[actuator]" : model_used.c_str(), cfg.friction.coulomb_pos_n,
       cfg.friction.coulomb_neg_n, cfg.friction.breakaway_pos_n, cfg.friction.breakaway_neg_n,
       coupling_text(cfg.coupling).c_str(),
       o.sim_effects.empty() ? "" : "; the simulated plant differs (--sim-effect)");
   const auto& rm = cfg.reference_move;
-  std::printf(
-      "maglead serve: reference move (mode_command 3): %.1f .. %.1f mm at %.1f and %.1f mm/s, "
-      "%.2f m/s^2 ([reference_move])\n",
+  say("reference move (mode_command 3): %.1f .. %.1f mm at %.1f and %.1f mm/s, "
+      "%.2f m/s^2 ([reference_move])",
       rm.window_min_m * 1e3, rm.window_max_m * 1e3, rm.slow_m_s * 1e3, rm.fast_m_s * 1e3,
       rm.accel_m_s2);
   if (service.tcp_port() >= 0)
-    std::printf("maglead serve: Modbus TCP on %s:%d, unit %d%s\n", net.tcp.bind_address.c_str(),
-                service.tcp_port(), net.tcp.unit_id, net.read_only ? ", read-only" : "");
+    say("Modbus TCP on %s:%d, unit %d%s", net.tcp.bind_address.c_str(), service.tcp_port(),
+        net.tcp.unit_id, net.read_only ? ", read-only" : "");
   if (!net.rtu.device.empty())
-    std::printf("maglead serve: Modbus RTU on %s, %d %d%c%d, unit %d%s\n", net.rtu.device.c_str(),
-                net.rtu.baud, net.rtu.data_bits, net.rtu.parity, net.rtu.stop_bits, net.rtu.unit_id,
-                net.read_only ? ", read-only" : "");
+    say("Modbus RTU on %s, %d %d%c%d, unit %d%s", net.rtu.device.c_str(), net.rtu.baud,
+        net.rtu.data_bits, net.rtu.parity, net.rtu.stop_bits, net.rtu.unit_id,
+        net.read_only ? ", read-only" : "");
   std::fflush(stdout);
 }
 
@@ -270,9 +278,8 @@ void wait_for_stop(double duration_s, runtime::Service& service) {
     if (now - last_report >= std::chrono::seconds(1)) {
       const auto snap = service.controller().snapshot();
       if (snap.overrun_count > reported) {
-        std::printf(
-            "maglead serve: %llu loop overrun(s) in the last second (%llu in all), latest "
-            "start %.0f us late\n",
+        say("%llu loop overrun(s) in the last second (%llu in all), latest "
+            "start %.0f us late",
             static_cast<unsigned long long>(snap.overrun_count - reported),
             static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
         std::fflush(stdout);
@@ -297,8 +304,7 @@ void run_serve(const ServeOptions& o) {
   wait_for_stop(duration_s, service);
   service.stop();
   const auto snap = service.controller().snapshot();
-  std::printf(
-      "maglead serve: stopped after %llu cycles, %llu overruns, latest start %.0f us late\n",
+  say("stopped after %llu cycles, %llu overruns, latest start %.0f us late",
       static_cast<unsigned long long>(snap.cycle),
       static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
 }

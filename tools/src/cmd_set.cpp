@@ -99,6 +99,16 @@ void hold_then_release(op::Client& client, const std::string& hold, const op::Co
                 done.c_str());
 }
 
+/// The release after Ctrl-C, in words. A release that fails (another client took control
+/// meanwhile) is said, not thrown: the command was still interrupted, and its exit code says so.
+std::string release_after_interrupt(op::Client& client, reg::Mode mode) {
+  try {
+    return "control released (" + release(client, mode == reg::Mode::force) + ")";
+  } catch (const ClientError& e) {
+    return std::string("control not released: ") + e.what();
+  }
+}
+
 struct SetOptions {
   std::string what, value, speed, accel;
 };
@@ -262,11 +272,10 @@ void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions
     std::printf("%s: done (%s) after %.2f s\n", p.summary.c_str(),
                 p.mode == reg::Mode::force ? "force reached" : "in position", res.elapsed_s);
   else if (g_interrupted)  // not done: no "holding" follows, the exit code says so
-    throw ClientError(Kind::interrupted,
-                      p.summary + ": acknowledged, interrupted before done" +
-                          (f.no_claim ? std::string()
-                                      : "; control released (" +
-                                            release(client, p.mode == reg::Mode::force) + ")"));
+    throw ClientError(
+        Kind::interrupted,
+        p.summary + ": acknowledged, interrupted before done" +
+            (f.no_claim ? std::string() : "; " + release_after_interrupt(client, p.mode)));
   else
     std::printf("%s: acknowledged by the controller\n", p.summary.c_str());
   // A claimed control is held, then released; without a claim this client owns nothing.

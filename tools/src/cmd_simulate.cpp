@@ -12,8 +12,8 @@ namespace maglead::cli {
 namespace {
 
 void add_simulate(CLI::App& app) {
-  std::string effects_help = "Extra plant physics, NAME=VALUE, repeatable:";
-  for (const auto& [name, help] : plant_effect_help()) effects_help += "\n  " + name + "  " + help;
+  const std::string effects_help =
+      plant_effects_help("Extra plant physics, NAME=VALUE, repeatable:");
   std::string scenario_help = "Load scenario:";
   for (const auto& s : scenario_list()) scenario_help += "\n  " + s.name + "  " + s.description;
 

@@ -51,8 +51,12 @@ void set_plant_effect(PlantEffects& effects, const std::string& name, double val
 /// meaning: a negative friction or viscous coefficient, a mass at or below zero. Throws
 /// std::invalid_argument naming the effect, the total and the nominal value.
 void check_plant_totals(const PlantEffects& effects, const ActuatorParams& actuator);
-/// Effect keys with units and meaning, for --help and error messages.
-std::vector<std::pair<std::string, std::string>> plant_effect_help();
+/// An --effect key: its name, the unit of its value ("1" for a ratio) and what it changes.
+struct PlantEffectKey {
+  std::string name, unit, meaning;
+};
+/// Every effect key, for --help and error messages.
+std::vector<PlantEffectKey> plant_effect_keys();
 
 struct PlantParams {
   ActuatorParams actuator;
