@@ -23,6 +23,9 @@ constexpr double kWindowLookahead_s = 0.05;
 // the setpoint) is the force loop's to stop, and its speed projected 50 ms would stop it early.
 constexpr double kWindowNear_m = 5e-3;
 constexpr double kMaxTrack_rad = 0.5;  // most the phase tracking may add to a command
+// A fault reset is done after the fault stayed away this long: longer than a CiA 402 drive's
+// fault-reset handshake and the master's PDO supervision (a few cycles), short for a person.
+constexpr double kResetConfirm_s = 0.02;
 constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b); }
 
 }  // namespace
@@ -318,33 +321,57 @@ void Controller::apply(const Command& c) noexcept {
           static_cast<std::uint16_t>(bit(registers::kResyncAck) | bit(registers::kResyncDone));
     }
   }
-  if (rising & bit(registers::kFaultReset)) {
-    command_bits_ &=
-        static_cast<std::uint16_t>(~(bit(registers::kResetDone) | bit(registers::kRejected)));
-    s_.reject_reason = 0;
-    // The operator has seen the twin's latched drift warning: clear it (README "Digital twin").
-    if (twin_) twin_->clear_warnings();
-    const auto& cal = cfg_.calibration;
-    const bool phase_ok = s_.phase_rad >= cal.stable_min_rad && s_.phase_rad <= cal.stable_max_rad;
-    if (state_ == DriveState::fault && !phase_ok) {
-      reject(Reject::still_faulty);
-    } else {
-      if (state_ == DriveState::fault) {
-        state_ = DriveState::ready;  // re-enabling needs a fresh enable edge
-        s_.alarm_code = 0;
-        stepped_out_ = watchdog_expired_ = stopping_ = false;
-        mode_ = Mode::idle;
-        reaction_ = registers::Reaction::none;
-        fault_position_hold_ = false;
-        lead_rad_ = 0.0;
-        last_heartbeat_s_ = s_.t_s;
-        drive_reset_pending_ = true;  // the drive's own fault clears with ours
-      }
-      command_bits_ |=
-          static_cast<std::uint16_t>(bit(registers::kResetAck) | bit(registers::kResetDone));
-    }
-  }
+  if (rising & bit(registers::kFaultReset)) on_fault_reset();
   if (rising & bit(registers::kExecute)) on_execute();
+}
+
+/// A fault reset edge: acknowledged at once; done when the fault has stayed away for
+/// kResetConfirm_s (confirm_reset), so a drive whose cause persists is never reported reset.
+void Controller::on_fault_reset() noexcept {
+  command_bits_ &=
+      static_cast<std::uint16_t>(~(bit(registers::kResetDone) | bit(registers::kRejected)));
+  s_.reject_reason = 0;
+  // The operator has seen the twin's latched drift warning: clear it (README "Digital twin").
+  if (twin_) twin_->clear_warnings();
+  const auto& cal = cfg_.calibration;
+  const bool phase_ok = s_.phase_rad >= cal.stable_min_rad && s_.phase_rad <= cal.stable_max_rad;
+  if (state_ == DriveState::fault && !phase_ok) {
+    reject(Reject::still_faulty);
+    return;
+  }
+  command_bits_ |= bit(registers::kResetAck);
+  if (state_ != DriveState::fault) {  // nothing latched: nothing to wait for
+    command_bits_ |= bit(registers::kResetDone);
+    return;
+  }
+  state_ = DriveState::ready;  // re-enabling needs a fresh enable edge
+  s_.alarm_code = 0;
+  stepped_out_ = watchdog_expired_ = stopping_ = false;
+  mode_ = Mode::idle;
+  reaction_ = registers::Reaction::none;
+  fault_position_hold_ = false;
+  lead_rad_ = 0.0;
+  last_heartbeat_s_ = s_.t_s;
+  drive_reset_pending_ = true;  // the drive's own fault clears with ours
+  reset_confirm_cycles_ =
+      std::max(1, static_cast<int>(std::ceil(kResetConfirm_s * cfg_.actuator.sample_rate_hz)));
+}
+
+/// A reset in confirmation: a fault latched again is its answer (rejected, fault_returned);
+/// otherwise done when the cycles are up and the drive has finished its own reset.
+void Controller::confirm_reset() noexcept {
+  if (reset_confirm_cycles_ == 0) return;
+  if (state_ == DriveState::fault) {
+    reset_confirm_cycles_ = 0;
+    reject(Reject::fault_returned);
+    return;
+  }
+  if (reset_confirm_cycles_ > 1) {
+    --reset_confirm_cycles_;
+  } else if (!hw_.resetting()) {
+    reset_confirm_cycles_ = 0;
+    command_bits_ |= bit(registers::kResetDone);
+  }
 }
 
 void Controller::run_profile(double dt) noexcept {
@@ -454,6 +481,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     latch_fault(Alarm::drive_fault);
     status = CycleStatus::hardware_error;
   }
+  confirm_reset();
   publish(settled, reached);
   return status;
 }

@@ -278,6 +278,9 @@ constexpr std::array kRejects = std::to_array<Code>({
     {5, "stopped", "execute refused while the stop bit is set"},
     {6, "still_faulty", "fault reset refused: the cause is still present (resync first)"},
     {7, "not_stepped_out", "resync only after a step-out"},
+    {8, "fault_returned",
+     "fault reset passed on, but a fault latched again before it was done: its cause persists "
+     "(alarm_code says which)"},
 });
 constexpr std::array kStates = std::to_array<Code>({
     {0, "disabled", "not synchronised yet or the actuator reports an error"},

@@ -271,6 +271,8 @@ TEST(Controller, StepOutLatchesAFaultStopsForceAndNeedsResyncThenReset) {
   EXPECT_TRUE(rig.cmd(reg::kResyncDone));
   EXPECT_LT(std::abs(rig.snap().phase_rad), 1.0);
   rig.control(bit(reg::kFaultReset));
+  EXPECT_TRUE(rig.cmd(reg::kResetAck));
+  rig.run(0.03);  // done once the fault has stayed away (kResetConfirm_s)
   EXPECT_TRUE(rig.cmd(reg::kResetDone));
   EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
   EXPECT_FALSE(rig.status(reg::kStepOut));

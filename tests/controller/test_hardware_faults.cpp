@@ -203,3 +203,32 @@ TEST(HardwareFault, ThePowerStageFollowsTheDriveState) {
                                P::enable, P::fault_reset, P::enable, P::disable};
   EXPECT_EQ(rig.hw.power_requests(), want);
 }
+
+// A fault reset is done only when the fault stays away: a drive that still reports its fault
+// after the reset makes it rejected (fault_returned, the alarm kept), never done then undone.
+TEST(HardwareFault, AResetIsNotDoneWhileTheDriveKeepsItsFault) {
+  FaultRig rig;
+  rig.control(bit(reg::kEnable));
+  rig.hw.inject(Fault::drive_on_read);
+  rig.loop.run_cycles(20);
+  ASSERT_EQ(rig.snap().drive_state, kFault);
+  rig.control(0);
+  rig.control(bit(reg::kFaultReset));  // the drive still reports its fault
+  rig.loop.run_cycles(50);
+  auto cmd = [&](int b) { return ((rig.snap().command_status >> b) & 1u) != 0; };
+  EXPECT_FALSE(cmd(reg::kResetDone));
+  EXPECT_TRUE(cmd(reg::kRejected));
+  EXPECT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::fault_returned));
+  EXPECT_EQ(rig.snap().drive_state, kFault);
+  EXPECT_EQ(rig.snap().alarm_code, static_cast<std::uint16_t>(reg::Alarm::drive_fault));
+  // The cause gone, the next reset is done, and no sooner than the confirmation time.
+  rig.hw.inject(Fault::none);
+  rig.control(0);
+  rig.control(bit(reg::kFaultReset));
+  EXPECT_TRUE(cmd(reg::kResetAck));
+  EXPECT_FALSE(cmd(reg::kResetDone)) << "done before the fault had time to come back";
+  rig.loop.run_cycles(50);
+  EXPECT_TRUE(cmd(reg::kResetDone));
+  EXPECT_FALSE(cmd(reg::kRejected));
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+}

@@ -213,6 +213,10 @@ def scenario(port):
         check(rc == 4 and "exception 04" in err and "not_owner: another client owns control" in err
               and "owner 127.0.0.1" in err and one_line(err),
               f"another owner: {err.strip()}")
+        # enable while another client holds the drive enabled: refused, never "drive enabled".
+        rc, out, err = run(MAGLEAD, "enable", *conn, "--hold", "1s")
+        check(rc == 4 and "not_owner" in err and "drive enabled" not in out and "that client must release it" in err,
+              f"enable while another owns control: rc {rc} {out.strip()} {err.strip()}")
     time.sleep(0.1)
 
     # Wrong unit id and a port with nobody listening.
@@ -240,6 +244,23 @@ def scenario(port):
     rc, out, err = run(MAGLEAD, "reset", *conn)
     check(rc == 0 and "fault reset done" in out and read_regs(port, 4, 13, 1)[0] == 1,
           f"reset clears the owner_lost fault: {err.strip()}")
+    # A watchdog fault left by a PLC: set says so and what to type, and claims nothing.
+    with socket.create_connection(("127.0.0.1", port), timeout=2) as plc:
+        for addr, value in ((1003, 300), (1000, 1), (1000, 0)):  # watchdog 0.3 s, enable, release
+            plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, addr, value))
+            plc.recv(64)
+            time.sleep(0.6 if addr == 1000 and value == 1 else 0.05)
+        plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, 1003, 0))
+        plc.recv(64)
+    check(read_regs(port, 4, 11, 3)[::2] == [3, 3], f"a watchdog fault latched (raw {read_regs(port, 4, 11, 3)})")
+    t0 = time.time()
+    rc, out, err = run(MAGLEAD, "set", *conn, "force", "5", "--hold", "1s", "--config", CONFIG)
+    check(rc == 4 and "alarm watchdog" in err and "run 'maglead reset' first" in err and "holding" not in out
+          and "not at 0 N" not in err and time.time() - t0 < 3 and one_line(err),
+          f"set during a watchdog fault: rc {rc} {out.strip()} {err.strip()}")
+    rc, out, err = run(MAGLEAD, "reset", *conn)
+    check(rc == 0 and "fault reset done" in out and read_regs(port, 4, 11, 3)[::2] == [0, 1],
+          f"reset clears the watchdog fault: {err.strip()}")
     rc, out, err = run(MAGLEAD, "disable", *conn)
     check(rc == 0 and read_regs(port, 4, 13, 1)[0] == 1, f"disable: drive ready {err.strip()}")
     rc, out, err = run(MAGLEAD, "reset", *conn)

@@ -1,5 +1,6 @@
 // maglead serve: run the 1 kHz controller on an actuator (the simulated one, or a CiA 402 drive
 // over CANopen) and serve it over Modbus TCP and/or RTU until interrupted (or for --duration).
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <memory>
@@ -8,6 +9,7 @@
 
 #include "cli_common.hpp"
 #include "maglead/modbus/network_config.hpp"
+#include "maglead/registers/registers.hpp"
 #include "maglead/runtime/service.hpp"
 #include "maglead/twin/model.hpp"
 
@@ -265,6 +267,24 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
   std::fflush(stdout);
 }
 
+/// A fault latched or cleared since the last look, said once: the terminal running serve is
+/// where an operator looks first when a command is refused.
+void say_alarm_change(std::uint16_t alarm, std::uint16_t& seen) {
+  if (alarm == seen) return;
+  const auto codes = registers::alarm_codes();
+  const auto it = std::find_if(codes.begin(), codes.end(),
+                               [&](const registers::Code& c) { return c.value == alarm; });
+  if (alarm == 0)
+    say("fault cleared (alarm_code 0)");
+  else if (it != codes.end())
+    say("fault latched: alarm_code %u %.*s (%.*s)", static_cast<unsigned>(alarm),
+        static_cast<int>(it->name.size()), it->name.data(),
+        static_cast<int>(it->description.size()), it->description.data());
+  else
+    say("fault latched: alarm_code %u", static_cast<unsigned>(alarm));
+  seen = alarm;
+}
+
 /// Until Ctrl-C (or SIGTERM), or for duration_s when it is positive. Loop overruns are reported
 /// as they happen (at most once a second), not only at exit.
 void wait_for_stop(double duration_s, runtime::Service& service) {
@@ -272,9 +292,11 @@ void wait_for_stop(double duration_s, runtime::Service& service) {
   const auto t0 = Clock::now();
   auto last_report = t0;
   std::uint64_t reported = 0;
+  std::uint16_t alarm_seen = 0;
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const auto now = Clock::now();
+    say_alarm_change(service.controller().snapshot().alarm_code, alarm_seen);
     if (now - last_report >= std::chrono::seconds(1)) {
       const auto snap = service.controller().snapshot();
       if (snap.overrun_count > reported) {

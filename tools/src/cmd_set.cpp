@@ -99,6 +99,12 @@ void hold_then_release(op::Client& client, const std::string& hold, const op::Co
                 done.c_str());
 }
 
+bool drive_in_fault(op::Client& client) {
+  const auto* r = reg::find("drive_state");
+  return client.read_range(reg::Table::input_register, r->address, 1).at("drive_state") ==
+         static_cast<double>(reg::DriveState::fault);
+}
+
 /// The release after Ctrl-C, in words. A release that fails (another client took control
 /// meanwhile) is said, not thrown: the command was still interrupted, and its exit code says so.
 std::string release_after_interrupt(op::Client& client, reg::Mode mode) {
@@ -242,6 +248,14 @@ op::CommandResult send_or_release(op::Client& client, const Planned& p, const Co
     return send(client, p, f);
   } catch (const ClientError& e) {
     if (f.no_claim || e.kind() == Kind::refused_locally || e.kind() == Kind::connection) throw;
+    // A latched fault has stopped the drive already: there is nothing to bring to 0 N, and only a
+    // reset clears it.
+    if (drive_in_fault(client)) {
+      const std::string what = e.what();
+      throw ClientError(e.kind(), what.find("maglead reset") == std::string::npos
+                                      ? what + "; the drive is in fault: run 'maglead reset' first"
+                                      : what);
+    }
     std::string done;
     try {
       done = release(client, p.mode == reg::Mode::force);

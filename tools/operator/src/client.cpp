@@ -290,8 +290,8 @@ void Client::refused_write(const std::string& what) {
     if (ip != 0)
       why += " (owner " + std::to_string(ip >> 24) + "." + std::to_string((ip >> 16) & 255) + "." +
              std::to_string((ip >> 8) & 255) + "." + std::to_string(ip & 255) +
-             "; stop its command there, e.g. Ctrl-C on its 'maglead set', or 'maglead disable' "
-             "from it, then try again)";
+             "; that client must release it: Ctrl-C on its 'maglead set', or enable cleared in "
+             "its control word; control is free again once its connection ends)";
   } catch (const ClientError&) {
     // The reason could not be read: the generic text stands.
   }
@@ -599,9 +599,12 @@ CommandResult execute(Client& c, reg::Mode mode,
     // Take control the documented way: a previous owner's connection that ended left an
     // owner_lost fault (its reaction has run); clear it, then claim with an enable edge.
     const Status st = read_status(c);
-    if (st.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault) &&
-        st.alarm == static_cast<std::uint16_t>(reg::Alarm::owner_lost))
+    const bool fault = st.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault);
+    if (fault && st.alarm == static_cast<std::uint16_t>(reg::Alarm::owner_lost))
       reset(c, false, o);
+    else if (fault)  // any other fault is the operator's to look at and reset
+      throw ClientError(Kind::rejected, "execute: the drive is in fault (alarm " +
+                                            alarm_text(st.alarm) + "); run 'maglead reset' first");
     if (read_status(c).drive_state == static_cast<std::uint16_t>(reg::DriveState::ready))
       enable(c, o);
   }
@@ -664,7 +667,12 @@ void enable(Client& c, const CommandOptions& o) {
   const Image im = read_image(c);
   Status s = read_status(c);
   using DS = reg::DriveState;
-  if (s.drive_state == static_cast<std::uint16_t>(DS::enabled)) return;
+  // Enabled already: ours only if the controller takes a write from us (the same control word,
+  // no edge); another client's control is refused with exception 04, naming it.
+  if (s.drive_state == static_cast<std::uint16_t>(DS::enabled)) {
+    write_cw(c, im.control_word);
+    return;
+  }
   // The controller ignores an enable edge outside "ready" without a reason code: say why here.
   if (s.drive_state == static_cast<std::uint16_t>(DS::fault))
     throw ClientError(Kind::rejected, "enable: the drive is in fault (alarm " +
@@ -722,12 +730,27 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
     if (cw & bit(b)) write_cw(c, cw = static_cast<std::uint16_t>(cw & ~bit(b)));
     write_cw(c, cw | bit(b));
     const Status before = read_status(c);
-    const Status s = settle(c, before.cycle, im, o, what);
+    Status s = settle(c, before.cycle, im, o, what);
     write_cw(c, cw);
     if (s.bit(reg::kRejected) && !s.bit(ack)) rejected(what, s);
-    if (!s.bit(done))
+    if (!s.bit(ack))
       throw ClientError(Kind::protocol,
                         std::string(what) + ": no acknowledgement from the controller");
+    // Acknowledged: done once the controller has seen the fault stay away (a drive's own reset
+    // takes some cycles); a fault that latched again meanwhile is the answer instead.
+    const auto t0 = Clock::now();
+    while (!s.bit(done)) {
+      if (s.bit(reg::kRejected))
+        throw ClientError(Kind::rejected, std::string(what) + " rejected by the controller: " +
+                                              code_name(reg::reject_codes(), s.reject) + " (" +
+                                              code_meaning(reg::reject_codes(), s.reject) +
+                                              "): alarm " + alarm_text(s.alarm));
+      if (since(t0) > o.ack_timeout_s)
+        throw ClientError(Kind::no_reply, std::string(what) + ": acknowledged, not done within " +
+                                              fmt(o.ack_timeout_s) + " s");
+      std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
+      s = read_status(c);
+    }
   };
   if (resync_first) edge(reg::kResync, reg::kResyncAck, reg::kResyncDone, "resync");
   edge(reg::kFaultReset, reg::kResetAck, reg::kResetDone, "fault reset");

@@ -173,6 +173,8 @@ class Controller {
   bool next_reference_leg() noexcept;
   double position_command_rad(double dt) noexcept;
   void reject(registers::Reject why) noexcept;
+  void on_fault_reset() noexcept;
+  void confirm_reset() noexcept;
   void on_owner_lost() noexcept;
   FaultReaction configured_reaction(registers::Alarm alarm) const noexcept;
 
@@ -218,6 +220,8 @@ class Controller {
   // The power stage: the last request made of the hardware, and a reset it still has to pass on.
   PowerRequest power_ = PowerRequest::disable;
   bool drive_reset_pending_ = false;
+  // A fault reset is done only once the fault has stayed away this many more cycles.
+  int reset_confirm_cycles_ = 0;
 };
 
 }  // namespace maglead::controller

@@ -88,6 +88,7 @@ enum class Reject : std::uint16_t {
   stopped = 5,
   still_faulty = 6,
   not_stepped_out = 7,
+  fault_returned = 8,
 };
 
 struct Code {

@@ -39,6 +39,9 @@ class ActuatorHardware {
   /// write_motor_angle. Takes effect over the next cycles: must not block or allocate. A drive
   /// that then does not get there reports drive_fault from read_sensors.
   virtual HwStatus set_power(PowerRequest request) noexcept = 0;
+  /// True while a fault reset asked of the power stage is still under way (a drive that keeps
+  /// its fault reports it from read_sensors once this ends). Must not block or allocate.
+  virtual bool resetting() const noexcept { return false; }
 };
 
 }  // namespace maglead
