@@ -133,6 +133,17 @@ def version_and_usage():
         words = lambda t: t.split()
         check(words(piped) == words(text.replace("\r", "")),
               f"{cmd} --help wraps only at spaces (the same words as into a pipe)")
+    # No configuration anywhere (an installed binary, no /etc/maglead): where it looked, what to type.
+    if not os.path.exists("/etc/maglead/calibration.toml"):
+        lone = os.path.join(WORK, "lone", "bin")
+        os.makedirs(lone, exist_ok=True)
+        shutil.copy(MAGLEAD, os.path.join(lone, "maglead"))
+        env = {k: v for k, v in os.environ.items() if k != "MAGLEAD_CONFIG"}
+        p = subprocess.run([os.path.join(lone, "maglead"), "simulate", "--scenario", "hand-push", "--duration", "1s",
+                            "--out", os.path.join(WORK, "lone.csv")], capture_output=True, text=True, env=env)
+        check(p.returncode == 2 and "no configuration directory found (looked in" in p.stderr
+              and "--config DIR" in p.stderr and "MAGLEAD_CONFIG" in p.stderr,
+              f"no configuration found says where it looked and what to type: {p.stderr.strip()!r}")
     # serve's own lines on an 80-column terminal: wrapped under their text, the same words.
     rc, text = run_in_pty("serve", "--port", "0", "--duration", "1s", columns=80)
     lines = [l for l in text.replace("\r", "").split("\n") if l]

@@ -51,6 +51,9 @@ def scenario(port):
           and "drive_state" in out and "ready" in out,
           f"poll prints a table (rc {rc}) {err.strip()}")
     check("float32" not in out and "nut_pos_m_f32" not in out, "poll hides the float32 duplicates by default")
+    check(re.search(r"^\s+twin_drift_zero_load_error_n\s+\S+\s+N\s", out, re.M) is not None
+          and re.search(r"^\s+twin_drift_statistic\s", out, re.M) is not None,
+          "poll shows the float32-only figures (the drift flag's) under their SI names")
     rc, out, err = run(MAGLEAD, "poll", *conn, "--json")
     j = json.loads(out) if rc == 0 else {}
     raw_pos_um = i32(read_regs(port, 4, 20, 2))

@@ -59,6 +59,20 @@ std::string default_config_dir() {
   return candidates.back();
 }
 
+std::string missing_config_hint(const std::string& error) {
+  const std::string dir = default_config_dir();
+  std::error_code ec;
+  if (std::getenv("MAGLEAD_CONFIG") != nullptr ||
+      std::filesystem::exists(std::filesystem::path(dir) / "calibration.toml", ec) ||
+      error.rfind(dir + "/", 0) != 0)
+    return "";
+  std::string looked;
+  for (const auto& c : config_dir_candidates()) looked += (looked.empty() ? "" : ", ") + c;
+  return "\nno configuration directory found (looked in " + looked +
+         "): pass --config DIR, a directory with calibration.toml and actuator.toml (the "
+         "checkout's config/ is one), or set MAGLEAD_CONFIG=DIR";
+}
+
 CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what) {
   return cmd
       ->add_option("--config", config,

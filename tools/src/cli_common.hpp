@@ -24,6 +24,9 @@ std::string default_config_dir();
 /// The candidates default_config_dir() tries after $MAGLEAD_CONFIG, in order (for messages).
 std::vector<std::string> config_dir_candidates();
 /// `--config DIR` on a command, its help stating the lookup rule (not a machine's path).
+/// For an error naming a missing file of the default configuration directory when no candidate
+/// had one: where maglead looked and what to type; "" otherwise.
+std::string missing_config_hint(const std::string& error);
 CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what = "");
 
 /// "30s", "2min", "500ms", "1h" or a plain number of seconds. Throws CLI::ValidationError.

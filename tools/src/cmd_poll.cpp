@@ -92,6 +92,16 @@ std::vector<const reg::Register*> wanted_registers(const std::vector<std::string
   return wanted;
 }
 
+/// A float32 register that repeats an integer one (nut_pos_m_f32 beside nut_pos_um); the
+/// float32-only ones (the drift flag's figures) are shown by default.
+bool is_float_duplicate(const reg::Register& r) {
+  if (r.type != reg::Type::f32 || !r.name.ends_with("_f32")) return false;
+  const std::string base(r.name.substr(0, r.name.size() - 4));
+  return std::any_of(reg::table().begin(), reg::table().end(), [&](const reg::Register& x) {
+    return x.type != reg::Type::f32 && op::si_name(x) == base;
+  });
+}
+
 /// Indices into v of what is shown: --names order if given, else the table's.
 std::vector<std::size_t> shown_indices(const op::Values& v,
                                        const std::vector<const reg::Register*>& wanted, bool all) {
@@ -104,7 +114,7 @@ std::vector<std::size_t> shown_indices(const op::Values& v,
   }
   for (std::size_t i = 0; i < v.regs.size(); ++i) {
     const auto& r = *v.regs[i];
-    if (!all && (r.type == reg::Type::f32 || r.name.starts_with("word_order_probe"))) continue;
+    if (!all && (is_float_duplicate(r) || r.name.starts_with("word_order_probe"))) continue;
     shown.push_back(i);
   }
   return shown;
@@ -159,9 +169,11 @@ void print_csv(const Shown& s) {
 
 void print_table(const Shown& s, const op::Client& client) {
   std::printf("%s\n", client.endpoint().describe().c_str());
+  int width = 0;  // the longest name shown: values line up whatever --all adds
+  for (auto i : s.idx) width = std::max(width, static_cast<int>(s.name(i).size()));
   for (auto i : s.idx)
-    std::printf("  %-28s %16s %-6s %s\n", s.name(i).c_str(), s.text(i).c_str(), s.unit(i).c_str(),
-                meaning(*s.v.regs[i], s.v.si[i]).c_str());
+    std::printf("  %-*s %12s %-6s %s\n", width, s.name(i).c_str(), s.text(i).c_str(),
+                s.unit(i).c_str(), meaning(*s.v.regs[i], s.v.si[i]).c_str());
 }
 
 void run_poll(const PollOptions& o, const ConnectionOptions& conn) {
@@ -196,7 +208,8 @@ void add_poll(CLI::App& app) {
       "--raw", o->raw,
       "Raw register contents (integers as sent) under the register names (nut_pos_um in um), "
       "instead of SI values under SI names (nut_pos_m in m)");
-  cmd->add_flag("--all", o->all, "Also the float32 duplicates and identity probes");
+  cmd->add_flag("--all", o->all,
+                "Also the float32 copies of integer registers and the word-order probes");
   cmd->add_option("--names", o->names,
                   "Only these registers: register names from 'maglead registers' or their SI names "
                   "(nut_pos_um or nut_pos_m)")

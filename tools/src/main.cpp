@@ -175,7 +175,8 @@ int main(int argc, char** argv) {
     if (!explain_unknown(app, argc, argv)) usage_error(app, e);
     return maglead::cli::kExitBadInput;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "maglead: error: %s\n", e.what());
+    std::fprintf(stderr, "maglead: error: %s%s\n", e.what(),
+                 maglead::cli::missing_config_hint(e.what()).c_str());
     return maglead::cli::kExitBadInput;
   }
   return 0;

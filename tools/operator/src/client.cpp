@@ -390,6 +390,15 @@ std::string code_meaning(std::span<const reg::Code> codes, double value) {
 
 std::string si_name(const reg::Register& r) {
   std::string n(r.name);
+  if (r.type == reg::Type::f32 && n.ends_with("_f32")) {
+    // A float32-only figure (twin_drift_statistic_f32) goes by its SI name; a float32 copy of an
+    // integer register keeps the suffix, so the two names stay apart.
+    const std::string base = n.substr(0, n.size() - 4);
+    const bool copy = std::any_of(reg::table().begin(), reg::table().end(), [&](const auto& x) {
+      return x.type != reg::Type::f32 && si_name(x) == base;
+    });
+    return copy ? n : base;
+  }
   if (r.scale == 1.0) return n;
   // Raw suffix -> SI suffix, longest first (_um_s2 before _um_s before _um).
   static const std::pair<std::string_view, std::string_view> kSuffixes[] = {
