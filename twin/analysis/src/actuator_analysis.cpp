@@ -1203,11 +1203,61 @@ void add_stalls(const Prepared& P, const std::vector<selection::Found>& terms, d
   std::sort(found.begin(), found.end(),
             [](const Pulse& a, const Pulse& b) { return a.t_s < b.t_s; });
 }
+
+// The work the final model's terms (beyond the baseline's, which the jump's work holds) did over
+// a jump, from its two stands (a trapezoid: the laws are smooth over a jump's few counts).
+double terms_work_j(const std::vector<selection::Found>& terms, const Jump& jp) {
+  double from_n = 0, to_n = 0;
+  for (const auto& c : terms)
+    from_n += c.effect->force_n(c.params, jp.from), to_n += c.effect->force_n(c.params, jp.to);
+  return 0.5 * (from_n + to_n) * (jp.to.p_m - jp.from.p_m);
+}
+
+// Pulses that throw a standing nut to its next stand quicker than the filter resolves: no sliding
+// sample shows them. Friction only takes work out: from stand to stand the recorded forces do at
+// least the kinetic friction times the travel (the rest goes into viscous friction and the load's
+// damping), so the jumps' work per metre, per direction, is that friction level. A jump short of
+// its direction's level (at least rules::kMinReleases jumps) by more than the pulse threshold and
+// the pulse sigmas of the jumps' own robust spread was pushed along by a force no input explains:
+// at least that shortfall, over the jump (the stand it reaches may hold the rest of the pulse).
+void add_throws(const Prepared& P, const std::vector<selection::Found>& terms, double thr,
+                const pulses::Floors& f, std::vector<Pulse>& found) {
+  std::vector<Pulse> throws;
+  const double reach_s = rules::kPulseFlankFilterPeriods / f.filter_hz;
+  for (const double dir : {1.0, -1.0}) {
+    std::vector<double> per_m;  // each jump's work per metre of travel [N]
+    std::vector<const Jump*> side;
+    for (const auto& jp : P.jumps) {
+      if (jp.dir != dir) continue;
+      per_m.push_back((jp.work_j + terms_work_j(terms, jp)) / jp.path_m);
+      side.push_back(&jp);
+    }
+    if (per_m.size() < rules::kMinReleases) continue;  // no level to fall short of
+    const double level_n = stats::median_of(per_m);
+    const double limit_n = std::max(thr, f.sigmas * stats::robust_sigma(per_m));
+    for (std::size_t q = 0; q < side.size(); ++q) {
+      const Jump& jp = *side[q];
+      // One pulse is one event: a jump within a found pulse's flanks is that pulse's.
+      const auto near = [&](const Pulse& p) {
+        return p.t_s - reach_s < jp.t_s + jp.duration_s && jp.t_s < p.t_s + p.duration_s + reach_s;
+      };
+      const bool seen = std::any_of(found.begin(), found.end(), near) ||
+                        std::any_of(throws.begin(), throws.end(), near);
+      if (level_n - per_m[q] > limit_n && !seen && !jp.slides)
+        throws.push_back({jp.t_s, jp.duration_s, dir * (level_n - per_m[q])});
+    }
+  }
+  // Isolated, as the residual's pulses: many such jumps are a friction the model lacks.
+  if (static_cast<double>(found.size() + throws.size()) > f.span_s / f.min_spacing_s) return;
+  found.insert(found.end(), throws.begin(), throws.end());
+  std::sort(found.begin(), found.end(),
+            [](const Pulse& a, const Pulse& b) { return a.t_s < b.t_s; });
+}
 }  // namespace
 
 // Force pulses no input explains in the corrected residual on the sliding samples (the one
 // pulse finder), above one encoder count's worth of force and not a library law's force where
-// the nut was (pulses::unexplained).
+// the nut was (pulses::unexplained); pulses that stall a sliding nut or throw a standing one.
 std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt) {
   pulses::Floors f;
   f.min_n = P.count_force_n;
@@ -1224,7 +1274,9 @@ std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Op
   auto found =
       pulses::unexplained(t, r, P.states, Form::nut, candidate_columns(Form::nut, opt.exclude),
                           sel.current, f, pulses::find(t, r, f));
-  add_stalls(P, sel.terms, pulses::threshold(r, f), f, found);
+  const double thr = pulses::threshold(r, f);
+  add_stalls(P, sel.terms, thr, f, found);
+  add_throws(P, sel.terms, thr, f, found);
   return found;
 }
 
