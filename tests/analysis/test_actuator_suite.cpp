@@ -395,6 +395,18 @@ TEST(MixedRecordings, APulseThatStopsASlidingNutIsAnEvent) {
   expect_named_exactly(paper(), {"paper", "external_disturbance", 1.0, 1000.0, 0.1, "mixed"});
 }
 
+// An 8 N pulse on a nut standing between moves or under a hand throws it to its next stand in a
+// few milliseconds (the paper's: 14 counts at 28.6 s, seed 4; the other's, 4 N friction, at
+// 500 Hz): no sliding sample carries it, and the pulse holds the stand it reaches. From stand to
+// stand the recorded forces did none of the friction's work over the travel, where every other
+// jump shows it (add_throws); both were missed (nothing named).
+TEST(MixedRecordings, APulseThatThrowsAStandingNutIsAnEvent) {
+  expect_named_exactly(paper(),
+                       {"paper", "external_disturbance", 1.0, 1000.0, 0.1, "mixed-moves", 4});
+  expect_named_exactly(other(),
+                       {"other", "external_disturbance", 1.0, 500.0, 0.1, "mixed-moves", 4});
+}
+
 // Stick-slip stops a sliding nut too, but friction holds no more there than the break-away the
 // starts from rest show: no pulse (taking the largest drive of each stand instead of what it held
 // for most of it claimed one here).

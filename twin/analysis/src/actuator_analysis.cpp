@@ -462,10 +462,10 @@ std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, con
   return e;
 }
 
-// Stuck episodes (raw nut count unchanged) and the net force on the nut as each one ends.
-std::vector<StuckEpisode> stuck_episodes(const Signals& s, const Prepared& P, const Baseline& base,
-                                         const StateAt& state_at) {
-  std::vector<StuckEpisode> out;
+// The stands: samples [i, j] whose raw count stays within half a count of sample i's for at least
+// rules::kMinHold_s (and rules::kMinHoldSamples samples); shorter is encoder chatter.
+std::vector<std::pair<std::size_t, std::size_t>> stands(const Signals& s, const Prepared& P) {
+  std::vector<std::pair<std::size_t, std::size_t>> out;
   const std::size_t n = s.t.size();
   const double hold_s = std::max(rules::kMinHold_s, rules::kMinHoldSamples / P.fs_hz);
   std::size_t i = 0;
@@ -474,9 +474,66 @@ std::vector<StuckEpisode> stuck_episodes(const Signals& s, const Prepared& P, co
     while (j + 1 < n &&
            std::abs(s.pos_raw[j + 1] - s.pos_raw[i]) < rules::kHeldCountCounts * P.count_m)
       ++j;
-    if (s.t[j] - s.t[i] >= hold_s && j + 1 < n)
-      if (auto e = released_at(s, P, base, state_at, i, j)) out.push_back(*e);
+    if (s.t[j] - s.t[i] >= hold_s) out.emplace_back(i, j);
     i = j + 1;
+  }
+  return out;
+}
+
+// Stuck episodes (raw nut count unchanged) and the net force on the nut as each one ends.
+std::vector<StuckEpisode> stuck_episodes(const Signals& s, const Prepared& P, const Baseline& base,
+                                         const StateAt& state_at) {
+  std::vector<StuckEpisode> out;
+  for (const auto& [i, j] : stands(s, P))
+    if (j + 1 < s.t.size())
+      if (auto e = released_at(s, P, base, state_at, i, j)) out.push_back(*e);
+  return out;
+}
+
+// The jump from the stand that ends at sample a to the one that starts at sample b: the work the
+// recorded forces did over it from the raw samples (trapezoids: the coupling is smooth between
+// two samples), unless it is no move (less than rules::kReleaseMoveCounts of travel) or the phase
+// left its branch (a step-out: the calibration holds on the stable branch only).
+std::optional<Jump> jump_between(const Signals& s, const Prepared& P, const Baseline& base,
+                                 const StateAt& state_at, std::size_t a, std::size_t b) {
+  for (const auto& sl : P.slips)
+    if (s.t[b] > sl.start_s - rules::kStepOutBefore_s && s.t[a] < sl.t_s + rules::kStepOutAfter_s)
+      return std::nullopt;
+  Jump jp;
+  jp.t_s = s.t[a] - P.t0_s;
+  jp.duration_s = s.t[b] - s.t[a];
+  jp.from = held_state(s, state_at, a);
+  double prev_n = net_drive_n(base, jp.from);
+  for (std::size_t k = a; k < b; ++k) {
+    const State x = held_state(s, state_at, k + 1);
+    const double next_n = net_drive_n(base, x), dp = s.pos_raw[k + 1] - s.pos_raw[k];
+    jp.work_j += 0.5 * (prev_n + next_n) * dp;
+    jp.path_m += std::abs(dp);
+    if (jp.dir == 0 && std::abs(s.pos_raw[k + 1] - s.pos_raw[a]) >= 0.5 * P.count_m)
+      jp.dir = s.pos_raw[k + 1] > s.pos_raw[a] ? 1.0 : -1.0;
+    prev_n = next_n;
+    if (k + 1 == b) jp.to = x;
+  }
+  if (jp.path_m < rules::kReleaseMoveCounts * P.count_m) return std::nullopt;
+  return jp;
+}
+
+// The jumps between consecutive stands no longer than a pulse (`max_s`), each marked whether it
+// left a sliding sample (`sliding`, per recording sample) where the residual sees what moved it.
+std::vector<Jump> jumps(const Signals& s, const Prepared& P, const Baseline& base,
+                        const StateAt& state_at, const std::vector<unsigned char>& sliding,
+                        double max_s) {
+  std::vector<Jump> out;
+  const auto st = stands(s, P);
+  for (std::size_t q = 0; q + 1 < st.size(); ++q) {
+    const std::size_t a = st[q].second, b = st[q + 1].first;
+    if (s.t[b] - s.t[a] > max_s) continue;
+    auto jp = jump_between(s, P, base, state_at, a, b);
+    if (!jp) continue;
+    jp->slides = std::any_of(sliding.begin() + static_cast<std::ptrdiff_t>(a),
+                             sliding.begin() + static_cast<std::ptrdiff_t>(b) + 1,
+                             [](unsigned char k) { return k != 0; });
+    out.push_back(*jp);
   }
   return out;
 }
@@ -519,7 +576,8 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
       1, static_cast<int>(std::floor(P.fs_hz / (rules::kSamplesPerFilterPeriod * P.filter_hz))));
   const auto step = static_cast<std::size_t>(P.decimation);
   // Per decimated sample (k at sample k * step), as the loop below reads them.
-  const auto ok = every_nth(sliding_mask(s, P), step);
+  const auto sliding = sliding_mask(s, P);  // kept whole for the jumps (one byte a sample)
+  const auto ok = every_nth(sliding, step);
   const Coupling cp{cal};
   set_floors(P, cp, cal, act, opt);
   const auto rings = every_nth(ringing(s, P, ring_rad_s(P, base)), step);
@@ -548,6 +606,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.duration_s = t.back() - t.front();
   P.stuck = stuck_episodes(s, P, base, state_at);
   P.stops = hidden_stops(s, P);
+  P.jumps = jumps(s, P, base, state_at, sliding, opt.pulse_max_s);
   return P;
 }
 
@@ -1144,11 +1203,61 @@ void add_stalls(const Prepared& P, const std::vector<selection::Found>& terms, d
   std::sort(found.begin(), found.end(),
             [](const Pulse& a, const Pulse& b) { return a.t_s < b.t_s; });
 }
+
+// The work the final model's terms (beyond the baseline's, which the jump's work holds) did over
+// a jump, from its two stands (a trapezoid: the laws are smooth over a jump's few counts).
+double terms_work_j(const std::vector<selection::Found>& terms, const Jump& jp) {
+  double from_n = 0, to_n = 0;
+  for (const auto& c : terms)
+    from_n += c.effect->force_n(c.params, jp.from), to_n += c.effect->force_n(c.params, jp.to);
+  return 0.5 * (from_n + to_n) * (jp.to.p_m - jp.from.p_m);
+}
+
+// Pulses that throw a standing nut to its next stand quicker than the filter resolves: no sliding
+// sample shows them. Friction only takes work out: from stand to stand the recorded forces do at
+// least the kinetic friction times the travel (the rest goes into viscous friction and the load's
+// damping), so the jumps' work per metre, per direction, is that friction level. A jump short of
+// its direction's level (at least rules::kMinReleases jumps) by more than the pulse threshold and
+// the pulse sigmas of the jumps' own robust spread was pushed along by a force no input explains:
+// at least that shortfall, over the jump (the stand it reaches may hold the rest of the pulse).
+void add_throws(const Prepared& P, const std::vector<selection::Found>& terms, double thr,
+                const pulses::Floors& f, std::vector<Pulse>& found) {
+  std::vector<Pulse> throws;
+  const double reach_s = rules::kPulseFlankFilterPeriods / f.filter_hz;
+  for (const double dir : {1.0, -1.0}) {
+    std::vector<double> per_m;  // each jump's work per metre of travel [N]
+    std::vector<const Jump*> side;
+    for (const auto& jp : P.jumps) {
+      if (jp.dir != dir) continue;
+      per_m.push_back((jp.work_j + terms_work_j(terms, jp)) / jp.path_m);
+      side.push_back(&jp);
+    }
+    if (per_m.size() < rules::kMinReleases) continue;  // no level to fall short of
+    const double level_n = stats::median_of(per_m);
+    const double limit_n = std::max(thr, f.sigmas * stats::robust_sigma(per_m));
+    for (std::size_t q = 0; q < side.size(); ++q) {
+      const Jump& jp = *side[q];
+      // One pulse is one event: a jump within a found pulse's flanks is that pulse's.
+      const auto near = [&](const Pulse& p) {
+        return p.t_s - reach_s < jp.t_s + jp.duration_s && jp.t_s < p.t_s + p.duration_s + reach_s;
+      };
+      const bool seen = std::any_of(found.begin(), found.end(), near) ||
+                        std::any_of(throws.begin(), throws.end(), near);
+      if (level_n - per_m[q] > limit_n && !seen && !jp.slides)
+        throws.push_back({jp.t_s, jp.duration_s, dir * (level_n - per_m[q])});
+    }
+  }
+  // Isolated, as the residual's pulses: many such jumps are a friction the model lacks.
+  if (static_cast<double>(found.size() + throws.size()) > f.span_s / f.min_spacing_s) return;
+  found.insert(found.end(), throws.begin(), throws.end());
+  std::sort(found.begin(), found.end(),
+            [](const Pulse& a, const Pulse& b) { return a.t_s < b.t_s; });
+}
 }  // namespace
 
 // Force pulses no input explains in the corrected residual on the sliding samples (the one
 // pulse finder), above one encoder count's worth of force and not a library law's force where
-// the nut was (pulses::unexplained).
+// the nut was (pulses::unexplained); pulses that stall a sliding nut or throw a standing one.
 std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt) {
   pulses::Floors f;
   f.min_n = P.count_force_n;
@@ -1165,7 +1274,9 @@ std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Op
   auto found =
       pulses::unexplained(t, r, P.states, Form::nut, candidate_columns(Form::nut, opt.exclude),
                           sel.current, f, pulses::find(t, r, f));
-  add_stalls(P, sel.terms, pulses::threshold(r, f), f, found);
+  const double thr = pulses::threshold(r, f);
+  add_stalls(P, sel.terms, thr, f, found);
+  add_throws(P, sel.terms, thr, f, found);
   return found;
 }
 

@@ -74,6 +74,17 @@ struct StuckEpisode {
   effects::State held;
 };
 
+/// A jump: the nut left one stand and reached the next (within a pulse's longest), and the work
+/// the recorded forces did on it over its travel.
+struct Jump {
+  double t_s = 0, duration_s = 0;  // when it left its stand (since t0) and how long it moved
+  double dir = 0;                  // its first move's direction
+  double work_j = 0;  // Σ net drive (coupling, load, the baseline's terms) × Δp over raw samples
+  double path_m = 0;  // Σ |Δp|: the travel, back and forth
+  effects::State from, to;  // the stands it left and reached (held states)
+  bool slides = false;      // it left a sliding sample: the residual sees what moved the nut
+};
+
 /// Per recording sample, its locked-count run (−1: none), and per run its period in samples.
 struct LockedRuns {
   std::vector<int> run, period;
@@ -116,6 +127,7 @@ struct Prepared : SampleColumns {
   std::vector<int> locked_period;  // per run, the samples its count pattern repeats after
   std::vector<SlipEvent> slips;
   std::vector<StuckEpisode> stuck;
+  std::vector<Jump> jumps;
   struct Window {
     double from_s, to_s;  // since t0_s
   };

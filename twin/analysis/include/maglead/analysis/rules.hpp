@@ -149,7 +149,7 @@ inline constexpr std::array kTable = {
          "the driving force's rise before a release is fitted over this long",
          "GeneratedSuite.StribeckFrictionUnderForceSteps", "break-away"},
     Rule{"min_releases", 3.0, "releases",
-         "a side's break-away is judged on at least this many releases",
+         "a side's break-away is judged on at least this many releases (and the friction level a thrown nut falls short of on as many jumps)",
          "GeneratedSuite.WeakStribeckFrictionInMovesWithStops", "break-away"},
     Rule{"breakaway_sigmas", 3.0, "standard errors",
          "break-away above the sliding level by the first-count lag and this many standard errors in both directions is Stribeck friction",
