@@ -325,6 +325,19 @@ TEST(Recording, CrLfLineEndings) {
   EXPECT_NE(e.find("crlf_bad.csv:3: column 2 (x_m): '2x' is not a number"), std::string::npos) << e;
 }
 
+// Excel's "CSV UTF-8" starts the file with a byte-order mark: read as if it were not there, and
+// on a header line as much as on a metadata line.
+TEST(Recording, AUtf8ByteOrderMarkIsSkipped) {
+  for (const std::string first : {"# format: mls-recording/1\n", ""}) {
+    const auto p =
+        write_file("bom.csv", "\xEF\xBB\xBF" + first + "t_s,x_m\r\n0,1.5\r\n0.001,2.5\r\n");
+    const Recording r = read_recording(p, {"t_s", "x_m"});
+    EXPECT_EQ(r.names, (std::vector<std::string>{"t_s", "x_m"})) << first;
+    ASSERT_EQ(r.rows(), 2u);
+    EXPECT_EQ(r.column("x_m")[1], 2.5);
+  }
+}
+
 TEST(Recording, TrailingLineWithoutNewline) {
   Recording r = read_recording(write_file("nonl.csv", "t_s,a_m\n0,1\n1,2"));
   ASSERT_EQ(r.rows(), 2u);

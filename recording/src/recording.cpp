@@ -346,6 +346,8 @@ namespace {
 /// One line before the rows: metadata (`# key: value`) is kept, blank lines skipped. True when it
 /// was the header row, whose names are then in rec.names.
 bool take_head_line(Recording& rec, std::string_view line, std::size_t line_no) {
+  // A UTF-8 byte-order mark (Excel's "CSV UTF-8" writes one) is no part of the text.
+  if (line_no == 1 && line.starts_with("\xEF\xBB\xBF")) line.remove_prefix(3);
   require_text(line, rec.path, line_no);
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
   if (line.empty()) return false;

@@ -145,7 +145,8 @@ TEST(RequireAnalysable, RefusesShortRecordsMissingColumnsAndNonNumbers) {
   EXPECT_EQ(message_of([&] {
               require_analysable(rec, {"t_s", "x"});
             }),
-            "r.csv: column 'x' has no number at data row 6");
+            "r.csv: column 'x' is empty in data row 6 (t_s = 0.005 s): the analysis needs a value "
+            "in every row of it; fill the gap or drop the row");
 }
 
 // The header names the logger's clock; the time stamps only carry its rounding (EMPS: header

@@ -144,6 +144,15 @@ def version_and_usage():
         check(p.returncode == 2 and "no configuration directory found (looked in" in p.stderr
               and "--config DIR" in p.stderr and "MAGLEAD_CONFIG" in p.stderr,
               f"no configuration found says where it looked and what to type: {p.stderr.strip()!r}")
+    # Writing over an earlier recording or result is said beside "wrote", never silent.
+    again = os.path.join(WORK, "again.csv")
+    outs = [run("simulate", "--scenario", "hand-push", "--duration", "1s", "-o", again)[1] for _ in range(2)]
+    check("replacing" not in outs[0] and "wrote " + again + " (replacing the one there):" in outs[1],
+          f"simulate over an earlier recording says so: {outs!r}")
+    outs = [run("analyze", "--recording", again, "-o", os.path.join(WORK, "again_out"), "--no-twin-check")[1]
+            for _ in range(2)]
+    check("replacing" not in outs[0] and "(replacing the results there)" in outs[1],
+          f"analyze over an earlier result says so: {[o.splitlines()[-1:] for o in outs]!r}")
     # serve's own lines on an 80-column terminal: wrapped under their text, the same words.
     rc, text = run_in_pty("serve", "--port", "0", "--duration", "1s", columns=80)
     lines = [l for l in text.replace("\r", "").split("\n") if l]

@@ -59,6 +59,11 @@ std::string default_config_dir() {
   return candidates.back();
 }
 
+std::string replacing_note(const std::string& path, const std::string& what) {
+  std::error_code ec;
+  return std::filesystem::exists(path, ec) ? " (replacing " + what + ")" : "";
+}
+
 std::string missing_config_hint(const std::string& error) {
   const std::string dir = default_config_dir();
   std::error_code ec;

@@ -24,6 +24,9 @@ std::string default_config_dir();
 /// The candidates default_config_dir() tries after $MAGLEAD_CONFIG, in order (for messages).
 std::vector<std::string> config_dir_candidates();
 /// `--config DIR` on a command, its help stating the lookup rule (not a machine's path).
+/// " (replacing WHAT)" when `path` exists, else "": said beside "wrote PATH", so an
+/// earlier recording or result overwritten is never a surprise. Ask before writing.
+std::string replacing_note(const std::string& path, const std::string& what = "the one there");
 /// For an error naming a missing file of the default configuration directory when no candidate
 /// had one: where maglead looked and what to type; "" otherwise.
 std::string missing_config_hint(const std::string& error);

@@ -19,6 +19,7 @@ struct AnalyzeOptions {
   std::string recording, model, out, calibration, config = default_config_dir();
   analysis::AnalysisOptions a;
   bool no_twin_check = false;
+  std::string replacing;  // replacing_note of an earlier result in --out
 };
 
 /// The baseline model's path: --model, else CONFIG/model.toml when there is one, else empty
@@ -125,7 +126,7 @@ void print_result(const AnalyzeOptions& o, const std::string& model_path,
     held_out += "  " + v.model + rms + u;
   }
   say(held_out, 11);
-  say("wrote " + o.out + "/index.html, analysis.json, model_corrected.toml", 6);
+  say("wrote " + o.out + "/index.html, analysis.json, model_corrected.toml" + o.replacing, 6);
 }
 
 void run_analyze(AnalyzeOptions o) {
@@ -148,6 +149,8 @@ void run_analyze(AnalyzeOptions o) {
   o.a.progress = [&](const std::string& stage, double f) { progress(stage, f); };
   const auto result = analysis::analyze_recording(rec, model, cal, act, o.a);
   progress.done();
+  o.replacing = replacing_note((std::filesystem::path(o.out) / "analysis.json").string(),
+                               "the results there");
   report::write_analysis_outputs(result, o.out);
   print_result(o, model_path, result);
 }

@@ -167,8 +167,8 @@ Tally record_rows(const RecordOptions& o, op::Client& client, double loop_hz, bo
   return t;
 }
 
-void print_summary(const RecordOptions& o, const op::Client& client, double loop_hz,
-                   const Tally& t) {
+void print_summary(const RecordOptions& o, const op::Client& client, double loop_hz, const Tally& t,
+                   const std::string& replacing) {
   const double span_s = static_cast<double>(t.cycles) / loop_hz;
   std::printf(
       "recorded %zu samples over %.2f s of controller time from %s at %g Hz requested (%.1f Hz "
@@ -180,7 +180,7 @@ void print_summary(const RecordOptions& o, const op::Client& client, double loop
       "dropped polls: %zu of %zu (%zu without reply, %zu missed while behind); repeated cycles "
       "skipped: %zu\n",
       t.timeouts + t.late, static_cast<std::size_t>(t.attempts), t.timeouts, t.late, t.repeated);
-  std::printf("wrote %s\n", o.out.c_str());
+  std::printf("wrote %s%s\n", o.out.c_str(), replacing.c_str());
 }
 
 void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
@@ -195,6 +195,7 @@ void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   const bool load_cell =
       o.load_cell == "yes" || (o.load_cell == "auto" && probe.at("load_cell_force_mn") != 0.0);
   const auto names = column_names(load_cell);
+  const std::string replacing = replacing_note(o.out);
   RecordingWriter out(o.out, header(o, client, loop_hz), names);
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
@@ -202,7 +203,7 @@ void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   out.close();
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
-  print_summary(o, client, loop_hz, t);
+  print_summary(o, client, loop_hz, t, replacing);
   if (!t.lost.empty())
     throw ClientError(
         ClientError::Kind::connection,

@@ -71,10 +71,11 @@ void add_simulate(CLI::App& app) {
     }
     Progress progress("simulate " + o->scenario);
     opt.progress = [&](double f) { progress(f); };
+    const std::string replacing = replacing_note(o->out);
     const auto summary = run_scenario(opt, o->out);
     progress.done();
-    std::printf("wrote %s: %zu samples, %.1f s of %s%s\n", o->out.c_str(), summary.samples,
-                opt.duration_s, o->scenario.c_str(),
+    std::printf("wrote %s%s: %zu samples, %.1f s of %s%s\n", o->out.c_str(), replacing.c_str(),
+                summary.samples, opt.duration_s, o->scenario.c_str(),
                 summary.slips ? (", the nut stepped out " +
                                  std::to_string(std::abs(summary.slips)) + " lead(s)")
                                     .c_str()

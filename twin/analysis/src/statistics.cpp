@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <numeric>
 #include <stdexcept>
@@ -58,10 +59,20 @@ double t_statistic(const std::vector<double>& x) {
 double total(const std::vector<double>& x) { return std::accumulate(x.begin(), x.end(), 0.0); }
 
 void require_finite(const Recording& rec, const std::vector<double>& x, const std::string& name) {
-  for (std::size_t i = 0; i < x.size(); ++i)
-    if (!std::isfinite(x[i]))
-      throw RecordingError(rec.path + ": column '" + name + "' has no number at data row " +
-                           std::to_string(i + 1));
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (std::isfinite(x[i])) continue;
+    // The reader keeps no line numbers: the row's time finds it in any viewer.
+    std::string at = "data row " + std::to_string(i + 1);
+    if (name != "t_s" && rec.has("t_s") && i < rec.column("t_s").size() &&
+        std::isfinite(rec.column("t_s")[i])) {
+      char t[48];
+      std::snprintf(t, sizeof t, " (t_s = %.6g s)", rec.column("t_s")[i]);
+      at += t;
+    }
+    throw RecordingError(rec.path + ": column '" + name + "' is empty in " + at +
+                         ": the analysis needs a value in every row of it; fill the gap or drop "
+                         "the row");
+  }
 }
 
 void require_analysable(const Recording& rec, const std::vector<std::string>& columns) {
