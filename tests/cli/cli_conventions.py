@@ -144,6 +144,30 @@ def version_and_usage():
         check(p.returncode == 2 and "no configuration directory found (looked in" in p.stderr
               and "--config DIR" in p.stderr and "MAGLEAD_CONFIG" in p.stderr,
               f"no configuration found says where it looked and what to type: {p.stderr.strip()!r}")
+    # Angles logged in degrees: refused with the likely unit, not read as 57x the screw's turns.
+    moves = os.path.join(WORK, "moves20.csv")
+    run("simulate", "--scenario", "mixed-moves", "--duration", "20s", "-o", moves)
+    with open(moves) as f:
+        lines = f.read().splitlines()
+    names = next(l for l in lines if not l.startswith("#")).split(",")
+    angle = [i for i, n in enumerate(names) if n.endswith("_angle_rad")]
+    deg = os.path.join(WORK, "degrees.csv")
+    with open(deg, "w") as f:
+        for l in lines:
+            if l.startswith("#") or l.startswith("t_s"):
+                f.write(l + "\n")
+                continue
+            v = l.split(",")
+            for i in angle:
+                v[i] = repr(float(v[i]) * 57.29577951308232)
+            f.write(",".join(v) + "\n")
+    for cmd in ("estimate", "analyze", "twin-check"):
+        out = [] if cmd == "twin-check" else ["--out", os.path.join(WORK, "deg_" + cmd)]
+        rc, _, err = run(cmd, "--recording", deg, *out)
+        check(rc == 2 and "cannot be in radians" in err and "likely unit: degrees" in err,
+              f"{cmd} refuses angles in degrees: {err.strip()[-200:]!r}")
+    rc, _, err = run("twin-check", "--recording", moves)
+    check(rc == 0, f"the same recording in radians is read: {err.strip()[-200:]!r}")
     # Writing over an earlier recording or result is said beside "wrote", never silent.
     again = os.path.join(WORK, "again.csv")
     outs = [run("simulate", "--scenario", "hand-push", "--duration", "1s", "-o", again)[1] for _ in range(2)]

@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
+#include <numbers>
 #include <optional>
 #include <string_view>
 #include <vector>
@@ -263,6 +265,63 @@ Recording read_with_columns(const std::string& path, const std::vector<std::stri
   }
 }
 
+// The coupling keeps the phase θ − 2πp/lead within a lead, so over a travel of kJudgedLeads leads
+// the screw turns 2π per lead within 1/kJudgedLeads. Slips break that both ways (a held screw
+// while the nut is pushed through leads, a screw spinning past a slow nut), so only the ratios
+// a unit makes are judged: degrees 57.3x, milliradians 1000x, microradians 10^6 x, each within
+// kUnitTolerance (a median of slips landing there is not a real recording).
+constexpr double kJudgedLeads = 2.0;
+constexpr double kUnitTolerance = 0.2;
+constexpr std::size_t kStretches = 2000;  // starts tried: a median over many stretches
+constexpr std::size_t kMinStretches = 5;
+
+/// The median ratio of the screw's turning to 2π per lead of travel over stretches of at least
+/// kJudgedLeads leads of travel; NaN when the nut never travels that far.
+double turns_per_lead(const std::vector<double>& angle_rad, const std::vector<double>& pos_m,
+                      double lead_m, double angle_per_screw) {
+  const std::size_t n = std::min(angle_rad.size(), pos_m.size());
+  const double span = kJudgedLeads * lead_m;
+  std::vector<double> ratios;
+  const std::size_t stride = std::max<std::size_t>(1, n / kStretches);
+  for (std::size_t i = 0; i < n; i += stride) {
+    if (!std::isfinite(pos_m[i]) || !std::isfinite(angle_rad[i])) continue;
+    std::size_t j = i + 1;
+    while (j < n && !(std::abs(pos_m[j] - pos_m[i]) >= span && std::isfinite(angle_rad[j]))) ++j;
+    if (j >= n) break;  // no later sample travels that far from here
+    const double screw_rad = (angle_rad[j] - angle_rad[i]) / angle_per_screw;
+    ratios.push_back(screw_rad / (2.0 * std::numbers::pi * (pos_m[j] - pos_m[i]) / lead_m));
+  }
+  if (ratios.size() < kMinStretches) return std::numeric_limits<double>::quiet_NaN();
+  auto mid = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2);
+  std::nth_element(ratios.begin(), mid, ratios.end());
+  return *mid;
+}
+
+/// Refuses angle columns that turn a unit's factor more than radians of this screw would.
+void check_turns_per_lead(const Recording& rec, const ActuatorParams& act) {
+  double lead_m = act.lead_m, gear = act.gear_ratio;
+  if (auto l = rec.meta("lead_m")) lead_m = std::strtod(l->c_str(), nullptr);
+  if (auto g = rec.meta("gear_ratio")) gear = std::strtod(g->c_str(), nullptr);
+  if (!(lead_m > 0) || !(gear > 0)) return;
+  constexpr std::pair<double, const char*> kUnits[] = {
+      {180.0 / std::numbers::pi, "degrees"}, {1e3, "milliradians"}, {1e6, "microradians"}};
+  for (const auto& [name, per_screw] :
+       {std::pair{"screw_angle_rad", 1.0}, std::pair{"motor_angle_rad", gear}}) {
+    if (!rec.has(name)) continue;
+    const double r = turns_per_lead(rec.column(name), rec.column("nut_pos_m"), lead_m, per_screw);
+    for (const auto& [factor, unit] : kUnits) {
+      if (!(std::abs(r / factor - 1.0) < kUnitTolerance)) continue;
+      char text[320];
+      std::snprintf(text, sizeof text,
+                    "%s: column %s cannot be in radians: over the nut's travel it turns %.3g "
+                    "times 2 pi per lead of this screw (lead %g m, gear ratio %g; the coupling "
+                    "keeps it at 1); likely unit: %s",
+                    rec.path.c_str(), name, r, lead_m, gear, unit);
+      throw RecordingError(text);
+    }
+  }
+}
+
 }  // namespace
 
 Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
@@ -282,6 +341,7 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
                 std::filesystem::exists(file) ? file.c_str() : "the built-in defaults");
   r.position_bound_source = text;
   check_plausible_units(rec, r);
+  check_turns_per_lead(rec, act);
   return rec;
 }
 
