@@ -279,7 +279,9 @@ std::string anomaly_headline(const Anomaly& a, const AnalysisOutcome& o) {
   // 3 N: beyond the static estimator's expected mean error against a load cell (2.25 N on
   // hand-push, docs/simulation.md): more than its friction band explains.
   if (!a.static_error)
-    not_judged.emplace_back("force estimate (no load_force_n column)");
+    not_judged.emplace_back(a.has_load_cell ? "force estimate (no settled sample where both the "
+                                              "estimate and load_force_n are numbers)"
+                                            : "force estimate (no load_force_n column)");
   else if (a.static_error->mean_abs_n > 3.0)
     findings.push_back("static force estimate off by " + number(a.static_error->mean_abs_n) +
                        " N on average");

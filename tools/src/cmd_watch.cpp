@@ -252,8 +252,10 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
        cell("velocity", "vel", printf_str("%.3f mm/s", at("nut_vel_um_s") * 1e3)));
   // The load observer's output force and the interval it is sure of (no load cell needed).
   pair(cell("estimate", "est",
-            printf_str("%.2f N in [%.1f, %.1f]", at("load_force_est_mn"), at("load_force_lo_mn"),
-                       at("load_force_hi_mn"))),
+            // The bound rounded outward: the estimate never shows outside its own interval.
+            printf_str("%.2f N in [%.1f, %.1f]", at("load_force_est_mn"),
+                       std::floor(at("load_force_lo_mn") * 10.0) / 10.0,
+                       std::ceil(at("load_force_hi_mn") * 10.0) / 10.0)),
        cell("load cell", "cell", printf_str("%.2f N", at("load_cell_force_mn"))));
   pair(cell("setpoint", "set",
             force_mode ? printf_str("%.2f N", at("active_force_setpoint_mn")) : std::string("-")),
