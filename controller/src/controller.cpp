@@ -697,7 +697,10 @@ void Controller::publish(bool settled, const Reached& r) noexcept {
        settled && r.force, stepped_out_, tw.drift_warning, watchdog_expired_, tw.healthy,
        tw.step_out_warning, stopping_,
        s_.nut_pos_m <= a.stroke_min_m || s_.nut_pos_m >= a.stroke_max_m, tw.lagging,
-       window_end_ != 0 || force_loop_.state() == ForceLoopState::speed_limited});
+       window_end_ != 0 || force_loop_.state() == ForceLoopState::speed_limited ||
+           (force_loop_.drive_limited() &&
+            s_.force_reached_reason ==
+                static_cast<std::uint16_t>(ForceReachedReason::drive_limit))});
   s_.drive_state = static_cast<std::uint16_t>(state_);
   s_.active_mode = static_cast<std::uint16_t>(mode_);
   s_.command_status = command_bits_;

@@ -33,6 +33,7 @@ ForceReachedReason ForceLoop::reason(const LoadEstimate& est) const noexcept {
   if (state_ == ForceLoopState::speed_limited) return ForceReachedReason::speed_limit;
   if (est.motion != 0) return ForceReachedReason::moving;
   if (bound_inside_tolerance(est)) return ForceReachedReason::reached;
+  if (drive_limited_) return ForceReachedReason::drive_limit;
   if (est.basis == ObserverBasis::band) return ForceReachedReason::bound_unknown;
   if (est.width_n() > 2.0 * cfg_.tolerance_n) return ForceReachedReason::bound_too_wide;
   return ForceReachedReason::load_force_off;
@@ -101,6 +102,7 @@ double ForceLoop::speed_limited_n(double drive_n, const LoadEstimate& est) noexc
 }
 
 double ForceLoop::drive_n(const LoadEstimate& est, double dt_s) noexcept {
+  drive_limited_ = false;
   if (state_ == ForceLoopState::off) return hold_drive_n_;
   double drive;
   if (est.motion != 0) {
@@ -127,6 +129,7 @@ double ForceLoop::drive_n(const LoadEstimate& est, double dt_s) noexcept {
       drive = breakaway_drive_n(est, dt_s);
     }
   }
+  drive_limited_ = drive > cfg_.drive_max_n || drive < cfg_.drive_min_n;
   return std::clamp(drive, cfg_.drive_min_n, cfg_.drive_max_n);
 }
 

@@ -112,11 +112,12 @@ constexpr std::array kTable = std::to_array<Register>({
      "Load observer: lowest output force consistent with what it has seen (the bound)"},
     {"load_force_hi_mn", IR, 64, Type::i32, 1e-3, "N", RO, -1e6, 1e6,
      "Load observer: highest output force consistent with what it has seen"},
-    {"force_reached_reason", IR, 66, Type::u16, 1, "", RO, 0, 8,
+    {"force_reached_reason", IR, 66, Type::u16, 1, "", RO, 0, 9,
      "Why force_reached is clear: 0 reached, 1 not in force mode, 2 load force outside the "
      "tolerance, 3 load force unknown (nothing slid since start-up, or the load changed while "
      "the nut stuck), 4 bound wider than the tolerance, 5 nut sliding, 6 dwell running, 7 the "
-     "stroke window ended before the force, 8 sliding at the force speed limit"},
+     "stroke window ended before the force, 8 sliding at the force speed limit, 9 coupling at its "
+     "safe limit short of the force"},
     {"observer_basis", IR, 67, Type::u16, 1, "", RO, 0, 2,
      "Load observer: what pins the estimate down: 0 only the stick band (load force anywhere in "
      "drive +- break-away), 1 sliding (force balance), 2 stuck after a slide"},
@@ -240,8 +241,9 @@ constexpr std::array kTable = std::to_array<Register>({
      "(5 cycles); the loop never waits for it"},
     {"force_limited", DI, kForceLimited, Type::bit, 1, "", RO, 0, 1,
      "Force mode at its envelope: the nut held at the end of its stroke window before the force "
-     "was reached (force_reached_reason 7), or sliding at the force speed limit (reason 8); no "
-     "fault: the next setpoint is taken at once"},
+     "was reached (force_reached_reason 7), sliding at the force speed limit (reason 8), or "
+     "stuck with the coupling at its safe limit short of the force (reason 9); no fault: the "
+     "next setpoint is taken at once"},
 });
 
 constexpr std::array kAlarms = std::to_array<Code>({
@@ -341,6 +343,9 @@ constexpr std::array kReachedReasons = std::to_array<Code>({
     {6, "settling", "inside the tolerance, the dwell is running"},
     {7, "stroke_end", "the stroke window ended before the force: the nut is held there"},
     {8, "speed_limit", "the nut slides towards the setpoint at the force mode's speed limit"},
+    {9, "drive_limit",
+     "the coupling is at its safe limit (safe_force_fraction of the peak) and the nut stuck short "
+     "of the setpoint: friction takes up to F_c of the drive, so less reaches the load"},
 });
 constexpr std::array kObserverBases = std::to_array<Code>({
     {0, "stick_band", "only the stick band: load force anywhere in drive +- break-away"},

@@ -124,6 +124,7 @@ class Rig {
   double load_out_n() const { return -plant_.truth().load_force_n; }
   double nut_vel_m_s() const { return plant_.truth().nut_vel_m_s; }
   Snapshot snap() const { return ctl_->snapshot(); }
+  double safe_limit_n(double sign) const { return ctl_->safe_force_limit_n(sign); }
   void post() {
     ASSERT_TRUE(ctl_->post(Command{image_, false}));
     run(0.002);

@@ -246,3 +246,39 @@ TEST(ForceEnvelope, ASetpointAtAStaleEstimateIsReachedAfterADisable) {
   EXPECT_EQ(after.force_reached_reason, static_cast<std::uint16_t>(ForceReachedReason::reached));
   EXPECT_NEAR(rig.load_out_n(), 0.0, 1.0);
 }
+
+// The coupling's safe limit before the force: `set` allows any force within the safe limit, but
+// pushing a spring, friction takes up to F_c of the drive, so the load gets less. The loop holds
+// at the limit and says so (force_limited, force_reached_reason drive_limit), no fault; the next
+// setpoint is taken at once.
+namespace {
+void push_beyond_friction(double sign) {
+  Rig rig({"2000 N/m", 2000}, PlantEffects{}, ServedModel{});
+  const double limit_n = rig.safe_limit_n(sign);
+  ASSERT_GT(limit_n * sign, 20.0);
+  rig.force(limit_n - sign * 2.0);
+  rig.run(4.0);
+  const Snapshot held = rig.snap();
+  std::printf("set %.2f N (limit %.2f N): load %.2f N, state %u, reason %u, alarm %u\n",
+              limit_n - sign * 2.0, limit_n, rig.load_out_n(), held.force_loop_state,
+              held.force_reached_reason, held.alarm_code);
+  EXPECT_LT(rig.load_out_n() * sign, limit_n * sign - 2.0 - 1.0);  // it could not get there
+  EXPECT_EQ(held.force_reached_reason, static_cast<std::uint16_t>(ForceReachedReason::drive_limit));
+  EXPECT_TRUE((held.status_word >> reg::kForceLimited) & 1u);
+  EXPECT_FALSE((held.status_word >> reg::kForceReached) & 1u);
+  EXPECT_EQ(held.alarm_code, 0);
+  EXPECT_EQ(held.drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+  rig.force(sign * 10.0);
+  double acc = 0;
+  int n = 0;
+  const double t_end = rig.t_s() + kStep_s;
+  rig.run(kStep_s, [&](const Snapshot& s) {
+    if (s.t_s > t_end - kWindow_s) acc += rig.load_out_n(), ++n;
+  });
+  EXPECT_NEAR(acc / n, sign * 10.0, 1.0);
+  EXPECT_FALSE((rig.snap().status_word >> reg::kForceLimited) & 1u);
+}
+}  // namespace
+
+TEST(ForceEnvelope, TheCouplingsSafeLimitBeforeAPush) { push_beyond_friction(1.0); }
+TEST(ForceEnvelope, TheCouplingsSafeLimitBeforeAPull) { push_beyond_friction(-1.0); }

@@ -557,13 +557,26 @@ Status settle(Client& c, std::uint32_t after, const Image& im, const CommandOpti
   }
 }
 
-/// force_limited with force_reached_reason stroke_end: the window ended before the force (the
-/// reason is checked, not only the bit, so another limit added later does not end a command).
-bool stroke_end_before_force(Client& c) {
-  const auto* r = reg::find("force_reached_reason");
-  const auto v = c.read_range(reg::Table::input_register, r->address, 1);
-  return code_name(reg::codes_of("force_reached_reason"), v.at("force_reached_reason")) ==
-         "stroke_end";
+/// force_limited for good: the stroke window ended before the force (stroke_end), or the
+/// coupling is at its safe limit and the loop gave up raising it (drive_limit while blocked);
+/// then what to say. Another limit (the speed limit) passes and ends no command.
+std::optional<std::string> limited_before_force(Client& c) {
+  const auto* state = reg::find("force_loop_state");
+  const auto* reason = reg::find("force_reached_reason");
+  const auto v = c.read_range(reg::Table::input_register, state->address,
+                              static_cast<std::uint16_t>(reason->address + 1 - state->address));
+  const std::string why =
+      code_name(reg::codes_of("force_reached_reason"), v.at("force_reached_reason"));
+  if (why == "stroke_end")
+    return "the stroke window ended before the force (force_limited, force_reached_reason 7 "
+           "stroke_end): the nut is held at the window's end; ask for less force or a stiffer "
+           "load";
+  if (why == "drive_limit" &&
+      code_name(reg::codes_of("force_loop_state"), v.at("force_loop_state")) == "blocked")
+    return "the coupling reached its safe limit before the force (force_limited, "
+           "force_reached_reason 9 drive_limit): friction takes up to the model's F_c of the "
+           "drive, so the load gets less than the limit 'set force' allows; ask for less force";
+  return std::nullopt;
 }
 
 /// Why a force is not reached yet, from the controller's own registers: "force_loop_state 4
@@ -651,12 +664,8 @@ CommandResult execute(Client& c, reg::Mode mode,
       throw ClientError(Kind::rejected,
                         "execute: the drive was disabled before reaching the target");
     if (o.stop && o.stop()) break;
-    if (mode == reg::Mode::force && ((s.status_word >> reg::kForceLimited) & 1u) &&
-        stroke_end_before_force(c))
-      throw ClientError(Kind::rejected,
-                        "execute: the stroke window ended before the force (force_limited, "
-                        "force_reached_reason 7 stroke_end): the nut is held at the window's end; "
-                        "ask for less force or a stiffer load");
+    if (mode == reg::Mode::force && ((s.status_word >> reg::kForceLimited) & 1u))
+      if (auto why = limited_before_force(c)) throw ClientError(Kind::rejected, "execute: " + *why);
     if (since(t0) > o.done_timeout_s)  // the controller answers: it is its answer, not the line
       throw ClientError(
           Kind::rejected,

@@ -43,6 +43,7 @@ enum class ForceReachedReason : std::uint8_t {
   settling = 6,        // inside the tolerance, the dwell is running
   stroke_end = 7,      // the force window ended before the force (the controller holds there)
   speed_limit = 8,     // the nut slides at the force mode's speed limit towards the setpoint
+  drive_limit = 9,     // the coupling is at its safe limit, the nut stuck short of the setpoint
 };
 
 struct ForceLoopConfig {
@@ -69,6 +70,8 @@ class ForceLoop {
   /// Why force_reached would be clear now (reached when it is not).
   ForceReachedReason reason(const LoadEstimate& est) const noexcept;
   ForceLoopState state() const noexcept { return state_; }
+  /// The drive asked for is beyond the safe range [drive_min_n, drive_max_n] and clamped to it.
+  bool drive_limited() const noexcept { return drive_limited_; }
   double setpoint_n() const noexcept { return setpoint_n_; }
 
  private:
@@ -82,6 +85,7 @@ class ForceLoop {
   int dir_ = 1;
   bool held_by_bound_ = false;
   bool slid_ = false;  // the nut slid since the setpoint came
+  bool drive_limited_ = false;
   int attempts_ = 0;  // break-aways since the setpoint came: after a few, a bound inside will do //
                       // holding because the bound fits the tolerance (else: landed)
 };
