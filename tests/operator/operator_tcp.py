@@ -201,6 +201,9 @@ def scenario(port):
           and "control released" in merr, f"Ctrl-C before done: rc {mover.returncode} {mout.strip()} {merr.strip()}")
     w = read_regs(port, 4, 11, 3)
     check(w[0] == 0 and w[2] == 1, f"after Ctrl-C: no alarm, drive ready (raw {w})")
+    rc, out, err = run(MAGLEAD, "set", *conn, "reference-move", "--hold", "0.1s")
+    check(rc == 0 and "reference move (mode_command 3): done (in position)" in out
+          and "released" in out, f"set reference-move runs the configured move to its end: {out.strip()} {err.strip()}")
     rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
     check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
 

@@ -188,7 +188,7 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
   const std::string& text = value_of(o);
   const auto* r = op::find_by_any_name(o.what);  // the SI names poll prints, or register names
   if (!r) {
-    std::vector<std::string> names{"force", "position", "idle"};
+    std::vector<std::string> names{"force", "position", "idle", "reference-move"};
     for (const auto& x : reg::table())
       if (x.table == reg::Table::holding_register && x.access == reg::Access::read_write)
         names.push_back(op::si_name(x));
@@ -274,6 +274,9 @@ void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions
     p = plan_force(o, f);
   } else if (o.what == "position") {
     p = plan_position(o, f);
+  } else if (o.what == "reference-move" || o.what == "reference_move") {
+    // The configured back-and-forth ([reference_move]): the drift flag's free moves on demand.
+    p = {reg::Mode::reference_move, {}, "reference move (mode_command 3)"};
   } else if (o.what != "idle") {
     write_setting(o, f, conn);
     return;
@@ -300,12 +303,14 @@ void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions
 void add_set(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "set",
-      "Apply a setpoint: 'set force 12.5' [N], 'set position 20mm', 'set idle' (stop and hold), or "
-      "'set NAME VALUE' for a writable holding register (e.g. watchdog_s 0.5s)");
+      "Apply a setpoint: 'set force 12.5' [N], 'set position 20mm', 'set idle' (stop and hold), "
+      "'set reference-move' (the configured back-and-forth the drift flag learns from), or 'set "
+      "NAME VALUE' for a writable holding register (e.g. watchdog_s 0.5s)");
   auto conn = add_connection_options(cmd);
   auto f = std::make_shared<CommandFlags>();
   auto o = std::make_shared<SetOptions>();
-  cmd->add_option("what", o->what, "force, position, idle, or a register name")->required();
+  cmd->add_option("what", o->what, "force, position, idle, reference-move, or a register name")
+      ->required();
   cmd->add_option("value", o->value, "Value with optional unit: 12.5, 12.5N, 20mm, 0.02m");
   cmd->add_option("--speed", o->speed, "Position moves: speed limit (e.g. 5mm/s)");
   cmd->add_option("--accel", o->accel, "Position moves: acceleration limit (e.g. 0.1m/s^2)");
