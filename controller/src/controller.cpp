@@ -340,8 +340,8 @@ void Controller::on_fault_reset() noexcept {
     return;
   }
   command_bits_ |= bit(registers::kResetAck);
-  if (state_ != DriveState::fault) {  // nothing latched: nothing to wait for
-    command_bits_ |= bit(registers::kResetDone);
+  if (state_ != DriveState::fault) {  // nothing latched: done, unless a reset is still confirming
+    if (reset_confirm_cycles_ == 0) command_bits_ |= bit(registers::kResetDone);
     return;
   }
   state_ = DriveState::ready;  // re-enabling needs a fresh enable edge

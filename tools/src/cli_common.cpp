@@ -276,18 +276,22 @@ constexpr std::size_t kStretches = 2000;  // starts tried: a median over many st
 constexpr std::size_t kMinStretches = 5;
 
 /// The median ratio of the screw's turning to 2π per lead of travel over stretches of at least
-/// kJudgedLeads leads of travel; NaN when the nut never travels that far.
+/// kJudgedLeads leads of travel, between kStretches evenly spaced samples (so at most kStretches²
+/// steps, an hour at 1 kHz included); NaN when the nut never travels that far.
 double turns_per_lead(const std::vector<double>& angle_rad, const std::vector<double>& pos_m,
                       double lead_m, double angle_per_screw) {
   const std::size_t n = std::min(angle_rad.size(), pos_m.size());
   const double span = kJudgedLeads * lead_m;
-  std::vector<double> ratios;
   const std::size_t stride = std::max<std::size_t>(1, n / kStretches);
-  for (std::size_t i = 0; i < n; i += stride) {
-    if (!std::isfinite(pos_m[i]) || !std::isfinite(angle_rad[i])) continue;
-    std::size_t j = i + 1;
-    while (j < n && !(std::abs(pos_m[j] - pos_m[i]) >= span && std::isfinite(angle_rad[j]))) ++j;
-    if (j >= n) break;  // no later sample travels that far from here
+  std::vector<std::size_t> at;  // the evenly spaced samples with both values
+  for (std::size_t i = 0; i < n; i += stride)
+    if (std::isfinite(pos_m[i]) && std::isfinite(angle_rad[i])) at.push_back(i);
+  std::vector<double> ratios;
+  for (std::size_t a = 0; a < at.size(); ++a) {
+    std::size_t b = a + 1;
+    while (b < at.size() && std::abs(pos_m[at[b]] - pos_m[at[a]]) < span) ++b;
+    if (b >= at.size()) break;  // no later sample travels that far from here
+    const std::size_t i = at[a], j = at[b];
     const double screw_rad = (angle_rad[j] - angle_rad[i]) / angle_per_screw;
     ratios.push_back(screw_rad / (2.0 * std::numbers::pi * (pos_m[j] - pos_m[i]) / lead_m));
   }

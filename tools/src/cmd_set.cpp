@@ -250,7 +250,13 @@ op::CommandResult send_or_release(op::Client& client, const Planned& p, const Co
     if (f.no_claim || e.kind() == Kind::refused_locally || e.kind() == Kind::connection) throw;
     // A latched fault has stopped the drive already: there is nothing to bring to 0 N, and only a
     // reset clears it.
-    if (drive_in_fault(client)) {
+    bool in_fault = false;
+    try {
+      in_fault = drive_in_fault(client);
+    } catch (const ClientError&) {
+      throw e;  // the line went too: the command's own error is the one to say
+    }
+    if (in_fault) {
       const std::string what = e.what();
       throw ClientError(e.kind(), what.find("maglead reset") == std::string::npos
                                       ? what + "; the drive is in fault: run 'maglead reset' first"
