@@ -134,8 +134,9 @@ Json analysis_json(const AnalysisResult& r) {
   put(method, "identification_bandwidth_hz", f.method.identification_bandwidth_hz);
   J["method"] = method;
   J["noise_floor_n"] = f.noise_floor_n;
-  J["baseline"] = errors_json(f.baseline);
-  J["final"] = errors_json(f.final_fit);
+  // No sample used: no fit, and no error figure (null), not a perfect one (0).
+  J["baseline"] = f.samples_used > 0 ? errors_json(f.baseline) : Json(nullptr);
+  J["final"] = f.samples_used > 0 ? errors_json(f.final_fit) : Json(nullptr);
   J["effects"] = Json::array();
   for (const auto& e : f.effects) J["effects"].push_back(effect_json(e));
   put(J, "nothing_missing", f.nothing_missing);

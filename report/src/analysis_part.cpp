@@ -129,6 +129,8 @@ std::string fit_table(const analysis::Findings& F) {
     ho_after = F.validation.back().heldout_rms_n;
   }
   const std::string u(effects::drive_unit_of_system(F.system));  // a rotary axis's: N·m
+  if (F.samples_used == 0)
+    return "<p>No fit: no sample was used (" + escape_html(F.sliding_note) + ").</p>\n";
   if (F.effects.empty())
     return "<p>One fit, since nothing was added: the model's force error is " + rms(F.baseline) +
            " " + u + " RMS (" + rel(F.baseline) + " % of the force).</p>\n";
@@ -218,6 +220,12 @@ std::string physics_section(const AnalysisOutcome& o, int number) {
   // What follows the findings on every page: the unexplained force, the note, the left-out.
   const std::string after = unexplained_box(F) + note + left_out_table(F) + where_list(*o.result);
   if (F.effects.empty() && F.unexplained) return h + after;
+  if (F.effects.empty() && F.conclusion.rfind("not judged", 0) == 0)
+    return h + "<p class=\"unjudged\">" + escape_html(F.conclusion) +
+           ": the model is not judged, and stays as it is; a recording where the nut slides "
+           "(moves, "
+           "force steps) can judge it.</p>\n" +
+           after;
   if (F.effects.empty())
     return h +
            "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "

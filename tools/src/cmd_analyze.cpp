@@ -110,22 +110,27 @@ void print_result(const AnalyzeOptions& o, const std::string& model_path,
       2);
   // A rotary axis's errors are torques (effects/axis_kind.hpp).
   const std::string u(effects::drive_unit_of_system(J.system));
-  std::printf("baseline   RMS %8.4f %s   relative error %7.3f %%   (full rate %7.3f %%)\n",
-              J.baseline.rms_n, u.c_str(), J.baseline.relative_error_pct,
-              J.baseline.full_rate_relative_error_pct);
+  if (J.samples_used == 0)  // no fit: no figure to print, not a perfect one
+    std::printf("baseline   RMS n/a (no sample used by the fit)\n");
+  else
+    std::printf("baseline   RMS %8.4f %s   relative error %7.3f %%   (full rate %7.3f %%)\n",
+                J.baseline.rms_n, u.c_str(), J.baseline.relative_error_pct,
+                J.baseline.full_rate_relative_error_pct);
   for (const auto& w : result.where) say("  where: " + w, 9);
   print_findings(J);
   if (!J.final_fit.summary.empty()) say("fitted     " + J.final_fit.summary, 11);
-  std::printf("final      RMS %8.4f %s   relative error %7.3f %%   (full rate %7.3f %%)\n",
-              J.final_fit.rms_n, u.c_str(), J.final_fit.relative_error_pct,
-              J.final_fit.full_rate_relative_error_pct);
-  std::string held_out = "held-out:";
-  for (const auto& v : J.validation) {
-    char rms[32];
-    std::snprintf(rms, sizeof rms, " %.4g ", v.heldout_rms_n);
-    held_out += "  " + v.model + rms + u;
+  if (J.samples_used > 0) {
+    std::printf("final      RMS %8.4f %s   relative error %7.3f %%   (full rate %7.3f %%)\n",
+                J.final_fit.rms_n, u.c_str(), J.final_fit.relative_error_pct,
+                J.final_fit.full_rate_relative_error_pct);
+    std::string held_out = "held-out:";
+    for (const auto& v : J.validation) {
+      char rms[32];
+      std::snprintf(rms, sizeof rms, " %.4g ", v.heldout_rms_n);
+      held_out += "  " + v.model + rms + u;
+    }
+    say(held_out, 11);
   }
-  say(held_out, 11);
   say("wrote " + o.out + "/index.html, analysis.json, model_corrected.toml" + o.replacing, 6);
 }
 

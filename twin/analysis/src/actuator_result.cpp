@@ -53,6 +53,10 @@ ModelFile corrected_model(const ModelFile& base, const std::vector<selection::Fo
     term.enabled = true;
     term.parameters.assign(c.params.begin(), c.params.end());
     term.note = "held-out gain " + fmt(c.gain_pct) + " %, t = " + fmt(c.t_stat);
+    for (const auto& a : c.alternatives)  // the file says what the data could not decide
+      if (a.plausible)
+        term.note += "; the data cannot tell it from " + a.id + " (which reproduces " +
+                     fmt(a.explains_pct) + " % of it)";
   }
   return m;
 }
@@ -409,9 +413,14 @@ std::string sliding_note(const actuator::Prepared& P, const actuator::Selection&
   // Sliding samples are counted after decimation; the recording's samples before.
   const std::size_t sliding = sel.samples_used * static_cast<std::size_t>(P.decimation);
   if (!sel.too_little_sliding && sliding >= P.samples / rules::kBarelySlidesOneIn) return {};
-  return "the nut barely slides (" + std::to_string(sliding) + " sliding samples of " +
-         std::to_string(P.samples) + "): the sliding fit says little; the stuck episodes (" +
-         std::to_string(P.stuck.size()) +
+  const std::string head = "the nut barely slides (" + std::to_string(sliding) +
+                           " sliding samples of " + std::to_string(P.samples) +
+                           "): the sliding fit says little; ";
+  if (P.stuck.empty())  // nothing released either: the stands tell nothing
+    return head +
+           "no stand ended in a release, so neither the break-away friction nor an offset "
+           "can be told; events (step-outs, pulses) are still looked for";
+  return head + "the stuck episodes (" + std::to_string(P.stuck.size()) +
          " releases) still tell the break-away friction and, from how it differs by direction, "
          "an offset; events (step-outs, pulses) are still found";
 }
@@ -468,6 +477,14 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
                    "; check the calibration, the sensors' timing and loads the recording does "
                    "not log";
     J.nothing_missing = false;
+  }
+  // Too little sliding to judge the model, and nothing named from the stands or events: that is
+  // not judged, never "nothing is missing".
+  if (J.effects.empty() && !J.unexplained && !J.sliding_note.empty()) {
+    J.conclusion = "not judged: too little sliding to judge the model (" +
+                   std::to_string(J.samples_used) + " sliding samples used of " +
+                   std::to_string(J.samples) + ")";
+    J.nothing_missing = std::nullopt;
   }
   return J;
 }

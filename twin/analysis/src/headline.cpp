@@ -70,6 +70,11 @@ std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
                   (model.empty() ? " (not in the model)" : " (model " + model + with_unit + ")");
   if (e.note.rfind("left out of model_corrected.toml", 0) == 0)
     s += " [left out of the corrected model]";
+  // A pair the data do not separate is said where it is read first, not only in the finding.
+  std::string others;
+  for (const auto& a : e.alternatives)
+    if (a.plausible.value_or(true)) others += (others.empty() ? "" : " or ") + a.id;
+  if (!others.empty()) s += ", or " + others + " (the data cannot tell them apart)";
   return s;
 }
 
