@@ -72,7 +72,6 @@ constexpr EffectEntry kEffects[] = {
     // the twin's drift flag, which issue 23 asks to show live for "a friction change" too.
     {"friction_drift", &PlantEffects::coulomb_drift_n_per_min, -kInf, kInf, "N/min",
      "kinetic and break-away friction F_c + value·t/60, t from the start (wear, "
-     ", "
      "temperature; for the twin's drift flag, not an effect the analysis names)"},
 };
 

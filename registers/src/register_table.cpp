@@ -219,7 +219,8 @@ constexpr std::array kTable = std::to_array<Register>({
     {"fault", DI, kFault, Type::bit, 1, "", RO, 0, 1, "A fault is latched (alarm_code says which)"},
     {"moving", DI, kMoving, Type::bit, 1, "", RO, 0, 1, "Nut moving or a profile running"},
     {"in_position", DI, kInPosition, Type::bit, 1, "", RO, 0, 1,
-     "Position mode: at target within tolerance"},
+     "Enabled and holding a position at its target within tolerance: position mode, a reference "
+     "move's end, or idle's stop and hold (not in force mode)"},
     {"force_reached", DI, kForceReached, Type::bit, 1, "", RO, 0, 1,
      "Force mode: the load observer's whole bound lies within the tolerance of the setpoint "
      "for the dwell (the load force, not the coupling force); force_reached_reason says why not"},

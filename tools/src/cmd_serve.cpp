@@ -269,7 +269,16 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
 
 /// A fault latched or cleared since the last look, said once: the terminal running serve is
 /// where an operator looks first when a command is refused.
-void say_alarm_change(std::uint16_t alarm, std::uint16_t& seen) {
+void say_alarm_change(const controller::Snapshot& s, std::uint16_t& seen, bool& returned_seen) {
+  // A reset whose fault came back at once leaves the alarm as it was: said on its own.
+  const bool returned =
+      s.reject_reason == static_cast<std::uint16_t>(registers::Reject::fault_returned) &&
+      ((s.command_status >> registers::kRejected) & 1u) != 0;
+  if (returned && !returned_seen)
+    say("fault reset rejected: the fault came back at once (alarm_code %u); its cause persists",
+        static_cast<unsigned>(s.alarm_code));
+  returned_seen = returned;
+  const std::uint16_t alarm = s.alarm_code;
   if (alarm == seen) return;
   const auto codes = registers::alarm_codes();
   const auto it = std::find_if(codes.begin(), codes.end(),
@@ -293,10 +302,11 @@ void wait_for_stop(double duration_s, runtime::Service& service) {
   auto last_report = t0;
   std::uint64_t reported = 0;
   std::uint16_t alarm_seen = 0;
+  bool returned_seen = false;
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const auto now = Clock::now();
-    say_alarm_change(service.controller().snapshot().alarm_code, alarm_seen);
+    say_alarm_change(service.controller().snapshot(), alarm_seen, returned_seen);
     if (now - last_report >= std::chrono::seconds(1)) {
       const auto snap = service.controller().snapshot();
       if (snap.overrun_count > reported) {

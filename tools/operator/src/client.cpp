@@ -290,8 +290,9 @@ void Client::refused_write(const std::string& what) {
     if (ip != 0)
       why += " (owner " + std::to_string(ip >> 24) + "." + std::to_string((ip >> 16) & 255) + "." +
              std::to_string((ip >> 8) & 255) + "." + std::to_string(ip & 255) +
-             "; that client must release it: Ctrl-C on its 'maglead set', or enable cleared in "
-             "its control word; control is free again once its connection ends)";
+             "; that client must release it: Ctrl-C on its 'maglead set' or 'maglead enable', or "
+             "enable cleared in its control word; control is free again once its connection "
+             "ends)";
   } catch (const ClientError&) {
     // The reason could not be read: the generic text stands.
   }
