@@ -192,8 +192,9 @@ std::string events_section(const Anomaly& a, const AnalysisOutcome& o) {
     h << "<p>Drift not judged yet: the known-force stretches were compared with their reference, "
          "too few to measure how much they scatter.</p>\n";
   else if (a.drift_windows.empty())
-    h << "<p>Drift warnings: none (the statistic reached " << number(a.max_drift_statistic)
-      << " of 1).</p>\n";
+    h << "<p>Drift warnings: none from t = " << seconds(a.drift_tracked_from_s)
+      << " s, when the reference formed, to the end (the statistic reached "
+      << number(a.max_drift_statistic) << " of 1); not judged before.</p>\n";
   else
     h << window_table(a.drift_windows, "drift warning")
       << "<p>The warning is latched: the calibration no longer "

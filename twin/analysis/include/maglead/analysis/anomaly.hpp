@@ -4,6 +4,7 @@
 // step-outs, drift windows and where in time and space the twin and the machine part.
 // Typed results only; report/ renders them.
 #include <cstddef>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,6 +54,8 @@ struct Anomaly {
   std::vector<TimeWindow> drift_windows, step_out_warnings;
   double max_drift_statistic = 0;
   int drift_observability = 0;  // twin::DriftObservability at the end of the replay
+  // When the reference formed and drift began to be tracked [s]; NaN: never.
+  double drift_tracked_from_s = std::numeric_limits<double>::quiet_NaN();
   bool has_load_cell = false, static_estimate_logged = false;
   std::optional<ErrorStats> static_error, twin_error;  // against the load cell
   std::size_t off_branch_samples = 0;
