@@ -81,8 +81,9 @@ std::string error_table(const Anomaly& a) {
   h << "</table>\n";
   if (a.off_branch_samples)
     h << "<p>" << a.off_branch_samples
-      << " samples with the phase off the stable branch (after a step-out) are "
-      << "left out of the static estimate: eq. 6 is only defined on the branch.</p>\n";
+      << " samples with the phase outside the calibrated stable branch (pushed to the coupling's "
+      << "peak, or leads away after a step-out) are left out of the static estimate: eq. 6 is "
+      << "only defined on the branch.</p>\n";
   return h.str();
 }
 
