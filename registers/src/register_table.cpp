@@ -113,11 +113,7 @@ constexpr std::array kTable = std::to_array<Register>({
     {"load_force_hi_mn", IR, 64, Type::i32, 1e-3, "N", RO, -1e6, 1e6,
      "Load observer: highest output force consistent with what it has seen"},
     {"force_reached_reason", IR, 66, Type::u16, 1, "", RO, 0, 9,
-     "Why force_reached is clear: 0 reached, 1 not in force mode, 2 load force outside the "
-     "tolerance, 3 load force unknown (nothing slid since start-up, or the load changed while "
-     "the nut stuck), 4 bound wider than the tolerance, 5 nut sliding, 6 dwell running, 7 the "
-     "stroke window ended before the force, 8 sliding at the force speed limit, 9 coupling at its "
-     "safe limit short of the force"},
+     "Why force_reached is clear, see its codes (0 reached)"},
     {"observer_basis", IR, 67, Type::u16, 1, "", RO, 0, 2,
      "Load observer: what pins the estimate down: 0 only the stick band (load force anywhere in "
      "drive +- break-away), 1 sliding (force balance), 2 stuck after a slide"},

@@ -278,22 +278,22 @@ constexpr std::size_t kMinStretches = 5;
 /// The median ratio of the screw's turning to 2π per lead of travel over stretches of at least
 /// kJudgedLeads leads of travel, between kStretches evenly spaced samples (so at most kStretches²
 /// steps, an hour at 1 kHz included); NaN when the nut never travels that far.
-double turns_per_lead(const std::vector<double>& angle_rad, const std::vector<double>& pos_m,
-                      double lead_m, double angle_per_screw) {
-  const std::size_t n = std::min(angle_rad.size(), pos_m.size());
+double turns_per_lead(const std::vector<double>& screw_rad, const std::vector<double>& pos_m,
+                      double lead_m) {
+  const std::size_t n = std::min(screw_rad.size(), pos_m.size());
   const double span = kJudgedLeads * lead_m;
   const std::size_t stride = std::max<std::size_t>(1, n / kStretches);
   std::vector<std::size_t> at;  // the evenly spaced samples with both values
   for (std::size_t i = 0; i < n; i += stride)
-    if (std::isfinite(pos_m[i]) && std::isfinite(angle_rad[i])) at.push_back(i);
+    if (std::isfinite(pos_m[i]) && std::isfinite(screw_rad[i])) at.push_back(i);
   std::vector<double> ratios;
   for (std::size_t a = 0; a < at.size(); ++a) {
     std::size_t b = a + 1;
     while (b < at.size() && std::abs(pos_m[at[b]] - pos_m[at[a]]) < span) ++b;
     if (b >= at.size()) break;  // no later sample travels that far from here
     const std::size_t i = at[a], j = at[b];
-    const double screw_rad = (angle_rad[j] - angle_rad[i]) / angle_per_screw;
-    ratios.push_back(screw_rad / (2.0 * std::numbers::pi * (pos_m[j] - pos_m[i]) / lead_m));
+    ratios.push_back((screw_rad[j] - screw_rad[i]) /
+                     (2.0 * std::numbers::pi * (pos_m[j] - pos_m[i]) / lead_m));
   }
   if (ratios.size() < kMinStretches) return std::numeric_limits<double>::quiet_NaN();
   auto mid = ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2);
@@ -303,26 +303,23 @@ double turns_per_lead(const std::vector<double>& angle_rad, const std::vector<do
 
 /// Refuses angle columns that turn a unit's factor more than radians of this screw would.
 void check_turns_per_lead(const Recording& rec, const ActuatorParams& act) {
-  double lead_m = act.lead_m, gear = act.gear_ratio;
+  if (!rec.has("screw_angle_rad") && !rec.has("motor_angle_rad")) return;  // the reader says so
+  double lead_m = act.lead_m;
   if (auto l = rec.meta("lead_m")) lead_m = std::strtod(l->c_str(), nullptr);
-  if (auto g = rec.meta("gear_ratio")) gear = std::strtod(g->c_str(), nullptr);
-  if (!(lead_m > 0) || !(gear > 0)) return;
+  if (!(lead_m > 0)) return;
+  // The screw angle the tools read (screw_angle_of: the motor's through the gear if need be).
+  const char* name = rec.has("screw_angle_rad") ? "screw_angle_rad" : "motor_angle_rad";
+  const double r = turns_per_lead(screw_angle_of(rec, act), rec.column("nut_pos_m"), lead_m);
   constexpr std::pair<double, const char*> kUnits[] = {
       {180.0 / std::numbers::pi, "degrees"}, {1e3, "milliradians"}, {1e6, "microradians"}};
-  for (const auto& [name, per_screw] :
-       {std::pair{"screw_angle_rad", 1.0}, std::pair{"motor_angle_rad", gear}}) {
-    if (!rec.has(name)) continue;
-    const double r = turns_per_lead(rec.column(name), rec.column("nut_pos_m"), lead_m, per_screw);
-    for (const auto& [factor, unit] : kUnits) {
-      if (!(std::abs(r / factor - 1.0) < kUnitTolerance)) continue;
-      char text[320];
-      std::snprintf(text, sizeof text,
-                    "%s: column %s cannot be in radians: over the nut's travel it turns %.3g "
-                    "times 2 pi per lead of this screw (lead %g m, gear ratio %g; the coupling "
-                    "keeps it at 1); likely unit: %s",
-                    rec.path.c_str(), name, r, lead_m, gear, unit);
-      throw RecordingError(text);
-    }
+  for (const auto& [factor, unit] : kUnits) {
+    if (!(std::abs(r / factor - 1.0) < kUnitTolerance)) continue;
+    char text[320];
+    std::snprintf(text, sizeof text,
+                  "%s: column %s cannot be in radians: over the nut's travel the screw turns %.3g "
+                  "times 2 pi per lead (lead %g m; the coupling keeps it at 1); likely unit: %s",
+                  rec.path.c_str(), name, r, lead_m, unit);
+    throw RecordingError(text);
   }
 }
 

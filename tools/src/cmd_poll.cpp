@@ -92,14 +92,10 @@ std::vector<const reg::Register*> wanted_registers(const std::vector<std::string
   return wanted;
 }
 
-/// A float32 register that repeats an integer one (nut_pos_m_f32 beside nut_pos_um); the
-/// float32-only ones (the drift flag's figures) are shown by default.
+/// A float32 register that repeats an integer one (nut_pos_m_f32 beside nut_pos_um): si_name
+/// keeps its suffix; the float32-only ones (the drift flag's figures) lose it and are shown.
 bool is_float_duplicate(const reg::Register& r) {
-  if (r.type != reg::Type::f32 || !r.name.ends_with("_f32")) return false;
-  const std::string base(r.name.substr(0, r.name.size() - 4));
-  return std::any_of(reg::table().begin(), reg::table().end(), [&](const reg::Register& x) {
-    return x.type != reg::Type::f32 && op::si_name(x) == base;
-  });
+  return r.type == reg::Type::f32 && r.name.ends_with("_f32") && op::si_name(r) == r.name;
 }
 
 /// Indices into v of what is shown: --names order if given, else the table's.
