@@ -166,6 +166,32 @@ HwStatus Cia402Hardware::status() const noexcept {
   return following_error ? HwStatus::following_error : HwStatus::ok;
 }
 
+DriveFaultDetail Cia402Hardware::fault_detail() const noexcept {
+  const DriveFeedback& fb = master_->feedback();
+  // An EMCY is unconfirmed and may be lost; 0x603F in the TPDO says the same every cycle.
+  const std::uint16_t code =
+      fb.error_code != 0 ? fb.error_code : master_->last_emergency().error_code;
+  const MasterFault f = master_->fault();
+  // A silent drive's PDOs time out before its heartbeat does: the silence is the cause.
+  if (master_->heartbeat_lost() && f != MasterFault::bus_off)
+    return {DriveFaultCause::drive_silent, 0};
+  switch (f) {
+    case MasterFault::drive_fault:
+      return {DriveFaultCause::drive_reports_fault, code};
+    case MasterFault::heartbeat_lost:
+      return {DriveFaultCause::drive_silent, 0};
+    case MasterFault::pdo_timeout:
+      return {DriveFaultCause::process_data_lost, 0};
+    case MasterFault::bus_off:
+      return {DriveFaultCause::bus_off, 0};
+    case MasterFault::drive_restarted:
+      return {DriveFaultCause::drive_restarted, 0};
+    case MasterFault::none:
+      break;
+  }
+  return {enable_timed_out_ ? DriveFaultCause::enable_timeout : DriveFaultCause::none, 0};
+}
+
 HwStatus Cia402Hardware::command_status() const noexcept {
   // A following error is read_sensors' to report; a command is refused only by a drive fault.
   return status() == HwStatus::drive_fault ? HwStatus::drive_fault : HwStatus::ok;

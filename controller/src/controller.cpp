@@ -168,9 +168,22 @@ FaultReaction Controller::configured_reaction(Alarm alarm) const noexcept {
   }
 }
 
+/// The drive fault's cause as the drive knows it now: a silent drive's process data time out
+/// before its heartbeat does, so a later, more specific cause replaces the first.
+void Controller::note_drive_fault_cause() noexcept {
+  const DriveFaultDetail d = hw_.fault_detail();
+  if (d.cause == DriveFaultCause::none) return;
+  s_.drive_fault_cause = static_cast<std::uint16_t>(d.cause);
+  s_.drive_error_code = d.error_code;
+}
+
 void Controller::latch_fault(Alarm alarm) noexcept {
   const bool first = state_ != DriveState::fault;
-  if (first) s_.alarm_code = static_cast<std::uint16_t>(alarm);
+  if (first) {
+    s_.alarm_code = static_cast<std::uint16_t>(alarm);
+    s_.drive_fault_cause = s_.drive_error_code = 0;
+  }
+  if (s_.alarm_code == static_cast<std::uint16_t>(Alarm::drive_fault)) note_drive_fault_cause();
   state_ = DriveState::fault;
   const bool slipped = alarm == Alarm::step_out || alarm == Alarm::phase_jump;
   if (slipped)
@@ -345,7 +358,7 @@ void Controller::on_fault_reset() noexcept {
     return;
   }
   state_ = DriveState::ready;  // re-enabling needs a fresh enable edge
-  s_.alarm_code = 0;
+  s_.alarm_code = s_.drive_fault_cause = s_.drive_error_code = 0;
   stepped_out_ = watchdog_expired_ = stopping_ = false;
   mode_ = Mode::idle;
   reaction_ = registers::Reaction::none;

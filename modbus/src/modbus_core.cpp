@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <string_view>
 
@@ -58,6 +59,8 @@ const ModbusCore::Binding kBindings[] = {
     {"load_force_lo_mn", SNAP(observer_force_lo_n), nullptr, nullptr},
     {"load_force_hi_mn", SNAP(observer_force_hi_n), nullptr, nullptr},
     {"force_reached_reason", SNAP(force_reached_reason), nullptr, nullptr},
+    {"drive_fault_cause", SNAP(drive_fault_cause), nullptr, nullptr},
+    {"drive_error_code", SNAP(drive_error_code), nullptr, nullptr},
     {"observer_basis", SNAP(observer_basis), nullptr, nullptr},
     {"twin_gain_f32", TWIN(gain), nullptr, nullptr},
     {"twin_gain_stderr_f32", TWIN(gain_stderr), nullptr, nullptr},
@@ -113,6 +116,13 @@ const ModbusCore::Binding kBindings[] = {
     {"load_force_est_n_f32", SNAP(observer_force_n), nullptr, nullptr},
     {"load_force_lo_n_f32", SNAP(observer_force_lo_n), nullptr, nullptr},
     {"load_force_hi_n_f32", SNAP(observer_force_hi_n), nullptr, nullptr},
+    {"force_limit_push_n_f32", CONST(0), nullptr, nullptr},     // patched: configuration
+    {"force_limit_pull_n_f32", CONST(0), nullptr, nullptr},     // patched
+    {"stroke_min_m_f32", CONST(0), nullptr, nullptr},           // patched
+    {"stroke_max_m_f32", CONST(0), nullptr, nullptr},           // patched
+    {"force_window_min_m_f32", CONST(0), nullptr, nullptr},     // patched
+    {"force_window_max_m_f32", CONST(0), nullptr, nullptr},     // patched
+    {"force_speed_limit_m_s_f32", CONST(0), nullptr, nullptr},  // patched
     {"control_word", IMG(control_word)},
     {"mode_command", IMG(mode_command)},
     {"heartbeat", IMG(heartbeat)},
@@ -260,6 +270,20 @@ std::size_t ModbusCore::exception(std::uint8_t function, Exception code, std::ui
   return 2;
 }
 
+std::optional<double> ModbusCore::configured_value(std::string_view name) const {
+  const auto& c = controller_.config();
+  const auto& a = c.actuator;
+  if (name == "loop_rate_hz") return a.sample_rate_hz;
+  if (name == "force_limit_push_n_f32") return controller_.safe_force_limit_n(1.0);
+  if (name == "force_limit_pull_n_f32") return controller_.safe_force_limit_n(-1.0);
+  if (name == "stroke_min_m_f32") return a.stroke_min_m;
+  if (name == "stroke_max_m_f32") return a.stroke_max_m;
+  if (name == "force_window_min_m_f32") return a.stroke_min_m + c.force_stroke_margin_m;
+  if (name == "force_window_max_m_f32") return a.stroke_max_m - c.force_stroke_margin_m;
+  if (name == "force_speed_limit_m_s_f32") return c.force_speed_limit_m_s;
+  return std::nullopt;
+}
+
 double ModbusCore::read_value(std::size_t i, const Snapshot& snap) const {
   const auto& r = reg::table()[i];
   const Binding& b = *bindings_[i];
@@ -267,7 +291,7 @@ double ModbusCore::read_value(std::size_t i, const Snapshot& snap) const {
   if (r.name == "control_owner") return owner_;
   if (r.name == "control_owner_ipv4") return owner_ipv4_;
   if (r.name == "write_refusal_reason") return refusal_;
-  if (r.name == "loop_rate_hz") return controller_.config().actuator.sample_rate_hz;
+  if (const auto limit = configured_value(r.name)) return *limit;
   if (r.name == "status_word") return snap.status_word | (owner_ ? 1u << reg::kOwned : 0u);
   return b.get(snap);
 }

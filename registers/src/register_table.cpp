@@ -117,6 +117,12 @@ constexpr std::array kTable = std::to_array<Register>({
     {"observer_basis", IR, 67, Type::u16, 1, "", RO, 0, 2,
      "Load observer: what pins the estimate down: 0 only the stick band (load force anywhere in "
      "drive +- break-away), 1 sliding (force balance), 2 stuck after a slide"},
+    {"drive_fault_cause", IR, 68, Type::u16, 1, "", RO, 0, 6,
+     "With alarm drive_fault: why the drive faulted, see its codes (0 none, or a backend that "
+     "cannot tell)"},
+    {"drive_error_code", IR, 69, Type::u16, 1, "", RO, 0, kU16Max,
+     "With drive_fault_cause 1: the drive's own error code (CiA 402 object 0x603F or its EMCY; "
+     "the drive's manual lists them), 0 none"},
     {"twin_gain_f32", IR, 70, Type::f32, 1, "", RO, -1e9, 1e9,
      "Twin, load-cell check (not used by the drift flag): coupling gain relative to the "
      "calibration from strong-force slides against the load cell (0 until estimated)"},
@@ -172,6 +178,22 @@ constexpr std::array kTable = std::to_array<Register>({
      "Load observer: lowest output force consistent"},
     {"load_force_hi_n_f32", IR, 132, Type::f32, 1, "N", RO, -1e9, 1e9,
      "Load observer: highest output force consistent"},
+    // The drive's limits, from its configuration: what a PLC checks a setpoint against before
+    // it writes one (a write beyond them is refused with exception 03).
+    {"force_limit_push_n_f32", IR, 140, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Largest push force setpoint accepted: safe_force_fraction of the calibrated peak push"},
+    {"force_limit_pull_n_f32", IR, 142, Type::f32, 1, "N", RO, -1e9, 1e9,
+     "Largest pull force setpoint accepted (negative): safe_force_fraction of the peak pull"},
+    {"stroke_min_m_f32", IR, 144, Type::f32, 1, "m", RO, -1e9, 1e9,
+     "Lowest position setpoint accepted (the stroke's near end; beyond it the nut faults)"},
+    {"stroke_max_m_f32", IR, 146, Type::f32, 1, "m", RO, -1e9, 1e9,
+     "Highest position setpoint accepted (the stroke's far end)"},
+    {"force_window_min_m_f32", IR, 148, Type::f32, 1, "m", RO, -1e9, 1e9,
+     "Force mode holds a nut heading below this (force_reached_reason 7, no fault)"},
+    {"force_window_max_m_f32", IR, 150, Type::f32, 1, "m", RO, -1e9, 1e9,
+     "Force mode holds a nut heading above this (force_reached_reason 7, no fault)"},
+    {"force_speed_limit_m_s_f32", IR, 152, Type::f32, 1, "m/s", RO, -1e9, 1e9,
+     "Fastest the force loop lets the nut slide (force_reached_reason 8 while it acts)"},
     // Commands and setpoints. Setpoints are staged: an execute edge applies them.
     {"control_word", HR, 1000, Type::u16, 1, "", RW, 0, 31,
      "Control bits, see coils; enable and stop are levels, the others act on rising edges; "
@@ -289,6 +311,16 @@ constexpr std::array kStates = std::to_array<Code>({
     {2, "enabled", "modes act on commands"},
     {3, "fault", "latched until fault_reset"},
 });
+constexpr std::array kDriveFaultCauses = std::to_array<Code>({
+    {0, "none", "no drive fault, or a backend that cannot tell its cause"},
+    {1, "drive_reports_fault",
+     "the drive itself is in fault: drive_error_code says why (the drive's manual)"},
+    {2, "drive_silent", "no heartbeat: the drive is off, unpowered or off the bus"},
+    {3, "process_data_lost", "the drive's cyclic data stopped arriving: bus load or lost frames"},
+    {4, "bus_off", "the CAN controller left the bus: wiring, termination, bit rate"},
+    {5, "drive_restarted", "the drive reset itself while running (a boot-up message)"},
+    {6, "enable_timeout", "an enable request did not reach operation enabled in time"},
+});
 constexpr std::array kModes = std::to_array<Code>({
     {0, "idle", "hold the screw where it is"},
     {1, "position", "move the nut to a target with speed and acceleration limits"},
@@ -366,6 +398,7 @@ struct CodeRegister {
 };
 const std::array kCodeRegisters = std::to_array<CodeRegister>({
     {"drive_state", kStates},
+    {"drive_fault_cause", kDriveFaultCauses},
     {"active_mode", kModes},
     {"mode_command", kModes},
     {"alarm_code", kAlarms},
@@ -383,7 +416,8 @@ const std::array kCodeRegisters = std::to_array<CodeRegister>({
 });
 
 constexpr std::array kRanges = std::to_array<AddressRange>({
-    {IR, 0, 136, "identity, status, measurements (scaled and float32), twin, loop, load observer"},
+    {IR, 0, 154,
+     "identity, status, measurements (scaled and float32), twin, loop, load observer, limits"},
     {HR, 1000, 20, "commands and setpoints"},
     {CO, 0, 5, "control word bits"},
     {DI, 0, 16, "status word bits"},
@@ -392,7 +426,7 @@ constexpr std::array kPollBlocks = std::to_array<AddressRange>({
     {IR, 0, 94,
      "FC4 (or FC3): identity, status, alarm, owner, scaled measurements, twin, loop, fault "
      "reaction, load observer and force loop, drift without a load cell"},
-    {IR, 100, 34, "FC4 (or FC3): the same measurements as float32"},
+    {IR, 100, 54, "FC4 (or FC3): the same measurements as float32, and the drive's limits"},
     {HR, 1000, 20,
      "FC3: commands and setpoints as written (or FC23: write 1000.. and read 10..55 in one)"},
 });

@@ -61,6 +61,7 @@ TEST(Cia402Backend, ASilentDriveBecomesADriveFaultWithinHalfASecond) {
   EXPECT_LE(fault_s - 0.1, 0.5);
   for (int k = 0; k < 500; ++k) hw.read_sensors(fault_s + k * 1e-3, s);
   EXPECT_TRUE(hw.master().heartbeat_lost());
+  EXPECT_EQ(hw.fault_detail().cause, DriveFaultCause::drive_silent);
 }
 
 TEST(Cia402Backend, ADriveFaultKeepsTheBusCyclingWhenTheLoopStopsWriting) {
@@ -88,6 +89,8 @@ TEST(Cia402Backend, ADriveFaultKeepsTheBusCyclingWhenTheLoopStopsWriting) {
   EXPECT_EQ(hw.master().fault(), MasterFault::drive_fault);
   EXPECT_STREQ(hw.master().alarm_text(), "continuous over-current");
   EXPECT_EQ(hw.master().feedback().state, DriveState::fault);
+  EXPECT_EQ(hw.fault_detail().cause, DriveFaultCause::drive_reports_fault);
+  EXPECT_EQ(hw.fault_detail().error_code, 0x2310);
 }
 
 TEST(Cia402Backend, OnePercentLostFramesDoNotStopTheLoop) {
@@ -123,8 +126,10 @@ TEST(Cia402Backend, AnEnableNotReachedInTimeIsADriveFaultUntilTheReset) {
   EXPECT_EQ(last, HwStatus::drive_fault);
   EXPECT_TRUE(hw.enable_timed_out());
   EXPECT_EQ(hw.master().fault(), MasterFault::none);
+  EXPECT_EQ(hw.fault_detail().cause, DriveFaultCause::enable_timeout);
   EXPECT_EQ(hw.set_power(PowerRequest::fault_reset), HwStatus::ok);
   EXPECT_FALSE(hw.enable_timed_out());
+  EXPECT_EQ(hw.fault_detail().cause, DriveFaultCause::none);
   EXPECT_EQ(hw.read_sensors(0.011, s), HwStatus::ok);
 }
 

@@ -89,10 +89,16 @@ TEST(Cia402Power, ADriveFaultIsClearedByTheControllersResetWithoutARestart) {
   EXPECT_EQ(r.drive(), DriveState::fault);
   EXPECT_EQ(r.state(), reg::DriveState::fault);
   EXPECT_EQ(r.ctl.snapshot().alarm_code, static_cast<std::uint16_t>(reg::Alarm::drive_fault));
+  // Its cause and the drive's own code latch with the alarm (IR 68, 69): what a PLC shows.
+  EXPECT_EQ(r.ctl.snapshot().drive_fault_cause,
+            static_cast<std::uint16_t>(DriveFaultCause::drive_reports_fault));
+  EXPECT_EQ(r.ctl.snapshot().drive_error_code, 0x2310);
   // The operator's reset: enable low, a fault reset edge. The drive leaves fault (controlword
   // bit 7's rising edge) for switch on disabled, and the fault is not reported meanwhile; then
   // the controller can enable again.
   EXPECT_TRUE(r.resets_and_enables());
+  EXPECT_EQ(r.ctl.snapshot().drive_fault_cause, 0);
+  EXPECT_EQ(r.ctl.snapshot().drive_error_code, 0);
 }
 
 TEST(Cia402Power, TheStopBitIsTheDrivesQuickStopAndItsReleaseEnablesAgain) {

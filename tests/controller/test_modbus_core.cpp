@@ -26,6 +26,7 @@ struct CoreRig {
   ModbusCore core;
   double t_s = 0.0;
   explicit CoreRig(bool read_only = false) : core(ctl, {read_only, "test"}) { run(5); }
+  explicit CoreRig(const ControllerConfig& c) : cfg(c), core(ctl, {false, "test"}) { run(5); }
   void run(int cycles) {
     for (int i = 0; i < cycles; ++i) ctl.step(t_s += 1e-3);
   }
@@ -97,7 +98,7 @@ TEST(ModbusCore, AddressExceptions) {
   CoreRig r;
   const auto ill = Exception::illegal_data_address;
   EXPECT_EQ(r.req(rd(3, 200, 1)), exception(3, ill));   // outside the mapped ranges
-  EXPECT_EQ(r.req(rd(3, 130, 10)), exception(3, ill));  // partly outside
+  EXPECT_EQ(r.req(rd(3, 150, 10)), exception(3, ill));  // partly outside
   EXPECT_EQ(r.req(rd(3, 21, 2)), exception(3, ill));    // starts in the middle of nut_pos_um
   EXPECT_EQ(r.req(rd(3, 20, 1)), exception(3, ill));    // ends in the middle
   EXPECT_EQ(r.req(rd(4, 1000, 1)), exception(4, ill));  // FC4 does not read holding registers
@@ -165,6 +166,42 @@ TEST(ModbusCore, OutOfRangeWritesChangeNothing) {
   EXPECT_EQ(r.req(write_regs(pos, words)), exception(16, Exception::illegal_data_value));
   EXPECT_EQ(r.req(write_one(addr("mode_command"), 4)), exception(6, Exception::illegal_data_value));
   EXPECT_EQ(r.req(rd(3, 1000, 20)), before);
+}
+
+// A PLC reads the limits the drive runs with (not the shipped defaults) and a setpoint just
+// inside them is taken, just outside refused: the block says what the write check does.
+TEST(ModbusCore, TheLimitsBlockReadsTheConfigurationTheWriteCheckUses) {
+  ControllerConfig c;
+  c.actuator.stroke_min_m = 0.005, c.actuator.stroke_max_m = 0.030;
+  c.actuator.safe_force_fraction = 0.5;
+  c.force_stroke_margin_m = 2e-3, c.force_speed_limit_m_s = 0.05;
+  CoreRig r(c);
+  const Bytes b = r.req(rd(4, addr("force_limit_push_n_f32"), 14));
+  ASSERT_EQ(b.size(), 2u + 28u);
+  const auto f32 = [&](const char* name) {
+    const std::size_t i = addr(name) - addr("force_limit_push_n_f32");
+    return static_cast<double>(std::bit_cast<float>(
+        static_cast<std::uint32_t>((word_at(b, i) << 16) | word_at(b, i + 1))));
+  };
+  const double push = f32("force_limit_push_n_f32"), pull = f32("force_limit_pull_n_f32");
+  EXPECT_NEAR(push, 0.5 * c.calibration.peak_push_n, 1e-4);
+  EXPECT_NEAR(pull, 0.5 * c.calibration.peak_pull_n, 1e-4);
+  EXPECT_NEAR(f32("stroke_min_m_f32"), 0.005, 1e-9);
+  EXPECT_NEAR(f32("stroke_max_m_f32"), 0.030, 1e-9);
+  EXPECT_NEAR(f32("force_window_min_m_f32"), 0.007, 1e-9);
+  EXPECT_NEAR(f32("force_window_max_m_f32"), 0.028, 1e-9);
+  EXPECT_NEAR(f32("force_speed_limit_m_s_f32"), 0.05, 1e-9);
+  const std::uint16_t force = addr("force_setpoint_n_f32");
+  for (const double limit : {push, pull}) {
+    const double inward = limit > 0 ? -0.01 : 0.01;
+    EXPECT_EQ(r.req(write_regs(force, f32_words(static_cast<float>(limit - inward)))),
+              exception(16, Exception::illegal_data_value));
+    EXPECT_EQ(r.req(write_regs(force, f32_words(static_cast<float>(limit + inward)))).size(), 5u);
+  }
+  const std::uint16_t pos = addr("position_setpoint_m_f32");
+  EXPECT_EQ(r.req(write_regs(pos, f32_words(0.0049f))),
+            exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(r.req(write_regs(pos, f32_words(0.0051f))).size(), 5u);
 }
 
 TEST(ModbusCore, BadControlWordCombinationsAreRefused) {

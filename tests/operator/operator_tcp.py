@@ -9,6 +9,7 @@ import os
 import pty
 import re
 import select
+import shutil
 import signal
 import socket
 import struct
@@ -40,6 +41,25 @@ def main():
     check("stopped after" in tail, "serve stops cleanly")
     dropped_connection()
     finish()
+
+
+def drive_limits(port, conn):
+    """A client whose configuration allows more than the controller's: the controller refuses, and
+    the message gives the limits the controller reports (IR 140/142), not this machine's."""
+    words = read_regs(port, 4, 140, 4)
+    push, pull = (struct.unpack(">f", struct.pack(">HH", *words[i:i + 2]))[0] for i in (0, 2))
+    check(30 < push < 40 and -40 < pull < -30, f"IR 140/142: the safe force limits {push:.2f} / {pull:.2f} N")
+    wide = os.path.join(WORK, "wide_config")
+    shutil.rmtree(wide, ignore_errors=True)
+    shutil.copytree(CONFIG, wide)
+    toml = os.path.join(wide, "actuator.toml")
+    with open(toml) as f:
+        text = re.sub(r"^safe_force_fraction\s*=.*$", "safe_force_fraction = 1.0", f.read(), flags=re.M)
+    with open(toml, "w") as f:
+        f.write(text)
+    rc, _, err = run(MAGLEAD, "set", *conn, "force", "40", "--config", wide)
+    check(rc == 4 and f"its limits are {pull:.2f} .. {push:.2f} N" in err and "drive disabled without a fault" in err,
+          f"set force 40 past the controller's own limit: its limits, read from it: {err.strip()}")
 
 
 def scenario(port):
@@ -96,6 +116,7 @@ def scenario(port):
     check(rc == 2 and "unit" in err, f"unknown unit refused: {err.strip()}")
     n1 = bus_message_count(port)
     check(n1 == n0 + 1, f"refusals sent nothing to the controller (messages {n0} -> {n1})")
+    drive_limits(port, conn)
 
     # The controller's own rejection, through the handshake: execute on a drive not enabled.
     rc, _, err = run(MAGLEAD, "set", *conn, "force", "5", "--no-claim", "--config", CONFIG)
@@ -319,6 +340,8 @@ def dropped_connection():
     """The controller goes away during a recording: one line, exit 3, the rows so far kept."""
     srv = Server(MAGLEAD, CONFIG, "--port", "0")
     rec = os.path.join(WORK, "tcp_dropped.csv")
+    with contextlib.suppress(FileNotFoundError):
+        os.remove(rec)  # a rerun's old file would look like rows already on disk
     rec_proc = subprocess.Popen([MAGLEAD, "record", "--port", str(srv.port), "--duration", "20s", "--rate", "50",
                                  "--out", rec], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     # Drop the controller once rows are on disk (the recorder streams them), not after a fixed

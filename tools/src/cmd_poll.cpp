@@ -30,6 +30,11 @@ std::string meaning(const reg::Register& r, double v) {
                   v == reg::kDeviceType ? " (maglead)" : "");
     return b;
   }
+  if (r.name == "drive_error_code" && v != 0) {
+    char b[48];
+    std::snprintf(b, sizeof b, "0x%04X (the drive's manual)", static_cast<unsigned>(v));
+    return b;
+  }
   if (r.name == "control_owner_ipv4" && v != 0) {
     const auto a = static_cast<std::uint32_t>(v);
     return std::to_string(a >> 24) + "." + std::to_string((a >> 16) & 255) + "." +

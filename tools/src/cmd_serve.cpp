@@ -267,19 +267,43 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
   std::fflush(stdout);
 }
 
+/// A drive fault's cause (IR 68) and the drive's own error code (IR 69) when it gave one.
+void say_drive_fault_cause(const controller::Snapshot& s) {
+  const auto codes = registers::codes_of("drive_fault_cause");
+  const auto it = std::find_if(codes.begin(), codes.end(), [&](const registers::Code& c) {
+    return c.value == s.drive_fault_cause;
+  });
+  if (it == codes.end()) return;
+  char code[48] = "";
+  if (s.drive_error_code != 0)
+    std::snprintf(code, sizeof code, "; drive_error_code 0x%04X", s.drive_error_code);
+  say("  cause: drive_fault_cause %u %.*s (%.*s)%s", static_cast<unsigned>(s.drive_fault_cause),
+      static_cast<int>(it->name.size()), it->name.data(), static_cast<int>(it->description.size()),
+      it->description.data(), code);
+}
+
 /// A fault latched or cleared since the last look, said once: the terminal running serve is
 /// where an operator looks first when a command is refused.
-void say_alarm_change(const controller::Snapshot& s, std::uint16_t& seen, bool& returned_seen) {
+struct AlarmSeen {
+  std::uint16_t alarm = 0, cause = 0;
+  bool returned = false;
+};
+
+void say_alarm_change(const controller::Snapshot& s, AlarmSeen& seen) {
   // A reset whose fault came back at once leaves the alarm as it was: said on its own.
   const bool returned =
       s.reject_reason == static_cast<std::uint16_t>(registers::Reject::fault_returned) &&
       ((s.command_status >> registers::kRejected) & 1u) != 0;
-  if (returned && !returned_seen)
+  if (returned && !seen.returned)
     say("fault reset rejected: the fault came back at once (alarm_code %u); its cause persists",
         static_cast<unsigned>(s.alarm_code));
-  returned_seen = returned;
+  seen.returned = returned;
   const std::uint16_t alarm = s.alarm_code;
-  if (alarm == seen) return;
+  // A drive fault's cause can sharpen after the latch (its PDOs time out before its heartbeat).
+  if (alarm == seen.alarm && alarm != 0 && s.drive_fault_cause != seen.cause)
+    say_drive_fault_cause(s);
+  seen.cause = s.drive_fault_cause;
+  if (alarm == seen.alarm) return;
   const auto codes = registers::alarm_codes();
   const auto it = std::find_if(codes.begin(), codes.end(),
                                [&](const registers::Code& c) { return c.value == alarm; });
@@ -291,7 +315,8 @@ void say_alarm_change(const controller::Snapshot& s, std::uint16_t& seen, bool& 
         static_cast<int>(it->description.size()), it->description.data());
   else
     say("fault latched: alarm_code %u", static_cast<unsigned>(alarm));
-  seen = alarm;
+  if (s.drive_fault_cause != 0) say_drive_fault_cause(s);
+  seen.alarm = alarm;
 }
 
 /// Until Ctrl-C (or SIGTERM), or for duration_s when it is positive. Loop overruns are reported
@@ -301,12 +326,11 @@ void wait_for_stop(double duration_s, runtime::Service& service) {
   const auto t0 = Clock::now();
   auto last_report = t0;
   std::uint64_t reported = 0;
-  std::uint16_t alarm_seen = 0;
-  bool returned_seen = false;
+  AlarmSeen alarm_seen;
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const auto now = Clock::now();
-    say_alarm_change(service.controller().snapshot(), alarm_seen, returned_seen);
+    say_alarm_change(service.controller().snapshot(), alarm_seen);
     if (now - last_report >= std::chrono::seconds(1)) {
       const auto snap = service.controller().snapshot();
       if (snap.overrun_count > reported) {

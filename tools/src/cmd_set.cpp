@@ -216,9 +216,23 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
               std::string(r->unit).c_str());
 }
 
+/// The controller's own limits, read from its limits block (what it refused against); this
+/// machine's configuration may differ from the one the controller runs.
+std::string drive_limit_text(op::Client& client, reg::Mode mode) {
+  const auto* push = reg::find("force_limit_push_n_f32");
+  const auto v = client.read_range(reg::Table::input_register, push->address, 14);
+  char b[96];
+  if (mode == reg::Mode::force)
+    std::snprintf(b, sizeof b, "%.2f .. %.2f N", v.at("force_limit_pull_n_f32"),
+                  v.at("force_limit_push_n_f32"));
+  else
+    std::snprintf(b, sizeof b, "%.3f .. %.3f mm", v.at("stroke_min_m_f32") * 1e3,
+                  v.at("stroke_max_m_f32") * 1e3);
+  return b;
+}
+
 /// Sends the command. The controller's own limit refusing it (exception 03 on the staged
-/// setpoint, or a reject reason) is said with the value and the limit as this machine's
-/// configuration has it, and where.
+/// setpoint, or a reject reason) is said with the value and the limit the controller reports.
 op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags& f) {
   op::CommandOptions options = f.options();
   options.stop = [] { return g_interrupted != 0; };
@@ -232,12 +246,9 @@ op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags&
                               msg.find("target_outside_stroke") != std::string::npos)
                            : false;
     if (!limit || p.mode == reg::Mode::idle) throw;
-    const auto l = load_limits(f.config, f.calibration);
     throw ClientError(e.kind(), p.summary + " refused by the controller (" + msg +
-                                    "); the controller applies its own configuration, which this "
-                                    "machine's copy puts at " +
-                                    (p.mode == reg::Mode::force ? op::force_limit_text(l)
-                                                                : op::position_limit_text(l)));
+                                    "); its limits are " + drive_limit_text(client, p.mode) +
+                                    " (IR 140-147; this machine's configuration may differ)");
   }
 }
 

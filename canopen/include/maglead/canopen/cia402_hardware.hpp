@@ -57,6 +57,7 @@ class Cia402Hardware final : public ActuatorHardware {
   HwStatus write_motor_angle(double motor_angle_cmd_rad) noexcept override;
   HwStatus set_power(PowerRequest request) noexcept override;
   bool resetting() const noexcept override { return resetting_; }
+  DriveFaultDetail fault_detail() const noexcept override;
 
   const Cia402Master& master() const { return *master_; }
   /// An enable request that did not reach operation enabled in time (or lost it): drive_fault

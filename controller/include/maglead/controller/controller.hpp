@@ -91,6 +91,8 @@ struct Snapshot {
   std::uint16_t status_word = 0, alarm_code = 0, step_out_count = 0, drive_state = 0;
   std::uint16_t active_mode = 0, command_status = 0, reject_reason = 0;
   std::uint16_t fault_reaction = 0;  // registers::Reaction
+  // A drive_fault's cause and the drive's error code, latched with the alarm.
+  std::uint16_t drive_fault_cause = 0, drive_error_code = 0;
 };
 
 /// The client-writable image (SI units), posted whole on every change so the loop sees every
@@ -157,6 +159,7 @@ class Controller {
   void fault_reaction_command(double dt) noexcept;
   double force_mode_command_rad(double dt, Reached& reached) noexcept;
   void check_force_window() noexcept;
+  void note_drive_fault_cause() noexcept;
   bool settle(const Reached& reached, double dt) noexcept;
   HwStatus update_power() noexcept;
   void publish(bool settled, const Reached& reached) noexcept;

@@ -5,7 +5,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "maglead/controller/controller.hpp"
@@ -102,6 +104,8 @@ class ModbusCore {
                         CommandImage& image, bool& heartbeat, bool& touches_control,
                         Exception& ex) const;
   double read_value(std::size_t reg_index, const Snapshot& snap) const;
+  // Registers that read the configuration (the loop rate, the limits block), not the loop.
+  std::optional<double> configured_value(std::string_view name) const;
   bool refuse(registers::Refusal why, Exception& ex);  // exception 04 with its reason; false
 
   Controller& controller_;

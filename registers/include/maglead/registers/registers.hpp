@@ -111,7 +111,7 @@ std::vector<std::pair<std::string, std::span<const Code>>> code_lists();
 
 /// Identity and word-order probe values.
 inline constexpr std::uint16_t kDeviceType = 0x4D4C;  // "ML"
-inline constexpr std::uint16_t kMapVersion = 1;
+inline constexpr std::uint16_t kMapVersion = 2;  // raised whenever a register is added or changed
 inline constexpr std::uint32_t kWordOrderProbeU32 = 0x12345678u;
 inline constexpr float kWordOrderProbeF32 = 1234.5678f;
 

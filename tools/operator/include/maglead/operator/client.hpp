@@ -79,7 +79,7 @@ class Client {
   const Endpoint& endpoint() const { return ep_; }
 
   /// Reads the device type and map version and refuses anything that is not a maglead
-  /// controller speaking register map 1.
+  /// controller speaking this register map version.
   void check_identity();
   /// Reads words [start, start+count) of a table (FC4 for input registers, FC3 for holding).
   std::vector<std::uint16_t> read_words(registers::Table table, std::uint16_t start,

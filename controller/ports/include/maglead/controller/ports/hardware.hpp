@@ -28,6 +28,22 @@ enum class PowerRequest : std::uint8_t {
   fault_reset,  // clear the drive's fault after the controller's own reset, then stay disabled
 };
 
+/// Why the drive reports drive_fault, as far as the backend can tell (the Modbus edge shows it
+/// beside the alarm, so a PLC learns what to check without the serve terminal).
+enum class DriveFaultCause : std::uint8_t {
+  none,                 // no drive fault, or a backend that cannot tell
+  drive_reports_fault,  // the drive itself is in fault; error_code says why
+  drive_silent,         // no heartbeat: the drive is off, unpowered or off the bus
+  process_data_lost,    // the drive's cyclic data stopped arriving
+  bus_off,              // the CAN controller left the bus (wiring, termination, bit rate)
+  drive_restarted,      // the drive reset itself while running (a boot-up message)
+  enable_timeout,       // an enable request did not reach operation enabled in time
+};
+struct DriveFaultDetail {
+  DriveFaultCause cause = DriveFaultCause::none;
+  std::uint16_t error_code = 0;  // the drive's own error code (CiA 402 0x603F or EMCY), 0 none
+};
+
 class ActuatorHardware {
  public:
   virtual ~ActuatorHardware() = default;
@@ -42,6 +58,8 @@ class ActuatorHardware {
   /// True while a fault reset asked of the power stage is still under way (a drive that keeps
   /// its fault reports it from read_sensors once this ends). Must not block or allocate.
   virtual bool resetting() const noexcept { return false; }
+  /// Why read_sensors or a command reports drive_fault now. Must not block or allocate.
+  virtual DriveFaultDetail fault_detail() const noexcept { return {}; }
 };
 
 }  // namespace maglead
