@@ -49,8 +49,12 @@ std::string parameters_html(const std::string& id, const analysis::Parameters& p
   std::sort(sorted.begin(), sorted.end(), [](auto* a, auto* b) { return a->name < b->name; });
   std::string h;
   for (const auto* p : sorted) {
-    h += (h.empty() ? "" : "<br>") +
-         parameter_html(id, p->name, p->value, analysis::parameter_value(errors, p->name, 0.0));
+    const double se = analysis::parameter_value(errors, p->name, 0.0);
+    h += (h.empty() ? "" : "<br>") + parameter_html(id, p->name, p->value, se);
+    // Beside fitted values, one without an error was scanned on a grid or held at the model's.
+    if (!errors.empty() && analysis::value_with_error(p->value, se).empty())
+      h += " <span class=\"meaning\">(no standard error: scanned on a grid or held at the model's "
+           "value)</span>";
     if (const double c = analysis::parameter_value(calibration_errors, p->name, 0.0); c > 0)
       h += " (calibration ± " + analysis::calibration_bound_text(p->name, c) + ")";
   }
@@ -161,8 +165,8 @@ std::string left_out_table(const analysis::Findings& F) {
   for (const auto& r : F.not_selected)
     h += "<tr><td>" + escape_html(effect_title(r.id)) + "<br><code>" + escape_html(r.id) +
          "</code></td><td>" + escape_html(r.reason.value_or("")) + "</td><td>" +
-         number(r.heldout_gain_pct) + "</td><td>" + number(r.t_stat) + "</td><td>" +
-         (r.explained_rms_n ? number(*r.explained_rms_n) : std::string("–")) + "</td><td>" +
+         fixed(r.heldout_gain_pct, 2) + "</td><td>" + fixed(r.t_stat, 2) + "</td><td>" +
+         (r.explained_rms_n ? fixed(*r.explained_rms_n, 3) : std::string("–")) + "</td><td>" +
          (r.parameters ? parameters_html(r.id, *r.parameters) : std::string("–")) + "</td></tr>\n";
   return h + "</table>\n";
 }

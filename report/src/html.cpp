@@ -70,4 +70,15 @@ std::string number(double value, int significant) {
   return s;
 }
 
+std::string fixed(double value, int decimals) {
+  if (!std::isfinite(value)) return "–";
+  char buf[64];
+  // + 0.0: a value that rounds to zero prints "0.00", never "−0.00".
+  const double scale = std::pow(10.0, decimals);
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, std::round(value * scale) / scale + 0.0);
+  std::string s = buf;
+  if (s.front() == '-') s.replace(0, 1, "−");
+  return s;
+}
+
 }  // namespace maglead::report

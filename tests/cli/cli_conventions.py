@@ -370,7 +370,9 @@ def against_a_server():
               f"stroke error: value, limit, where: {err.strip()!r}")
         rc, _, err = run("set", "--port", port, "force", "25", "--config", CONFIG)
         check(rc == 4 and "force 25.000 N refused by the controller" in err and "exception 03" in err
-              and "safe_force_fraction 0.8" in err, f"the controller's refusal names value and limit: {err.strip()!r}")
+              and re.search(r"its limits are -\d+\.\d\d \.\. (\d+\.\d\d) N", err) is not None
+              and float(re.search(r"\.\. (\d+\.\d\d) N", err).group(1)) < 25,
+              f"the controller's refusal names value and the controller's own limit: {err.strip()!r}")
     finally:
         srv.stop()
 

@@ -125,9 +125,12 @@ std::string summary_text(const Parameters& values, const Parameters& standard_er
   std::string s;
   for (const auto& p : values) {
     const std::string unit = unit_of_parameter(p.name);
-    s += (s.empty() ? "" : ", ") +
-         with_error(p.name, p.value, parameter_value(standard_errors, p.name, 0.0)) +
-         (unit.empty() ? "" : " " + unit);
+    const double se = parameter_value(standard_errors, p.name, 0.0);
+    // Beside fitted values, one without an error was scanned on a grid (a period, a delay) or
+    // held at the model's: said, so its missing ± is not read as an exact value.
+    const bool no_error = !standard_errors.empty() && value_with_error(p.value, se).empty();
+    s += (s.empty() ? "" : ", ") + with_error(p.name, p.value, se) +
+         (unit.empty() ? "" : " " + unit) + (no_error ? " (no standard error)" : "");
   }
   return s;
 }

@@ -439,13 +439,16 @@ Found found_of(const Term& term, int folds) {
   return f;
 }
 
+// x rounded to 1/per, with no sign on a zero: "0.00", never "-0.00" for −4.7e-08.
+double unsigned_zero(double x, double per) { return std::round(x * per) / per + 0.0; }
+
 // A term the backward check dropped, with what it adds last.
 Rejected dropped_of(const Trial& tr, double explained_n) {
   char why[160];
   std::snprintf(why, sizeof why,
                 "dropped by the backward check: with the other terms in, it adds a held-out "
                 "gain of %.2f %% at t = %.2f",
-                tr.gain, tr.t);
+                unsigned_zero(tr.gain, 100.0), unsigned_zero(tr.t, 100.0));
   return rejected_of(found_of(tr, explained_n, 0), why);
 }
 

@@ -16,5 +16,8 @@ std::string png_data_url(const std::string& path);
 
 /// `significant` digits, "–" for NaN or infinity, a real minus sign.
 std::string number(double value, int significant = 3);
+/// A figure at a fixed number of decimals (gains in %, t statistics), "−" for minus, no sign on
+/// a zero: a figure that is zero at the shown resolution reads 0.00, never 1.81e-08.
+std::string fixed(double value, int decimals);
 
 }  // namespace maglead::report
