@@ -26,6 +26,9 @@ constexpr double kMaxTrack_rad = 0.5;  // most the phase tracking may add to a c
 // A fault reset is done after the fault stayed away this long: longer than a CiA 402 drive's
 // fault-reset handshake and the master's PDO supervision (a few cycles), short for a person.
 constexpr double kResetConfirm_s = 0.02;
+// A position command at the coupling's safe limit with the nut standing (its velocity estimate
+// zero: no encoder edge for 0.2 s) this long more is a stall, not a slow start.
+constexpr double kStallConfirm_s = 0.1;
 constexpr std::uint16_t bit(int b) { return static_cast<std::uint16_t>(1u << b); }
 
 }  // namespace
@@ -254,7 +257,9 @@ void Controller::on_execute() noexcept {
       const double target = image_.position_setpoint_m;
       if (!(target >= a.stroke_min_m && target <= a.stroke_max_m))
         return reject(Reject::target_outside_stroke);
-      if (mode_ == Mode::force) start_hold();
+      // From force mode, or from a stall short of the last target: the move starts where the
+      // nut stands, not where the profile ran ahead.
+      if (mode_ == Mode::force || position_limited_) start_hold();
       vmax_ = image_.velocity_limit_m_s;
       amax_ = image_.accel_limit_m_s2;
       target_m_ = target;
@@ -271,6 +276,7 @@ void Controller::on_execute() noexcept {
         phase_track_rad_ = 0.0;
       }
       force_loop_.start(force_set_n_, drive_n_, load_);
+      prof_vel_m_s_ = 0.0;  // force mode runs no profile: a move it interrupts has ended
       window_end_ = 0;
       mode_ = Mode::force;
       break;
@@ -302,7 +308,7 @@ void Controller::apply(const Command& c) noexcept {
 
   if (falling & bit(registers::kEnable) && state_ == DriveState::enabled) {
     state_ = DriveState::ready;
-    mode_ = Mode::idle;
+    start_hold();  // a move cut short ends here: no profile left running (the moving bit)
   }
   if (rising & bit(registers::kEnable) && state_ == DriveState::ready) {
     state_ = DriveState::enabled;
@@ -424,9 +430,10 @@ double Controller::position_command_rad(double dt) noexcept {
   if (std::abs(err) > 1.5 * a.linear_count_m)
     integral_rad_ = std::clamp(integral_rad_ + cfg_.position_integral_rad_per_m_s * err * dt,
                                phase_lo_rad_, phase_hi_rad_);
-  const double phase =
-      std::clamp(kTwoPi / a.lead_m * err + cfg_.position_gain_rad_per_m * err + integral_rad_,
-                 phase_lo_rad_, phase_hi_rad_);
+  const double wanted_rad =
+      kTwoPi / a.lead_m * err + cfg_.position_gain_rad_per_m * err + integral_rad_;
+  const double phase = std::clamp(wanted_rad, phase_lo_rad_, phase_hi_rad_);
+  position_clamped_ = phase != wanted_rad;
   return rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + phase;
 }
 
@@ -482,6 +489,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     force_loop_.stop();
     window_end_ = 0;
   }
+  if (mode_ == Mode::force || state_ != DriveState::enabled) position_limited_ = false;
   publish_observer();
   const bool settled = settle(reached, dt);
   if (update_power() != HwStatus::ok) {
@@ -633,6 +641,7 @@ Controller::Reached Controller::control_by_state(double dt) noexcept {
         screw_cmd_rad_ = position_command_rad(dt);
         r.position = prof_pos_m_ == target_m_ && prof_vel_m_s_ == 0.0 &&
                      std::abs(target_m_ - s_.nut_pos_m) <= cfg_.in_position_tol_m;
+        update_position_limit(dt);
       }
       break;
     case DriveState::fault:
@@ -640,6 +649,26 @@ Controller::Reached Controller::control_by_state(double dt) noexcept {
       break;
   }
   return r;
+}
+
+/// The coupling at its safe limit with the nut stalled short of the profile: the load needs
+/// more force than the safe fraction allows. Said (force_limited, in_position_reason
+/// coupling_limit), no fault: the command stays at the limit and the next setpoint is taken.
+void Controller::update_position_limit(double dt) noexcept {
+  const bool stalled = position_clamped_ && s_.nut_vel_m_s == 0.0 &&
+                       std::abs(prof_pos_m_ - s_.nut_pos_m) > cfg_.in_position_tol_m;
+  stall_s_ = stalled ? stall_s_ + dt : 0.0;
+  position_limited_ = stall_s_ >= kStallConfirm_s;
+}
+
+/// Why in_position is clear: not holding a position, the profile running, settling, or the
+/// coupling's limit.
+InPositionReason Controller::in_position_reason(bool settled, const Reached& r) const noexcept {
+  using R = InPositionReason;
+  if (state_ != DriveState::enabled || mode_ == Mode::force) return R::not_holding;
+  if (settled && r.position) return R::reached;
+  if (position_limited_) return R::coupling_limit;
+  return prof_pos_m_ != target_m_ || prof_vel_m_s_ != 0.0 ? R::moving : R::settling;
 }
 
 /// Force mode: the force loop, unless the nut heads past the force window's end; then the
@@ -710,10 +739,12 @@ void Controller::publish(bool settled, const Reached& r) noexcept {
        settled && r.force, stepped_out_, tw.drift_warning, watchdog_expired_, tw.healthy,
        tw.step_out_warning, stopping_,
        s_.nut_pos_m <= a.stroke_min_m || s_.nut_pos_m >= a.stroke_max_m, tw.lagging,
-       window_end_ != 0 || force_loop_.state() == ForceLoopState::speed_limited ||
+       window_end_ != 0 || position_limited_ ||
+           force_loop_.state() == ForceLoopState::speed_limited ||
            (force_loop_.drive_limited() &&
             s_.force_reached_reason ==
                 static_cast<std::uint16_t>(ForceReachedReason::drive_limit))});
+  s_.in_position_reason = static_cast<std::uint16_t>(in_position_reason(settled, r));
   s_.drive_state = static_cast<std::uint16_t>(state_);
   s_.active_mode = static_cast<std::uint16_t>(mode_);
   s_.command_status = command_bits_;

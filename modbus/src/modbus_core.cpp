@@ -59,6 +59,7 @@ const ModbusCore::Binding kBindings[] = {
     {"load_force_lo_mn", SNAP(observer_force_lo_n), nullptr, nullptr},
     {"load_force_hi_mn", SNAP(observer_force_hi_n), nullptr, nullptr},
     {"force_reached_reason", SNAP(force_reached_reason), nullptr, nullptr},
+    {"in_position_reason", SNAP(in_position_reason), nullptr, nullptr},
     {"drive_fault_cause", SNAP(drive_fault_cause), nullptr, nullptr},
     {"drive_error_code", SNAP(drive_error_code), nullptr, nullptr},
     {"observer_basis", SNAP(observer_basis), nullptr, nullptr},

@@ -152,6 +152,9 @@ constexpr std::array kTable = std::to_array<Register>({
      "Twin drift: free-move time used since the reference restarted"},
     {"twin_drift_statistic_f32", IR, 92, Type::f32, 1, "", RO, -1e9, 1e9,
      "Twin drift: change over its margin (1 or more for 2 s raises drift_warning)"},
+    {"in_position_reason", IR, 94, Type::u16, 1, "", RO, 0, 4,
+     "Why in_position is clear, see its codes (0 in position); 4 coupling_limit also sets "
+     "force_limited"},
     // The same 32-bit values as float32, SI units.
     {"nut_pos_m_f32", IR, 100, Type::f32, 1, "m", RO, -1e9, 1e9, "Measured nut position"},
     {"nut_vel_m_s_f32", IR, 102, Type::f32, 1, "m/s", RO, -1e9, 1e9, "Nut velocity"},
@@ -259,10 +262,11 @@ constexpr std::array kTable = std::to_array<Register>({
      "Twin behind the loop: its input queue overflowed, or its results are older than the bound "
      "(5 cycles); the loop never waits for it"},
     {"force_limited", DI, kForceLimited, Type::bit, 1, "", RO, 0, 1,
-     "Force mode at its envelope: the nut held at the end of its stroke window before the force "
-     "was reached (force_reached_reason 7), sliding at the force speed limit (reason 8), or "
-     "stuck with the coupling at its safe limit short of the force (reason 9); no fault: the "
-     "next setpoint is taken at once"},
+     "The drive at its envelope: in force mode the nut held at the end of its stroke window "
+     "before the force was reached (force_reached_reason 7), sliding at the force speed limit "
+     "(reason 8), or stuck with the coupling at its safe limit short of the force (reason 9); "
+     "in position mode the coupling at its safe limit with the nut stalled short of the target "
+     "(in_position_reason 4); no fault: the next setpoint is taken at once"},
 });
 
 constexpr std::array kAlarms = std::to_array<Code>({
@@ -310,6 +314,15 @@ constexpr std::array kStates = std::to_array<Code>({
     {1, "ready", "holding position, waiting for an enable edge"},
     {2, "enabled", "modes act on commands"},
     {3, "fault", "latched until fault_reset"},
+});
+constexpr std::array kInPositionReasons = std::to_array<Code>({
+    {0, "reached", "in position: at the target within tolerance for the dwell"},
+    {1, "not_holding", "not holding a position: disabled, in fault, or in force mode"},
+    {2, "moving", "the motion profile still runs towards the target"},
+    {3, "settling", "the profile is at the target, the nut not yet within tolerance for the dwell"},
+    {4, "coupling_limit",
+     "the coupling is at its safe limit and the nut stalled short of the target: the load needs "
+     "more force than the safe limit; no fault, the next setpoint is taken at once"},
 });
 constexpr std::array kDriveFaultCauses = std::to_array<Code>({
     {0, "none", "no drive fault, or a backend that cannot tell its cause"},
@@ -410,6 +423,7 @@ const std::array kCodeRegisters = std::to_array<CodeRegister>({
     {"twin_step_out_reason", kStepOutReasons},
     {"force_loop_state", kForceLoopStates},
     {"force_reached_reason", kReachedReasons},
+    {"in_position_reason", kInPositionReasons},
     {"observer_basis", kObserverBases},
     {"twin_drift_observability", kDriftObservability},
     {"twin_drift_separable", kDriftSeparable},
@@ -423,9 +437,9 @@ constexpr std::array kRanges = std::to_array<AddressRange>({
     {DI, 0, 16, "status word bits"},
 });
 constexpr std::array kPollBlocks = std::to_array<AddressRange>({
-    {IR, 0, 94,
+    {IR, 0, 95,
      "FC4 (or FC3): identity, status, alarm, owner, scaled measurements, twin, loop, fault "
-     "reaction, load observer and force loop, drift without a load cell"},
+     "reaction, load observer and force loop, drift without a load cell, in-position reason"},
     {IR, 100, 54, "FC4 (or FC3): the same measurements as float32, and the drive's limits"},
     {HR, 1000, 20,
      "FC3: commands and setpoints as written (or FC23: write 1000.. and read 10..55 in one)"},

@@ -131,7 +131,15 @@ class Rig {
   }
   void force(double setpoint_n) {
     image_.force_setpoint_n = setpoint_n;
-    image_.mode_command = static_cast<std::uint16_t>(reg::Mode::force);
+    execute(reg::Mode::force);
+  }
+  void position(double target_m) {
+    image_.position_setpoint_m = target_m;
+    execute(reg::Mode::position);
+  }
+  /// An execute edge applying `mode` with the staged setpoints.
+  void execute(reg::Mode mode) {
+    image_.mode_command = static_cast<std::uint16_t>(mode);
     image_.control_word = bit(reg::kEnable) | bit(reg::kExecute);
     post();
     image_.control_word = bit(reg::kEnable);

@@ -77,14 +77,14 @@ def run(port):
         return exc_code(raw_request(port, pdu))
     check(exc(struct.pack(">BHH", 3, 200, 1)) == 2, "read of an unmapped address: exception 02")
     check(exc(struct.pack(">BHH", 3, 150, 10)) == 2, "read partly outside the map: exception 02")
-    # Finding 8: block reads across reserved addresses (IR 8-9, 94-99) answer, reserved as 0; IR
+    # Finding 8: block reads across reserved addresses (IR 8-9, 95-99) answer, reserved as 0; IR
     # 68-69 (the drive fault's cause and code) read 0 without a fault.
     rr = c.read_input_registers(0, 16, slave=UNIT)
     check(not rr.isError() and rr.registers[8:10] == [0, 0] and rr.registers[0] == 0x4D4C,
           "FC4 0..15 reads, reserved 8-9 as 0")
     rr = c.read_holding_registers(40, 72, slave=UNIT)
     check(not rr.isError() and len(rr.registers) == 72 and rr.registers[28:30] == [0] * 2
-          and rr.registers[54:60] == [0] * 6, "FC3 40..111 reads, 68-69 (no fault) and reserved 94-99 as 0")
+          and rr.registers[55:60] == [0] * 5, "FC3 40..111 reads, 68-69 (no fault) and reserved 95-99 as 0")
     check(exc(struct.pack(">BHH", 4, 21, 2)) == 2, "read splitting a 32-bit value: exception 02")
     check(exc(struct.pack(">BHH", 4, 1000, 1)) == 2, "FC4 on a holding register: exception 02")
     check(exc(struct.pack(">BHH", 3, 10, 0)) == 3, "quantity 0: exception 03")

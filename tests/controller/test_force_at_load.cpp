@@ -281,4 +281,58 @@ void push_beyond_friction(double sign) {
 }  // namespace
 
 TEST(ForceEnvelope, TheCouplingsSafeLimitBeforeAPush) { push_beyond_friction(1.0); }
+
+// A position the load does not allow (a 2000 N/m spring 25 mm from its rest needs 50 N, beyond
+// the safe limit): the nut stalls with the coupling at its limit. That is said (force_limited,
+// in_position_reason coupling_limit) without a fault, and the next target is taken at once.
+namespace {
+void position_beyond_the_limit(double sign) {
+  Rig rig({"2000 N/m", 2000}, PlantEffects{}, ServedModel{});
+  const double start_m = rig.snap().nut_pos_m;
+  rig.position(start_m + sign * 0.025);
+  rig.run(3.0);
+  const Snapshot held = rig.snap();
+  std::printf("target %+.1f mm: nut at %+.2f mm, load %.2f N (limit %.2f N), reason %u\n",
+              sign * 25.0, (held.nut_pos_m - start_m) * 1e3, rig.load_out_n(),
+              rig.safe_limit_n(sign), held.in_position_reason);
+  EXPECT_LT(std::abs(held.nut_pos_m - start_m), 0.020);  // it could not get there
+  EXPECT_EQ(held.in_position_reason, static_cast<std::uint16_t>(InPositionReason::coupling_limit));
+  EXPECT_TRUE((held.status_word >> reg::kForceLimited) & 1u);
+  EXPECT_FALSE((held.status_word >> reg::kInPosition) & 1u);
+  EXPECT_EQ(held.alarm_code, 0);
+  EXPECT_EQ(held.drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+  rig.position(start_m + sign * 0.005);  // 10 N: well inside the limit
+  rig.run(2.0);
+  const Snapshot after = rig.snap();
+  EXPECT_EQ(after.in_position_reason, static_cast<std::uint16_t>(InPositionReason::reached));
+  EXPECT_TRUE((after.status_word >> reg::kInPosition) & 1u);
+  EXPECT_FALSE((after.status_word >> reg::kForceLimited) & 1u);
+  EXPECT_NEAR(after.nut_pos_m, start_m + sign * 0.005, 1e-4);
+}
+}  // namespace
+
+// A move cut short (enable cleared, or a force execute mid-move) leaves no profile running:
+// `moving` says the nut moves, not that a move was once started.
+TEST(ForceEnvelope, AMoveCutShortLeavesMovingClearOnceTheNutStands) {
+  for (const bool by_force : {false, true}) {
+    Rig rig({"free", 0}, PlantEffects{}, ServedModel{});
+    rig.position(rig.snap().nut_pos_m + 0.010);
+    rig.run(0.5);
+    ASSERT_TRUE((rig.snap().status_word >> reg::kMoving) & 1u);
+    if (by_force)
+      rig.force(0.0);
+    else
+      rig.enable(false);
+    rig.run(1.5);
+    EXPECT_EQ(rig.snap().nut_vel_m_s, 0.0) << by_force;
+    EXPECT_FALSE((rig.snap().status_word >> reg::kMoving) & 1u) << by_force;
+  }
+}
+
+TEST(ForceEnvelope, APositionTheLoadDoesNotAllowStallsWithoutAFaultPush) {
+  position_beyond_the_limit(1.0);
+}
+TEST(ForceEnvelope, APositionTheLoadDoesNotAllowStallsWithoutAFaultPull) {
+  position_beyond_the_limit(-1.0);
+}
 TEST(ForceEnvelope, TheCouplingsSafeLimitBeforeAPull) { push_beyond_friction(-1.0); }

@@ -71,7 +71,7 @@ TEST(Registers, LookupByAddressFindsWordIndex) {
   ASSERT_NE(r, nullptr);
   EXPECT_EQ(r->name, "nut_pos_um");
   EXPECT_EQ(w, 1);
-  EXPECT_EQ(at(Table::input_register, 94), nullptr);  // reserved
+  EXPECT_EQ(at(Table::input_register, 95), nullptr);  // reserved
   EXPECT_EQ(at(Table::holding_register, 21), nullptr);
 }
 

@@ -580,6 +580,23 @@ std::optional<std::string> limited_before_force(Client& c) {
   return std::nullopt;
 }
 
+/// Position mode stalled with the coupling at its safe limit (in_position_reason
+/// coupling_limit): what to say, with where the nut stands.
+std::optional<std::string> limited_before_position(Client& c) {
+  const auto* why = reg::find("in_position_reason");
+  const auto* pos = reg::find("nut_pos_um");
+  const double reason = c.read_range(reg::Table::input_register, why->address, 1).at(why->name);
+  if (code_name(reg::codes_of("in_position_reason"), reason) != "coupling_limit")
+    return std::nullopt;
+  const double nut_m = c.read_range(reg::Table::input_register, pos->address, 2).at(pos->name);
+  char b[64];
+  std::snprintf(b, sizeof b, "%.3f mm", nut_m * 1e3);
+  return "the coupling reached its safe limit with the nut at " + std::string(b) +
+         ", short of the target (force_limited, in_position_reason 4 coupling_limit): the load "
+         "needs more force there than the safe limit (IR 140/142); ask for a target the load "
+         "allows";
+}
+
 /// Why a force is not reached yet, from the controller's own registers: "force_loop_state 4
 /// holding, force_reached_reason 4 bound_too_wide (the load-force bound is wider than the
 /// tolerance): the load force is known only within -8.04 .. 8.03 N".
@@ -665,8 +682,10 @@ CommandResult execute(Client& c, reg::Mode mode,
       throw ClientError(Kind::rejected,
                         "execute: the drive was disabled before reaching the target");
     if (o.stop && o.stop()) break;
-    if (mode == reg::Mode::force && ((s.status_word >> reg::kForceLimited) & 1u))
-      if (auto why = limited_before_force(c)) throw ClientError(Kind::rejected, "execute: " + *why);
+    if ((s.status_word >> reg::kForceLimited) & 1u)
+      if (auto why =
+              mode == reg::Mode::force ? limited_before_force(c) : limited_before_position(c))
+        throw ClientError(Kind::rejected, "execute: " + *why);
     if (since(t0) > o.done_timeout_s)  // the controller answers: it is its answer, not the line
       throw ClientError(
           Kind::rejected,

@@ -76,6 +76,15 @@ struct ControllerConfig {
 LoadObserverConfig observer_config(const ControllerConfig& c);
 
 /// Everything a client can read, from one cycle.
+/// Why in_position is clear (IR 94; the codes' texts are in registers/).
+enum class InPositionReason : std::uint16_t {
+  reached = 0,
+  not_holding = 1,     // disabled, in fault, or in force mode
+  moving = 2,          // the profile still runs
+  settling = 3,        // the profile at its target, the nut not yet within tolerance for the dwell
+  coupling_limit = 4,  // the coupling at its safe limit and the nut stalled short of the target
+};
+
 struct Snapshot {
   std::uint64_t cycle = 0;
   double t_s = 0.0;
@@ -90,7 +99,8 @@ struct Snapshot {
   TwinReport twin;
   std::uint16_t status_word = 0, alarm_code = 0, step_out_count = 0, drive_state = 0;
   std::uint16_t active_mode = 0, command_status = 0, reject_reason = 0;
-  std::uint16_t fault_reaction = 0;  // registers::Reaction
+  std::uint16_t fault_reaction = 0;      // registers::Reaction
+  std::uint16_t in_position_reason = 1;  // InPositionReason
   // A drive_fault's cause and the drive's error code, latched with the alarm.
   std::uint16_t drive_fault_cause = 0, drive_error_code = 0;
 };
@@ -160,9 +170,11 @@ class Controller {
   double force_mode_command_rad(double dt, Reached& reached) noexcept;
   void check_force_window() noexcept;
   void note_drive_fault_cause() noexcept;
+  void update_position_limit(double dt) noexcept;
   bool settle(const Reached& reached, double dt) noexcept;
   HwStatus update_power() noexcept;
   void publish(bool settled, const Reached& reached) noexcept;
+  InPositionReason in_position_reason(bool settled, const Reached& r) const noexcept;
 
   void apply(const Command& c) noexcept;
   void on_execute() noexcept;
@@ -219,6 +231,9 @@ class Controller {
   bool fault_position_hold_ = false;  // hold: the position loop keeps running (controlled stop)
   double release_force_n_ = 0.0;      // release: the output force being ramped to zero
   double lead_rad_ = 0.0;             // after a slip: the lead (2π k) the nut sits in now
+  bool position_clamped_ = false;     // the position loop's phase command at the safe limit
+  bool position_limited_ = false;     // …and the nut stalled there (force_limited)
+  double stall_s_ = 0.0;
   int window_end_ = 0;  // force mode held at its window's end: +1 the far end, -1 the near one
   // The power stage: the last request made of the hardware, and a reset it still has to pass on.
   PowerRequest power_ = PowerRequest::disable;
