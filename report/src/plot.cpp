@@ -178,15 +178,6 @@ ColourScale colour_scale(const std::vector<double>& values) {
   return s;
 }
 
-/// The image format the file's name asks for; the bytes always match the name.
-std::string image_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (auto& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  if (ext == ".png" || ext == ".jpg" || ext == ".jpeg") return ext;
-  throw std::runtime_error(path + ": cannot write an image named '" + ext +
-                           "': give the file a .png (or .jpg) name");
-}
-
 // A JPEG's quality: OpenCV's default, where a figure's lines and text show no artefacts.
 constexpr int kJpegQuality = 95;
 
@@ -204,6 +195,15 @@ void write_png(const std::string& path, const cv::Mat& img) {
 }
 
 }  // namespace
+
+/// The image format the file's name asks for; the bytes always match the name.
+std::string image_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (auto& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (ext == ".png" || ext == ".jpg" || ext == ".jpeg") return ext;
+  throw std::runtime_error(path + ": cannot write an image named '" + ext +
+                           "': give the file a .png (or .jpg) name");
+}
 
 void save_panels_png(const std::string& path, const std::vector<Panel>& panels, int width_px,
                      int panel_height_px) {

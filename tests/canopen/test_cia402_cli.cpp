@@ -50,6 +50,10 @@ TEST(Cia402Cli, AMissingInterfaceExitsTwoNamingItAndHowToBringOneUp) {
 
 TEST(Cia402Cli, CanOptionsWithoutTheirBackendAreRefused) {
   EXPECT_EQ(serve("--can can0 --duration 1s").exit_code, 2);
+  // sim too: without the backend it would run the plain simulated actuator, not CANopen.
+  const auto sim = serve("--can sim --duration 1s");
+  EXPECT_EQ(sim.exit_code, 2);
+  EXPECT_NE(sim.out.find("type --backend cia402 --can sim"), std::string::npos) << sim.out;
   EXPECT_EQ(serve("--backend cia402 --can can0 --sim-can-drop 0.01 --duration 1s").exit_code, 2);
   EXPECT_EQ(serve("--backend nosuch --duration 1s").exit_code, 2);
 }

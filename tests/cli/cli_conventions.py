@@ -111,6 +111,12 @@ def version_and_usage():
     rc, _, err = run("record", "--rate", "abc", "--duration", "1s", "-o", os.path.join(WORK, "rabc.csv"))
     check(rc == 2 and "'abc' is not a number" in err and "--rate 100" in err,
           f"record --rate abc: {err.strip()!r}")
+    # An image name the plot cannot have is refused before anything is written.
+    cal_out = os.path.join(WORK, "cal_gif.toml")
+    rc, _, err = run("calibrate", "--recording", os.path.join(WORK, "nowhere.csv"), "--out", cal_out,
+                     "--plot", os.path.join(WORK, "e.gif"))
+    check(rc == 2 and "give the file a .png" in err and not os.path.exists(cal_out),
+          f"calibrate --plot e.gif refused first, nothing written: {err.strip()!r}")
     # analyze on an 80-column terminal breaks its long lines at spaces, under their own text; into
     # a pipe every line stays whole (scripts read them).
     moved = os.path.join(WORK, "moved.csv")

@@ -1,5 +1,7 @@
 #include "cli_common.hpp"
 
+#include "maglead/report/plot.hpp"
+
 #include <sys/ioctl.h>
 #include <unistd.h>
 
@@ -78,6 +80,19 @@ std::string missing_config_hint(const std::string& error) {
   return "\nno configuration directory found (looked in " + looked +
          "): pass --config DIR, a directory with calibration.toml and actuator.toml (the "
          "checkout's config/ is one), or set MAGLEAD_CONFIG=DIR";
+}
+
+CLI::Validator image_name() {
+  return CLI::Validator(
+      [](std::string& path) {
+        try {
+          plot::image_extension(path);
+          return std::string();
+        } catch (const std::runtime_error& e) {
+          return std::string(e.what());
+        }
+      },
+      "FILE.png", "image name");
 }
 
 CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what) {

@@ -30,6 +30,9 @@ std::string replacing_note(const std::string& path, const std::string& what = "t
 /// For an error naming a missing file of the default configuration directory when no candidate
 /// had one: where maglead looked and what to type; "" otherwise.
 std::string missing_config_hint(const std::string& error);
+/// An option naming an image to write: refused at once (exit 2) unless it ends .png or .jpg, so
+/// nothing is written before the name is found wrong.
+CLI::Validator image_name();
 CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what = "");
 
 /// "30s", "2min", "500ms", "1h" or a plain number of seconds. Throws CLI::ValidationError.

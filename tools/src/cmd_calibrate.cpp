@@ -24,7 +24,7 @@ void add_calibrate(CLI::App& app) {
                   "(screw held, nut moved through the stable range)")
       ->required();
   cmd->add_option("-o,--out", o->out, "Calibration file to write (TOML)")->required();
-  cmd->add_option("--plot", o->plot, "Also draw data and fit into this PNG");
+  cmd->add_option("--plot", o->plot, "Also draw data and fit into this PNG")->check(image_name());
   cmd->add_option(
          "--order-gain", o->gain_pct,
          "Choose the lowest order that no higher order improves by more than this [% RMSE]")

@@ -196,7 +196,8 @@ void add_estimate(CLI::App& app) {
                   "e.g. the model_corrected.toml that maglead analyze wrote; the observer takes "
                   "its friction, offset, mass, coupling gain and angle ripple, as serve does")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--plot", o->plot, "PNG to write (default: next to the recording)");
+  cmd->add_option("--plot", o->plot, "PNG to write (default: next to the recording)")
+      ->check(image_name());
   cmd->add_option("-o,--out", o->out,
                   "Also write the estimate as a recording (mls-recording/1): t_s, "
                   "out_force_est_n, out_force_meas_n (the load cell's output force), "

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "cli_common.hpp"
+#include "maglead/analysis/results.hpp"
 #include "maglead/modbus/network_config.hpp"
 #include "maglead/registers/registers.hpp"
 #include "maglead/runtime/service.hpp"
@@ -30,8 +31,9 @@ struct ServeOptions {
   bool read_only = false, no_tcp = false, rs485 = false, no_twin = false;
   std::uint64_t seed = 1;
   double spring_n_per_m = 2000.0, spring_anchor_m = 0.02, start_pos_m = 0.02;
-  std::string backend = "simulated", can = "sim", sim_can_silence_at;
+  std::string backend = "simulated", can, sim_can_silence_at;  // can: empty unless given
   double sim_can_drop = 0.0;
+  std::string can_or_sim() const { return can.empty() ? "sim" : can; }
 };
 
 void add_network_options(CLI::App* cmd, ServeOptions& o) {
@@ -88,8 +90,7 @@ void add_backend_options(CLI::App* cmd, ServeOptions& o) {
       ->capture_default_str();
   b->add_option("--can", o.can,
                 "cia402: the SocketCAN interface of the drive (e.g. can0), or sim: the simulated "
-                "CiA 402 drive in-process around the simulated actuator")
-      ->capture_default_str();
+                "CiA 402 drive in-process around the simulated actuator (default: sim)");
   b->add_option("--sim-can-drop", o.sim_can_drop,
                 "cia402 --can sim: fraction of CAN frames lost on the simulated bus")
       ->check(CLI::Range(0.0, 0.5))
@@ -103,12 +104,14 @@ void add_backend_options(CLI::App* cmd, ServeOptions& o) {
 /// as the actuator's encoders do; the loop's period always.
 void set_cia402(const ServeOptions& o, const ActuatorParams& actuator,
                 canopen::Cia402BackendOptions& c) {
+  // --can sim without the backend would run the plain simulated actuator, not the CANopen path.
   if (o.backend != "cia402" &&
-      (o.can != "sim" || o.sim_can_drop > 0.0 || !o.sim_can_silence_at.empty()))
-    throw CLI::ValidationError("--can", "applies to --backend cia402 only");
-  if (o.can != "sim" && (o.sim_can_drop > 0.0 || !o.sim_can_silence_at.empty()))
+      (!o.can.empty() || o.sim_can_drop > 0.0 || !o.sim_can_silence_at.empty()))
+    throw CLI::ValidationError(
+        "--can", "applies to --backend cia402 only: type --backend cia402 --can " + o.can_or_sim());
+  if (o.can_or_sim() != "sim" && (o.sim_can_drop > 0.0 || !o.sim_can_silence_at.empty()))
     throw CLI::ValidationError("--sim-can-drop", "applies to --can sim only");
-  c.can = o.can;
+  c.can = o.can_or_sim();
   c.sim_drop_fraction = o.sim_can_drop;
   c.sim_seed = o.seed;
   if (!o.sim_can_silence_at.empty()) c.sim_silence_at_s = parse_duration_s(o.sim_can_silence_at);
@@ -194,6 +197,30 @@ std::string coupling_text(const CouplingModel& c) {
   return out;
 }
 
+/// The model file's terms, as the corrected model states them: "offset (offset_n 2.004 N);
+/// left out: viscous_friction". Empty for a model without terms.
+std::string model_terms_text(const twin::TwinModel& m) {
+  std::string on, off;
+  for (const auto& t : m.terms) {
+    if (!t.enabled) {
+      off += (off.empty() ? "" : ", ") + t.id;
+      continue;
+    }
+    std::string params;
+    for (const auto& [name, value] : t.parameters) {
+      char b[96];
+      const std::string unit = analysis::unit_of_parameter(name);
+      std::snprintf(b, sizeof b, "%s %.4g%s%s", name.c_str(), value, unit.empty() ? "" : " ",
+                    unit.c_str());
+      params += (params.empty() ? "" : ", ") + std::string(b);
+    }
+    on += (on.empty() ? "" : "; ") + t.id + (params.empty() ? "" : " (" + params + ")");
+  }
+  if (on.empty() && off.empty()) return "";
+  return "model terms: " + (on.empty() ? std::string("none enabled") : on) +
+         (off.empty() ? "" : "; disabled in the file: " + off);
+}
+
 /// The configuration files serve reads, as the user would name them: those of the folder that
 /// exist, and the files given by option instead.
 std::string files_read(const ServeOptions& o) {
@@ -231,7 +258,7 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
   if (!service.refused().empty())
     say("realtime \"try\": not granted: %s", service.refused().c_str());
   const std::string drive = service.hardware_description();
-  const bool real_drive = o.backend == "cia402" && o.can != "sim";
+  const bool real_drive = o.backend == "cia402" && o.can_or_sim() != "sim";
   const std::string load =
       real_drive ? "the load it drives"
       : o.spring_n_per_m > 0
@@ -247,11 +274,16 @@ void print_banner(const ServeOptions& o, const runtime::ServiceConfig& sc,
   say("configuration from %s (%s)",
       std::filesystem::absolute(o.config).lexically_normal().string().c_str(),
       files_read(o).c_str());
-  say("model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N (+p/-p), %s%s",
+  char offset[48] = "";
+  if (cfg.friction.offset_n != 0.0)
+    std::snprintf(offset, sizeof offset, ", offset %.3f N", cfg.friction.offset_n);
+  say("model from %s: F_c %.2f/%.2f N, break-away %.2f/%.2f N (+p/-p)%s, %s%s",
       model_used.empty() ? "[actuator]" : model_used.c_str(), cfg.friction.coulomb_pos_n,
       cfg.friction.coulomb_neg_n, cfg.friction.breakaway_pos_n, cfg.friction.breakaway_neg_n,
-      coupling_text(cfg.coupling).c_str(),
+      offset, coupling_text(cfg.coupling).c_str(),
       o.sim_effects.empty() ? "" : "; the simulated plant differs (--sim-effect)");
+  if (const auto terms = model_terms_text(sc.twin_config.model); !terms.empty())
+    say("%s", terms.c_str());
   const auto& rm = cfg.reference_move;
   say("reference move (mode_command 3): %.1f .. %.1f mm at %.1f and %.1f mm/s, "
       "%.2f m/s^2 ([reference_move])",

@@ -19,6 +19,9 @@ struct Panel {
 };
 
 /// Panels stacked vertically into one PNG. Throws std::runtime_error if it cannot be written.
+/// The image format a file's name asks for (".png", ".jpg", ".jpeg"); throws std::runtime_error
+/// saying what to name it otherwise. A tool checks its output name with it before any work.
+std::string image_extension(const std::string& path);
 void save_panels_png(const std::string& path, const std::vector<Panel>& panels, int width_px = 1200,
                      int panel_height_px = 320);
 
