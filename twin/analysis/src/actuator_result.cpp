@@ -463,7 +463,8 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
                  std::nullopt,
                  {},
                  {}};
-  if (sel.stopped_at) J.not_selected.push_back(selection::best_left_out(*sel.stopped_at));
+  if (sel.stopped_at)
+    J.not_selected.push_back(selection::best_left_out(*sel.stopped_at, sel.stopped_reason));
   J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);

@@ -699,7 +699,7 @@ std::vector<ValidationStep> validation_of(const AxisRun& run, const selection::R
 // The terms not selected: the best remaining one and those the backward check dropped.
 std::vector<Rejected> rejected_of(const selection::Result& r) {
   std::vector<Rejected> out;
-  if (r.stopped_at) out.push_back(selection::best_left_out(*r.stopped_at));
+  if (r.stopped_at) out.push_back(selection::best_left_out(*r.stopped_at, r.stopped_reason));
   out.insert(out.end(), r.dropped.begin(), r.dropped.end());
   out.insert(out.end(), r.refused.begin(), r.refused.end());
   return out;

@@ -69,14 +69,17 @@ std::string misfit_text(double final_rms_n, double noise_floor_n,
   std::string s = "a misfit of " + num(final_rms_n) + " " + unit + " RMS remains (floor " +
                   num(noise_floor_n) + " " + unit + ")";
   for (const auto& r : not_selected) {
-    if (r.reason != std::string(kBelowSignificance) || !(r.heldout_gain_pct >= kMostOfItPct))
+    if (!r.reason || !r.reason->starts_with(kBelowSignificance) ||
+        !(r.heldout_gain_pct >= kMostOfItPct))
       continue;
+    // The rule it failed, as the left-out table gives it (after "…threshold: ").
+    const std::size_t detail = r.reason->find(": ", std::string(kBelowSignificance).size());
     s += ": " + r.id + " would explain " + num(r.heldout_gain_pct) +
-         " % of it held out, but not consistently over the recording's segments (t = " +
-         num(r.t_stat) + ", below the threshold";
-    if (r.worst_segment_pct && *r.worst_segment_pct < 0)
-      s += ", one segment " + num(-*r.worst_segment_pct) + " % worse with it";
-    return s + "); not settled by this recording: record longer or with more sliding";
+         " % of it held out, but short of significance (" +
+         (detail == std::string::npos ? std::string("below the threshold")
+                                      : r.reason->substr(detail + 2)) +
+         ")";
+    return s + "; not settled by this recording: record longer or with more sliding";
   }
   return s + " that no library effect explains";
 }

@@ -151,6 +151,28 @@ bool significant(const Search& s, const std::vector<double>& cur, const Trial& t
   return tr.gain >= s.st.min_gain_pct && consistent && resolved_where(s, cur, tr, where, *s.terms);
 }
 
+// Which of significant()'s rules a trial fails, with its figures: the left-out table's "why"
+// must be the rule that failed, not a gain and t that both pass.
+std::string why_not_significant(const Search& s, const std::vector<double>& cur, const Trial& tr,
+                                const Acting& where) {
+  char b[240];
+  if (tr.gain < s.st.min_gain_pct) {
+    std::snprintf(b, sizeof b, "held-out gain %.2f %% below %.3g %%", tr.gain + 0.0,
+                  s.st.min_gain_pct);
+  } else if (!(tr.t >= s.st.min_t || (tr.gain >= rules::kLocalizedGainFactor * s.st.min_gain_pct &&
+                                      tr.worst > rules::kLocalizedWorstSegmentPct))) {
+    std::snprintf(b, sizeof b,
+                  "not consistent over the segments: t = %.2f below %.3g, worst segment %.0f %%",
+                  tr.t, s.st.min_t, tr.worst);
+  } else {
+    std::snprintf(b, sizeof b,
+                  "the force it explains, %.3f N RMS where it acts, is not one the recording "
+                  "resolves (floor %.3f N)",
+                  explained_n(s, cur, tr) / std::sqrt(where.share), s.rules.floor_n(*s.terms));
+  }
+  return std::string(kBelowSignificance) + ": " + b;
+}
+
 // Every effect not taken yet, each at its best variant and scored.
 std::vector<Trial> trials_of(const Search& s, Outcome& out) {
   std::vector<Trial> trials;
@@ -329,6 +351,7 @@ Outcome search(Search& s, const std::vector<int>& start,
     if (!significant(s, s.cur_ho, trials[pick], where)) {
       out.stopped_at = trials[pick];
       out.stopped_explained_n = explained_n(s, s.cur_ho, trials[pick]);
+      out.stopped_reason = why_not_significant(s, s.cur_ho, trials[pick], where);
       break;
     }
     take(s, out, trials, pick, best, where.share);
@@ -467,8 +490,8 @@ Rejected rejected_of(const Found& f, std::string reason) {
                   f.explained_n, std::move(reason), std::nullopt};
 }
 
-Rejected best_left_out(const Found& f) {
-  Rejected r = rejected_of(f, kBelowSignificance);
+Rejected best_left_out(const Found& f, const std::string& reason) {
+  Rejected r = rejected_of(f, reason.empty() ? std::string(kBelowSignificance) : reason);
   if (!f.params.empty()) r.parameters = parameters_of(f.params);
   return r;
 }
@@ -549,6 +572,7 @@ Result result_of(const Outcome& o, int folds, const Span& span) {
   for (const auto& [tr, explained] : o.dropped) r.dropped.push_back(dropped_of(tr, explained));
   for (const auto& [tr, why] : o.refused) r.refused.push_back(refused_of(tr, why, folds));
   if (o.stopped_at) r.stopped_at = found_of(*o.stopped_at, o.stopped_explained_n, folds);
+  r.stopped_reason = o.stopped_reason;
   return r;
 }
 

@@ -116,6 +116,7 @@ struct Outcome {
   std::vector<Term> terms;  // the terms kept, in the order taken
   std::vector<Step> steps;
   std::optional<Trial> stopped_at;  // the trial the rule named next, below the threshold
+  std::string stopped_reason;       // which rule it failed, with its figures
   double stopped_explained_n = 0;
   std::vector<std::pair<Trial, double>> dropped;  // by the backward check, with explained_n
   // Taken, then refused in the final fit (its params there), with why.
@@ -194,6 +195,7 @@ struct Result {
   std::vector<Rejected> dropped;    // by the backward check
   std::vector<Rejected> refused;    // outside their range or within their error in the final fit
   std::optional<Found> stopped_at;  // the next term the rule named, below the threshold
+  std::string stopped_reason;       // kBelowSignificance: the rule it failed, with its figures
   std::optional<Implausible> implausible;
 };
 
@@ -215,7 +217,7 @@ Rejected rejected_of(const Found& f, std::string reason);
 /// The best candidate left out (the term the rule named next, below the threshold) as both
 /// paths' findings list it: its held-out gain, t, worst segment, the force it would explain, why
 /// it was left out and its parameters where the unit gives them.
-Rejected best_left_out(const Found& f);
+Rejected best_left_out(const Found& f, const std::string& reason);
 
 /// The rule in words, for the report's method.
 std::string describe(const Settings& st);
