@@ -8,12 +8,12 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
-#include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
@@ -207,6 +207,15 @@ TwinModel load_twin_model(const std::string& path) {
   return m;
 }
 
+namespace {
+// The shortest text that reads back as the same double (0.0025, never 0.0025000000000000001).
+std::string shortest(double v) {
+  char b[32];
+  const auto r = std::to_chars(b, b + sizeof b, v);
+  return std::string(b, r.ptr);
+}
+}  // namespace
+
 void save_twin_model(const std::string& path, const TwinModel& m,
                      const std::string& header_comment) {
   validate_twin_model(m);
@@ -238,13 +247,13 @@ void save_twin_model(const std::string& path, const TwinModel& m,
   std::string line;
   for (std::istringstream lines(header_comment); std::getline(lines, line);)
     out << "# " << line << "\n";
-  out << std::setprecision(17) << "[model]\n";
+  out << "[model]\n";
   if (m.system != "actuator") out << "system = " << quoted(m.system) << "\n";
   const effects::AxisKind& kind = kind_of(m.system);
   out << "source = " << quoted(m.source) << "\n"
-      << kind.name_of("nut_mass_kg") << " = " << m.nut_mass_kg << "\n"
-      << kind.name_of("viscous_n_s_per_m") << " = " << m.viscous_n_s_per_m << "\n"
-      << kind.name_of("coulomb_n") << " = " << m.coulomb_n << "\n";
+      << kind.name_of("nut_mass_kg") << " = " << shortest(m.nut_mass_kg) << "\n"
+      << kind.name_of("viscous_n_s_per_m") << " = " << shortest(m.viscous_n_s_per_m) << "\n"
+      << kind.name_of("coulomb_n") << " = " << shortest(m.coulomb_n) << "\n";
   if (!m.fit.empty()) {
     out << "fit = [";
     bool first = true;
@@ -257,9 +266,8 @@ void save_twin_model(const std::string& path, const TwinModel& m,
     if (!t.enabled) out << "enabled = false\n";
     if (!t.note.empty()) out << "note = " << quoted(t.note) << "\n";
     for (const auto& [k, v] : t.parameters) {
-      // TOML floats need a dot or exponent to stay floats on re-read; setprecision prints
-      // integers bare, which toml++ still reads as a number (value<double> converts).
-      out << kind.name_of(k) << " = " << v << "\n";
+      // A whole number prints bare ("2"), which toml++ still reads as a number.
+      out << kind.name_of(k) << " = " << shortest(v) << "\n";
     }
   }
   write_file_atomically(path, out.str());

@@ -52,11 +52,18 @@ ModelFile corrected_model(const ModelFile& base, const std::vector<selection::Fo
     auto& term = m.term(c.id);
     term.enabled = true;
     term.parameters.assign(c.params.begin(), c.params.end());
-    term.note = "held-out gain " + fmt(c.gain_pct) + " %, t = " + fmt(c.t_stat);
-    for (const auto& a : c.alternatives)  // the file says what the data could not decide
-      if (a.plausible)
+    // The finding as analyze prints it: values with their errors, the evidence, and what the
+    // data could not decide.
+    char evidence[96];
+    std::snprintf(evidence, sizeof evidence, "; held-out gain %.2f %%, t = %.1f", c.gain_pct,
+                  c.t_stat);
+    term.note = summary_text(parameters_of(c.params), parameters_of(c.standard_errors)) + evidence;
+    for (const auto& a : c.alternatives)
+      if (a.plausible) {
+        std::snprintf(evidence, sizeof evidence, "%.2f", a.explains_pct);
         term.note += "; the data cannot tell it from " + a.id + " (which reproduces " +
-                     fmt(a.explains_pct) + " % of it)";
+                     std::string(evidence) + " % of it)";
+      }
   }
   return m;
 }
