@@ -108,6 +108,19 @@ def scenario(port):
     rc, _, err = run(MAGLEAD, "set", *conn, "position", "20mm", "--speed", "5", "--config", CONFIG)
     check(rc == 2 and "velocity_limit_m_s = 5 m/s" in err and "type '5mm/s'" in err,
           f"--speed 5 (m/s): SI name, what to type: {err.strip()}")
+    # A near miss typed without a unit was meant in SI: no advice to type it in millimetres
+    # (0.041 mm is in the stroke, but 0.041 m is what was meant).
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "0.041", "--config", CONFIG)
+    check(rc == 2 and "outside the stroke" in err and "a number without a unit is in m" in err
+          and "type '" not in err and one_line(err), f"set position 0.041 (a near miss in m): no mm hint: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "20mm", "--speed", "0.5", "--config", CONFIG)
+    check(rc == 2 and "a number without a unit is in m/s" in err and "type '" not in err,
+          f"--speed 0.5 (a near miss in m/s): no mm/s hint: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "20mm", "--accel", "100", "--config", CONFIG)
+    check(rc == 2 and "type '100mm/s^2'" in err, f"--accel 100 (m/s^2): what to type: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "20mm", "--accel", "-100", "--config", CONFIG)
+    check(rc == 2 and "a number without a unit is in m/s^2" in err and "type '" not in err,
+          f"--accel -100: -100 mm/s^2 is refused too, so no hint: {err.strip()}")
     rc, _, err = run(MAGLEAD, "set", *conn, "forse", "12", "--config", CONFIG)
     check(rc == 2 and "did you mean 'force'?" in err, f"set forse: {err.strip()}")
     rc, _, err = run(MAGLEAD, "set", *conn, "position", "45mm", "--config", CONFIG)
