@@ -238,6 +238,15 @@ def scenario(port):
     rc, out, err = run(MAGLEAD, "set", *conn, "reference-move", "--hold", "0.1s")
     check(rc == 0 and "reference move (mode_command 3): done (in position)" in out
           and "released" in out, f"set reference-move runs the configured move to its end: {out.strip()} {err.strip()}")
+    # A bare number under the register's own name is in its raw unit (ms), said in SI; with a
+    # unit it is read in that unit; under the SI name a bare number is in s.
+    for name, typed, raw_ms, said in (("watchdog_ms", "50", 50, "watchdog_s = 0.05 s written (watchdog_ms 50:"),
+                                      ("watchdog_ms", "0.07s", 70, "watchdog_s = 0.07 s written\n"),
+                                      ("watchdog_s", "0.09", 90, "watchdog_s = 0.09 s written\n")):
+        rc, out, err = run(MAGLEAD, "set", *conn, name, typed)
+        got = read_regs(port, 3, 1003, 1)[0]
+        check(rc == 0 and said in out and got == raw_ms,
+              f"set {name} {typed}: {raw_ms} ms written (raw {got}): {out.strip()} {err.strip()}")
     rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
     check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
 

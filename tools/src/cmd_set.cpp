@@ -224,7 +224,10 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
     throw ClientError(Kind::refused_locally, "'" + o.what +
                                                  "' is not a writable setting (use enable, "
                                                  "disable, reset or set force/position)");
-  const double v = op::parse_quantity(text, r->unit);
+  // The register's own name (watchdog_ms) names its raw unit: a bare number typed under it is
+  // in that unit (watchdog_ms 50 is 0.05 s), as a PLC writes it; the SI name reads it in SI.
+  const bool raw = o.what == r->name && op::si_name(*r) != r->name && is_bare_number(text);
+  const double v = op::parse_quantity(text, r->unit) * (raw ? r->scale : 1.0);
   refuse_locally_if(op::check_register(*r, v));
   if (r->name.starts_with("force_setpoint"))
     refuse_locally_if(op::check_force(load_limits(f.config, f.calibration), v));
@@ -233,8 +236,12 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
   op::Client client(endpoint_of(conn));
   client.check_identity();
   client.write({{std::string(r->name), v}});
-  std::printf("%s = %s %s written\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
-              std::string(r->unit).c_str());
+  std::printf("%s = %s %s written%s\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
+              std::string(r->unit).c_str(),
+              raw ? (" (" + o.what + " " + text + ": a number without a unit is in the raw unit " +
+                     "the register name says)")
+                        .c_str()
+                  : "");
 }
 
 /// The controller's own limits, read from its limits block (what it refused against); this
