@@ -40,6 +40,7 @@ def main():
         tail = srv.stop()
     check("stopped after" in tail, "serve stops cleanly")
     dropped_connection()
+    stroke_end_load()
     finish()
 
 
@@ -356,6 +357,24 @@ def watch_pty(conn, key, how):
     check(re.search(r"drive\s+ready\s+mode\s+idle", text) is not None and "alarm none" in text
           and "force [N]" in text and "* estimate" in text and "now" in text,
           f"watch ({how}) shows state and a trend")
+
+
+def stroke_end_load():
+    """A spring whose free length lies past the force mode's stroke window (39 mm): a force
+    execute ends at the window's end (force_limited, force_reached_reason 7), and so does the
+    release's 0 N. The release says what the controller said, never a timeout that did not
+    happen."""
+    srv = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring-anchor", "0.0395", "--sim-start", "0.038")
+    try:
+        conn = ["--port", str(srv.port)]
+        t0 = time.time()
+        rc, out, err = run(MAGLEAD, "set", *conn, "force", "5", "--hold", "1s", "--config", CONFIG)
+        took = time.time() - t0
+        check(rc == 4 and "stroke_end" in err and "control released (force not brought to 0 N: the same reason; " in err
+              and "within 5 s" not in err and "drive disabled without a fault" in err and one_line(err),
+              f"set force 5 at the stroke end: the release's own reason ({took:.1f} s): {err.strip()}")
+    finally:
+        srv.stop()
 
 
 def dropped_connection():

@@ -58,8 +58,9 @@ constexpr double kReleaseToZero_s = 5.0;
 
 /// Releases control cleanly. In force mode the force is first brought to 0 N by the loop, so the
 /// load is not left pressed and the next command starts from a known load; then enable is
-/// cleared (drive disabled, no owner-loss fault). Returns what was done, in words.
-std::string release(op::Client& client, bool force_mode) {
+/// cleared (drive disabled, no owner-loss fault). Returns what was done, in words; a reason the
+/// caller has said already (`said`, the failed command's) is not said twice.
+std::string release(op::Client& client, bool force_mode, const std::string& said = {}) {
   std::string done;
   if (force_mode) {
     op::CommandOptions to_zero;
@@ -68,8 +69,12 @@ std::string release(op::Client& client, bool force_mode) {
     try {
       op::execute(client, reg::Mode::force, {{"force_setpoint_mn", 0.0}}, to_zero);
       done = "force brought to 0 N, ";
-    } catch (const ClientError&) {
-      done = "force not at 0 N within 5 s, ";
+    } catch (const ClientError& e) {
+      // The controller's own answer (the stroke end, a fault, the timeout), never a guess.
+      std::string why = e.what();
+      if (why == said) why = "the same reason";
+      if (why.starts_with("execute: ")) why.erase(0, 9);
+      done = "force not brought to 0 N: " + why + "; ";
     }
   }
   op::disable(client, {});
@@ -303,7 +308,7 @@ op::CommandResult send_or_release(op::Client& client, const Planned& p, const Co
     }
     std::string done;
     try {
-      done = release(client, p.mode == reg::Mode::force);
+      done = release(client, p.mode == reg::Mode::force, e.what());
     } catch (const ClientError&) {
       throw e;  // not the owner (or gone): nothing to release
     }
