@@ -363,7 +363,7 @@ def stroke_end_load():
     """A spring whose free length lies past the force mode's stroke window (39 mm): a force
     execute ends at the window's end (force_limited, force_reached_reason 7), and so does the
     release's 0 N. The release says what the controller said, never a timeout that did not
-    happen."""
+    happen, and watch names the reason beside force_limited."""
     srv = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring-anchor", "0.0395", "--sim-start", "0.038")
     try:
         conn = ["--port", str(srv.port)]
@@ -373,6 +373,24 @@ def stroke_end_load():
         check(rc == 4 and "stroke_end" in err and "control released (force not brought to 0 N: the same reason; " in err
               and "within 5 s" not in err and "drive disabled without a fault" in err and one_line(err),
               f"set force 5 at the stroke end: the release's own reason ({took:.1f} s): {err.strip()}")
+        # A PLC holds the force at the stroke end; watch shows why force_limited is set.
+        with socket.create_connection(("127.0.0.1", srv.port), timeout=2) as plc:
+            plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, 1000, 1))  # enable
+            plc.recv(64)
+            plc.sendall(struct.pack(">HHHBBHHBHH", 2, 0, 11, 1, 16, 1004, 2, 4, 0, 5000))  # force 5 N (5000 mN)
+            plc.recv(64)
+            for addr, value in ((1001, 2), (1000, 1 + 16), (1000, 1)):  # force mode, execute edge
+                plc.sendall(struct.pack(">HHHBBHH", 3, 0, 6, 1, 6, addr, value))
+                plc.recv(64)
+            end = time.time() + 15
+            while time.time() < end and not (read_regs(srv.port, 4, 10, 1)[0] & (1 << 15)):
+                time.sleep(0.1)
+            reason = read_regs(srv.port, 4, 66, 1)[0]
+            rc, out, err = run(MAGLEAD, "watch", *conn, "--once")
+            check(rc == 0 and reason == 7 and "force_limited(stroke_end)" in out,
+                  f"watch names force_reached_reason beside force_limited (IR 66 = {reason}): {out.strip()} {err.strip()}")
+            plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, 1000, 0))  # release control
+            plc.recv(64)
     finally:
         srv.stop()
 
