@@ -311,10 +311,53 @@ def scenario(port):
     rc, out, err = run(MAGLEAD, "reset", *conn)
     check(rc == 0 and "fault reset done" in out and read_regs(port, 4, 11, 3)[::2] == [0, 1],
           f"reset clears the watchdog fault: {err.strip()}")
+    owner_watchdog_fault(port, conn)
     rc, out, err = run(MAGLEAD, "disable", *conn)
     check(rc == 0 and read_regs(port, 4, 13, 1)[0] == 1, f"disable: drive ready {err.strip()}")
     rc, out, err = run(MAGLEAD, "reset", *conn)
     check(rc == 0 and "fault reset done" in out, f"reset without a fault is acknowledged: {err.strip()}")
+
+
+def owner_watchdog_fault(port, conn):
+    """A PLC that owns control lets its own watchdog expire: the advice names the owner (our
+    reset is refused, exception 04), and the owner recovers as docs/plc.md says."""
+    with socket.create_connection(("127.0.0.1", port), timeout=2) as plc:
+        def fc6(addr, value):
+            plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, addr, value))
+            return plc.recv(64)
+        fc6(1003, 300)  # watchdog 0.3 s
+        fc6(1000, 1)    # enable: this connection owns control; no heartbeat follows
+        end = time.time() + 3
+        while time.time() < end and read_regs(port, 4, 11, 1)[0] != 3:
+            time.sleep(0.05)
+        w = read_regs(port, 4, 11, 3) + read_regs(port, 4, 17, 1)
+        check(w[0] == 3 and w[2] == 3 and w[3] != 0, f"the owner's watchdog fault latched, it still owns control (raw {w})")
+        for cmd in (["set", *conn, "force", "2", "--config", CONFIG], ["enable", *conn]):
+            rc, out, err = run(MAGLEAD, *cmd)
+            check(rc == 4 and "alarm watchdog" in err and "another client owns control (the client at 127.0.0.1" in err
+                  and "fault_reset edge" in err and "'maglead reset' works" in err
+                  and "run 'maglead reset' first" not in err and one_line(err),
+                  f"{cmd[0]} while a PLC owns control in fault: the owner must reset: {err.strip()}")
+        rc, _, err = run(MAGLEAD, "reset", *conn)
+        check(rc == 4 and "not_owner" in err, f"reset from another client is refused: {err.strip()}")
+        # The owner: fault_reset edge (enable kept), heartbeats until reset done, watchdog off.
+        fc6(1000, 1 + 4)
+        fc6(1000, 1)
+        end = time.time() + 3  # the last reset's done bit shows until the loop takes this edge
+        while time.time() < end and not (read_regs(port, 4, 15, 1)[0] & (1 << 3) and read_regs(port, 4, 13, 1)[0] == 1):
+            fc6(1002, 1)
+            time.sleep(0.05)
+        fc6(1003, 0)
+        w = read_regs(port, 4, 11, 3)
+        check(w[0] == 0 and w[2] == 1, f"the owner's fault reset: no alarm, drive ready, not enabled (raw {w})")
+        fc6(1000, 0)  # a fresh enable edge
+        fc6(1000, 1)
+        time.sleep(0.1)
+        check(read_regs(port, 4, 13, 1)[0] == 2, "the owner enables again with a fresh enable edge")
+        fc6(1000, 0)  # release control: ready, no fault
+    time.sleep(0.1)
+    w = read_regs(port, 4, 11, 3)
+    check(w[0] == 0 and w[2] == 1, f"the owner released control: no alarm, drive ready (raw {w})")
 
 
 def watch_pty(conn, key, how):
