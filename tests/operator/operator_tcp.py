@@ -50,6 +50,12 @@ def drive_limits(port, conn):
     words = read_regs(port, 4, 140, 4)
     push, pull = (struct.unpack(">f", struct.pack(">HH", *words[i:i + 2]))[0] for i in (0, 2))
     check(30 < push < 40 and -40 < pull < -30, f"IR 140/142: the safe force limits {push:.2f} / {pull:.2f} N")
+    # docs/plc.md gives them rounded inwards, so a force it names is one 'set force' takes.
+    with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "docs", "plc.md")) as f:
+        m = re.search(r"\+(\d+\.\d+) / −(\d+\.\d+) N with the shipped files", f.read())
+    doc = (float(m.group(1)), -float(m.group(2))) if m else (float("nan"),) * 2
+    check(0 <= push - doc[0] < 0.01 and 0 <= doc[1] - pull < 0.01,
+          f"docs/plc.md's safe limits {doc} N are IR 140/142's {push:.4f} / {pull:.4f} N rounded inwards")
     wide = os.path.join(WORK, "wide_config")
     shutil.rmtree(wide, ignore_errors=True)
     shutil.copytree(CONFIG, wide)
