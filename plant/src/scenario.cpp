@@ -437,6 +437,9 @@ ScenarioSummary run_scenario(const ScenarioOptions& opt, const std::string& out_
       {"source", "maglead simulate"},
       {"system", "simulated magnetic lead-screw actuator"},
       {"scenario", opt.scenario},
+      {"controller", !opt.controller_name.empty() ? opt.controller_name
+                     : opt.controller             ? "a scenario controller"
+                                                  : "open-loop, the paper's inverse"},
       {"seed", std::to_string(opt.seed)},
       {"lead_m", std::to_string(act.lead_m)},
       {"gear_ratio", std::to_string(act.gear_ratio)},

@@ -44,6 +44,15 @@ def run_simulate(scenario, controller, duration):
                         "--controller", controller, "--config", CONFIG, "--out", path],
                        capture_output=True, text=True, timeout=120)
     check(p.returncode == 0, f"simulate --scenario {scenario} --controller {controller}: {p.stderr.strip()}")
+    # Which controller ran is said in the printed line and in the recording's header: two runs
+    # that differ only in --controller must not look alike.
+    said = {"open-loop": "open-loop, the paper's inverse",
+            "maglead": "maglead, its position loop" if scenario == "position-moves" else "maglead, its force loop"}
+    with open(path) as f:
+        header = [l.rstrip("\n") for l in f if l.startswith("#")]
+    check(f"s of {scenario} (controller: {said[controller]})" in p.stdout
+          and f"# controller: {said[controller]}" in header,
+          f"simulate --controller {controller} says which ran: {p.stdout.strip()!r} {header!r}")
     return path
 
 

@@ -40,6 +40,7 @@ def main():
         tail = srv.stop()
     check("stopped after" in tail, "serve stops cleanly")
     dropped_connection()
+    stroke_end_load()
     finish()
 
 
@@ -49,6 +50,12 @@ def drive_limits(port, conn):
     words = read_regs(port, 4, 140, 4)
     push, pull = (struct.unpack(">f", struct.pack(">HH", *words[i:i + 2]))[0] for i in (0, 2))
     check(30 < push < 40 and -40 < pull < -30, f"IR 140/142: the safe force limits {push:.2f} / {pull:.2f} N")
+    # docs/plc.md gives them rounded inwards, so a force it names is one 'set force' takes.
+    with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "docs", "plc.md")) as f:
+        m = re.search(r"\+(\d+\.\d+) / −(\d+\.\d+) N with the shipped files", f.read())
+    doc = (float(m.group(1)), -float(m.group(2))) if m else (float("nan"),) * 2
+    check(0 <= push - doc[0] < 0.01 and 0 <= doc[1] - pull < 0.01,
+          f"docs/plc.md's safe limits {doc} N are IR 140/142's {push:.4f} / {pull:.4f} N rounded inwards")
     wide = os.path.join(WORK, "wide_config")
     shutil.rmtree(wide, ignore_errors=True)
     shutil.copytree(CONFIG, wide)
@@ -108,6 +115,19 @@ def scenario(port):
     rc, _, err = run(MAGLEAD, "set", *conn, "position", "20mm", "--speed", "5", "--config", CONFIG)
     check(rc == 2 and "velocity_limit_m_s = 5 m/s" in err and "type '5mm/s'" in err,
           f"--speed 5 (m/s): SI name, what to type: {err.strip()}")
+    # A near miss typed without a unit was meant in SI: no advice to type it in millimetres
+    # (0.041 mm is in the stroke, but 0.041 m is what was meant).
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "0.041", "--config", CONFIG)
+    check(rc == 2 and "outside the stroke" in err and "a number without a unit is in m" in err
+          and "type '" not in err and one_line(err), f"set position 0.041 (a near miss in m): no mm hint: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "20mm", "--speed", "0.5", "--config", CONFIG)
+    check(rc == 2 and "a number without a unit is in m/s" in err and "type '" not in err,
+          f"--speed 0.5 (a near miss in m/s): no mm/s hint: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "20mm", "--accel", "100", "--config", CONFIG)
+    check(rc == 2 and "type '100mm/s^2'" in err, f"--accel 100 (m/s^2): what to type: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "position", "20mm", "--accel", "-100", "--config", CONFIG)
+    check(rc == 2 and "a number without a unit is in m/s^2" in err and "type '" not in err,
+          f"--accel -100: -100 mm/s^2 is refused too, so no hint: {err.strip()}")
     rc, _, err = run(MAGLEAD, "set", *conn, "forse", "12", "--config", CONFIG)
     check(rc == 2 and "did you mean 'force'?" in err, f"set forse: {err.strip()}")
     rc, _, err = run(MAGLEAD, "set", *conn, "position", "45mm", "--config", CONFIG)
@@ -225,6 +245,15 @@ def scenario(port):
     rc, out, err = run(MAGLEAD, "set", *conn, "reference-move", "--hold", "0.1s")
     check(rc == 0 and "reference move (mode_command 3): done (in position)" in out
           and "released" in out, f"set reference-move runs the configured move to its end: {out.strip()} {err.strip()}")
+    # A bare number under the register's own name is in its raw unit (ms), said in SI; with a
+    # unit it is read in that unit; under the SI name a bare number is in s.
+    for name, typed, raw_ms, said in (("watchdog_ms", "50", 50, "watchdog_s = 0.05 s written (watchdog_ms 50:"),
+                                      ("watchdog_ms", "0.07s", 70, "watchdog_s = 0.07 s written\n"),
+                                      ("watchdog_s", "0.09", 90, "watchdog_s = 0.09 s written\n")):
+        rc, out, err = run(MAGLEAD, "set", *conn, name, typed)
+        got = read_regs(port, 3, 1003, 1)[0]
+        check(rc == 0 and said in out and got == raw_ms,
+              f"set {name} {typed}: {raw_ms} ms written (raw {got}): {out.strip()} {err.strip()}")
     rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
     check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
 
@@ -288,10 +317,53 @@ def scenario(port):
     rc, out, err = run(MAGLEAD, "reset", *conn)
     check(rc == 0 and "fault reset done" in out and read_regs(port, 4, 11, 3)[::2] == [0, 1],
           f"reset clears the watchdog fault: {err.strip()}")
+    owner_watchdog_fault(port, conn)
     rc, out, err = run(MAGLEAD, "disable", *conn)
     check(rc == 0 and read_regs(port, 4, 13, 1)[0] == 1, f"disable: drive ready {err.strip()}")
     rc, out, err = run(MAGLEAD, "reset", *conn)
     check(rc == 0 and "fault reset done" in out, f"reset without a fault is acknowledged: {err.strip()}")
+
+
+def owner_watchdog_fault(port, conn):
+    """A PLC that owns control lets its own watchdog expire: the advice names the owner (our
+    reset is refused, exception 04), and the owner recovers as docs/plc.md says."""
+    with socket.create_connection(("127.0.0.1", port), timeout=2) as plc:
+        def fc6(addr, value):
+            plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, addr, value))
+            return plc.recv(64)
+        fc6(1003, 300)  # watchdog 0.3 s
+        fc6(1000, 1)    # enable: this connection owns control; no heartbeat follows
+        end = time.time() + 3
+        while time.time() < end and read_regs(port, 4, 11, 1)[0] != 3:
+            time.sleep(0.05)
+        w = read_regs(port, 4, 11, 3) + read_regs(port, 4, 17, 1)
+        check(w[0] == 3 and w[2] == 3 and w[3] != 0, f"the owner's watchdog fault latched, it still owns control (raw {w})")
+        for cmd in (["set", *conn, "force", "2", "--config", CONFIG], ["enable", *conn]):
+            rc, out, err = run(MAGLEAD, *cmd)
+            check(rc == 4 and "alarm watchdog" in err and "another client owns control (the client at 127.0.0.1" in err
+                  and "fault_reset edge" in err and "'maglead reset' works" in err
+                  and "run 'maglead reset' first" not in err and one_line(err),
+                  f"{cmd[0]} while a PLC owns control in fault: the owner must reset: {err.strip()}")
+        rc, _, err = run(MAGLEAD, "reset", *conn)
+        check(rc == 4 and "not_owner" in err, f"reset from another client is refused: {err.strip()}")
+        # The owner: fault_reset edge (enable kept), heartbeats until reset done, watchdog off.
+        fc6(1000, 1 + 4)
+        fc6(1000, 1)
+        end = time.time() + 3  # the last reset's done bit shows until the loop takes this edge
+        while time.time() < end and not (read_regs(port, 4, 15, 1)[0] & (1 << 3) and read_regs(port, 4, 13, 1)[0] == 1):
+            fc6(1002, 1)
+            time.sleep(0.05)
+        fc6(1003, 0)
+        w = read_regs(port, 4, 11, 3)
+        check(w[0] == 0 and w[2] == 1, f"the owner's fault reset: no alarm, drive ready, not enabled (raw {w})")
+        fc6(1000, 0)  # a fresh enable edge
+        fc6(1000, 1)
+        time.sleep(0.1)
+        check(read_regs(port, 4, 13, 1)[0] == 2, "the owner enables again with a fresh enable edge")
+        fc6(1000, 0)  # release control: ready, no fault
+    time.sleep(0.1)
+    w = read_regs(port, 4, 11, 3)
+    check(w[0] == 0 and w[2] == 1, f"the owner released control: no alarm, drive ready (raw {w})")
 
 
 def watch_pty(conn, key, how):
@@ -334,6 +406,42 @@ def watch_pty(conn, key, how):
     check(re.search(r"drive\s+ready\s+mode\s+idle", text) is not None and "alarm none" in text
           and "force [N]" in text and "* estimate" in text and "now" in text,
           f"watch ({how}) shows state and a trend")
+
+
+def stroke_end_load():
+    """A spring whose free length lies past the force mode's stroke window (39 mm): a force
+    execute ends at the window's end (force_limited, force_reached_reason 7), and so does the
+    release's 0 N. The release says what the controller said, never a timeout that did not
+    happen, and watch names the reason beside force_limited."""
+    srv = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring-anchor", "0.0395", "--sim-start", "0.038")
+    try:
+        conn = ["--port", str(srv.port)]
+        t0 = time.time()
+        rc, out, err = run(MAGLEAD, "set", *conn, "force", "5", "--hold", "1s", "--config", CONFIG)
+        took = time.time() - t0
+        check(rc == 4 and "stroke_end" in err and "control released (force not brought to 0 N: the same reason; " in err
+              and "within 5 s" not in err and "drive disabled without a fault" in err and one_line(err),
+              f"set force 5 at the stroke end: the release's own reason ({took:.1f} s): {err.strip()}")
+        # A PLC holds the force at the stroke end; watch shows why force_limited is set.
+        with socket.create_connection(("127.0.0.1", srv.port), timeout=2) as plc:
+            plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, 1000, 1))  # enable
+            plc.recv(64)
+            plc.sendall(struct.pack(">HHHBBHHBHH", 2, 0, 11, 1, 16, 1004, 2, 4, 0, 5000))  # force 5 N (5000 mN)
+            plc.recv(64)
+            for addr, value in ((1001, 2), (1000, 1 + 16), (1000, 1)):  # force mode, execute edge
+                plc.sendall(struct.pack(">HHHBBHH", 3, 0, 6, 1, 6, addr, value))
+                plc.recv(64)
+            end = time.time() + 15
+            while time.time() < end and not (read_regs(srv.port, 4, 10, 1)[0] & (1 << 15)):
+                time.sleep(0.1)
+            reason = read_regs(srv.port, 4, 66, 1)[0]
+            rc, out, err = run(MAGLEAD, "watch", *conn, "--once")
+            check(rc == 0 and reason == 7 and "force_limited(stroke_end)" in out,
+                  f"watch names force_reached_reason beside force_limited (IR 66 = {reason}): {out.strip()} {err.strip()}")
+            plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, 1000, 0))  # release control
+            plc.recv(64)
+    finally:
+        srv.stop()
 
 
 def dropped_connection():

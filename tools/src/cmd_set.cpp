@@ -1,7 +1,9 @@
 // maglead set / enable / disable / reset: command a controller over Modbus the way a PLC does
 // (staged setpoint, mode_command, execute edge, ack/done handshake). Every value is checked as
 // the server checks it, before anything is sent.
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <limits>
@@ -56,8 +58,9 @@ constexpr double kReleaseToZero_s = 5.0;
 
 /// Releases control cleanly. In force mode the force is first brought to 0 N by the loop, so the
 /// load is not left pressed and the next command starts from a known load; then enable is
-/// cleared (drive disabled, no owner-loss fault). Returns what was done, in words.
-std::string release(op::Client& client, bool force_mode) {
+/// cleared (drive disabled, no owner-loss fault). Returns what was done, in words; a reason the
+/// caller has said already (`said`, the failed command's) is not said twice.
+std::string release(op::Client& client, bool force_mode, const std::string& said = {}) {
   std::string done;
   if (force_mode) {
     op::CommandOptions to_zero;
@@ -66,8 +69,12 @@ std::string release(op::Client& client, bool force_mode) {
     try {
       op::execute(client, reg::Mode::force, {{"force_setpoint_mn", 0.0}}, to_zero);
       done = "force brought to 0 N, ";
-    } catch (const ClientError&) {
-      done = "force not at 0 N within 5 s, ";
+    } catch (const ClientError& e) {
+      // The controller's own answer (the stroke end, a fault, the timeout), never a guess.
+      std::string why = e.what();
+      if (why == said) why = "the same reason";
+      if (why.starts_with("execute: ")) why.erase(0, 9);
+      done = "force not brought to 0 N: " + why + "; ";
     }
   }
   op::disable(client, {});
@@ -139,16 +146,32 @@ const std::string& value_of(const SetOptions& o) {
   return o.value;
 }
 
-/// A refusal of a number typed without a unit says which unit it was read in and what to type
-/// for the usual one ("20" read as 20 m: "type '20mm' for millimetres").
+bool is_bare_number(const std::string& text) {
+  return !text.empty() && text.find_first_not_of("+-.0123456789eE ") == std::string::npos;
+}
+
+/// The usual unit a number typed without one may have been meant in ("mm", 1e-3 m).
+struct UsualUnit {
+  const char* unit;
+  const char* name;
+  double to_si;
+};
+
+/// A refusal of a number typed without a unit says which unit it was read in, and what to type
+/// for the usual one when that is what was meant ("20" read as 20 m: "type '20mm' for
+/// millimetres"): when the number read in the usual unit lies in [lo_si, hi_si], and read in SI
+/// it is more than ten times the largest limit. A near miss (0.041 against a 0.040 m stroke end)
+/// was meant in SI: 0.041 mm would be advice the person did not need.
 std::optional<std::string> with_unit_hint(std::optional<std::string> why, const std::string& text,
-                                          const char* si_unit, const char* usual_unit,
-                                          const char* usual_name) {
-  const bool bare =
-      !text.empty() && text.find_first_not_of("+-.0123456789eE ") == std::string::npos;
-  if (why && bare)
-    *why += std::string("; a number without a unit is in ") + si_unit + ": type '" + text +
-            usual_unit + "' for " + usual_name;
+                                          const char* si_unit, UsualUnit usual, double lo_si,
+                                          double hi_si) {
+  if (!why || !is_bare_number(text)) return why;
+  *why += std::string("; a number without a unit is in ") + si_unit;
+  const double si = op::parse_quantity(text, si_unit), in_usual = si * usual.to_si;
+  constexpr double kNearMiss = 10.0;  // within this factor of the limits: meant in SI
+  if (in_usual >= lo_si && in_usual <= hi_si &&
+      std::abs(si) > kNearMiss * std::max(std::abs(lo_si), std::abs(hi_si)))
+    *why += std::string(": type '") + text + usual.unit + "' for " + usual.name;
   return why;
 }
 
@@ -162,21 +185,24 @@ Planned plan_force(const SetOptions& o, const CommandFlags& f) {
 
 Planned plan_position(const SetOptions& o, const CommandFlags& f) {
   const double pos_m = op::parse_quantity(value_of(o), "m");
-  refuse_locally_if(with_unit_hint(op::check_position(load_limits(f.config, f.calibration), pos_m),
-                                   o.value, "m", "mm", "millimetres"));
+  const op::Limits limits = load_limits(f.config, f.calibration);
+  const auto& a = limits.actuator;
+  refuse_locally_if(with_unit_hint(op::check_position(limits, pos_m), o.value, "m",
+                                   {"mm", "millimetres", 1e-3}, a.stroke_min_m, a.stroke_max_m));
   Planned p{reg::Mode::position, {{"position_setpoint_um", pos_m}}, {}};
-  if (!o.speed.empty()) {
-    const double v = op::parse_quantity(o.speed, "m/s");
-    refuse_locally_if(with_unit_hint(op::check_register(*reg::find("velocity_limit_um_s"), v),
-                                     o.speed, "m/s", "mm/s", "millimetres per second"));
-    p.setpoints.emplace_back("velocity_limit_um_s", v);
-  }
-  if (!o.accel.empty()) {
-    const double a = op::parse_quantity(o.accel, "m/s^2");
-    refuse_locally_if(with_unit_hint(op::check_register(*reg::find("accel_limit_um_s2"), a),
-                                     o.accel, "m/s^2", "mm/s^2", "millimetres per second squared"));
-    p.setpoints.emplace_back("accel_limit_um_s2", a);
-  }
+  // The speed and acceleration limits, checked against their registers' ranges.
+  const auto limit = [&](const std::string& text, const char* name, const char* si_unit,
+                         UsualUnit usual) {
+    const auto& r = *reg::find(name);
+    const double v = op::parse_quantity(text, si_unit);
+    refuse_locally_if(with_unit_hint(op::check_register(r, v), text, si_unit, usual, r.min, r.max));
+    p.setpoints.emplace_back(name, v);
+  };
+  if (!o.speed.empty())
+    limit(o.speed, "velocity_limit_um_s", "m/s", {"mm/s", "millimetres per second", 1e-3});
+  if (!o.accel.empty())
+    limit(o.accel, "accel_limit_um_s2", "m/s^2",
+          {"mm/s^2", "millimetres per second squared", 1e-3});
   char buf[64];
   std::snprintf(buf, sizeof buf, "position %.3f mm", pos_m * 1e3);
   p.summary = buf;
@@ -203,7 +229,10 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
     throw ClientError(Kind::refused_locally, "'" + o.what +
                                                  "' is not a writable setting (use enable, "
                                                  "disable, reset or set force/position)");
-  const double v = op::parse_quantity(text, r->unit);
+  // The register's own name (watchdog_ms) names its raw unit: a bare number typed under it is
+  // in that unit (watchdog_ms 50 is 0.05 s), as a PLC writes it; the SI name reads it in SI.
+  const bool raw = o.what == r->name && op::si_name(*r) != r->name && is_bare_number(text);
+  const double v = op::parse_quantity(text, r->unit) * (raw ? r->scale : 1.0);
   refuse_locally_if(op::check_register(*r, v));
   if (r->name.starts_with("force_setpoint"))
     refuse_locally_if(op::check_force(load_limits(f.config, f.calibration), v));
@@ -212,8 +241,12 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
   op::Client client(endpoint_of(conn));
   client.check_identity();
   client.write({{std::string(r->name), v}});
-  std::printf("%s = %s %s written\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
-              std::string(r->unit).c_str());
+  std::printf("%s = %s %s written%s\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
+              std::string(r->unit).c_str(),
+              raw ? (" (" + o.what + " " + text + ": a number without a unit is in the raw unit " +
+                     "the register name says)")
+                        .c_str()
+                  : "");
 }
 
 /// The controller's own limits, read from its limits block (what it refused against); this
@@ -275,7 +308,7 @@ op::CommandResult send_or_release(op::Client& client, const Planned& p, const Co
     }
     std::string done;
     try {
-      done = release(client, p.mode == reg::Mode::force);
+      done = release(client, p.mode == reg::Mode::force, e.what());
     } catch (const ClientError&) {
       throw e;  // not the owner (or gone): nothing to release
     }

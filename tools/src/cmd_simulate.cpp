@@ -11,6 +11,13 @@
 namespace maglead::cli {
 namespace {
 
+/// Which controller ran, in the printed line and the recording's `# controller:` line: two runs
+/// that differ only in --controller must not look alike.
+std::string controller_name(const std::string& controller, const std::string& scenario) {
+  if (controller == "open-loop") return "open-loop, the paper's inverse";
+  return scenario == "position-moves" ? "maglead, its position loop" : "maglead, its force loop";
+}
+
 void add_simulate(CLI::App& app) {
   const std::string effects_help =
       plant_effects_help("Extra plant physics, NAME=VALUE, repeatable:");
@@ -54,6 +61,7 @@ void add_simulate(CLI::App& app) {
     const std::string cal =
         o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration;
     opt.estimator_calibration = load_calibration(cal);
+    opt.controller_name = controller_name(o->controller, o->scenario);
     std::unique_ptr<runtime::ScenarioController> loop;
     if (o->controller == "maglead") {
       if (!scenario_takes_controller(o->scenario))
@@ -74,8 +82,9 @@ void add_simulate(CLI::App& app) {
     const std::string replacing = replacing_note(o->out);
     const auto summary = run_scenario(opt, o->out);
     progress.done();
-    std::printf("wrote %s%s: %zu samples, %.1f s of %s%s\n", o->out.c_str(), replacing.c_str(),
-                summary.samples, opt.duration_s, o->scenario.c_str(),
+    std::printf("wrote %s%s: %zu samples, %.1f s of %s (controller: %s)%s\n", o->out.c_str(),
+                replacing.c_str(), summary.samples, opt.duration_s, o->scenario.c_str(),
+                opt.controller_name.c_str(),
                 summary.slips ? (", the nut stepped out " +
                                  std::to_string(std::abs(summary.slips)) + " lead(s)")
                                     .c_str()

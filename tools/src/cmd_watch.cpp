@@ -145,10 +145,18 @@ std::vector<std::string> wrap(const std::string& text, int width, const std::str
   return lines;
 }
 
-std::string set_bits_text(std::uint16_t sw) {
+/// The names of the status bits that are set, `sep` between them. force_limited carries
+/// force_reached_reason's code name (force_limited(stroke_end)): the stroke end, the speed limit
+/// and the drive's limit are different situations.
+std::string set_bits_text(const op::Values& v, const char* sep) {
   std::string s;
-  for (const auto& n : op::status_bits(sw)) s += (s.empty() ? "" : " ") + n;
-  return s.empty() ? "(no bits set)" : s;
+  for (const auto& n : op::status_bits(static_cast<std::uint16_t>(v.at("status_word")))) {
+    s += (s.empty() ? "" : sep) + n;
+    if (n == "force_limited")
+      s += "(" +
+           op::code_name(reg::codes_of("force_reached_reason"), v.at("force_reached_reason")) + ")";
+  }
+  return s;
 }
 
 /// Everything one refresh shows.
@@ -298,8 +306,8 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
                   w));
   // Status bits by name (monochrome terminals too), wrapped; two rows kept so the layout is
   // steady.
-  auto bits =
-      wrap("status " + set_bits_text(static_cast<std::uint16_t>(at("status_word"))), w, "       ");
+  const std::string set_bits = set_bits_text(v, " ");
+  auto bits = wrap("status " + (set_bits.empty() ? "(no bits set)" : set_bits), w, "       ");
   bits.resize(std::max<std::size_t>(bits.size(), 2));
   L.insert(L.end(), bits.begin(), bits.end());
   // The rejection or the alarm in full, wrapped (what to type is at its end).
@@ -340,9 +348,7 @@ std::string plain_line(const View& view) {
     const auto* r = reg::find(name);
     s += " " + op::si_name(*r) + "=" + op::si_text(*r, v.at(name));
   }
-  std::string bits;
-  for (const auto& n : op::status_bits(static_cast<std::uint16_t>(v.at("status_word"))))
-    bits += (bits.empty() ? "" : ",") + n;
+  const std::string bits = set_bits_text(v, ",");
   return s + " status=" + (bits.empty() ? "none" : bits);
 }
 

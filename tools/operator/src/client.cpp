@@ -31,6 +31,11 @@ std::string fmt(double v) {
   return b;
 }
 
+std::string ipv4_text(std::uint32_t ip) {
+  return std::to_string(ip >> 24) + "." + std::to_string((ip >> 16) & 255) + "." +
+         std::to_string((ip >> 8) & 255) + "." + std::to_string(ip & 255);
+}
+
 }  // namespace
 
 // ------------------------------------------------------------------------------- basics
@@ -288,8 +293,7 @@ void Client::refused_write(const std::string& what) {
     const auto ip = static_cast<std::uint32_t>(v.at("control_owner_ipv4"));
     why = code_name(reg::refusals(), code) + ": " + code_meaning(reg::refusals(), code);
     if (ip != 0)
-      why += " (owner " + std::to_string(ip >> 24) + "." + std::to_string((ip >> 16) & 255) + "." +
-             std::to_string((ip >> 8) & 255) + "." + std::to_string(ip & 255) +
+      why += " (owner " + ipv4_text(ip) +
              "; that client must release it: Ctrl-C on its 'maglead set' or 'maglead enable', or "
              "enable cleared in its control word; control is free again once its connection "
              "ends)";
@@ -619,6 +623,27 @@ std::string force_not_reached_text(Client& c) {
          (code_name(codes, why) == "bound_too_wide" ? bound : "");
 }
 
+/// What clears a latched fault, said to a client that has not claimed control: 'maglead reset'
+/// when nobody owns control; when another client owns it, the controller refuses our reset
+/// (exception 04 not_owner), so the owner must clear it or let go of control first.
+std::string reset_advice(Client& c) {
+  const auto* owner = reg::find("control_owner");
+  const Values v = c.read_range(reg::Table::input_register, owner->address, 3);  // IR 17-19
+  const double id = v.at("control_owner");
+  constexpr double kRtuMaster = 65535;  // over RTU the one master is this client
+  if (id == 0 || (id == kRtuMaster && !c.endpoint().serial.empty()))
+    return "run 'maglead reset' first";
+  const auto ip = static_cast<std::uint32_t>(v.at("control_owner_ipv4"));
+  const std::string who = id == kRtuMaster ? "the RTU master"
+                          : ip != 0        ? "the client at " + ipv4_text(ip)
+                                           : "TCP connection " + fmt(id);
+  return "another client owns control (" + who +
+         ", IR 17-19), and the controller takes a reset from it only: it must clear the fault "
+         "itself (a fault_reset edge in its control word, then enable 0 -> 1 again before its "
+         "next execute), or release control (enable cleared) or close its connection, after "
+         "which 'maglead reset' works";
+}
+
 std::string alarm_text(double alarm) {
   return code_name(reg::alarm_codes(), alarm) + ": " + code_meaning(reg::alarm_codes(), alarm);
 }
@@ -644,7 +669,7 @@ CommandResult execute(Client& c, reg::Mode mode,
       reset(c, false, o);
     else if (fault)  // any other fault is the operator's to look at and reset
       throw ClientError(Kind::rejected, "execute: the drive is in fault (alarm " +
-                                            alarm_text(st.alarm) + "); run 'maglead reset' first");
+                                            alarm_text(st.alarm) + "); " + reset_advice(c));
     if (read_status(c).drive_state == static_cast<std::uint16_t>(reg::DriveState::ready))
       enable(c, o);
   }
@@ -714,7 +739,7 @@ void enable(Client& c, const CommandOptions& o) {
   // The controller ignores an enable edge outside "ready" without a reason code: say why here.
   if (s.drive_state == static_cast<std::uint16_t>(DS::fault))
     throw ClientError(Kind::rejected, "enable: the drive is in fault (alarm " +
-                                          alarm_text(s.alarm) + "); run 'maglead reset' first");
+                                          alarm_text(s.alarm) + "); " + reset_advice(c));
   if (s.drive_state != static_cast<std::uint16_t>(DS::ready))
     throw ClientError(Kind::rejected, "enable: the drive is not ready (" +
                                           code_meaning(reg::drive_states(), s.drive_state) + ")");

@@ -43,6 +43,9 @@ struct ScenarioOptions {
   /// loop: runtime::ScenarioController). Only where scenario_takes_controller; empty: open loop.
   std::function<double(double t_s, const SensorSample& sample, const ScenarioSetpoint& setpoint)>
       controller;
+  /// Which controller ran, for the recording's `# controller:` line ("maglead, its force loop");
+  /// empty: "open-loop, the paper's inverse" without `controller`.
+  std::string controller_name;
 };
 
 struct ScenarioSummary {
