@@ -55,6 +55,16 @@ report::AnalysisOutcome run_analysis(const ReportOpts& o, const Recording& rec,
   return outcome;
 }
 
+/// What the analysis came to, in a word or its own conclusion: "done" never stands beside a
+/// headline that says it could not judge.
+std::string analysis_line(const report::AnalysisOutcome& o) {
+  using S = report::AnalysisOutcome::Status;
+  if (o.status == S::skipped) return "skipped";
+  if (o.status == S::failed) return "not possible";
+  const std::string& c = o.result ? o.result->findings.conclusion : std::string();
+  return c.starts_with("not judged") ? c : "done";
+}
+
 void add_report(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "report",
@@ -93,12 +103,11 @@ void add_report(CLI::App& app) {
                 anomaly.step_outs.size(), anomaly.drift_windows.size(),
                 anomaly.residual_pos_rms_m * 1e6);
     if (anomaly.static_error && anomaly.twin_error)
-      std::printf("force error against load cell: static %.2f N, twin %.2f N (mean absolute)\n",
-                  anomaly.static_error->mean_abs_n, anomaly.twin_error->mean_abs_n);
-    std::printf("analysis: %s\n", outcome.status == report::AnalysisOutcome::Status::done ? "done"
-                                  : outcome.status == report::AnalysisOutcome::Status::skipped
-                                      ? "skipped"
-                                      : "not possible");
+      std::printf(
+          "force error against load cell: static %.2f N, twin %.2f N (mean absolute, after the "
+          "first %.2g s)\n",
+          anomaly.static_error->mean_abs_n, anomaly.twin_error->mean_abs_n, anomaly.settle_s);
+    std::printf("analysis: %s\n", analysis_line(outcome).c_str());
     std::printf("wrote %s\n", (std::filesystem::path(o->out) / "index.html").string().c_str());
   });
 }
