@@ -242,9 +242,13 @@ def scenario(port):
           and "control released" in merr, f"Ctrl-C before done: rc {mover.returncode} {mout.strip()} {merr.strip()}")
     w = read_regs(port, 4, 11, 3)
     check(w[0] == 0 and w[2] == 1, f"after Ctrl-C: no alarm, drive ready (raw {w})")
-    rc, out, err = run(MAGLEAD, "set", *conn, "reference-move", "--hold", "0.1s")
+    # Without --hold it returns once the move is done, control released (a script calling it ends).
+    rc, out, err = run(MAGLEAD, "set", *conn, "reference-move", timeout=30)
+    w = read_regs(port, 4, 13, 5)
     check(rc == 0 and "reference move (mode_command 3): done (in position)" in out
-          and "released" in out, f"set reference-move runs the configured move to its end: {out.strip()} {err.strip()}")
+          and "released" in out and "Ctrl-C" not in out and w[0] == 1 and w[4] == 0,
+          f"set reference-move runs the configured move to its end and lets go (state, owner {w[0]}, {w[4]}): "
+          f"{out.strip()} {err.strip()}")
     # A bare number under the register's own name is in its raw unit (ms), said in SI; with a
     # unit it is read in that unit; under the SI name a bare number is in s.
     for name, typed, raw_ms, said in (("watchdog_ms", "50", 50, "watchdog_s = 0.05 s written (watchdog_ms 50:"),

@@ -41,7 +41,8 @@ void add_command_flags(CLI::App* cmd, const std::shared_ptr<CommandFlags>& f, bo
 }
 
 constexpr const char* kHoldHelp =
-    "Keep control this long (e.g. 10s), then release it. Default: until Ctrl-C. Release brings "
+    "Keep control this long (e.g. 10s), then release it. Default: until Ctrl-C (a reference "
+    "move: released once it is done). Release brings "
     "a force to 0 N first, then clears enable: the drive is disabled without a fault (a "
     "position is no longer controlled, the screw stays where it is)";
 
@@ -345,8 +346,12 @@ void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions
             (f.no_claim ? std::string() : "; " + release_after_interrupt(client, p.mode)));
   else
     std::printf("%s: acknowledged by the controller\n", p.summary.c_str());
-  // A claimed control is held, then released; without a claim this client owns nothing.
-  if (!f.no_claim)
+  // A claimed control is held, then released; without a claim this client owns nothing. A
+  // reference move is a task with an end: done, it lets go (a script calling it returns).
+  if (!f.no_claim && p.mode == reg::Mode::reference_move && f.hold.empty() && res.done)
+    std::printf("released: %s (the move is over; --hold keeps control after it)\n",
+                release(client, false).c_str());
+  else if (!f.no_claim)
     hold_then_release(client, f.hold, f.options(), p.summary, p.mode == reg::Mode::force);
 }
 
