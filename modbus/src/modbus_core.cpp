@@ -265,6 +265,12 @@ bool ModbusCore::refuse(registers::Refusal why, Exception& ex) {
   return false;
 }
 
+bool ModbusCore::refuse_value(registers::Refusal why, Exception& ex) {
+  refusal_ = static_cast<std::uint16_t>(why);
+  ex = Exception::illegal_data_value;
+  return false;
+}
+
 std::size_t ModbusCore::exception(std::uint8_t function, Exception code, std::uint8_t* out) {
   out[0] = static_cast<std::uint8_t>(function | 0x80);
   out[1] = static_cast<std::uint8_t>(code);
@@ -331,7 +337,7 @@ std::size_t ModbusCore::read_registers(bool input_only, std::uint16_t start, std
 
 bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count,
                                   const std::uint8_t* data, CommandImage& image, bool& heartbeat,
-                                  bool& touches_control, Exception& ex) const {
+                                  bool& touches_control, Exception& ex) {
   const auto table = reg::table();
   std::uint32_t addr = start;
   const std::uint32_t end = static_cast<std::uint32_t>(start) + count;
@@ -349,7 +355,7 @@ bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count,
     const std::uint8_t* d = data + std::size_t{2} * (addr - start);
     for (std::size_t k = 0; k < static_cast<std::size_t>(w); ++k) words[k] = be16(d + 2 * k);
     const double v = reg::decode(r, words);
-    if (!reg::in_range(r, v)) return ex = Exception::illegal_data_value, false;
+    if (!reg::in_range(r, v)) return refuse_value(reg::Refusal::out_of_range, ex);
     bindings_[static_cast<std::size_t>(s.reg)]->image_set(image, v);
     if (r.name == "heartbeat") heartbeat = true;
     if (r.name == "control_word") touches_control = true;
@@ -363,17 +369,17 @@ bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool h
   using namespace registers;
   const auto cw = next.control_word;
   const auto has = [&](int b) { return (cw >> b) & 1u; };
-  if (cw & ~kControlWordMask) return ex = Exception::illegal_data_value, false;
+  if (cw & ~kControlWordMask) return refuse_value(Refusal::bad_control_word, ex);
   // One edge command per write, and no command while the stop bit is held.
   if (has(kExecute) && (has(kStop) || has(kFaultReset) || has(kResync)))
-    return ex = Exception::illegal_data_value, false;
+    return refuse_value(Refusal::bad_control_word, ex);
   const auto& a = controller_.config().actuator;
   const double f = next.force_setpoint_n;
   if (std::abs(f) > std::abs(controller_.safe_force_limit_n(f)))
-    return ex = Exception::illegal_data_value, false;
+    return refuse_value(Refusal::force_beyond_safe_limit, ex);
   if (next.position_setpoint_m < a.stroke_min_m - 1e-9 ||
       next.position_setpoint_m > a.stroke_max_m + 1e-9)
-    return ex = Exception::illegal_data_value, false;
+    return refuse_value(Refusal::position_outside_stroke, ex);
 
   // Broadcast (RTU unit 0) may stage setpoints and feed the heartbeat, never change the drive's
   // state: one frame would enable, switch or reset every drive on the line at once.

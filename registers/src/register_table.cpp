@@ -86,7 +86,9 @@ constexpr std::array kTable = std::to_array<Register>({
     {"fault_reaction", IR, 54, Type::u16, 1, "", RO, 0, 3,
      "Fault reaction in progress, see fault reactions (0 none)"},
     {"write_refusal_reason", IR, 55, Type::u16, 1, "", RO, 0, kU16Max,
-     "Why the last write was refused with exception 04, see write refusals (0 none)"},
+     "Why the last refused write (exception 03 or 04) was refused, see write refusals (0 none; "
+     "kept until the next refusal). A refused write changes nothing: the setpoint staged before "
+     "it stays, and the next execute applies that one"},
     {"twin_drift_reason", IR, 56, Type::u16, 1, "", RO, 0, 6,
      "Twin: why drift_warning is set, judged on free moves and on a passive load the force loop "
      "revisits (never the load cell): 0 none, "
@@ -291,10 +293,17 @@ constexpr std::array kReactions = std::to_array<Code>({
     {3, "released", "zero output force: the screw follows the nut"},
 });
 constexpr std::array kRefusals = std::to_array<Code>({
-    {0, "none", "no write refused with exception 04"},
+    {0, "none", "no write refused"},
     {1, "not_owner",
      "another client owns control: it must release it (enable low) or lose its connection"},
     {2, "broadcast_state_change", "control word and mode are not accepted by broadcast (unit 0)"},
+    {3, "out_of_range", "exception 03: a value outside its register's range (maglead registers)"},
+    {4, "force_beyond_safe_limit",
+     "exception 03: a force setpoint beyond the safe limit (IR 140/142)"},
+    {5, "position_outside_stroke",
+     "exception 03: a position setpoint outside the stroke (IR 144/146)"},
+    {6, "bad_control_word",
+     "exception 03: an unknown control-word bit, or execute with stop, fault_reset or resync"},
 });
 constexpr std::array kRejects = std::to_array<Code>({
     {0, "none", "accepted"},

@@ -153,11 +153,21 @@ TEST(ModbusCore, OutOfRangeWritesChangeNothing) {
   CoreRig r;
   const std::uint16_t pos = addr("position_setpoint_um");
   const Bytes before = r.req(rd(3, 1000, 20));
+  // Each refusal's reason is readable (a PLC that missed the 03 learns why nothing changed).
+  const auto refusal = [&] { return word_at(r.req(rd(4, addr("write_refusal_reason"), 1)), 0); };
   EXPECT_EQ(r.req(write_regs(pos, i32_words(41000))), exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(refusal(), static_cast<std::uint16_t>(reg::Refusal::out_of_range));  // 0 .. 40 mm
   const double limit = r.ctl.safe_force_limit_n(1.0);
   EXPECT_EQ(
       r.req(write_regs(addr("force_setpoint_n_f32"), f32_words(static_cast<float>(limit + 1.0)))),
       exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(refusal(), static_cast<std::uint16_t>(reg::Refusal::force_beyond_safe_limit));
+  EXPECT_EQ(r.req(write_regs(addr("force_setpoint_n_f32"), f32_words(150.0f))),
+            exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(refusal(), static_cast<std::uint16_t>(reg::Refusal::out_of_range));
+  EXPECT_EQ(r.req(write_one(addr("control_word"), 0x12)),  // execute with stop
+            exception(6, Exception::illegal_data_value));
+  EXPECT_EQ(refusal(), static_cast<std::uint16_t>(reg::Refusal::bad_control_word));
   EXPECT_EQ(r.req(write_regs(addr("force_setpoint_n_f32"), f32_words(std::nanf("")))),
             exception(16, Exception::illegal_data_value));
   // A multi-register write with one bad value writes none of them.
@@ -201,6 +211,8 @@ TEST(ModbusCore, TheLimitsBlockReadsTheConfigurationTheWriteCheckUses) {
   const std::uint16_t pos = addr("position_setpoint_m_f32");
   EXPECT_EQ(r.req(write_regs(pos, f32_words(0.0049f))),
             exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(word_at(r.req(rd(4, addr("write_refusal_reason"), 1)), 0),
+            static_cast<std::uint16_t>(reg::Refusal::position_outside_stroke));
   EXPECT_EQ(r.req(write_regs(pos, f32_words(0.0051f))).size(), 5u);
 }
 

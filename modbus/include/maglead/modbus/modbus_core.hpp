@@ -101,12 +101,12 @@ class ModbusCore {
   bool write_image(const ClientInfo& client, CommandImage next, bool heartbeat,
                    bool touches_control, Exception& ex);
   bool decode_registers(std::uint16_t start, std::uint16_t count, const std::uint8_t* data,
-                        CommandImage& image, bool& heartbeat, bool& touches_control,
-                        Exception& ex) const;
+                        CommandImage& image, bool& heartbeat, bool& touches_control, Exception& ex);
   double read_value(std::size_t reg_index, const Snapshot& snap) const;
   // Registers that read the configuration (the loop rate, the limits block), not the loop.
   std::optional<double> configured_value(std::string_view name) const;
-  bool refuse(registers::Refusal why, Exception& ex);  // exception 04 with its reason; false
+  bool refuse(registers::Refusal why, Exception& ex);        // exception 04 with its reason; false
+  bool refuse_value(registers::Refusal why, Exception& ex);  // exception 03 with its reason
 
   Controller& controller_;
   ServerOptions options_;
@@ -116,7 +116,7 @@ class ModbusCore {
   CommandImage image_;
   std::uint16_t owner_ = 0;
   std::uint32_t owner_ipv4_ = 0;
-  std::uint16_t refusal_ = 0;  // registers::Refusal of the last exception 04
+  std::uint16_t refusal_ = 0;  // registers::Refusal of the last write refused (03 or 04)
   // Diagnostics counters (function 8).
   std::uint16_t bus_messages_ = 0, comm_errors_ = 0, exceptions_ = 0, server_messages_ = 0,
                 no_response_ = 0, busy_ = 0;

@@ -78,7 +78,15 @@ enum class Alarm : std::uint16_t {
 enum class Reaction : std::uint16_t { none = 0, releasing = 1, holding = 2, released = 3 };
 /// Why the last write was refused with exception 04 (register write_refusal_reason): refusals
 /// that retrying cannot fix.
-enum class Refusal : std::uint16_t { none = 0, not_owner = 1, broadcast_state_change = 2 };
+enum class Refusal : std::uint16_t {
+  none = 0,
+  not_owner = 1,
+  broadcast_state_change = 2,
+  out_of_range = 3,
+  force_beyond_safe_limit = 4,
+  position_outside_stroke = 5,
+  bad_control_word = 6,
+};
 enum class Reject : std::uint16_t {
   none = 0,
   not_enabled = 1,
