@@ -515,6 +515,12 @@ RecordingWriter::RecordingWriter(const std::string& path,
   impl->path = path;
   impl->ncol = names.size();
   impl->mode = mode;
+  // Its folder is made, as analyze's and report's --out folders are ("--out out/push.csv" on a
+  // fresh checkout); a folder that cannot be made fails at the open below, with its reason.
+  if (const auto dir = std::filesystem::path(path).parent_path(); !dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+  }
   if (mode == WriteMode::whole) {
     impl->atomic = std::make_unique<AtomicFile>(path);
   } else {

@@ -289,14 +289,17 @@ def readme_tour():
     m = re.search(r"`analyze` prints the headline first \(`([^`]*)`", text.replace("\n", " "))
     check(m is not None, "README quotes analyze's headline")
     rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "40s", "--seed", "5", "--effect",
-                     "offset=2", "--out", "push.csv")
-    rc2, out, err2 = run("analyze", "--recording", "push.csv", "--out", "out/push")
+                     "offset=2", "--out", "out/push.csv")
+    rc2, out, err2 = run("analyze", "--recording", "out/push.csv", "--out", "out/push")
     first = out.splitlines()[0] if out else ""
     check(rc == 0 and rc2 == 0 and m is not None and first == m.group(1),
           f"README's tour: analyze prints {first!r}, the README says {m.group(1) if m else None!r}")
-    rc, out, err = run("estimate", "--recording", "push.csv", "--estimator", "twin", "--model",
+    rc, out, err = run("estimate", "--recording", "out/push.csv", "--estimator", "twin", "--model",
                        "out/push/model_corrected.toml")
-    check(rc == 0 and "mean absolute error" in out, f"README's tour: estimate with the corrected model: {err.strip()}")
+    quoted = re.search(r"It prints `(mean absolute error[^`]*)`", text.replace("\n", " "))
+    check(rc == 0 and quoted is not None and quoted.group(1) in out,
+          f"README's tour: estimate with the corrected model prints what the README quotes "
+          f"({quoted.group(1) if quoted else None!r}): {out.strip()[:200]} {err.strip()}")
 
 
 def main():
