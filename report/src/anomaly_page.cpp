@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
@@ -102,6 +103,28 @@ std::string map_figure(const Anomaly& a, const std::string& out_dir) {
          escape_html(g.title) + "\" src=\"" + png_data_url(file) + "\"></figure>\n";
 }
 
+// The drift statistic where the flag judged it; before its reference formed it was not judged,
+// and a line at 0 there would read as "no drift" (section 4 says why).
+std::string drift_chart(const Anomaly& a) {
+  const bool tracked = std::isfinite(a.drift_tracked_from_s) && a.max_drift_statistic > 0.0;
+  if (!tracked)
+    return "<p id=\"drift\"><b>Drift statistic:</b> not judged on this recording (section 4 "
+           "says why), so not plotted.</p>\n";
+  std::vector<double> judged = a.trace.drift_statistic;
+  for (std::size_t i = 0; i < judged.size() && i < a.trace.t_s.size(); ++i)
+    if (a.trace.t_s[i] < a.drift_tracked_from_s)
+      judged[i] = std::numeric_limits<double>::quiet_NaN();
+  auto drift =
+      chart_of(a, "drift", "Drift statistic",
+               "Change of the force estimate's error since the reference, from free moves "
+               "and a passive load revisited, over its margin: at 1 or more for 2 s the "
+               "drift warning is raised. Not judged before the reference formed (no line).",
+               "statistic [-]");
+  drift.series.push_back({"drift statistic", judged});
+  drift.series.push_back({"warning level", std::vector<double>(a.trace.t_s.size(), 1.0)});
+  return time_chart_html(drift);
+}
+
 std::string where_section(const Anomaly& a, const std::string& out_dir) {
   std::ostringstream h;
   h << "<h2 id=\"where\">1. Where the twin and the machine part</h2>\n<p>Position residual "
@@ -126,14 +149,7 @@ std::string where_section(const Anomaly& a, const std::string& out_dir) {
     err.series.push_back(
         {"twin estimate error", difference(a.trace.twin_estimate_n, a.trace.output_force_n)});
     h << time_chart_html(err);
-    auto drift =
-        chart_of(a, "drift", "Drift statistic",
-                 "Change of the force estimate's error since the reference, from free moves "
-                 "only, over its margin: at 1 or more for 2 s the drift warning is raised.",
-                 "statistic [-]");
-    drift.series.push_back({"drift statistic", a.trace.drift_statistic});
-    drift.series.push_back({"warning level", std::vector<double>(a.trace.t_s.size(), 1.0)});
-    h << time_chart_html(drift);
+    h << drift_chart(a);
   }
   h << map_figure(a, out_dir);
   return h.str();

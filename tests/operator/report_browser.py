@@ -110,6 +110,9 @@ def main():
     text = visible_text(page)
     check("the analysis adds no effect" in text and "One fit" in text and "before (the model" not in text,
           "clean: the page says nothing was added and shows one fit")
+    check(re.search(r"Drift statistic:\s+not judged on this recording", text) is not None
+          and 'id="drift"' not in page.replace('<p id="drift">', ""),
+          "clean: the drift statistic the flag never judged is not drawn as a line at 0")
     check(not [w for w in FORBIDDEN if w in text], f"clean: no test strings or raw JSON in the text "
                                                   f"{[w for w in FORBIDDEN if w in text]}")
     in_browser("clean", page, out_dir)
@@ -133,6 +136,7 @@ def main():
           f"drift: one warning after the 3 % crossing at 9 s {windows}")
     check("drift warning from [s]" in visible_text(page) and "The warning is latched" in visible_text(page),
           "drift: the page lists the drift warning")
+    check("Not judged before the reference formed" in visible_text(page), "drift: the statistic is plotted once judged")
     effects = [e["id"] for e in drift["analysis"].get("effects", [])]
     check(drift["analysis"]["status"] == "done" and "gain_drift" in effects, f"the analysis names the drift {effects}")
     text = visible_text(page)
