@@ -381,7 +381,9 @@ constexpr std::array kForceLoopStates = std::to_array<Code>({
     {4, "holding", "stuck with the load force at the setpoint, coupling mid stick band"},
     {5, "holding_no_motion", "the setpoint was already inside the known load-force bound"},
     {6, "blocked", "no motion at twice the model's break-away force"},
-    {7, "held_at_stroke_end", "the nut reached the force mode's stroke window end: held there"},
+    {7, "held_at_stroke_end",
+     "the nut was about to pass the force mode's stroke window end (50 ms ahead at its speed): "
+     "held where it was"},
     {8, "speed_limited", "sliding towards the setpoint at the force mode's speed limit"},
 });
 constexpr std::array kReachedReasons = std::to_array<Code>({
@@ -392,7 +394,9 @@ constexpr std::array kReachedReasons = std::to_array<Code>({
     {4, "bound_too_wide", "the load-force bound is wider than the tolerance"},
     {5, "moving", "the nut slides: the load force is still changing"},
     {6, "settling", "inside the tolerance, the dwell is running"},
-    {7, "stroke_end", "the stroke window ended before the force: the nut is held there"},
+    {7, "stroke_end",
+     "the stroke window ended before the force: the nut is held short of its end (up to 50 ms "
+     "of its travel)"},
     {8, "speed_limit", "the nut slides towards the setpoint at the force mode's speed limit"},
     {9, "drive_limit",
      "the coupling is at its safe limit (safe_force_fraction of the peak) and the nut stuck short "

@@ -574,7 +574,8 @@ std::optional<std::string> limited_before_force(Client& c) {
       code_name(reg::codes_of("force_reached_reason"), v.at("force_reached_reason"));
   if (why == "stroke_end")
     return "the stroke window ended before the force (force_limited, force_reached_reason 7 "
-           "stroke_end): the nut is held at the window's end; ask for less force or a stiffer "
+           "stroke_end): the nut is held short of the window's end; ask for less force or a "
+           "stiffer "
            "load";
   if (why == "drive_limit" &&
       code_name(reg::codes_of("force_loop_state"), v.at("force_loop_state")) == "blocked")
