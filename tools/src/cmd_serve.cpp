@@ -41,14 +41,16 @@ void add_network_options(CLI::App* cmd, ServeOptions& o) {
   g->add_option("--bind", o.bind, "Bind address (default 127.0.0.1)");
   g->add_option("--port", o.port, "TCP port (default 1502; 0 = any free port, printed)")
       ->check(CLI::Range(0, 65535));
-  g->add_option("--unit", o.unit, "Unit id answered over TCP (255 is answered too)")
+  g->add_option("--unit", o.unit, "Unit id answered over TCP (default 1; 255 is answered too)")
       ->check(CLI::Range(0, 255));
-  g->add_option("--max-connections", o.max_connections, "Connection cap")
+  g->add_option("--max-connections", o.max_connections,
+                "Connection cap (default 32; at the cap the longest idle one is closed)")
       ->check(CLI::Range(1, 1024));
-  g->add_option("--frame-timeout", o.frame_timeout_s, "Seconds a started request may take")
+  g->add_option("--frame-timeout", o.frame_timeout_s,
+                "Seconds a started request may take (default 1.0)")
       ->check(CLI::Range(0.001, 3600.0));
   g->add_option("--idle-timeout", o.idle_timeout_s,
-                "Close idle connections after this many seconds (0 never)")
+                "Close idle connections after this many seconds (default 60; 0 never)")
       ->check(CLI::Range(0.0, 1e7));
   g->add_option("--allow", o.allow, "Allowed client IPv4 address or a.b.c.d/len (repeatable)");
   g->add_flag("--no-tcp", o.no_tcp, "Do not serve TCP");
@@ -416,7 +418,10 @@ void add_serve(CLI::App& app) {
   add_network_options(cmd, *o);
   cmd->add_flag("--read-only", o->read_only, "Refuse every write (exception 01)");
   cmd->add_flag("--no-twin", o->no_twin, "Run without the digital twin (its registers read 0)");
-  cmd->add_option("--watchdog", o->watchdog_ms, "Communication watchdog at start [ms], 0 = off")
+  cmd->add_option("--watchdog", o->watchdog_ms,
+                  "Communication watchdog at start [ms], 0 = off (default: network.toml's "
+                  "watchdog_ms, shipped 0); the register watchdog_ms (HR 1003), which poll and set "
+                  "show in seconds as watchdog_s")
       ->check(CLI::Range(0.0, 60000.0));
   add_sim_options(cmd, *o);
   add_backend_options(cmd, *o);

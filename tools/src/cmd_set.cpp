@@ -366,9 +366,15 @@ void add_set(CLI::App& app) {
   auto o = std::make_shared<SetOptions>();
   cmd->add_option("what", o->what, "force, position, idle, reference-move, or a register name")
       ->required();
-  cmd->add_option("value", o->value, "Value with optional unit: 12.5, 12.5N, 20mm, 0.02m");
-  cmd->add_option("--speed", o->speed, "Position moves: speed limit (e.g. 5mm/s)");
-  cmd->add_option("--accel", o->accel, "Position moves: acceleration limit (e.g. 0.1m/s^2)");
+  cmd->add_option("value", o->value,
+                  "Value with optional unit: 12.5, 12.5N, 20mm, 0.02m (a bare number is in SI "
+                  "units, N or m; under a raw register name such as watchdog_ms, in its unit)");
+  cmd->add_option("--speed", o->speed,
+                  "Position moves: speed limit (e.g. 5mm/s; default: the one staged in the "
+                  "controller, velocity_limit_m_s, 10 mm/s at start)");
+  cmd->add_option("--accel", o->accel,
+                  "Position moves: acceleration limit (e.g. 0.1m/s^2; default: the one staged, "
+                  "accel_limit_m_s2, 0.1 m/s^2 at start)");
   add_command_flags(cmd, f, true);
   cmd->add_option("--hold", f->hold, kHoldHelp);
   cmd->add_flag("--no-claim", f->no_claim,
