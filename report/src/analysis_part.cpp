@@ -64,8 +64,9 @@ std::string parameters_html(const std::string& id, const analysis::Parameters& p
 std::string evidence_text(const analysis::EffectFinding& e) {
   const auto& ev = e.evidence;
   if (!ev.heldout_gain_pct) return "";
-  std::string s = "held-out gain " + number(*ev.heldout_gain_pct) + " %";
-  if (ev.t_stat) s += ", t = " + number(*ev.t_stat);
+  // As analyze prints them: 99.95 %, never rounded up to 100 %.
+  std::string s = "held-out gain " + fixed(*ev.heldout_gain_pct, 2) + " %";
+  if (ev.t_stat) s += ", t = " + fixed(*ev.t_stat, 1);
   if (ev.segments_improved) s += ", " + *ev.segments_improved + " segments better";
   return s;
 }
@@ -73,7 +74,7 @@ std::string evidence_text(const analysis::EffectFinding& e) {
 // The force a finding changes beside what it had to exceed, as `analyze` prints it.
 std::string floors_text(const analysis::Evidence& ev) {
   if (!ev.explained_rms_n) return "";
-  std::string s = "changes the force by " + number(*ev.explained_rms_n) + " N RMS";
+  std::string s = "changes the force by " + number(*ev.explained_rms_n, 4) + " N RMS";
   if (ev.resolution_floor_n)
     s += "; the recording resolves " + number(*ev.resolution_floor_n) + " N";
   if (ev.minimum_n) s += ", the stated minimum " + number(*ev.minimum_n) + " N";
@@ -121,12 +122,13 @@ std::string fit_chart(const analysis::AnalysisResult& r) {
 }
 
 std::string heldout_cell(const std::optional<double>& rms) {
-  return "<td>" + (rms ? number(*rms) : std::string("–")) + "</td>";
+  return "<td>" + (rms ? number(*rms, 4) : std::string("–")) + "</td>";
 }
 
 std::string fit_table(const analysis::Findings& F) {
-  const auto rel = [](const analysis::FitErrors& e) { return number(e.relative_error_pct); };
-  const auto rms = [](const analysis::FitErrors& e) { return number(e.rms_n); };
+  // Four figures, as analyze prints them (17.99 %, not 18, beside 2.551 %).
+  const auto rel = [](const analysis::FitErrors& e) { return number(e.relative_error_pct, 4); };
+  const auto rms = [](const analysis::FitErrors& e) { return number(e.rms_n, 4); };
   std::optional<double> ho_before, ho_after;
   if (!F.validation.empty()) {
     ho_before = F.validation.front().heldout_rms_n;

@@ -30,6 +30,10 @@ std::string meaning(const reg::Register& r, double v) {
                   v == reg::kDeviceType ? " (maglead)" : "");
     return b;
   }
+  // A figure the twin has not formed yet reads 0: said, so 0 is not taken for a measurement.
+  if (v == 0.0 && (r.name == "twin_gain_f32" || r.name == "twin_gain_stderr_f32" ||
+                   r.name == "twin_gain_reference_f32"))
+    return "not estimated yet";
   if (r.name == "drive_error_code" && v != 0) {
     char b[48];
     std::snprintf(b, sizeof b, "0x%04X (the drive's manual)", static_cast<unsigned>(v));
