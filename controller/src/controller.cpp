@@ -489,7 +489,10 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
     force_loop_.stop();
     window_end_ = 0;
   }
-  if (mode_ == Mode::force || state_ != DriveState::enabled) position_limited_ = false;
+  if (mode_ == Mode::force || state_ != DriveState::enabled) {
+    position_limited_ = false;
+    stall_s_ = 0.0;  // a stall is judged afresh on the next position command
+  }
   publish_observer();
   const bool settled = settle(reached, dt);
   if (update_power() != HwStatus::ok) {
