@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <optional>
 #include <stdexcept>
@@ -237,6 +238,32 @@ ModbusCore::ModbusCore(Controller& controller, ServerOptions options)
     if (!reg::in_mapped_range(r.table, r.address))
       throw std::logic_error("register '" + std::string(r.name) +
                              "' lies outside the mapped ranges");
+  check_limits_fit_the_map();
+}
+
+/// A configured stroke or safe force the setpoint registers cannot carry would be published in
+/// the limits block (IR 140-147) and then refused as out of range: refused at start instead.
+void ModbusCore::check_limits_fit_the_map() const {
+  const auto& a = controller_.config().actuator;
+  const auto* pos = reg::find("position_setpoint_um");
+  const auto* force = reg::find("force_setpoint_mn");
+  char b[320];
+  if (a.stroke_min_m < pos->min - 1e-12 || a.stroke_max_m > pos->max + 1e-12) {
+    std::snprintf(b, sizeof b,
+                  "the stroke %g .. %g m lies beyond what position_setpoint carries (%g .. %g m): "
+                  "set stroke_min_m and stroke_max_m in actuator.toml inside it",
+                  a.stroke_min_m, a.stroke_max_m, pos->min, pos->max);
+    throw std::invalid_argument(b);
+  }
+  const double push = controller_.safe_force_limit_n(1.0),
+               pull = controller_.safe_force_limit_n(-1.0);
+  if (pull < force->min || push > force->max) {
+    std::snprintf(b, sizeof b,
+                  "the safe force limits %.2f / %.2f N lie beyond what force_setpoint carries "
+                  "(%g .. %g N): lower safe_force_fraction in actuator.toml",
+                  push, pull, force->min, force->max);
+    throw std::invalid_argument(b);
+  }
 }
 
 std::uint16_t ModbusCore::owner() const {

@@ -121,7 +121,8 @@ constexpr std::array kTable = std::to_array<Register>({
      "drive +- break-away), 1 sliding (force balance), 2 stuck after a slide"},
     {"drive_fault_cause", IR, 68, Type::u16, 1, "", RO, 0, 6,
      "With alarm drive_fault: why the drive faulted, see its codes (0 none, or a backend that "
-     "cannot tell)"},
+     "cannot tell). It may sharpen after the latch (a silent drive's process data time out "
+     "before its heartbeat: 3, then 2): read it again after the heartbeat timeout"},
     {"drive_error_code", IR, 69, Type::u16, 1, "", RO, 0, kU16Max,
      "With drive_fault_cause 1: the drive's own error code (CiA 402 object 0x603F or its EMCY; "
      "the drive's manual lists them), 0 none"},
@@ -278,7 +279,7 @@ constexpr std::array kAlarms = std::to_array<Code>({
     {3, "watchdog", "no heartbeat within watchdog_ms: fault reaction"},
     {4, "stroke_limit", "nut beyond the configured stroke"},
     {5, "sensor_fault", "actuator reported a sensor fault"},
-    {6, "drive_fault", "actuator reported a drive fault"},
+    {6, "drive_fault", "the drive or its bus reported a fault (drive_fault_cause says which)"},
     {7, "owner_lost",
      "the connection that owned control closed: fault reaction; claim again with "
      "fault_reset, then an enable edge"},
@@ -297,13 +298,16 @@ constexpr std::array kRefusals = std::to_array<Code>({
     {1, "not_owner",
      "another client owns control: it must release it (enable low) or lose its connection"},
     {2, "broadcast_state_change", "control word and mode are not accepted by broadcast (unit 0)"},
-    {3, "out_of_range", "exception 03: a value outside its register's range (maglead registers)"},
+    {3, "out_of_range",
+     "exception 03: a value outside its register's range (maglead registers), an unknown "
+     "control-word bit among them"},
     {4, "force_beyond_safe_limit",
-     "exception 03: a force setpoint beyond the safe limit (IR 140/142)"},
+     "exception 03: a force setpoint inside the register's range but beyond the safe limit "
+     "(IR 140/142)"},
     {5, "position_outside_stroke",
-     "exception 03: a position setpoint outside the stroke (IR 144/146)"},
-    {6, "bad_control_word",
-     "exception 03: an unknown control-word bit, or execute with stop, fault_reset or resync"},
+     "exception 03: a position setpoint inside the register's range but outside a narrower "
+     "configured stroke (IR 144/146)"},
+    {6, "bad_control_word", "exception 03: execute with stop, fault_reset or resync"},
 });
 constexpr std::array kRejects = std::to_array<Code>({
     {0, "none", "accepted"},

@@ -320,6 +320,16 @@ def against_a_server():
         text = f.read()
     with open(os.path.join(tight, "actuator.toml"), "w") as f:
         f.write(re.sub(r"safe_force_fraction = [0-9.]+", "safe_force_fraction = 0.4", text))
+    # A stroke the position setpoint cannot carry is refused at start, with what to change (the
+    # limits block would publish it, and every write near it would be refused as out of range).
+    wide = copy_config("cfg_wide_stroke")
+    with open(os.path.join(wide, "actuator.toml")) as f:
+        text = f.read()
+    with open(os.path.join(wide, "actuator.toml"), "w") as f:
+        f.write(re.sub(r"^stroke_max_m\s*=.*$", "stroke_max_m = 0.045", text, flags=re.M))
+    rc, _, err = run("serve", "--config", wide, "--port", "0", "--duration", "1s")
+    check(rc == 2 and "lies beyond what position_setpoint carries" in err and "stroke_max_m" in err,
+          f"serve refuses a stroke the register cannot carry: {err.strip()!r}")
     srv = Server(MAGLEAD, tight, "--port", "0")
     try:
         port = str(srv.port)

@@ -168,7 +168,9 @@ void run_estimate(const EstimateOptions& o) {
   const ErrorStats s = error_stats(error);
   std::printf("force estimate (%s) against load cell, %s, %zu samples\n", o.estimator.c_str(),
               o.recording.c_str(), s.samples);
-  std::printf("  mean absolute error  %6.2f N   (paper, static estimate: 2.3 N)\n", s.mean_abs);
+  std::printf(
+      "  mean absolute error  %6.2f N   (the paper reports 2.3 N for its static estimate)\n",
+      s.mean_abs);
   std::printf("  RMS error            %6.2f N\n", s.rms);
   std::printf("  max absolute error   %6.2f N\n", s.max_abs);
   if (!o.out.empty()) write_estimates(o, in, e, measured, error);

@@ -333,6 +333,11 @@ void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions
     return;
   }
   if (!f.hold.empty()) parse_duration_s(f.hold);  // a bad --hold is refused before sending
+  if (p.mode == reg::Mode::reference_move && f.no_wait && f.hold.empty())
+    throw ClientError(Kind::refused_locally,
+                      "set reference-move --no-wait would keep control until Ctrl-C: drop "
+                      "--no-wait (it returns once the move is done, control released) or add "
+                      "--hold DURATION");
   op::Client client(endpoint_of(conn));
   client.check_identity();
   const op::CommandResult res = send_or_release(client, p, f);

@@ -145,16 +145,16 @@ std::vector<std::string> wrap(const std::string& text, int width, const std::str
   return lines;
 }
 
-/// The names of the status bits that are set, `sep` between them. force_limited carries
-/// force_reached_reason's code name (force_limited(stroke_end)): the stroke end, the speed limit
-/// and the drive's limit are different situations.
+/// The names of the status bits that are set, `sep` between them. force_limited carries its
+/// reason's code name (force_limited(stroke_end)): the stroke end, the speed limit and the
+/// drive's limit are different situations; in position mode the reason is in_position_reason's.
 std::string set_bits_text(const op::Values& v, const char* sep) {
   std::string s;
+  const bool force_mode = v.at("active_mode") == static_cast<double>(reg::Mode::force);
+  const char* reason = force_mode ? "force_reached_reason" : "in_position_reason";
   for (const auto& n : op::status_bits(static_cast<std::uint16_t>(v.at("status_word")))) {
     s += (s.empty() ? "" : sep) + n;
-    if (n == "force_limited")
-      s += "(" +
-           op::code_name(reg::codes_of("force_reached_reason"), v.at("force_reached_reason")) + ")";
+    if (n == "force_limited") s += "(" + op::code_name(reg::codes_of(reason), v.at(reason)) + ")";
   }
   return s;
 }

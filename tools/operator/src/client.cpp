@@ -645,8 +645,25 @@ std::string reset_advice(Client& c) {
          "which 'maglead reset' works";
 }
 
-std::string alarm_text(double alarm) {
-  return code_name(reg::alarm_codes(), alarm) + ": " + code_meaning(reg::alarm_codes(), alarm);
+/// The alarm by name and meaning; a drive fault with its cause (IR 68) and the drive's own code
+/// (IR 69), which say what to check: a silent drive is not cleared by a reset.
+std::string alarm_text(Client& c, double alarm) {
+  std::string s =
+      code_name(reg::alarm_codes(), alarm) + ": " + code_meaning(reg::alarm_codes(), alarm);
+  if (alarm != static_cast<double>(reg::Alarm::drive_fault)) return s;
+  const auto* cause = reg::find("drive_fault_cause");
+  const Values v = c.read_range(reg::Table::input_register, cause->address, 2);
+  const double why = v.at("drive_fault_cause"), code = v.at("drive_error_code");
+  if (why == 0) return s;
+  const auto codes = reg::codes_of("drive_fault_cause");
+  s += "; drive_fault_cause " + fmt(why) + " " + code_name(codes, why) + " (" +
+       code_meaning(codes, why) + ")";
+  if (code != 0) {
+    char b[48];
+    std::snprintf(b, sizeof b, "; drive_error_code 0x%04X", static_cast<unsigned>(code));
+    s += b;
+  }
+  return s + "; what to check: docs/cia402.md, 'When a fault stays'";
 }
 
 [[noreturn]] void rejected(const char* what, const Status& s) {
@@ -670,7 +687,7 @@ CommandResult execute(Client& c, reg::Mode mode,
       reset(c, false, o);
     else if (fault)  // any other fault is the operator's to look at and reset
       throw ClientError(Kind::rejected, "execute: the drive is in fault (alarm " +
-                                            alarm_text(st.alarm) + "); " + reset_advice(c));
+                                            alarm_text(c, st.alarm) + "); " + reset_advice(c));
     if (read_status(c).drive_state == static_cast<std::uint16_t>(reg::DriveState::ready))
       enable(c, o);
   }
@@ -703,7 +720,7 @@ CommandResult execute(Client& c, reg::Mode mode,
     if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
       throw ClientError(
           Kind::rejected,
-          "execute: the drive faulted before reaching the target: alarm " + alarm_text(s.alarm));
+          "execute: the drive faulted before reaching the target: alarm " + alarm_text(c, s.alarm));
     if (s.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled))
       throw ClientError(Kind::rejected,
                         "execute: the drive was disabled before reaching the target");
@@ -740,7 +757,7 @@ void enable(Client& c, const CommandOptions& o) {
   // The controller ignores an enable edge outside "ready" without a reason code: say why here.
   if (s.drive_state == static_cast<std::uint16_t>(DS::fault))
     throw ClientError(Kind::rejected, "enable: the drive is in fault (alarm " +
-                                          alarm_text(s.alarm) + "); " + reset_advice(c));
+                                          alarm_text(c, s.alarm) + "); " + reset_advice(c));
   if (s.drive_state != static_cast<std::uint16_t>(DS::ready))
     throw ClientError(Kind::rejected, "enable: the drive is not ready (" +
                                           code_meaning(reg::drive_states(), s.drive_state) + ")");
@@ -757,7 +774,7 @@ void enable(Client& c, const CommandOptions& o) {
       throw ClientError(Kind::rejected,
                         "enable: the drive did not enable within " + fmt(o.ack_timeout_s) +
                             " s (state " + code_name(reg::drive_states(), s.drive_state) +
-                            (s.alarm ? ", alarm " + alarm_text(s.alarm) : std::string()) + ")");
+                            (s.alarm ? ", alarm " + alarm_text(c, s.alarm) : std::string()) + ")");
     std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
   }
 }
@@ -781,7 +798,7 @@ std::string disable_and_say(Client& c) {
   disable(c, {});
   const Status s = read_status(c);
   if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
-    return "enable cleared; the drive stays in fault (alarm " + alarm_text(s.alarm) +
+    return "enable cleared; the drive stays in fault (alarm " + alarm_text(c, s.alarm) +
            "): run 'maglead reset' to clear it";
   return "drive disabled: enable cleared, control released (drive_state " +
          code_name(reg::drive_states(), s.drive_state) + ")";
@@ -808,7 +825,7 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
         throw ClientError(Kind::rejected, std::string(what) + " rejected by the controller: " +
                                               code_name(reg::reject_codes(), s.reject) + " (" +
                                               code_meaning(reg::reject_codes(), s.reject) +
-                                              "): alarm " + alarm_text(s.alarm));
+                                              "): alarm " + alarm_text(c, s.alarm));
       if (since(t0) > o.ack_timeout_s)
         throw ClientError(Kind::no_reply, std::string(what) + ": acknowledged, not done within " +
                                               fmt(o.ack_timeout_s) + " s");
@@ -830,7 +847,7 @@ void hold(Client& c, double seconds, const CommandOptions& o, const std::functio
   while (since(t0) < seconds && !(stop && stop())) {
     const Status s = read_status(c);
     if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
-      throw ClientError(Kind::rejected, "hold: the drive faulted: alarm " + alarm_text(s.alarm));
+      throw ClientError(Kind::rejected, "hold: the drive faulted: alarm " + alarm_text(c, s.alarm));
     if (s.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled))
       throw ClientError(Kind::rejected, "hold: the drive was disabled");
     if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});

@@ -103,6 +103,7 @@ class ModbusCore {
   bool decode_registers(std::uint16_t start, std::uint16_t count, const std::uint8_t* data,
                         CommandImage& image, bool& heartbeat, bool& touches_control, Exception& ex);
   double read_value(std::size_t reg_index, const Snapshot& snap) const;
+  void check_limits_fit_the_map() const;
   // Registers that read the configuration (the loop rate, the limits block), not the loop.
   std::optional<double> configured_value(std::string_view name) const;
   bool refuse(registers::Refusal why, Exception& ex);        // exception 04 with its reason; false
