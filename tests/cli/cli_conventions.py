@@ -129,6 +129,15 @@ def version_and_usage():
     check(rc == 0 and finding is not None and all(len(l) <= 80 for l in lines)
           and lines[finding + 1].startswith("     ") and not lines[finding + 1].startswith("      "),
           f"analyze wraps to 80 columns on a terminal: {lines[:8]!r}")
+    # An error on an 80-column terminal wraps at spaces (the terminal would break words); into a
+    # pipe it stays one line, as scripts match it.
+    for args in (("set", "force", "5", "--port", "1"), ("analyze", "--recording", moved, "--config", "/nope")):
+        rc, text = run_in_pty(*args, columns=80)
+        lines = [l for l in text.replace("\r", "").split("\n") if l]
+        _, _, piped = run(*args)
+        check(rc in (2, 3) and len(lines) >= 2 and all(len(l) <= 80 for l in lines)
+              and text.split() == piped.split(),
+              f"{args[0]}'s error wraps at spaces on a terminal, one line in a pipe: {lines!r}")
     # Every command's --help on an 80-column terminal: no line wider, no word broken in two.
     for cmd in ("serve", "simulate", "analyze", "set", "report"):
         rc, text = run_in_pty(cmd, "--help", columns=80)

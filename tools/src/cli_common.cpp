@@ -150,6 +150,20 @@ std::size_t terminal_columns() {
   return ws.ws_col;
 }
 
+std::string error_text(const std::string& line) {
+  winsize ws{};
+  if (isatty(STDERR_FILENO) == 0 || ioctl(STDERR_FILENO, TIOCGWINSZ, &ws) != 0) return line;
+  std::string out;
+  std::size_t from = 0;
+  for (std::size_t nl = line.find('\n'); from <= line.size(); nl = line.find('\n', from)) {
+    const std::size_t end = nl == std::string::npos ? line.size() : nl;
+    out += (from ? "\n" : "") + wrapped(line.substr(from, end - from), 2, ws.ws_col);
+    if (nl == std::string::npos) break;
+    from = nl + 1;
+  }
+  return out;
+}
+
 namespace {
 std::size_t columns_of(std::string_view s) {  // UTF-8: continuation bytes take no column
   std::size_t n = 0;

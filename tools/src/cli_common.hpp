@@ -51,6 +51,9 @@ bool show_progress();
 /// The terminal's width in columns when standard output is one, else 0 (a pipe or a file gets
 /// every line whole, for the scripts that read it).
 std::size_t terminal_columns();
+/// An error line as it goes to stderr: on a terminal wrapped at spaces to its width, continuations
+/// two columns in; to a pipe or a log, one line as given (scripts match it whole).
+std::string error_text(const std::string& line);
 /// `text` broken at spaces into lines of at most `width` columns (UTF-8 characters), every
 /// line after the first indented by `indent` spaces; whole when `width` is 0 or too small.
 std::string wrapped(const std::string& text, std::size_t indent, std::size_t width);

@@ -94,7 +94,8 @@ std::vector<const reg::Register*> wanted_registers(const std::vector<std::string
       const std::string guess = closest_match(n, all);
       throw op::ClientError(op::ClientError::Kind::refused_locally,
                             "no register named '" + n + "'" +
-                                (guess.empty() ? "" : "; did you mean '" + guess + "'?"));
+                                (guess.empty() ? "" : "; did you mean '" + guess + "'?") +
+                                " ('maglead registers' lists them)");
     }
     wanted.push_back(r);
   }

@@ -107,7 +107,8 @@ void usage_error(const CLI::App& root, const CLI::ParseError& e) {
   const CLI::App* at = &root;
   for (auto subs = at->get_subcommands(); !subs.empty(); subs = at->get_subcommands())
     at = subs.front();
-  std::fprintf(stderr, "maglead: error: %s\nrun '%s --help' for the options\n", e.what(),
+  std::fprintf(stderr, "%s\nrun '%s --help' for the options\n",
+               maglead::cli::error_text(std::string("maglead: error: ") + e.what()).c_str(),
                path_of(at).c_str());
 }
 
@@ -175,8 +176,10 @@ int main(int argc, char** argv) {
     if (!explain_unknown(app, argc, argv)) usage_error(app, e);
     return maglead::cli::kExitBadInput;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "maglead: error: %s%s\n", e.what(),
-                 maglead::cli::missing_config_hint(e.what()).c_str());
+    std::fprintf(stderr, "%s\n",
+                 maglead::cli::error_text(std::string("maglead: error: ") + e.what() +
+                                          maglead::cli::missing_config_hint(e.what()))
+                     .c_str());
     return maglead::cli::kExitBadInput;
   }
   return 0;

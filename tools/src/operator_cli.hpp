@@ -56,7 +56,8 @@ void run_operator(const char* command, Fn&& fn) {
   try {
     fn();
   } catch (const op::ClientError& e) {
-    std::fprintf(stderr, "maglead %s: %s\n", command, e.what());
+    std::fprintf(stderr, "%s\n",
+                 error_text("maglead " + std::string(command) + ": " + e.what()).c_str());
     throw CLI::RuntimeError(e.exit_code());
   }
 }
