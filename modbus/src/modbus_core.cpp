@@ -200,12 +200,14 @@ ModbusCore::ModbusCore(Controller& controller, ServerOptions options)
       image_(controller.initial_image()) {
   const auto table = reg::table();
   bindings_.assign(table.size(), nullptr);
+  configured_.resize(table.size());
   for (std::size_t i = 0; i < table.size(); ++i) {
     const auto& r = table[i];
     for (const auto& b : kBindings)
       if (b.name == r.name) bindings_[i] = &b;
     if (!bindings_[i])
       throw std::logic_error("register '" + std::string(r.name) + "' has no server binding");
+    configured_[i] = configured_value(r.name);  // the configuration is fixed: looked up once
     const bool rw = r.access == reg::Access::read_write;
     if (r.table == reg::Table::holding_register || r.table == reg::Table::input_register) {
       if (rw ? !(bindings_[i]->image_get && bindings_[i]->image_set) : !bindings_[i]->get)
@@ -325,7 +327,7 @@ double ModbusCore::read_value(std::size_t i, const Snapshot& snap) const {
   if (r.name == "control_owner") return owner_;
   if (r.name == "control_owner_ipv4") return owner_ipv4_;
   if (r.name == "write_refusal_reason") return refusal_;
-  if (const auto limit = configured_value(r.name)) return *limit;
+  if (configured_[i]) return *configured_[i];
   if (r.name == "status_word") return snap.status_word | (owner_ ? 1u << reg::kOwned : 0u);
   return b.get(snap);
 }

@@ -208,14 +208,9 @@ std::string model_terms_text(const twin::TwinModel& m) {
       off += (off.empty() ? "" : ", ") + t.id;
       continue;
     }
-    std::string params;
-    for (const auto& [name, value] : t.parameters) {
-      char b[96];
-      const std::string unit = analysis::unit_of_parameter(name);
-      std::snprintf(b, sizeof b, "%s %.4g%s%s", name.c_str(), value, unit.empty() ? "" : " ",
-                    unit.c_str());
-      params += (params.empty() ? "" : ", ") + std::string(b);
-    }
+    analysis::Parameters values;  // written as analyze writes a finding's
+    for (const auto& [name, value] : t.parameters) values.push_back({name, value, false});
+    const std::string params = analysis::summary_text(values, {});
     on += (on.empty() ? "" : "; ") + t.id + (params.empty() ? "" : " (" + params + ")");
   }
   if (on.empty() && off.empty()) return "";

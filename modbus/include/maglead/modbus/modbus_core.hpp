@@ -113,7 +113,8 @@ class ModbusCore {
   ServerOptions options_;
   mutable std::mutex mutex_;  // between network threads only; the loop never takes it
   std::vector<Slot> reg_slots_, coil_slots_, di_slots_;
-  std::vector<const Binding*> bindings_;  // per table entry
+  std::vector<const Binding*> bindings_;           // per table entry
+  std::vector<std::optional<double>> configured_;  // per table entry: configured_value's
   CommandImage image_;
   std::uint16_t owner_ = 0;
   std::uint32_t owner_ipv4_ = 0;
