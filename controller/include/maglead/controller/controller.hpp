@@ -139,6 +139,8 @@ class Controller {
   /// One control cycle at time now_s (loop thread only). late_s: how late this cycle started.
   CycleStatus step(double now_s, double late_s = 0.0) noexcept;
 
+  /// Commands a cycle takes at most: a flood of writes cannot stretch the cycle.
+  static constexpr int kCommandsPerCycle = 64;
   /// Network side: queue a command for the next cycle. False when the queue is full.
   /// Callers on several threads must serialise.
   bool post(const Command& command) noexcept { return commands_.push(command); }
@@ -158,7 +160,6 @@ class Controller {
   struct Reached {
     bool position = false, force = false;
   };
-  static constexpr int kCommandsPerCycle = 64;
   // The cycle's stages, in the order step() runs them.
   double advance_clock(double now_s, double late_s) noexcept;
   void read_measurements(double now_s, const SensorSample& sample) noexcept;
