@@ -103,23 +103,22 @@ std::string map_figure(const Anomaly& a, const std::string& out_dir) {
          escape_html(g.title) + "\" src=\"" + png_data_url(file) + "\"></figure>\n";
 }
 
-// The drift statistic where the flag judged it; before its reference formed it was not judged,
+// The drift statistic where the flag judged it; before its first verdict it was not judged,
 // and a line at 0 there would read as "no drift" (section 4 says why).
 std::string drift_chart(const Anomaly& a) {
-  const bool tracked = std::isfinite(a.drift_tracked_from_s) && a.max_drift_statistic > 0.0;
+  const bool tracked = std::isfinite(a.drift_judged_from_s);
   if (!tracked)
     return "<p id=\"drift\"><b>Drift statistic:</b> not judged on this recording (section 4 "
            "says why), so not plotted.</p>\n";
   std::vector<double> judged = a.trace.drift_statistic;
   for (std::size_t i = 0; i < judged.size() && i < a.trace.t_s.size(); ++i)
-    if (a.trace.t_s[i] < a.drift_tracked_from_s)
+    if (a.trace.t_s[i] < a.drift_judged_from_s)
       judged[i] = std::numeric_limits<double>::quiet_NaN();
-  auto drift =
-      chart_of(a, "drift", "Drift statistic",
-               "Change of the force estimate's error since the reference, from free moves "
-               "and a passive load revisited, over its margin: at 1 or more for 2 s the "
-               "drift warning is raised. Not judged before the reference formed (no line).",
-               "statistic [-]");
+  auto drift = chart_of(a, "drift", "Drift statistic",
+                        "Change of the force estimate's error since the reference, from free moves "
+                        "and a passive load revisited, over its margin: at 1 or more for 2 s the "
+                        "drift warning is raised. No line before the flag first judged.",
+                        "statistic [-]");
   drift.series.push_back({"drift statistic", judged});
   drift.series.push_back({"warning level", std::vector<double>(a.trace.t_s.size(), 1.0)});
   return time_chart_html(drift);
@@ -192,6 +191,17 @@ std::string window_table(const std::vector<analysis::TimeWindow>& w, const std::
   return h + "</table>\n";
 }
 
+/// Why the drift flag never judged this recording; empty when it judged (or warned).
+std::string drift_not_judged(const Anomaly& a) {
+  if (!a.drift_windows.empty() || std::isfinite(a.drift_judged_from_s)) return {};
+  if (a.drift_observability == 0) return "no stretch with a known external force";
+  if (a.drift_observability == 1)
+    return "too few known-force stretches, free moves or a passive load revisited, to form the "
+           "reference";
+  return "the known-force stretches were compared with their reference, too few to measure how "
+         "much they scatter";
+}
+
 std::string events_section(const Anomaly& a, const AnalysisOutcome& o) {
   std::ostringstream h;
   h << "<h2 id=\"events\">4. Events</h2>\n" << step_out_table(a);
@@ -200,18 +210,13 @@ std::string events_section(const Anomaly& a, const AnalysisOutcome& o) {
       << a.step_out_warnings.size()
       << " window(s), the first from t = " << seconds(a.step_out_warnings.front().start_s)
       << " s.</p>\n";
-  if (a.drift_windows.empty() && a.drift_observability == 0)
-    h << "<p>Drift not observable: no stretch with a known external force (the flag judges free "
-         "moves and a passive load the force loop revisits, and never reads the load cell).</p>\n";
-  else if (a.drift_windows.empty() && a.drift_observability == 1)
-    h << "<p>Drift not observable yet: too few known-force stretches (free moves, a passive load "
-         "revisited) to form the reference.</p>\n";
-  else if (a.drift_windows.empty() && a.max_drift_statistic == 0.0)
-    h << "<p>Drift not judged yet: the known-force stretches were compared with their reference, "
-         "too few to measure how much they scatter.</p>\n";
+  if (const std::string why = drift_not_judged(a); !why.empty())
+    h << "<p>Drift not judged: " << escape_html(why)
+      << " (the flag judges free moves and a passive load the force loop revisits, and never "
+         "reads the load cell).</p>\n";
   else if (a.drift_windows.empty())
-    h << "<p>Drift warnings: none from t = " << seconds(a.drift_tracked_from_s)
-      << " s, when the reference formed, to the end (the statistic reached "
+    h << "<p>Drift warnings: none from t = " << seconds(a.drift_judged_from_s)
+      << " s, when it was first judged, to the end (the statistic reached "
       << number(a.max_drift_statistic) << " of 1); not judged before.</p>\n";
   else
     h << window_table(a.drift_windows, "drift warning")
@@ -250,6 +255,9 @@ Json json_of(const std::string& recording, const Anomaly& a, const AnalysisOutco
   for (const auto& s : a.step_outs)
     J["step_outs"].push_back(
         {{"t_s", s.t_s}, {"leads", s.leads}, {"source", s.seen_by}, {"nut_pos_m", s.nut_pos_m}});
+  const std::string drift_why = drift_not_judged(a);
+  J["drift_judged"] = drift_why.empty();
+  J["drift_not_judged_reason"] = drift_why;
   J["drift_windows"] = Json::array();
   for (const auto& w : a.drift_windows)
     J["drift_windows"].push_back({{"start_s", w.start_s}, {"end_s", w.end_s}});
@@ -297,6 +305,8 @@ std::string anomaly_headline(const Anomaly& a, const AnalysisOutcome& o) {
         "calibration drift detected from t = " + number(a.drift_windows.front().start_s) + " s");
   // 3 N: beyond the static estimator's expected mean error against a load cell (2.25 N on
   // hand-push, docs/simulation.md): more than its friction band explains.
+  if (const std::string why = drift_not_judged(a); !why.empty())
+    not_judged.push_back("drift (" + why + ")");
   if (!a.static_error)
     not_judged.emplace_back(a.has_load_cell ? "force estimate (no settled sample where both the "
                                               "estimate and load_force_n are numbers)"

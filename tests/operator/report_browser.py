@@ -103,7 +103,11 @@ def main():
     os.makedirs(WORK, exist_ok=True)
     check(os.path.exists(CHROMIUM), f"chromium found at {CHROMIUM}")
     clean, page, out_dir = make_report("clean", "--scenario", "hand-push", "--duration", "8s", "--seed", "4")
-    check(clean["step_outs"] == [] and clean["headline"] == "no anomaly found", f"clean: {clean['headline']}")
+    # Hand pushes only: the drift flag has no known-force stretch, so the headline says drift was
+    # not judged rather than "no anomaly found".
+    check(clean["step_outs"] == [] and not clean["drift_judged"]
+          and clean["headline"] == "not judged: drift (no stretch with a known external force)",
+          f"clean: {clean['headline']}")
     check(clean["force_error"]["static"]["mean_abs_n"] < 4.0, f"clean: static estimate error {clean['force_error']}")
     check(clean["analysis"]["status"] == "done" and clean["analysis"]["effects"] == [],
           f"clean: the analysis adds nothing {clean['analysis']}")
@@ -116,6 +120,12 @@ def main():
     check(not [w for w in FORBIDDEN if w in text], f"clean: no test strings or raw JSON in the text "
                                                   f"{[w for w in FORBIDDEN if w in text]}")
     in_browser("clean", page, out_dir)
+
+    # 30 s of moves: free moves the drift flag judges, so "no anomaly found" is said of everything.
+    moves, page, _ = make_report("moves", "--scenario", "position-moves", "--duration", "30s", "--seed", "4")
+    check(moves["drift_judged"] and moves["drift_not_judged_reason"] == ""
+          and moves["headline"] == "no anomaly found", f"moves, all judged: {moves['headline']}")
+    check("Drift warnings: none from t =" in visible_text(page), "moves: the page says from when drift was judged")
 
     bad, page, out_dir = make_report("overload", "--scenario", "hand-push", "--duration", "8s", "--seed", "4",
                                      "--effect", "offset=30", analysis=False)
@@ -136,7 +146,7 @@ def main():
           f"drift: one warning after the 3 % crossing at 9 s {windows}")
     check("drift warning from [s]" in visible_text(page) and "The warning is latched" in visible_text(page),
           "drift: the page lists the drift warning")
-    check("Not judged before the reference formed" in visible_text(page), "drift: the statistic is plotted once judged")
+    check("No line before the flag first judged" in visible_text(page), "drift: the statistic is plotted once judged")
     effects = [e["id"] for e in drift["analysis"].get("effects", [])]
     check(drift["analysis"]["status"] == "done" and "gain_drift" in effects, f"the analysis names the drift {effects}")
     text = visible_text(page)

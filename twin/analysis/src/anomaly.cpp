@@ -86,9 +86,11 @@ void replay(const Recording& rec, const twin::TwinMonitorConfig& monitor,
         tr.drift_statistic[i] = out.drift_statistic;
         drift[i] = out.drift_warning;
         a.drift_observability = static_cast<int>(out.drift_observability);
+        // Judged once the statistic has a value: with the reference formed, it stays 0 until the
+        // stretches' scatter is known.
         if (out.drift_observability == twin::DriftObservability::tracking &&
-            !std::isfinite(a.drift_tracked_from_s))
-          a.drift_tracked_from_s = tr.t_s[i];
+            out.drift_statistic > 0.0 && !std::isfinite(a.drift_judged_from_s))
+          a.drift_judged_from_s = tr.t_s[i];
         warn[i] = out.step_out_warning;
         if (out.slips != slips)
           a.step_outs.push_back({tr.t_s[i], out.slips - slips, tr.nut_pos_m[i], "twin replay"});

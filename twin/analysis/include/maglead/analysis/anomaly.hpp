@@ -54,8 +54,9 @@ struct Anomaly {
   std::vector<TimeWindow> drift_windows, step_out_warnings;
   double max_drift_statistic = 0;
   int drift_observability = 0;  // twin::DriftObservability at the end of the replay
-  // When the reference formed and drift began to be tracked [s]; NaN: never.
-  double drift_tracked_from_s = std::numeric_limits<double>::quiet_NaN();
+  // When the drift flag first judged (its reference formed, the stretches' scatter known) [s];
+  // NaN: never.
+  double drift_judged_from_s = std::numeric_limits<double>::quiet_NaN();
   bool has_load_cell = false, static_estimate_logged = false;
   std::optional<ErrorStats> static_error, twin_error;  // against the load cell
   std::size_t off_branch_samples = 0;
