@@ -479,13 +479,8 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   J.conclusion = selection::conclusion_of(sel);
   if (sel.terms.empty() && !sel.implausible && !J.resolvable.empty())
     J.conclusion += "; it cannot name changes smaller than: " + resolvable_text(J.resolvable);
-  // Nothing named is not nothing missing: a misfit the library does not explain is said as such.
-  if (sel.terms.empty() && !J.unexplained && misfit_remains(J.final_fit.rms_n, J.noise_floor_n)) {
-    J.conclusion = misfit_text(J.final_fit.rms_n, J.noise_floor_n, J.not_selected) +
-                   "; check the calibration, the sensors' timing and loads the recording does "
-                   "not log";
-    J.nothing_missing = false;
-  }
+  conclude_misfit(J, sel.terms.size(),
+                  "the calibration, the sensors' timing and loads the recording does not log");
   // Too little sliding to judge the model, and nothing named from the stands or events: that is
   // not judged, never "nothing is missing".
   if (J.effects.empty() && !J.unexplained && !J.sliding_note.empty()) {

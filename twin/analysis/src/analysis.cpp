@@ -912,6 +912,10 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
   add_errors(J.final_fit, final_base_se);
   J.validation = validation_of(run, sel);
   pulses::report(J, run.pulses);
+  conclude_misfit(J, sel.terms.size(),
+                  "the drive's force constant, the encoder scale and loads the recording does not "
+                  "log",
+                  std::string(effects::drive_unit_of_system(J.system)));
 }
 
 // Isolated pulses in the corrected residual (the one pulse finder, as on the actuator): events,

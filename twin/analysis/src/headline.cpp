@@ -1,6 +1,7 @@
 // The analysis's first line: what was found, with its value beside the model's, or what is left
 // unexplained, or why nothing could be judged. `analyze` prints it first and the report puts it
 // at the top of the page.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -81,13 +82,21 @@ std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
 }  // namespace
 
 std::string headline_of(const Findings& f, const ModelFile& baseline) {
-  if (!f.effects.empty()) {
-    std::string s = "found: ";
+  const auto found = [&](std::string s) {
     for (std::size_t k = 0; k < f.effects.size(); ++k)
       s += (k ? "; " : "") + finding_text(f.effects[k], baseline);
     return s;
-  }
-  if (f.unexplained) return "not explained: " + f.unexplained->message;
+  };
+  const bool events_only = std::all_of(f.effects.begin(), f.effects.end(),
+                                       [](const auto& e) { return e.evidence.events.has_value(); });
+  if (!events_only) return found("found: ");
+  // With events alone named, a force no library effect explains leads: events (pulses on a load
+  // cell of the wrong sign, say) are no account of it.
+  if (f.unexplained)
+    return "not explained: " + f.unexplained->message +
+           (f.effects.empty() ? std::string() : found("; events found beside it: "));
+  // The pulses' own force is in the final residual: beside events it is no misfit.
+  if (!f.effects.empty()) return found("found: ");
   if (!f.sliding_note.empty())
     return "not judged: too little sliding to judge the model (" + std::to_string(f.samples_used) +
            " sliding samples used of " + std::to_string(f.samples) +

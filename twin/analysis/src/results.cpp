@@ -84,6 +84,26 @@ std::string misfit_text(double final_rms_n, double noise_floor_n,
   return s + " that no library effect explains";
 }
 
+void conclude_misfit(Findings& f, std::size_t terms_named, const std::string& check,
+                     const std::string& unit) {
+  if (terms_named > 0 || f.unexplained) return;
+  // Events' own force (the pulses) is in the final residual: beside them it is no misfit, and
+  // "nothing is missing" would hide them.
+  std::string events;
+  for (const auto& e : f.effects)
+    if (e.evidence.events) events += (events.empty() ? "" : ", ") + e.id;
+  if (!events.empty()) {
+    const std::string nothing = "nothing is missing: ";
+    if (f.conclusion.starts_with(nothing))
+      f.conclusion = "events found (" + events + "); " + f.conclusion.substr(nothing.size());
+    return;
+  }
+  if (!misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) return;
+  f.conclusion =
+      misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, unit) + "; check " + check;
+  f.nothing_missing = false;
+}
+
 std::string unit_of_parameter(const std::string& name) {
   struct Suffix {
     const char* suffix;

@@ -235,4 +235,11 @@ struct Findings {
   std::vector<Resolvable> resolvable;  // actuator: the smallest change it would have named
 };
 
+/// Nothing named is not nothing missing: when the selection named no term (`terms_named` 0) and
+/// nothing implausible was found, events found are said first; without events, a final residual
+/// that is a misfit (misfit_remains) is said with what to check, and nothing_missing is false.
+/// `unit`: the residual's.
+void conclude_misfit(Findings& f, std::size_t terms_named, const std::string& check,
+                     const std::string& unit = "N");
+
 }  // namespace maglead::analysis

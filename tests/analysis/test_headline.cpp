@@ -1,0 +1,85 @@
+// The headline and the conclusion say what accounts for the recording: events alone are not an
+// account of a misfit, and nothing named is not nothing missing on either path.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/results.hpp"
+
+namespace {
+
+using maglead::analysis::EffectFinding;
+using maglead::analysis::Findings;
+using maglead::analysis::ModelFile;
+using maglead::analysis::Unexplained;
+
+EffectFinding disturbance_events(std::size_t count) {
+  EffectFinding e;
+  e.id = "external_disturbance";
+  e.parameters = {{"count", static_cast<double>(count), false}};
+  e.evidence.events = count;
+  return e;
+}
+
+/// A recording's findings with its final residual `rms_n` over a floor of 0.1 N.
+Findings findings_with_residual(double rms_n) {
+  Findings f;
+  f.noise_floor_n = 0.1;
+  f.final_fit.rms_n = rms_n;
+  return f;
+}
+
+bool starts_with(const std::string& s, const std::string& head) { return s.rfind(head, 0) == 0; }
+
+TEST(Headline, AForceNoEffectExplainsLeadsBeforeEventsBesideIt) {
+  Findings f = findings_with_residual(0.7);
+  f.effects.push_back(disturbance_events(4));
+  f.unexplained = Unexplained{};
+  f.unexplained->message = "a force of 0.7 N no library effect explains plausibly";
+  const std::string h = maglead::analysis::headline_of(f, ModelFile{});
+  EXPECT_TRUE(starts_with(h, "not explained: a force of 0.7 N")) << h;
+  EXPECT_NE(h.find("; events found beside it: external disturbance"), std::string::npos) << h;
+}
+
+TEST(Headline, EventsAreFoundAndTheirPulsesAreNoMisfit) {
+  // The pulses' force is in the final residual (0.7 N over a 0.1 N floor here): it is theirs.
+  Findings f = findings_with_residual(0.7);
+  f.effects.push_back(disturbance_events(4));
+  const std::string h = maglead::analysis::headline_of(f, ModelFile{});
+  EXPECT_TRUE(starts_with(h, "found: external disturbance count 4")) << h;
+  f.conclusion = "nothing is missing: no effect explains a significant part of the held-out error";
+  maglead::analysis::conclude_misfit(f, 0, "the drive's force constant");
+  EXPECT_EQ(f.conclusion,
+            "events found (external_disturbance); no effect explains a significant part of the "
+            "held-out error")
+      << f.conclusion;
+}
+
+TEST(Headline, NothingNamedWithAMisfitSaysTheMisfit) {
+  const Findings f = findings_with_residual(0.7);
+  const std::string h = maglead::analysis::headline_of(f, ModelFile{});
+  EXPECT_TRUE(starts_with(h, "a misfit of 0.7 N RMS remains (floor 0.1 N)")) << h;
+}
+
+TEST(Conclusion, NothingNamedWithAMisfitIsNotNothingMissing) {
+  Findings f = findings_with_residual(0.7);
+  f.conclusion = "nothing is missing: no effect explains a significant part of the held-out error";
+  f.nothing_missing = true;
+  maglead::analysis::conclude_misfit(f, 0, "the drive's force constant");
+  EXPECT_TRUE(starts_with(f.conclusion, "a misfit of 0.7 N RMS remains")) << f.conclusion;
+  EXPECT_NE(f.conclusion.find("; check the drive's force constant"), std::string::npos);
+  EXPECT_EQ(f.nothing_missing, false);
+
+  Findings named = findings_with_residual(0.7);
+  named.conclusion = "1 effect(s) found";
+  maglead::analysis::conclude_misfit(named, 1, "the drive's force constant");
+  EXPECT_EQ(named.conclusion, "1 effect(s) found");
+
+  Findings quiet = findings_with_residual(0.15);  // within twice the floor: the recording's noise
+  quiet.conclusion = "nothing is missing";
+  maglead::analysis::conclude_misfit(quiet, 0, "the drive's force constant");
+  EXPECT_EQ(quiet.conclusion, "nothing is missing");
+}
+
+}  // namespace
