@@ -109,11 +109,14 @@ std::vector<double> screw_angle_of(const Recording& rec, const ActuatorParams& a
 /// Reads a recording as read_recording does and, for the actuator (a nut_pos_m column), also
 /// refuses positions beyond the configured stroke widened by ten strokes each way: millimetres
 /// where metres belong pass the reader's machine-independent 10 m bound on a short stroke.
-/// `keep` stores only the columns it chooses (read_recording).
+/// `keep` stores only the columns it chooses (read_recording). An axis's recording lacking a
+/// `required` column is refused with the command that analyses it, saying that `reader` (the
+/// command, or what of it) reads the actuator's.
 Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
                                   const std::string& config_dir,
                                   const std::vector<std::string>& required = {},
-                                  const ColumnChoice& keep = {});
+                                  const ColumnChoice& keep = {},
+                                  const std::string& reader = "this command");
 
 // The configuration readers (maglead/settings) by their short names, as every command uses them.
 using settings::config_file;

@@ -134,6 +134,31 @@ void print_result(const AnalyzeOptions& o, const std::string& model_path,
   say("wrote " + o.out + "/index.html, analysis.json, model_corrected.toml" + o.replacing, 6);
 }
 
+/// The recording, its columns checked before any work: against the actuator's baseline the
+/// position and the load cell are required, so an axis's recording is answered with the
+/// --model it needs (read_actuator_recording, as report answers it) and one without a load cell
+/// with the command that needs none. Only the columns the analysis reads are stored: an hour at
+/// 1 kHz stores 29 MB per column.
+Recording read_for_analysis(const AnalyzeOptions& o, const ActuatorParams& act,
+                            const analysis::ModelFile& model, const std::string& model_path) {
+  if (model.system != "actuator")  // an axis's columns: the axis path names what it misses
+    return read_actuator_recording(o.recording, act, o.config, {}, analysis::columns_read);
+  const std::string baseline =
+      model_path.empty() ? config_file(o.config, "actuator.toml") : model_path;
+  try {
+    return read_actuator_recording(o.recording, act, o.config, {"t_s", "nut_pos_m", "load_force_n"},
+                                   analysis::columns_read,
+                                   "analyze with the actuator's baseline (" + baseline + ")");
+  } catch (const MissingColumnError& e) {
+    if (e.column() != "load_force_n") throw;
+    throw RecordingError(std::string(e.what()) +
+                         ". The analysis compares the model's force with a load cell's "
+                         "(load_force_n); without one, check the twin with: maglead twin-check "
+                         "--recording " +
+                         o.recording + " (drift from free moves and step-outs, no load cell)");
+  }
+}
+
 void run_analyze(AnalyzeOptions o) {
   o.a.twin_force_check = !o.no_twin_check;
   const ActuatorParams act = load_actuator_or_default(o.config);
@@ -147,9 +172,7 @@ void run_analyze(AnalyzeOptions o) {
           : load_calibration(o.calibration.empty() ? config_file(o.config, "calibration.toml")
                                                    : o.calibration);
   note("reading " + o.recording);
-  // Only the columns the analysis reads: an hour at 1 kHz stores 29 MB per column.
-  const Recording rec =
-      read_actuator_recording(o.recording, act, o.config, {}, analysis::columns_read);
+  const Recording rec = read_for_analysis(o, act, model, model_path);
   StageProgress progress;
   o.a.progress = [&](const std::string& stage, double f) { progress(stage, f); };
   const auto result = analysis::analyze_recording(rec, model, cal, act, o.a);
