@@ -224,6 +224,7 @@ def recordings_and_files():
     rc, _, err = run("twin-check", "--recording", nolc, "--config", CONFIG)
     check(rc == 0, f"twin-check, where analyze points, takes a recording without a load cell: {err.strip()!r}")
     missing_columns(lines, header, rec)
+    analyze_options(rec)
     # A finding is named in the first line, with its value and the model's.
     vis = os.path.join(WORK, "vis.csv")
     run("simulate", "--scenario", "mixed-moves", "--duration", "40s", "--seed", "3", "--effect",
@@ -285,6 +286,28 @@ def missing_columns(lines, header, rec):
     rc, _, err = run("analyze", "--recording", empty, "--out", "empty_out", "--config", CONFIG)
     check(rc == 2 and "no header row" in err and "t_s,screw_angle_rad,nut_pos_m,load_force_n" in err
           and "docs/recording-format.md" in err, f"empty recording: {err.strip()!r}")
+
+
+def analyze_options(rec):
+    """Option values the analysis cannot use are refused with the range and what to type, before
+    anything is written; a filter that leaves no sliding sample is named as the cause."""
+    cases = [(["--folds", "0"], "0 is outside 3 .. 100", "--folds 10"),
+             (["--folds", "1"], "1 is outside 3 .. 100", "--folds 10"),
+             (["--folds", "3"], "below the actuator analysis's 4 held-out segments", "--folds 10"),
+             (["--min-gain", "-5"], "-5 % is outside 0 .. 100 %", "--min-gain 1"),
+             (["--filter-hz", "-5"], "-5 Hz is below 0 Hz", "--filter-hz 20"),
+             (["--decimation", "-2"], "-2 is outside 0 .. 1000", "--decimation 1")]
+    for args, says, typed in cases:
+        out = os.path.join(WORK, "opt_out")
+        rc, _, err = run("analyze", "--recording", rec, "--out", out, *args, "--config", CONFIG)
+        check(rc == 2 and says in err and "type e.g. " + typed in err and not os.path.exists(out),
+              f"analyze {' '.join(args)}: refused with the range and what to type: {err.strip()!r}")
+    # The hand push slides at about 1 mm/s: a 60 Hz filter counts sliding from 1.3 mm/s.
+    rc, out, err = run("analyze", "--recording", rec, "--out", "filter_out", "--filter-hz", "60",
+                       "--no-twin-check", "--config", CONFIG)
+    note = next((l for l in out.splitlines() if l.startswith("note: ")), "")
+    check(rc == 0 and "--filter-hz 60 sets" in note and "leave --filter-hz out or lower it" in note
+          and "barely slides" not in note, f"--filter-hz 60: the note names the option: {note!r}")
 
 
 def config_files():

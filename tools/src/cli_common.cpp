@@ -95,6 +95,24 @@ CLI::Validator image_name() {
       "FILE.png", "image name");
 }
 
+CLI::Validator number_in(const NumberRange& range) {
+  return CLI::Validator(
+      [range](const std::string& text) {
+        const std::string unit = range.unit.empty() ? "" : " " + range.unit;
+        const std::string type = ": type e.g. " + range.example;
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (end == text.c_str() || *end != '\0') return "'" + text + "' is not a number" + type;
+        if (v >= range.lo && v <= range.hi) return std::string();
+        char bounds[64];  // no upper bound: "below LO"
+        std::snprintf(bounds, sizeof bounds, std::isinf(range.hi) ? "below %g" : "outside %g .. %g",
+                      range.lo, range.hi);
+        return text + unit + " is " + bounds + unit +
+               (range.why.empty() ? "" : " (" + range.why + ")") + type;
+      },
+      "");  // no name: the option's own type stays in --help
+}
+
 CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what) {
   return cmd
       ->add_option("--config", config,

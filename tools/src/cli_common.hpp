@@ -35,6 +35,16 @@ std::string missing_config_hint(const std::string& error);
 CLI::Validator image_name();
 CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what = "");
 
+/// What a number option takes: lo .. hi (both included; hi may be infinite) in `unit` ("" for a
+/// count), `why` that range (said in parentheses), and `example`, the option as one would type it.
+struct NumberRange {
+  double lo = 0, hi = 0;
+  std::string unit, why, example;
+};
+/// Refuses a value that is not a number or lies outside the range, before any work (exit 2):
+/// "5000 Hz is outside 1 .. 1000 Hz (the loop runs at 1 kHz): type e.g. --rate 100".
+CLI::Validator number_in(const NumberRange& range);
+
 /// "30s", "2min", "500ms", "1h" or a plain number of seconds. Throws CLI::ValidationError.
 double parse_duration_s(const std::string& text);
 /// Applies repeated `--effect NAME=VALUE` words (simulate, serve --sim-effect) to the plant's

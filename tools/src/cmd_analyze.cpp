@@ -3,10 +3,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 
 #include "cli_common.hpp"
 #include "large_blocks.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/rules.hpp"
 #include "maglead/effects/axis_kind.hpp"
 #include "maglead/report/analysis_json.hpp"
 #include "maglead/report/analysis_page.hpp"
@@ -14,6 +16,11 @@
 
 namespace maglead::cli {
 namespace {
+
+// More segments hold too little each to judge a term, and each costs the fit a Gram matrix.
+constexpr int kMaxFolds = 100;
+// Beyond this even an hour at 1 kHz keeps a few thousand samples: nothing left to fit.
+constexpr double kMaxDecimation = 1000.0;
 
 struct AnalyzeOptions {
   std::string recording, model, out, calibration, config = default_config_dir();
@@ -166,6 +173,13 @@ void run_analyze(AnalyzeOptions o) {
   if (!model_path.empty()) twin::check_model_format(model_path);  // the analysis reader does not
   const analysis::ModelFile model = model_path.empty() ? analysis::actuator_model_from_config(act)
                                                        : analysis::load_model(model_path);
+  // The axis takes fewer segments than the actuator (rules.hpp): the model says which it is.
+  if (model.system == "actuator" && o.a.folds < analysis::rules::kMinFolds)
+    throw CLI::ValidationError("--folds", std::to_string(o.a.folds) +
+                                              " is below the actuator analysis's " +
+                                              std::to_string(analysis::rules::kMinFolds) +
+                                              " held-out segments: type e.g. --folds " +
+                                              std::to_string(analysis::rules::kFolds));
   const ForceCalibration cal =
       model.system != "actuator"
           ? paper_calibration()
@@ -203,13 +217,28 @@ void add_analyze(CLI::App& app) {
       ->check(CLI::Validator(output_directory_problem, ""));
   cmd->add_option("--calibration", o->calibration,
                   "Coupling calibration (actuator; default: CONFIG/calibration.toml)");
-  cmd->add_option("--folds", o->a.folds, "Held-out time segments")->capture_default_str();
+  cmd->add_option("--folds", o->a.folds,
+                  "Held-out time segments, " + std::to_string(analysis::rules::kMinFolds) + " .. " +
+                      std::to_string(kMaxFolds) + " (an axis: from " +
+                      std::to_string(analysis::rules::kAxisMinFolds) + ")")
+      ->check(number_in(
+          {analysis::rules::kAxisMinFolds, kMaxFolds, "",
+           "held-out segments; the actuator's from " + std::to_string(analysis::rules::kMinFolds),
+           "--folds " + std::to_string(analysis::rules::kFolds)}))
+      ->capture_default_str();
   cmd->add_option("--filter-hz", o->a.filter_hz,
-                  "Zero-phase low-pass of position [Hz] (default 100 for an axis, 20 actuator)");
+                  "Zero-phase low-pass of position [Hz] (default 100 for an axis, 20 actuator). "
+                  "The actuator counts a sample as sliding from one encoder count per filter "
+                  "period: a higher cutoff leaves slow moves out")
+      ->check(number_in(
+          {0.0, std::numeric_limits<double>::infinity(), "Hz", "0 chooses it", "--filter-hz 20"}));
   cmd->add_option("--decimation", o->a.decimation,
-                  "Decimation factor (default: down to the identification bandwidth for an axis)");
+                  "Decimation factor (default: down to the identification bandwidth for an axis)")
+      ->check(number_in(
+          {0.0, kMaxDecimation, "", "0 chooses it, 1 keeps every sample", "--decimation 1"}));
   cmd->add_option("--min-gain", o->a.min_gain_pct,
-                  "Held-out mean-square-error reduction a term must bring [%]")
+                  "Held-out mean-square-error reduction a term must bring [%], 0 .. 100")
+      ->check(number_in({0.0, 100.0, "%", "a share of the held-out error", "--min-gain 1"}))
       ->capture_default_str();
   cmd->add_option("--calibration-accuracy", o->a.calibration_accuracy_n,
                   "Actuator: how well the calibration is known [N] (e.g. its bench's accuracy); "

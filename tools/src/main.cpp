@@ -1,6 +1,7 @@
 // maglead: the command line of the magnetic lead-screw actuator controller and its twin.
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <memory>
 #include <string>
@@ -48,6 +49,12 @@ bool knows_option(const CLI::App* app, const std::string& name) {
   return false;
 }
 
+bool is_number(const std::string& text) {
+  char* end = nullptr;
+  std::strtod(text.c_str(), &end);
+  return end != text.c_str() && *end == '\0';
+}
+
 /// After a parse error: the first unknown command or option in argv, answered with the closest
 /// match and the usage line. False when argv holds neither (CLI11's own message is better then).
 bool explain_unknown(CLI::App& root, int argc, char** argv) {
@@ -56,6 +63,10 @@ bool explain_unknown(CLI::App& root, int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string tok = argv[i];
     if (tok == "--") break;
+    if (expect_value && is_number(tok)) {  // `--min-gain -5`: a value, as CLI11 takes it
+      expect_value = false;
+      continue;
+    }
     if (tok.size() > 1 && tok[0] == '-') {
       expect_value = false;
       std::string name = tok.substr(0, tok.find('='));
