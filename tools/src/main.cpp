@@ -136,14 +136,26 @@ std::string wrap_help_line(const std::string& line, std::size_t width) {
   return maglead::cli::wrapped(line, indent, width);
 }
 
-/// CLI11 2.1 does not wrap its help: at 80 columns a terminal broke descriptions mid-word. On a
-/// terminal each line is wrapped to its width; into a pipe (man page, tests) lines stay whole.
+/// The width --help wraps to: $COLUMNS when it is a number, as for ls and man (`COLUMNS=80
+/// maglead analyze --help | less` asks for 80 columns in a pipe too), else the terminal's, else 0.
+std::size_t help_columns() {
+  if (const char* columns = std::getenv("COLUMNS")) {
+    char* end = nullptr;
+    const long n = std::strtol(columns, &end, 10);
+    if (end != columns && *end == '\0' && n > 0) return static_cast<std::size_t>(n);
+  }
+  return maglead::cli::terminal_columns();
+}
+
+/// CLI11 2.1 does not wrap its help: at 80 columns a terminal broke descriptions mid-word. Each
+/// line is wrapped to help_columns(); into a pipe without $COLUMNS (man page, scripts) lines stay
+/// whole.
 class WrappingFormatter : public CLI::Formatter {
  public:
   std::string make_help(const CLI::App* app, std::string name,
                         CLI::AppFormatMode mode) const override {
     std::string text = CLI::Formatter::make_help(app, std::move(name), mode);
-    const std::size_t width = maglead::cli::terminal_columns();
+    const std::size_t width = help_columns();
     if (width == 0) return text;
     std::string out;
     std::size_t pos = 0;
