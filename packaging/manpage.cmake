@@ -15,9 +15,11 @@ add_custom_command(
   OUTPUT ${MAGLEAD_MAN_DIR}/maglead.1.gz
   BYPRODUCTS ${MAGLEAD_MAN_DIR}/maglead.1 ${MAGLEAD_MAN_DIR}/commands.h2m
   COMMAND ${CMAKE_COMMAND} -E make_directory ${MAGLEAD_MAN_DIR}
-  COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_LIST_DIR}/manpage_commands.py $<TARGET_FILE:maglead>
+  # Without COLUMNS: --help wraps to it (main.cpp), and the page takes every line whole.
+  COMMAND ${CMAKE_COMMAND} -E env --unset=COLUMNS ${Python3_EXECUTABLE}
+          ${CMAKE_CURRENT_LIST_DIR}/manpage_commands.py $<TARGET_FILE:maglead>
           ${MAGLEAD_MAN_DIR}/commands.h2m
-  COMMAND ${MAGLEAD_HELP2MAN} --no-info --section 1 --version-string ${PROJECT_VERSION}
+  COMMAND ${CMAKE_COMMAND} -E env --unset=COLUMNS ${MAGLEAD_HELP2MAN} --no-info --section 1 --version-string ${PROJECT_VERSION}
           --include ${MAGLEAD_MAN_DIR}/commands.h2m --output ${MAGLEAD_MAN_DIR}/maglead.1
           $<TARGET_FILE:maglead>
   COMMAND ${MAGLEAD_GZIP} -9 -n -f -k ${MAGLEAD_MAN_DIR}/maglead.1

@@ -64,6 +64,35 @@ TEST(Recording, MissingColumnNamesFileLineAndColumn) {
   EXPECT_NE(e.find("load_force_n"), std::string::npos) << e;
 }
 
+// A column in another unit (or none) is named with what to do; every missing column lists the
+// columns there are, and says which one it is to the caller (MissingColumnError::column).
+TEST(Recording, MissingColumnListsTheColumnsAndOneInAnotherUnit) {
+  const auto mm = write_file("mm.csv", "# format: mls-recording/1\nt_s,nut_pos_mm\n0,0\n");
+  const std::string e = error_of(mm, {"t_s", "nut_pos_m"});
+  EXPECT_NE(e.find("(header has: t_s, nut_pos_mm)"), std::string::npos) << e;
+  EXPECT_NE(e.find("'nut_pos_mm' looks like it in another unit: convert it to metres and name it "
+                   "'nut_pos_m'"),
+            std::string::npos)
+      << e;
+  const auto bare = write_file("bare.csv", "# format: mls-recording/1\nt_s,load_force\n0,0\n");
+  EXPECT_NE(error_of(bare, {"load_force_n"})
+                .find("'load_force' has no unit in its name: if it is in newtons, name it "
+                      "'load_force_n'"),
+            std::string::npos);
+  try {
+    read_recording(mm, {"t_s"}).column("nut_pos_m");
+    ADD_FAILURE() << "column() of a missing column returned";
+  } catch (const MissingColumnError& c) {
+    EXPECT_EQ(c.column(), "nut_pos_m");
+    EXPECT_NE(std::string(c.what()).find("(columns read: t_s, nut_pos_mm); 'nut_pos_mm' looks"),
+              std::string::npos)
+        << c.what();
+  }
+  // Same quantity, unrelated name: no advice to rename what is something else.
+  const auto other = write_file("other.csv", "# format: mls-recording/1\nt_s,pos_set_m\n0,0\n");
+  EXPECT_EQ(error_of(other, {"nut_pos_m"}).find("looks like"), std::string::npos);
+}
+
 TEST(Recording, NonNumericFieldNamesLineAndColumn) {
   const auto p =
       write_file("nan.csv", "# format: mls-recording/1\nt_s,nut_pos_m\n0,0\n0.001,abc\n");
@@ -278,6 +307,11 @@ TEST(Recording, EveryErrorNamesFileLineAndColumn) {
   EXPECT_NE(error_of(write_file("empty.csv", "# format: mls-recording/1\n\n"))
                 .find("empty.csv: no header row"),
             std::string::npos);
+  // An empty file says what a header looks like and where the format is described.
+  const std::string empty = error_of(write_file("empty2.csv", ""));
+  EXPECT_NE(empty.find("e.g. t_s,screw_angle_rad,nut_pos_m,load_force_n"), std::string::npos)
+      << empty;
+  EXPECT_NE(empty.find("docs/recording-format.md"), std::string::npos) << empty;
 }
 
 // A bad field far into a large file: the line count survives the block boundaries, comment and

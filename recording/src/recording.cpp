@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <chrono>
@@ -31,7 +32,58 @@ bool Recording::has(const std::string& name) const {
 const std::vector<double>& Recording::column(const std::string& name) const {
   for (std::size_t i = 0; i < names.size(); ++i)
     if (names[i] == name) return columns[i];
-  throw RecordingError(path + ": no column '" + name + "'");
+  throw MissingColumnError(
+      path + ": no column '" + name + "'" + missing_column_detail(names, name, "columns read"),
+      name);
+}
+
+namespace {
+
+/// The quantity of a `<quantity>_<unit>` name: the name less its unit (compound units such as
+/// N·m and m/s included), "" when it has none.
+std::string quantity_of(const std::string& name) {
+  for (const char* unit : {"_n_m", "_m_s", "_rad_s", "_n_s_per_m"})
+    if (name.ends_with(unit)) return name.substr(0, name.size() - std::strlen(unit));
+  const std::size_t cut = name.rfind('_');
+  return cut == std::string::npos ? std::string() : name.substr(0, cut);
+}
+
+std::string unit_words(const std::string& name, const std::string& quantity) {
+  std::string unit = name.substr(quantity.size() + 1);  // returned when no word is known
+  constexpr std::pair<const char*, const char*> kWords[] = {
+      {"m", "metres"},    {"n", "newtons"},         {"s", "seconds"},
+      {"rad", "radians"}, {"n_m", "newton metres"}, {"m_s", "metres per second"},
+      {"a", "amperes"}};
+  for (const auto& [u, words] : kWords)
+    if (unit == u) return words;
+  return unit;
+}
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+}  // namespace
+
+std::string missing_column_detail(const std::vector<std::string>& names, const std::string& wanted,
+                                  const std::string& listed) {
+  std::string have;
+  for (const auto& n : names) have += (have.empty() ? "" : ", ") + n;
+  std::string out = " (" + listed + ": " + (have.empty() ? std::string("no column") : have) + ")";
+  const std::string quantity = quantity_of(wanted);
+  if (quantity.empty()) return out;
+  const std::string units = unit_words(wanted, quantity);
+  for (const auto& n : names) {
+    // Another unit of the same quantity (nut_pos_mm), or the quantity without a unit (nut_pos).
+    if (lower(n) == lower(quantity))
+      return out + "; '" + n + "' has no unit in its name: if it is in " + units + ", name it '" +
+             wanted + "' (docs/recording-format.md)";
+    if (lower(quantity_of(n)) == lower(quantity) && n != wanted)
+      return out + "; '" + n + "' looks like it in another unit: convert it to " + units +
+             " and name it '" + wanted + "' (units are SI: docs/recording-format.md)";
+  }
+  return out;
 }
 
 std::vector<double>& Recording::add_column(const std::string& name, std::vector<double> values) {
@@ -385,7 +437,12 @@ std::size_t read_head(Recording& rec, LineBlocks& blocks, std::string_view& bloc
     tail.clear();
     return line_no;
   }
-  throw RecordingError(rec.path + ": no header row");
+  // An empty file (a logger that never wrote, a wrong file): say what the header looks like.
+  throw RecordingError(rec.path +
+                       ": no header row: after its '# key: value' lines a recording names its "
+                       "columns in one comma-separated row, e.g. "
+                       "t_s,screw_angle_rad,nut_pos_m,load_force_n for the actuator or "
+                       "t_s,pos_m,drive_force_n for an axis (docs/recording-format.md)");
 }
 
 void check_header(const Recording& rec, std::size_t header_line,
@@ -411,12 +468,10 @@ void check_header(const Recording& rec, std::size_t header_line,
                              (sep == '\t' ? std::string("\\t") : std::string(1, sep)) +
                              "', an mls-recording/1 separates them by commas");
   for (const auto& r : required)
-    if (!rec.has(r)) {
-      std::string have;
-      for (const auto& n : rec.names) have += (have.empty() ? "" : ", ") + n;
-      throw RecordingError(where(path, header_line) + "missing required column '" + r +
-                           "' (header has: " + have + ")");
-    }
+    if (!rec.has(r))
+      throw MissingColumnError(where(path, header_line) + "missing required column '" + r + "'" +
+                                   missing_column_detail(rec.names, r),
+                               r);
 }
 
 /// Narrows rec.names to the columns `keep` chooses and the required ones (all when no `keep`);

@@ -40,7 +40,8 @@ def run_in_pty(*args, cwd=None, columns=None):
             os.chdir(cwd)
         if columns:
             fcntl.ioctl(1, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
-        os.execv(MAGLEAD, [MAGLEAD, *args])
+        # COLUMNS would set --help's width (main.cpp): the terminal's is the one tried here.
+        os.execve(MAGLEAD, [MAGLEAD, *args], {k: v for k, v in os.environ.items() if k != "COLUMNS"})
     out = b""
     while True:
         r, _, _ = select.select([fd], [], [], 60)
@@ -56,6 +57,13 @@ def run_in_pty(*args, cwd=None, columns=None):
     _, status = os.waitpid(pid, 0)
     os.close(fd)
     return os.WEXITSTATUS(status) if os.WIFEXITED(status) else -1, out.decode(errors="replace")
+
+
+def listed_commands(*parent):
+    """The commands `maglead [PARENT] --help` lists under Subcommands."""
+    _, out, _ = run(*parent, "--help", env={k: v for k, v in os.environ.items() if k != "COLUMNS"})
+    listed = out.split("Subcommands:\n", 1)[-1] if "Subcommands:" in out else ""
+    return [m.group(1) for m in re.finditer(r"^  (\S+)  ", listed, re.M)]
 
 
 def copy_config(name):
@@ -138,16 +146,28 @@ def version_and_usage():
         check(rc in (2, 3) and len(lines) >= 2 and all(len(l) <= 80 for l in lines)
               and text.split() == piped.split(),
               f"{args[0]}'s error wraps at spaces on a terminal, one line in a pipe: {lines!r}")
-    # Every command's --help on an 80-column terminal: no line wider, no word broken in two.
-    for cmd in ("serve", "simulate", "analyze", "set", "report"):
-        rc, text = run_in_pty(cmd, "--help", columns=80)
-        lines = text.replace("\r", "").split("\n")
-        wide = [l for l in lines if len(l) > 80]
-        check(rc == 0 and not wide and len(lines) > 5, f"{cmd} --help fits 80 columns: {wide[:2]!r}")
-        rc, piped, _ = run(cmd, "--help")
-        words = lambda t: t.split()
-        check(words(piped) == words(text.replace("\r", "")),
-              f"{cmd} --help wraps only at spaces (the same words as into a pipe)")
+    # Every command's --help (the commands as --help lists them, bench's too) on an 80-column
+    # terminal, and into a pipe with COLUMNS=80: no line wider, no word broken in two. Without
+    # COLUMNS a pipe (the man page) takes every line whole.
+    commands = [[]] + [[c] for c in listed_commands()]
+    commands += [["bench", c] for c in listed_commands("bench")]
+    check(len(commands) > 15 and ["twin-check"] in commands and ["bench", "analyze"] in commands,
+          f"--help lists the commands: {commands!r}")
+    env80 = dict(os.environ, COLUMNS="80")
+    unset = {k: v for k, v in os.environ.items() if k != "COLUMNS"}
+    for cmd in commands:
+        name = " ".join(["maglead", *cmd])
+        _, piped, _ = run(*cmd, "--help", env=unset)
+        rc, text = run_in_pty(*cmd, "--help", columns=80)
+        rc2, columns80, _ = run(*cmd, "--help", env=env80)
+        for how, out in (("on an 80-column terminal", text.replace("\r", "")), ("with COLUMNS=80", columns80)):
+            lines = out.split("\n")
+            wide = [l for l in lines if len(l) > 80]
+            check(rc == 0 and rc2 == 0 and not wide and len(lines) > 5,
+                  f"{name} --help fits 80 columns {how}: {wide[:2]!r}")
+            check(out.split() == piped.split(), f"{name} --help {how} wraps only at spaces (the same words)")
+    _, piped, _ = run("analyze", "--help", env=unset)
+    check(any(len(l) > 80 for l in piped.split("\n")), "analyze --help into a pipe keeps its lines whole")
     # No configuration anywhere (an installed binary, no /etc/maglead): where it looked, what to type.
     if not os.path.exists("/etc/maglead/calibration.toml"):
         lone = os.path.join(WORK, "lone", "bin")

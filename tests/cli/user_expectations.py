@@ -217,6 +217,14 @@ def recordings_and_files():
     first = out.splitlines()[0] if out else ""
     check(rc == 0 and first.startswith("not judged") and "load_force_n" in first and "no anomaly" not in first,
           f"report without a load cell: {first!r}")
+    rc, _, err = run("analyze", "--recording", nolc, "--out", "nolc_out", "--config", CONFIG)
+    check(rc == 2 and "missing required column 'load_force_n'" in err and "load cell" in err
+          and f"maglead twin-check --recording {nolc}" in err and not os.path.exists(os.path.join(WORK, "nolc_out")),
+          f"analyze without a load cell points at twin-check: {err.strip()!r}")
+    rc, _, err = run("twin-check", "--recording", nolc, "--config", CONFIG)
+    check(rc == 0, f"twin-check, where analyze points, takes a recording without a load cell: {err.strip()!r}")
+    missing_columns(lines, header, rec)
+    analyze_options(rec)
     # A finding is named in the first line, with its value and the model's.
     vis = os.path.join(WORK, "vis.csv")
     run("simulate", "--scenario", "mixed-moves", "--duration", "40s", "--seed", "3", "--effect",
@@ -253,6 +261,53 @@ def recordings_and_files():
         check(rc == 0 and f.read(2) == b"\xff\xd8", f"--plot x.jpg writes a JPEG: {err.strip()!r}")
     rc, _, err = run("estimate", "--recording", rec, "--plot", "est.gif", "--config", CONFIG)
     check(rc == 2 and ".png" in err, f"--plot x.gif refused with what to type: {err.strip()!r}")
+
+
+def missing_columns(lines, header, rec):
+    """A recording the analysis cannot read says what it has and what to type."""
+    # An axis's recording against the actuator's baseline: the --model it needs, as report says.
+    emps = os.path.join(os.path.dirname(CONFIG), "data", "emps", "emps_estimation.csv")
+    for command in (["analyze", "--out", "emps_out"], ["report", "--out", "emps_report"]):
+        rc, _, err = run(command[0], "--recording", emps, *command[1:], "--config", CONFIG)
+        check(rc == 2 and "a linear axis's recording" in err and "no column" not in err
+              and f"Analyse an axis with: maglead analyze --recording {emps} --model BASELINE.toml" in err,
+              f"{command[0]} on the EMPS axis says what to type: {err.strip()!r}")
+    # A column renamed to another unit: the columns found, and what to convert and rename.
+    renamed = os.path.join(WORK, "renamed.csv")
+    with open(renamed, "w") as f:
+        f.write("\n".join(lines[:header] + [lines[header].replace("nut_pos_m", "nut_pos_mm")]
+                          + lines[header + 1:]) + "\n")
+    rc, _, err = run("analyze", "--recording", renamed, "--out", "renamed_out", "--config", CONFIG)
+    check(rc == 2 and "header has: t_s," in err and "nut_pos_mm" in err
+          and "convert it to metres and name it 'nut_pos_m'" in err, f"nut_pos_mm: {err.strip()!r}")
+    # An empty file: what the header looks like, and where the format is described.
+    empty = os.path.join(WORK, "empty.csv")
+    open(empty, "w").close()
+    rc, _, err = run("analyze", "--recording", empty, "--out", "empty_out", "--config", CONFIG)
+    check(rc == 2 and "no header row" in err and "t_s,screw_angle_rad,nut_pos_m,load_force_n" in err
+          and "docs/recording-format.md" in err, f"empty recording: {err.strip()!r}")
+
+
+def analyze_options(rec):
+    """Option values the analysis cannot use are refused with the range and what to type, before
+    anything is written; a filter that leaves no sliding sample is named as the cause."""
+    cases = [(["--folds", "0"], "0 is outside 3 .. 100", "--folds 10"),
+             (["--folds", "1"], "1 is outside 3 .. 100", "--folds 10"),
+             (["--folds", "3"], "below the actuator analysis's 4 held-out segments", "--folds 10"),
+             (["--min-gain", "-5"], "-5 % is outside 0 .. 100 %", "--min-gain 1"),
+             (["--filter-hz", "-5"], "-5 Hz is below 0 Hz", "--filter-hz 20"),
+             (["--decimation", "-2"], "-2 is outside 0 .. 1000", "--decimation 1")]
+    for args, says, typed in cases:
+        out = os.path.join(WORK, "opt_out")
+        rc, _, err = run("analyze", "--recording", rec, "--out", out, *args, "--config", CONFIG)
+        check(rc == 2 and says in err and "type e.g. " + typed in err and not os.path.exists(out),
+              f"analyze {' '.join(args)}: refused with the range and what to type: {err.strip()!r}")
+    # The hand push slides at about 1 mm/s: a 60 Hz filter counts sliding from 1.3 mm/s.
+    rc, out, err = run("analyze", "--recording", rec, "--out", "filter_out", "--filter-hz", "60",
+                       "--no-twin-check", "--config", CONFIG)
+    note = next((l for l in out.splitlines() if l.startswith("note: ")), "")
+    check(rc == 0 and "--filter-hz 60 sets" in note and "leave --filter-hz out or lower it" in note
+          and "barely slides" not in note, f"--filter-hz 60: the note names the option: {note!r}")
 
 
 def config_files():

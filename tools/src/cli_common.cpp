@@ -95,6 +95,24 @@ CLI::Validator image_name() {
       "FILE.png", "image name");
 }
 
+CLI::Validator number_in(const NumberRange& range) {
+  return CLI::Validator(
+      [range](const std::string& text) {
+        const std::string unit = range.unit.empty() ? "" : " " + range.unit;
+        const std::string type = ": type e.g. " + range.example;
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (end == text.c_str() || *end != '\0') return "'" + text + "' is not a number" + type;
+        if (v >= range.lo && v <= range.hi) return std::string();
+        char bounds[64];  // no upper bound: "below LO"
+        std::snprintf(bounds, sizeof bounds, std::isinf(range.hi) ? "below %g" : "outside %g .. %g",
+                      range.lo, range.hi);
+        return text + unit + " is " + bounds + unit +
+               (range.why.empty() ? "" : " (" + range.why + ")") + type;
+      },
+      "");  // no name: the option's own type stays in --help
+}
+
 CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what) {
   return cmd
       ->add_option("--config", config,
@@ -272,9 +290,9 @@ bool is_axis_recording(const Recording& rec) {
 }
 
 // The reader's own error for a recording that lacks an actuator column, unless the recording is
-// an axis's: then what to run on it instead.
+// an axis's: then what to run on it instead. `reader` names what wanted the actuator's.
 Recording read_with_columns(const std::string& path, const std::vector<std::string>& required,
-                            const ColumnChoice& keep) {
+                            const ColumnChoice& keep, const std::string& reader) {
   try {
     return read_recording(path, required, keep);
   } catch (const RecordingError&) {
@@ -286,9 +304,9 @@ Recording read_with_columns(const std::string& path, const std::vector<std::stri
     }
     if (!whole || !is_axis_recording(*whole)) throw;
     const std::string kind = whole->meta("axis").value_or("linear");
-    throw RecordingError(path + ": a " + kind +
-                         " axis's recording; this command reads the magnetic actuator's "
-                         "(nut_pos_m and the motor or screw angle). Analyse an axis with: "
+    throw RecordingError(path + ": a " + kind + " axis's recording, and " + reader +
+                         " reads the magnetic actuator's (nut_pos_m and the motor or screw "
+                         "angle). Analyse an axis with: "
                          "maglead analyze --recording " +
                          path + " --model BASELINE.toml (docs/analysis.md)");
   }
@@ -357,8 +375,8 @@ void check_turns_per_lead(const Recording& rec, const ActuatorParams& act) {
 Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
                                   const std::string& config_dir,
                                   const std::vector<std::string>& required,
-                                  const ColumnChoice& keep) {
-  Recording rec = read_with_columns(path, required, keep);
+                                  const ColumnChoice& keep, const std::string& reader) {
+  Recording rec = read_with_columns(path, required, keep, reader);
   if (!rec.has("nut_pos_m")) return rec;  // another machine (pos_m): its stroke is not ours
   const double stroke_m = act.stroke_max_m - act.stroke_min_m;
   PlausibleRanges r;

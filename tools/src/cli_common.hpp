@@ -35,6 +35,16 @@ std::string missing_config_hint(const std::string& error);
 CLI::Validator image_name();
 CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what = "");
 
+/// What a number option takes: lo .. hi (both included; hi may be infinite) in `unit` ("" for a
+/// count), `why` that range (said in parentheses), and `example`, the option as one would type it.
+struct NumberRange {
+  double lo = 0, hi = 0;
+  std::string unit, why, example;
+};
+/// Refuses a value that is not a number or lies outside the range, before any work (exit 2):
+/// "5000 Hz is outside 1 .. 1000 Hz (the loop runs at 1 kHz): type e.g. --rate 100".
+CLI::Validator number_in(const NumberRange& range);
+
 /// "30s", "2min", "500ms", "1h" or a plain number of seconds. Throws CLI::ValidationError.
 double parse_duration_s(const std::string& text);
 /// Applies repeated `--effect NAME=VALUE` words (simulate, serve --sim-effect) to the plant's
@@ -109,11 +119,14 @@ std::vector<double> screw_angle_of(const Recording& rec, const ActuatorParams& a
 /// Reads a recording as read_recording does and, for the actuator (a nut_pos_m column), also
 /// refuses positions beyond the configured stroke widened by ten strokes each way: millimetres
 /// where metres belong pass the reader's machine-independent 10 m bound on a short stroke.
-/// `keep` stores only the columns it chooses (read_recording).
+/// `keep` stores only the columns it chooses (read_recording). An axis's recording lacking a
+/// `required` column is refused with the command that analyses it, saying that `reader` (the
+/// command, or what of it) reads the actuator's.
 Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
                                   const std::string& config_dir,
                                   const std::vector<std::string>& required = {},
-                                  const ColumnChoice& keep = {});
+                                  const ColumnChoice& keep = {},
+                                  const std::string& reader = "this command");
 
 // The configuration readers (maglead/settings) by their short names, as every command uses them.
 using settings::config_file;

@@ -3,10 +3,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 
 #include "cli_common.hpp"
 #include "large_blocks.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/rules.hpp"
 #include "maglead/effects/axis_kind.hpp"
 #include "maglead/report/analysis_json.hpp"
 #include "maglead/report/analysis_page.hpp"
@@ -14,6 +16,11 @@
 
 namespace maglead::cli {
 namespace {
+
+// More segments hold too little each to judge a term, and each costs the fit a Gram matrix.
+constexpr int kMaxFolds = 100;
+// Beyond this even an hour at 1 kHz keeps a few thousand samples: nothing left to fit.
+constexpr double kMaxDecimation = 1000.0;
 
 struct AnalyzeOptions {
   std::string recording, model, out, calibration, config = default_config_dir();
@@ -134,6 +141,31 @@ void print_result(const AnalyzeOptions& o, const std::string& model_path,
   say("wrote " + o.out + "/index.html, analysis.json, model_corrected.toml" + o.replacing, 6);
 }
 
+/// The recording, its columns checked before any work: against the actuator's baseline the
+/// position and the load cell are required, so an axis's recording is answered with the
+/// --model it needs (read_actuator_recording, as report answers it) and one without a load cell
+/// with the command that needs none. Only the columns the analysis reads are stored: an hour at
+/// 1 kHz stores 29 MB per column.
+Recording read_for_analysis(const AnalyzeOptions& o, const ActuatorParams& act,
+                            const analysis::ModelFile& model, const std::string& model_path) {
+  if (model.system != "actuator")  // an axis's columns: the axis path names what it misses
+    return read_actuator_recording(o.recording, act, o.config, {}, analysis::columns_read);
+  const std::string baseline =
+      model_path.empty() ? config_file(o.config, "actuator.toml") : model_path;
+  try {
+    return read_actuator_recording(o.recording, act, o.config, {"t_s", "nut_pos_m", "load_force_n"},
+                                   analysis::columns_read,
+                                   "analyze with the actuator's baseline (" + baseline + ")");
+  } catch (const MissingColumnError& e) {
+    if (e.column() != "load_force_n") throw;
+    throw RecordingError(std::string(e.what()) +
+                         ". The analysis compares the model's force with a load cell's "
+                         "(load_force_n); without one, check the twin with: maglead twin-check "
+                         "--recording " +
+                         o.recording + " (drift from free moves and step-outs, no load cell)");
+  }
+}
+
 void run_analyze(AnalyzeOptions o) {
   o.a.twin_force_check = !o.no_twin_check;
   const ActuatorParams act = load_actuator_or_default(o.config);
@@ -141,15 +173,20 @@ void run_analyze(AnalyzeOptions o) {
   if (!model_path.empty()) twin::check_model_format(model_path);  // the analysis reader does not
   const analysis::ModelFile model = model_path.empty() ? analysis::actuator_model_from_config(act)
                                                        : analysis::load_model(model_path);
+  // The axis takes fewer segments than the actuator (rules.hpp): the model says which it is.
+  if (model.system == "actuator" && o.a.folds < analysis::rules::kMinFolds)
+    throw CLI::ValidationError("--folds", std::to_string(o.a.folds) +
+                                              " is below the actuator analysis's " +
+                                              std::to_string(analysis::rules::kMinFolds) +
+                                              " held-out segments: type e.g. --folds " +
+                                              std::to_string(analysis::rules::kFolds));
   const ForceCalibration cal =
       model.system != "actuator"
           ? paper_calibration()
           : load_calibration(o.calibration.empty() ? config_file(o.config, "calibration.toml")
                                                    : o.calibration);
   note("reading " + o.recording);
-  // Only the columns the analysis reads: an hour at 1 kHz stores 29 MB per column.
-  const Recording rec =
-      read_actuator_recording(o.recording, act, o.config, {}, analysis::columns_read);
+  const Recording rec = read_for_analysis(o, act, model, model_path);
   StageProgress progress;
   o.a.progress = [&](const std::string& stage, double f) { progress(stage, f); };
   const auto result = analysis::analyze_recording(rec, model, cal, act, o.a);
@@ -180,13 +217,28 @@ void add_analyze(CLI::App& app) {
       ->check(CLI::Validator(output_directory_problem, ""));
   cmd->add_option("--calibration", o->calibration,
                   "Coupling calibration (actuator; default: CONFIG/calibration.toml)");
-  cmd->add_option("--folds", o->a.folds, "Held-out time segments")->capture_default_str();
+  cmd->add_option("--folds", o->a.folds,
+                  "Held-out time segments, " + std::to_string(analysis::rules::kMinFolds) + " .. " +
+                      std::to_string(kMaxFolds) + " (an axis: from " +
+                      std::to_string(analysis::rules::kAxisMinFolds) + ")")
+      ->check(number_in(
+          {analysis::rules::kAxisMinFolds, kMaxFolds, "",
+           "held-out segments; the actuator's from " + std::to_string(analysis::rules::kMinFolds),
+           "--folds " + std::to_string(analysis::rules::kFolds)}))
+      ->capture_default_str();
   cmd->add_option("--filter-hz", o->a.filter_hz,
-                  "Zero-phase low-pass of position [Hz] (default 100 for an axis, 20 actuator)");
+                  "Zero-phase low-pass of position [Hz] (default 100 for an axis, 20 actuator). "
+                  "The actuator counts a sample as sliding from one encoder count per filter "
+                  "period: a higher cutoff leaves slow moves out")
+      ->check(number_in(
+          {0.0, std::numeric_limits<double>::infinity(), "Hz", "0 chooses it", "--filter-hz 20"}));
   cmd->add_option("--decimation", o->a.decimation,
-                  "Decimation factor (default: down to the identification bandwidth for an axis)");
+                  "Decimation factor (default: down to the identification bandwidth for an axis)")
+      ->check(number_in(
+          {0.0, kMaxDecimation, "", "0 chooses it, 1 keeps every sample", "--decimation 1"}));
   cmd->add_option("--min-gain", o->a.min_gain_pct,
-                  "Held-out mean-square-error reduction a term must bring [%]")
+                  "Held-out mean-square-error reduction a term must bring [%], 0 .. 100")
+      ->check(number_in({0.0, 100.0, "%", "a share of the held-out error", "--min-gain 1"}))
       ->capture_default_str();
   cmd->add_option("--calibration-accuracy", o->a.calibration_accuracy_n,
                   "Actuator: how well the calibration is known [N] (e.g. its bench's accuracy); "

@@ -225,17 +225,7 @@ void add_record(CLI::App& app) {
                   "torn last line with a warning)")
       ->required();
   cmd->add_option("--rate", o->rate_hz, "Polls per second [Hz], 1 .. 1000")
-      ->check(CLI::Validator(
-          [](const std::string& text) {
-            char* end = nullptr;
-            const double hz = std::strtod(text.c_str(), &end);
-            if (end == text.c_str() || *end != '\0')
-              return "'" + text + "' is not a number of polls per second: type e.g. --rate 100";
-            return hz >= 1.0 && hz <= 1000.0  // the controller's loop runs at 1 kHz
-                       ? std::string()
-                       : text + " Hz is outside 1 .. 1000 Hz (the loop runs at 1 kHz)";
-          },
-          ""))
+      ->check(number_in({1.0, 1000.0, "Hz", "the loop runs at 1 kHz", "--rate 100"}))
       ->capture_default_str();
   cmd->add_option("--load-cell", o->load_cell,
                   "Log load_force_n: auto (if the controller reports a non-zero load cell at "

@@ -1,6 +1,7 @@
 // maglead: the command line of the magnetic lead-screw actuator controller and its twin.
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <memory>
 #include <string>
@@ -48,6 +49,12 @@ bool knows_option(const CLI::App* app, const std::string& name) {
   return false;
 }
 
+bool is_number(const std::string& text) {
+  char* end = nullptr;
+  std::strtod(text.c_str(), &end);
+  return end != text.c_str() && *end == '\0';
+}
+
 /// After a parse error: the first unknown command or option in argv, answered with the closest
 /// match and the usage line. False when argv holds neither (CLI11's own message is better then).
 bool explain_unknown(CLI::App& root, int argc, char** argv) {
@@ -56,6 +63,10 @@ bool explain_unknown(CLI::App& root, int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string tok = argv[i];
     if (tok == "--") break;
+    if (expect_value && is_number(tok)) {  // `--min-gain -5`: a value, as CLI11 takes it
+      expect_value = false;
+      continue;
+    }
     if (tok.size() > 1 && tok[0] == '-') {
       expect_value = false;
       std::string name = tok.substr(0, tok.find('='));
@@ -125,14 +136,26 @@ std::string wrap_help_line(const std::string& line, std::size_t width) {
   return maglead::cli::wrapped(line, indent, width);
 }
 
-/// CLI11 2.1 does not wrap its help: at 80 columns a terminal broke descriptions mid-word. On a
-/// terminal each line is wrapped to its width; into a pipe (man page, tests) lines stay whole.
+/// The width --help wraps to: $COLUMNS when it is a number, as for ls and man (`COLUMNS=80
+/// maglead analyze --help | less` asks for 80 columns in a pipe too), else the terminal's, else 0.
+std::size_t help_columns() {
+  if (const char* columns = std::getenv("COLUMNS")) {
+    char* end = nullptr;
+    const long n = std::strtol(columns, &end, 10);
+    if (end != columns && *end == '\0' && n > 0) return static_cast<std::size_t>(n);
+  }
+  return maglead::cli::terminal_columns();
+}
+
+/// CLI11 2.1 does not wrap its help: at 80 columns a terminal broke descriptions mid-word. Each
+/// line is wrapped to help_columns(); into a pipe without $COLUMNS (man page, scripts) lines stay
+/// whole.
 class WrappingFormatter : public CLI::Formatter {
  public:
   std::string make_help(const CLI::App* app, std::string name,
                         CLI::AppFormatMode mode) const override {
     std::string text = CLI::Formatter::make_help(app, std::move(name), mode);
-    const std::size_t width = maglead::cli::terminal_columns();
+    const std::size_t width = help_columns();
     if (width == 0) return text;
     std::string out;
     std::size_t pos = 0;

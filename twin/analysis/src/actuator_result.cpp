@@ -420,9 +420,19 @@ std::string sliding_note(const actuator::Prepared& P, const actuator::Selection&
   // Sliding samples are counted after decimation; the recording's samples before.
   const std::size_t sliding = sel.samples_used * static_cast<std::size_t>(P.decimation);
   if (!sel.too_little_sliding && sliding >= P.samples / rules::kBarelySlidesOneIn) return {};
-  const std::string head = "the nut barely slides (" + std::to_string(sliding) +
-                           " sliding samples of " + std::to_string(P.samples) +
-                           "): the sliding fit says little; ";
+  std::string head = "the nut barely slides (" + std::to_string(sliding) + " sliding samples of " +
+                     std::to_string(P.samples) + "): the sliding fit says little; ";
+  // Sliding starts at one encoder count per filter period: a filter raised above the default
+  // raises that speed, and a slow recording (a hand push at 1 mm/s) then has none. That is the
+  // option's doing, not the recording's: say which option and what the default counts.
+  const double default_hz = std::min(rules::kFilterHz, rules::kFilterMaxOfRate * P.fs_hz);
+  if (P.filter_hz > default_hz)
+    head = "too few samples slide faster than " + fmt(P.v_min_m_s * 1e3) + " mm/s (" +
+           std::to_string(sliding) + " of " + std::to_string(P.samples) +
+           "), the speed --filter-hz " + fmt(P.filter_hz) +
+           " sets (one encoder count per filter period); the default " + fmt(default_hz) +
+           " Hz counts sliding from " + fmt(P.count_m * default_hz * 1e3) +
+           " mm/s: leave --filter-hz out or lower it. The sliding fit says little; ";
   if (P.stuck.empty())  // nothing released either: the stands tell nothing
     return head +
            "no stand ended in a release, so neither the break-away friction nor an offset "

@@ -18,6 +18,25 @@ class RecordingError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A column a reader needs is not in the recording: what() lists the columns there are (and one
+/// that looks like it in another unit); column() names the missing one, so a command can add what
+/// it needs the column for.
+class MissingColumnError : public RecordingError {
+ public:
+  MissingColumnError(const std::string& what, std::string column)
+      : RecordingError(what), column_(std::move(column)) {}
+  const std::string& column() const { return column_; }
+
+ private:
+  std::string column_;
+};
+
+/// " (header has: a, b, c)" (`listed` says what the names are) and, where one of `names` is
+/// `wanted` in another unit or without one (nut_pos_mm for nut_pos_m), what to convert and
+/// rename: the tail of a missing-column error.
+std::string missing_column_detail(const std::vector<std::string>& names, const std::string& wanted,
+                                  const std::string& listed = "header has");
+
 struct Recording {
   std::string path;  // where it was read from (for messages)
   std::vector<std::pair<std::string, std::string>> metadata;
@@ -29,7 +48,7 @@ struct Recording {
 
   std::size_t rows() const { return columns.empty() ? 0 : columns.front().size(); }
   bool has(const std::string& name) const;
-  /// Throws RecordingError naming the file and the missing column.
+  /// Throws MissingColumnError naming the file, the missing column and the columns stored.
   const std::vector<double>& column(const std::string& name) const;
   std::vector<double>& add_column(const std::string& name, std::vector<double> values = {});
   std::optional<std::string> meta(const std::string& key) const;
