@@ -405,19 +405,19 @@ def against_a_server():
               f"poll --json: every SI name carries its unit ({bad_names})")
         check(rc == 0 and not noisy and len(raw_text) > 100, f"poll --json: no digits beyond the resolution ({noisy})")
 
-        # Limits: locally (value, limit, where it is set) and from the controller's own configuration.
+        # Limits: the controller's own (its limits block, from the tighter configuration it runs),
+        # not this machine's --config: value, limit, and that they are the controller's.
         rc, _, err = run("set", "--port", port, "force", "60", "--config", CONFIG)
-        check(rc == 2 and "force 60 N" in err and "safe limit 36.2626 N" in err and "safe_force_fraction 0.8 in " +
-              os.path.join(CONFIG, "actuator.toml") in err and "calibration.toml" in err,
-              f"local limit error: value, limit, where: {err.strip()!r}")
+        check(rc == 2 and "force 60 N" in err and "beyond the safe limit" in err
+              and "(the controller's limits, force_limit_pull_n_f32 / force_limit_push_n_f32)" in err,
+              f"limit error: value, limit, whose: {err.strip()!r}")
         rc, _, err = run("set", "--port", port, "position", "45mm", "--config", CONFIG)
-        check(rc == 2 and "45 mm" in err and "0 .. 40 mm" in err and "stroke_max_m" in err,
-              f"stroke error: value, limit, where: {err.strip()!r}")
+        check(rc == 2 and "45 mm" in err and "0 .. 40 mm" in err and "the controller's stroke" in err,
+              f"stroke error: value, limit, whose: {err.strip()!r}")
         rc, _, err = run("set", "--port", port, "force", "25", "--config", CONFIG)
-        check(rc == 4 and "force 25.000 N refused by the controller" in err and "exception 03" in err
-              and re.search(r"its limits are -\d+\.\d\d \.\. (\d+\.\d\d) N", err) is not None
-              and float(re.search(r"\.\. (\d+\.\d\d) N", err).group(1)) < 25,
-              f"the controller's refusal names value and the controller's own limit: {err.strip()!r}")
+        m = re.search(r"allowed -\d+\.?\d* \.\. (\d+\.?\d*) N \(the controller's limits", err)
+        check(rc == 2 and "nothing sent" in err and m is not None and float(m.group(1)) < 25,
+              f"25 N, inside this machine's limits, beyond the controller's: refused with its limit: {err.strip()!r}")
     finally:
         srv.stop()
 

@@ -1,6 +1,6 @@
 """The operator commands (poll, set, enable, disable, reset, record, watch) against `maglead serve`
 on the simulated actuator over Modbus TCP. What they print is checked against raw Modbus reads;
-refusals are checked to send nothing (the server's FC8 message counter does not move).
+refusals are checked to write nothing (the staged commands and setpoints do not change).
 Usage: operator_tcp.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
 import contextlib
 import csv
@@ -17,7 +17,7 @@ import subprocess
 import sys
 import time
 
-from op_common import (Server, bus_message_count, check, finish, i32, one_line, raw_request, read_regs, run,
+from op_common import (Server, check, finish, i32, one_line, raw_request, read_regs, run,
                        watchdog)
 
 MAGLEAD, CONFIG, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
@@ -44,9 +44,24 @@ def main():
     finish()
 
 
+def config_with(name, line):
+    """A copy of the configuration with one line of actuator.toml replaced ("key = value")."""
+    path = os.path.join(WORK, name)
+    shutil.rmtree(path, ignore_errors=True)
+    shutil.copytree(CONFIG, path)
+    toml = os.path.join(path, "actuator.toml")
+    key = line.split("=")[0].strip()
+    with open(toml) as f:
+        text = re.sub(rf"^{key}\s*=.*$", line, f.read(), flags=re.M)
+    with open(toml, "w") as f:
+        f.write(text)
+    return path
+
+
 def drive_limits(port, conn):
-    """A client whose configuration allows more than the controller's: the controller refuses, and
-    the message gives the limits the controller reports (IR 140/142), not this machine's."""
+    """set checks against the limits the controller reports (IR 140/142), not this machine's
+    configuration: a wider one does not let more through, a narrower one does not refuse what
+    the controller takes."""
     words = read_regs(port, 4, 140, 4)
     push, pull = (struct.unpack(">f", struct.pack(">HH", *words[i:i + 2]))[0] for i in (0, 2))
     check(30 < push < 40 and -40 < pull < -30, f"IR 140/142: the safe force limits {push:.2f} / {pull:.2f} N")
@@ -56,17 +71,15 @@ def drive_limits(port, conn):
     doc = (float(m.group(1)), -float(m.group(2))) if m else (float("nan"),) * 2
     check(0 <= push - doc[0] < 0.01 and 0 <= doc[1] - pull < 0.01,
           f"docs/plc.md's safe limits {doc} N are IR 140/142's {push:.4f} / {pull:.4f} N rounded inwards")
-    wide = os.path.join(WORK, "wide_config")
-    shutil.rmtree(wide, ignore_errors=True)
-    shutil.copytree(CONFIG, wide)
-    toml = os.path.join(wide, "actuator.toml")
-    with open(toml) as f:
-        text = re.sub(r"^safe_force_fraction\s*=.*$", "safe_force_fraction = 1.0", f.read(), flags=re.M)
-    with open(toml, "w") as f:
-        f.write(text)
+    wide = config_with("wide_config", "safe_force_fraction = 1.0")
     rc, _, err = run(MAGLEAD, "set", *conn, "force", "40", "--config", wide)
-    check(rc == 4 and f"its limits are {pull:.2f} .. {push:.2f} N" in err and "drive disabled without a fault" in err,
-          f"set force 40 past the controller's own limit: its limits, read from it: {err.strip()}")
+    check(rc == 2 and "nothing sent" in err and f"allowed {pull:.6g} .. {push:.6g} N (the controller's limits" in err,
+          f"set force 40 past the controller's own limit, with a wider config here: its limits, read from it: {err.strip()}")
+    narrow = config_with("narrow_config", "safe_force_fraction = 0.2")
+    # 25 N: beyond 0.2 of the peaks here, inside the controller's limits; it reaches the controller,
+    # which rejects the execute for its own reason (the drive is not enabled, --no-claim).
+    rc, _, err = run(MAGLEAD, "set", *conn, "force", "25", "--no-claim", "--config", narrow)
+    check(rc == 4 and "not_enabled" in err, f"set force 25 with a narrower config here: the controller's limits decide: {err.strip()}")
 
 
 def scenario(port):
@@ -101,8 +114,8 @@ def scenario(port):
     check(abs(raw - 20000) < 500 and out.splitlines()[1].startswith("nut_pos_um,"),
           f"poll --raw gives the integer as sent under the register name ({raw} um)")
 
-    # Refusals before anything is sent: the server's message counter moves only by our own query.
-    n0 = bus_message_count(port)
+    # Refusals write nothing: the commands and setpoints (HR 1000-1019) and the refusal reason stay.
+    staged0 = read_regs(port, 3, 1000, 20)
     rc, _, err = run(MAGLEAD, "set", *conn, "force", "60", "--config", CONFIG)
     check(rc == 2 and "safe limit" in err and "nothing sent" in err and one_line(err),
           f"set force 60 refused with the reason: {err.strip()}")
@@ -134,8 +147,8 @@ def scenario(port):
     check(rc == 2 and "outside" in err and one_line(err), f"set position 45mm refused: {err.strip()}")
     rc, _, err = run(MAGLEAD, "set", *conn, "position", "20 furlongs", "--config", CONFIG)
     check(rc == 2 and "unit" in err, f"unknown unit refused: {err.strip()}")
-    n1 = bus_message_count(port)
-    check(n1 == n0 + 1, f"refusals sent nothing to the controller (messages {n0} -> {n1})")
+    staged1 = read_regs(port, 3, 1000, 20)
+    check(staged1 == staged0, f"refusals wrote nothing to the controller (HR 1000-1019 {staged0} -> {staged1})")
     drive_limits(port, conn)
 
     # The controller's own rejection, through the handshake: execute on a drive not enabled.

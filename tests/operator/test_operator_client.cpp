@@ -51,6 +51,23 @@ TEST(OperatorClient, PositionCheckUsesTheStroke) {
   EXPECT_TRUE(op::check_position(l, 0.041));  // outside the register range
 }
 
+TEST(OperatorClient, TheControllersReportedLimitsDecideOverTheConfiguration) {
+  op::Limits l;  // this machine's configuration: the defaults, a 0 .. 40 mm stroke
+  l.reported = op::ReportedLimits{-20.0, 18.0, 0.005, 0.04};
+  EXPECT_FALSE(op::check_force(l, 18.0));  // the limit itself, as read back from its float32
+  EXPECT_FALSE(op::check_force(l, -20.0));
+  ASSERT_TRUE(op::check_force(l, 18.01));
+  EXPECT_NE(op::check_force(l, 18.01)->find("allowed -20 .. 18 N (the controller's limits"),
+            std::string::npos);
+  EXPECT_TRUE(op::check_force(l, -20.01));
+  // 0.04 m typed against its float32 0.0399999991 is at the stroke end, not beyond it.
+  EXPECT_FALSE(op::check_position(l, static_cast<double>(0.04f) + 1e-12));
+  EXPECT_FALSE(op::check_position(l, 0.04));
+  EXPECT_TRUE(op::check_position(l, 0.0401));
+  EXPECT_TRUE(
+      op::check_position(l, 0.004));  // inside this machine's stroke, outside the controller's
+}
+
 TEST(OperatorClient, BlocksCoverEveryRegisterOnceWithoutGaps) {
   for (auto t : {reg::Table::input_register, reg::Table::holding_register}) {
     int words = 0, covered = 0;

@@ -32,9 +32,12 @@ struct CommandFlags {
 
 void add_command_flags(CLI::App* cmd, const std::shared_ptr<CommandFlags>& f, bool limits) {
   if (limits) {
-    add_config_option(cmd, f->config, "stroke, safe force fraction");
+    add_config_option(cmd, f->config,
+                      "stroke, safe force fraction; read only when the controller does not "
+                      "report its own limits (register map version 1)");
     cmd->add_option("--calibration", f->calibration,
-                    "Force calibration the controller uses (default: CONFIG/calibration.toml)");
+                    "Force calibration the controller uses, read only as --config is (default: "
+                    "CONFIG/calibration.toml)");
   }
   cmd->add_flag("--no-wait", f->no_wait, "Return once the controller acknowledged, not when done");
   cmd->add_option("--wait", f->wait, "How long to wait for done (e.g. 30s)")->capture_default_str();
@@ -176,17 +179,27 @@ std::optional<std::string> with_unit_hint(std::optional<std::string> why, const 
   return why;
 }
 
-Planned plan_force(const SetOptions& o, const CommandFlags& f) {
+/// The limits a setpoint is checked against: the controller's own (its limits block), else, from
+/// a controller without the block, this machine's configuration.
+op::Limits limits_of(op::Client& client, const CommandFlags& f) {
+  op::Limits l;
+  l.reported = op::read_reported_limits(client);
+  if (!l.reported) return load_limits(f.config, f.calibration);
+  l.actuator.stroke_min_m = l.reported->stroke_min_m;
+  l.actuator.stroke_max_m = l.reported->stroke_max_m;
+  return l;
+}
+
+Planned plan_force(const SetOptions& o, const op::Limits& limits) {
   const double force_n = op::parse_quantity(value_of(o), "N");
-  refuse_locally_if(op::check_force(load_limits(f.config, f.calibration), force_n));
+  refuse_locally_if(op::check_force(limits, force_n));
   char buf[64];
   std::snprintf(buf, sizeof buf, "force %.3f N", force_n);
   return {reg::Mode::force, {{"force_setpoint_mn", force_n}}, buf};
 }
 
-Planned plan_position(const SetOptions& o, const CommandFlags& f) {
+Planned plan_position(const SetOptions& o, const op::Limits& limits) {
   const double pos_m = op::parse_quantity(value_of(o), "m");
-  const op::Limits limits = load_limits(f.config, f.calibration);
   const auto& a = limits.actuator;
   refuse_locally_if(with_unit_hint(op::check_position(limits, pos_m), o.value, "m",
                                    {"mm", "millimetres", 1e-3}, a.stroke_min_m, a.stroke_max_m));
@@ -235,12 +248,12 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
   const bool raw = o.what == r->name && op::si_name(*r) != r->name && is_bare_number(text);
   const double v = op::parse_quantity(text, r->unit) * (raw ? r->scale : 1.0);
   refuse_locally_if(op::check_register(*r, v));
-  if (r->name.starts_with("force_setpoint"))
-    refuse_locally_if(op::check_force(load_limits(f.config, f.calibration), v));
-  if (r->name.starts_with("position_setpoint"))
-    refuse_locally_if(op::check_position(load_limits(f.config, f.calibration), v));
   op::Client client(endpoint_of(conn));
   client.check_identity();
+  if (r->name.starts_with("force_setpoint"))
+    refuse_locally_if(op::check_force(limits_of(client, f), v));
+  if (r->name.starts_with("position_setpoint"))
+    refuse_locally_if(op::check_position(limits_of(client, f), v));
   client.write({{std::string(r->name), v}});
   std::printf("%s = %s %s written%s\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
               std::string(r->unit).c_str(),
@@ -282,7 +295,7 @@ op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags&
     if (!limit || p.mode == reg::Mode::idle) throw;
     throw ClientError(e.kind(), p.summary + " refused by the controller (" + msg +
                                     "); its limits are " + drive_limit_text(client, p.mode) +
-                                    " (IR 140-147; this machine's configuration may differ)");
+                                    " (IR 140-147)");
   }
 }
 
@@ -319,27 +332,31 @@ op::CommandResult send_or_release(op::Client& client, const Planned& p, const Co
 
 void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
   catch_interrupt();  // Ctrl-C at any time ends in a clean release, never a vanished owner
-  // All checks happen before the connection is even opened.
-  Planned p{reg::Mode::idle, {}, "idle (stop and hold)"};
-  if (o.what == "force") {
-    p = plan_force(o, f);
-  } else if (o.what == "position") {
-    p = plan_position(o, f);
-  } else if (o.what == "reference-move" || o.what == "reference_move") {
-    // The configured back-and-forth ([reference_move]): the drift flag's free moves on demand.
-    p = {reg::Mode::reference_move, {}, "reference move (mode_command 3)"};
-  } else if (o.what != "idle") {
+  const bool force = o.what == "force", position = o.what == "position";
+  const bool reference = o.what == "reference-move" || o.what == "reference_move";
+  if (!force && !position && !reference && o.what != "idle") {
     write_setting(o, f, conn);
     return;
   }
-  if (!f.hold.empty()) parse_duration_s(f.hold);  // a bad --hold is refused before sending
-  if (p.mode == reg::Mode::reference_move && f.no_wait && f.hold.empty())
+  // What can be checked without the controller is, before a connection is opened: the value's
+  // unit, --hold; the limits are the controller's own, read from it.
+  if (force || position) op::parse_quantity(value_of(o), force ? "N" : "m");
+  if (!f.hold.empty()) parse_duration_s(f.hold);
+  if (reference && f.no_wait && f.hold.empty())
     throw ClientError(Kind::refused_locally,
                       "set reference-move --no-wait would keep control until Ctrl-C: drop "
                       "--no-wait (it returns once the move is done, control released) or add "
                       "--hold DURATION");
   op::Client client(endpoint_of(conn));
   client.check_identity();
+  Planned p{reg::Mode::idle, {}, "idle (stop and hold)"};
+  if (force || position) {
+    const op::Limits limits = limits_of(client, f);
+    p = force ? plan_force(o, limits) : plan_position(o, limits);
+  } else if (reference) {
+    // The configured back-and-forth ([reference_move]): the drift flag's free moves on demand.
+    p = {reg::Mode::reference_move, {}, "reference move (mode_command 3)"};
+  }
   const op::CommandResult res = send_or_release(client, p, f);
   if (res.done)
     std::printf("%s: done (%s) after %.2f s\n", p.summary.c_str(),

@@ -468,7 +468,35 @@ std::optional<std::string> check_register(const reg::Register& r, double v) {
          std::string(r.unit) + " (the register map: docs/registers.md, maglead registers)";
 }
 
+namespace {
+/// Whether v lies in [lo, hi] as reported in float32: a limit typed exactly (0.04 m) must pass
+/// although its float32 (0.0399999991) is a little less; 1e-6 is above float32's 6e-8 rounding.
+bool within_reported(double v, double lo, double hi) {
+  constexpr double kFloat32Slack = 1e-6;
+  return v >= lo - std::abs(lo) * kFloat32Slack && v <= hi + std::abs(hi) * kFloat32Slack;
+}
+}  // namespace
+
+std::optional<ReportedLimits> read_reported_limits(Client& client) {
+  const auto* first = reg::find("force_limit_push_n_f32");
+  try {
+    const auto v = client.read_range(reg::Table::input_register, first->address, 8);
+    return ReportedLimits{v.at("force_limit_pull_n_f32"), v.at("force_limit_push_n_f32"),
+                          v.at("stroke_min_m_f32"), v.at("stroke_max_m_f32")};
+  } catch (const ClientError& e) {
+    if (e.kind() != ClientError::Kind::exception) throw;
+    return std::nullopt;
+  }
+}
+
 std::optional<std::string> check_force(const Limits& limits, double force_n) {
+  if (const auto& r = limits.reported) {
+    if (!within_reported(force_n, r->force_pull_n, r->force_push_n))
+      return "force " + fmt(force_n) + " N is beyond the safe limit " +
+             fmt(force_n > 0 ? r->force_push_n : r->force_pull_n) + " N; allowed " +
+             force_limit_text(limits);
+    return check_register(*reg::find("force_setpoint_mn"), force_n);
+  }
   // The server's own check first: the calibrated inverse refuses beyond safe_fraction × peak,
   // a limit well inside the register's range, so it is the one worth saying.
   const auto inv =
@@ -480,6 +508,9 @@ std::optional<std::string> check_force(const Limits& limits, double force_n) {
 }
 
 std::string force_limit_text(const Limits& limits) {
+  if (const auto& r = limits.reported)
+    return fmt(r->force_pull_n) + " .. " + fmt(r->force_push_n) +
+           " N (the controller's limits, force_limit_pull_n_f32 / force_limit_push_n_f32)";
   const auto& cal = limits.calibration;
   const double f = limits.actuator.safe_force_fraction;
   return fmt(f * cal.peak_pull_n) + " .. " + fmt(f * cal.peak_push_n) + " N (safe_force_fraction " +
@@ -488,6 +519,9 @@ std::string force_limit_text(const Limits& limits) {
 }
 
 std::string position_limit_text(const Limits& limits) {
+  if (const auto& r = limits.reported)
+    return fmt(r->stroke_min_m * 1e3) + " .. " + fmt(r->stroke_max_m * 1e3) +
+           " mm (the controller's stroke, stroke_min_m_f32 / stroke_max_m_f32)";
   const auto& a = limits.actuator;
   return fmt(a.stroke_min_m * 1e3) + " .. " + fmt(a.stroke_max_m * 1e3) +
          " mm (stroke_min_m, stroke_max_m in " + limits.actuator_source + ")";
@@ -496,7 +530,9 @@ std::string position_limit_text(const Limits& limits) {
 std::optional<std::string> check_position(const Limits& limits, double position_m) {
   // The stroke first: it is the configured limit, usually inside the register's range.
   const auto& a = limits.actuator;
-  if (!(position_m >= a.stroke_min_m && position_m <= a.stroke_max_m))
+  const auto& r = limits.reported;
+  if (r ? !within_reported(position_m, r->stroke_min_m, r->stroke_max_m)
+        : !(position_m >= a.stroke_min_m && position_m <= a.stroke_max_m))
     return "position " + fmt(position_m * 1e3) + " mm is outside the stroke " +
            position_limit_text(limits);
   return check_register(*reg::find("position_setpoint_um"), position_m);

@@ -129,14 +129,23 @@ std::string code_meaning(std::span<const registers::Code> codes, double value);
 /// The names of the status bits that are set.
 std::vector<std::string> status_bits(std::uint16_t status_word);
 
-/// The limits the controller enforces, from the same configuration it reads.
+/// The limits a controller reports in its limits block (IR 140-147): the ones it refuses
+/// against, whatever configuration this machine holds.
+struct ReportedLimits {
+  double force_pull_n = 0, force_push_n = 0, stroke_min_m = 0, stroke_max_m = 0;
+};
+/// The limits the controller enforces: those it reports, else (a controller without the limits
+/// block) from the same configuration it reads.
 struct Limits {
   ActuatorParams actuator;
   ForceCalibration calibration;
   std::string calibration_source;
   std::string actuator_source =
       "built-in defaults";  // where stroke and safe_force_fraction come from
+  std::optional<ReportedLimits> reported;
 };
+/// The controller's limits block; nothing when it has none (exception 02: a map before version 2).
+std::optional<ReportedLimits> read_reported_limits(Client& client);
 /// The allowed range of a force or position setpoint with where its limits are set, e.g.
 /// "-38.4 .. 38.4 N (safe_force_fraction 0.8 in config/actuator.toml x calibration peaks
 /// -48 / 48 N in config/calibration.toml)".
