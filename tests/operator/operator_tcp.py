@@ -273,6 +273,15 @@ def scenario(port):
               f"set {name} {typed}: {raw_ms} ms written (raw {got}): {out.strip()} {err.strip()}")
     rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
     check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
+    # A code register takes its number or its name, and says both.
+    for typed in ("2", "force"):
+        rc, out, err = run(MAGLEAD, "set", *conn, "mode_command", typed)
+        check(rc == 0 and out.strip() == "mode_command = 2 (force) written" and read_regs(port, 3, 1001, 1) == [2],
+              f"set mode_command {typed}: {out.strip()} {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "mode_command", "forse")
+    check(rc == 2 and "0 idle, 1 position, 2 force, 3 reference_move" in err,
+          f"set mode_command forse: the codes: {err.strip()}")
+    run(MAGLEAD, "set", *conn, "mode_command", "idle")
 
     # watch under a pseudo-terminal: draws, quits on q, restores the screen.
     watch_pty(conn, b"q", "q")

@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <limits>
 #include <optional>
+#include <span>
+#include <string>
 
 #include "operator_cli.hpp"
 
@@ -223,6 +225,14 @@ Planned plan_position(const SetOptions& o, const op::Limits& limits) {
   return p;
 }
 
+/// A register that holds a code takes its name as well as its number ("force", "reference-move").
+std::optional<double> code_value(std::span<const reg::Code> codes, std::string text) {
+  std::replace(text.begin(), text.end(), '-', '_');
+  for (const auto& c : codes)
+    if (c.name == text) return c.value;
+  return std::nullopt;
+}
+
 /// A plain register write (limits, watchdog …): checked, written, no execute edge.
 void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
   const std::string& text = value_of(o);
@@ -246,7 +256,16 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
   // The register's own name (watchdog_ms) names its raw unit: a bare number typed under it is
   // in that unit (watchdog_ms 50 is 0.05 s), as a PLC writes it; the SI name reads it in SI.
   const bool raw = o.what == r->name && op::si_name(*r) != r->name && is_bare_number(text);
-  const double v = op::parse_quantity(text, r->unit) * (raw ? r->scale : 1.0);
+  const auto codes = reg::codes_of(r->name);
+  const auto code = code_value(codes, text);
+  if (!codes.empty() && !code && !is_bare_number(text)) {
+    std::string known;
+    for (const auto& c : codes)
+      known += (known.empty() ? "" : ", ") + std::to_string(c.value) + " " + std::string(c.name);
+    throw ClientError(Kind::refused_locally, "refused, nothing sent: '" + text + "' is not a " +
+                                                 std::string(r->name) + " code: " + known);
+  }
+  const double v = code ? *code : op::parse_quantity(text, r->unit) * (raw ? r->scale : 1.0);
   refuse_locally_if(op::check_register(*r, v));
   op::Client client(endpoint_of(conn));
   client.check_identity();
@@ -255,8 +274,12 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
   if (r->name.starts_with("position_setpoint"))
     refuse_locally_if(op::check_position(limits_of(client, f), v));
   client.write({{std::string(r->name), v}});
-  std::printf("%s = %s %s written%s\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
-              std::string(r->unit).c_str(),
+  // A code is said with its name ("mode_command = 2 (force)"), a quantity with its unit.
+  const std::string unit_or_name = !codes.empty()
+                                       ? " (" + op::code_name(codes, v) + ")"
+                                       : (r->unit.empty() ? "" : " " + std::string(r->unit));
+  std::printf("%s = %s%s written%s\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
+              unit_or_name.c_str(),
               raw ? (" (" + o.what + " " + text + ": a number without a unit is in the raw unit " +
                      "the register name says)")
                         .c_str()
