@@ -59,7 +59,7 @@ TEST(Headline, EventsAreFoundAndTheirPulsesAreNoMisfit) {
 TEST(Headline, NothingNamedWithAMisfitSaysTheMisfit) {
   const Findings f = findings_with_residual(0.7);
   const std::string h = maglead::analysis::headline_of(f, ModelFile{});
-  EXPECT_TRUE(starts_with(h, "a misfit of 0.7 N RMS remains (floor 0.1 N)")) << h;
+  EXPECT_TRUE(starts_with(h, "a misfit of 0.7 N RMS remains (force sensor noise 0.1 N)")) << h;
 }
 
 TEST(Conclusion, NothingNamedWithAMisfitIsNotNothingMissing) {

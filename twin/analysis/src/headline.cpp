@@ -106,7 +106,7 @@ std::string headline_of(const Findings& f, const ModelFile& baseline) {
   if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
     return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, unit);
   return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) + " " +
-         unit + " RMS (floor " + number(f.noise_floor_n) + " " + unit + ")";
+         unit + " RMS (force sensor noise " + number(f.noise_floor_n) + " " + unit + ")";
 }
 
 }  // namespace maglead::analysis
