@@ -308,6 +308,15 @@ def analyze_options(rec):
     note = next((l for l in out.splitlines() if l.startswith("note: ")), "")
     check(rc == 0 and "--filter-hz 60 sets" in note and "leave --filter-hz out or lower it" in note
           and "barely slides" not in note, f"--filter-hz 60: the note names the option: {note!r}")
+    # A nut that barely slides (Stribeck break-away, 390 sliding samples): no held-out segments,
+    # so no held-out figure, never "baseline 0 N".
+    stuck = os.path.join(WORK, "stuck.csv")
+    run("simulate", "--scenario", "mixed-moves", "--duration", "40s", "--seed", "2", "--effect",
+        "stribeck_friction=3", "--out", stuck, "--config", CONFIG)
+    rc, out, err = run("analyze", "--recording", stuck, "--out", "stuck_out", "--no-twin-check", "--config", CONFIG)
+    held = next((l for l in out.splitlines() if l.startswith("held-out:")), "")
+    check(rc == 0 and "not judged (too few sliding samples" in held and " 0 N" not in held,
+          f"held-out with too few sliding samples: not judged, not 0 N: {held!r} {err.strip()[-200:]}")
 
 
 def config_files():

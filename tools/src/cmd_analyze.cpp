@@ -131,7 +131,12 @@ void print_result(const AnalyzeOptions& o, const std::string& model_path,
                 J.final_fit.rms_n, u.c_str(), J.final_fit.relative_error_pct,
                 J.final_fit.full_rate_relative_error_pct);
     std::string held_out = "held-out:";
-    for (const auto& v : J.validation) {
+    // A held-out error of exactly 0 beside a residual is no fit on held-out segments, not a
+    // perfect one.
+    const bool judged = !J.validation.empty() &&
+                        !(J.validation.front().heldout_rms_n == 0.0 && J.final_fit.rms_n > 0.0);
+    if (!judged) held_out += "  not judged (too few sliding samples to hold segments out)";
+    for (const auto& v : judged ? J.validation : decltype(J.validation){}) {
       char rms[32];
       std::snprintf(rms, sizeof rms, " %.4g ", v.heldout_rms_n);
       held_out += "  " + v.model + rms + u;
