@@ -27,6 +27,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -87,9 +88,11 @@ AnalysisResult analyze(const maglead::Recording& rec) {
 }
 
 // Seed 5 unless MAGLEAD_SUITE_SEED says otherwise (to see that a case is not one seed's luck).
-Generated run(const std::string& scenario, double duration_s, const std::vector<Key>& keys) {
+Generated run(const std::string& scenario, double duration_s, const std::vector<Key>& keys,
+              std::optional<std::uint64_t> given_seed = std::nullopt) {
   std::uint64_t seed = 5;
   if (const char* env = std::getenv("MAGLEAD_SUITE_SEED")) seed = std::stoull(env);
+  if (given_seed) seed = *given_seed;
   maglead::ScenarioOptions opt;
   opt.scenario = scenario;
   opt.duration_s = duration_s;
@@ -343,6 +346,30 @@ TEST(GeneratedSuite, StribeckFrictionInMovesWithStops) {
   const auto& f = g.result.findings.effects.front();
   EXPECT_NE(f.note.find("not determined"), std::string::npos) << f.note;
   EXPECT_NE(f.note.find("stops its filtered speed hides"), std::string::npos) << f.note;
+}
+
+TEST(GeneratedSuite, StribeckBreakAwayWithinTwoStandardErrorsAndTheCalibrationBound) {
+  // The break-away is read through the calibrated coupling: its stated uncertainty, two standard
+  // errors over the releases plus the calibration bound, covers the true 10.5 N in at least 85 %
+  // of seeds (issue 43's coverage aim; the read sits 0.05-0.12 N high, what the release-lag
+  // correction leaves).
+  constexpr int kSeeds = 20;
+  int covered = 0;
+  for (std::uint64_t seed = 1; seed <= kSeeds; ++seed) {
+    const auto g = run("mixed-moves", 40.0, {{"stribeck_friction", 3.0}}, seed);
+    Parameters p;
+    const auto* f = finding(g.result, "stribeck_friction", &p);
+    ASSERT_NE(f, nullptr) << "seed " << seed << ": " << named_as(g.result);
+    const double v = parameter_value(p, "breakaway_n");
+    const double se = parameter_value(f->standard_errors, "breakaway_n");
+    const double cal = parameter_value(f->calibration_errors, "breakaway_n");
+    const bool in = std::abs(v - 10.5) <= 2.0 * se + cal;
+    covered += in ? 1 : 0;
+    std::printf("seed %llu: breakaway %.3f ± %.3f N, calibration ± %.3f N (true 10.5 N)%s\n",
+                static_cast<unsigned long long>(seed), v, se, cal, in ? "" : ": not covered");
+  }
+  std::printf("covered %d of %d\n", covered, kSeeds);
+  EXPECT_GE(covered, 17);  // 85 % of 20
 }
 
 TEST(GeneratedSuite, StribeckFrictionAndViscousFrictionInMovesWithStops) {

@@ -337,6 +337,10 @@ EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator:
   auto c = stribeck;
   c.standard_errors["breakaway_n"] = 0.5 * std::hypot(bt.pos.se_n, bt.neg.se_n);
   e.standard_errors = parameters_of(c.standard_errors);
+  // The break-away is the coupling's force at release: a coupling error within the calibration's
+  // accuracy moves it by as much, in every release alike (no standard error sees it).
+  c.calibration_errors = {{"breakaway_n", P.minimum_n}};
+  e.calibration_errors = parameters_of(c.calibration_errors);
   e.summary = summary_of(c, P);
   e.improvement_pct = 0.0;
   const auto releases = stribeck.from_releases.value_or(selection::Found::FromReleases{});

@@ -81,7 +81,7 @@ struct EffectFinding {
   Parameters standard_errors;             // from the held-out segments; none: not written
   // The most a coupling error within the calibration's accuracy (Evidence::minimum_n) moves each
   // value, same units: a bias the whole recording shares, which standard_errors cannot see.
-  // Sliding fits of the actuator only; none: not written.
+  // Sliding fits of the actuator and the break-away read at release; none: not written.
   Parameters calibration_errors;
   std::string summary;  // "gain 0.94 ± 0.01", at the digits the error allows
 };
