@@ -324,7 +324,8 @@ def analyze_options(rec):
              (["--folds", "3"], "below the actuator analysis's 4 held-out segments", "--folds 10"),
              (["--min-gain", "-5"], "-5 % is outside 0 .. 100 %", "--min-gain 1"),
              (["--filter-hz", "-5"], "-5 Hz is below 0 Hz", "--filter-hz 20"),
-             (["--decimation", "-2"], "-2 is outside 0 .. 1000", "--decimation 1")]
+             (["--decimation", "-2"], "-2 is outside 0 .. 1000", "--decimation 1"),
+             (["--calibration-accuracy", "-2"], "-2 N is below 0 N", "--calibration-accuracy 0.5")]
     for args, says, typed in cases:
         out = os.path.join(WORK, "opt_out")
         rc, _, err = run("analyze", "--recording", rec, "--out", out, *args, "--config", CONFIG)

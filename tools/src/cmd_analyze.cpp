@@ -244,7 +244,9 @@ void add_analyze(CLI::App& app) {
                   "Actuator: how well the calibration is known [N] (e.g. its bench's accuracy); "
                   "a finding must change the force by more. Default: a thousandth of the "
                   "calibrated peak force, at least 0.07 N")
-      ->check(CLI::NonNegativeNumber);
+      ->check(number_in({0.0, std::numeric_limits<double>::infinity(), "N",
+                         "a force the calibration may be off by; 0 takes the default",
+                         "--calibration-accuracy 0.5"}));
   cmd->add_flag("--no-twin-check", o->no_twin_check,
                 "Skip the twin's force estimate with the corrected model (it runs the twin over "
                 "the recording two or more times)");
