@@ -544,7 +544,9 @@ void Controller::read_measurements(double now_s, const SensorSample& sample) noe
   s_.phase_rad = phase_rad(screw, pos, a.lead_m) - phase_offset_rad_;
   s_.nut_vel_m_s = velocity_.update(pos);
   s_.force_est_n = estimator_.output_force_n(s_.phase_rad, s_.nut_vel_m_s);
-  s_.load_cell_force_n = std::isnan(sample.load_force_n) ? 0.0 : -sample.load_force_n;
+  // NaN without a load cell (the cia402 backend): the f32 register carries it so that a client
+  // can say "none" rather than show 0 N; the i32 register reads 0, as documented.
+  s_.load_cell_force_n = -sample.load_force_n;
   load_cell_reading_n_ = sample.load_force_n;  // the twin's load-cell check only, never its flag
   // Under force control the load is what the loop presses; else loads come and go.
   load_ = observer_.update(now_s, s_.phase_rad, s_.nut_pos_m,

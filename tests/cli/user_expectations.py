@@ -225,6 +225,7 @@ def recordings_and_files():
     check(rc == 0, f"twin-check, where analyze points, takes a recording without a load cell: {err.strip()!r}")
     missing_columns(lines, header, rec)
     analyze_options(rec)
+    recording_positional(rec, nolc)
     # A finding is named in the first line, with its value and the model's.
     vis = os.path.join(WORK, "vis.csv")
     run("simulate", "--scenario", "mixed-moves", "--duration", "40s", "--seed", "3", "--effect",
@@ -288,6 +289,33 @@ def missing_columns(lines, header, rec):
           and "docs/recording-format.md" in err, f"empty recording: {err.strip()!r}")
 
 
+def recording_positional(rec, nolc):
+    """Every command that reads a recording takes its path as `maglead CMD FILE` as well as
+    `--recording FILE`; both given, or neither, is refused with what to type."""
+    rc, out, err = run("inspect", rec, "--config", CONFIG)
+    rc2, out2, _ = run("inspect", "--recording", rec, "--config", CONFIG)
+    check(rc == 0 and rc2 == 0 and out == out2 and "rows" in out,
+          f"inspect FILE reads as inspect --recording FILE: {out[:80]!r} {err.strip()!r}")
+    rc, _, err = run("twin-check", nolc, "--config", CONFIG)
+    check(rc == 0, f"twin-check FILE: {err.strip()!r}")
+    rc, _, err = run("estimate", rec, "--plot", "positional.png", "--config", CONFIG)
+    check(rc == 0 and os.path.exists(os.path.join(WORK, "positional.png")), f"estimate FILE: {err.strip()!r}")
+    outs = {"analyze": ["--out", "pos_out"], "report": ["--out", "pos_out"], "calibrate": ["--out", "pos.toml"],
+            "inspect": [], "twin-check": [], "estimate": []}
+    for cmd, more in outs.items():
+        # The path reaches the reader: its error names the file, never a missing option.
+        rc, _, err = run(cmd, "nosuch.csv", *more, "--config", CONFIG)
+        check(rc == 2 and "nosuch.csv" in err and "required" not in err,
+              f"{cmd} FILE reads FILE: {err.strip()!r}")
+        rc, _, err = run(cmd, rec, "--recording", "other.csv", *more, "--config", CONFIG)
+        check(rc == 2 and "the recording is given twice" in err and "other.csv" in err
+              and f"type it once, e.g. maglead {cmd} {rec}" in err and not os.path.exists(os.path.join(WORK, "pos_out")),
+              f"{cmd} FILE --recording OTHER refused: {err.strip()!r}")
+        rc, _, err = run(cmd, *more, "--config", CONFIG)
+        check(rc == 2 and f"a recording is required: type e.g. maglead {cmd} FILE (or --recording FILE)" in err,
+              f"{cmd} without a recording says what to type: {err.strip()!r}")
+
+
 def analyze_options(rec):
     """Option values the analysis cannot use are refused with the range and what to type, before
     anything is written; a filter that leaves no sliding sample is named as the cause."""
@@ -296,14 +324,15 @@ def analyze_options(rec):
              (["--folds", "3"], "below the actuator analysis's 4 held-out segments", "--folds 10"),
              (["--min-gain", "-5"], "-5 % is outside 0 .. 100 %", "--min-gain 1"),
              (["--filter-hz", "-5"], "-5 Hz is below 0 Hz", "--filter-hz 20"),
-             (["--decimation", "-2"], "-2 is outside 0 .. 1000", "--decimation 1")]
+             (["--decimation", "-2"], "-2 is outside 0 .. 1000", "--decimation 1"),
+             (["--calibration-accuracy", "-2"], "-2 N is below 0 N", "--calibration-accuracy 0.5")]
     for args, says, typed in cases:
         out = os.path.join(WORK, "opt_out")
         rc, _, err = run("analyze", "--recording", rec, "--out", out, *args, "--config", CONFIG)
         check(rc == 2 and says in err and "type e.g. " + typed in err and not os.path.exists(out),
               f"analyze {' '.join(args)}: refused with the range and what to type: {err.strip()!r}")
     # The hand push slides at about 1 mm/s: a 60 Hz filter counts sliding from 1.3 mm/s.
-    rc, out, err = run("analyze", "--recording", rec, "--out", "filter_out", "--filter-hz", "60",
+    rc, out, err = run("analyze", rec, "--out", "filter_out", "--filter-hz", "60",
                        "--no-twin-check", "--config", CONFIG)
     note = next((l for l in out.splitlines() if l.startswith("note: ")), "")
     check(rc == 0 and "--filter-hz 60 sets" in note and "leave --filter-hz out or lower it" in note

@@ -2,7 +2,8 @@
 must fit (nothing wraps or scrolls away), show the values the controller reports, and draw the
 force trend (setpoint, estimate, load cell) against a time axis. When the server restarts the
 screen says "reconnecting", then recovers. Without a terminal (a pipe, or --once) watch prints
-plain lines with no escape codes, and also reconnects.
+plain lines with no escape codes, and also reconnects. On the CiA 402 backend (no load cell) the
+load cell reads "none", and only the target that applies now is shown.
 Usage: watch_tmux.py MAGLEAD_BIN CONFIG_DIR"""
 import json
 import os
@@ -66,8 +67,17 @@ def fits(rows, width, height, what):
     check(len(chart_rows(rows)) >= 3, f"{what}: a chart of {len(chart_rows(rows))} rows")
 
 
+def clean_up(holder, srv):
+    """Whatever a check left: the tmux server, a `set` still holding, the controller."""
+    tmux("kill-server", check_rc=False)
+    if holder is not None and holder.poll() is None:
+        holder.kill()
+        holder.wait()
+    srv.stop()
+
+
 def main():
-    watchdog(150)
+    watchdog(220)
     if shutil.which("tmux") is None:
         check(False, "tmux is installed (tools/setup.sh installs it)")
         finish()
@@ -151,12 +161,9 @@ def main():
         check(bool(last) and "1 reconnect" in last[0], f"q quits, the screen is restored, one line: {last}")
         check(any(x.strip() == "watch exited 0" for x in rows), f"watch exits 0 on q: {[x for x in rows if 'watch exited' in x]}")
     finally:
-        tmux("kill-server", check_rc=False)
-        if holder is not None and holder.poll() is None:
-            holder.kill()
-            holder.wait()
-        srv.stop()
+        clean_up(holder, srv)
     plain()
+    cia402()
     finish()
 
 
@@ -189,6 +196,52 @@ def plain():
         srv.stop()
     rc, out, err = run(MAGLEAD, "watch", "--port", port, "--once")
     check(rc == 3 and "connection refused" in err, f"--once without a controller: exit 3 ({err.strip()})")
+
+
+def cia402():
+    """On the CiA 402 backend, which has no load cell, watch says so rather than show 0 N; and it
+    shows only the target that applies now: the controller keeps its last one through a mode
+    change and a disable, which read as a target still held."""
+    srv = Server(MAGLEAD, CONFIG, "--backend", "cia402", "--can", "sim", "--port", "0")
+    conn = ["--port", str(srv.port)]
+    holder = None
+
+    def hold(*what):
+        return subprocess.Popen([MAGLEAD, "set", *conn, *what, "--config", CONFIG, "--hold", "60s"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    def release(p):
+        p.send_signal(2)  # Ctrl-C: released cleanly, the drive disabled without a fault
+        p.communicate(timeout=10)
+
+    text = lambda r: "\n".join(r)
+    try:
+        rc, out, err = run(MAGLEAD, "watch", *conn, "--once")
+        check(rc == 0 and "load_cell_force_n=none" in out and "active_force_setpoint_n=none" in out,
+              f"cia402 --once: no load cell and no setpoint said so: {out.strip()} {err.strip()}")
+        tmux("new-session", "-d", "-s", SESSION, "-x", "80", "-y", "24",
+             f"{shlex.quote(MAGLEAD)} watch {' '.join(conn)} --rate 5; sleep 60")
+        rows = wait_screen(lambda r: "drive ready" in text(r) and "now" in text(r))
+        check("load cell:  none on this backend" in text(rows) and "* estimate (no load cell) - setpoint" in text(rows)
+              and not any("o" in c for c in chart_rows(rows)),
+              f"cia402: the load cell is none, not 0 N, and not plotted: {rows[5:7]} {rows[9:10]}")
+        at_rest = re.compile(r"setpoint\s+-\s+target\s+-\s*$", re.M)
+        check(at_rest.search(text(rows)) is not None, f"cia402 at rest: no target, no setpoint: {rows[7:8]}")
+        holder = hold("position", "22mm")
+        rows = wait_screen(lambda r: re.search(r"target\s+22\.000 mm", text(r)) is not None)
+        check(re.search(r"setpoint\s+-\s+target\s+22\.000 mm", text(rows)) is not None,
+              f"cia402 in position mode: the target: {rows[7:8]}")
+        release(holder)
+        holder = hold("force", "5")
+        rows = wait_screen(lambda r: re.search(r"setpoint\s+5\.00 N", text(r)) is not None)
+        check(re.search(r"setpoint\s+5\.00 N\s+target\s+-\s*$", text(rows), re.M) is not None,
+              f"cia402 in force mode: the setpoint, not the 22 mm target left from before: {rows[7:8]}")
+        release(holder)
+        rows = wait_screen(lambda r: "drive ready" in text(r) and at_rest.search(text(r)) is not None)
+        check("drive ready" in text(rows) and at_rest.search(text(rows)) is not None,
+              f"cia402 after the disable: neither the setpoint nor a target: {rows[1:2]} {rows[7:8]}")
+    finally:
+        clean_up(holder, srv)
 
 
 if __name__ == "__main__":

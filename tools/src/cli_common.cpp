@@ -131,6 +131,28 @@ CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::st
           ""));  // no name: the type stays DIR in --help
 }
 
+void add_recording_option(CLI::App* cmd, std::string& recording, const std::string& help) {
+  // Its own storage, so that both forms given can be told apart from one given twice.
+  auto positional = std::make_shared<std::string>();
+  cmd->add_option("--recording", recording, help)->type_name("FILE");
+  cmd->add_option("RECORDING", *positional, "The recording, as --recording takes it")
+      ->type_name("FILE");
+  // After --help is handled (CLI11 runs this once the command's words are parsed), before any
+  // work.
+  cmd->parse_complete_callback([cmd, &recording, positional] {
+    const std::string typed = "maglead " + cmd->get_name() + " ";
+    if (!positional->empty() && !recording.empty())
+      throw CLI::ValidationError("the recording is given twice ('" + *positional +
+                                 "' and --recording '" + recording + "'): type it once, e.g. " +
+                                 typed + *positional);
+    if (!positional->empty()) recording = *positional;
+    if (recording.empty())
+      throw CLI::RequiredError(
+          "a recording is required: type e.g. " + typed + "FILE (or --recording FILE)",
+          CLI::ExitCodes::RequiredError);
+  });
+}
+
 double parse_duration_s(const std::string& text) {
   std::size_t used = 0;
   double v = 0;

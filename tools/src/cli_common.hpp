@@ -34,6 +34,10 @@ std::string missing_config_hint(const std::string& error);
 /// nothing is written before the name is found wrong.
 CLI::Validator image_name();
 CLI::Option* add_config_option(CLI::App* cmd, std::string& config, const std::string& what = "");
+/// The recording a command reads, typed either way: `maglead inspect FILE` or `--recording FILE`
+/// (every recording command takes both, so neither form surprises). Both given, or neither, is
+/// refused before any work (exit 2) with what to type.
+void add_recording_option(CLI::App* cmd, std::string& recording, const std::string& help);
 
 /// What a number option takes: lo .. hi (both included; hi may be infinite) in `unit` ("" for a
 /// count), `why` that range (said in parentheses), and `example`, the option as one would type it.

@@ -209,11 +209,11 @@ void add_analyze(CLI::App& app) {
       "physical effects chosen on held-out data; write the report page index.html (the analysis "
       "part of `maglead report`'s page), analysis.json and the corrected model");
   auto o = std::make_shared<AnalyzeOptions>();
-  cmd->add_option("--recording", o->recording,
-                  "mls-recording/1: actuator (t_s, screw or motor angle, nut_pos_m, "
-                  "load_force_n), force-driven axis (t_s, pos_m, drive_force_n) or rotary axis "
-                  "('# axis: rotary'; t_s, angle_rad, drive_torque_n_m)")
-      ->required();
+  add_recording_option(
+      cmd, o->recording,
+      "mls-recording/1: actuator (t_s, screw or motor angle, nut_pos_m, "
+      "load_force_n), force-driven axis (t_s, pos_m, drive_force_n) or rotary axis "
+      "('# axis: rotary'; t_s, angle_rad, drive_torque_n_m)");
   cmd->add_option("--model", o->model,
                   "Baseline model file (default: CONFIG/model.toml, else CONFIG/actuator.toml); "
                   "e.g. config/emps_baseline.toml for the EMPS data");
@@ -249,7 +249,9 @@ void add_analyze(CLI::App& app) {
                   "Actuator: how well the calibration is known [N] (e.g. its bench's accuracy); "
                   "a finding must change the force by more. Default: a thousandth of the "
                   "calibrated peak force, at least 0.07 N")
-      ->check(CLI::NonNegativeNumber);
+      ->check(number_in({0.0, std::numeric_limits<double>::infinity(), "N",
+                         "a force the calibration may be off by; 0 takes the default",
+                         "--calibration-accuracy 0.5"}));
   cmd->add_flag("--no-twin-check", o->no_twin_check,
                 "Skip the twin's force estimate with the corrected model (it runs the twin over "
                 "the recording two or more times)");

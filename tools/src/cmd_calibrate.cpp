@@ -19,10 +19,9 @@ void add_calibrate(CLI::App& app) {
     double gain_pct = 3.0;
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--recording", o->recording,
-                  "mls-recording/1 with t_s, screw or motor angle, nut_pos_m, load_force_n "
-                  "(screw held, nut moved through the stable range)")
-      ->required();
+  add_recording_option(cmd, o->recording,
+                       "mls-recording/1 with t_s, screw or motor angle, nut_pos_m, load_force_n "
+                       "(screw held, nut moved through the stable range)");
   cmd->add_option("-o,--out", o->out, "Calibration file to write (TOML)")->required();
   cmd->add_option("--plot", o->plot, "Also draw data and fit into this PNG")->check(image_name());
   cmd->add_option(

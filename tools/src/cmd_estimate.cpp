@@ -183,9 +183,8 @@ void add_estimate(CLI::App& app) {
                          "Estimate the output force from a recording's angles and positions and "
                          "compare it with the load cell; plot as in the paper's Fig. 11");
   auto o = std::make_shared<EstimateOptions>();
-  cmd->add_option("--recording", o->recording,
-                  "mls-recording/1 with t_s, screw or motor angle, nut_pos_m, load_force_n")
-      ->required();
+  add_recording_option(cmd, o->recording,
+                       "mls-recording/1 with t_s, screw or motor angle, nut_pos_m, load_force_n");
   cmd->add_option("--estimator", o->estimator,
                   "static: the paper's eq. 6; twin: the digital twin's dynamic observer "
                   "(M p'' + C p' + hybrid stick/slip friction, config/model.toml); observer: the "

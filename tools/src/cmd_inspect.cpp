@@ -31,7 +31,7 @@ void add_inspect(CLI::App& app) {
     std::string recording, config = default_config_dir();
   };
   auto o = std::make_shared<Opts>();
-  cmd->add_option("--recording", o->recording, "mls-recording/1 CSV")->required();
+  add_recording_option(cmd, o->recording, "mls-recording/1 CSV");
   add_config_option(cmd, o->config, "the actuator's stroke");
   cmd->callback([o] {
     const std::string* path = &o->recording;

@@ -71,10 +71,9 @@ void add_report(CLI::App& app) {
       "Twin-versus-actual anomaly report of a recording: where twin and machine part, the missing "
       "physics, the fit, step-outs and drift; one self-contained HTML page with interactive plots");
   auto o = std::make_shared<ReportOpts>();
-  cmd->add_option("--recording", o->recording,
-                  "mls-recording/1 (t_s, screw or motor angle, nut_pos_m; "
-                  "load_force_n, out_force_est_n, force_set_n if logged)")
-      ->required();
+  add_recording_option(cmd, o->recording,
+                       "mls-recording/1 (t_s, screw or motor angle, nut_pos_m; "
+                       "load_force_n, out_force_est_n, force_set_n if logged)");
   cmd->add_option("-o,--out", o->out, "Output directory (index.html, report.json, the map's PNG)")
       ->required()
       ->check(CLI::Validator(output_directory_problem, ""));

@@ -177,9 +177,8 @@ void add_twin_check(CLI::App& app) {
       "cell), health, step-out warning and flag; where a load cell is logged, the force "
       "error and a coupling-gain check against it");
   auto o = std::make_shared<TwinCheckOptions>();
-  cmd->add_option("--recording", o->recording,
-                  "mls-recording/1 with t_s, screw or motor angle, nut_pos_m")
-      ->required();
+  add_recording_option(cmd, o->recording,
+                       "mls-recording/1 with t_s, screw or motor angle, nut_pos_m");
   add_config_option(cmd, o->config);
   cmd->add_option("--model", o->model, "Twin model file (default: CONFIG/model.toml)");
   cmd->add_option(

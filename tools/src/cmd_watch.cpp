@@ -159,6 +159,24 @@ std::string set_bits_text(const op::Values& v, const char* sep) {
   return s;
 }
 
+/// What of the controller's targets applies now: a position target only while enabled in position
+/// mode (a reference move reads position too), a force setpoint only while enabled in force mode.
+/// The controller keeps its last target through a mode change or a disable: shown then, it read
+/// as one being held.
+struct Applies {
+  bool position, force;
+};
+Applies targets_that_apply(const op::Values& v) {
+  const bool enabled = v.at("drive_state") == static_cast<double>(reg::DriveState::enabled);
+  const double mode = v.at("active_mode");
+  return {enabled && mode == static_cast<double>(reg::Mode::position),
+          enabled && mode == static_cast<double>(reg::Mode::force)};
+}
+
+/// False on a backend without a load cell (cia402): its float register is NaN there, where the
+/// fixed-point one reads 0 N, a reading no load cell made.
+bool has_load_cell(const op::Values& v) { return !std::isnan(v.at("load_cell_force_n_f32")); }
+
 /// Everything one refresh shows.
 struct View {
   std::string endpoint;
@@ -255,7 +273,7 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
   };
   const bool twin = !(at("twin_pred_nut_pos_um") == 0 && at("twin_pred_force_mn") == 0 &&
                       at("twin_residual_pos_um") == 0 && at("twin_dynamic_force_mn") == 0);
-  const bool force_mode = at("active_mode") == static_cast<double>(reg::Mode::force);
+  const Applies applies = targets_that_apply(v);
   pair(cell("position", "pos", printf_str("%.3f mm", at("nut_pos_um") * 1e3)),
        cell("velocity", "vel", printf_str("%.3f mm/s", at("nut_vel_um_s") * 1e3)));
   // The load observer's output force and the interval it is sure of (no load cell needed).
@@ -264,10 +282,14 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
             printf_str("%.2f N in [%.1f, %.1f]", at("load_force_est_mn"),
                        std::floor(at("load_force_lo_mn") * 10.0) / 10.0,
                        std::ceil(at("load_force_hi_mn") * 10.0) / 10.0)),
-       cell("load cell", "cell", printf_str("%.2f N", at("load_cell_force_mn"))));
-  pair(cell("setpoint", "set",
-            force_mode ? printf_str("%.2f N", at("active_force_setpoint_mn")) : std::string("-")),
-       cell("target", "tgt", printf_str("%.3f mm", at("active_target_pos_um") * 1e3)));
+       has_load_cell(v) ? cell("load cell", "cell", printf_str("%.2f N", at("load_cell_force_mn")))
+                        : cell("load cell:", "cell:", "none on this backend"));
+  pair(
+      cell("setpoint", "set",
+           applies.force ? printf_str("%.2f N", at("active_force_setpoint_mn")) : std::string("-")),
+      cell("target", "tgt",
+           applies.position ? printf_str("%.3f mm", at("active_target_pos_um") * 1e3)
+                            : std::string("-")));
   pair(cell("phase", "phi", printf_str("%.4f rad", at("phase_urad"))),
        cell("twin", "twin",
             twin ? printf_str("%.2f N, %.1f um", at("twin_dynamic_force_mn"),
@@ -324,10 +346,11 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   // The trend takes what is left: legend, chart rows, two axis rows.
   const int rows = scr.height - static_cast<int>(L.size()) - 3;
   if (rows >= 3) {
+    const char* cell = has_load_cell(v) ? "o load cell" : "(no load cell)";
     std::string legend =
-        printf_str("force [N] over %.0f s: * estimate o load cell - setpoint # same", window_s);
+        printf_str("force [N] over %.0f s: * estimate %s - setpoint # same", window_s, cell);
     if (static_cast<int>(legend.size()) > w)
-      legend = printf_str("force [N], %.0f s: * estimate o load cell - setpoint # same", window_s);
+      legend = printf_str("force [N], %.0f s: * estimate %s - setpoint # same", window_s, cell);
     L.push_back(fit(legend, w));
     for (auto& line : trend(samples, view.now_s, window_s, rows, w)) L.push_back(fit(line, w));
   }
@@ -343,10 +366,13 @@ std::string plain_line(const View& view) {
   s += "drive=" + op::code_name(reg::drive_states(), v.at("drive_state")) +
        " mode=" + op::code_name(reg::modes(), v.at("active_mode")) +
        " alarm=" + op::code_name(reg::alarm_codes(), v.at("alarm_code"));
+  const Applies applies = targets_that_apply(v);
   for (const char* name :
        {"nut_pos_um", "load_force_est_mn", "load_cell_force_mn", "active_force_setpoint_mn"}) {
     const auto* r = reg::find(name);
-    s += " " + op::si_name(*r) + "=" + op::si_text(*r, v.at(name));
+    const bool none = (name == std::string("load_cell_force_mn") && !has_load_cell(v)) ||
+                      (name == std::string("active_force_setpoint_mn") && !applies.force);
+    s += " " + op::si_name(*r) + "=" + (none ? "none" : op::si_text(*r, v.at(name)));
   }
   const std::string bits = set_bits_text(v, ",");
   return s + " status=" + (bits.empty() ? "none" : bits);
@@ -443,9 +469,9 @@ class Watcher {
     try {
       view_.v = client_->read_tables({reg::Table::input_register, reg::Table::holding_register});
       const op::Values& v = *view_.v;
-      const bool force_mode = v.at("active_mode") == static_cast<double>(reg::Mode::force);
-      samples_.push_back({view_.now_s, force_mode ? v.at("active_force_setpoint_mn") : kNaN,
-                          v.at("load_force_est_mn"), v.at("load_cell_force_mn")});
+      samples_.push_back(
+          {view_.now_s, targets_that_apply(v).force ? v.at("active_force_setpoint_mn") : kNaN,
+           v.at("load_force_est_mn"), has_load_cell(v) ? v.at("load_cell_force_mn") : kNaN});
       while (!samples_.empty() && samples_.front().t_s < view_.now_s - window_s_)
         samples_.pop_front();
       return true;

@@ -89,7 +89,8 @@ struct Snapshot {
   std::uint64_t cycle = 0;
   double t_s = 0.0;
   double nut_pos_m = 0.0, nut_vel_m_s = 0.0, screw_angle_rad = 0.0, phase_rad = 0.0;
-  double force_est_n = 0.0, load_cell_force_n = 0.0;  // paper eq. 6; load cell (checking only)
+  double force_est_n = 0.0,
+         load_cell_force_n = 0.0;  // paper eq. 6; load cell (checking only, NaN: none)
   // The load observer: output force at the load and the interval consistent with what it saw.
   double observer_force_n = 0.0, observer_force_lo_n = 0.0, observer_force_hi_n = 0.0;
   std::uint16_t observer_basis = 0, force_loop_state = 0, force_reached_reason = 1;
