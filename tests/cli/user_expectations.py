@@ -202,6 +202,21 @@ def recordings_and_files():
         f.write("\n".join(out) + "\n")
     rc, _, err = run("analyze", "--recording", mm, "--out", "mm_out", "--config", CONFIG)
     check(rc == 2 and "at data row 3 " in err and "millimetres" in err, f"first row beyond the bound: {err.strip()!r}")
+    # The load cell in kilonewtons, or of the other sign: refused with the likely unit, not
+    # analysed into "found: …".
+    lc = names.index("load_force_n")
+    for name, scale, says in (("kn", 1e-3, "likely unit: kilonewtons"), ("flipped", -1.0, "of the other sign")):
+        bad = os.path.join(WORK, name + ".csv")
+        out = lines[:header + 1]
+        for l in lines[header + 1:]:
+            f = l.split(",")
+            f[lc] = repr(float(f[lc]) * scale)
+            out.append(",".join(f))
+        with open(bad, "w") as f:
+            f.write("\n".join(out) + "\n")
+        rc, _, err = run("analyze", "--recording", bad, "--out", name + "_out", "--config", CONFIG)
+        check(rc == 2 and "column load_force_n cannot be the load in newtons" in err and says in err,
+              f"load cell ×{scale}: refused with the likely unit: {err.strip()!r}")
     # No load cell: nothing judged is said so, never "no anomaly found".
     lc = names.index("load_force_n")
     nolc = os.path.join(WORK, "nolc.csv")

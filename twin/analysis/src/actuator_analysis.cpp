@@ -551,6 +551,62 @@ std::vector<T> every_nth(std::vector<T> full, std::size_t step) {
 
 }  // namespace
 
+// A load cell in another unit or of the other sign: the force the calibrated coupling carries
+// is the load the cell reads plus friction and inertia (fitted beside it: a load that follows
+// the motion's direction must not pass for the coupling's). Where that fit explains most of it,
+// the load's coefficient is about 1; beyond kScaleFactor either way by 4 standard errors, or
+// negative, it is a unit or a sign, not physics (a coupling error within any plausible range
+// moves it by tens of per cent).
+void check_load_cell_scale(const std::string& path, const Signals& s, const Coupling& cp) {
+  constexpr double kMinExplained = 0.5;  // R² of the fit: the balance holds at all
+  constexpr double kScaleFactor = 3.0;
+  constexpr double kSure = 4.0;        // standard errors beyond the bound
+  constexpr double kLoadShare = 0.25;  // of the force's variance the load alone explains
+  const std::size_t n = s.load.size(), stride = std::max<std::size_t>(1, n / 20000);
+  Eigen::Matrix<double, 5, 5> xtx = Eigen::Matrix<double, 5, 5>::Zero();
+  Eigen::Matrix<double, 5, 1> xty = Eigen::Matrix<double, 5, 1>::Zero();
+  double sy = 0, syy = 0, m = 0;
+  for (std::size_t i = 0; i < n; i += stride) {
+    const double v = s.v[i], y = -cp.force(s.phi[i]);
+    Eigen::Matrix<double, 5, 1> x;
+    x << s.load[i], (v > 0) - (v < 0), v, s.a[i], 1.0;
+    if (!x.allFinite() || !std::isfinite(y)) continue;
+    xtx += x * x.transpose(), xty += x * y, sy += y, syy += y * y, m += 1;
+  }
+  if (m < 100) return;
+  const auto solver = xtx.completeOrthogonalDecomposition();
+  const Eigen::Matrix<double, 5, 1> beta = solver.solve(xty);
+  const double total = syy - sy * sy / m, left = syy - beta.dot(xty);  // least squares' SSE
+  if (!(total > 0) || 1.0 - left / total < kMinExplained) return;
+  // The load's own share: the fit without it (friction and inertia alone) must explain much less,
+  // else the load is a bystander whose coefficient says nothing of its unit.
+  const auto rest = xtx.bottomRightCorner<4, 4>().completeOrthogonalDecomposition();
+  const Eigen::Matrix<double, 4, 1> xty_rest = xty.tail<4>();
+  const double left_rest = syy - rest.solve(xty_rest).dot(xty_rest);
+  if ((left_rest - left) / total < kLoadShare) return;
+  const double k = beta[0];  // calibrated force per newton the load cell reads
+  const double se = std::sqrt(std::max(0.0, left / (m - 5)) * solver.pseudoInverse()(0, 0));
+  if (k - kSure * se <= kScaleFactor && k + kSure * se >= 1.0 / kScaleFactor) return;
+  struct Guess {
+    double per_newton;
+    const char* unit;
+  };
+  static constexpr Guess kGuesses[] = {{1e-3, "kilonewtons (values 1/1000 of newtons)"},
+                                       {1e3, "millinewtons (values 1000x newtons)"},
+                                       {1.0 / 4.44822, "pound-force (values 1/4.45 of newtons)"},
+                                       {-1.0, "newtons of the other sign (load_force_n negated)"}};
+  const char* unit = "not a force in newtons along this recording's +p";
+  for (const auto& g : kGuesses)
+    if (std::abs(k * g.per_newton - 1.0) < 0.5) unit = g.unit;
+  char b[200];
+  std::snprintf(b, sizeof b,
+                "beside friction and inertia the calibrated coupling carries %.4g ± %.2g N per "
+                "newton it reads (R² %.2f)",
+                k, se, 1.0 - left / total);
+  throw RecordingError(path + ": column load_force_n cannot be the load in newtons: " + b +
+                       "; likely unit: " + unit);
+}
+
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
                  const ActuatorParams& act, const Options& opt) {
   Prepared P;
@@ -579,6 +635,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   const auto sliding = sliding_mask(s, P);  // kept whole for the jumps (one byte a sample)
   const auto ok = every_nth(sliding, step);
   const Coupling cp{cal};
+  check_load_cell_scale(rec.path, s, cp);
   set_floors(P, cp, cal, act, opt);
   const auto rings = every_nth(ringing(s, P, ring_rad_s(P, base)), step);
   P.t0_s = t.front();
