@@ -48,6 +48,19 @@ TEST(ModelFile, RoundTripKeepsTermsAndParameters) {
   EXPECT_DOUBLE_EQ(r.terms[3].get("backlash_rad", 0.0), 0.002);
 }
 
+TEST(ModelFile, LargeWholeNumbersRoundTripAsFloats) {
+  // Written as digits alone (85555555555555557376) TOML reads an integer beyond 64 bits and
+  // refuses the file (found by fuzz_config): a large whole number carries an exponent.
+  TwinModel m;
+  m.terms.push_back({"offset", false, "", {{"offset_n", 85555555555555557376.0}}});
+  m.terms.push_back({"backlash", false, "", {{"backlash_rad", -1e300}}});
+  save_twin_model(tmp("model_large.toml"), m);
+  const TwinModel r = load_twin_model(tmp("model_large.toml"));
+  ASSERT_EQ(r.terms.size(), 2u);
+  EXPECT_EQ(r.terms[0].get("offset_n", 0.0), 85555555555555557376.0);
+  EXPECT_EQ(r.terms[1].get("backlash_rad", 0.0), -1e300);
+}
+
 TEST(ModelFile, ControlCharactersInTextRoundTrip) {
   // A note or source holding control characters (read from a file as "\u0001", "\r") is
   // written back escaped; it was written raw, which TOML refuses (found by fuzz_config).

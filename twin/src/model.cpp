@@ -209,9 +209,15 @@ TwinModel load_twin_model(const std::string& path) {
 
 namespace {
 // The shortest text that reads back as the same double (0.0025, never 0.0025000000000000001).
+// A large whole number would be written as digits alone (85555555555555557376), which TOML reads
+// as an integer beyond 64 bits: from 1e15 on (past what a TOML integer holds exactly) it is
+// written with an exponent, a float to any reader.
 std::string shortest(double v) {
+  constexpr double kDigitsAloneBelow = 1e15;
   char b[32];
-  const auto r = std::to_chars(b, b + sizeof b, v);
+  const auto r = std::abs(v) < kDigitsAloneBelow
+                     ? std::to_chars(b, b + sizeof b, v)
+                     : std::to_chars(b, b + sizeof b, v, std::chars_format::scientific);
   return std::string(b, r.ptr);
 }
 }  // namespace
