@@ -289,16 +289,10 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
 /// The controller's own limits, read from its limits block (what it refused against); this
 /// machine's configuration may differ from the one the controller runs.
 std::string drive_limit_text(op::Client& client, reg::Mode mode) {
-  const auto* push = reg::find("force_limit_push_n_f32");
-  const auto v = client.read_range(reg::Table::input_register, push->address, 14);
-  char b[96];
-  if (mode == reg::Mode::force)
-    std::snprintf(b, sizeof b, "%.2f .. %.2f N", v.at("force_limit_pull_n_f32"),
-                  v.at("force_limit_push_n_f32"));
-  else
-    std::snprintf(b, sizeof b, "%.3f .. %.3f mm", v.at("stroke_min_m_f32") * 1e3,
-                  v.at("stroke_max_m_f32") * 1e3);
-  return b;
+  op::Limits limits;
+  limits.reported = op::read_reported_limits(client);
+  if (!limits.reported) return "not reported (its register map has no limits block)";
+  return mode == reg::Mode::force ? op::force_limit_text(limits) : op::position_limit_text(limits);
 }
 
 /// Sends the command. The controller's own limit refusing it (exception 03 on the staged
@@ -317,8 +311,7 @@ op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags&
                            : false;
     if (!limit || p.mode == reg::Mode::idle) throw;
     throw ClientError(e.kind(), p.summary + " refused by the controller (" + msg +
-                                    "); its limits are " + drive_limit_text(client, p.mode) +
-                                    " (IR 140-147)");
+                                    "); its limits are " + drive_limit_text(client, p.mode));
   }
 }
 
