@@ -123,13 +123,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       }
       if (f.status == FrameStatus::error) {
         check_error(buf.data(), buf.size(), silent, f);
-        const std::size_t k = rtu_resync_offset(buf.data(), buf.size(), silent);
-        check_resync(buf.data(), buf.size(), silent, k);
-        if (k == buf.size()) {
+        const std::size_t skip = rtu_resync_offset(buf.data(), buf.size(), silent);
+        check_resync(buf.data(), buf.size(), silent, skip);
+        if (skip == buf.size()) {
           buf.clear();  // the server discards everything received
           break;
         }
-        buf.erase(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(k));
+        buf.erase(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(skip));
         continue;
       }
       check_frame(buf.data(), buf.size(), silent, f);
