@@ -219,6 +219,11 @@ def cia402():
         rc, out, err = run(MAGLEAD, "watch", *conn, "--once")
         check(rc == 0 and "load_cell_force_n=none" in out and "active_force_setpoint_n=none" in out,
               f"cia402 --once: no load cell and no setpoint said so: {out.strip()} {err.strip()}")
+        rc, out, err = run(MAGLEAD, "poll", *conn, "--json")
+        check(rc == 0 and json.loads(out)["values"]["load_cell_force_n"] is None,
+              f"cia402 poll --json: no load cell is null, not 0 N: {out[:200]} {err.strip()}")
+        rc, out, err = run(MAGLEAD, "poll", *conn, "load_cell_force_n")
+        check(rc == 0 and "none on this backend" in out, f"cia402 poll: the load cell is none: {out.strip()}")
         tmux("new-session", "-d", "-s", SESSION, "-x", "80", "-y", "24",
              f"{shlex.quote(MAGLEAD)} watch {' '.join(conn)} --rate 5; sleep 60")
         rows = wait_screen(lambda r: "drive ready" in text(r) and "now" in text(r))

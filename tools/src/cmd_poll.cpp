@@ -13,8 +13,14 @@ namespace {
 
 namespace reg = maglead::registers;
 
-/// What a code register means, for the table's last column.
-std::string meaning(const reg::Register& r, double v) {
+/// The load cell's integer register reads 0 on a backend without one; its float32 copy is NaN.
+bool no_load_cell(const reg::Register& r, const op::Values& all) {
+  return r.name == "load_cell_force_mn" && std::isnan(all.at("load_cell_force_n_f32"));
+}
+
+/// What a code register means, for the table's last column; `all` holds every register read.
+std::string meaning(const reg::Register& r, double v, const op::Values& all) {
+  if (no_load_cell(r, all)) return "none on this backend";
   if (r.name == "status_word") {
     std::string s;
     for (const auto& n : op::status_bits(static_cast<std::uint16_t>(v)))
@@ -149,7 +155,9 @@ void print_json(const Shown& s, const op::Client& client) {
   for (auto i : s.idx) {
     vals += std::string(vals.back() == '{' ? "" : ",") + "\n    " +
             nlohmann::json(s.name(i)).dump() + ": " +
-            json_literal(*s.v.regs[i], s.v.si[i], s.v.raw[i], s.raw);
+            (no_load_cell(*s.v.regs[i], s.v) && !s.raw
+                 ? "null"
+                 : json_literal(*s.v.regs[i], s.v.si[i], s.v.raw[i], s.raw));
     units[s.name(i)] = s.unit(i);
   }
   if (!s.idx.empty()) vals += "\n  }";
@@ -179,7 +187,7 @@ void print_table(const Shown& s, const op::Client& client) {
   for (auto i : s.idx) width = std::max(width, static_cast<int>(s.name(i).size()));
   for (auto i : s.idx)
     std::printf("  %-*s %12s %-6s %s\n", width, s.name(i).c_str(), s.text(i).c_str(),
-                s.unit(i).c_str(), meaning(*s.v.regs[i], s.v.si[i]).c_str());
+                s.unit(i).c_str(), meaning(*s.v.regs[i], s.v.si[i], s.v).c_str());
 }
 
 void run_poll(const PollOptions& o, const ConnectionOptions& conn) {
@@ -216,9 +224,9 @@ void add_poll(CLI::App& app) {
       "instead of SI values under SI names (nut_pos_m in m)");
   cmd->add_flag("--all", o->all,
                 "Also the float32 copies of integer registers and the word-order probes");
-  cmd->add_option("--names", o->names,
+  cmd->add_option("names,--names", o->names,
                   "Only these registers: register names from 'maglead registers' or their SI names "
-                  "(nut_pos_um or nut_pos_m)")
+                  "(nut_pos_um or nut_pos_m), e.g. 'maglead poll nut_pos_m force_est_n'")
       ->delimiter(',');
   cmd->callback([o, conn] { run_operator("poll", [&] { run_poll(*o, *conn); }); });
 }
