@@ -66,6 +66,9 @@ std::string error_table(const Anomaly& a) {
     return "<p>No load cell was logged (no <code>load_force_n</code> column): the force estimates "
            "cannot be "
            "compared with a measurement.</p>\n";
+  if (!a.load_cell_unusable.empty())
+    return "<p>The load cell was not compared with the estimates: " +
+           escape_html(a.load_cell_unusable) + ".</p>\n";
   std::ostringstream h;
   const auto row = [&](const char* name, const std::optional<analysis::ErrorStats>& e) {
     h << "<tr><td>" << name << "</td><td>" << (e ? number(e->mean_abs_n) : "–") << "</td><td>"
@@ -137,7 +140,7 @@ std::string where_section(const Anomaly& a, const std::string& out_dir) {
                "residual [µm]");
   residual.series.push_back({"position residual", scaled(a.trace.residual_pos_m, 1e6)});
   h << time_chart_html(residual);
-  if (a.has_load_cell) {
+  if (a.has_load_cell && a.load_cell_unusable.empty()) {
     auto err =
         chart_of(a, "force_error", "Force estimates minus the load cell",
                  "Error of the controller's static estimate and of the twin's observer against the "
@@ -268,7 +271,7 @@ Json json_of(const std::string& recording, const Anomaly& a, const AnalysisOutco
     return e ? Json{{"mean_abs_n", e->mean_abs_n}, {"rms_n", e->rms_n}, {"max_abs_n", e->max_abs_n}}
              : Json();
   };
-  J["force_error"] = a.has_load_cell
+  J["force_error"] = a.has_load_cell && a.load_cell_unusable.empty()
                          ? Json{{"static", stats(a.static_error)}, {"twin", stats(a.twin_error)}}
                          : Json();
   Json v;
@@ -307,7 +310,10 @@ std::string anomaly_headline(const Anomaly& a, const AnalysisOutcome& o) {
   // hand-push, docs/simulation.md): more than its friction band explains.
   if (const std::string why = drift_not_judged(a); !why.empty())
     not_judged.push_back("drift (" + why + ")");
-  if (!a.static_error)
+  if (!a.load_cell_unusable.empty())
+    not_judged.emplace_back(
+        "force estimate (load_force_n is not the load in newtons: see analysis)");
+  else if (!a.static_error)
     not_judged.emplace_back(a.has_load_cell ? "force estimate (no settled sample where both the "
                                               "estimate and load_force_n are numbers)"
                                             : "force estimate (no load_force_n column)");

@@ -217,6 +217,14 @@ def recordings_and_files():
         rc, _, err = run("analyze", "--recording", bad, "--out", name + "_out", "--config", CONFIG)
         check(rc == 2 and "column load_force_n cannot be the load in newtons" in err and says in err,
               f"load cell ×{scale}: refused with the likely unit: {err.strip()!r}")
+        # report compares nothing with it: no "static force estimate off by …" from a wrong unit.
+        rc, out_text, err = run("report", bad, "--out", name + "_report", "--config", CONFIG)
+        head = out_text.splitlines()[0] if out_text else ""
+        with open(os.path.join(WORK, name + "_report", "report.json")) as f:
+            force_error = json.load(f)["force_error"]
+        check(rc == 0 and head.startswith("not judged: ") and "off by" not in head
+              and "force estimate (load_force_n is not the load in newtons" in head and force_error is None,
+              f"report, load cell ×{scale}: not compared, said so: {head!r} force_error {force_error}")
     # No load cell: nothing judged is said so, never "no anomaly found".
     lc = names.index("load_force_n")
     nolc = os.path.join(WORK, "nolc.csv")

@@ -47,6 +47,10 @@ report::AnalysisOutcome run_analysis(const ReportOpts& o, const Recording& rec,
     outcome.result = analysis::analyze_recording(rec, model, cal, act, ao);
     if (bar) bar->done();
     outcome.status = report::AnalysisOutcome::Status::done;
+  } catch (const LoadCellUnitError& e) {
+    outcome.status = report::AnalysisOutcome::Status::failed;
+    outcome.reason = e.what();
+    outcome.load_cell_unusable = true;
   } catch (const std::exception& e) {
     // The report is still worth having without the analysis: say why it is missing.
     outcome.status = report::AnalysisOutcome::Status::failed;
@@ -94,8 +98,9 @@ void add_report(CLI::App& app) {
     monitor.actuator = act;
     monitor.calibration = cal;
     note("report: replaying the recording through the twin");
-    const auto anomaly = analysis::inspect_recording(rec, monitor);
+    auto anomaly = analysis::inspect_recording(rec, monitor);
     const auto outcome = run_analysis(*o, rec, act, cal);
+    if (outcome.load_cell_unusable) analysis::set_aside_load_cell(anomaly, outcome.reason);
     report::write_anomaly_report(o->out, o->recording, anomaly, outcome);
     std::printf("%s\n", report::anomaly_headline(anomaly, outcome).c_str());
     std::printf("step-outs: %zu, drift windows: %zu, twin position residual RMS %.1f um\n",

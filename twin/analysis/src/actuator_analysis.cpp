@@ -603,8 +603,8 @@ void check_load_cell_scale(const std::string& path, const Signals& s, const Coup
                 "beside friction and inertia the calibrated coupling carries %.4g ± %.2g N per "
                 "newton it reads (R² %.2f)",
                 k, se, 1.0 - left / total);
-  throw RecordingError(path + ": column load_force_n cannot be the load in newtons: " + b +
-                       "; likely unit: " + unit);
+  throw LoadCellUnitError(path + ": column load_force_n cannot be the load in newtons: " + b +
+                          "; likely unit: " + unit);
 }
 
 Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,

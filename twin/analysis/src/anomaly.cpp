@@ -244,4 +244,10 @@ Anomaly inspect_recording(const Recording& rec, const twin::TwinMonitorConfig& m
   return a;
 }
 
+void set_aside_load_cell(Anomaly& anomaly, std::string why) {
+  anomaly.static_error.reset();
+  anomaly.twin_error.reset();
+  anomaly.load_cell_unusable = std::move(why);
+}
+
 }  // namespace maglead::analysis

@@ -18,6 +18,13 @@ class RecordingError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The load-cell column cannot be the load in newtons (another unit or the other sign): what()
+/// says what it more likely is. A command that compares with the load cell judges nothing by it.
+class LoadCellUnitError : public RecordingError {
+ public:
+  using RecordingError::RecordingError;
+};
+
 /// A column a reader needs is not in the recording: what() lists the columns there are (and one
 /// that looks like it in another unit); column() names the missing one, so a command can add what
 /// it needs the column for.

@@ -14,6 +14,7 @@ struct AnalysisOutcome {
   enum class Status { done, skipped, failed } status = Status::skipped;
   std::string reason;  // skipped or failed: why
   std::optional<analysis::AnalysisResult> result;
+  bool load_cell_unusable = false;  // failed because load_force_n is not the load in newtons
 };
 
 /// One line for the operator: "no anomaly found" or "attention: …".

@@ -59,6 +59,8 @@ struct Anomaly {
   double drift_judged_from_s = std::numeric_limits<double>::quiet_NaN();
   bool has_load_cell = false, static_estimate_logged = false;
   std::optional<ErrorStats> static_error, twin_error;  // against the load cell
+  // Why the load cell is not compared although logged (its unit is wrong), else empty.
+  std::string load_cell_unusable;
   std::size_t off_branch_samples = 0;
   double residual_pos_rms_m = 0, linear_count_m = 0;
   double sample_rate_hz = 0, duration_s = 0;
@@ -67,5 +69,8 @@ struct Anomaly {
 
 /// Throws RecordingError for missing columns, std::invalid_argument for unusable data.
 Anomaly inspect_recording(const Recording& rec, const twin::TwinMonitorConfig& monitor);
+/// A load cell found not to read the load in newtons (LoadCellUnitError's `why`) is not compared:
+/// the force errors against it are dropped and the reason kept.
+void set_aside_load_cell(Anomaly& anomaly, std::string why);
 
 }  // namespace maglead::analysis
