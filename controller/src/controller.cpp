@@ -22,6 +22,13 @@ constexpr double kWindowLookahead_s = 0.05;
 // The look-ahead acts only this close to the window's end: a fast slide mid-stroke (a step of
 // the setpoint) is the force loop's to stop, and its speed projected 50 ms would stop it early.
 constexpr double kWindowNear_m = 5e-3;
+// Towards a window end the nut may slide at most its distance to it over this time: an
+// exponential approach whose braking force (mass × speed / time) stays small beside the load,
+// so the force the observer keeps from the nut's last edge is the load's. Twice the look-ahead:
+// a nut on that curve never trips it.
+constexpr double kEndApproach_s = 2.0 * kWindowLookahead_s;
+// On that curve the nut arrives this close to the end slow enough to hold at once (2 mm/s).
+constexpr double kWindowArrive_m = 0.2e-3;
 constexpr double kMaxTrack_rad = 0.5;  // most the phase tracking may add to a command
 // A fault reset is done after the fault stayed away this long: longer than a CiA 402 drive's
 // fault-reset handshake and the master's PDO supervision (a few cycles), short for a person.
@@ -681,6 +688,11 @@ InPositionReason Controller::in_position_reason(bool settled, const Reached& r) 
 double Controller::force_mode_command_rad(double dt, Reached& r) noexcept {
   if (window_end_ == 0) check_force_window();
   if (window_end_ != 0) return position_command_rad(dt);
+  const auto& a = cfg_.actuator;
+  const double lo = a.stroke_min_m + cfg_.force_stroke_margin_m;
+  const double hi = a.stroke_max_m - cfg_.force_stroke_margin_m;
+  force_loop_.set_speed_caps(std::max(0.0, hi - s_.nut_pos_m) / kEndApproach_s,
+                             std::max(0.0, s_.nut_pos_m - lo) / kEndApproach_s);
   const double cmd = force_command_rad(dt);
   r.force = force_loop_.reason(load_) == ForceReachedReason::reached;
   return cmd;
@@ -694,9 +706,11 @@ void Controller::check_force_window() noexcept {
   const double hi = a.stroke_max_m - cfg_.force_stroke_margin_m;
   const double p = s_.nut_pos_m, v = s_.nut_vel_m_s;
   const double ahead = p + v * kWindowLookahead_s;
-  window_end_ = ahead >= hi && v > 0.0 && p >= hi - kWindowNear_m   ? 1
-                : ahead <= lo && v < 0.0 && p <= lo + kWindowNear_m ? -1
-                                                                    : 0;
+  const bool up =
+      v > 0.0 && (p >= hi - kWindowArrive_m || (ahead >= hi && p >= hi - kWindowNear_m));
+  const bool down =
+      v < 0.0 && (p <= lo + kWindowArrive_m || (ahead <= lo && p <= lo + kWindowNear_m));
+  window_end_ = up ? 1 : down ? -1 : 0;
   if (window_end_ == 0) return;
   target_m_ = prof_pos_m_ = std::clamp(s_.nut_pos_m, lo, hi);
   prof_vel_m_s_ = 0.0;

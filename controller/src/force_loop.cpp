@@ -94,10 +94,11 @@ double ForceLoop::sliding_drive_n(const LoadEstimate& est) noexcept {
 double ForceLoop::speed_limited_n(double drive_n, const LoadEstimate& est) noexcept {
   const double v = est.nut_vel_m_s;
   const double dir = v >= 0.0 ? 1.0 : -1.0;
-  const double at_limit_n = est.force_n + cfg_.friction.sliding_n(v) +
-                            cfg_.damping_n_s_per_m * (dir * cfg_.speed_limit_m_s - v);
+  const double limit = std::min(cfg_.speed_limit_m_s, dir > 0 ? cap_up_m_s_ : cap_down_m_s_);
+  const double at_limit_n =
+      est.force_n + cfg_.friction.sliding_n(v) + cfg_.damping_n_s_per_m * (dir * limit - v);
   if ((drive_n - at_limit_n) * dir <= 0.0) return drive_n;
-  if (std::abs(v) >= kAtLimitShare * cfg_.speed_limit_m_s) state_ = ForceLoopState::speed_limited;
+  if (std::abs(v) >= kAtLimitShare * limit) state_ = ForceLoopState::speed_limited;
   return at_limit_n;
 }
 

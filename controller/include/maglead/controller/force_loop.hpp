@@ -1,4 +1,5 @@
 #pragma once
+#include <limits>
 // The force loop: puts the setpoint on the load, not just on the coupling.
 //
 // While the nut slides the coupling must carry friction and damping besides the load, so the
@@ -73,6 +74,11 @@ class ForceLoop {
   /// The drive asked for is beyond the safe range [drive_min_n, drive_max_n] and clamped to it.
   bool drive_limited() const noexcept { return drive_limited_; }
   double setpoint_n() const noexcept { return setpoint_n_; }
+  /// This cycle's speed limits towards +p and −p where they are below the configured one (the
+  /// controller's, slowing the nut before its force window ends); +inf where not.
+  void set_speed_caps(double up_m_s, double down_m_s) noexcept {
+    cap_up_m_s_ = up_m_s, cap_down_m_s_ = down_m_s;
+  }
 
  private:
   double breakaway_drive_n(const LoadEstimate& est, double dt_s) noexcept;
@@ -82,6 +88,8 @@ class ForceLoop {
   ForceLoopConfig cfg_;
   ForceLoopState state_ = ForceLoopState::off;
   double setpoint_n_ = 0.0, hold_drive_n_ = 0.0, ramp_n_ = 0.0;
+  double cap_up_m_s_ = std::numeric_limits<double>::infinity();
+  double cap_down_m_s_ = std::numeric_limits<double>::infinity();
   int dir_ = 1;
   bool held_by_bound_ = false;
   bool slid_ = false;  // the nut slid since the setpoint came
