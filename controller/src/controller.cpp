@@ -336,19 +336,24 @@ void Controller::apply(const Command& c) noexcept {
     if (!stepped_out_) {
       reject(Reject::not_stepped_out);
     } else {
-      // The nut now sits in another lead: take that lead as the new zero of φ.
-      const double leads = std::round(s_.phase_rad / kTwoPi);
-      phase_offset_rad_ += leads * kTwoPi;
-      s_.phase_rad -= leads * kTwoPi;
-      last_phase_rad_ = s_.phase_rad;
-      if (twin_) twin_->resync(s_.t_s, s_.screw_angle_rad, s_.nut_pos_m);
-      observer_.reset();
+      resync_to_nut();
       command_bits_ |=
           static_cast<std::uint16_t>(bit(registers::kResyncAck) | bit(registers::kResyncDone));
     }
   }
   if (rising & bit(registers::kFaultReset)) on_fault_reset();
   if (rising & bit(registers::kExecute)) on_execute();
+}
+
+/// The nut now sits in some lead: take that lead as the new zero of φ, and start the twin and the
+/// observer again from where the nut is.
+void Controller::resync_to_nut() noexcept {
+  const double leads = std::round(s_.phase_rad / kTwoPi);
+  phase_offset_rad_ += leads * kTwoPi;
+  s_.phase_rad -= leads * kTwoPi;
+  last_phase_rad_ = s_.phase_rad;
+  if (twin_) twin_->resync(s_.t_s, s_.screw_angle_rad, s_.nut_pos_m);
+  observer_.reset();
 }
 
 /// A fault reset edge: acknowledged at once; done when the fault has stayed away for
@@ -371,6 +376,9 @@ void Controller::on_fault_reset() noexcept {
     return;
   }
   state_ = DriveState::ready;  // re-enabling needs a fresh enable edge
+  // A step-out the release brought back onto the stable branch needs no resync of φ (no whole
+  // lead to take), but the twin still holds its step-out: start it again as a resync would.
+  if (stepped_out_) resync_to_nut();
   s_.alarm_code = s_.drive_fault_cause = s_.drive_error_code = 0;
   stepped_out_ = watchdog_expired_ = stopping_ = false;
   mode_ = Mode::idle;

@@ -234,15 +234,22 @@ TEST(Controller, ForceReachedMeansWithinTheToleranceForTheWholeDwell) {
   EXPECT_GE(first_set, cfg.settle_s);
 }
 
+namespace {
+/// A constant load force on the nut (damped, so a nut it drags does not race).
+LoadSetting constant_load(double force_n) {
+  LoadSetting load;
+  load.kind = LoadSetting::Kind::constant;
+  load.force_n = force_n;
+  load.damping_n_s_per_m = 20.0;
+  return load;
+}
+}  // namespace
+
 TEST(Controller, StepOutLatchesAFaultStopsForceAndNeedsResyncThenReset) {
   Rig rig(0.0);
   rig.enable();
   // A load far above the coupling's peak drags the nut over the stable branch.
-  LoadSetting load;
-  load.kind = LoadSetting::Kind::constant;
-  load.force_n = -80.0;
-  load.damping_n_s_per_m = 20.0;
-  rig.plant.set_load(load);
+  rig.plant.set_load(constant_load(-80.0));
   bool fault_seen = false;
   rig.run(0.3, [&](const Snapshot& s) { fault_seen = fault_seen || s.drive_state == 3; });
   ASSERT_TRUE(fault_seen);
@@ -616,3 +623,32 @@ TEST(Controller, ReferenceMoveRunsTheWindowAtTwoSpeedsAndTellsTheTwin) {
 }
 
 }  // namespace
+
+// A step-out the fault reaction brought back onto the stable branch (a pull just past the
+// coupling's peak, gone again at once): the fault reset alone is accepted, and it starts the twin
+// again from the nut, as a resync would; the twin is not left holding its step-out.
+TEST(Controller, AResetOfAStepOutBackOnTheBranchResyncsTheTwin) {
+  FakeTwin twin;
+  Rig rig(0.0, &twin);
+  rig.enable();
+  rig.plant.set_load(constant_load(-60.0));
+  bool fault_seen = false;
+  rig.run(0.3, [&](const Snapshot& s) {
+    if (!fault_seen && s.drive_state == 3) rig.plant.set_load(LoadSetting{});
+    fault_seen = fault_seen || s.drive_state == 3;
+  });
+  ASSERT_TRUE(fault_seen);
+  rig.run(0.3);
+  const auto& cal = rig.cfg.calibration;
+  std::printf("after the release: phase %.3f rad (stable %.3f .. %.3f)\n", rig.snap().phase_rad,
+              cal.stable_min_rad, cal.stable_max_rad);
+  ASSERT_GT(rig.snap().phase_rad, cal.stable_min_rad) << "the nut slipped a lead: not this case";
+  ASSERT_LT(rig.snap().phase_rad, cal.stable_max_rad) << "the nut slipped a lead: not this case";
+  const int resyncs = twin.resyncs;
+  rig.control(bit(reg::kFaultReset));
+  EXPECT_TRUE(rig.cmd(reg::kResetAck));
+  rig.run(0.03);
+  EXPECT_TRUE(rig.cmd(reg::kResetDone));
+  EXPECT_EQ(twin.resyncs, resyncs + 1);
+  EXPECT_FALSE(rig.status(reg::kStepOut));
+}

@@ -171,6 +171,7 @@ class Controller {
   void fault_reaction_command(double dt) noexcept;
   double force_mode_command_rad(double dt, Reached& reached) noexcept;
   void check_force_window() noexcept;
+  void resync_to_nut() noexcept;
   void note_drive_fault_cause() noexcept;
   void update_position_limit(double dt) noexcept;
   bool settle(const Reached& reached, double dt) noexcept;
