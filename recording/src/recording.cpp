@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -419,6 +420,12 @@ bool take_head_line(Recording& rec, std::string_view line, std::size_t line_no) 
   }
 }
 
+/// What a header row looks like, for the errors that find none.
+constexpr const char* kHeaderExample =
+    "after its '# key: value' lines a recording names its columns in one comma-separated row, "
+    "e.g. t_s,screw_angle_rad,nut_pos_m,load_force_n for the actuator or t_s,pos_m,drive_force_n "
+    "for an axis (docs/recording-format.md)";
+
 /// Metadata and the header row; returns the header's line number. `block` keeps what follows the
 /// header in the current block.
 std::size_t read_head(Recording& rec, LineBlocks& blocks, std::string_view& block) {
@@ -438,11 +445,7 @@ std::size_t read_head(Recording& rec, LineBlocks& blocks, std::string_view& bloc
     return line_no;
   }
   // An empty file (a logger that never wrote, a wrong file): say what the header looks like.
-  throw RecordingError(rec.path +
-                       ": no header row: after its '# key: value' lines a recording names its "
-                       "columns in one comma-separated row, e.g. "
-                       "t_s,screw_angle_rad,nut_pos_m,load_force_n for the actuator or "
-                       "t_s,pos_m,drive_force_n for an axis (docs/recording-format.md)");
+  throw RecordingError(rec.path + ": no header row: " + kHeaderExample);
 }
 
 void check_header(const Recording& rec, std::size_t header_line,
@@ -450,6 +453,17 @@ void check_header(const Recording& rec, std::size_t header_line,
   const std::string& path = rec.path;
   if (auto fmt = rec.meta("format"); fmt && *fmt != "mls-recording/1")
     throw RecordingError(path + ": format '" + *fmt + "' is not mls-recording/1");
+  // A row of numbers where the names belong: data without its header (an export that left it
+  // out), which would otherwise be read as columns named "0", "138.23", ….
+  const auto is_number = [](const std::string& s) {
+    char* end = nullptr;
+    std::strtod(s.c_str(), &end);
+    return !s.empty() && end == s.c_str() + s.size();
+  };
+  if (std::all_of(rec.names.begin(), rec.names.end(), is_number))
+    throw RecordingError(where(path, header_line) + "no header row: this row is numbers ('" +
+                         rec.names.front() + "', …) where the column names belong; " +
+                         kHeaderExample);
   for (std::size_t i = 0; i < rec.names.size(); ++i) {
     if (rec.names[i].empty())
       throw RecordingError(where(path, header_line) + "column " + std::to_string(i + 1) +

@@ -310,6 +310,14 @@ def missing_columns(lines, header, rec):
     rc, _, err = run("analyze", "--recording", empty, "--out", "empty_out", "--config", CONFIG)
     check(rc == 2 and "no header row" in err and "t_s,screw_angle_rad,nut_pos_m,load_force_n" in err
           and "docs/recording-format.md" in err, f"empty recording: {err.strip()!r}")
+    # Data without its header row: said so, not read as columns named "0", "138.23", ….
+    nohdr = os.path.join(WORK, "nohdr.csv")
+    with open(nohdr, "w") as f:
+        f.write("\n".join(lines[header + 1:]) + "\n")
+    for cmd, extra in (("inspect", []), ("analyze", ["--out", "nohdr_out"]), ("twin-check", [])):
+        rc, _, err = run(cmd, nohdr, *extra, "--config", CONFIG)
+        check(rc == 2 and "no header row: this row is numbers" in err and "t_s,screw_angle_rad" in err,
+              f"{cmd} on data without a header: {err.strip()!r}")
 
 
 def recording_positional(rec, nolc):
