@@ -403,12 +403,18 @@ bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool h
   if (has(kExecute) && (has(kStop) || has(kFaultReset) || has(kResync)))
     return refuse_value(Refusal::bad_control_word, ex);
   const auto& a = controller_.config().actuator;
-  const double f = next.force_setpoint_n;
-  if (std::abs(f) > std::abs(controller_.safe_force_limit_n(f)))
+  // Within half an integer register's resolution (0.5 mN, 0.5 µm) a limit is the limit: its
+  // float32 copy (IR 140-147) or a staged setpoint's integer mirror written back lands there,
+  // rounded by that much either way; it is taken as the limit itself.
+  constexpr double kForceSlack_n = 0.5e-3, kPositionSlack_m = 0.5e-6;
+  const double f = next.force_setpoint_n, f_limit = controller_.safe_force_limit_n(f);
+  if (std::abs(f) > std::abs(f_limit) + kForceSlack_n)
     return refuse_value(Refusal::force_beyond_safe_limit, ex);
-  if (next.position_setpoint_m < a.stroke_min_m - 1e-9 ||
-      next.position_setpoint_m > a.stroke_max_m + 1e-9)
+  if (std::abs(f) > std::abs(f_limit)) next.force_setpoint_n = f_limit;
+  if (next.position_setpoint_m < a.stroke_min_m - kPositionSlack_m ||
+      next.position_setpoint_m > a.stroke_max_m + kPositionSlack_m)
     return refuse_value(Refusal::position_outside_stroke, ex);
+  next.position_setpoint_m = std::clamp(next.position_setpoint_m, a.stroke_min_m, a.stroke_max_m);
 
   // Broadcast (RTU unit 0) may stage setpoints and feed the heartbeat, never change the drive's
   // state: one frame would enable, switch or reset every drive on the line at once.

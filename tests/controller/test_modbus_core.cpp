@@ -4,6 +4,7 @@
 
 #include <bit>
 #include <cstring>
+#include <string_view>
 #include <vector>
 
 #include "maglead/modbus/modbus_core.hpp"
@@ -214,6 +215,37 @@ TEST(ModbusCore, TheLimitsBlockReadsTheConfigurationTheWriteCheckUses) {
   EXPECT_EQ(word_at(r.req(rd(4, addr("write_refusal_reason"), 1)), 0),
             static_cast<std::uint16_t>(reg::Refusal::position_outside_stroke));
   EXPECT_EQ(r.req(write_regs(pos, f32_words(0.0051f))).size(), 5u);
+}
+
+// A PLC that clamps a setpoint to the limits it read writes back their float32 words, or the
+// integer mirror of a staged limit: both are accepted (within half an integer register's unit)
+// and staged as the limit itself; a unit beyond is refused.
+TEST(ModbusCore, TheLimitsAsReadAreAcceptedBack) {
+  CoreRig r;
+  const auto words_at = [&](const char* name) {
+    const Bytes b = r.req(rd(4, addr(name), 2));
+    return std::vector<std::uint16_t>{word_at(b, 0), word_at(b, 1)};
+  };
+  const std::uint16_t force_f32 = addr("force_setpoint_n_f32"),
+                      force_mn = addr("force_setpoint_mn");
+  for (const char* name : {"force_limit_push_n_f32", "force_limit_pull_n_f32"}) {
+    EXPECT_EQ(r.req(write_regs(force_f32, words_at(name))).size(), 5u) << name;
+    const double limit = r.ctl.safe_force_limit_n(
+        std::string_view(name).find("push") != std::string_view::npos ? 1.0 : -1.0);
+    const Bytes staged = r.req(rd(3, force_f32, 2));
+    EXPECT_EQ(std::bit_cast<float>(
+                  static_cast<std::uint32_t>((word_at(staged, 0) << 16) | word_at(staged, 1))),
+              static_cast<float>(limit))
+        << name;
+    const Bytes mirror = r.req(rd(3, force_mn, 2));
+    EXPECT_EQ(r.req(write_regs(force_mn, {word_at(mirror, 0), word_at(mirror, 1)})).size(), 5u);
+    const auto beyond = static_cast<std::int32_t>(std::lround(limit * 1e3 + (limit > 0 ? 1 : -1)));
+    EXPECT_EQ(r.req(write_regs(force_mn, i32_words(beyond))),
+              exception(16, Exception::illegal_data_value));
+  }
+  const std::uint16_t pos_f32 = addr("position_setpoint_m_f32");
+  for (const char* name : {"stroke_min_m_f32", "stroke_max_m_f32"})
+    EXPECT_EQ(r.req(write_regs(pos_f32, words_at(name))).size(), 5u) << name;
 }
 
 TEST(ModbusCore, BadControlWordCombinationsAreRefused) {
