@@ -772,6 +772,9 @@ void Controller::publish(bool settled, const Reached& r) noexcept {
             s_.force_reached_reason ==
                 static_cast<std::uint16_t>(ForceReachedReason::drive_limit))});
   s_.in_position_reason = static_cast<std::uint16_t>(in_position_reason(settled, r));
+  // Inside the tolerance, force_reached still clear: the dwell runs (reached only with the bit).
+  if (r.force && !settled)
+    s_.force_reached_reason = static_cast<std::uint16_t>(ForceReachedReason::settling);
   s_.drive_state = static_cast<std::uint16_t>(state_);
   s_.active_mode = static_cast<std::uint16_t>(mode_);
   s_.command_status = command_bits_;

@@ -210,8 +210,14 @@ TEST(Controller, ForceReachedMeansWithinTheToleranceForTheWholeDwell) {
   rig.image.control_word = static_cast<std::uint16_t>(rig.image.control_word | bit(reg::kExecute));
   ASSERT_TRUE(rig.ctl->post(Command{rig.image, false}));
   double within_since = -1.0, first_set = -1.0;
-  int violations = 0, cycles_set = 0;
+  int violations = 0, cycles_set = 0, cycles_settling = 0, reason_violations = 0;
   rig.run(2.0, [&](const Snapshot& s) {
+    // The reason agrees with the bit: 0 reached only while it is set, 6 settling while the dwell
+    // runs.
+    const bool bit_set = (s.status_word >> reg::kForceReached) & 1u;
+    const auto reason = static_cast<ForceReachedReason>(s.force_reached_reason);
+    if ((reason == ForceReachedReason::reached) != bit_set) ++reason_violations;
+    cycles_settling += reason == ForceReachedReason::settling;
     const bool within = s.observer_force_lo_n >= 12.0 - cfg.force_tol_n &&
                         s.observer_force_hi_n <= 12.0 + cfg.force_tol_n && s.observer_basis != 1 &&
                         s.active_mode == 2;
@@ -231,6 +237,8 @@ TEST(Controller, ForceReachedMeansWithinTheToleranceForTheWholeDwell) {
   });
   EXPECT_GT(cycles_set, 100) << "the bit was never set: nothing was tested";
   EXPECT_EQ(violations, 0);
+  EXPECT_EQ(reason_violations, 0);
+  EXPECT_GT(cycles_settling, 0) << "the dwell never read settling";
   EXPECT_GE(first_set, cfg.settle_s);
 }
 
