@@ -317,7 +317,9 @@ constexpr std::array kRejects = std::to_array<Code>({
     {2, "in_fault", "command refused while a fault is latched"},
     {3, "force_beyond_safe_limit", "force setpoint beyond the safe fraction of peak force"},
     {4, "target_outside_stroke", "position setpoint outside the stroke"},
-    {5, "stopped", "execute refused while the stop bit is set"},
+    {5, "stopped",
+     "execute refused while the stop bit is set (over Modbus the write carrying both is refused "
+     "first: exception 03, write_refusal_reason 6)"},
     {6, "still_faulty", "fault reset refused: the cause is still present (resync first)"},
     {7, "not_stepped_out", "resync only after a step-out"},
     {8, "fault_returned",
