@@ -394,6 +394,40 @@ void check_turns_per_lead(const Recording& rec, const ActuatorParams& act) {
 
 }  // namespace
 
+// A recording's phase sits on the stable branch of some lead except while a step-out crosses it;
+// mostly elsewhere, it does not describe this coupling, and every force judged from it (and the
+// load cell against it) would be meaningless.
+void check_phase_on_branch(const Recording& rec, const ActuatorParams& act,
+                           const ForceCalibration& cal) {
+  constexpr double kMinOnBranch = 0.5;  // most samples: step-outs cross the branch only briefly
+  if (!rec.has("nut_pos_m") || (!rec.has("screw_angle_rad") && !rec.has("motor_angle_rad"))) return;
+  double lead_m = act.lead_m;
+  if (auto l = rec.meta("lead_m")) lead_m = std::strtod(l->c_str(), nullptr);
+  const auto theta = screw_angle_of(rec, act);
+  const auto& pos = rec.column("nut_pos_m");
+  const std::size_t n = pos.size(), stride = std::max<std::size_t>(1, n / 20000);
+  std::size_t on = 0, all = 0;
+  for (std::size_t i = 0; i < n; i += stride) {
+    const double phi =
+        std::remainder(theta[i] - 2 * std::numbers::pi * pos[i] / lead_m, 2 * std::numbers::pi);
+    if (!std::isfinite(phi)) continue;
+    ++all;
+    on += phi >= cal.stable_min_rad && phi <= cal.stable_max_rad;
+  }
+  if (!(lead_m > 0) || all == 0 ||
+      static_cast<double>(on) >= kMinOnBranch * static_cast<double>(all))
+    return;
+  char b[400];
+  std::snprintf(b, sizeof b,
+                "%s: the phase theta - 2 pi p / lead (lead %g m) lies on the coupling's stable "
+                "branch (%.2f .. %.2f rad) in %.0f %% of the samples; a nut cannot rest elsewhere: "
+                "the angle column is likely in another unit (degrees: x57.3), or lead_m or the "
+                "calibration is another actuator's",
+                rec.path.c_str(), lead_m, cal.stable_min_rad, cal.stable_max_rad,
+                100.0 * static_cast<double>(on) / static_cast<double>(all));
+  throw RecordingError(b);
+}
+
 Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
                                   const std::string& config_dir,
                                   const std::vector<std::string>& required,

@@ -132,6 +132,12 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
                                   const ColumnChoice& keep = {},
                                   const std::string& reader = "this command");
 
+/// Refuses an actuator recording whose phase θ − 2πp/L lies mostly off the calibration's stable
+/// branch (of any lead), where a nut cannot rest: its angle is in another unit (degrees), or its
+/// lead or calibration is another actuator's. For the commands that judge against the coupling.
+void check_phase_on_branch(const Recording& rec, const ActuatorParams& act,
+                           const ForceCalibration& cal);
+
 // The configuration readers (maglead/settings) by their short names, as every command uses them.
 using settings::config_file;
 using settings::controller_config_of;

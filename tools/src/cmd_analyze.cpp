@@ -192,6 +192,7 @@ void run_analyze(AnalyzeOptions o) {
                                                    : o.calibration);
   note("reading " + o.recording);
   const Recording rec = read_for_analysis(o, act, model, model_path);
+  check_phase_on_branch(rec, act, cal);
   StageProgress progress;
   o.a.progress = [&](const std::string& stage, double f) { progress(stage, f); };
   const auto result = analysis::analyze_recording(rec, model, cal, act, o.a);

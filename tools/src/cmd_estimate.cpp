@@ -150,6 +150,7 @@ void run_estimate(const EstimateOptions& o) {
   load_control_settings(o.config, c);
   const Recording rec = read_actuator_recording(o.recording, c.actuator, o.config,
                                                 {"t_s", "nut_pos_m", "load_force_n"});
+  check_phase_on_branch(rec, c.actuator, c.calibration);
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
   if (n < 2) throw RecordingError(o.recording + ": needs at least two samples");

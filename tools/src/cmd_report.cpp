@@ -94,6 +94,7 @@ void add_report(CLI::App& app) {
         o->calibration.empty() ? config_file(o->config, "calibration.toml") : o->calibration);
     const Recording rec =
         read_actuator_recording(o->recording, act, o->config, {"t_s", "nut_pos_m"});
+    check_phase_on_branch(rec, act, cal);
     twin::TwinMonitorConfig monitor = twin::load_monitor_config(o->config);
     monitor.actuator = act;
     monitor.calibration = cal;

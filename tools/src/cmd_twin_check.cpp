@@ -137,6 +137,7 @@ void run_twin_check(const TwinCheckOptions& o) {
   if (!o.model.empty()) tc.model = twin::load_twin_model(o.model);
   const Recording rec =
       read_actuator_recording(o.recording, tc.actuator, o.config, {"t_s", "nut_pos_m"});
+  check_phase_on_branch(rec, tc.actuator, tc.calibration);
   const auto& t = rec.column("t_s");
   const auto optional = [&](const char* name) {
     return rec.has(name) ? std::span<const double>(rec.column(name)) : std::span<const double>();
