@@ -214,6 +214,37 @@ TEST(Rotary, AHeaderOrColumnsThatDoNotSayRotaryAreAClearError) {
   EXPECT_NO_THROW(maglead::check_plausible_units(maglead::test::rotary_recording(d)));
 }
 
+// When header and model disagree, the columns the file has decide the fix: a linear axis's
+// columns with a rotary model want a linear model, not a header line; a rotary header on a linear
+// axis's columns, analysed with a linear model, wants the header line removed, not a rotary model.
+TEST(Rotary, AMismatchIsFixedTowardsTheColumnsTheFileHas) {
+  const RotaryDrive d;
+  const auto message = [](const maglead::Recording& rec, const ModelFile& m) -> std::string {
+    try {
+      analyze(rec, m);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  auto linear_columns = maglead::test::rotary_recording(d, false);
+  linear_columns.names = {"t_s", "pos_m", "drive_force_n", "ref_pos_m"};
+  ModelFile linear = rotary_model({"nut_mass_kg", "coulomb_n"});
+  linear.system = "axis";
+  const std::string rotary_model_on_linear =
+      message(linear_columns, rotary_model({"nut_mass_kg", "coulomb_n"}));
+  EXPECT_NE(rotary_model_on_linear.find("give a linear axis's model (system = \"axis\""),
+            std::string::npos)
+      << rotary_model_on_linear;
+  EXPECT_EQ(rotary_model_on_linear.find("add the header line"), std::string::npos)
+      << rotary_model_on_linear;
+  linear_columns.set_meta("axis", "rotary");
+  const std::string rotary_header = message(linear_columns, linear);
+  EXPECT_NE(rotary_header.find("remove the header line '# axis: rotary'"), std::string::npos)
+      << rotary_header;
+  EXPECT_EQ(rotary_header.find("give a rotary model"), std::string::npos) << rotary_header;
+}
+
 }  // namespace
 
 namespace {

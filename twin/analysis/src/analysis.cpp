@@ -1258,9 +1258,36 @@ std::string kind_columns(const effects::AxisKind& k) {
   return "t_s, " + std::string(k.position) + ", " + std::string(k.drive);
 }
 
+// The kind whose columns the recording has (nullptr: neither's). When header, model and columns
+// disagree the columns decide the fix: they are what was logged, a header line or a model file is
+// what was typed.
+const effects::AxisKind* logged_kind(const Recording& rec) {
+  for (const effects::AxisKind* k : {&effects::linear_axis(), &effects::rotary_axis()})
+    if (has_columns(rec, *k)) return k;
+  return nullptr;
+}
+
+std::string model_words(const effects::AxisKind& k) {
+  return std::string(k.name == "rotary" ? "a rotary model" : "a linear axis's model") +
+         " (system = \"" + std::string(k.system) + "\", " + k.name_of("nut_mass_kg") + ", " +
+         k.name_of("viscous_n_s_per_m") + ", " + k.name_of("coulomb_n") + ")";
+}
+
+// What to change so that the header and the model agree with the columns the file has.
+std::string agreeing_fix(const effects::AxisKind& logged, const effects::AxisKind& stated,
+                         const effects::AxisKind* modelled) {
+  std::string fix;
+  if (&logged != &stated)
+    fix = std::string(logged.name == "rotary" ? "add" : "remove") +
+          " the header line '# axis: rotary'";
+  if (modelled && modelled != &logged)
+    fix += (fix.empty() ? "give " : " and give ") + model_words(logged);
+  return fix;
+}
+
 // The kind the recording states (`# axis: rotary`; none: linear) must be the model's (system
-// "axis" or "rotary") and its columns must be there; an error says what to type, since a
-// recording with the other kind's columns is most likely a header line missing or too many.
+// "axis" or "rotary") and its columns must be there; an error says what to type, following the
+// columns the file has (a header line missing or too many, or the other kind's model).
 const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
   const std::string stated = rec.meta("axis").value_or("");
   const effects::AxisKind* kind = effects::axis_kind(stated);
@@ -1268,29 +1295,38 @@ const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
     throw std::invalid_argument(rec.path + ": header '# axis: " + stated +
                                 "' names no axis kind (expected linear or rotary)");
   const effects::AxisKind* modelled = effects::axis_kind_of_system(model.system);
+  const effects::AxisKind* logged = logged_kind(rec);
+  if (logged == kind && (!modelled || modelled == kind)) return *kind;
   const bool rotary = kind->name == "rotary";
-  if (modelled && modelled != kind)
+  if (logged && modelled && modelled == logged)  // the header alone is wrong
+    throw std::invalid_argument(
+        rec.path + ": the columns are a " + std::string(logged->name) + " axis's (" +
+        kind_columns(*logged) + "), as the model is, but " +
+        (rotary ? "the header says '# axis: rotary'" : "the header has no '# axis: rotary' line") +
+        ": " + agreeing_fix(*logged, *kind, modelled));
+  if (logged == kind)  // the model alone is wrong
+    throw std::invalid_argument(rec.path + ": the recording is a " + std::string(kind->name) +
+                                " axis (columns " + kind_columns(*kind) + ") but the model is a " +
+                                std::string(modelled->name) + " axis's (system = \"" +
+                                model.system + "\"): " + agreeing_fix(*logged, *kind, modelled));
+  if (!logged && modelled && modelled != kind)  // no columns to decide: header against model
     throw std::invalid_argument(
         rotary ? rec.path +
                      ": the recording is a rotary axis ('# axis: rotary') but the model is "
-                     "a linear axis's (system = \"axis\"): give a rotary model (system = "
-                     "\"rotary\", inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m)"
+                     "a linear axis's (system = \"axis\"): give " +
+                     model_words(effects::rotary_axis())
                : rec.path +
                      ": the model is a rotary axis's (system = \"rotary\") but the "
                      "recording does not say so: add the header line '# axis: rotary' "
                      "(columns " +
                      kind_columns(effects::rotary_axis()) + ")");
-  if (has_columns(rec, *kind)) return *kind;
-  const effects::AxisKind& other = rotary ? effects::linear_axis() : effects::rotary_axis();
   std::string msg = rec.path + ": a " + std::string(kind->name) + " axis needs the columns " +
                     kind_columns(*kind) + " (optional:";
   for (const auto c : kind->setpoints) msg += " " + std::string(c);
   msg += ")";
-  if (has_columns(rec, other))
-    msg += "; this recording has a " + std::string(other.name) + " axis's (" + kind_columns(other) +
-           "): " +
-           (rotary ? "remove the header line '# axis: rotary' and use a linear model"
-                   : "add the header line '# axis: rotary' and use a rotary model");
+  if (logged)
+    msg += "; this recording has a " + std::string(logged->name) + " axis's (" +
+           kind_columns(*logged) + "): " + agreeing_fix(*logged, *kind, modelled);
   throw RecordingError(msg);
 }
 
