@@ -245,6 +245,26 @@ TEST(Rotary, AMismatchIsFixedTowardsTheColumnsTheFileHas) {
   EXPECT_EQ(rotary_header.find("give a rotary model"), std::string::npos) << rotary_header;
 }
 
+// A rotary file whose angle is in degrees: the message lists the header's columns and says what
+// to convert, as a missing column of the actuator's does (recording.cpp, missing_column_detail).
+TEST(Rotary, AnAngleInDegreesIsNamedWithWhatToConvert) {
+  auto rec = maglead::test::rotary_recording(RotaryDrive{});
+  rec.names[1] = "angle_deg";
+  std::string e = "no error";
+  try {
+    analyze(rec, rotary_model({"nut_mass_kg", "coulomb_n"}));
+  } catch (const std::exception& x) {
+    e = x.what();
+  }
+  EXPECT_NE(e.find("(header has: t_s, angle_deg, drive_torque_n_m, ref_angle_rad)"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("'angle_deg' looks like angle_rad in another unit: convert it to radians and "
+                   "name it 'angle_rad'"),
+            std::string::npos)
+      << e;
+}
+
 }  // namespace
 
 namespace {
@@ -265,7 +285,8 @@ std::vector<std::string> kept(const std::vector<std::string>& names, const std::
 
 // `maglead analyze` stores only these columns (an hour at 1 kHz: 29 MB each): the actuator's
 // logged extras and a motor angle beside the screw's are left out, an axis keeps its kind's
-// setpoints, and the other kind's columns stay for kind_of's hint.
+// setpoints, and the other kind's columns stay for kind_of's hint; a stated axis with neither
+// kind's columns keeps them all.
 TEST(Rotary, ColumnsReadAreWhatTheAnalysisReads) {
   using V = std::vector<std::string>;
   EXPECT_EQ(kept({"t_s", "motor_angle_rad", "screw_angle_rad", "nut_pos_m", "load_force_n",
@@ -279,4 +300,8 @@ TEST(Rotary, ColumnsReadAreWhatTheAnalysisReads) {
             (V{"t_s", "angle_rad", "drive_torque_n_m", "torque_set_n_m", "ref_angle_rad"}));
   EXPECT_EQ(kept({"t_s", "pos_m", "drive_force_n", "pos_set_m"}, "rotary"),
             (V{"t_s", "pos_m", "drive_force_n", "pos_set_m"}));
+  // Neither kind's columns under '# axis:': all kept, for the refusal to list and to name
+  // angle_deg as angle_rad in another unit.
+  EXPECT_EQ(kept({"t_s", "angle_deg", "drive_torque_n_m", "ref_angle_rad"}, "rotary"),
+            (V{"t_s", "angle_deg", "drive_torque_n_m", "ref_angle_rad"}));
 }

@@ -1285,6 +1285,22 @@ std::string agreeing_fix(const effects::AxisKind& logged, const effects::AxisKin
   return fix;
 }
 
+// The stated kind's columns missing: which, the columns there are, and one that looks like a
+// missing column in another unit (angle_deg for angle_rad) with what to convert.
+std::string missing_columns_text(const Recording& rec, const effects::AxisKind& kind) {
+  std::string msg = rec.path + ": a " + std::string(kind.name) + " axis needs the columns " +
+                    kind_columns(kind) + " (optional:";
+  for (const auto c : kind.setpoints) msg += " " + std::string(c);
+  // With '# axis:' and neither kind's columns the reader keeps every column (columns_read).
+  const std::string listed = rec.meta("axis") && !logged_kind(rec) ? "header has" : "columns read";
+  const std::string list = missing_column_detail(rec.names, "", listed);
+  msg += ")" + list;
+  for (const auto c : {kind.position, kind.drive})
+    if (!rec.has(std::string(c)))
+      msg += missing_column_detail(rec.names, std::string(c), listed).substr(list.size());
+  return msg;
+}
+
 // The kind the recording states (`# axis: rotary`; none: linear) must be the model's (system
 // "axis" or "rotary") and its columns must be there; an error says what to type, following the
 // columns the file has (a header line missing or too many, or the other kind's model).
@@ -1320,10 +1336,7 @@ const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
                      "recording does not say so: add the header line '# axis: rotary' "
                      "(columns " +
                      kind_columns(effects::rotary_axis()) + ")");
-  std::string msg = rec.path + ": a " + std::string(kind->name) + " axis needs the columns " +
-                    kind_columns(*kind) + " (optional:";
-  for (const auto c : kind->setpoints) msg += " " + std::string(c);
-  msg += ")";
+  std::string msg = missing_columns_text(rec, *kind);
   if (logged)
     msg += "; this recording has a " + std::string(logged->name) + " axis's (" +
            kind_columns(*logged) + "): " + agreeing_fix(*logged, *kind, modelled);
@@ -1447,6 +1460,11 @@ std::vector<std::string> columns_read(const Recording& header) {
   // only where the kind's own columns are, as only then does the axis path get to them: an
   // actuator's pos_set_m (a linear axis's setpoint) is not read.
   cols.emplace_back("t_s");
+  // A stated axis with neither kind's columns is refused: its message lists the whole header
+  // and a column in another unit (angle_deg), so every column is kept for it.
+  if (header.meta("axis") && !has_columns(header, effects::linear_axis()) &&
+      !has_columns(header, effects::rotary_axis()))
+    cols.insert(cols.end(), header.names.begin(), header.names.end());
   for (const effects::AxisKind* kind : {&effects::linear_axis(), &effects::rotary_axis()}) {
     cols.emplace_back(kind->position);
     cols.emplace_back(kind->drive);
