@@ -11,6 +11,8 @@ same file without its '# axis: rotary' line is refused with what to add. analysi
 its schema (docs/schema/analysis.schema.json, system "rotary"). `report`, `twin-check` and
 `estimate`, the actuator's, refuse it with the analyze command to run instead. rotary_drive
 prints its usage for -h/--help and for bad use (exit 2) rather than writing a file of that name.
+The page (index.html) and the terminal speak of a shaft: torque in N·m, the law τ = -C ω, the
+method in torque and angle, the title "Model versus recording" (no twin).
 """
 import json, os, subprocess, sys
 
@@ -78,6 +80,19 @@ if "N·m·s/rad" not in j["headline"]:
     failures.append("headline without N·m·s/rad: " + j["headline"])
 if "inertia_kg_m2" not in j["final"].get("fitted_parameters", {}):
     failures.append(f"final fitted parameters {j['final'].get('fitted_parameters')}")
+# The page and the terminal speak of a shaft: torque in N·m, the law in τ and ω, no twin.
+page = open(os.path.join(out, "index.html"), encoding="utf-8").read()
+for text in ("Model versus recording: analysis", "τ = -C ω", "changes the torque by",
+             "N·m RMS", "Method: torque (inverse model: measured torque", "angle at 100 Hz"):
+    if text not in page:
+        failures.append(f"index.html lacks '{text}'")
+for text in ("Twin versus", "changes the force", "force it would explain", " N RMS",
+             "force error", "the nut", "F = -C v"):
+    if text in page:
+        failures.append(f"index.html on a rotary axis says '{text}'")
+for text in ("missing force", "F = -C v", " N RMS"):
+    if text in r.stdout:
+        failures.append(f"analyze prints '{text}' on a rotary axis: {r.stdout}")
 corrected = open(os.path.join(out, "model_corrected.toml")).read()
 for key in ("system = \"rotary\"", "inertia_kg_m2 =", "viscous_n_m_s_per_rad =", "coulomb_n_m ="):
     if key not in corrected:

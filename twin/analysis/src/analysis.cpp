@@ -755,14 +755,16 @@ std::string fmt(double v) {
 }
 
 void describe_method(Findings& J, const AxisRun& run) {
-  J.method.domain = "force (inverse model: measured force predicted from measured motion)";
-  J.method.filter = "4th-order Butterworth, zero phase (forward-backward), position at " +
-                    fmt(run.P.filter_hz) + " Hz; central differences";
+  J.method.domain =
+      run.kind.words("force (inverse model: measured force predicted from measured motion)");
+  J.method.filter = run.kind.words("4th-order Butterworth, zero phase (forward-backward), ") +
+                    std::string(run.kind.motion) + " at " + fmt(run.P.filter_hz) +
+                    " Hz; central differences";
   J.method.decimation = run.P.decimation;
   J.method.identification_bandwidth_hz = run.P.bandwidth_hz;
   J.method.folds = run.folds;
   J.method.selection = selection::describe(settings_of(run.opt)) +
-                       ", and explain more RMS than the force noise floor";
+                       run.kind.words(", and explain more RMS than the force noise floor");
   J.method.moving_only = "all samples";
   J.noise_floor_n = run.P.noise_floor_n;
 }
@@ -790,7 +792,8 @@ EffectFinding finding_of(const AxisRun& run, const selection::Found& f) {
   e.parameters = selection::parameters_of(f.params);
   e.standard_errors = selection::parameters_of(f.standard_errors);
   e.summary = summary_text(e.parameters, e.standard_errors);
-  e.where = "all samples; the missing force follows " + std::string(f.effect->law());
+  e.where =
+      run.kind.words("all samples; the missing force follows " + std::string(f.effect->law()));
   e.evidence.heldout_gain_pct = f.gain_pct;
   e.evidence.t_stat = f.t_stat;
   e.evidence.segments_improved =
@@ -1424,7 +1427,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   R.corrected = corrected_model(run, R.findings, p.final_fit);
   R.findings.twin_simulation = TwinSimulation{};
   R.findings.twin_simulation->reason =
-      "the twin models the magnetic actuator; this is a force-driven axis";
+      run.kind.words("the twin models the magnetic actuator; this is a force-driven axis");
   name_in_kind(R.findings, run.kind);
   run.progress("done", 1.0);
   return R;
