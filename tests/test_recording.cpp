@@ -70,8 +70,8 @@ TEST(Recording, MissingColumnListsTheColumnsAndOneInAnotherUnit) {
   const auto mm = write_file("mm.csv", "# format: mls-recording/1\nt_s,nut_pos_mm\n0,0\n");
   const std::string e = error_of(mm, {"t_s", "nut_pos_m"});
   EXPECT_NE(e.find("(header has: t_s, nut_pos_mm)"), std::string::npos) << e;
-  EXPECT_NE(e.find("'nut_pos_mm' looks like it in another unit: convert it to metres and name it "
-                   "'nut_pos_m'"),
+  EXPECT_NE(e.find("'nut_pos_mm' looks like nut_pos_m in another unit: convert it to metres and "
+                   "name it 'nut_pos_m'"),
             std::string::npos)
       << e;
   const auto bare = write_file("bare.csv", "# format: mls-recording/1\nt_s,load_force\n0,0\n");

@@ -2,6 +2,7 @@
 #include "maglead/effects/axis_kind.hpp"
 
 #include <array>
+#include <cctype>
 #include <utility>
 
 #include "maglead/effects/effect.hpp"
@@ -39,7 +40,52 @@ std::string rotary_name(std::string_view n) {
   return std::string(n);
 }
 
+// A shaft's word or symbol for the nut's: whole words, and a law's symbols before a subscript
+// (F_c is τ_c). Words with units in them (`nut_mass_kg`) are names, renamed by name_of.
+std::string_view rotary_word(std::string_view w) {
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 11> kWords{
+      {{"force", "torque"},
+       {"forces", "torques"},
+       {"Force", "Torque"},
+       {"nut", "shaft"},
+       {"slides", "turns"},
+       {"mass", "inertia"},
+       {"position", "angle"},
+       {"F", "τ"},
+       {"M", "J"},
+       {"v", "ω"},
+       {"p", "θ"}}};
+  for (const auto& [from, to] : kWords)
+    if (w == from) return to;
+  return w;
+}
+
+bool word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_'; }
+
 }  // namespace
+
+std::string AxisKind::words(std::string_view text) const {
+  if (name != "rotary") return std::string(text);
+  std::string out;
+  for (std::size_t i = 0; i < text.size();) {
+    if (!word_char(text[i])) {
+      out += text[i++];
+      continue;
+    }
+    std::size_t end = i;
+    while (end < text.size() && word_char(text[end])) ++end;
+    const std::string_view word = text.substr(i, end - i);
+    const std::size_t sub = word.find('_');
+    // A one-letter symbol with a subscript (F_c, v_s) is the symbol's; other words with '_' are
+    // names.
+    if (sub == 1)
+      out += std::string(rotary_word(word.substr(0, 1))) + std::string(word.substr(1));
+    else
+      out += sub == std::string_view::npos ? rotary_word(word) : word;
+    i = end;
+  }
+  return out;
+}
 
 std::string AxisKind::name_of(std::string_view unit_name) const {
   return name == "rotary" ? rotary_name(unit_name) : std::string(unit_name);

@@ -81,8 +81,8 @@ std::string missing_column_detail(const std::vector<std::string>& names, const s
       return out + "; '" + n + "' has no unit in its name: if it is in " + units + ", name it '" +
              wanted + "' (docs/recording-format.md)";
     if (lower(quantity_of(n)) == lower(quantity) && n != wanted)
-      return out + "; '" + n + "' looks like it in another unit: convert it to " + units +
-             " and name it '" + wanted + "' (units are SI: docs/recording-format.md)";
+      return out + "; '" + n + "' looks like " + wanted + " in another unit: convert it to " +
+             units + " and name it '" + wanted + "' (units are SI: docs/recording-format.md)";
   }
   return out;
 }

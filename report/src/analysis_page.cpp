@@ -78,17 +78,20 @@ std::string headline_paragraph(const std::string& headline) {
 
 std::string page(const AnalysisOutcome& o, const std::string& out_dir) {
   const auto& F = o.result->findings;
+  // An axis (linear or rotary) is compared with its model; only the actuator has a twin.
+  const bool axis = effects::axis_kind_of_system(F.system) != nullptr;
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html lang=\"en\"><head>"
     << page_head("maglead analysis: " + fs::path(F.recording).filename().string())
-    << "</head>\n<body>\n<h1>Twin versus recording: analysis</h1>\n"
+    << "</head>\n<body>\n<h1>" << (axis ? "Model" : "Twin") << " versus recording: analysis</h1>\n"
     << headline_paragraph(o.result->headline) << intro(F) << physics_section(o, 1)
     << "<h2 id=\"fit\">2. The fit before and after</h2>\n"
     << fit_part(o) << validation_table(F) << twin_text(F)
     << "<p>The corrected model is written to <code>model_corrected.toml</code>.</p>\n"
     << "<h2 id=\"events\">3. Events</h2>\n";
   const std::string events = analysis_events(o);
-  h << (events.empty() ? "<p>No force pulses.</p>\n" : events);
+  h << (events.empty() ? "<p>No " + std::string(axis_words(F).quantity) + " pulses.</p>\n"
+                       : events);
   const std::string figures = analysis_figures(o, out_dir);
   if (!figures.empty()) h << "<h2 id=\"maps\">4. Maps and figures</h2>\n" << figures;
   h << method_text(F) << time_chart_tail() << "</body></html>\n";

@@ -40,8 +40,12 @@ figcaption{color:#444;font-size:.92em;margin-bottom:4px}
 
 using Status = AnalysisOutcome::Status;
 
+std::string quantity(const effects::AxisKind& k) { return std::string(k.quantity); }
+std::string unit(const effects::AxisKind& k) { return std::string(k.drive_unit); }
+
 // One line per parameter, by name (as analysis.json has them), with its standard error if any.
-std::string parameters_html(const std::string& id, const analysis::Parameters& params,
+std::string parameters_html(const effects::AxisKind& kind, const std::string& id,
+                            const analysis::Parameters& params,
                             const analysis::Parameters& errors = {},
                             const analysis::Parameters& calibration_errors = {}) {
   std::vector<const analysis::Parameter*> sorted;
@@ -50,7 +54,7 @@ std::string parameters_html(const std::string& id, const analysis::Parameters& p
   std::string h;
   for (const auto* p : sorted) {
     const double se = analysis::parameter_value(errors, p->name, 0.0);
-    h += (h.empty() ? "" : "<br>") + parameter_html(id, p->name, p->value, se);
+    h += (h.empty() ? "" : "<br>") + parameter_html(id, p->name, p->value, se, kind);
     // Beside fitted values, one without an error was scanned on a grid or held at the model's.
     if (!errors.empty() && analysis::value_with_error(p->value, se).empty())
       h += " <span class=\"meaning\">(no standard error: scanned on a grid or held at the model's "
@@ -71,29 +75,30 @@ std::string evidence_text(const analysis::EffectFinding& e) {
   return s;
 }
 
-// The force a finding changes beside what it had to exceed, as `analyze` prints it.
-std::string floors_text(const analysis::Evidence& ev) {
+// The force (torque) a finding changes beside what it had to exceed, as `analyze` prints it.
+std::string floors_text(const analysis::Evidence& ev, const effects::AxisKind& kind) {
   if (!ev.explained_rms_n) return "";
-  std::string s = "changes the force by " + number(*ev.explained_rms_n, 4) + " N RMS";
-  if (ev.resolution_floor_n)
-    s += "; the recording resolves " + number(*ev.resolution_floor_n) + " N";
-  if (ev.minimum_n) s += ", the stated minimum " + number(*ev.minimum_n) + " N";
+  const std::string u = " " + unit(kind);
+  std::string s =
+      "changes the " + quantity(kind) + " by " + number(*ev.explained_rms_n, 4) + u + " RMS";
+  if (ev.resolution_floor_n) s += "; the recording resolves " + number(*ev.resolution_floor_n) + u;
+  if (ev.minimum_n) s += ", the stated minimum " + number(*ev.minimum_n) + u;
   return s;
 }
 
-std::string effect_row(const analysis::EffectFinding& e) {
-  std::string h = "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" +
-                  escape_html(e.id) + "</code></td><td>" + escape_html(effect_law(e.id)) +
-                  "</td><td>" +
-                  parameters_html(e.id, e.parameters, e.standard_errors, e.calibration_errors) +
-                  "</td><td>" + escape_html(e.where);
+std::string effect_row(const analysis::EffectFinding& e, const effects::AxisKind& kind) {
+  std::string h =
+      "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" + escape_html(e.id) +
+      "</code></td><td>" + escape_html(effect_law(e.id, kind)) + "</td><td>" +
+      parameters_html(kind, e.id, e.parameters, e.standard_errors, e.calibration_errors) +
+      "</td><td>" + escape_html(e.where);
   if (!e.finding.empty()) h += "<br>" + escape_html(e.finding);
   if (const auto ev = evidence_text(e); !ev.empty()) h += "<br>" + escape_html(ev);
-  if (const auto f = floors_text(e.evidence); !f.empty()) h += "<br>" + escape_html(f);
+  if (const auto f = floors_text(e.evidence, kind); !f.empty()) h += "<br>" + escape_html(f);
   for (const auto& alt : e.alternatives)
     h += "<br>alternative: <b>" + escape_html(effect_title(alt.id)) + "</b> " +
-         parameters_html(alt.id, alt.parameters) + " (reproduces " + number(alt.explains_pct) +
-         " %)";
+         parameters_html(kind, alt.id, alt.parameters) + " (reproduces " +
+         number(alt.explains_pct) + " %)";
   return h + "</td></tr>\n";
 }
 
@@ -105,16 +110,16 @@ std::string where_list(const analysis::AnalysisResult& r) {
   return h + "</ul>\n";
 }
 
-// The missing force over time, on the same time axis as the page's other plots.
+// The missing force (torque) over time, on the same time axis as the page's other plots.
 std::string fit_chart(const analysis::AnalysisResult& r) {
   const auto& fit = r.fit_over_time;
   if (fit.curves.empty() || fit.curves.front().x.size() < 2) return "";
   TimeChart c;
   c.id = "fit";
   c.title = fit.title;
-  c.caption =
-      "The force the model leaves out at the samples the analysis fits, before and after the "
-      "effects it found.";
+  c.caption = "The " + quantity(axis_words(r.findings)) +
+              " the model leaves out at the samples the analysis fits, before and after the "
+              "effects it found.";
   c.y_label = fit.y_label;
   c.t_s = &fit.curves.front().x;
   for (const auto& curve : fit.curves) c.series.push_back({curve.label, curve.y});
@@ -134,13 +139,13 @@ std::string fit_table(const analysis::Findings& F) {
     ho_before = F.validation.front().heldout_rms_n;
     ho_after = F.validation.back().heldout_rms_n;
   }
-  const std::string u(effects::drive_unit_of_system(F.system));  // a rotary axis's: N·m
+  const std::string u = unit(axis_words(F)), q = quantity(axis_words(F));
   if (F.samples_used == 0)
     return "<p>No fit: no sample was used (" + escape_html(F.sliding_note) + ").</p>\n";
   if (F.effects.empty())
-    return "<p>One fit, since nothing was added: the model's force error is " + rms(F.baseline) +
-           " " + u + " RMS (" + rel(F.baseline) + " % of the force).</p>\n";
-  return "<table><tr><th>model</th><th>force error RMS [" + u +
+    return "<p>One fit, since nothing was added: the model's " + q + " error is " +
+           rms(F.baseline) + " " + u + " RMS (" + rel(F.baseline) + " % of the " + q + ").</p>\n";
+  return "<table><tr><th>model</th><th>" + q + " error RMS [" + u +
          "]</th><th>relative error [%]</th><th>held-out RMS [" + u +
          "]</th></tr>\n<tr><td>before (the model as configured)</td><td>" + rms(F.baseline) +
          "</td><td>" + rel(F.baseline) + "</td>" + heldout_cell(ho_before) +
@@ -160,16 +165,18 @@ std::string unexplained_box(const analysis::Findings& F) {
 // threshold, those the backward check dropped, those refused in the final fit).
 std::string left_out_table(const analysis::Findings& F) {
   if (F.not_selected.empty()) return "";
+  const effects::AxisKind& kind = axis_words(F);
   std::string h =
       "<p>Considered and left out:</p>\n<table id=\"left-out\"><tr><th>effect</th><th>why</th>"
-      "<th>held-out gain [%]</th><th>t</th><th>force it would explain [N RMS]</th>"
-      "<th>parameters</th></tr>\n";
+      "<th>held-out gain [%]</th><th>t</th><th>" +
+      quantity(kind) + " it would explain [" + unit(kind) + " RMS]</th><th>parameters</th></tr>\n";
   for (const auto& r : F.not_selected)
     h += "<tr><td>" + escape_html(effect_title(r.id)) + "<br><code>" + escape_html(r.id) +
          "</code></td><td>" + escape_html(r.reason.value_or("")) + "</td><td>" +
          fixed(r.heldout_gain_pct, 2) + "</td><td>" + fixed(r.t_stat, 2) + "</td><td>" +
          (r.explained_rms_n ? fixed(*r.explained_rms_n, 3) : std::string("–")) + "</td><td>" +
-         (r.parameters ? parameters_html(r.id, *r.parameters) : std::string("–")) + "</td></tr>\n";
+         (r.parameters ? parameters_html(kind, r.id, *r.parameters) : std::string("–")) +
+         "</td></tr>\n";
   return h + "</table>\n";
 }
 
@@ -204,6 +211,11 @@ plot::HeatMap heatmap_of(const analysis::Grid& g) {
 
 }  // namespace
 
+const effects::AxisKind& axis_words(const analysis::Findings& F) {
+  const effects::AxisKind* k = effects::axis_kind_of_system(F.system);
+  return k ? *k : effects::linear_axis();
+}
+
 std::string page_head(const std::string& title) {
   return "<meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, "
          "initial-scale=1\">\n<title>" +
@@ -219,6 +231,7 @@ std::string physics_section(const AnalysisOutcome& o, int number) {
     return h + "<p>The analysis could not run on this recording: " + escape_html(o.reason) +
            "</p>\n";
   const auto& F = o.result->findings;
+  const effects::AxisKind& kind = axis_words(F);
   const std::string note =
       F.sliding_note.empty()
           ? ""
@@ -228,19 +241,19 @@ std::string physics_section(const AnalysisOutcome& o, int number) {
   if (F.effects.empty() && F.unexplained) return h + after;
   if (F.effects.empty() && F.conclusion.rfind("not judged", 0) == 0)
     return h + "<p class=\"unjudged\">" + escape_html(F.conclusion) +
-           ": the model is not judged, and stays as it is; a recording where the nut slides "
-           "(moves, "
-           "force steps) can judge it.</p>\n" +
-           after;
+           escape_html(kind.words(": the model is not judged, and stays as it is; a recording "
+                                  "where the nut slides (moves, force steps) can judge it.")) +
+           "</p>\n" + after;
   if (F.effects.empty())
     return h +
            "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
-           "significant part of the held-out force error, so the model stays as it is.</p>\n" +
-           after;
-  h += "<p>The analysis compared the model with the recording in the force domain and names what "
-       "it lacks (effects, laws and parameter names of docs/effects.md):</p>\n<table><tr>"
-       "<th>effect</th><th>law</th><th>parameters</th><th>where, evidence</th></tr>\n";
-  for (const auto& e : F.effects) h += effect_row(e);
+           "significant part of the held-out " +
+           quantity(kind) + " error, so the model stays as it is.</p>\n" + after;
+  h += "<p>The analysis compared the model with the recording in the " + quantity(kind) +
+       " domain and names what it lacks (effects, laws and parameter names of "
+       "docs/effects.md):</p>\n<table><tr><th>effect</th><th>law</th><th>parameters</th>"
+       "<th>where, evidence</th></tr>\n";
+  for (const auto& e : F.effects) h += effect_row(e, kind);
   return h + "</table>\n" + after;
 }
 
@@ -250,7 +263,8 @@ std::string fit_part(const AnalysisOutcome& o) {
   std::string totals;
   if (!fitted.summary.empty())
     totals = "<p>The model's own values as fitted: " +
-             parameters_html("", fitted.fitted_parameters.value_or(analysis::Parameters{}),
+             parameters_html(axis_words(o.result->findings), "",
+                             fitted.fitted_parameters.value_or(analysis::Parameters{}),
                              fitted.standard_errors) +
              "</p>\n";
   return fit_table(o.result->findings) + totals + fit_chart(*o.result) +
@@ -266,9 +280,9 @@ std::string analysis_events(const AnalysisOutcome& o) {
          "</td><td>" + number(e.force_n.value_or(NAN)) + "</td></tr>\n";
   }
   if (h.empty()) return "";
-  const std::string u(effects::drive_unit_of_system(o.result->findings.system));
-  return "<table><tr><th>force pulse at [s]</th><th>lasting [s]</th><th>force [" + u +
-         "]</th></tr>\n" + h + "</table>\n";
+  const effects::AxisKind& kind = axis_words(o.result->findings);
+  return "<table><tr><th>" + quantity(kind) + " pulse at [s]</th><th>lasting [s]</th><th>" +
+         quantity(kind) + " [" + unit(kind) + "]</th></tr>\n" + h + "</table>\n";
 }
 
 std::string analysis_figures(const AnalysisOutcome& o, const std::string& out_dir) {

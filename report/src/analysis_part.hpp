@@ -4,9 +4,14 @@
 // tables and interactive fit chart in both.
 #include <string>
 
+#include "maglead/effects/axis_kind.hpp"
 #include "maglead/report/anomaly_page.hpp"
 
 namespace maglead::report {
+
+/// The axis kind whose words and units the findings are shown in (a rotary axis's torques in
+/// N·m, its laws in θ and τ); the actuator's are a linear axis's.
+const effects::AxisKind& axis_words(const analysis::Findings& F);
 
 /// <head> content both pages share: charset, viewport, title, style and dygraphs.
 std::string page_head(const std::string& title);

@@ -8,8 +8,10 @@
 namespace maglead::report {
 namespace {
 
-// The library's meaning without a trailing "[unit]" (the unit is printed with the value).
-std::string meaning_of(const std::string& effect_id, const std::string& name) {
+// The library's meaning without a trailing "[unit]" (the unit is printed with the value), in
+// the kind's words.
+std::string meaning_of(const std::string& effect_id, const std::string& name,
+                       const effects::AxisKind& kind) {
   const auto* e = effects::find(effect_id);
   if (!e) return "";
   for (const auto& p : e->params()) {
@@ -17,7 +19,7 @@ std::string meaning_of(const std::string& effect_id, const std::string& name) {
     if (p.name != name && effects::rotary_axis().name_of(p.name) != name) continue;
     std::string m = p.meaning;
     if (const auto bracket = m.find(" ["); bracket != std::string::npos) m.erase(bracket);
-    return m;
+    return kind.words(m);
   }
   return "";
 }
@@ -31,14 +33,15 @@ std::string effect_title(const std::string& id) {
   return t;
 }
 
-std::string effect_law(const std::string& id) {
+std::string effect_law(const std::string& id, const effects::AxisKind& kind) {
   const auto* e = effects::find(id);
-  return e ? std::string(e->law()) : std::string();
+  return e ? kind.words(e->law()) : std::string();
 }
 
 std::string parameter_html(const std::string& effect_id, const std::string& name, double value,
-                           double standard_error) {
-  const std::string unit = analysis::unit_of_parameter(name), meaning = meaning_of(effect_id, name);
+                           double standard_error, const effects::AxisKind& kind) {
+  const std::string unit = analysis::unit_of_parameter(name),
+                    meaning = meaning_of(effect_id, name, kind);
   std::string shown = analysis::value_with_error(value, standard_error);
   if (shown.empty()) shown = number(value, 3);
   if (shown.front() == '-') shown.replace(0, 1, "−");

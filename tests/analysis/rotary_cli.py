@@ -9,12 +9,28 @@ viscous_n_m_s_per_rad, the headline prints N·m·s/rad, and model_corrected.toml
 names (inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m) and is read back by the analysis. The
 same file without its '# axis: rotary' line is refused with what to add. analysis.json keeps to
 its schema (docs/schema/analysis.schema.json, system "rotary"). `report`, `twin-check` and
-`estimate`, the actuator's, refuse it with the analyze command to run instead.
+`estimate`, the actuator's, refuse it with the analyze command to run instead. rotary_drive
+prints its usage for -h/--help and for bad use (exit 2) rather than writing a file of that name.
+The page (index.html) and the terminal speak of a shaft: torque in N·m, the law τ = -C ω, the
+method in torque and angle, the title "Model versus recording" (no twin).
 """
 import json, os, subprocess, sys
 
 exe, drive, work = sys.argv[1:4]
 os.makedirs(work, exist_ok=True)
+failures = []
+
+# rotary_drive itself: -h/--help prints its usage; a missing or odd argument is bad use (exit 2),
+# never a recording written under the option's name.
+for args, code in ((["--help"], 0), (["-h"], 0), ([], 2), (["-x"], 2), (["a.csv", "b", "c"], 2),
+                   (["a.csv", "fast"], 2)):
+    r = subprocess.run([drive] + args, cwd=work, capture_output=True, text=True)
+    if r.returncode != code or "usage: rotary_drive OUT.csv" not in r.stdout + r.stderr:
+        failures.append(f"rotary_drive {args}: exit {r.returncode}, {r.stdout + r.stderr!r}")
+    for name in args:
+        if os.path.exists(os.path.join(work, name)):
+            failures.append(f"rotary_drive {args} wrote '{name}'")
+            os.remove(os.path.join(work, name))
 VISCOUS = 2e-3  # the drive's b, N·m·s/rad (rotary_drive.hpp's default)
 rec = os.path.join(work, "servo.csv")
 subprocess.run([drive, rec, repr(VISCOUS)], check=True)
@@ -30,7 +46,6 @@ def analyse(recording, out, baseline):
                            "--out", out], capture_output=True, text=True)
 
 
-failures = []
 out = os.path.join(work, "out")
 r = analyse(rec, out, model)
 if r.returncode != 0:
@@ -52,10 +67,32 @@ try:
     jsonschema.Draft202012Validator(schema).validate(j)
 except jsonschema.ValidationError as e:
     failures.append(f"analysis.json against its schema: {e.message}")
+# docs/analysis.md quotes this drive's headline (seed 1, b as here): it is what analyze prints.
+doc = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "docs",
+                        "analysis.md"), encoding="utf-8").read()
+quoted = ("`viscous_n_m_s_per_rad 0.001981 ± 0.000012 N·m·s/rad (model 0 N·m·s/rad), or "
+          "asymmetric_friction (the data cannot tell them apart)`")
+if " ".join(quoted.split()) not in " ".join(doc.split()):
+    failures.append("docs/analysis.md no longer quotes the rotary headline " + quoted)
+elif quoted.strip("`") not in j["headline"]:
+    failures.append("docs/analysis.md quotes " + quoted + ", analyze prints " + j["headline"])
 if "N·m·s/rad" not in j["headline"]:
     failures.append("headline without N·m·s/rad: " + j["headline"])
 if "inertia_kg_m2" not in j["final"].get("fitted_parameters", {}):
     failures.append(f"final fitted parameters {j['final'].get('fitted_parameters')}")
+# The page and the terminal speak of a shaft: torque in N·m, the law in τ and ω, no twin.
+page = open(os.path.join(out, "index.html"), encoding="utf-8").read()
+for text in ("Model versus recording: analysis", "τ = -C ω", "changes the torque by",
+             "N·m RMS", "Method: torque (inverse model: measured torque", "angle at 100 Hz"):
+    if text not in page:
+        failures.append(f"index.html lacks '{text}'")
+for text in ("Twin versus", "changes the force", "force it would explain", " N RMS",
+             "force error", "the nut", "F = -C v"):
+    if text in page:
+        failures.append(f"index.html on a rotary axis says '{text}'")
+for text in ("missing force", "F = -C v", " N RMS"):
+    if text in r.stdout:
+        failures.append(f"analyze prints '{text}' on a rotary axis: {r.stdout}")
 corrected = open(os.path.join(out, "model_corrected.toml")).read()
 for key in ("system = \"rotary\"", "inertia_kg_m2 =", "viscous_n_m_s_per_rad =", "coulomb_n_m ="):
     if key not in corrected:

@@ -214,6 +214,57 @@ TEST(Rotary, AHeaderOrColumnsThatDoNotSayRotaryAreAClearError) {
   EXPECT_NO_THROW(maglead::check_plausible_units(maglead::test::rotary_recording(d)));
 }
 
+// When header and model disagree, the columns the file has decide the fix: a linear axis's
+// columns with a rotary model want a linear model, not a header line; a rotary header on a linear
+// axis's columns, analysed with a linear model, wants the header line removed, not a rotary model.
+TEST(Rotary, AMismatchIsFixedTowardsTheColumnsTheFileHas) {
+  const RotaryDrive d;
+  const auto message = [](const maglead::Recording& rec, const ModelFile& m) -> std::string {
+    try {
+      analyze(rec, m);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  auto linear_columns = maglead::test::rotary_recording(d, false);
+  linear_columns.names = {"t_s", "pos_m", "drive_force_n", "ref_pos_m"};
+  ModelFile linear = rotary_model({"nut_mass_kg", "coulomb_n"});
+  linear.system = "axis";
+  const std::string rotary_model_on_linear =
+      message(linear_columns, rotary_model({"nut_mass_kg", "coulomb_n"}));
+  EXPECT_NE(rotary_model_on_linear.find("give a linear axis's model (system = \"axis\""),
+            std::string::npos)
+      << rotary_model_on_linear;
+  EXPECT_EQ(rotary_model_on_linear.find("add the header line"), std::string::npos)
+      << rotary_model_on_linear;
+  linear_columns.set_meta("axis", "rotary");
+  const std::string rotary_header = message(linear_columns, linear);
+  EXPECT_NE(rotary_header.find("remove the header line '# axis: rotary'"), std::string::npos)
+      << rotary_header;
+  EXPECT_EQ(rotary_header.find("give a rotary model"), std::string::npos) << rotary_header;
+}
+
+// A rotary file whose angle is in degrees: the message lists the header's columns and says what
+// to convert, as a missing column of the actuator's does (recording.cpp, missing_column_detail).
+TEST(Rotary, AnAngleInDegreesIsNamedWithWhatToConvert) {
+  auto rec = maglead::test::rotary_recording(RotaryDrive{});
+  rec.names[1] = "angle_deg";
+  std::string e = "no error";
+  try {
+    analyze(rec, rotary_model({"nut_mass_kg", "coulomb_n"}));
+  } catch (const std::exception& x) {
+    e = x.what();
+  }
+  EXPECT_NE(e.find("(header has: t_s, angle_deg, drive_torque_n_m, ref_angle_rad)"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("'angle_deg' looks like angle_rad in another unit: convert it to radians and "
+                   "name it 'angle_rad'"),
+            std::string::npos)
+      << e;
+}
+
 }  // namespace
 
 namespace {
@@ -234,7 +285,8 @@ std::vector<std::string> kept(const std::vector<std::string>& names, const std::
 
 // `maglead analyze` stores only these columns (an hour at 1 kHz: 29 MB each): the actuator's
 // logged extras and a motor angle beside the screw's are left out, an axis keeps its kind's
-// setpoints, and the other kind's columns stay for kind_of's hint.
+// setpoints, and the other kind's columns stay for kind_of's hint; a stated axis with neither
+// kind's columns keeps them all.
 TEST(Rotary, ColumnsReadAreWhatTheAnalysisReads) {
   using V = std::vector<std::string>;
   EXPECT_EQ(kept({"t_s", "motor_angle_rad", "screw_angle_rad", "nut_pos_m", "load_force_n",
@@ -248,4 +300,8 @@ TEST(Rotary, ColumnsReadAreWhatTheAnalysisReads) {
             (V{"t_s", "angle_rad", "drive_torque_n_m", "torque_set_n_m", "ref_angle_rad"}));
   EXPECT_EQ(kept({"t_s", "pos_m", "drive_force_n", "pos_set_m"}, "rotary"),
             (V{"t_s", "pos_m", "drive_force_n", "pos_set_m"}));
+  // Neither kind's columns under '# axis:': all kept, for the refusal to list and to name
+  // angle_deg as angle_rad in another unit.
+  EXPECT_EQ(kept({"t_s", "angle_deg", "drive_torque_n_m", "ref_angle_rad"}, "rotary"),
+            (V{"t_s", "angle_deg", "drive_torque_n_m", "ref_angle_rad"}));
 }

@@ -114,6 +114,26 @@ TEST(EffectText, EveryLibraryParameterHasItsUnit) {
   EXPECT_EQ(effect_title("stribeck_friction"), "stribeck friction");
 }
 
+// On a rotary axis the laws and meanings are a shaft's (effects/axis_kind.hpp, AxisKind::words):
+// a torque τ on the shaft along +θ, speed ω; a linear axis keeps the library's text, and names
+// with units in them are left to name_of.
+TEST(EffectText, ARotaryAxisSpeaksOfTorqueAndAngle) {
+  const auto& rotary = effects::rotary_axis();
+  EXPECT_EQ(effect_law("viscous_friction", rotary), "τ = -C ω");
+  EXPECT_EQ(effect_law("viscous_friction"), "F = -C v");
+  EXPECT_EQ(effect_law("asymmetric_friction", rotary),
+            "τ_f = τ_c+ (ω > 0), -τ_c- (ω < 0); break-away likewise");
+  EXPECT_NE(parameter_html("offset", "offset_n_m", 0.1, 0.0, rotary)
+                .find("(constant torque on the shaft along +θ)"),
+            std::string::npos);
+  EXPECT_NE(parameter_html("asymmetric_friction", "coulomb_neg_n_m", 0.1, 0.0, rotary)
+                .find("(friction moving -θ)"),
+            std::string::npos);
+  EXPECT_NE(parameter_html("offset", "offset_n", 0.1).find("(constant force on the nut along +p)"),
+            std::string::npos);
+  EXPECT_EQ(rotary.words("nut_mass_kg: moving mass M"), "nut_mass_kg: moving inertia J");
+}
+
 // A parameter with its standard error is shown at the digits the error allows, as analyze prints
 // it; a grid value (no error) as before.
 TEST(EffectText, ParameterWithItsStandardErrorAtItsDigits) {

@@ -755,14 +755,16 @@ std::string fmt(double v) {
 }
 
 void describe_method(Findings& J, const AxisRun& run) {
-  J.method.domain = "force (inverse model: measured force predicted from measured motion)";
-  J.method.filter = "4th-order Butterworth, zero phase (forward-backward), position at " +
-                    fmt(run.P.filter_hz) + " Hz; central differences";
+  J.method.domain =
+      run.kind.words("force (inverse model: measured force predicted from measured motion)");
+  J.method.filter = run.kind.words("4th-order Butterworth, zero phase (forward-backward), ") +
+                    std::string(run.kind.motion) + " at " + fmt(run.P.filter_hz) +
+                    " Hz; central differences";
   J.method.decimation = run.P.decimation;
   J.method.identification_bandwidth_hz = run.P.bandwidth_hz;
   J.method.folds = run.folds;
   J.method.selection = selection::describe(settings_of(run.opt)) +
-                       ", and explain more RMS than the force noise floor";
+                       run.kind.words(", and explain more RMS than the force noise floor");
   J.method.moving_only = "all samples";
   J.noise_floor_n = run.P.noise_floor_n;
 }
@@ -790,7 +792,8 @@ EffectFinding finding_of(const AxisRun& run, const selection::Found& f) {
   e.parameters = selection::parameters_of(f.params);
   e.standard_errors = selection::parameters_of(f.standard_errors);
   e.summary = summary_text(e.parameters, e.standard_errors);
-  e.where = "all samples; the missing force follows " + std::string(f.effect->law());
+  e.where =
+      run.kind.words("all samples; the missing force follows " + std::string(f.effect->law()));
   e.evidence.heldout_gain_pct = f.gain_pct;
   e.evidence.t_stat = f.t_stat;
   e.evidence.segments_improved =
@@ -1258,9 +1261,52 @@ std::string kind_columns(const effects::AxisKind& k) {
   return "t_s, " + std::string(k.position) + ", " + std::string(k.drive);
 }
 
+// The kind whose columns the recording has (nullptr: neither's). When header, model and columns
+// disagree the columns decide the fix: they are what was logged, a header line or a model file is
+// what was typed.
+const effects::AxisKind* logged_kind(const Recording& rec) {
+  for (const effects::AxisKind* k : {&effects::linear_axis(), &effects::rotary_axis()})
+    if (has_columns(rec, *k)) return k;
+  return nullptr;
+}
+
+std::string model_words(const effects::AxisKind& k) {
+  return std::string(k.name == "rotary" ? "a rotary model" : "a linear axis's model") +
+         " (system = \"" + std::string(k.system) + "\", " + k.name_of("nut_mass_kg") + ", " +
+         k.name_of("viscous_n_s_per_m") + ", " + k.name_of("coulomb_n") + ")";
+}
+
+// What to change so that the header and the model agree with the columns the file has.
+std::string agreeing_fix(const effects::AxisKind& logged, const effects::AxisKind& stated,
+                         const effects::AxisKind* modelled) {
+  std::string fix;
+  if (&logged != &stated)
+    fix = std::string(logged.name == "rotary" ? "add" : "remove") +
+          " the header line '# axis: rotary'";
+  if (modelled && modelled != &logged)
+    fix += (fix.empty() ? "give " : " and give ") + model_words(logged);
+  return fix;
+}
+
+// The stated kind's columns missing: which, the columns there are, and one that looks like a
+// missing column in another unit (angle_deg for angle_rad) with what to convert.
+std::string missing_columns_text(const Recording& rec, const effects::AxisKind& kind) {
+  std::string msg = rec.path + ": a " + std::string(kind.name) + " axis needs the columns " +
+                    kind_columns(kind) + " (optional:";
+  for (const auto c : kind.setpoints) msg += " " + std::string(c);
+  // With '# axis:' and neither kind's columns the reader keeps every column (columns_read).
+  const std::string listed = rec.meta("axis") && !logged_kind(rec) ? "header has" : "columns read";
+  const std::string list = missing_column_detail(rec.names, "", listed);
+  msg += ")" + list;
+  for (const auto c : {kind.position, kind.drive})
+    if (!rec.has(std::string(c)))
+      msg += missing_column_detail(rec.names, std::string(c), listed).substr(list.size());
+  return msg;
+}
+
 // The kind the recording states (`# axis: rotary`; none: linear) must be the model's (system
-// "axis" or "rotary") and its columns must be there; an error says what to type, since a
-// recording with the other kind's columns is most likely a header line missing or too many.
+// "axis" or "rotary") and its columns must be there; an error says what to type, following the
+// columns the file has (a header line missing or too many, or the other kind's model).
 const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
   const std::string stated = rec.meta("axis").value_or("");
   const effects::AxisKind* kind = effects::axis_kind(stated);
@@ -1268,29 +1314,35 @@ const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
     throw std::invalid_argument(rec.path + ": header '# axis: " + stated +
                                 "' names no axis kind (expected linear or rotary)");
   const effects::AxisKind* modelled = effects::axis_kind_of_system(model.system);
+  const effects::AxisKind* logged = logged_kind(rec);
+  if (logged == kind && (!modelled || modelled == kind)) return *kind;
   const bool rotary = kind->name == "rotary";
-  if (modelled && modelled != kind)
+  if (logged && modelled && modelled == logged)  // the header alone is wrong
+    throw std::invalid_argument(
+        rec.path + ": the columns are a " + std::string(logged->name) + " axis's (" +
+        kind_columns(*logged) + "), as the model is, but " +
+        (rotary ? "the header says '# axis: rotary'" : "the header has no '# axis: rotary' line") +
+        ": " + agreeing_fix(*logged, *kind, modelled));
+  if (logged == kind)  // the model alone is wrong
+    throw std::invalid_argument(rec.path + ": the recording is a " + std::string(kind->name) +
+                                " axis (columns " + kind_columns(*kind) + ") but the model is a " +
+                                std::string(modelled->name) + " axis's (system = \"" +
+                                model.system + "\"): " + agreeing_fix(*logged, *kind, modelled));
+  if (!logged && modelled && modelled != kind)  // no columns to decide: header against model
     throw std::invalid_argument(
         rotary ? rec.path +
                      ": the recording is a rotary axis ('# axis: rotary') but the model is "
-                     "a linear axis's (system = \"axis\"): give a rotary model (system = "
-                     "\"rotary\", inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m)"
+                     "a linear axis's (system = \"axis\"): give " +
+                     model_words(effects::rotary_axis())
                : rec.path +
                      ": the model is a rotary axis's (system = \"rotary\") but the "
                      "recording does not say so: add the header line '# axis: rotary' "
                      "(columns " +
                      kind_columns(effects::rotary_axis()) + ")");
-  if (has_columns(rec, *kind)) return *kind;
-  const effects::AxisKind& other = rotary ? effects::linear_axis() : effects::rotary_axis();
-  std::string msg = rec.path + ": a " + std::string(kind->name) + " axis needs the columns " +
-                    kind_columns(*kind) + " (optional:";
-  for (const auto c : kind->setpoints) msg += " " + std::string(c);
-  msg += ")";
-  if (has_columns(rec, other))
-    msg += "; this recording has a " + std::string(other.name) + " axis's (" + kind_columns(other) +
-           "): " +
-           (rotary ? "remove the header line '# axis: rotary' and use a linear model"
-                   : "add the header line '# axis: rotary' and use a rotary model");
+  std::string msg = missing_columns_text(rec, *kind);
+  if (logged)
+    msg += "; this recording has a " + std::string(logged->name) + " axis's (" +
+           kind_columns(*logged) + "): " + agreeing_fix(*logged, *kind, modelled);
   throw RecordingError(msg);
 }
 
@@ -1375,7 +1427,7 @@ AnalysisResult analyze_axis(const Recording& rec, const ModelFile& model,
   R.corrected = corrected_model(run, R.findings, p.final_fit);
   R.findings.twin_simulation = TwinSimulation{};
   R.findings.twin_simulation->reason =
-      "the twin models the magnetic actuator; this is a force-driven axis";
+      run.kind.words("the twin models the magnetic actuator; this is a force-driven axis");
   name_in_kind(R.findings, run.kind);
   run.progress("done", 1.0);
   return R;
@@ -1411,6 +1463,11 @@ std::vector<std::string> columns_read(const Recording& header) {
   // only where the kind's own columns are, as only then does the axis path get to them: an
   // actuator's pos_set_m (a linear axis's setpoint) is not read.
   cols.emplace_back("t_s");
+  // A stated axis with neither kind's columns is refused: its message lists the whole header
+  // and a column in another unit (angle_deg), so every column is kept for it.
+  if (header.meta("axis") && !has_columns(header, effects::linear_axis()) &&
+      !has_columns(header, effects::rotary_axis()))
+    cols.insert(cols.end(), header.names.begin(), header.names.end());
   for (const effects::AxisKind* kind : {&effects::linear_axis(), &effects::rotary_axis()}) {
     cols.emplace_back(kind->position);
     cols.emplace_back(kind->drive);

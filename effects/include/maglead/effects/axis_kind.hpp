@@ -33,6 +33,11 @@ struct AxisKind {
   /// The unit's name of a name of this kind (the inverse of name_of over the library's
   /// parameters); empty when no unit has it.
   std::string unit_name_of(std::string_view kind_name) const;
+  /// A text of the library or the analysis, written for the nut along p (a law, a parameter's
+  /// meaning, "the force"), in this kind's words: on a shaft a force is a torque, F is τ, v is
+  /// ω, p is θ, M is J (whole words and symbols only; `nut_mass_kg` stays). The linear kind keeps
+  /// the text; this is the one place such words change.
+  std::string words(std::string_view linear_text) const;
 };
 
 const AxisKind& linear_axis();
