@@ -389,7 +389,7 @@ void add_bench_modbus(CLI::App& app) {
       LoopWatch watch(service);
       std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
       const LoopDuring idle = watch.end();
-      std::printf("no network load: %llu overruns, lateness p99 %.1f us, max %.1f us\n\n",
+      std::printf("no network load: %llu overruns, lateness p99 %.1f µs, max %.1f µs\n\n",
                   static_cast<unsigned long long>(idle.overruns), idle.late_p99_us,
                   idle.late_max_us);
     }
@@ -401,7 +401,7 @@ void add_bench_modbus(CLI::App& app) {
         "start after deadline [us]; cycles with twin_lagging)\n");
     std::printf(
         "targets: with 16 clients, throughput >= reference: %s; p99 < 1 ms: %s; "
-        "loop 0 overruns and lateness p99 < 200 us: %s; request errors: %zu\n",
+        "loop 0 overruns and lateness p99 < 200 µs: %s; request errors: %zu\n",
         t.throughput_ok ? "met" : "NOT met", t.latency_ok ? "met" : "NOT met",
         t.loop_ok ? "met" : "NOT met", t.errors);
     if (t.busy > 0)

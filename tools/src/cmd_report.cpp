@@ -104,7 +104,7 @@ void add_report(CLI::App& app) {
     if (outcome.load_cell_unusable) analysis::set_aside_load_cell(anomaly, outcome.reason);
     report::write_anomaly_report(o->out, o->recording, anomaly, outcome);
     std::printf("%s\n", report::anomaly_headline(anomaly, outcome).c_str());
-    std::printf("step-outs: %zu, drift windows: %zu, twin position residual RMS %.1f um\n",
+    std::printf("step-outs: %zu, drift windows: %zu, twin position residual RMS %.1f µm\n",
                 anomaly.step_outs.size(), anomaly.drift_windows.size(),
                 anomaly.residual_pos_rms_m * 1e6);
     if (anomaly.static_error && anomaly.twin_error)

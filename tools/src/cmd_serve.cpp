@@ -364,7 +364,7 @@ void wait_for_stop(double duration_s, runtime::Service& service) {
       const auto snap = service.controller().snapshot();
       if (snap.overrun_count > reported) {
         say("%llu loop overrun(s) in the last second (%llu in all), latest "
-            "start %.0f us late",
+            "start %.0f µs late",
             static_cast<unsigned long long>(snap.overrun_count - reported),
             static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
         std::fflush(stdout);
@@ -389,7 +389,7 @@ void run_serve(const ServeOptions& o) {
   wait_for_stop(duration_s, service);
   service.stop();
   const auto snap = service.controller().snapshot();
-  say("stopped after %llu cycles, %llu overruns, latest start %.0f us late",
+  say("stopped after %llu cycles, %llu overruns, latest start %.0f µs late",
       static_cast<unsigned long long>(snap.cycle),
       static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
 }

@@ -51,8 +51,8 @@ void print_load_cell_check(const twin::TwinOutputs& last) {
     return;
   }
   std::printf(
-      "  load cell check (not used by the flag): coupling gain %.3f +/- %.3f at the end, "
-      "%.3f +/- %.3f at its reference: change %+.3f +/- %.3f\n",
+      "  load cell check (not used by the flag): coupling gain %.3f ± %.3f at the end, "
+      "%.3f ± %.3f at its reference: change %+.3f ± %.3f\n",
       last.drift_gain_estimate, last.drift_gain_stderr, last.drift_reference_gain,
       last.drift_reference_stderr, last.drift_gain_estimate - last.drift_reference_gain,
       std::hypot(last.drift_gain_stderr, last.drift_reference_stderr));
@@ -163,7 +163,7 @@ void run_twin_check(const TwinCheckOptions& o) {
     std::printf("  force MAE against load cell: twin %.2f N, static %.2f N\n",
                 c.err_dyn_n / static_cast<double>(c.counted),
                 c.err_static_n / static_cast<double>(c.counted));
-  std::printf("  position residual: max %.1f um; healthy %.1f %% of ticks\n", c.max_res_m * 1e6,
+  std::printf("  position residual: max %.1f µm; healthy %.1f %% of ticks\n", c.max_res_m * 1e6,
               100.0 * static_cast<double>(c.healthy) / static_cast<double>(n));
   print_drift(c.last, c.at_drift, c.t_drift, c.drift_stat);
   if (has_load) print_load_cell_check(c.last);
