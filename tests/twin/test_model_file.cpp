@@ -99,6 +99,10 @@ TEST(ModelFile, TyposAreErrorsNamingTheKeyAndWhereItIs) {
   const std::string key = load_error(tmp("bad_key.toml"));
   EXPECT_NE(key.find("'mass_kg'"), std::string::npos) << key;
   EXPECT_NE(key.find("bad_key.toml:3:11:"), std::string::npos) << key;  // the value of mass_kg
+  // A misspelt table: the error names what the file holds instead.
+  std::ofstream(tmp("bad_table.toml")) << fmt << "[modle]\nnut_mass_kg = 0.12\n";
+  const std::string table = load_error(tmp("bad_table.toml"));
+  EXPECT_NE(table.find("missing [model] table (the file has: modle)"), std::string::npos) << table;
   const std::string num = load_error(tmp("bad_num.toml"));
   EXPECT_NE(num.find("bad_num.toml:4:15: [model] coulomb_n must be a number"), std::string::npos)
       << num;

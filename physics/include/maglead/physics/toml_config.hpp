@@ -65,8 +65,12 @@ inline const toml::table* section(const std::string& path, const toml::table& ro
                                   const std::string& name, bool required = false) {
   const toml::node* node = root.get(name);
   if (!node) {
-    if (required) fail(path, nullptr, "missing [" + name + "] table");
-    return nullptr;
+    if (!required) return nullptr;
+    std::string has;  // what the file holds instead: a misspelt [modle] is then plain to see
+    for (const auto& [k, v] : root) has += (has.empty() ? "" : ", ") + std::string(k.str());
+    fail(path, nullptr,
+         "missing [" + name + "] table (" +
+             (has.empty() ? std::string("the file is empty") : "the file has: " + has) + ")");
   }
   const toml::table* t = node->as_table();
   if (!t) fail(path, node, "[" + name + "] must be a table");
