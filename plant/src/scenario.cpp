@@ -21,11 +21,15 @@ const std::vector<ScenarioInfo>& scenario_list() {
       {"hand-push",
        "screw held, a compliant hand pushes the nut back and forth, peaks up to ~35 N (Fig. 11)"},
       {"force-steps",
-       "force control against a spring load: setpoint steps, ramps and a sine sweep"},
+       "force control against a spring load: setpoint steps, ramps and a sine sweep (open loop, "
+       "the paper's inverse, unless --controller maglead)"},
       {"force-holds",
        "force control against a 2000 N/m spring: setpoints held 2.5 s each, as a PLC steps them "
-       "(5, 10, 15, 20, -5, -10, -15, 12, 8, 3, 0, 18, 6 N, repeated)"},
-      {"position-moves", "moves across the stroke at 5, 20 and 50 mm/s with a light load"},
+       "(5, 10, 15, 20, -5, -10, -15, 12, 8, 3, 0, 18, 6 N, repeated; open loop unless "
+       "--controller maglead)"},
+      {"position-moves",
+       "moves across the stroke at 5, 20 and 50 mm/s with a light load (open loop unless "
+       "--controller maglead)"},
       {"mixed",
        "alternating: force control against a spring (8 s of steps, ramps, sweep), then hand "
        "pushes with the screw held (9 s); the spring re-engages where the hand left the nut"},

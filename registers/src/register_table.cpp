@@ -260,7 +260,8 @@ constexpr std::array kTable = std::to_array<Register>({
     {"step_out_warning", DI, kStepOutWarning, Type::bit, 1, "", RO, 0, 1,
      "Twin: step-out predicted"},
     {"stopped", DI, kStopped, Type::bit, 1, "", RO, 0, 1,
-     "Controlled stop active (stop bit or watchdog)"},
+     "Controlled stop active: the stop bit, or a fault reaction that stops and holds (a release "
+     "reaction shows in fault_reaction instead)"},
     {"owned", DI, kOwned, Type::bit, 1, "", RO, 0, 1, "A client owns control"},
     {"stroke_limit", DI, kStrokeLimit, Type::bit, 1, "", RO, 0, 1, "Nut at a stroke end"},
     {"twin_lagging", DI, kTwinLagging, Type::bit, 1, "", RO, 0, 1,
