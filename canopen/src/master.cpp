@@ -74,12 +74,23 @@ SdoResult Cia402Master::upload(std::uint16_t index, std::uint8_t sub,
   return r;
 }
 
+/// After every attempt timed out, what to check: frames are lost or the drive does not answer.
+std::string Cia402Master::timeout_advice(const SdoResult& r) const {
+  if (r.status != SdoStatus::timeout) return "";
+  char b[200];
+  std::snprintf(b, sizeof b,
+                " (no answer within %g s on any of %d attempts, sdo_timeout_s and sdo_attempts in "
+                "drive.toml: the bus loses frames or the node does not answer)",
+                cfg_.sdo_timeout_s, cfg_.sdo_attempts);
+  return b;
+}
+
 std::vector<std::uint8_t> Cia402Master::read(std::uint16_t index, std::uint8_t sub) {
   std::vector<std::uint8_t> data;
   const SdoResult r = upload(index, sub, data);
   if (!r.ok())
     throw std::runtime_error("drive node " + std::to_string(cfg_.node_id) + ": " +
-                             describe_sdo(r, true, index, sub));
+                             describe_sdo(r, true, index, sub) + timeout_advice(r));
   return data;
 }
 
@@ -94,7 +105,8 @@ void Cia402Master::write_checked(std::uint16_t index, std::uint8_t sub, std::uin
     if (r.status != SdoStatus::timeout) break;
   }
   const std::string node = "drive node " + std::to_string(cfg_.node_id) + ": ";
-  if (!r.ok()) throw std::runtime_error(node + describe_sdo(r, false, index, sub));
+  if (!r.ok())
+    throw std::runtime_error(node + describe_sdo(r, false, index, sub) + timeout_advice(r));
   const std::vector<std::uint8_t> back = read(index, sub);
   const std::uint32_t mask = bytes == 4 ? 0xFFFFFFFFU : (1U << (8 * bytes)) - 1U;
   const std::uint32_t got = back.size() == bytes ? get_le(back.data(), bytes) : ~value;
@@ -112,12 +124,14 @@ void Cia402Master::await_boot_up() {
   boot_seen_ = false;
   while (!boot_seen_) {
     const CanStatus s = bus_.receive(f, deadline_s);
-    if (s == CanStatus::timeout)
-      throw std::runtime_error("drive node " + std::to_string(cfg_.node_id) +
-                               ": no boot-up message within " +
-                               std::to_string(cfg_.boot_timeout_s) +
-                               " s of NMT reset communication (is it powered, on this bus, at "
-                               "this node id and bit rate?)");
+    if (s == CanStatus::timeout) {
+      char b[200];
+      std::snprintf(b, sizeof b,
+                    "drive node %d: no boot-up message within %g s of NMT reset communication (is "
+                    "it powered, on this bus, at this node id and bit rate?)",
+                    static_cast<int>(cfg_.node_id), cfg_.boot_timeout_s);
+      throw std::runtime_error(b);
+    }
     if (s == CanStatus::ok) handle_frame(f, bus_.now_s());
   }
 }
@@ -142,7 +156,7 @@ void Cia402Master::read_identity() {
     identity_.device_name.assign(name.begin(), name.end());
   else if (r.abort_code != abort_no_object)
     throw std::runtime_error("drive node " + std::to_string(cfg_.node_id) + ": " +
-                             describe_sdo(r, true, 0x1008, 0));
+                             describe_sdo(r, true, 0x1008, 0) + timeout_advice(r));
 }
 
 void Cia402Master::configure_pdo(std::uint16_t comm_index, std::uint32_t cob_id,

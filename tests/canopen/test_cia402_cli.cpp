@@ -59,3 +59,14 @@ TEST(Cia402Cli, CanOptionsWithoutTheirBackendAreRefused) {
 }
 
 }  // namespace
+
+// A start-up on a bus that loses every tenth frame fails on an SDO that timed out on every
+// attempt; the error says so and which drive.toml keys set the attempts.
+TEST(Cia402Cli, AStartUpSDOLostOnEveryAttemptSaysWhatToCheck) {
+  const Served r = serve("--backend cia402 --can sim --sim-can-drop 0.1 --duration 1s");
+  EXPECT_NE(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("timed out (no answer within 0.05 s on any of 3 attempts, sdo_timeout_s "
+                       "and sdo_attempts in drive.toml"),
+            std::string::npos)
+      << r.out;
+}

@@ -94,7 +94,9 @@ void add_backend_options(CLI::App* cmd, ServeOptions& o) {
                 "cia402: the SocketCAN interface of the drive (e.g. can0), or sim: the simulated "
                 "CiA 402 drive in-process around the simulated actuator (default: sim)");
   b->add_option("--sim-can-drop", o.sim_can_drop,
-                "cia402 --can sim: fraction of CAN frames lost on the simulated bus")
+                "cia402 --can sim: fraction of CAN frames lost on the simulated bus (start-up "
+                "tries each SDO sdo_attempts times, 3 in drive.toml: from about 5 % loss it may "
+                "fail; raise sdo_attempts)")
       ->check(CLI::Range(0.0, 0.5))
       ->capture_default_str();
   b->add_option("--sim-can-silence-at", o.sim_can_silence_at,

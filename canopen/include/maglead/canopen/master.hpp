@@ -118,6 +118,7 @@ class Cia402Master {
 
  private:
   SdoResult upload(std::uint16_t index, std::uint8_t sub, std::vector<std::uint8_t>& data);
+  std::string timeout_advice(const SdoResult& r) const;
   void handle_frame(const CanFrame& frame, double now_s) noexcept;
   void take_pdo(const CanFrame& frame) noexcept;
   void supervise(double now_s) noexcept;
