@@ -224,6 +224,15 @@ def cia402():
               f"cia402 poll --json: no load cell is null, not 0 N: {out[:200]} {err.strip()}")
         rc, out, err = run(MAGLEAD, "poll", *conn, "load_cell_force_n")
         check(rc == 0 and "none on this backend" in out, f"cia402 poll: the load cell is none: {out.strip()}")
+        rec = os.path.join(os.environ.get("TMPDIR", "/tmp"), f"cia402_rec_{os.getpid()}.csv")
+        rc, out, err = run(MAGLEAD, "record", *conn, "--duration", "0.5s", "--out", rec)
+        with open(rec) as f:
+            header = next(l for l in f if not l.startswith("#"))
+        check(rc == 0 and "load_force_n" not in header, f"cia402 record: no load_force_n column: {header.strip()}")
+        rc, out, err = run(MAGLEAD, "record", *conn, "--duration", "0.5s", "--out", rec + ".yes", "--load-cell", "yes")
+        check(rc == 2 and "no load cell" in err and not os.path.exists(rec + ".yes"),
+              f"cia402 record --load-cell yes: refused, nothing written: {err.strip()}")
+        os.remove(rec)
         tmux("new-session", "-d", "-s", SESSION, "-x", "80", "-y", "24",
              f"{shlex.quote(MAGLEAD)} watch {' '.join(conn)} --rate 5; sleep 60")
         rows = wait_screen(lambda r: "drive ready" in text(r) and "now" in text(r))

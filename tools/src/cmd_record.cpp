@@ -183,6 +183,14 @@ void print_summary(const RecordOptions& o, const op::Client& client, double loop
   std::printf("wrote %s%s\n", o.out.c_str(), replacing.c_str());
 }
 
+/// Whether the controller has a load cell: its float32 copy reads NaN without one (the integer
+/// register reads 0 then, as it may with one at no load).
+bool has_load_cell(op::Client& client) {
+  const auto probe =
+      client.read_range(reg::Table::input_register, reg::find("load_cell_force_n_f32")->address, 2);
+  return !std::isnan(probe.at("load_cell_force_n_f32"));
+}
+
 void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   parse_duration_s(o.duration);  // a bad duration is refused before anything is opened
   op::Client client(endpoint_of(conn));
@@ -190,10 +198,11 @@ void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   const double loop_hz = client.read_range(reg::Table::input_register, 3, 1).at("loop_rate_hz");
   if (!(loop_hz > 0))
     throw ClientError(ClientError::Kind::protocol, "controller reports a loop rate of 0 Hz");
-  const auto probe =
-      client.read_range(reg::Table::input_register, reg::find("load_cell_force_mn")->address, 2);
-  const bool load_cell =
-      o.load_cell == "yes" || (o.load_cell == "auto" && probe.at("load_cell_force_mn") != 0.0);
+  const bool load_cell = o.load_cell == "yes" || (o.load_cell == "auto" && has_load_cell(client));
+  if (o.load_cell == "yes" && !has_load_cell(client))
+    throw ClientError(ClientError::Kind::refused_locally,
+                      "--load-cell yes: the controller has no load cell (load_cell_force_n_f32 "
+                      "reads NaN, e.g. the CiA 402 backend); record without it: --load-cell no");
   const auto names = column_names(load_cell);
   const std::string replacing = replacing_note(o.out);
   RecordingWriter out(o.out, header(o, client, loop_hz), names);
@@ -228,8 +237,8 @@ void add_record(CLI::App& app) {
       ->check(number_in({1.0, 1000.0, "Hz", "the loop runs at 1 kHz", "--rate 100"}))
       ->capture_default_str();
   cmd->add_option("--load-cell", o->load_cell,
-                  "Log load_force_n: auto (if the controller reports a non-zero load cell at "
-                  "start), yes, no")
+                  "Log load_force_n: auto (if the controller has a load cell: the simulated "
+                  "actuator has one, the CiA 402 backend none), yes, no")
       ->check(CLI::IsMember({"auto", "yes", "no"}))
       ->capture_default_str();
   cmd->callback([o, conn] { run_operator("record", [&] { run_record(*o, *conn); }); });
