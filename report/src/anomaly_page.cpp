@@ -323,10 +323,18 @@ std::string anomaly_headline(const Anomaly& a, const AnalysisOutcome& o) {
   if (o.status != AnalysisOutcome::Status::done) {
     not_judged.push_back("analysis (" + (o.reason.empty() ? std::string("not run") : o.reason) +
                          ")");
-  } else if (const std::string& h = o.result->headline; h.rfind("not judged: ", 0) == 0) {
-    not_judged.push_back("analysis (" + h.substr(12) + ")");
-  } else if (h.rfind("nothing missing", 0) != 0) {
-    findings.push_back(h);
+  } else {
+    std::string h = o.result->headline;
+    // Laws the analysis could not judge follow its conclusion: "…; not judged: mass_error (…)".
+    const std::string unjudged = std::string("; ") + analysis::kNotJudged;
+    if (const auto cut = h.find(unjudged); cut != std::string::npos) {
+      not_judged.push_back("analysis (" + h.substr(cut + unjudged.size()) + ")");
+      h.resize(cut);
+    }
+    if (h.rfind(analysis::kNotJudged, 0) == 0)
+      not_judged.push_back("analysis (" + h.substr(std::string(analysis::kNotJudged).size()) + ")");
+    else if (h.rfind("nothing missing", 0) != 0)
+      findings.push_back(h);
   }
   const auto joined = [](const std::vector<std::string>& parts) {
     std::string s;

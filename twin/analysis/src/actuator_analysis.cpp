@@ -637,7 +637,10 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   const Coupling cp{cal};
   check_load_cell_scale(rec.path, s, cp);
   set_floors(P, cp, cal, act, opt);
-  const auto rings = every_nth(ringing(s, P, ring_rad_s(P, base)), step);
+  const double ring_rad_per_s = ring_rad_s(P, base);
+  P.scales.sample_rate_hz = P.fs_hz;
+  P.scales.ring_hz = ring_rad_per_s / (2 * kPi);
+  const auto rings = every_nth(ringing(s, P, ring_rad_per_s), step);
   P.t0_s = t.front();
   const StateAt state_at{s, cp, act, base, P.t0_s};
   LockedRuns runs = locked_runs(s, P);

@@ -553,6 +553,13 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   progress("prepare", 0.0);
   auto P = actuator::prepare(rec, base, cal, act, o);
   progress("prepare", 1.0);
+  // Laws this recording cannot judge (too slow a rate for them) are not offered; said why.
+  std::vector<Rejected> unjudged;
+  for (const effects::Effect* e : effects::library())
+    if (auto why = e->unjudged_at(P.scales)) {
+      o.exclude.emplace_back(e->id());
+      unjudged.push_back(Rejected{std::string(e->id()), 0.0, 0.0, {}, {}, *why, {}});
+    }
   auto sel = sliding_fit(P, base, o, progress);
   auto bt = actuator::breakaway_test(P, base, sel.fit.terms);
   auto stribeck = actuator::stribeck_from_breakaway(P, base, sel.fit, bt, o);
@@ -587,6 +594,7 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   r.findings = findings_of(rec, P, sel.fit, stribeck, offset, bt, o);
   r.findings.not_selected.insert(r.findings.not_selected.begin(), sel.rejected.begin(),
                                  sel.rejected.end());
+  r.findings.not_selected.insert(r.findings.not_selected.end(), unjudged.begin(), unjudged.end());
   r.corrected = corrected_model(model, sel.fit.terms, rec.path);
   if (opt.twin_force_check) {
     std::vector<std::string> why;

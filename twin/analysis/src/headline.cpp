@@ -79,9 +79,20 @@ std::string finding_text(const EffectFinding& e, const ModelFile& baseline) {
   return s;
 }
 
-}  // namespace
+/// Laws the recording could not judge at all: "; not judged: mass_error (why)", so neither
+/// "found" nor "nothing missing" is read as covering them.
+std::string unjudged_suffix(const Findings& f) {
+  std::string s;
+  const std::string prefix = kNotJudged;
+  for (const auto& r : f.not_selected)
+    if (r.reason && r.reason->starts_with(prefix))
+      s += (s.empty() ? "; " + prefix : std::string(", ")) + r.id + " (" +
+           r.reason->substr(prefix.size()) + ")";
+  return s;
+}
 
-std::string headline_of(const Findings& f, const ModelFile& baseline) {
+/// The headline without the laws left unjudged.
+std::string conclusion_headline(const Findings& f, const ModelFile& baseline) {
   const auto found = [&](std::string s) {
     for (std::size_t k = 0; k < f.effects.size(); ++k)
       s += (k ? "; " : "") + finding_text(f.effects[k], baseline);
@@ -107,6 +118,12 @@ std::string headline_of(const Findings& f, const ModelFile& baseline) {
     return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, unit);
   return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) + " " +
          unit + " RMS (force sensor noise " + number(f.noise_floor_n) + " " + unit + ")";
+}
+
+}  // namespace
+
+std::string headline_of(const Findings& f, const ModelFile& baseline) {
+  return conclusion_headline(f, baseline) + unjudged_suffix(f);
 }
 
 }  // namespace maglead::analysis

@@ -43,6 +43,9 @@ struct Scales {
   double travel_m = 0, turn_rad = 0;
   // One count of the phase φ: the coarser encoder's count (0: not known, not applied).
   double phase_count_rad = 0;
+  // The recording's sample rate and the frequency at which the nut rings on its coupling (the
+  // coupling's stiffness over the model's mass; 0: not known, not applied).
+  double sample_rate_hz = 0, ring_hz = 0;
 };
 
 // Transparent comparison: the twin looks parameters up by name inside the 1 kHz cycle, and a
@@ -91,6 +94,11 @@ class Effect {
   /// whose period exceeds the travel seen is any smooth function of position there). A law not
   /// resolved is not named; it may still be listed as an alternative the data cannot rule out.
   virtual bool resolved_at(double /*shape*/, const Scales& /*scales*/) const { return true; }
+  /// Why a recording at `scales` cannot judge this law at all (it is then not offered, and the
+  /// reason is said); nothing when it can.
+  virtual std::optional<std::string> unjudged_at(const Scales& /*scales*/) const {
+    return std::nullopt;
+  }
   virtual int columns() const = 0;
   virtual void regressors(double shape, const State& s, double* x) const = 0;
   /// Physical parameters from the coefficients; nullopt when they make no physical sense.

@@ -116,6 +116,9 @@ struct Rejected {
   std::optional<std::string> reason;
   std::optional<Parameters> parameters;
 };
+/// The reason of a law the recording cannot judge at all (effects::Effect::unjudged_at begins
+/// its reason with it): named in the headline whatever else it says.
+inline constexpr const char* kNotJudged = "not judged: ";
 /// The reason of the candidate the selection stopped at (short of significance).
 inline constexpr const char* kBelowSignificance =
     "best remaining candidate, below the significance threshold";
