@@ -183,6 +183,17 @@ def scenario(port):
     dt = time.time() - t0
     check(rc == 0 and "dropped polls:" in out, f"record 2 s: {out.strip()} {err.strip()}")
     check(dt < 6, f"record ended by itself ({dt:.1f} s)")
+    # Ctrl-C before the duration is up: the file is kept whole, and the exit code says 130.
+    cut = os.path.join(WORK, "tcp_rec_cut.csv")
+    proc = subprocess.Popen([MAGLEAD, "record", *conn, "--duration", "60s", "--rate", "50", "--out", cut],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1.5)
+    proc.send_signal(signal.SIGINT)
+    out_cut, err_cut = proc.communicate(timeout=10)
+    with open(cut) as f:
+        rows = [l for l in f if not l.startswith("#")]
+    check(proc.returncode == 130 and "interrupted before --duration 60s" in err_cut and len(rows) > 10,
+          f"record interrupted: exit {proc.returncode}, {len(rows)} lines kept: {err_cut.strip()}")
     with open(rec) as f:
         lines = f.read().splitlines()
     check(lines[0] == "# format: mls-recording/1", "recording starts with the format line")

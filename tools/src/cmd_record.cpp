@@ -213,6 +213,12 @@ void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   print_summary(o, client, loop_hz, t, replacing);
+  // Stopped before its duration: the file is whole and readable, but shorter than asked.
+  if (g_interrupted && t.lost.empty())
+    throw ClientError(ClientError::Kind::interrupted,
+                      "interrupted before --duration " + o.duration +
+                          " was up: " + std::to_string(t.rows) + " samples kept in " + o.out +
+                          " (whole and readable)");
   if (!t.lost.empty())
     throw ClientError(
         ClientError::Kind::connection,
