@@ -229,6 +229,12 @@ def cia402():
         with open(rec) as f:
             header = next(l for l in f if not l.startswith("#"))
         check(rc == 0 and "load_force_n" not in header, f"cia402 record: no load_force_n column: {header.strip()}")
+        with open(rec) as f:
+            meta = [l for l in f if l.startswith("#")]
+        check(not any("load_force_sign" in l for l in meta), f"cia402 record: no load_force_sign line: {meta}")
+        rc, out, err = run(MAGLEAD, "estimate", rec, "--config", CONFIG)
+        check(rc == 2 and "maglead twin-check --recording" in err,
+              f"estimate without a load cell says what judges it instead: {err.strip()}")
         rc, out, err = run(MAGLEAD, "record", *conn, "--duration", "0.5s", "--out", rec + ".yes", "--load-cell", "yes")
         check(rc == 2 and "no load cell" in err and not os.path.exists(rec + ".yes"),
               f"cia402 record --load-cell yes: refused, nothing written: {err.strip()}")

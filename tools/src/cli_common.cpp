@@ -394,6 +394,15 @@ void check_turns_per_lead(const Recording& rec, const ActuatorParams& act) {
 
 }  // namespace
 
+void refuse_without_load_cell(const MissingColumnError& e, const std::string& does,
+                              const std::string& recording) {
+  if (e.column() != "load_force_n") throw e;
+  throw RecordingError(std::string(e.what()) + ". " + does +
+                       " (load_force_n); without one, the twin judges it: maglead twin-check "
+                       "--recording " +
+                       recording + " (drift from free moves and step-outs, no load cell)");
+}
+
 // A recording's phase sits on the stable branch of some lead except while a step-out crosses it;
 // mostly elsewhere, it does not describe this coupling, and every force judged from it (and the
 // load cell against it) would be meaningless.

@@ -132,6 +132,10 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
                                   const ColumnChoice& keep = {},
                                   const std::string& reader = "this command");
 
+/// A recording without the load cell a command compares with: rethrows `e` as it is for another
+/// column, else with what the command does with the load cell and the command that needs none.
+[[noreturn]] void refuse_without_load_cell(const MissingColumnError& e, const std::string& does,
+                                           const std::string& recording);
 /// Refuses an actuator recording whose phase θ − 2πp/L lies mostly off the calibration's stable
 /// branch (of any lead), where a nut cannot rest: its angle is in another unit (degrees), or its
 /// lead or calibration is another actuator's. For the commands that judge against the coupling.

@@ -162,12 +162,8 @@ Recording read_for_analysis(const AnalyzeOptions& o, const ActuatorParams& act,
                                    analysis::columns_read,
                                    "analyze with the actuator's baseline (" + baseline + ")");
   } catch (const MissingColumnError& e) {
-    if (e.column() != "load_force_n") throw;
-    throw RecordingError(std::string(e.what()) +
-                         ". The analysis compares the model's force with a load cell's "
-                         "(load_force_n); without one, check the twin with: maglead twin-check "
-                         "--recording " +
-                         o.recording + " (drift from free moves and step-outs, no load cell)");
+    refuse_without_load_cell(e, "The analysis compares the model's force with a load cell's",
+                             o.recording);
   }
 }
 

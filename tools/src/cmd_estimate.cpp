@@ -141,6 +141,18 @@ void plot_estimates(const EstimateOptions& o, const Inputs& in, double lead_m, c
   std::printf("plot: %s\n", png.c_str());
 }
 
+/// The recording, with the load cell the comparison needs; one without it is answered with the
+/// command that judges the estimate without a load cell.
+Recording read_estimated(const EstimateOptions& o, const ActuatorParams& act) {
+  try {
+    return read_actuator_recording(o.recording, act, o.config,
+                                   {"t_s", "nut_pos_m", "load_force_n"});
+  } catch (const MissingColumnError& e) {
+    refuse_without_load_cell(e, "estimate scores the force estimate against a load cell",
+                             o.recording);
+  }
+}
+
 void run_estimate(const EstimateOptions& o) {
   // The same [control] settings as `serve`.
   controller::ControllerConfig c;
@@ -148,8 +160,7 @@ void run_estimate(const EstimateOptions& o) {
   c.calibration = load_calibration(o.calibration.empty() ? config_file(o.config, "calibration.toml")
                                                          : o.calibration);
   load_control_settings(o.config, c);
-  const Recording rec = read_actuator_recording(o.recording, c.actuator, o.config,
-                                                {"t_s", "nut_pos_m", "load_force_n"});
+  const Recording rec = read_estimated(o, c.actuator);
   check_phase_on_branch(rec, c.actuator, c.calibration);
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();

@@ -42,17 +42,22 @@ std::vector<std::string> column_names(bool load_cell) {
 }
 
 std::vector<std::pair<std::string, std::string>> header(const RecordOptions& o,
-                                                        const op::Client& client, double loop_hz) {
+                                                        const op::Client& client, double loop_hz,
+                                                        bool load_cell) {
   char rate_text[32], loop_text[32];
   std::snprintf(rate_text, sizeof rate_text, "%g", o.rate_hz);
   std::snprintf(loop_text, sizeof loop_text, "%g", loop_hz);
-  return {{"sample_rate_hz", rate_text},
-          {"source", "maglead record from " + client.endpoint().describe()},
-          {"system", "magnetic lead-screw actuator"},
-          {"controller_loop_rate_hz", loop_text},
-          {"time_base", "controller cycle counter / loop rate (t_s of the sampled cycle)"},
-          {"load_force_sign", "force on the nut from the load (= -output force of the register)"},
-          {"twin_columns", "empty while the controller runs no twin (all twin registers 0)"}};
+  std::vector<std::pair<std::string, std::string>> h = {
+      {"sample_rate_hz", rate_text},
+      {"source", "maglead record from " + client.endpoint().describe()},
+      {"system", "magnetic lead-screw actuator"},
+      {"controller_loop_rate_hz", loop_text},
+      {"time_base", "controller cycle counter / loop rate (t_s of the sampled cycle)"}};
+  if (load_cell)  // said of the column only where there is one
+    h.emplace_back("load_force_sign",
+                   "force on the nut from the load (= -output force of the register)");
+  h.emplace_back("twin_columns", "empty while the controller runs no twin (all twin registers 0)");
+  return h;
 }
 
 /// One polled cycle in the columns of column_names(), each value at its register's resolution
@@ -205,7 +210,7 @@ void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
                       "reads NaN, e.g. the CiA 402 backend); record without it: --load-cell no");
   const auto names = column_names(load_cell);
   const std::string replacing = replacing_note(o.out);
-  RecordingWriter out(o.out, header(o, client, loop_hz), names);
+  RecordingWriter out(o.out, header(o, client, loop_hz, load_cell), names);
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
   const Tally t = record_rows(o, client, loop_hz, load_cell, out, names.size());
