@@ -138,6 +138,11 @@ double Controller::safe_force_limit_n(double force_n) const noexcept {
   return cfg_.actuator.safe_force_fraction * (force_n >= 0.0 ? cal.peak_push_n : cal.peak_pull_n);
 }
 
+Controller::Window Controller::force_window() const noexcept {
+  const auto& a = cfg_.actuator;
+  return {a.stroke_min_m + cfg_.force_stroke_margin_m, a.stroke_max_m - cfg_.force_stroke_margin_m};
+}
+
 void Controller::reject(Reject why) noexcept {
   command_bits_ |= bit(registers::kRejected);
   s_.reject_reason = static_cast<std::uint16_t>(why);
@@ -696,9 +701,7 @@ InPositionReason Controller::in_position_reason(bool settled, const Reached& r) 
 double Controller::force_mode_command_rad(double dt, Reached& r) noexcept {
   if (window_end_ == 0) check_force_window();
   if (window_end_ != 0) return position_command_rad(dt);
-  const auto& a = cfg_.actuator;
-  const double lo = a.stroke_min_m + cfg_.force_stroke_margin_m;
-  const double hi = a.stroke_max_m - cfg_.force_stroke_margin_m;
+  const auto [lo, hi] = force_window();
   force_loop_.set_speed_caps(std::max(0.0, hi - s_.nut_pos_m) / kEndApproach_s,
                              std::max(0.0, s_.nut_pos_m - lo) / kEndApproach_s);
   const double cmd = force_command_rad(dt);
@@ -709,9 +712,7 @@ double Controller::force_mode_command_rad(double dt, Reached& r) noexcept {
 /// A nut whose position a moment ahead lies past the window, moving outwards, is held where it
 /// is (inside the window): the push ends as a defined outcome, not a stroke_limit fault.
 void Controller::check_force_window() noexcept {
-  const auto& a = cfg_.actuator;
-  const double lo = a.stroke_min_m + cfg_.force_stroke_margin_m;
-  const double hi = a.stroke_max_m - cfg_.force_stroke_margin_m;
+  const auto [lo, hi] = force_window();
   const double p = s_.nut_pos_m, v = s_.nut_vel_m_s;
   const double ahead = p + v * kWindowLookahead_s;
   const bool up =

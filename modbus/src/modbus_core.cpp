@@ -314,8 +314,8 @@ std::optional<double> ModbusCore::configured_value(std::string_view name) const 
   if (name == "force_limit_pull_n_f32") return controller_.safe_force_limit_n(-1.0);
   if (name == "stroke_min_m_f32") return a.stroke_min_m;
   if (name == "stroke_max_m_f32") return a.stroke_max_m;
-  if (name == "force_window_min_m_f32") return a.stroke_min_m + c.force_stroke_margin_m;
-  if (name == "force_window_max_m_f32") return a.stroke_max_m - c.force_stroke_margin_m;
+  if (name == "force_window_min_m_f32") return controller_.force_window().lo_m;
+  if (name == "force_window_max_m_f32") return controller_.force_window().hi_m;
   if (name == "force_speed_limit_m_s_f32") return c.force_speed_limit_m_s;
   return std::nullopt;
 }

@@ -370,11 +370,16 @@ double turns_per_lead(const std::vector<double>& screw_rad, const std::vector<do
   return *mid;
 }
 
+/// The screw's lead the recording states (`# lead_m:`), else the actuator's.
+double lead_of(const Recording& rec, const ActuatorParams& act) {
+  if (auto l = rec.meta("lead_m")) return std::strtod(l->c_str(), nullptr);
+  return act.lead_m;
+}
+
 /// Refuses angle columns that turn a unit's factor more than radians of this screw would.
 void check_turns_per_lead(const Recording& rec, const ActuatorParams& act) {
   if (!rec.has("screw_angle_rad") && !rec.has("motor_angle_rad")) return;  // the reader says so
-  double lead_m = act.lead_m;
-  if (auto l = rec.meta("lead_m")) lead_m = std::strtod(l->c_str(), nullptr);
+  const double lead_m = lead_of(rec, act);
   if (!(lead_m > 0)) return;
   // The screw angle the tools read (screw_angle_of: the motor's through the gear if need be).
   const char* name = rec.has("screw_angle_rad") ? "screw_angle_rad" : "motor_angle_rad";
@@ -409,9 +414,10 @@ void refuse_without_load_cell(const MissingColumnError& e, const std::string& do
 void check_phase_on_branch(const Recording& rec, const ActuatorParams& act,
                            const ForceCalibration& cal) {
   constexpr double kMinOnBranch = 0.5;  // most samples: step-outs cross the branch only briefly
-  if (!rec.has("nut_pos_m") || (!rec.has("screw_angle_rad") && !rec.has("motor_angle_rad"))) return;
-  double lead_m = act.lead_m;
-  if (auto l = rec.meta("lead_m")) lead_m = std::strtod(l->c_str(), nullptr);
+  const double lead_m = lead_of(rec, act);
+  if (!rec.has("nut_pos_m") || (!rec.has("screw_angle_rad") && !rec.has("motor_angle_rad")) ||
+      !(lead_m > 0))
+    return;
   const auto theta = screw_angle_of(rec, act);
   const auto& pos = rec.column("nut_pos_m");
   const std::size_t n = pos.size(), stride = std::max<std::size_t>(1, n / 20000);
@@ -423,9 +429,7 @@ void check_phase_on_branch(const Recording& rec, const ActuatorParams& act,
     ++all;
     on += phi >= cal.stable_min_rad && phi <= cal.stable_max_rad;
   }
-  if (!(lead_m > 0) || all == 0 ||
-      static_cast<double>(on) >= kMinOnBranch * static_cast<double>(all))
-    return;
+  if (all == 0 || static_cast<double>(on) >= kMinOnBranch * static_cast<double>(all)) return;
   char b[400];
   std::snprintf(b, sizeof b,
                 "%s: the phase theta - 2 pi p / lead (lead %g m) lies on the coupling's stable "

@@ -15,7 +15,7 @@ namespace reg = maglead::registers;
 
 /// The load cell's integer register reads 0 on a backend without one; its float32 copy is NaN.
 bool no_load_cell(const reg::Register& r, const op::Values& all) {
-  return r.name == "load_cell_force_mn" && std::isnan(all.at("load_cell_force_n_f32"));
+  return r.name == "load_cell_force_mn" && !op::has_load_cell(all);
 }
 
 /// What a code register means, for the table's last column; `all` holds every register read.

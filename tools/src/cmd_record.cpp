@@ -188,14 +188,6 @@ void print_summary(const RecordOptions& o, const op::Client& client, double loop
   std::printf("wrote %s%s\n", o.out.c_str(), replacing.c_str());
 }
 
-/// Whether the controller has a load cell: its float32 copy reads NaN without one (the integer
-/// register reads 0 then, as it may with one at no load).
-bool has_load_cell(op::Client& client) {
-  const auto probe =
-      client.read_range(reg::Table::input_register, reg::find("load_cell_force_n_f32")->address, 2);
-  return !std::isnan(probe.at("load_cell_force_n_f32"));
-}
-
 void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   parse_duration_s(o.duration);  // a bad duration is refused before anything is opened
   op::Client client(endpoint_of(conn));
@@ -203,8 +195,12 @@ void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   const double loop_hz = client.read_range(reg::Table::input_register, 3, 1).at("loop_rate_hz");
   if (!(loop_hz > 0))
     throw ClientError(ClientError::Kind::protocol, "controller reports a loop rate of 0 Hz");
-  const bool load_cell = o.load_cell == "yes" || (o.load_cell == "auto" && has_load_cell(client));
-  if (o.load_cell == "yes" && !has_load_cell(client))
+  // The float32 copy says whether there is one (the integer register reads 0 without one, as it
+  // may with one at no load).
+  const bool present = op::has_load_cell(client.read_range(
+      reg::Table::input_register, reg::find("load_cell_force_n_f32")->address, 2));
+  const bool load_cell = o.load_cell == "yes" || (o.load_cell == "auto" && present);
+  if (o.load_cell == "yes" && !present)
     throw ClientError(ClientError::Kind::refused_locally,
                       "--load-cell yes: the controller has no load cell (load_cell_force_n_f32 "
                       "reads NaN, e.g. the CiA 402 backend); record without it: --load-cell no");

@@ -173,10 +173,6 @@ Applies targets_that_apply(const op::Values& v) {
           enabled && mode == static_cast<double>(reg::Mode::force)};
 }
 
-/// False on a backend without a load cell (cia402): its float register is NaN there, where the
-/// fixed-point one reads 0 N, a reading no load cell made.
-bool has_load_cell(const op::Values& v) { return !std::isnan(v.at("load_cell_force_n_f32")); }
-
 /// Everything one refresh shows.
 struct View {
   std::string endpoint;
@@ -282,8 +278,9 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
             printf_str("%.2f N in [%.1f, %.1f]", at("load_force_est_mn"),
                        std::floor(at("load_force_lo_mn") * 10.0) / 10.0,
                        std::ceil(at("load_force_hi_mn") * 10.0) / 10.0)),
-       has_load_cell(v) ? cell("load cell", "cell", printf_str("%.2f N", at("load_cell_force_mn")))
-                        : cell("load cell:", "cell:", "none on this backend"));
+       op::has_load_cell(v)
+           ? cell("load cell", "cell", printf_str("%.2f N", at("load_cell_force_mn")))
+           : cell("load cell:", "cell:", "none on this backend"));
   pair(
       cell("setpoint", "set",
            applies.force ? printf_str("%.2f N", at("active_force_setpoint_mn")) : std::string("-")),
@@ -346,7 +343,7 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   // The trend takes what is left: legend, chart rows, two axis rows.
   const int rows = scr.height - static_cast<int>(L.size()) - 3;
   if (rows >= 3) {
-    const char* cell = has_load_cell(v) ? "o load cell" : "(no load cell)";
+    const char* cell = op::has_load_cell(v) ? "o load cell" : "(no load cell)";
     std::string legend =
         printf_str("force [N] over %.0f s: * estimate %s - setpoint # same", window_s, cell);
     if (static_cast<int>(legend.size()) > w)
@@ -370,7 +367,7 @@ std::string plain_line(const View& view) {
   for (const char* name :
        {"nut_pos_um", "load_force_est_mn", "load_cell_force_mn", "active_force_setpoint_mn"}) {
     const auto* r = reg::find(name);
-    const bool none = (name == std::string("load_cell_force_mn") && !has_load_cell(v)) ||
+    const bool none = (name == std::string("load_cell_force_mn") && !op::has_load_cell(v)) ||
                       (name == std::string("active_force_setpoint_mn") && !applies.force);
     s += " " + op::si_name(*r) + "=" + (none ? "none" : op::si_text(*r, v.at(name)));
   }
@@ -471,7 +468,7 @@ class Watcher {
       const op::Values& v = *view_.v;
       samples_.push_back(
           {view_.now_s, targets_that_apply(v).force ? v.at("active_force_setpoint_mn") : kNaN,
-           v.at("load_force_est_mn"), has_load_cell(v) ? v.at("load_cell_force_mn") : kNaN});
+           v.at("load_force_est_mn"), op::has_load_cell(v) ? v.at("load_cell_force_mn") : kNaN});
       while (!samples_.empty() && samples_.front().t_s < view_.now_s - window_s_)
         samples_.pop_front();
       return true;

@@ -453,6 +453,8 @@ std::string si_text(const reg::Register& r, double v) {
   return s;
 }
 
+bool has_load_cell(const Values& v) { return !std::isnan(v.at("load_cell_force_n_f32")); }
+
 std::vector<std::string> status_bits(std::uint16_t status_word) {
   std::vector<std::string> out;
   for (const auto& r : reg::table())

@@ -155,6 +155,11 @@ class Controller {
   CommandImage initial_image() const noexcept;
   /// The force setpoint limit in the direction of `force_n` (signed), from the calibration.
   double safe_force_limit_n(double force_n) const noexcept;
+  /// Force mode's stroke window [lo, hi] (force_stroke_margin_m inside each stroke end).
+  struct Window {
+    double lo_m, hi_m;
+  };
+  Window force_window() const noexcept;
 
  private:
   /// What the active mode reached this cycle (before the settle time).

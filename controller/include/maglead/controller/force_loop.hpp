@@ -1,5 +1,4 @@
 #pragma once
-#include <limits>
 // The force loop: puts the setpoint on the load, not just on the coupling.
 //
 // While the nut slides the coupling must carry friction and damping besides the load, so the
@@ -14,6 +13,7 @@
 // with the damping D acting on the speed's distance from the limit), so a push into nothing does
 // not race to the stroke's end. No allocation: loop thread.
 #include <cstdint>
+#include <limits>
 
 #include "maglead/physics/friction_model.hpp"
 #include "maglead/physics/load_observer.hpp"

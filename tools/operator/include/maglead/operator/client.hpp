@@ -128,6 +128,10 @@ std::string code_name(std::span<const registers::Code> codes, double value);
 std::string code_meaning(std::span<const registers::Code> codes, double value);
 /// The names of the status bits that are set.
 std::vector<std::string> status_bits(std::uint16_t status_word);
+/// Whether the controller has a load cell: false on a backend without one (cia402), where its
+/// float32 register reads NaN and the fixed-point one 0 N, a reading no load cell made. `v` holds
+/// load_cell_force_n_f32.
+bool has_load_cell(const Values& v);
 
 /// The limits a controller reports in its limits block (IR 140-147): the ones it refuses
 /// against, whatever configuration this machine holds.
