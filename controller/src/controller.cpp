@@ -417,9 +417,11 @@ void Controller::run_profile(double dt) noexcept {
   const double dist = target_m_ - prof_pos_m_;
   if (dist == 0.0 && prof_vel_m_s_ == 0.0) return;
   // Online trapezoid: accelerate towards the speed from which braking at amax just reaches
-  // the target, capped at vmax.
-  const double v_des =
-      std::copysign(std::min(vmax_, std::sqrt(2.0 * amax_ * std::abs(dist))), dist);
+  // the target, capped at vmax. Braking in steps of amax·dt covers v²/2a + v·dt/2: solved for v,
+  // so the profile stops at the target instead of a step past it.
+  const double v_brake =
+      amax_ * (std::sqrt(dt * dt / 4.0 + 2.0 * std::abs(dist) / amax_) - dt / 2.0);
+  const double v_des = std::copysign(std::min(vmax_, v_brake), dist);
   const double dv = std::clamp(v_des - prof_vel_m_s_, -amax_ * dt, amax_ * dt);
   prof_vel_m_s_ += dv;
   prof_pos_m_ += prof_vel_m_s_ * dt;
@@ -443,18 +445,30 @@ bool Controller::next_reference_leg() noexcept {
 }
 
 double Controller::position_command_rad(double dt) noexcept {
-  run_profile(dt);
   const auto& a = cfg_.actuator;
+  const double gain_rad_per_m = kTwoPi / a.lead_m + cfg_.position_gain_rad_per_m;
+  if (!waiting_for_nut(gain_rad_per_m)) run_profile(dt);
   const double err = prof_pos_m_ - s_.nut_pos_m;
-  // Integrate only errors beyond one encoder count: within it the error is quantization.
-  if (std::abs(err) > 1.5 * a.linear_count_m)
+  // Integrate only errors beyond one encoder count (within it the error is quantization), and
+  // not while the command is at the safe limit the error pushes towards (windup).
+  const bool pushing_limit = position_clamped_ && (err > 0) == (integral_rad_ > 0);
+  if (std::abs(err) > 1.5 * a.linear_count_m && !pushing_limit)
     integral_rad_ = std::clamp(integral_rad_ + cfg_.position_integral_rad_per_m_s * err * dt,
                                phase_lo_rad_, phase_hi_rad_);
-  const double wanted_rad =
-      kTwoPi / a.lead_m * err + cfg_.position_gain_rad_per_m * err + integral_rad_;
+  const double wanted_rad = gain_rad_per_m * err + integral_rad_;
   const double phase = std::clamp(wanted_rad, phase_lo_rad_, phase_hi_rad_);
   position_clamped_ = phase != wanted_rad;
   return rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + phase;
+}
+
+/// A nut the coupling cannot keep up with (the command at its safe limit) is waited for: the
+/// profile's clock stops while it leads by more than the error that saturates the command, so
+/// it brakes where the nut is and a move at the drive's limits stops at its target.
+bool Controller::waiting_for_nut(double gain_rad_per_m) const noexcept {
+  if (!position_clamped_ || prof_vel_m_s_ == 0.0) return false;
+  const double way = prof_vel_m_s_ > 0.0 ? 1.0 : -1.0;
+  const double lead_max_m = (way > 0.0 ? phase_hi_rad_ : -phase_lo_rad_) / gain_rad_per_m;
+  return (prof_pos_m_ - s_.nut_pos_m) * way > lead_max_m;
 }
 
 double Controller::force_command_rad(double dt) noexcept {

@@ -660,3 +660,25 @@ TEST(Controller, AResetOfAStepOutBackOnTheBranchResyncsTheTwin) {
   EXPECT_EQ(twin.resyncs, resyncs + 1);
   EXPECT_FALSE(rig.status(reg::kStepOut));
 }
+
+TEST(Controller, AFastMoveToAStrokeEndDoesNotOvershootIt) {
+  for (const double target_m : {0.040, 0.0}) {
+    Rig rig(0.0);
+    rig.enable();
+    rig.image.position_setpoint_m = target_m;
+    rig.image.velocity_limit_m_s = 0.1;  // the fastest and hardest a client may ask
+    rig.image.accel_limit_m_s2 = 5.0;
+    rig.image.mode_command = static_cast<std::uint16_t>(reg::Mode::position);
+    rig.control(bit(reg::kEnable) | bit(reg::kExecute));
+    double beyond_m = 0.0, lag_m = 0.0;
+    rig.run(1.0, [&](const Snapshot& s) {
+      const double nut = rig.plant.truth().nut_pos_m;
+      beyond_m = std::max(beyond_m, target_m > 0.02 ? nut - target_m : target_m - nut);
+      lag_m = std::max(lag_m, std::abs(s.profile_pos_m - s.nut_pos_m));
+    });
+    std::printf("target %.1f mm: nut beyond it by at most %.0f um, profile ahead by %.2f mm\n",
+                target_m * 1e3, beyond_m * 1e6, lag_m * 1e3);
+    EXPECT_LE(beyond_m, 50e-6);
+    EXPECT_TRUE(rig.status(reg::kInPosition));
+  }
+}

@@ -195,6 +195,7 @@ class Controller {
   /// Starts the reference move's next leg (a position target at its speed), if any.
   bool next_reference_leg() noexcept;
   double position_command_rad(double dt) noexcept;
+  bool waiting_for_nut(double gain_rad_per_m) const noexcept;
   void reject(registers::Reject why) noexcept;
   void on_fault_reset() noexcept;
   void confirm_reset() noexcept;
