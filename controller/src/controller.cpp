@@ -283,13 +283,8 @@ void Controller::on_execute() noexcept {
           phase_for_output_force(cfg_.calibration, image_.force_setpoint_n, a.safe_force_fraction);
       if (inv.status != InverseStatus::ok) return reject(Reject::force_beyond_safe_limit);
       force_set_n_ = image_.force_setpoint_n;
-      if (mode_ != Mode::force || window_end_ != 0) {  // from a position hold: start afresh
-        drive_n_ = load_.drive_n;                      // start from the phase the nut has
-        phase_track_rad_ = 0.0;
-      }
-      force_loop_.start(force_set_n_, drive_n_, load_);
+      start_force_loop(mode_ != Mode::force || window_end_ != 0);
       prof_vel_m_s_ = 0.0;  // force mode runs no profile: a move it interrupts has ended
-      window_end_ = 0;
       mode_ = Mode::force;
       break;
     }
@@ -712,6 +707,16 @@ InPositionReason Controller::in_position_reason(bool settled, const Reached& r) 
 
 /// Force mode: the force loop, unless the nut heads past the force window's end; then the
 /// position loop holds it there until the next setpoint.
+/// The force loop towards force_set_n_; `afresh` from a position hold: from the phase the nut has.
+void Controller::start_force_loop(bool afresh) noexcept {
+  if (afresh) {
+    drive_n_ = load_.drive_n;
+    phase_track_rad_ = 0.0;
+  }
+  force_loop_.start(force_set_n_, drive_n_, load_);
+  window_end_ = 0;
+}
+
 double Controller::force_mode_command_rad(double dt, Reached& r) noexcept {
   if (window_end_ == 0) check_force_window();
   if (window_end_ != 0) return position_command_rad(dt);
@@ -729,10 +734,12 @@ void Controller::check_force_window() noexcept {
   const auto [lo, hi] = force_window();
   const double p = s_.nut_pos_m, v = s_.nut_vel_m_s;
   const double ahead = p + v * kWindowLookahead_s;
-  const bool up =
-      v > 0.0 && (p >= hi - kWindowArrive_m || (ahead >= hi && p >= hi - kWindowNear_m));
-  const bool down =
-      v < 0.0 && (p <= lo + kWindowArrive_m || (ahead <= lo && p <= lo + kWindowNear_m));
+  // Only a nut the loop drives outwards is held (its setpoint beyond the load that way); one
+  // still coasting out while the setpoint calls it back is left to the loop.
+  const bool up = v > 0.0 && force_set_n_ > load_.force_n &&
+                  (p >= hi - kWindowArrive_m || (ahead >= hi && p >= hi - kWindowNear_m));
+  const bool down = v < 0.0 && force_set_n_ < load_.force_n &&
+                    (p <= lo + kWindowArrive_m || (ahead <= lo && p <= lo + kWindowNear_m));
   window_end_ = up ? 1 : down ? -1 : 0;
   if (window_end_ == 0) return;
   target_m_ = prof_pos_m_ = std::clamp(s_.nut_pos_m, lo, hi);

@@ -12,6 +12,10 @@ constexpr int kRefineAttempts = 3;
 // The speed counts as at the limit from this share of it on: the estimate moves in steps of one
 // encoder count per sample, so the limited speed dithers just below the limit.
 constexpr double kAtLimitShare = 0.9;
+// Once at the limit the loop says so until the speed falls below this share of it, and not
+// again once it has landed, so the state (and a PLC's force_limited bit) does not blink with
+// each count of the speed estimate.
+constexpr double kLeaveLimitShare = 0.5;
 }  // namespace
 
 ForceLoop::ForceLoop(const ForceLoopConfig& config) : cfg_(config) {
@@ -45,6 +49,7 @@ void ForceLoop::start(double setpoint_n, double drive_now_n, const LoadEstimate&
   // A setpoint the known bound already covers needs no motion: say so and stay.
   attempts_ = 0;
   slid_ = false;
+  landed_once_ = false;
   held_by_bound_ = est.motion == 0 && bound_inside_tolerance(est);
   state_ = held_by_bound_ ? ForceLoopState::holding_no_motion : ForceLoopState::approaching;
   // No motion needed: still move the coupling to the stick band's centre (the nut stays put,
@@ -79,27 +84,34 @@ double ForceLoop::sliding_drive_n(const LoadEstimate& est) noexcept {
   const double damping = cfg_.damping_n_s_per_m * est.nut_vel_m_s;
   if (std::abs(e) <= cfg_.land_tolerance_n) {
     state_ = ForceLoopState::landing;  // friction alone stops the nut here
+    landed_once_ = true;
     return setpoint_n_ - damping;
   }
+  const bool was_limited = state_ == ForceLoopState::speed_limited;
   state_ = ForceLoopState::approaching;
   // Feed friction forward only while the nut moves the way the load force must go; moving
   // the other way, friction and damping brake it.
   const bool towards = (e > 0.0) == (est.motion > 0);
   if (!towards) return setpoint_n_ - damping;
-  return speed_limited_n(setpoint_n_ - damping + cfg_.friction.sliding_n(est.nut_vel_m_s), est);
+  return speed_limited_n(setpoint_n_ - damping + cfg_.friction.sliding_n(est.nut_vel_m_s), est,
+                         was_limited);
 }
 
 /// The gentler of `drive_n` and the drive that holds the nut at the speed limit: the load force
 /// and friction it slides against, plus D times the speed still allowed (negative past it).
-double ForceLoop::speed_limited_n(double drive_n, const LoadEstimate& est) noexcept {
+double ForceLoop::speed_limited_n(double drive_n, const LoadEstimate& est,
+                                  bool was_limited) noexcept {
   const double v = est.nut_vel_m_s;
   const double dir = v >= 0.0 ? 1.0 : -1.0;
   const double limit = std::min(cfg_.speed_limit_m_s, dir > 0 ? cap_up_m_s_ : cap_down_m_s_);
   const double at_limit_n =
       est.force_n + cfg_.friction.sliding_n(v) + cfg_.damping_n_s_per_m * (dir * limit - v);
-  if ((drive_n - at_limit_n) * dir <= 0.0) return drive_n;
-  if (std::abs(v) >= kAtLimitShare * limit) state_ = ForceLoopState::speed_limited;
-  return at_limit_n;
+  const bool clipped = (drive_n - at_limit_n) * dir > 0.0;
+  const double share = std::abs(v) / limit;
+  if (!landed_once_ &&
+      ((clipped && share >= kAtLimitShare) || (was_limited && share >= kLeaveLimitShare)))
+    state_ = ForceLoopState::speed_limited;
+  return clipped ? at_limit_n : drive_n;
 }
 
 double ForceLoop::drive_n(const LoadEstimate& est, double dt_s) noexcept {

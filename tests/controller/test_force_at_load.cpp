@@ -196,6 +196,7 @@ namespace {
 struct SpeedRun {
   double max_speed_m_s = 0, mean_speed_m_s = 0, load_n = 0;
   int limited = 0, reason_speed = 0;
+  int limited_flips = 0;  // changes of the force_limited bit: a PLC sees each one
   std::uint16_t alarm = 0;
 };
 
@@ -206,12 +207,15 @@ SpeedRun push_at_speed(double setpoint_n, double limit_m_s) {
   rig.force(setpoint_n);
   double acc = 0, moved = 0;
   int n = 0, sliding = 0;
+  bool was_limited = false;
   const double t_end = rig.t_s() + kStep_s;
   rig.run(kStep_s, [&](const Snapshot& s) {
     const double v = std::abs(rig.nut_vel_m_s());
     r.max_speed_m_s = std::max(r.max_speed_m_s, v);
     if (v > 1e-3) moved += v * 1e-3, ++sliding;
-    if ((s.status_word >> reg::kForceLimited) & 1u) ++r.limited;
+    const bool limited = (s.status_word >> reg::kForceLimited) & 1u;
+    if (limited) ++r.limited;
+    if (limited != was_limited) ++r.limited_flips, was_limited = limited;
     if (s.force_reached_reason == static_cast<std::uint16_t>(ForceReachedReason::speed_limit))
       ++r.reason_speed;
     if (s.t_s > t_end - kWindow_s) acc += rig.load_out_n(), ++n;
@@ -221,9 +225,10 @@ SpeedRun push_at_speed(double setpoint_n, double limit_m_s) {
   r.alarm = rig.snap().alarm_code;
   std::printf(
       "set %.0f N, limit %.3f m/s: speed max %.4f m/s, mean while sliding %.4f m/s, "
-      "limited %d cycles (reason speed_limit %d), load %.2f N, alarm %u\n",
-      setpoint_n, limit_m_s, r.max_speed_m_s, r.mean_speed_m_s, r.limited, r.reason_speed, r.load_n,
-      r.alarm);
+      "limited %d cycles (reason speed_limit %d, force_limited changed %d times), load %.2f N, "
+      "alarm %u\n",
+      setpoint_n, limit_m_s, r.max_speed_m_s, r.mean_speed_m_s, r.limited, r.reason_speed,
+      r.limited_flips, r.load_n, r.alarm);
   return r;
 }
 
@@ -238,6 +243,7 @@ void expect_speed_limited(double setpoint_n) {
   EXPECT_GT(r.mean_speed_m_s, 0.5 * kLimit_m_s);  // it slides at the limit, not far below
   EXPECT_GT(r.limited, 200);                      // 20 mm at 20 mm/s: most of a second at the limit
   EXPECT_GT(r.reason_speed, 200);
+  EXPECT_LE(r.limited_flips, 2);  // force_limited on once and off once, not with every count
   EXPECT_EQ(r.alarm, 0);
   EXPECT_NEAR(r.load_n, setpoint_n, 1.0);
 }
@@ -367,3 +373,33 @@ TEST(ForceEnvelope, APositionTheLoadDoesNotAllowStallsWithoutAFaultPull) {
   position_beyond_the_limit(-1.0);
 }
 TEST(ForceEnvelope, TheCouplingsSafeLimitBeforeAPull) { push_beyond_friction(-1.0); }
+
+// Held at the window's end by a setpoint beyond it (10 N on a 300 N/m spring anchored
+// mid-stroke), a setpoint the spring gives nearer its anchor is taken at once, whenever it comes
+// after the hold began (a PLC answers the stroke_end reason within a few cycles): the nut backs
+// off and lands.
+TEST(ForceEnvelope, ASetpointBelowTheHeldLoadBacksOffTheWindowEnd) {
+  for (int delay_ms = 0; delay_ms <= 40; delay_ms += 4) {
+    Rig rig({"300-40mm", 300.0}, PlantEffects{}, ServedModel{}, LoadCellTamper::Mode::as_measured,
+            3, 0.040, 0.020);
+    rig.force(10.0);
+    const auto stroke_end = static_cast<std::uint16_t>(ForceReachedReason::stroke_end);
+    for (int i = 0; i < 3000 && rig.snap().force_reached_reason != stroke_end; ++i) rig.run(1e-3);
+    rig.run(delay_ms * 1e-3);
+    const Snapshot held = rig.snap();
+    rig.force(3.0);
+    double acc = 0;
+    int n = 0;
+    const double t_end = rig.t_s() + kStep_s;
+    rig.run(kStep_s, [&](const Snapshot& s) {
+      if (s.t_s > t_end - kWindow_s) acc += rig.load_out_n(), ++n;
+    });
+    const Snapshot after = rig.snap();
+    std::printf("3 N %2d ms into the hold at %.2f mm (reason %u): load %.2f N, reason %u\n",
+                delay_ms, held.nut_pos_m * 1e3, held.force_reached_reason, acc / n,
+                after.force_reached_reason);
+    EXPECT_EQ(held.force_reached_reason, stroke_end);
+    EXPECT_NEAR(acc / n, 3.0, 1.0);
+    EXPECT_NE(after.force_reached_reason, stroke_end);
+  }
+}

@@ -196,6 +196,7 @@ class Controller {
   bool next_reference_leg() noexcept;
   double position_command_rad(double dt) noexcept;
   bool waiting_for_nut(double gain_rad_per_m) const noexcept;
+  void start_force_loop(bool afresh) noexcept;
   void reject(registers::Reject why) noexcept;
   void on_fault_reset() noexcept;
   void confirm_reset() noexcept;

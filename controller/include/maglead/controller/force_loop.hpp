@@ -83,7 +83,7 @@ class ForceLoop {
  private:
   double breakaway_drive_n(const LoadEstimate& est, double dt_s) noexcept;
   double sliding_drive_n(const LoadEstimate& est) noexcept;
-  double speed_limited_n(double drive_n, const LoadEstimate& est) noexcept;
+  double speed_limited_n(double drive_n, const LoadEstimate& est, bool was_limited) noexcept;
 
   ForceLoopConfig cfg_;
   ForceLoopState state_ = ForceLoopState::off;
@@ -92,7 +92,8 @@ class ForceLoop {
   double cap_down_m_s_ = std::numeric_limits<double>::infinity();
   int dir_ = 1;
   bool held_by_bound_ = false;
-  bool slid_ = false;  // the nut slid since the setpoint came
+  bool slid_ = false;         // the nut slid since the setpoint came
+  bool landed_once_ = false;  // it came within the land tolerance since the setpoint came
   bool drive_limited_ = false;
   int attempts_ = 0;  // break-aways since the setpoint came: after a few, a bound inside will do //
                       // holding because the bound fits the tolerance (else: landed)
