@@ -282,6 +282,22 @@ def scenario(port):
         got = read_regs(port, 3, 1003, 1)[0]
         check(rc == 0 and said in out and got == raw_ms,
               f"set {name} {typed}: {raw_ms} ms written (raw {got}): {out.strip()} {err.strip()}")
+    # A non-zero value the register's resolution rounds to 0 would write another meaning (the
+    # watchdog off, 0 N): refused with the resolution and what to type, nothing written. Before,
+    # watchdog_ms 0.05 said "watchdog_s = 0 s written" and switched the watchdog off.
+    staged = read_regs(port, 3, 1001, 5)  # mode_command, heartbeat, watchdog_ms, force_setpoint_mn
+    for name, typed, says in (("watchdog_ms", "0.05", "watchdog_s 5e-05 s is below the register's resolution "
+                               "0.001 s; write 0 to switch it off or at least 0.001 s"),
+                              ("watchdog_s", "0.0004", "watchdog_s 0.0004 s is below the register's resolution "
+                               "0.001 s; write 0 to switch it off or at least 0.001 s"),
+                              ("force_setpoint_n", "-0.0004", "force_setpoint_n -0.0004 N is below the register's "
+                               "resolution 0.001 N; write 0 or at most -0.001 N"),
+                              ("mode_command", "0.4", "mode_command 0.4 is below the register's resolution 1; "
+                               "write 0 or at least 1")):
+        rc, out, err = run(MAGLEAD, "set", *conn, name, typed)
+        check(rc == 2 and says in err and "nothing sent" in err and "written" not in out and one_line(err)
+              and read_regs(port, 3, 1001, 5) == staged,
+              f"set {name} {typed} (rounds to 0): refused, nothing written: {out.strip()} {err.strip()}")
     rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
     check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
     # A code register takes its number or its name, and says both.

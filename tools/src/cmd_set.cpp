@@ -266,7 +266,11 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
                                                  std::string(r->name) + " code: " + known);
   }
   const double v = code ? *code : op::parse_quantity(text, r->unit) * (raw ? r->scale : 1.0);
-  refuse_locally_if(op::check_register(*r, v));
+  const std::string raw_note = raw ? " (" + o.what + " " + text +
+                                         ": a number without a unit is in the raw unit the " +
+                                         "register name says)"
+                                   : "";
+  if (auto why = op::check_register(*r, v)) refuse_locally_if(*why + raw_note);
   op::Client client(endpoint_of(conn));
   client.check_identity();
   if (r->name.starts_with("force_setpoint"))
@@ -279,11 +283,7 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
                                        ? " (" + op::code_name(codes, v) + ")"
                                        : (r->unit.empty() ? "" : " " + std::string(r->unit));
   std::printf("%s = %s%s written%s\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
-              unit_or_name.c_str(),
-              raw ? (" (" + o.what + " " + text + ": a number without a unit is in the raw unit " +
-                     "the register name says)")
-                        .c_str()
-                  : "");
+              unit_or_name.c_str(), raw_note.c_str());
 }
 
 /// The controller's own limits, read from its limits block (what it refused against); this

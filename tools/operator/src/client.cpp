@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <thread>
 
 #include "maglead/physics/estimator.hpp"
@@ -463,11 +464,39 @@ std::vector<std::string> status_bits(std::uint16_t status_word) {
   return out;
 }
 
+namespace {
+/// The smallest non-zero value a register stores: its scale; for float32, the smallest
+/// subnormal (a value below it underflows to 0).
+double resolution_si(const reg::Register& r) {
+  return r.type == reg::Type::f32 ? std::numeric_limits<float>::denorm_min() * r.scale : r.scale;
+}
+
+/// A non-zero value the register's resolution rounds to 0, refused with what to type.
+std::string below_resolution_text(const reg::Register& r, double v) {
+  const std::string unit = r.unit.empty() ? "" : " " + std::string(r.unit);
+  const double step = resolution_si(r);
+  const std::string step_text = r.type == reg::Type::f32 ? fmt(step) : si_text(r, step);
+  // The table says what 0 means where it is a switch ("0 = off"): the watchdog.
+  const bool zero_is_off = r.description.find("0 = off") != std::string_view::npos;
+  return si_name(r) + " " + fmt(v) + unit + " is below the register's resolution " + step_text +
+         unit + "; write 0" + (zero_is_off ? " to switch it off" : "") +
+         (v < 0 ? " or at most -" : " or at least ") + step_text + unit;
+}
+}  // namespace
+
 std::optional<std::string> check_register(const reg::Register& r, double v) {
-  if (reg::in_range(r, v)) return std::nullopt;
-  return si_name(r) + " = " + fmt(v) + (r.unit.empty() ? "" : " ") + std::string(r.unit) +
-         " is outside its range " + fmt(r.min) + " .. " + fmt(r.max) + (r.unit.empty() ? "" : " ") +
-         std::string(r.unit) + " (the register map: docs/registers.md, maglead registers)";
+  if (!reg::in_range(r, v))
+    return si_name(r) + " = " + fmt(v) + (r.unit.empty() ? "" : " ") + std::string(r.unit) +
+           " is outside its range " + fmt(r.min) + " .. " + fmt(r.max) +
+           (r.unit.empty() ? "" : " ") + std::string(r.unit) +
+           " (the register map: docs/registers.md, maglead registers)";
+  // What the register would store, not what was typed: a non-zero request rounded to 0 writes a
+  // different meaning (watchdog 0 is off, mode_command 0 is idle, force 0 N), never a smaller
+  // value of the same one. Every write of the tools passes here (Client::write).
+  std::uint16_t words[2] = {0, 0};
+  reg::encode(r, v, words);
+  if (v != 0.0 && reg::decode(r, words) == 0.0) return below_resolution_text(r, v);
+  return std::nullopt;
 }
 
 namespace {

@@ -159,7 +159,9 @@ std::string position_limit_text(const Limits& limits);
 /// safe limit); returns the reason it would be refused, or nothing.
 std::optional<std::string> check_force(const Limits& limits, double force_n);
 std::optional<std::string> check_position(const Limits& limits, double position_m);
-/// Range check of any writable register, with the reason.
+/// Check of any writable register, with the reason: its range (compared in the register's own
+/// units, registers::in_range), and a non-zero value its resolution would round to 0 (refused
+/// with the resolution and what to type: 0 writes a different meaning, not a smaller value).
 std::optional<std::string> check_register(const registers::Register& reg, double value_si);
 
 // ---------------------------------------------------------------------------- commands
