@@ -304,11 +304,13 @@ op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags&
     return op::execute(client, p.mode, p.setpoints, options);
   } catch (const ClientError& e) {
     const std::string msg = e.what();
-    const bool limit = e.kind() == Kind::exception ? msg.find("exception 03") != std::string::npos
-                       : e.kind() == Kind::rejected
-                           ? (msg.find("force_beyond_safe_limit") != std::string::npos ||
-                              msg.find("target_outside_stroke") != std::string::npos)
-                           : false;
+    // Only the controller's force or stroke limit is worth the limit text: an exception 03 for a
+    // register's range (out_of_range) names that register itself, and the stroke beside it would
+    // blame a position that was inside.
+    const bool limit = (e.kind() == Kind::exception || e.kind() == Kind::rejected) &&
+                       (msg.find("force_beyond_safe_limit") != std::string::npos ||
+                        msg.find("position_outside_stroke") != std::string::npos ||
+                        msg.find("target_outside_stroke") != std::string::npos);
     if (!limit || p.mode == reg::Mode::idle) throw;
     throw ClientError(e.kind(), p.summary + " refused by the controller (" + msg +
                                     "); its limits are " + drive_limit_text(client, p.mode));

@@ -305,13 +305,39 @@ void Client::refused_write(const std::string& what) {
                                          " refused it (exception 04): " + why);
 }
 
+/// Exception 03 on a write: the controller says why in write_refusal_reason. A value outside its
+/// register's range is named with that range (the one the controller's decoded value failed,
+/// checked as the server checks it), so the message blames the register that was refused, not
+/// the setpoint beside it in the same request.
+void Client::refused_value(const std::string& what, const std::vector<WrittenValue>& written) {
+  std::string why = "out of range or beyond its limits";
+  try {
+    const auto* reason = reg::find("write_refusal_reason");
+    const double code =
+        read_range(reg::Table::input_register, reason->address, 1).at("write_refusal_reason");
+    why = code_name(reg::refusals(), code) + ": " + code_meaning(reg::refusals(), code);
+    if (code == static_cast<double>(reg::Refusal::out_of_range)) {
+      std::string named;
+      for (const auto& [r, v] : written) {
+        std::uint16_t w[2] = {0, 0};
+        reg::encode(*r, v, w);
+        if (reg::in_range(*r, reg::decode(*r, w))) continue;
+        const std::string unit = r->unit.empty() ? "" : " " + std::string(r->unit);
+        named += "; " + si_name(*r) + " " + fmt(v) + unit + " is outside " + fmt(r->min) + " .. " +
+                 fmt(r->max) + unit;
+      }
+      why += named.empty() ? " (every value written is inside the range this tool knows)" : named;
+    }
+  } catch (const ClientError&) {
+    // The reason could not be read: the generic text stands.
+  }
+  throw ClientError(Kind::exception, what + ": controller at " + ep_.describe() +
+                                         " refused it (exception 03 illegal data value): " + why);
+}
+
 void Client::write(const std::vector<std::pair<std::string, double>>& values) {
   // Check everything first: a refused value must leave the controller untouched.
-  struct Item {
-    const reg::Register* r;
-    double v;
-  };
-  std::vector<Item> items;
+  std::vector<WrittenValue> items;
   for (const auto& [name, v] : values) {
     const auto* r = reg::find(name);
     if (!r) throw ClientError(Kind::refused_locally, "no register named '" + name + "'");
@@ -336,6 +362,9 @@ void Client::write(const std::vector<std::pair<std::string, double>>& values) {
     const int n = static_cast<int>(words.size());
     if (modbus_write_registers(ctx_of(ctx_), start, n, words.data()) != n) {
       if (errno == EMBXSFAIL) refused_write("writing " + names);
+      if (errno == EMBXILVAL)
+        refused_value("writing " + names, {items.begin() + static_cast<std::ptrdiff_t>(i),
+                                           items.begin() + static_cast<std::ptrdiff_t>(j)});
       fail("writing " + names);
     }
     i = j;

@@ -98,6 +98,12 @@ class Client {
  private:
   [[noreturn]] void fail(const std::string& what) const;
   [[noreturn]] void refused_write(const std::string& what);
+  struct WrittenValue {
+    const registers::Register* r;
+    double v;
+  };
+  [[noreturn]] void refused_value(const std::string& what,
+                                  const std::vector<WrittenValue>& written);
   Endpoint ep_;
   void* ctx_ = nullptr;  // modbus_t*
 };
