@@ -41,6 +41,7 @@ def main():
     check("stopped after" in tail, "serve stops cleanly")
     dropped_connection()
     stroke_end_load()
+    step_out_advice()
     finish()
 
 
@@ -516,6 +517,32 @@ def stroke_end_load():
                   f"watch names force_reached_reason beside force_limited (IR 66 = {reason}): {out.strip()} {err.strip()}")
             plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, 1000, 0))  # release control
             plc.recv(64)
+    finally:
+        srv.stop()
+
+
+def step_out_advice():
+    """After a step-out only a reset with a resync clears the fault (a plain one is refused,
+    still_faulty): every piece of advice names 'maglead reset --resync'. Before, set said "run
+    'maglead reset' first", and that reset answered still_faulty, exit 4."""
+    # A spring pulling 60 N at start, beyond the coupling's peak: the nut slips leads at once.
+    srv = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring", "3000", "--sim-spring-anchor", "0.010",
+                 "--sim-start", "0.030")
+    try:
+        conn = ["--port", str(srv.port)]
+        end = time.time() + 5
+        while time.time() < end and read_regs(srv.port, 4, 11, 1)[0] != 1:
+            time.sleep(0.05)
+        check(read_regs(srv.port, 4, 11, 3)[::2] == [1, 3], f"a step-out latched (raw {read_regs(srv.port, 4, 11, 3)})")
+        for cmd in (["set", *conn, "force", "2", "--config", CONFIG], ["enable", *conn], ["reset", *conn]):
+            rc, out, err = run(MAGLEAD, *cmd)
+            check(rc == 4 and "alarm step_out" in err and "run 'maglead reset --resync'" in err and one_line(err),
+                  f"{' '.join(cmd[:1] + cmd[3:4])} after a step-out names the reset that works: {err.strip()}")
+        rc, out, err = run(MAGLEAD, "disable", *conn)
+        check(rc == 0 and "run 'maglead reset --resync' to clear it" in out, f"disable after a step-out: {out.strip()}")
+        rc, out, err = run(MAGLEAD, "reset", *conn, "--resync")
+        check(rc == 0 and "fault reset done" in out and read_regs(srv.port, 4, 11, 3)[::2] == [0, 1],
+              f"reset --resync clears the step-out: {out.strip()} {err.strip()}")
     finally:
         srv.stop()
 

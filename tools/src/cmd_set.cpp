@@ -112,10 +112,12 @@ void hold_then_release(op::Client& client, const std::string& hold, const op::Co
                 done.c_str());
 }
 
-bool drive_in_fault(op::Client& client) {
-  const auto* r = reg::find("drive_state");
-  return client.read_range(reg::Table::input_register, r->address, 1).at("drive_state") ==
-         static_cast<double>(reg::DriveState::fault);
+/// The latched alarm when the drive is in fault (IR 11-13), else nothing.
+std::optional<double> fault_alarm(op::Client& client) {
+  const auto* r = reg::find("alarm_code");
+  const auto v = client.read_range(reg::Table::input_register, r->address, 3);
+  if (v.at("drive_state") != static_cast<double>(reg::DriveState::fault)) return std::nullopt;
+  return v.at("alarm_code");
 }
 
 /// The release after Ctrl-C, in words. A release that fails (another client took control
@@ -326,16 +328,18 @@ op::CommandResult send_or_release(op::Client& client, const Planned& p, const Co
     if (f.no_claim || e.kind() == Kind::refused_locally || e.kind() == Kind::connection) throw;
     // A latched fault has stopped the drive already: there is nothing to bring to 0 N, and only a
     // reset clears it.
-    bool in_fault = false;
+    std::optional<double> alarm;
+    std::string advice;
     try {
-      in_fault = drive_in_fault(client);
+      alarm = fault_alarm(client);
+      if (alarm) advice = op::reset_advice(client, *alarm);
     } catch (const ClientError&) {
       throw e;  // the line went too: the command's own error is the one to say
     }
-    if (in_fault) {
+    if (alarm) {
       const std::string what = e.what();
       throw ClientError(e.kind(), what.find("maglead reset") == std::string::npos
-                                      ? what + "; the drive is in fault: run 'maglead reset' first"
+                                      ? what + "; the drive is in fault: " + advice
                                       : what);
     }
     std::string done;

@@ -720,16 +720,26 @@ std::string force_not_reached_text(Client& c) {
          (code_name(codes, why) == "bound_too_wide" ? bound : "");
 }
 
-/// What clears a latched fault, said to a client that has not claimed control: 'maglead reset'
-/// when nobody owns control; when another client owns it, the controller refuses our reset
-/// (exception 04 not_owner), so the owner must clear it or let go of control first.
-std::string reset_advice(Client& c) {
+/// A slip leaves φ a lead (or more) away from the stable branch, and the controller refuses a
+/// plain reset while it is (still_faulty): the resync takes the nut's new lead as zero first.
+bool slipped(double alarm) {
+  return alarm == static_cast<double>(reg::Alarm::step_out) ||
+         alarm == static_cast<double>(reg::Alarm::phase_jump);
+}
+
+}  // namespace
+
+std::string reset_command(double alarm) {
+  return slipped(alarm) ? "maglead reset --resync" : "maglead reset";
+}
+
+std::string reset_advice(Client& c, double alarm) {
   const auto* owner = reg::find("control_owner");
   const Values v = c.read_range(reg::Table::input_register, owner->address, 3);  // IR 17-19
   const double id = v.at("control_owner");
   constexpr double kRtuMaster = 65535;  // over RTU the one master is this client
   if (id == 0 || (id == kRtuMaster && !c.endpoint().serial.empty()))
-    return "run 'maglead reset' first";
+    return "run '" + reset_command(alarm) + "' first";
   const auto ip = static_cast<std::uint32_t>(v.at("control_owner_ipv4"));
   const std::string who = id == kRtuMaster ? "the RTU master"
                           : ip != 0        ? "the client at " + ipv4_text(ip)
@@ -738,8 +748,11 @@ std::string reset_advice(Client& c) {
          ", IR 17-19), and the controller takes a reset from it only: it must clear the fault "
          "itself (a fault_reset edge in its control word, then enable 0 -> 1 again before its "
          "next execute), or release control (enable cleared) or close its connection, after "
-         "which 'maglead reset' works";
+         "which '" +
+         reset_command(alarm) + "' works";
 }
+
+namespace {
 
 /// The alarm by name and meaning; a drive fault with its cause (IR 68) and the drive's own code
 /// (IR 69), which say what to check: a silent drive is not cleared by a reset.
@@ -783,7 +796,8 @@ CommandResult execute(Client& c, reg::Mode mode,
       reset(c, false, o);
     else if (fault)  // any other fault is the operator's to look at and reset
       throw ClientError(Kind::rejected, "execute: the drive is in fault (alarm " +
-                                            alarm_text(c, st.alarm) + "); " + reset_advice(c));
+                                            alarm_text(c, st.alarm) + "); " +
+                                            reset_advice(c, st.alarm));
     if (read_status(c).drive_state == static_cast<std::uint16_t>(reg::DriveState::ready))
       enable(c, o);
   }
@@ -853,7 +867,8 @@ void enable(Client& c, const CommandOptions& o) {
   // The controller ignores an enable edge outside "ready" without a reason code: say why here.
   if (s.drive_state == static_cast<std::uint16_t>(DS::fault))
     throw ClientError(Kind::rejected, "enable: the drive is in fault (alarm " +
-                                          alarm_text(c, s.alarm) + "); " + reset_advice(c));
+                                          alarm_text(c, s.alarm) + "); " +
+                                          reset_advice(c, s.alarm));
   if (s.drive_state != static_cast<std::uint16_t>(DS::ready))
     throw ClientError(Kind::rejected, "enable: the drive is not ready (" +
                                           code_meaning(reg::drive_states(), s.drive_state) + ")");
@@ -895,7 +910,7 @@ std::string disable_and_say(Client& c) {
   const Status s = read_status(c);
   if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
     return "enable cleared; the drive stays in fault (alarm " + alarm_text(c, s.alarm) +
-           "): run 'maglead reset' to clear it";
+           "): run '" + reset_command(s.alarm) + "' to clear it";
   return "drive disabled: enable cleared, control released (drive_state " +
          code_name(reg::drive_states(), s.drive_state) + ")";
 }
@@ -909,7 +924,16 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
     const Status before = read_status(c);
     Status s = settle(c, before.cycle, im, o, what);
     write_cw(c, cw);
-    if (s.bit(reg::kRejected) && !s.bit(ack)) rejected(what, s);
+    if (s.bit(reg::kRejected) && !s.bit(ack)) {
+      // still_faulty after a slip: the command that works for this alarm, not a hint to decode.
+      if (s.reject == static_cast<std::uint16_t>(reg::Reject::still_faulty) && !resync_first &&
+          slipped(s.alarm))
+        throw ClientError(Kind::rejected, std::string(what) + " rejected by the controller: " +
+                                              code_name(reg::reject_codes(), s.reject) +
+                                              " (alarm " + alarm_text(c, s.alarm) + "): run '" +
+                                              reset_command(s.alarm) + "'");
+      rejected(what, s);
+    }
     if (!s.bit(ack))
       throw ClientError(Kind::protocol,
                         std::string(what) + ": no acknowledgement from the controller");

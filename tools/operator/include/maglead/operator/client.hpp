@@ -200,6 +200,14 @@ void disable(Client& client, const CommandOptions& options);
 /// disable, then the state the drive is in, in words: "drive disabled …" only when it is not in
 /// fault (a latched fault stays until a reset, and the text says what to type).
 std::string disable_and_say(Client& client);
+/// The command that clears a latched alarm: 'maglead reset --resync' after a step-out or a phase
+/// jump (a plain reset is refused, still_faulty, while the phase sits a lead away), else
+/// 'maglead reset'. Every piece of advice to reset takes its command from here.
+std::string reset_command(double alarm);
+/// What clears a latched fault, said to a client that has not claimed control: "run 'COMMAND'
+/// first" (reset_command) when nobody owns control; when another client owns it, the controller
+/// refuses our reset (exception 04 not_owner), so the owner must clear it or let go first.
+std::string reset_advice(Client& client, double alarm);
 /// Fault reset edge (optionally a resync edge first), with the ack/done handshake.
 void reset(Client& client, bool resync_first, const CommandOptions& options);
 /// Keeps control for `seconds` (infinity: for ever) or until `stop` says so (polling, feeding a
