@@ -69,10 +69,18 @@ double decode(const Register& reg, const std::uint16_t* words) {
 }
 
 bool in_range(const Register& reg, double value_si) {
-  // Tolerate float32 rounding of the limits themselves (0.04 is not exact in float32).
-  const double slack =
-      reg.type == Type::f32 ? 1e-6 * std::max(std::abs(reg.min), std::abs(reg.max)) : 0.0;
-  return std::isfinite(value_si) && value_si >= reg.min - slack && value_si <= reg.max + slack;
+  if (!std::isfinite(value_si)) return false;
+  if (reg.type == Type::f32) {
+    // Tolerate float32 rounding of the limits themselves (0.04 is not exact in float32).
+    const double slack = 1e-6 * std::max(std::abs(reg.min), std::abs(reg.max));
+    return value_si >= reg.min - slack && value_si <= reg.max + slack;
+  }
+  if (reg.type == Type::bit) return value_si >= reg.min && value_si <= reg.max;
+  // A scaled integer is compared in its own units, rounded as encode rounds it: the documented
+  // limit is the limit (10 µm/s decodes as 10 × 1e-6 = 9.999999999999999e-06, below 1e-05 in
+  // doubles), and a client's SI value and the server's decoded one get the same answer.
+  const double raw = std::round(value_si / reg.scale);
+  return raw >= std::round(reg.min / reg.scale) && raw <= std::round(reg.max / reg.scale);
 }
 
 }  // namespace maglead::registers

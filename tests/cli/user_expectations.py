@@ -336,6 +336,19 @@ def missing_columns(lines, header, rec):
         rc, _, err = run(cmd, nohdr, *extra, "--config", CONFIG)
         check(rc == 2 and "no header row: this row is numbers" in err and "t_s,screw_angle_rad" in err,
               f"{cmd} on data without a header: {err.strip()!r}")
+    # A header and fewer than two data rows: every reader refuses it, naming the file and its rows,
+    # and inspect says so (exit 2), as its help promises. Before, inspect printed "0 rows" and
+    # exited 0, and twin-check said "replay: needs at least two samples" without the file.
+    for rows in (0, 1):
+        short = os.path.join(WORK, f"short{rows}.csv")
+        with open(short, "w") as f:
+            f.write("\n".join(lines[:header + 1 + rows]) + "\n")
+        said = f"{short}: {rows} data row{'' if rows == 1 else 's'} below its header"
+        for cmd, extra in (("inspect", []), ("twin-check", []), ("analyze", ["--out", "short_out"]),
+                           ("report", ["--out", "short_out"]), ("estimate", [])):
+            rc, out, err = run(cmd, short, *extra, "--config", CONFIG)
+            check(rc == 2 and said in err and "need at least 2" in err and "replay:" not in err,
+                  f"{cmd} on a recording of {rows} data rows: {out.strip()[:80]!r} {err.strip()!r}")
 
 
 def recording_positional(rec, nolc):

@@ -30,7 +30,7 @@ def free_port():
 
 
 def main():
-    watchdog(85)
+    watchdog(105)
     os.makedirs(WORK, exist_ok=True)
     srv = Server(MAGLEAD, CONFIG, "--port", "0")
     try:
@@ -41,6 +41,7 @@ def main():
     check("stopped after" in tail, "serve stops cleanly")
     dropped_connection()
     stroke_end_load()
+    step_out_advice()
     finish()
 
 
@@ -282,6 +283,22 @@ def scenario(port):
         got = read_regs(port, 3, 1003, 1)[0]
         check(rc == 0 and said in out and got == raw_ms,
               f"set {name} {typed}: {raw_ms} ms written (raw {got}): {out.strip()} {err.strip()}")
+    # A non-zero value the register's resolution rounds to 0 would write another meaning (the
+    # watchdog off, 0 N): refused with the resolution and what to type, nothing written. Before,
+    # watchdog_ms 0.05 said "watchdog_s = 0 s written" and switched the watchdog off.
+    staged = read_regs(port, 3, 1001, 5)  # mode_command, heartbeat, watchdog_ms, force_setpoint_mn
+    for name, typed, says in (("watchdog_ms", "0.05", "watchdog_s 5e-05 s is below the register's resolution "
+                               "0.001 s; write 0 to switch it off or at least 0.001 s"),
+                              ("watchdog_s", "0.0004", "watchdog_s 0.0004 s is below the register's resolution "
+                               "0.001 s; write 0 to switch it off or at least 0.001 s"),
+                              ("force_setpoint_n", "-0.0004", "force_setpoint_n -0.0004 N is below the register's "
+                               "resolution 0.001 N; write 0 or at most -0.001 N"),
+                              ("mode_command", "0.4", "mode_command 0.4 is below the register's resolution 1; "
+                               "write 0 or at least 1")):
+        rc, out, err = run(MAGLEAD, "set", *conn, name, typed)
+        check(rc == 2 and says in err and "nothing sent" in err and "written" not in out and one_line(err)
+              and read_regs(port, 3, 1001, 5) == staged,
+              f"set {name} {typed} (rounds to 0): refused, nothing written: {out.strip()} {err.strip()}")
     rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
     check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
     # A code register takes its number or its name, and says both.
@@ -359,6 +376,29 @@ def scenario(port):
     check(rc == 0 and read_regs(port, 4, 13, 1)[0] == 1, f"disable: drive ready {err.strip()}")
     rc, out, err = run(MAGLEAD, "reset", *conn)
     check(rc == 0 and "fault reset done" in out, f"reset without a fault is acknowledged: {err.strip()}")
+    documented_minimums(port, conn)
+
+
+def documented_minimums(port, conn):
+    """docs/registers.md's lower limits are taken, by the tool and by the controller: 10 um/s
+    (1e-05 m/s) and 0.0001 m/s^2. Before, the tool refused "1e-05 m/s is outside its range 1e-05 ..
+    0.1 m/s", or passed it and the controller answered exception 03, blamed on the stroke."""
+    for name, typed, addr, raw in (("velocity_limit_m_s", "10um/s", 1008, 10),
+                                   ("velocity_limit_um_s", "10", 1008, 10),
+                                   ("velocity_limit_m_s", "0.00001", 1008, 10),
+                                   ("accel_limit_m_s2", "0.0001", 1010, 100)):
+        run(MAGLEAD, "set", *conn, name, "1mm/s" if addr == 1008 else "1mm/s^2")
+        rc, out, err = run(MAGLEAD, "set", *conn, name, typed)
+        got = i32(read_regs(port, 3, addr, 2))
+        check(rc == 0 and "written" in out and got == raw,
+              f"set {name} {typed}: the documented minimum is written (raw {got}): {out.strip()} {err.strip()}")
+    rc, out, err = run(MAGLEAD, "set", *conn, "position", "0.1mm", "--speed", "0.00001", "--accel", "0.0001",
+                       "--no-wait", "--hold", "0.2s", "--config", CONFIG)
+    staged = [i32(read_regs(port, 3, a, 2)) for a in (1006, 1008, 1010)]
+    check(rc == 0 and "acknowledged" in out and "exception" not in err and staged == [100, 10, 100],
+          f"set position 0.1mm at the minimum speed and acceleration (staged {staged}): {out.strip()} {err.strip()}")
+    run(MAGLEAD, "set", *conn, "velocity_limit_m_s", "10mm/s")
+    run(MAGLEAD, "set", *conn, "accel_limit_m_s2", "0.1")
 
 
 def owner_watchdog_fault(port, conn):
@@ -477,6 +517,32 @@ def stroke_end_load():
                   f"watch names force_reached_reason beside force_limited (IR 66 = {reason}): {out.strip()} {err.strip()}")
             plc.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 6, 1000, 0))  # release control
             plc.recv(64)
+    finally:
+        srv.stop()
+
+
+def step_out_advice():
+    """After a step-out only a reset with a resync clears the fault (a plain one is refused,
+    still_faulty): every piece of advice names 'maglead reset --resync'. Before, set said "run
+    'maglead reset' first", and that reset answered still_faulty, exit 4."""
+    # A spring pulling 60 N at start, beyond the coupling's peak: the nut slips leads at once.
+    srv = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-spring", "3000", "--sim-spring-anchor", "0.010",
+                 "--sim-start", "0.030")
+    try:
+        conn = ["--port", str(srv.port)]
+        end = time.time() + 5
+        while time.time() < end and read_regs(srv.port, 4, 11, 1)[0] != 1:
+            time.sleep(0.05)
+        check(read_regs(srv.port, 4, 11, 3)[::2] == [1, 3], f"a step-out latched (raw {read_regs(srv.port, 4, 11, 3)})")
+        for cmd in (["set", *conn, "force", "2", "--config", CONFIG], ["enable", *conn], ["reset", *conn]):
+            rc, out, err = run(MAGLEAD, *cmd)
+            check(rc == 4 and "alarm step_out" in err and "run 'maglead reset --resync'" in err and one_line(err),
+                  f"{' '.join(cmd[:1] + cmd[3:4])} after a step-out names the reset that works: {err.strip()}")
+        rc, out, err = run(MAGLEAD, "disable", *conn)
+        check(rc == 0 and "run 'maglead reset --resync' to clear it" in out, f"disable after a step-out: {out.strip()}")
+        rc, out, err = run(MAGLEAD, "reset", *conn, "--resync")
+        check(rc == 0 and "fault reset done" in out and read_regs(srv.port, 4, 11, 3)[::2] == [0, 1],
+              f"reset --resync clears the step-out: {out.strip()} {err.strip()}")
     finally:
         srv.stop()
 

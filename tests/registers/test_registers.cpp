@@ -112,6 +112,27 @@ TEST(Registers, RangeCheckRefusesOutsideAndNonFinite) {
                        static_cast<float>(0.04)));  // float rounding of the limit
 }
 
+// The documented limits are accepted as typed (1e-05 m/s) and as the server decodes them after
+// encode (10 × 1e-6 = 9.999999999999999e-06 m/s, refused before); one raw unit beyond is not.
+TEST(Registers, EveryWritableLimitIsInRangeAsTypedAndAsDecoded) {
+  for (const auto& r : table()) {
+    if (r.access != Access::read_write || r.type == Type::bit) continue;
+    for (const double limit : {r.min, r.max}) {
+      std::uint16_t w[2] = {0, 0};
+      encode(r, limit, w);
+      EXPECT_TRUE(in_range(r, limit)) << r.name << " " << limit;
+      EXPECT_TRUE(in_range(r, decode(r, w))) << r.name << " decoded " << decode(r, w);
+    }
+    if (r.type == Type::f32) continue;
+    EXPECT_FALSE(in_range(r, r.min - r.scale)) << r.name;
+    EXPECT_FALSE(in_range(r, r.max + r.scale)) << r.name;
+  }
+  const Register& speed = *find("velocity_limit_um_s");
+  EXPECT_TRUE(in_range(speed, 10 * 1e-6));  // 10um/s, as the tool parses it
+  EXPECT_TRUE(in_range(speed, 9.6e-6));     // rounds to 10 µm/s, the limit
+  EXPECT_FALSE(in_range(speed, 9.4e-6));    // rounds to 9 µm/s
+}
+
 TEST(Registers, CsvAndJsonListEveryEntry) {
   const std::string csv = to_csv();
   const auto lines = std::count(csv.begin(), csv.end(), '\n');

@@ -446,6 +446,15 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
                                   const std::vector<std::string>& required,
                                   const ColumnChoice& keep, const std::string& reader) {
   Recording rec = read_with_columns(path, required, keep, reader);
+  // Every reader needs two samples at least (a sample period, a step of the twin, a difference):
+  // refused here, once, so inspect says what analyze, report, twin-check and estimate will do.
+  if (rec.rows() < kMinRecordingRows)
+    throw RecordingError(path + ": " + std::to_string(rec.rows()) +
+                         (rec.rows() == 1 ? " data row" : " data rows") +
+                         " below its header; analyze, report, twin-check, estimate and "
+                         "calibrate need at least " +
+                         std::to_string(kMinRecordingRows) +
+                         " (record one: maglead record --duration 10s --out FILE)");
   if (!rec.has("nut_pos_m")) return rec;  // another machine (pos_m): its stroke is not ours
   const double stroke_m = act.stroke_max_m - act.stroke_min_m;
   PlausibleRanges r;

@@ -120,7 +120,10 @@ namespace maglead::cli {
 /// θ from a recording: `screw_angle_rad`, else `motor_angle_rad` / gear ratio (the recording's
 /// `# gear_ratio:` if given, else the actuator's). Throws RecordingError if neither is there.
 std::vector<double> screw_angle_of(const Recording& rec, const ActuatorParams& act);
-/// Reads a recording as read_recording does and, for the actuator (a nut_pos_m column), also
+/// The fewest data rows any command that reads a recording takes.
+inline constexpr std::size_t kMinRecordingRows = 2;
+/// Reads a recording as read_recording does, refuses one of fewer than kMinRecordingRows rows
+/// (naming the file and its rows) and, for the actuator (a nut_pos_m column), also
 /// refuses positions beyond the configured stroke widened by ten strokes each way: millimetres
 /// where metres belong pass the reader's machine-independent 10 m bound on a short stroke.
 /// `keep` stores only the columns it chooses (read_recording). An axis's recording lacking a

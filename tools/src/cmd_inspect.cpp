@@ -26,7 +26,8 @@ void add_inspect(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "inspect",
       "Read a recording (mls-recording/1) as analyze does and print its rows, time span and "
-      "columns; exit 0 when every reader will take it (a dropped torn last line is a warning)");
+      "columns; exit 0 when every reader will take it (a dropped torn last line is a warning), "
+      "exit 2 with the reason when not (e.g. fewer than 2 data rows)");
   struct Opts {
     std::string recording, config = default_config_dir();
   };

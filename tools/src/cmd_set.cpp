@@ -112,10 +112,12 @@ void hold_then_release(op::Client& client, const std::string& hold, const op::Co
                 done.c_str());
 }
 
-bool drive_in_fault(op::Client& client) {
-  const auto* r = reg::find("drive_state");
-  return client.read_range(reg::Table::input_register, r->address, 1).at("drive_state") ==
-         static_cast<double>(reg::DriveState::fault);
+/// The latched alarm when the drive is in fault (IR 11-13), else nothing.
+std::optional<double> fault_alarm(op::Client& client) {
+  const auto* r = reg::find("alarm_code");
+  const auto v = client.read_range(reg::Table::input_register, r->address, 3);
+  if (v.at("drive_state") != static_cast<double>(reg::DriveState::fault)) return std::nullopt;
+  return v.at("alarm_code");
 }
 
 /// The release after Ctrl-C, in words. A release that fails (another client took control
@@ -266,7 +268,11 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
                                                  std::string(r->name) + " code: " + known);
   }
   const double v = code ? *code : op::parse_quantity(text, r->unit) * (raw ? r->scale : 1.0);
-  refuse_locally_if(op::check_register(*r, v));
+  const std::string raw_note = raw ? " (" + o.what + " " + text +
+                                         ": a number without a unit is in the raw unit the " +
+                                         "register name says)"
+                                   : "";
+  if (auto why = op::check_register(*r, v)) refuse_locally_if(*why + raw_note);
   op::Client client(endpoint_of(conn));
   client.check_identity();
   if (r->name.starts_with("force_setpoint"))
@@ -279,11 +285,7 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
                                        ? " (" + op::code_name(codes, v) + ")"
                                        : (r->unit.empty() ? "" : " " + std::string(r->unit));
   std::printf("%s = %s%s written%s\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
-              unit_or_name.c_str(),
-              raw ? (" (" + o.what + " " + text + ": a number without a unit is in the raw unit " +
-                     "the register name says)")
-                        .c_str()
-                  : "");
+              unit_or_name.c_str(), raw_note.c_str());
 }
 
 /// The controller's own limits, read from its limits block (what it refused against); this
@@ -304,11 +306,13 @@ op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags&
     return op::execute(client, p.mode, p.setpoints, options);
   } catch (const ClientError& e) {
     const std::string msg = e.what();
-    const bool limit = e.kind() == Kind::exception ? msg.find("exception 03") != std::string::npos
-                       : e.kind() == Kind::rejected
-                           ? (msg.find("force_beyond_safe_limit") != std::string::npos ||
-                              msg.find("target_outside_stroke") != std::string::npos)
-                           : false;
+    // Only the controller's force or stroke limit is worth the limit text: an exception 03 for a
+    // register's range (out_of_range) names that register itself, and the stroke beside it would
+    // blame a position that was inside.
+    const bool limit = (e.kind() == Kind::exception || e.kind() == Kind::rejected) &&
+                       (msg.find("force_beyond_safe_limit") != std::string::npos ||
+                        msg.find("position_outside_stroke") != std::string::npos ||
+                        msg.find("target_outside_stroke") != std::string::npos);
     if (!limit || p.mode == reg::Mode::idle) throw;
     throw ClientError(e.kind(), p.summary + " refused by the controller (" + msg +
                                     "); its limits are " + drive_limit_text(client, p.mode));
@@ -324,16 +328,18 @@ op::CommandResult send_or_release(op::Client& client, const Planned& p, const Co
     if (f.no_claim || e.kind() == Kind::refused_locally || e.kind() == Kind::connection) throw;
     // A latched fault has stopped the drive already: there is nothing to bring to 0 N, and only a
     // reset clears it.
-    bool in_fault = false;
+    std::optional<double> alarm;
+    std::string advice;
     try {
-      in_fault = drive_in_fault(client);
+      alarm = fault_alarm(client);
+      if (alarm) advice = op::reset_advice(client, *alarm);
     } catch (const ClientError&) {
       throw e;  // the line went too: the command's own error is the one to say
     }
-    if (in_fault) {
+    if (alarm) {
       const std::string what = e.what();
       throw ClientError(e.kind(), what.find("maglead reset") == std::string::npos
-                                      ? what + "; the drive is in fault: run 'maglead reset' first"
+                                      ? what + "; the drive is in fault: " + advice
                                       : what);
     }
     std::string done;

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <thread>
 
 #include "maglead/physics/estimator.hpp"
@@ -304,13 +305,39 @@ void Client::refused_write(const std::string& what) {
                                          " refused it (exception 04): " + why);
 }
 
+/// Exception 03 on a write: the controller says why in write_refusal_reason. A value outside its
+/// register's range is named with that range (the one the controller's decoded value failed,
+/// checked as the server checks it), so the message blames the register that was refused, not
+/// the setpoint beside it in the same request.
+void Client::refused_value(const std::string& what, const std::vector<WrittenValue>& written) {
+  std::string why = "out of range or beyond its limits";
+  try {
+    const auto* reason = reg::find("write_refusal_reason");
+    const double code =
+        read_range(reg::Table::input_register, reason->address, 1).at("write_refusal_reason");
+    why = code_name(reg::refusals(), code) + ": " + code_meaning(reg::refusals(), code);
+    if (code == static_cast<double>(reg::Refusal::out_of_range)) {
+      std::string named;
+      for (const auto& [r, v] : written) {
+        std::uint16_t w[2] = {0, 0};
+        reg::encode(*r, v, w);
+        if (reg::in_range(*r, reg::decode(*r, w))) continue;
+        const std::string unit = r->unit.empty() ? "" : " " + std::string(r->unit);
+        named += "; " + si_name(*r) + " " + fmt(v) + unit + " is outside " + fmt(r->min) + " .. " +
+                 fmt(r->max) + unit;
+      }
+      why += named.empty() ? " (every value written is inside the range this tool knows)" : named;
+    }
+  } catch (const ClientError&) {
+    // The reason could not be read: the generic text stands.
+  }
+  throw ClientError(Kind::exception, what + ": controller at " + ep_.describe() +
+                                         " refused it (exception 03 illegal data value): " + why);
+}
+
 void Client::write(const std::vector<std::pair<std::string, double>>& values) {
   // Check everything first: a refused value must leave the controller untouched.
-  struct Item {
-    const reg::Register* r;
-    double v;
-  };
-  std::vector<Item> items;
+  std::vector<WrittenValue> items;
   for (const auto& [name, v] : values) {
     const auto* r = reg::find(name);
     if (!r) throw ClientError(Kind::refused_locally, "no register named '" + name + "'");
@@ -335,6 +362,9 @@ void Client::write(const std::vector<std::pair<std::string, double>>& values) {
     const int n = static_cast<int>(words.size());
     if (modbus_write_registers(ctx_of(ctx_), start, n, words.data()) != n) {
       if (errno == EMBXSFAIL) refused_write("writing " + names);
+      if (errno == EMBXILVAL)
+        refused_value("writing " + names, {items.begin() + static_cast<std::ptrdiff_t>(i),
+                                           items.begin() + static_cast<std::ptrdiff_t>(j)});
       fail("writing " + names);
     }
     i = j;
@@ -463,11 +493,39 @@ std::vector<std::string> status_bits(std::uint16_t status_word) {
   return out;
 }
 
+namespace {
+/// The smallest non-zero value a register stores: its scale; for float32, the smallest
+/// subnormal (a value below it underflows to 0).
+double resolution_si(const reg::Register& r) {
+  return r.type == reg::Type::f32 ? std::numeric_limits<float>::denorm_min() * r.scale : r.scale;
+}
+
+/// A non-zero value the register's resolution rounds to 0, refused with what to type.
+std::string below_resolution_text(const reg::Register& r, double v) {
+  const std::string unit = r.unit.empty() ? "" : " " + std::string(r.unit);
+  const double step = resolution_si(r);
+  const std::string step_text = r.type == reg::Type::f32 ? fmt(step) : si_text(r, step);
+  // The table says what 0 means where it is a switch ("0 = off"): the watchdog.
+  const bool zero_is_off = r.description.find("0 = off") != std::string_view::npos;
+  return si_name(r) + " " + fmt(v) + unit + " is below the register's resolution " + step_text +
+         unit + "; write 0" + (zero_is_off ? " to switch it off" : "") +
+         (v < 0 ? " or at most -" : " or at least ") + step_text + unit;
+}
+}  // namespace
+
 std::optional<std::string> check_register(const reg::Register& r, double v) {
-  if (reg::in_range(r, v)) return std::nullopt;
-  return si_name(r) + " = " + fmt(v) + (r.unit.empty() ? "" : " ") + std::string(r.unit) +
-         " is outside its range " + fmt(r.min) + " .. " + fmt(r.max) + (r.unit.empty() ? "" : " ") +
-         std::string(r.unit) + " (the register map: docs/registers.md, maglead registers)";
+  if (!reg::in_range(r, v))
+    return si_name(r) + " = " + fmt(v) + (r.unit.empty() ? "" : " ") + std::string(r.unit) +
+           " is outside its range " + fmt(r.min) + " .. " + fmt(r.max) +
+           (r.unit.empty() ? "" : " ") + std::string(r.unit) +
+           " (the register map: docs/registers.md, maglead registers)";
+  // What the register would store, not what was typed: a non-zero request rounded to 0 writes a
+  // different meaning (watchdog 0 is off, mode_command 0 is idle, force 0 N), never a smaller
+  // value of the same one. Every write of the tools passes here (Client::write).
+  std::uint16_t words[2] = {0, 0};
+  reg::encode(r, v, words);
+  if (v != 0.0 && reg::decode(r, words) == 0.0) return below_resolution_text(r, v);
+  return std::nullopt;
 }
 
 namespace {
@@ -662,16 +720,26 @@ std::string force_not_reached_text(Client& c) {
          (code_name(codes, why) == "bound_too_wide" ? bound : "");
 }
 
-/// What clears a latched fault, said to a client that has not claimed control: 'maglead reset'
-/// when nobody owns control; when another client owns it, the controller refuses our reset
-/// (exception 04 not_owner), so the owner must clear it or let go of control first.
-std::string reset_advice(Client& c) {
+/// A slip leaves φ a lead (or more) away from the stable branch, and the controller refuses a
+/// plain reset while it is (still_faulty): the resync takes the nut's new lead as zero first.
+bool slipped(double alarm) {
+  return alarm == static_cast<double>(reg::Alarm::step_out) ||
+         alarm == static_cast<double>(reg::Alarm::phase_jump);
+}
+
+}  // namespace
+
+std::string reset_command(double alarm) {
+  return slipped(alarm) ? "maglead reset --resync" : "maglead reset";
+}
+
+std::string reset_advice(Client& c, double alarm) {
   const auto* owner = reg::find("control_owner");
   const Values v = c.read_range(reg::Table::input_register, owner->address, 3);  // IR 17-19
   const double id = v.at("control_owner");
   constexpr double kRtuMaster = 65535;  // over RTU the one master is this client
   if (id == 0 || (id == kRtuMaster && !c.endpoint().serial.empty()))
-    return "run 'maglead reset' first";
+    return "run '" + reset_command(alarm) + "' first";
   const auto ip = static_cast<std::uint32_t>(v.at("control_owner_ipv4"));
   const std::string who = id == kRtuMaster ? "the RTU master"
                           : ip != 0        ? "the client at " + ipv4_text(ip)
@@ -680,8 +748,11 @@ std::string reset_advice(Client& c) {
          ", IR 17-19), and the controller takes a reset from it only: it must clear the fault "
          "itself (a fault_reset edge in its control word, then enable 0 -> 1 again before its "
          "next execute), or release control (enable cleared) or close its connection, after "
-         "which 'maglead reset' works";
+         "which '" +
+         reset_command(alarm) + "' works";
 }
+
+namespace {
 
 /// The alarm by name and meaning; a drive fault with its cause (IR 68) and the drive's own code
 /// (IR 69), which say what to check: a silent drive is not cleared by a reset.
@@ -725,7 +796,8 @@ CommandResult execute(Client& c, reg::Mode mode,
       reset(c, false, o);
     else if (fault)  // any other fault is the operator's to look at and reset
       throw ClientError(Kind::rejected, "execute: the drive is in fault (alarm " +
-                                            alarm_text(c, st.alarm) + "); " + reset_advice(c));
+                                            alarm_text(c, st.alarm) + "); " +
+                                            reset_advice(c, st.alarm));
     if (read_status(c).drive_state == static_cast<std::uint16_t>(reg::DriveState::ready))
       enable(c, o);
   }
@@ -795,7 +867,8 @@ void enable(Client& c, const CommandOptions& o) {
   // The controller ignores an enable edge outside "ready" without a reason code: say why here.
   if (s.drive_state == static_cast<std::uint16_t>(DS::fault))
     throw ClientError(Kind::rejected, "enable: the drive is in fault (alarm " +
-                                          alarm_text(c, s.alarm) + "); " + reset_advice(c));
+                                          alarm_text(c, s.alarm) + "); " +
+                                          reset_advice(c, s.alarm));
   if (s.drive_state != static_cast<std::uint16_t>(DS::ready))
     throw ClientError(Kind::rejected, "enable: the drive is not ready (" +
                                           code_meaning(reg::drive_states(), s.drive_state) + ")");
@@ -837,7 +910,7 @@ std::string disable_and_say(Client& c) {
   const Status s = read_status(c);
   if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
     return "enable cleared; the drive stays in fault (alarm " + alarm_text(c, s.alarm) +
-           "): run 'maglead reset' to clear it";
+           "): run '" + reset_command(s.alarm) + "' to clear it";
   return "drive disabled: enable cleared, control released (drive_state " +
          code_name(reg::drive_states(), s.drive_state) + ")";
 }
@@ -851,7 +924,16 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
     const Status before = read_status(c);
     Status s = settle(c, before.cycle, im, o, what);
     write_cw(c, cw);
-    if (s.bit(reg::kRejected) && !s.bit(ack)) rejected(what, s);
+    if (s.bit(reg::kRejected) && !s.bit(ack)) {
+      // still_faulty after a slip: the command that works for this alarm, not a hint to decode.
+      if (s.reject == static_cast<std::uint16_t>(reg::Reject::still_faulty) && !resync_first &&
+          slipped(s.alarm))
+        throw ClientError(Kind::rejected, std::string(what) + " rejected by the controller: " +
+                                              code_name(reg::reject_codes(), s.reject) +
+                                              " (alarm " + alarm_text(c, s.alarm) + "): run '" +
+                                              reset_command(s.alarm) + "'");
+      rejected(what, s);
+    }
     if (!s.bit(ack))
       throw ClientError(Kind::protocol,
                         std::string(what) + ": no acknowledgement from the controller");

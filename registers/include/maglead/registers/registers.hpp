@@ -151,7 +151,9 @@ std::string_view to_string(Access access);
 /// Scaled integers are rounded and saturate at the type's limits; NaN encodes as 0.
 void encode(const Register& reg, double value_si, std::uint16_t* words);
 double decode(const Register& reg, const std::uint16_t* words);
-/// True when a decoded write value lies in [min, max].
+/// True when a write value lies in [min, max]: a scaled integer compared in its integer units
+/// after encode's rounding (so a value within half a unit of a limit is the limit), a float32
+/// with a relative 1e-6 for the limits' own float32 rounding.
 bool in_range(const Register& reg, double value_si);
 
 std::string to_markdown();

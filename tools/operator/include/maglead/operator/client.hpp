@@ -98,6 +98,12 @@ class Client {
  private:
   [[noreturn]] void fail(const std::string& what) const;
   [[noreturn]] void refused_write(const std::string& what);
+  struct WrittenValue {
+    const registers::Register* r;
+    double v;
+  };
+  [[noreturn]] void refused_value(const std::string& what,
+                                  const std::vector<WrittenValue>& written);
   Endpoint ep_;
   void* ctx_ = nullptr;  // modbus_t*
 };
@@ -159,7 +165,9 @@ std::string position_limit_text(const Limits& limits);
 /// safe limit); returns the reason it would be refused, or nothing.
 std::optional<std::string> check_force(const Limits& limits, double force_n);
 std::optional<std::string> check_position(const Limits& limits, double position_m);
-/// Range check of any writable register, with the reason.
+/// Check of any writable register, with the reason: its range (compared in the register's own
+/// units, registers::in_range), and a non-zero value its resolution would round to 0 (refused
+/// with the resolution and what to type: 0 writes a different meaning, not a smaller value).
 std::optional<std::string> check_register(const registers::Register& reg, double value_si);
 
 // ---------------------------------------------------------------------------- commands
@@ -192,6 +200,14 @@ void disable(Client& client, const CommandOptions& options);
 /// disable, then the state the drive is in, in words: "drive disabled …" only when it is not in
 /// fault (a latched fault stays until a reset, and the text says what to type).
 std::string disable_and_say(Client& client);
+/// The command that clears a latched alarm: 'maglead reset --resync' after a step-out or a phase
+/// jump (a plain reset is refused, still_faulty, while the phase sits a lead away), else
+/// 'maglead reset'. Every piece of advice to reset takes its command from here.
+std::string reset_command(double alarm);
+/// What clears a latched fault, said to a client that has not claimed control: "run 'COMMAND'
+/// first" (reset_command) when nobody owns control; when another client owns it, the controller
+/// refuses our reset (exception 04 not_owner), so the owner must clear it or let go first.
+std::string reset_advice(Client& client, double alarm);
 /// Fault reset edge (optionally a resync edge first), with the ack/done handshake.
 void reset(Client& client, bool resync_first, const CommandOptions& options);
 /// Keeps control for `seconds` (infinity: for ever) or until `stop` says so (polling, feeding a
