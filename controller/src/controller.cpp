@@ -620,10 +620,13 @@ void Controller::supervise(double now_s) noexcept {
     latch_fault(std::abs(s_.phase_rad - last_phase_rad_) > std::numbers::pi ? Alarm::phase_jump
                                                                             : Alarm::step_out);
   }
-  if (s_.nut_pos_m < a.stroke_min_m - kStrokeMargin_m ||
-      s_.nut_pos_m > a.stroke_max_m + kStrokeMargin_m) {
-    if (state_ == DriveState::enabled) latch_fault(Alarm::stroke_limit);
-  }
+  // Beyond the stroke, only motion further out is a fault: a nut found there (pushed by hand,
+  // a step-out) may be enabled and moved back inside, as a drive at a limit switch allows.
+  const int beyond = s_.nut_pos_m > a.stroke_max_m + kStrokeMargin_m   ? 1
+                     : s_.nut_pos_m < a.stroke_min_m - kStrokeMargin_m ? -1
+                                                                       : 0;
+  if (beyond != 0 && beyond * s_.nut_vel_m_s > 0.0 && state_ == DriveState::enabled)
+    latch_fault(Alarm::stroke_limit);
   if (state_ == DriveState::enabled && image_.watchdog_s > 0.0 &&
       now_s - last_heartbeat_s_ > image_.watchdog_s) {
     watchdog_expired_ = true;

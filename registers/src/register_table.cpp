@@ -193,7 +193,8 @@ constexpr std::array kTable = std::to_array<Register>({
     {"force_limit_pull_n_f32", IR, 142, Type::f32, 1, "N", RO, -1e9, 1e9,
      "Largest pull force setpoint accepted (negative): safe_force_fraction of the peak pull"},
     {"stroke_min_m_f32", IR, 144, Type::f32, 1, "m", RO, -1e9, 1e9,
-     "Lowest position setpoint accepted (the stroke's near end; beyond it the nut faults)"},
+     "Lowest position setpoint accepted (the stroke's near end; enabled, a nut moving out more "
+     "than 0.5 mm beyond either end faults)"},
     {"stroke_max_m_f32", IR, 146, Type::f32, 1, "m", RO, -1e9, 1e9,
      "Highest position setpoint accepted (the stroke's far end)"},
     {"force_window_min_m_f32", IR, 148, Type::f32, 1, "m", RO, -1e9, 1e9,
@@ -280,7 +281,7 @@ constexpr std::array kAlarms = std::to_array<Code>({
     {1, "step_out", "phase left the stable branch: the nut slipped; force commanding stopped"},
     {2, "phase_jump", "phase jumped by more than pi in one cycle (sensor or slip)"},
     {3, "watchdog", "no heartbeat within watchdog_ms: fault reaction"},
-    {4, "stroke_limit", "nut beyond the configured stroke"},
+    {4, "stroke_limit", "nut moving out more than 0.5 mm beyond the configured stroke"},
     {5, "sensor_fault", "actuator reported a sensor fault"},
     {6, "drive_fault", "the drive or its bus reported a fault (drive_fault_cause says which)"},
     {7, "owner_lost",

@@ -142,11 +142,15 @@ TEST(HardwareFault, RefusedWriteLatchesAlarm6AndTheCommandStaysPut) {
   EXPECT_LT(std::abs(rig.plant.truth().nut_vel_m_s), 1e-4);
 }
 
-TEST(HardwareFault, StrokeLimitHitLatchesAlarm4AndHoldsTheNut) {
-  // A free nut put beyond the stroke from outside (force mode itself stops inside its window:
-  // ForceEnvelope.*): enabled, the drive latches stroke_limit and holds it there.
+TEST(HardwareFault, ANutBeyondTheStrokeMovingOutLatchesAlarm4AndHoldsIt) {
+  // A free nut found beyond the stroke (pushed by hand, a step-out) may be enabled; driven
+  // further out (here a force setpoint outwards), the drive latches stroke_limit and holds it.
   FaultRig rig(0.0, 0.0408);
   rig.control(bit(reg::kEnable));
+  rig.loop.run_cycles(500);
+  ASSERT_NE(rig.snap().drive_state, kFault) << "alarm " << rig.snap().alarm_code;
+  rig.image.force_setpoint_n = 5.0;
+  rig.execute(reg::Mode::force);
   std::uint64_t latched_at = 0;
   for (int i = 0; i < 5000 && latched_at == 0; ++i) {
     rig.loop.run_cycles(1);
@@ -169,6 +173,26 @@ TEST(HardwareFault, StrokeLimitHitLatchesAlarm4AndHoldsTheNut) {
   const auto& c = rig.hw.commands();
   const auto [lo, hi] = std::minmax_element(c.end() - 100, c.end());
   EXPECT_LT(*hi - *lo, 1e-6);
+}
+
+TEST(HardwareFault, ANutBeyondTheStrokeIsBroughtBackByAResetAndAMoveInside) {
+  FaultRig rig(0.0, 0.0408);
+  rig.control(bit(reg::kEnable));
+  rig.image.force_setpoint_n = 5.0;
+  rig.execute(reg::Mode::force);
+  rig.loop.run_cycles(2000);
+  ASSERT_EQ(rig.snap().alarm_code, static_cast<std::uint16_t>(reg::Alarm::stroke_limit));
+  rig.control(bit(reg::kFaultReset));
+  rig.control(0);
+  rig.control(bit(reg::kEnable));
+  rig.image.position_setpoint_m = 0.030;
+  rig.execute(reg::Mode::position);
+  rig.loop.run_cycles(3000);
+  const auto s = rig.snap();
+  EXPECT_EQ(s.drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+  EXPECT_EQ(s.alarm_code, 0);
+  EXPECT_NEAR(s.nut_pos_m, 0.030, 50e-6);
+  EXPECT_TRUE((s.status_word >> reg::kInPosition) & 1u);
 }
 
 // The power stage follows the controller's drive state through the port: enable and disable
