@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <random>
@@ -215,7 +216,7 @@ TEST(Recording, LargeFileRoundTripIsBitExact) {
   std::vector<std::vector<double>> cols(ncol, std::vector<double>(rows));
   double t = 0;
   for (std::size_t r = 0; r < rows; ++r) {
-    t += (r % 10 == 3) ? 0.0 : 1e-3 * (1.0 + 1e-3 * static_cast<double>(rng() % 7));
+    t += 1e-3 * (1.0 + 1e-3 * static_cast<double>(rng() % 7));  // a recorder's jitter
     cols[0][r] = t;
     for (std::size_t c = 1; c < ncol; ++c) cols[c][r] = sample_value(rng, c);
   }
@@ -569,4 +570,71 @@ TEST(ErrorStats, MeanAbsRmsMaxAndPercentileSkipGaps) {
   EXPECT_DOUBLE_EQ(maglead::percentile({5, 1, nan, 4, 2, 3}, 0.5), 3.0);
   EXPECT_DOUBLE_EQ(maglead::percentile({5, 1, 4, 2, 3}, 1.0), 5.0);
   EXPECT_TRUE(std::isnan(maglead::percentile({}, 0.5)));
+}
+
+// Rows one sample period apart are what every reader assumes (issue 43: the analysis took a
+// recorder's missed cycles, repeated rows and a wrong header rate as evenly spaced).
+namespace {
+/// A 1 kHz recording of x = 2·t over `n` rows, without the rows `drop` says to leave out and
+/// with those `twice` says written twice, under a header line of `rate_hz` (0: none).
+std::string sampled(int n, const std::function<bool(int)>& drop, double rate_hz = 1000.0,
+                    const std::function<bool(int)>& twice = {}) {
+  std::string s = "# format: mls-recording/1\n";
+  if (rate_hz > 0) s += "# sample_rate_hz: " + std::to_string(rate_hz) + "\n";
+  s += "t_s,x_m,status_word\n";
+  char row[96];
+  for (int i = 0; i < n; ++i) {
+    if (drop(i)) continue;
+    std::snprintf(row, sizeof row, "%.3f,%.6f,%d\n", i * 1e-3, 2e-3 * i, i < n / 2 ? 3 : 7);
+    s += row;
+    if (twice && twice(i)) s += row;
+  }
+  return s;
+}
+bool none(int) { return false; }
+}  // namespace
+
+TEST(Recording, MissedRowsAreFilledOntoTheSamplePeriod) {
+  // Rows 100, 101 and 500 missing (a recorder that fell two cycles, then one, behind), and 30
+  // from row 600 (a stall of 30 ms, within the 50 ms filled).
+  const auto p = write_file("gaps.csv", sampled(1000, [](int i) {
+                              return i == 100 || i == 101 || i == 500 || (i >= 600 && i < 630);
+                            }));
+  const Recording r = read_recording(p);
+  ASSERT_EQ(r.rows(), 1000u);
+  const auto& t = r.column("t_s");
+  const auto& x = r.column("x_m");
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    EXPECT_NEAR(t[i], static_cast<double>(i) * 1e-3, 1e-9) << i;
+    EXPECT_NEAR(x[i], 2e-3 * static_cast<double>(i), 1e-9) << i;
+  }
+  EXPECT_EQ(r.column("status_word")[500], 3.0);  // a code keeps the value before (not 5, half-way)
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("filled 33 missing rows in 3 gaps of t_s (the longest 30 rows"),
+            std::string::npos)
+      << r.warnings[0];
+  // Evenly sampled files pass untouched and silent.
+  EXPECT_TRUE(read_recording(write_file("even.csv", sampled(1000, none))).warnings.empty());
+}
+
+TEST(Recording, RowsTheHeaderRateContradictsAreRefused) {
+  const std::string low = error_of(write_file("rate_low.csv", sampled(1000, none, 100.0)));
+  EXPECT_NE(low.find("more than 100 Hz allows"), std::string::npos) << low;
+  EXPECT_NE(low.find("1000 Hz"), std::string::npos) << low;  // what the rows say
+  const std::string thin =
+      error_of(write_file("rate_high.csv", sampled(1000, [](int i) { return i % 10 != 0; })));
+  EXPECT_NE(thin.find("are missing"), std::string::npos) << thin;
+  EXPECT_NE(thin.find("100 Hz"), std::string::npos) << thin;
+  const std::string twice = error_of(
+      write_file("repeated.csv", sampled(1000, none, 0, [](int i) { return i % 10 == 0; })));
+  EXPECT_NE(twice.find("100 rows repeat the time of the row before (the first at data row 2)"),
+            std::string::npos)
+      << twice;
+  const std::string all_twice =
+      error_of(write_file("all_twice.csv", sampled(1000, none, 0, [](int) { return true; })));
+  EXPECT_NE(all_twice.find("repeat"), std::string::npos) << all_twice;
+  const std::string hole =
+      error_of(write_file("hole.csv", sampled(1000, [](int i) { return i > 300 && i < 400; })));
+  EXPECT_NE(hole.find("99 rows missing"), std::string::npos) << hole;
+  EXPECT_NE(hole.find("as two recordings"), std::string::npos) << hole;
 }

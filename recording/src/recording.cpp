@@ -538,6 +538,7 @@ Recording read_recording(const std::string& path, const std::vector<std::string>
     }
   }
   check_plausible_units(rec);
+  make_evenly_sampled(rec);
   return rec;
 }
 

@@ -1,0 +1,154 @@
+// Even sampling: every reader of a recording (analysis filters, derivatives, the twin's replay)
+// takes its rows as one sample period apart. Rows a recorder missed are filled in; a header rate
+// the rows contradict, or a recording with whole stretches lost, is refused.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "maglead/recording/recording.hpp"
+
+namespace maglead {
+namespace {
+
+// A step this many periods long has a row missing; a recorder's jitter stays well below it.
+constexpr double kGapSteps = 1.5;
+// A gap is filled up to this many rows or this long, whichever is more: a recorder that fell a
+// few polls behind, or whose process a loaded machine stalled for a time slice. A longer gap is
+// a lost stretch that interpolation would invent.
+constexpr long kMaxFilledRows = 10;
+constexpr double kMaxFilledGap_s = 0.05;
+// More rows missing than this share of what the rate implies: the rate or the file is wrong.
+constexpr double kMaxMissingShare = 0.1;
+// More rows than the rate implies by this share: the header's rate is too low (a recorder's
+// clock is far better than 1 %), or rows are repeated.
+constexpr double kMaxExtraShare = 0.01;
+
+std::string num(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.6g", v);
+  return b;
+}
+
+double median_step_s(const std::vector<double>& t) {
+  std::vector<double> d;
+  d.reserve(t.size());
+  for (std::size_t i = 1; i < t.size(); ++i) d.push_back(t[i] - t[i - 1]);
+  auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
+  std::nth_element(d.begin(), mid, d.end());
+  return *mid;
+}
+
+/// The period the rows should step by: the header's rate, else the median step.
+double period_of(const Recording& rec, const std::vector<double>& t) {
+  if (auto h = rec.meta("sample_rate_hz")) {
+    char* end = nullptr;
+    const double f = std::strtod(h->c_str(), &end);
+    if (end != h->c_str() && f > 0 && std::isfinite(f)) return 1.0 / f;
+  }
+  return median_step_s(t);
+}
+
+long missing_at(double step_s, double period_s) {
+  return step_s > kGapSteps * period_s ? std::lround(step_s / period_s) - 1 : 0;
+}
+
+std::string rate_advice(const std::vector<double>& t) {
+  return "t_s steps by " + num(median_step_s(t) * 1e3) + " ms (median), i.e. " +
+         num(1.0 / median_step_s(t)) + " Hz";
+}
+
+/// Refuses rows the header's rate contradicts: more than it allows, too many missing, or a gap
+/// too long to fill.
+void check_against_rate(const Recording& rec, const std::vector<double>& t, double period_s) {
+  const double span_s = t.back() - t.front();
+  const double expected = span_s / period_s + 1.0;
+  const auto rows = static_cast<double>(t.size());
+  const std::string rate = num(1.0 / period_s) + " Hz";
+  if (rows > expected * (1.0 + kMaxExtraShare) + 1.0) {
+    std::size_t repeats = 0, first = 0;
+    for (std::size_t i = t.size() - 1; i > 0; --i)
+      if (t[i] == t[i - 1]) ++repeats, first = i + 1;
+    const std::string head = rec.path + ": " + num(rows) + " rows over " + num(span_s) +
+                             " s of t_s are more than " + rate + " allows (" + num(expected) + ")";
+    if (repeats > 0)
+      throw RecordingError(head + ": " + std::to_string(repeats) +
+                           " rows repeat the time of the row before (the first at data row " +
+                           std::to_string(first) + "); delete the repeated rows");
+    throw RecordingError(head + ": the header's sample_rate_hz is wrong; " + rate_advice(t) +
+                         ": fix the '# sample_rate_hz:' line or delete it");
+  }
+  const long max_run = std::max(kMaxFilledRows, std::lround(kMaxFilledGap_s / period_s));
+  long missing = 0;
+  for (std::size_t i = 1; i < t.size(); ++i) {
+    const long m = missing_at(t[i] - t[i - 1], period_s);
+    if (m > max_run)
+      throw RecordingError(rec.path + ": t_s jumps from " + num(t[i - 1]) + " s to " + num(t[i]) +
+                           " s at data row " + std::to_string(i + 1) + ": " + std::to_string(m) +
+                           " rows missing at " + rate + ", more than the " +
+                           std::to_string(max_run) +
+                           " that are filled in; analyse the rows before and after the gap as "
+                           "two recordings");
+    missing += m;
+  }
+  if (static_cast<double>(missing) > kMaxMissingShare * expected)
+    throw RecordingError(rec.path + ": " + std::to_string(missing) + " of the " + num(expected) +
+                         " rows " + rate + " implies are missing; either the header's "
+                         "sample_rate_hz is wrong (" + rate_advice(t) +
+                         ") or the recorder fell behind (record at a lower --rate)");
+}
+
+/// Column c with `missing` rows filled in each gap, linearly between its neighbours; a coded
+/// column (whole numbers both sides: a status word, a mode) keeps the value before.
+std::vector<double> filled(const std::vector<double>& v, const std::vector<double>& t,
+                           double period_s, std::size_t rows, bool is_time) {
+  std::vector<double> out;
+  out.reserve(rows);
+  out.push_back(v.front());
+  for (std::size_t i = 1; i < v.size(); ++i) {
+    const long m = missing_at(t[i] - t[i - 1], period_s);
+    const bool coded = !is_time && v[i - 1] == std::floor(v[i - 1]) && v[i] == std::floor(v[i]);
+    for (long k = 1; k <= m; ++k) {
+      const double w = static_cast<double>(k) / static_cast<double>(m + 1);
+      out.push_back(coded ? v[i - 1] : v[i - 1] + w * (v[i] - v[i - 1]));
+    }
+    out.push_back(v[i]);
+  }
+  return out;
+}
+
+}  // namespace
+
+void make_evenly_sampled(Recording& rec) {
+  if (!rec.has("t_s")) return;
+  const std::vector<double> t = rec.column("t_s");
+  if (t.size() < 3) return;  // too short for any reader: each says so
+  const double period_s = period_of(rec, t);
+  if (!(period_s > 0))
+    throw RecordingError(rec.path + ": most rows repeat the time of the row before (t_s steps " +
+                         "by 0 s, median): delete the repeated rows");
+  check_against_rate(rec, t, period_s);
+  long missing = 0, longest = 0;
+  double longest_at_s = 0.0;
+  std::size_t gaps = 0;
+  for (std::size_t i = 1; i < t.size(); ++i) {
+    const long m = missing_at(t[i] - t[i - 1], period_s);
+    if (m == 0) continue;
+    missing += m, ++gaps;
+    if (m > longest) longest = m, longest_at_s = t[i - 1];
+  }
+  if (missing == 0) return;
+  const std::size_t rows = t.size() + static_cast<std::size_t>(missing);
+  for (std::size_t c = 0; c < rec.columns.size(); ++c)
+    rec.columns[c] = filled(rec.columns[c], t, period_s, rows, rec.names[c] == "t_s");
+  std::string warning = rec.path + ": filled " + std::to_string(missing) + " missing rows in " +
+                        std::to_string(gaps) + " gaps of t_s (the longest " +
+                        std::to_string(longest) + " rows, after t = " + num(longest_at_s) +
+                        " s) by linear interpolation, so the rows step by " +
+                        num(period_s * 1e3) + " ms as the analysis assumes";
+  std::fprintf(stderr, "warning: %s\n", warning.c_str());
+  rec.warnings.push_back(std::move(warning));
+}
+
+}  // namespace maglead
