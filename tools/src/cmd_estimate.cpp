@@ -1,4 +1,5 @@
 // maglead estimate: force estimate from a recording against its load cell (paper Fig. 11).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -153,6 +154,25 @@ Recording read_estimated(const EstimateOptions& o, const ActuatorParams& act) {
   }
 }
 
+/// The loads and motion the figures cover: the paper's 2.3 N is over pushes through its force
+/// range with the nut sliding; a recording that stays near one load, or never moves, is not that.
+void print_what_was_compared(const std::vector<double>& measured_n,
+                             const std::vector<double>& nut_pos_m) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (double f : measured_n)
+    if (std::isfinite(f)) lo = std::min(lo, f), hi = std::max(hi, f);
+  std::size_t moved = 0;
+  for (std::size_t i = 1; i < nut_pos_m.size(); ++i) moved += nut_pos_m[i] != nut_pos_m[i - 1];
+  const double moved_pct = 100.0 * static_cast<double>(moved) /
+                           static_cast<double>(std::max<std::size_t>(1, nut_pos_m.size() - 1));
+  std::printf("  over loads           %.2f .. %.2f N, the nut moving in %.1f %% of the samples\n",
+              lo, hi, moved_pct);
+  if (moved == 0)
+    std::printf(
+        "  (the nut never moved: the figures say how far the estimate sits from one held "
+        "load, not how it tracks a force, and are not comparable with the paper's)\n");
+}
+
 void run_estimate(const EstimateOptions& o) {
   // The same [control] settings as `serve`.
   controller::ControllerConfig c;
@@ -185,6 +205,7 @@ void run_estimate(const EstimateOptions& o) {
       s.mean_abs);
   std::printf("  RMS error            %6.2f N\n", s.rms);
   std::printf("  max absolute error   %6.2f N\n", s.max_abs);
+  print_what_was_compared(measured, rec.column("nut_pos_m"));
   if (!o.out.empty()) write_estimates(o, in, e, measured, error);
   plot_estimates(o, in, c.actuator.lead_m, e, measured, error, s.mean_abs);
 }

@@ -43,6 +43,22 @@ actuator::Baseline baseline_of(const ModelFile& m) {
   return b;
 }
 
+// "; replaces [model] viscous_n_s_per_m = 2 while enabled" for a parameter that is a [model]
+// value's whole (the term's value is the total, not an addition): a reader of the file cannot
+// tell otherwise.
+std::string replaces_text(const ModelFile& base, const std::string& name) {
+  const std::pair<const char*, double> keys[] = {{"nut_mass_kg", base.nut_mass_kg},
+                                                 {"viscous_n_s_per_m", base.viscous_n_s_per_m},
+                                                 {"coulomb_n", base.coulomb_n}};
+  for (const auto& [key, value] : keys)
+    if (name == key) {
+      char b[96];
+      std::snprintf(b, sizeof b, "; replaces [model] %s = %g while enabled", key, value);
+      return b;
+    }
+  return "";
+}
+
 // The baseline plus the findings given: what the twin should run from now on.
 ModelFile corrected_model(const ModelFile& base, const std::vector<selection::Found>& terms,
                           const std::string& recording) {
@@ -58,6 +74,7 @@ ModelFile corrected_model(const ModelFile& base, const std::vector<selection::Fo
     std::snprintf(evidence, sizeof evidence, "; held-out gain %.2f %%, t = %.1f", c.gain_pct,
                   c.t_stat);
     term.note = summary_text(parameters_of(c.params), parameters_of(c.standard_errors)) + evidence;
+    for (const auto& p : c.params) term.note += replaces_text(base, p.first);
     for (const auto& a : c.alternatives)
       if (a.plausible) {
         std::snprintf(evidence, sizeof evidence, "%.2f", a.explains_pct);

@@ -211,6 +211,8 @@ Anomaly inspect_recording(const Recording& rec, const twin::TwinMonitorConfig& m
   if (!(a.duration_s > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
   a.sample_rate_hz = static_cast<double>(n - 1) / a.duration_s;
   a.linear_count_m = monitor.actuator.linear_count_m;
+  const FrictionModel friction = twin::friction_model(monitor.model);
+  a.static_friction_band_n = std::max(friction.breakaway_n(1), friction.breakaway_n(-1));
   std::vector<double> geared;
   const auto& screw = actuator::angle_column(rec, monitor.actuator, geared);
   const auto column_or_nan = [&](const char* name, double scale) {

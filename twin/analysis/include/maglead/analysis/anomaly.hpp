@@ -59,6 +59,9 @@ struct Anomaly {
   double drift_judged_from_s = std::numeric_limits<double>::quiet_NaN();
   bool has_load_cell = false, static_estimate_logged = false;
   std::optional<ErrorStats> static_error, twin_error;  // against the load cell
+  // The static estimate (paper eq. 6) reads the coupling, which also carries friction up to the
+  // model's break-away while the nut sticks: an error within this is friction, not an anomaly.
+  double static_friction_band_n = 0;
   // Why the load cell is not compared although logged (its unit is wrong), else empty.
   std::string load_cell_unusable;
   std::size_t off_branch_samples = 0;
