@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string_view>
@@ -384,6 +385,10 @@ bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count,
     const std::uint8_t* d = data + std::size_t{2} * (addr - start);
     for (std::size_t k = 0; k < static_cast<std::size_t>(w); ++k) words[k] = be16(d + 2 * k);
     const double v = reg::decode(r, words);
+    // A round float32 sent low word first (10.0 as 0, 16672) decodes to a subnormal, inside every
+    // setpoint's range and never a real setpoint: staged, it would be held as 0.
+    if (r.type == reg::Type::f32 && v != 0.0 && std::abs(v) < std::numeric_limits<float>::min())
+      return refuse_value(reg::Refusal::word_order, ex);
     if (!reg::in_range(r, v)) return refuse_value(reg::Refusal::out_of_range, ex);
     bindings_[static_cast<std::size_t>(s.reg)]->image_set(image, v);
     if (r.name == "heartbeat") heartbeat = true;

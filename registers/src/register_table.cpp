@@ -311,6 +311,10 @@ constexpr std::array kRefusals = std::to_array<Code>({
      "exception 03: a position setpoint inside the register's range but outside a narrower "
      "configured stroke (IR 144/146)"},
     {6, "bad_control_word", "exception 03: execute with stop, fault_reset or resync"},
+    {7, "word_order",
+     "exception 03: a float32 setpoint that decodes to a subnormal value (not 0, below 1.2e-38 "
+     "in size), which is what a round value sent low word first looks like (10.0 as 0, 16672): "
+     "send the high word first (word_order_probe_f32, IR 6, checks a client)"},
 });
 constexpr std::array kRejects = std::to_array<Code>({
     {0, "none", "accepted"},

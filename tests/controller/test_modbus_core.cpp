@@ -4,6 +4,7 @@
 
 #include <bit>
 #include <cstring>
+#include <limits>
 #include <string_view>
 #include <vector>
 
@@ -177,6 +178,30 @@ TEST(ModbusCore, OutOfRangeWritesChangeNothing) {
   EXPECT_EQ(r.req(write_regs(pos, words)), exception(16, Exception::illegal_data_value));
   EXPECT_EQ(r.req(write_one(addr("mode_command"), 4)), exception(6, Exception::illegal_data_value));
   EXPECT_EQ(r.req(rd(3, 1000, 20)), before);
+}
+
+// A round value sent low word first decodes to a subnormal float32 (10.0 N as 0, 16672: 2.3e-41
+// N), inside the register's range; staged, an execute would hold 0 N and report it reached.
+TEST(ModbusCore, ASubnormalFloatSetpointIsRefusedAsTheWrongWordOrder) {
+  CoreRig r;
+  const std::uint16_t force = addr("force_setpoint_n_f32");
+  ASSERT_EQ(r.req(write_regs(force, f32_words(5.0f))).size(), 5u);
+  const Bytes before = r.req(rd(3, 1000, 20));
+  const auto refusal = [&] { return word_at(r.req(rd(4, addr("write_refusal_reason"), 1)), 0); };
+  const auto swapped = [](float v) {
+    const auto w = f32_words(v);
+    return std::vector<std::uint16_t>{w[1], w[0]};
+  };
+  ASSERT_EQ(swapped(10.0f), (std::vector<std::uint16_t>{0, 16672}));
+  EXPECT_EQ(r.req(write_regs(force, swapped(10.0f))), exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(refusal(), static_cast<std::uint16_t>(reg::Refusal::word_order));
+  EXPECT_EQ(r.req(write_regs(addr("position_setpoint_m_f32"), swapped(0.03125f))),
+            exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(refusal(), static_cast<std::uint16_t>(reg::Refusal::word_order));
+  EXPECT_EQ(r.req(rd(3, 1000, 20)), before);
+  // Zero and the smallest normal float32 are values, not a word-order mistake.
+  EXPECT_EQ(r.req(write_regs(force, f32_words(0.0f))).size(), 5u);
+  EXPECT_EQ(r.req(write_regs(force, f32_words(std::numeric_limits<float>::min()))).size(), 5u);
 }
 
 // A PLC reads the limits the drive runs with (not the shipped defaults) and a setpoint just
