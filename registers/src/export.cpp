@@ -77,7 +77,9 @@ std::string to_markdown() {
         "Exceptions: 01 illegal function (unsupported code, writes on a read-only server), "
         "02 illegal data address (outside the mapped ranges, a write to a reserved or read-only "
         "address, or splitting a 32-bit value), 03 illegal data value (bad quantity, value out of "
-        "range, bad control-word combination), 04 refused (retrying cannot help: another client "
+        "range, bad control-word combination, a subnormal float32: the word order; a setpoint's "
+        "integer and float32 copies that disagree in one write), 04 refused (retrying cannot help: "
+        "another client "
         "owns control, or a state change sent by broadcast; the reason is in "
         "`write_refusal_reason`), 06 server busy (the command queue is full: try again).\n";
   md << "\n## Blocks\n\nInside these ranges, addresses that no register uses are reserved: they "

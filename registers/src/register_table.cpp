@@ -315,6 +315,10 @@ constexpr std::array kRefusals = std::to_array<Code>({
      "exception 03: a float32 setpoint that decodes to a subnormal value (not 0, below 1.2e-38 "
      "in size), which is what a round value sent low word first looks like (10.0 as 0, 16672): "
      "send the high word first (word_order_probe_f32, IR 6, checks a client)"},
+    {8, "copies_disagree",
+     "exception 03: one write carried both copies of a setpoint, the scaled integer and the "
+     "float32, more than half the integer's unit apart (the commands block written back with one "
+     "copy changed): change both, or write the one copy at its own address"},
 });
 constexpr std::array kRejects = std::to_array<Code>({
     {0, "none", "accepted"},

@@ -87,6 +87,7 @@ enum class Refusal : std::uint16_t {
   position_outside_stroke = 5,
   bad_control_word = 6,
   word_order = 7,
+  copies_disagree = 8,
 };
 enum class Reject : std::uint16_t {
   none = 0,
