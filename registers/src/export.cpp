@@ -1,4 +1,5 @@
 // Generated documentation and machine-readable exports of the register table.
+#include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -14,9 +15,15 @@ std::string num(double v) {
   return buf;
 }
 
+/// A writable register's range as a client writes it, in the register's own unit (watchdog_ms in
+/// ms, force_setpoint_mn in mN), then in SI where that differs: a range in seconds on a register
+/// named in ms reads as a thousand times too small.
 std::string range_text(const Register& r) {
   if (r.access == Access::read_only) return "";
-  return num(r.min) + " .. " + num(r.max);
+  std::string si = num(r.min) + " .. " + num(r.max);
+  if (r.scale == 1.0) return si;
+  const auto raw = [&](double v) { return num(std::round(v / r.scale)); };
+  return raw(r.min) + " .. " + raw(r.max) + " (" + si + " " + std::string(r.unit) + ")";
 }
 
 std::string csv_field(std::string_view s) {
@@ -55,7 +62,9 @@ std::string to_markdown() {
      << kMapVersion
      << ". Addresses are 0-based protocol addresses "
         "(add 1 for 1-based tools such as mbpoll's `-r`, which prints 1-based references).\n\n"
-        "- Physical value = raw × scale, in SI units (m, m/s, rad, N, s).\n"
+        "- Physical value = raw × scale, in SI units (m, m/s, rad, N, s). A writable register's "
+        "range is what a client writes, in the register's own unit (`watchdog_ms` in ms, "
+        "`force_setpoint_mn` in mN), with the SI range after it where the two differ.\n"
         "- 32-bit values (u32, i32, f32) span two registers, **high word first** (big-endian word "
         "order); read both words in one request: a read that covers only one half is refused with "
         "exception 02. Both words always come from the same control cycle.\n"
