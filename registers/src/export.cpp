@@ -60,8 +60,9 @@ std::string to_markdown() {
         " Do not edit by hand: tests/registers fails when this file differs. -->\n\n"
         "Register map version "
      << kMapVersion
-     << ". Addresses are 0-based protocol addresses "
-        "(add 1 for 1-based tools such as mbpoll's `-r`, which prints 1-based references).\n\n"
+     << ". Addresses are 0-based protocol addresses: mbpoll takes them as they are with `-0` "
+        "(`mbpoll -0 -t 3 -r 2` reads register_map_version, IR 2); tools that count from 1, "
+        "mbpoll without `-0` among them, need 1 added (`mbpoll -t 3 -r 3`).\n\n"
         "- Physical value = raw × scale, in SI units (m, m/s, rad, N, s). A writable register's "
         "range is what a client writes, in the register's own unit (`watchdog_ms` in ms, "
         "`force_setpoint_mn` in mN), with the SI range after it where the two differ.\n"
