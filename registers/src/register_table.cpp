@@ -212,8 +212,9 @@ constexpr std::array kTable = std::to_array<Register>({
     {"heartbeat", HR, 1002, Type::u16, 1, "", RW, 0, kU16Max,
      "Write anything to feed the communication watchdog"},
     {"watchdog_ms", HR, 1003, Type::u16, 1e-3, "s", RW, 0, 60.0,
-     "Communication watchdog time, 0 = off: without a heartbeat write the drive faults (fault "
-     "reaction)"},
+     "Communication watchdog time, 0 = off: while the drive is enabled, no heartbeat write for "
+     "this long faults it (alarm 3, fault reaction). It counts from the enable edge (and from a "
+     "write that changes it), and not at all while the drive is ready, disabled or in fault"},
     {"force_setpoint_mn", HR, 1004, Type::i32, 1e-3, "N", RW, -100.0, 100.0,
      "Output-force setpoint (also refused beyond the calibrated safe limit)"},
     {"position_setpoint_um", HR, 1006, Type::i32, 1e-6, "m", RW, 0.0, 0.040,
@@ -255,7 +256,7 @@ constexpr std::array kTable = std::to_array<Register>({
     {"drift_warning", DI, kDriftWarning, Type::bit, 1, "", RO, 0, 1,
      "Twin: calibration drift detected"},
     {"watchdog_expired", DI, kWatchdogExpired, Type::bit, 1, "", RO, 0, 1,
-     "No heartbeat within watchdog_ms"},
+     "No heartbeat within watchdog_ms while the drive was enabled"},
     {"twin_healthy", DI, kTwinHealthy, Type::bit, 1, "", RO, 0, 1, "Twin running and consistent"},
     {"step_out_warning", DI, kStepOutWarning, Type::bit, 1, "", RO, 0, 1,
      "Twin: step-out predicted"},
