@@ -41,7 +41,9 @@ constexpr std::array kTable = std::to_array<Register>({
     {"active_mode", IR, 14, Type::u16, 1, "", RO, 0, 2, "0 idle (hold), 1 position, 2 force"},
     {"command_status", IR, 15, Type::u16, 1, "", RO, 0, kU16Max,
      "Command handshake bits: 0 execute ack, 1 execute done, 2 reset ack, 3 reset done, "
-     "4 resync ack, 5 resync done, 6 last command rejected"},
+     "4 resync ack, 5 resync done, 6 last command rejected. A command clears only its own bits "
+     "and 6, so another's stay (reset done through later executes): test the bits you wait for "
+     "with a mask, never the whole word"},
     {"command_reject_reason", IR, 16, Type::u16, 1, "", RO, 0, kU16Max,
      "Why the last edge command was rejected, see reject codes"},
     {"control_owner", IR, 17, Type::u16, 1, "", RO, 0, kU16Max,
