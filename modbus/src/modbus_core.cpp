@@ -5,7 +5,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string_view>
 
@@ -182,6 +184,30 @@ std::size_t byte_count_reply(std::uint8_t fc, std::size_t n, std::uint8_t* out) 
   out[0] = fc;
   out[1] = static_cast<std::uint8_t>(n);
   return 2 + n;
+}
+
+/// A register one write request has set, and the value it left in the image.
+struct Written {
+  const reg::Register* reg;
+  const ModbusCore::Binding* binding;
+  double value;
+};
+
+/// False when register r, just set to v, overwrote the other copy of the same setpoint (the
+/// scaled integer and its float32 twin share one image field) that this request set earlier to
+/// a value more than half the integer copy's unit away: a block written back with one copy
+/// changed, where the later one would win unnoticed. An agreeing copy takes the field over.
+bool copies_agree(const reg::Register& r, double v, const CommandImage& image,
+                  std::span<Written> earlier) {
+  for (auto& w : earlier) {
+    const double now = w.binding->image_get(image);
+    if (now == w.value) continue;  // another field
+    const double unit_si = r.type == reg::Type::f32 ? w.reg->scale : r.scale;
+    const double slack = 0.5 * unit_si + std::numeric_limits<float>::epsilon() * std::abs(v);
+    if (std::abs(v - w.value) > slack) return false;
+    w.value = now;
+  }
+  return true;
 }
 
 struct DeviceObject {
@@ -371,6 +397,8 @@ bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count,
   std::uint32_t addr = start;
   const std::uint32_t end = static_cast<std::uint32_t>(start) + count;
   if (end > 65536) return ex = Exception::illegal_data_address, false;
+  std::array<Written, 16> written{};  // more than the holding registers one request can write
+  std::size_t n_written = 0;
   while (addr < end) {
     const Slot s = reg_slots_[addr];
     if (s.reg < 0 || s.word != 0) return ex = Exception::illegal_data_address, false;
@@ -384,8 +412,16 @@ bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count,
     const std::uint8_t* d = data + std::size_t{2} * (addr - start);
     for (std::size_t k = 0; k < static_cast<std::size_t>(w); ++k) words[k] = be16(d + 2 * k);
     const double v = reg::decode(r, words);
+    // A round float32 sent low word first (10.0 as 0, 16672) decodes to a subnormal, inside every
+    // setpoint's range and never a real setpoint: staged, it would be held as 0.
+    if (r.type == reg::Type::f32 && v != 0.0 && std::abs(v) < std::numeric_limits<float>::min())
+      return refuse_value(reg::Refusal::word_order, ex);
     if (!reg::in_range(r, v)) return refuse_value(reg::Refusal::out_of_range, ex);
-    bindings_[static_cast<std::size_t>(s.reg)]->image_set(image, v);
+    const auto* binding = bindings_[static_cast<std::size_t>(s.reg)];
+    binding->image_set(image, v);
+    if (!copies_agree(r, v, image, std::span(written.data(), n_written)))
+      return refuse_value(reg::Refusal::copies_disagree, ex);
+    if (n_written < written.size()) written[n_written++] = {&r, binding, binding->image_get(image)};
     if (r.name == "heartbeat") heartbeat = true;
     if (r.name == "control_word") touches_control = true;
     addr += static_cast<std::uint32_t>(w);

@@ -1,4 +1,5 @@
 // Generated documentation and machine-readable exports of the register table.
+#include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -14,9 +15,15 @@ std::string num(double v) {
   return buf;
 }
 
+/// A writable register's range as a client writes it, in the register's own unit (watchdog_ms in
+/// ms, force_setpoint_mn in mN), then in SI where that differs: a range in seconds on a register
+/// named in ms reads as a thousand times too small.
 std::string range_text(const Register& r) {
   if (r.access == Access::read_only) return "";
-  return num(r.min) + " .. " + num(r.max);
+  std::string si = num(r.min) + " .. " + num(r.max);
+  if (r.scale == 1.0) return si;
+  const auto raw = [&](double v) { return num(std::round(v / r.scale)); };
+  return raw(r.min) + " .. " + raw(r.max) + " (" + si + " " + std::string(r.unit) + ")";
 }
 
 std::string csv_field(std::string_view s) {
@@ -53,9 +60,12 @@ std::string to_markdown() {
         " Do not edit by hand: tests/registers fails when this file differs. -->\n\n"
         "Register map version "
      << kMapVersion
-     << ". Addresses are 0-based protocol addresses "
-        "(add 1 for 1-based tools such as mbpoll's `-r`, which prints 1-based references).\n\n"
-        "- Physical value = raw × scale, in SI units (m, m/s, rad, N, s).\n"
+     << ". Addresses are 0-based protocol addresses: mbpoll takes them as they are with `-0` "
+        "(`mbpoll -0 -t 3 -r 2` reads register_map_version, IR 2); tools that count from 1, "
+        "mbpoll without `-0` among them, need 1 added (`mbpoll -t 3 -r 3`).\n\n"
+        "- Physical value = raw × scale, in SI units (m, m/s, rad, N, s). A writable register's "
+        "range is what a client writes, in the register's own unit (`watchdog_ms` in ms, "
+        "`force_setpoint_mn` in mN), with the SI range after it where the two differ.\n"
         "- 32-bit values (u32, i32, f32) span two registers, **high word first** (big-endian word "
         "order); read both words in one request: a read that covers only one half is refused with "
         "exception 02. Both words always come from the same control cycle.\n"
@@ -77,7 +87,9 @@ std::string to_markdown() {
         "Exceptions: 01 illegal function (unsupported code, writes on a read-only server), "
         "02 illegal data address (outside the mapped ranges, a write to a reserved or read-only "
         "address, or splitting a 32-bit value), 03 illegal data value (bad quantity, value out of "
-        "range, bad control-word combination), 04 refused (retrying cannot help: another client "
+        "range, bad control-word combination, a subnormal float32: the word order; a setpoint's "
+        "integer and float32 copies that disagree in one write), 04 refused (retrying cannot help: "
+        "another client "
         "owns control, or a state change sent by broadcast; the reason is in "
         "`write_refusal_reason`), 06 server busy (the command queue is full: try again).\n";
   md << "\n## Blocks\n\nInside these ranges, addresses that no register uses are reserved: they "

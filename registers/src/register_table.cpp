@@ -41,7 +41,9 @@ constexpr std::array kTable = std::to_array<Register>({
     {"active_mode", IR, 14, Type::u16, 1, "", RO, 0, 2, "0 idle (hold), 1 position, 2 force"},
     {"command_status", IR, 15, Type::u16, 1, "", RO, 0, kU16Max,
      "Command handshake bits: 0 execute ack, 1 execute done, 2 reset ack, 3 reset done, "
-     "4 resync ack, 5 resync done, 6 last command rejected"},
+     "4 resync ack, 5 resync done, 6 last command rejected. A command clears only its own bits "
+     "and 6, so another's stay (reset done through later executes): test the bits you wait for "
+     "with a mask, never the whole word"},
     {"command_reject_reason", IR, 16, Type::u16, 1, "", RO, 0, kU16Max,
      "Why the last edge command was rejected, see reject codes"},
     {"control_owner", IR, 17, Type::u16, 1, "", RO, 0, kU16Max,
@@ -213,8 +215,9 @@ constexpr std::array kTable = std::to_array<Register>({
     {"heartbeat", HR, 1002, Type::u16, 1, "", RW, 0, kU16Max,
      "Write anything to feed the communication watchdog"},
     {"watchdog_ms", HR, 1003, Type::u16, 1e-3, "s", RW, 0, 60.0,
-     "Communication watchdog time, 0 = off: without a heartbeat write the drive faults (fault "
-     "reaction)"},
+     "Communication watchdog time, 0 = off: while the drive is enabled, no heartbeat write for "
+     "this long faults it (alarm 3, fault reaction). It counts from the enable edge (and from a "
+     "write that changes it), and not at all while the drive is ready, disabled or in fault"},
     {"force_setpoint_mn", HR, 1004, Type::i32, 1e-3, "N", RW, -100.0, 100.0,
      "Output-force setpoint (also refused beyond the calibrated safe limit)"},
     {"position_setpoint_um", HR, 1006, Type::i32, 1e-6, "m", RW, 0.0, 0.040,
@@ -256,7 +259,7 @@ constexpr std::array kTable = std::to_array<Register>({
     {"drift_warning", DI, kDriftWarning, Type::bit, 1, "", RO, 0, 1,
      "Twin: calibration drift detected"},
     {"watchdog_expired", DI, kWatchdogExpired, Type::bit, 1, "", RO, 0, 1,
-     "No heartbeat within watchdog_ms"},
+     "No heartbeat within watchdog_ms while the drive was enabled"},
     {"twin_healthy", DI, kTwinHealthy, Type::bit, 1, "", RO, 0, 1, "Twin running and consistent"},
     {"step_out_warning", DI, kStepOutWarning, Type::bit, 1, "", RO, 0, 1,
      "Twin: step-out predicted"},
@@ -312,6 +315,14 @@ constexpr std::array kRefusals = std::to_array<Code>({
      "exception 03: a position setpoint inside the register's range but outside a narrower "
      "configured stroke (IR 144/146)"},
     {6, "bad_control_word", "exception 03: execute with stop, fault_reset or resync"},
+    {7, "word_order",
+     "exception 03: a float32 setpoint that decodes to a subnormal value (not 0, below 1.2e-38 "
+     "in size), which is what a round value sent low word first looks like (10.0 as 0, 16672): "
+     "send the high word first (word_order_probe_f32, IR 6, checks a client)"},
+    {8, "copies_disagree",
+     "exception 03: one write carried both copies of a setpoint, the scaled integer and the "
+     "float32, more than half the integer's unit apart (the commands block written back with one "
+     "copy changed): change both, or write the one copy at its own address"},
 });
 constexpr std::array kRejects = std::to_array<Code>({
     {0, "none", "accepted"},

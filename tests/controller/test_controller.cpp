@@ -325,6 +325,22 @@ TEST(Controller, WatchdogStopsWithoutHeartbeatAndNotWithIt) {
   EXPECT_TRUE(rig.status(reg::kStopped));
 }
 
+// docs/plc.md and watchdog_ms's description: the watchdog counts only while the drive is
+// enabled, from the enable edge on; a ready drive without heartbeats never faults.
+TEST(Controller, TheWatchdogCountsOnlyWhileEnabledFromTheEnableEdge) {
+  Rig rig;
+  rig.image.watchdog_s = 0.05;
+  rig.post();
+  rig.run(0.3);
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+  EXPECT_FALSE(rig.status(reg::kWatchdogExpired));
+  rig.enable();
+  rig.run(0.04);
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
+  rig.run(0.03);
+  EXPECT_EQ(rig.snap().alarm_code, static_cast<std::uint16_t>(reg::Alarm::watchdog));
+}
+
 TEST(Controller, StopBitHaltsAMoveAndRefusesExecute) {
   Rig rig;
   rig.enable();

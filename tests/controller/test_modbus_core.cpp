@@ -4,6 +4,7 @@
 
 #include <bit>
 #include <cstring>
+#include <limits>
 #include <string_view>
 #include <vector>
 
@@ -179,6 +180,30 @@ TEST(ModbusCore, OutOfRangeWritesChangeNothing) {
   EXPECT_EQ(r.req(rd(3, 1000, 20)), before);
 }
 
+// A round value sent low word first decodes to a subnormal float32 (10.0 N as 0, 16672: 2.3e-41
+// N), inside the register's range; staged, an execute would hold 0 N and report it reached.
+TEST(ModbusCore, ASubnormalFloatSetpointIsRefusedAsTheWrongWordOrder) {
+  CoreRig r;
+  const std::uint16_t force = addr("force_setpoint_n_f32");
+  ASSERT_EQ(r.req(write_regs(force, f32_words(5.0f))).size(), 5u);
+  const Bytes before = r.req(rd(3, 1000, 20));
+  const auto refusal = [&] { return word_at(r.req(rd(4, addr("write_refusal_reason"), 1)), 0); };
+  const auto swapped = [](float v) {
+    const auto w = f32_words(v);
+    return std::vector<std::uint16_t>{w[1], w[0]};
+  };
+  ASSERT_EQ(swapped(10.0f), (std::vector<std::uint16_t>{0, 16672}));
+  EXPECT_EQ(r.req(write_regs(force, swapped(10.0f))), exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(refusal(), static_cast<std::uint16_t>(reg::Refusal::word_order));
+  EXPECT_EQ(r.req(write_regs(addr("position_setpoint_m_f32"), swapped(0.03125f))),
+            exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(refusal(), static_cast<std::uint16_t>(reg::Refusal::word_order));
+  EXPECT_EQ(r.req(rd(3, 1000, 20)), before);
+  // Zero and the smallest normal float32 are values, not a word-order mistake.
+  EXPECT_EQ(r.req(write_regs(force, f32_words(0.0f))).size(), 5u);
+  EXPECT_EQ(r.req(write_regs(force, f32_words(std::numeric_limits<float>::min()))).size(), 5u);
+}
+
 // A PLC reads the limits the drive runs with (not the shipped defaults) and a setpoint just
 // inside them is taken, just outside refused: the block says what the write check does.
 TEST(ModbusCore, TheLimitsBlockReadsTheConfigurationTheWriteCheckUses) {
@@ -267,6 +292,35 @@ TEST(ModbusCore, WritesReadBackAndBothScalingsShareOneValue) {
   const float v =
       std::bit_cast<float>(static_cast<std::uint32_t>((word_at(f, 0) << 16) | word_at(f, 1)));
   EXPECT_FLOAT_EQ(v, -12.5f);
+}
+
+// The commands block read and written back whole (FC16 at HR 1000, 20 registers) carries both
+// copies of each setpoint: one copy changed alone used to lose to the float32 one silently.
+TEST(ModbusCore, AWriteWhoseTwoCopiesOfASetpointDisagreeIsRefused) {
+  CoreRig r;
+  ASSERT_EQ(r.req(write_regs(addr("force_setpoint_n_f32"), f32_words(5.0f))).size(), 5u);
+  const Bytes before = r.req(rd(3, 1000, 20));
+  std::vector<std::uint16_t> block;
+  for (std::size_t i = 0; i < 20; ++i) block.push_back(word_at(before, i));
+  const auto set = [&](std::vector<std::uint16_t> b, const char* name,
+                       const std::vector<std::uint16_t>& w) {
+    const std::size_t i = addr(name) - 1000u;
+    b[i] = w[0], b[i + 1] = w[1];
+    return b;
+  };
+  EXPECT_EQ(r.req(write_regs(1000, block)).size(), 5u);  // as read: the copies agree
+  const auto one_copy = set(block, "force_setpoint_mn", i32_words(20000));
+  EXPECT_EQ(r.req(write_regs(1000, one_copy)), exception(16, Exception::illegal_data_value));
+  EXPECT_EQ(word_at(r.req(rd(4, addr("write_refusal_reason"), 1)), 0),
+            static_cast<std::uint16_t>(reg::Refusal::copies_disagree));
+  EXPECT_EQ(r.req(rd(3, 1000, 20)), before);
+  const auto pos_copy = set(block, "position_setpoint_m_f32", f32_words(0.03f));
+  EXPECT_EQ(r.req(write_regs(1000, pos_copy)), exception(16, Exception::illegal_data_value));
+  // Within half the integer's unit (0.5 mN) the two agree; both changed is taken.
+  EXPECT_EQ(
+      r.req(write_regs(1000, set(one_copy, "force_setpoint_n_f32", f32_words(20.0004f)))).size(),
+      5u);
+  EXPECT_EQ(word_at(r.req(rd(3, addr("force_setpoint_mn"), 2)), 1), 20000);
 }
 
 TEST(ModbusCore, AnEnableEdgeClaimsControlOthersAreRefusedWith04) {

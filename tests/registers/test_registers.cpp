@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -140,6 +141,22 @@ TEST(Registers, CsvAndJsonListEveryEntry) {
   const auto j = nlohmann::json::parse(to_json());
   EXPECT_EQ(j["registers"].size(), table().size());
   EXPECT_EQ(j["registers"][0]["name"], "device_type");
+}
+
+// watchdog_ms's range used to read "0 .. 60" (seconds) on a register written in ms.
+TEST(Registers, TheDocShowsEachRangeInTheRegistersOwnUnit) {
+  const std::string md = to_markdown();
+  EXPECT_NE(md.find("| `watchdog_ms` | u16 | 0.001 | s | RW | 0 .. 60000 (0 .. 60 s) |"),
+            std::string::npos);
+  for (const auto& r : table()) {
+    if (r.access != Access::read_write || r.scale == 1.0) continue;
+    char raw[64];
+    std::snprintf(raw, sizeof raw, "| %.10g .. %.10g (", std::round(r.min / r.scale),
+                  std::round(r.max / r.scale));
+    const auto row = md.find("| `" + std::string(r.name) + "` |");
+    ASSERT_NE(row, std::string::npos) << r.name;
+    EXPECT_NE(md.substr(row, md.find('\n', row) - row).find(raw), std::string::npos) << r.name;
+  }
 }
 
 TEST(Registers, CommittedDocMatchesTheTable) {

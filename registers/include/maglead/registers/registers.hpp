@@ -76,8 +76,8 @@ enum class Alarm : std::uint16_t {
 };
 /// The fault reaction the drive is carrying out (register fault_reaction).
 enum class Reaction : std::uint16_t { none = 0, releasing = 1, holding = 2, released = 3 };
-/// Why the last write was refused with exception 04 (register write_refusal_reason): refusals
-/// that retrying cannot fix.
+/// Why the last write was refused with exception 03 or 04 (register write_refusal_reason):
+/// refusals that retrying cannot fix.
 enum class Refusal : std::uint16_t {
   none = 0,
   not_owner = 1,
@@ -86,6 +86,8 @@ enum class Refusal : std::uint16_t {
   force_beyond_safe_limit = 4,
   position_outside_stroke = 5,
   bad_control_word = 6,
+  word_order = 7,
+  copies_disagree = 8,
 };
 enum class Reject : std::uint16_t {
   none = 0,
