@@ -198,6 +198,7 @@ LoadSetting hand_load(const HandProfile& hand, const PeriodicForceModel& couplin
   load.damping_n_s_per_m = c_hand;
   load.anchor_pos_m = anchor(t);
   load.anchor_vel_m_s = (anchor(t + 1e-3) - load.anchor_pos_m) / 1e-3;
+  load.anchor_at_s = t;
   return load;
 }
 
@@ -324,6 +325,7 @@ class ScenarioRun {
       load.anchor_vel_m_s = (sweep_amp_m_ * triangle((t + 1e-4) / sweep_period_s_) -
                              sweep_amp_m_ * triangle(t / sweep_period_s_)) /
                             1e-4;
+      load.anchor_at_s = t;
     } else if (S == "hand-push") {
       load = hand_load(hand_, opt_.plant.coupling, screw0_, act_.lead_m, t);
     } else if (mixed_ && schedule_.at(t) == Segment::hand) {

@@ -62,9 +62,13 @@ double SimulatedActuator::external_force_n() const noexcept {
   switch (load_.kind) {
     case LoadSetting::Kind::none:
       return 0.0;
-    case LoadSetting::Kind::compliant:
-      return load_.stiffness_n_per_m * (load_.anchor_pos_m - pos_m_) +
+    case LoadSetting::Kind::compliant: {
+      const double moved_m = std::isfinite(load_.anchor_at_s)
+                                 ? load_.anchor_vel_m_s * (t_s_ - load_.anchor_at_s)
+                                 : 0.0;
+      return load_.stiffness_n_per_m * (load_.anchor_pos_m + moved_m - pos_m_) +
              load_.damping_n_s_per_m * (load_.anchor_vel_m_s - vel_m_s_);
+    }
     case LoadSetting::Kind::spring_to_wall:
       return -load_.stiffness_n_per_m * (pos_m_ - load_.anchor_pos_m) -
              load_.damping_n_s_per_m * vel_m_s_;

@@ -93,10 +93,11 @@ void check_against_rate(const Recording& rec, const std::vector<double>& t, doub
     missing += m;
   }
   if (static_cast<double>(missing) > kMaxMissingShare * expected)
-    throw RecordingError(rec.path + ": " + std::to_string(missing) + " of the " + num(expected) +
-                         " rows " + rate + " implies are missing; either the header's "
-                         "sample_rate_hz is wrong (" + rate_advice(t) +
-                         ") or the recorder fell behind (record at a lower --rate)");
+    throw RecordingError(
+        rec.path + ": " + std::to_string(missing) + " of the " + num(expected) + " rows " + rate +
+        " implies are missing; either the header's "
+        "sample_rate_hz is wrong (" +
+        rate_advice(t) + ") or the recorder fell behind (record at a lower --rate)");
 }
 
 /// Column c with `missing` rows filled in each gap, linearly between its neighbours; a coded
@@ -145,8 +146,8 @@ void make_evenly_sampled(Recording& rec) {
   std::string warning = rec.path + ": filled " + std::to_string(missing) + " missing rows in " +
                         std::to_string(gaps) + " gaps of t_s (the longest " +
                         std::to_string(longest) + " rows, after t = " + num(longest_at_s) +
-                        " s) by linear interpolation, so the rows step by " +
-                        num(period_s * 1e3) + " ms as the analysis assumes";
+                        " s) by linear interpolation, so the rows step by " + num(period_s * 1e3) +
+                        " ms as the analysis assumes";
   std::fprintf(stderr, "warning: %s\n", warning.c_str());
   rec.warnings.push_back(std::move(warning));
 }
