@@ -198,7 +198,6 @@ LoadSetting hand_load(const HandProfile& hand, const PeriodicForceModel& couplin
   load.damping_n_s_per_m = c_hand;
   load.anchor_pos_m = anchor(t);
   load.anchor_vel_m_s = (anchor(t + 1e-3) - load.anchor_pos_m) / 1e-3;
-  load.anchor_at_s = t;
   return load;
 }
 

@@ -79,9 +79,9 @@ struct LoadSetting {
   double anchor_pos_m = 0.0;  // compliant: where the stage / hand is; spring: free length
   double anchor_vel_m_s = 0.0;
   // Compliant: the time anchor_pos_m is for; the anchor moves on at anchor_vel_m_s around it,
-  // also inside the sample interval (NaN: it stands where set). A stage set once per sample and
-  // held would step, and a reading at each step's end would alias its sawtooth into a force
-  // against the motion.
+  // also inside the sample interval (NaN: it stands where set until the next setting). A stiff
+  // stage set once per sample and held would step, and a reading at each step's end would alias
+  // its sawtooth (stiffness × speed × period) into a force against the motion.
   double anchor_at_s = std::numeric_limits<double>::quiet_NaN();
   double force_n = 0.0;  // constant: force along +p
 };
