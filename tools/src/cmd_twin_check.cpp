@@ -163,6 +163,11 @@ void run_twin_check(const TwinCheckOptions& o) {
     std::printf("  force MAE against load cell: twin %.2f N, static %.2f N\n",
                 c.err_dyn_n / static_cast<double>(c.counted),
                 c.err_static_n / static_cast<double>(c.counted));
+  else
+    std::printf("  force estimate against load cell: not judged (%s)\n",
+                !rec.has("load_force_n") ? "no load_force_n column"
+                : o.no_load_cell         ? "--no-load-cell"
+                                         : "no sample where both are numbers");
   std::printf("  position residual: max %.1f µm; healthy %.1f %% of ticks\n", c.max_res_m * 1e6,
               100.0 * static_cast<double>(c.healthy) / static_cast<double>(n));
   print_drift(c.last, c.at_drift, c.t_drift, c.drift_stat);
