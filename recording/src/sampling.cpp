@@ -21,9 +21,12 @@ constexpr long kMaxFilledRows = 10;
 constexpr double kMaxFilledGap_s = 0.05;
 // More rows missing than this share of what the rate implies: the rate or the file is wrong.
 constexpr double kMaxMissingShare = 0.1;
-// More rows than the rate implies by this share: the header's rate is too low (a recorder's
-// clock is far better than 1 %), or rows are repeated.
+// More rows than the rate implies by this share and these rows: the header's rate is too low
+// (a recorder's clock is far better than 1 %) or rows are repeated. The rows: a recorder polling
+// on a schedule may write its first and last row up to a period or so off the grid, which
+// shortens the span of a short recording by as much.
 constexpr double kMaxExtraShare = 0.01;
+constexpr double kMaxExtraRows = 3.0;
 
 std::string num(double v) {
   char b[32];
@@ -66,7 +69,7 @@ void check_against_rate(const Recording& rec, const std::vector<double>& t, doub
   const double expected = span_s / period_s + 1.0;
   const auto rows = static_cast<double>(t.size());
   const std::string rate = num(1.0 / period_s) + " Hz";
-  if (rows > expected * (1.0 + kMaxExtraShare) + 1.0) {
+  if (rows > expected * (1.0 + kMaxExtraShare) + kMaxExtraRows) {
     std::size_t repeats = 0, first = 0;
     for (std::size_t i = t.size() - 1; i > 0; --i)
       if (t[i] == t[i - 1]) ++repeats, first = i + 1;
@@ -123,7 +126,7 @@ std::vector<double> filled(const std::vector<double>& v, const std::vector<doubl
 
 void make_evenly_sampled(Recording& rec) {
   if (!rec.has("t_s")) return;
-  const std::vector<double> t = rec.column("t_s");
+  const std::vector<double>& t = rec.column("t_s");
   if (t.size() < 3) return;  // too short for any reader: each says so
   const double period_s = period_of(rec, t);
   if (!(period_s > 0))
@@ -139,10 +142,11 @@ void make_evenly_sampled(Recording& rec) {
     missing += m, ++gaps;
     if (m > longest) longest = m, longest_at_s = t[i - 1];
   }
-  if (missing == 0) return;
-  const std::size_t rows = t.size() + static_cast<std::size_t>(missing);
+  if (missing == 0) return;              // the usual case: nothing copied
+  const std::vector<double> t_read = t;  // the t_s column itself is replaced below
+  const std::size_t rows = t_read.size() + static_cast<std::size_t>(missing);
   for (std::size_t c = 0; c < rec.columns.size(); ++c)
-    rec.columns[c] = filled(rec.columns[c], t, period_s, rows, rec.names[c] == "t_s");
+    rec.columns[c] = filled(rec.columns[c], t_read, period_s, rows, rec.names[c] == "t_s");
   std::string warning = rec.path + ": filled " + std::to_string(missing) + " missing rows in " +
                         std::to_string(gaps) + " gaps of t_s (the longest " +
                         std::to_string(longest) + " rows, after t = " + num(longest_at_s) +
