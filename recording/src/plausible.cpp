@@ -10,16 +10,13 @@
 #include <vector>
 
 #include "maglead/recording/recording.hpp"
+#include "time_steps.hpp"
 
 namespace maglead {
 
 namespace {
 
-std::string num(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.6g", v);
-  return b;
-}
+using time_steps::num;
 
 bool ends_with(const std::string& s, const std::string& end) {
   return s.size() >= end.size() && s.compare(s.size() - end.size(), end.size(), end) == 0;
@@ -91,31 +88,22 @@ void check_angle(const Recording& rec, std::size_t c) {
 
 /// `t_s` against the header's sample_rate_hz: a median step 100x the sample period is not seconds.
 void check_time(const Recording& rec, std::size_t c) {
-  const auto rate_text = rec.meta("sample_rate_hz");
-  if (!rate_text) return;  // nothing to compare with: any step may be right
-  double rate_hz = 0.0;
-  try {
-    rate_hz = std::stod(*rate_text);
-  } catch (const std::exception&) {
-    return;
-  }
+  const auto rate_hz = time_steps::header_rate_hz(rec);
+  if (!rate_hz) return;  // nothing to compare with: any step may be right
   const auto& t = rec.columns[c];
-  if (!(rate_hz > 0) || t.size() < 3) return;
-  const std::size_t stride = std::max<std::size_t>(1, t.size() / 100000);  // a sample is enough
-  std::vector<double> steps;
-  for (std::size_t i = stride; i < t.size(); i += stride)
-    steps.push_back((t[i] - t[i - stride]) / static_cast<double>(stride));
-  auto mid = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
-  std::nth_element(steps.begin(), mid, steps.end());
-  const double period_s = 1.0 / rate_hz;
-  if (*mid <= 100.0 * period_s) return;
-  const char* unit = likely_unit(*mid, 100.0 * period_s,
+  if (t.size() < 3) return;
+  const double median_s = time_steps::median_step_s(t);
+  const std::string rate_text = *rec.meta("sample_rate_hz");
+  const double period_s = 1.0 / *rate_hz;
+  if (median_s <= 100.0 * period_s) return;
+  const char* unit = likely_unit(median_s, 100.0 * period_s,
                                  {{1e3, "milliseconds (values 1000x seconds)"},
                                   {1e6, "microseconds (values 10^6 x seconds)"}});
-  throw RecordingError(rec.path + ": column t_s cannot be in seconds: it advances by " + num(*mid) +
-                       " per row (median; values " + num(t.front()) + " .. " + num(t.back()) +
-                       ") where the header's sample_rate_hz " + *rate_text + " means " +
-                       num(period_s) + " s; likely unit: " + (unit ? unit : "not seconds"));
+  throw RecordingError(rec.path + ": column t_s cannot be in seconds: it advances by " +
+                       num(median_s) + " per row (median; values " + num(t.front()) + " .. " +
+                       num(t.back()) + ") where the header's sample_rate_hz " + rate_text +
+                       " means " + num(period_s) +
+                       " s; likely unit: " + (unit ? unit : "not seconds"));
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "maglead/recording/recording.hpp"
+#include "time_steps.hpp"
 
 namespace maglead {
 namespace {
@@ -28,28 +29,12 @@ constexpr double kMaxMissingShare = 0.1;
 constexpr double kMaxExtraShare = 0.01;
 constexpr double kMaxExtraRows = 3.0;
 
-std::string num(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.6g", v);
-  return b;
-}
-
-double median_step_s(const std::vector<double>& t) {
-  std::vector<double> d;
-  d.reserve(t.size());
-  for (std::size_t i = 1; i < t.size(); ++i) d.push_back(t[i] - t[i - 1]);
-  auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
-  std::nth_element(d.begin(), mid, d.end());
-  return *mid;
-}
+using time_steps::median_step_s;
+using time_steps::num;
 
 /// The period the rows should step by: the header's rate, else the median step.
 double period_of(const Recording& rec, const std::vector<double>& t) {
-  if (auto h = rec.meta("sample_rate_hz")) {
-    char* end = nullptr;
-    const double f = std::strtod(h->c_str(), &end);
-    if (end != h->c_str() && f > 0 && std::isfinite(f)) return 1.0 / f;
-  }
+  if (const auto f = time_steps::header_rate_hz(rec)) return 1.0 / *f;
   return median_step_s(t);
 }
 
