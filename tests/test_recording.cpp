@@ -637,4 +637,11 @@ TEST(Recording, RowsTheHeaderRateContradictsAreRefused) {
       error_of(write_file("hole.csv", sampled(1000, [](int i) { return i > 300 && i < 400; })));
   EXPECT_NE(hole.find("99 rows missing"), std::string::npos) << hole;
   EXPECT_NE(hole.find("as two recordings"), std::string::npos) << hole;
+  // A rate that is no number: every reader refuses it alike (none guesses from the stamps).
+  std::string fast = sampled(1000, none, 0);
+  fast.insert(fast.find('\n') + 1, "# sample_rate_hz: fast\n");
+  EXPECT_EQ(error_of(write_file("rate_word.csv", fast)),
+            test_tmp_dir() +
+                "/rate_word.csv: header sample_rate_hz 'fast' is not a positive "
+                "number: fix the '# sample_rate_hz:' line or delete it");
 }

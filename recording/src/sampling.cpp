@@ -141,4 +141,11 @@ void make_evenly_sampled(Recording& rec) {
   rec.warnings.push_back(std::move(warning));
 }
 
+double sample_rate_hz(const Recording& rec) {
+  if (const auto f = time_steps::header_rate_hz(rec)) return *f;
+  const double step_s = rec.has("t_s") ? median_step_s(rec.column("t_s")) : 0.0;
+  if (!(step_s > 0)) throw RecordingError(rec.path + ": t_s does not advance");
+  return 1.0 / step_s;
+}
+
 }  // namespace maglead

@@ -2,6 +2,7 @@
 // What the plausibility check and the even-sampling rule both read of t_s and the header: one
 // parse of sample_rate_hz, one median step, one number format for their messages.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -19,13 +20,18 @@ inline std::string num(double v) {
   return b;
 }
 
-/// The header's sample_rate_hz when it is a positive number, else nothing.
+/// The header's sample_rate_hz, nothing when it has none; throws RecordingError when it is not
+/// a positive number (every reader would read the rows at a rate it cannot know).
 inline std::optional<double> header_rate_hz(const Recording& rec) {
   const auto h = rec.meta("sample_rate_hz");
   if (!h) return std::nullopt;
   char* end = nullptr;
   const double f = std::strtod(h->c_str(), &end);
-  if (end == h->c_str() || !(f > 0) || !std::isfinite(f)) return std::nullopt;
+  while (end && std::isspace(static_cast<unsigned char>(*end))) ++end;
+  if (end == h->c_str() || *end != '\0' || !(f > 0) || !std::isfinite(f))
+    throw RecordingError(rec.path + ": header sample_rate_hz '" + *h +
+                         "' is not a positive number: fix the '# sample_rate_hz:' line or "
+                         "delete it");
   return f;
 }
 

@@ -82,4 +82,33 @@ TEST(Conclusion, NothingNamedWithAMisfitIsNotNothingMissing) {
   EXPECT_EQ(quiet.conclusion, "nothing is missing");
 }
 
+// On a rotary axis the residual is a torque: the misfit, its noise floor, a near miss's reason
+// (the selection writes it for the nut) and what to check say torque and N·m, never force or N.
+TEST(Conclusion, ARotaryAxissMisfitIsATorque) {
+  Findings f = findings_with_residual(0.7);
+  f.system = "rotary";
+  maglead::analysis::Rejected near;
+  near.id = "offset";
+  near.heldout_gain_pct = 60;
+  near.reason = std::string(maglead::analysis::kBelowSignificance) +
+                ": the force it explains, 0.050 N·m RMS where it acts, is not one the recording "
+                "resolves (floor 0.100 N·m)";
+  f.not_selected.push_back(near);
+  maglead::analysis::conclude_misfit(f, 0, "the drive's force constant",
+                                     maglead::effects::rotary_axis());
+  EXPECT_TRUE(
+      starts_with(f.conclusion, "a misfit of 0.7 N·m RMS remains (torque sensor noise 0.1 N·m)"))
+      << f.conclusion;
+  EXPECT_NE(f.conclusion.find("the torque it explains, 0.050 N·m"), std::string::npos)
+      << f.conclusion;
+  EXPECT_NE(f.conclusion.find("check the drive's torque constant"), std::string::npos)
+      << f.conclusion;
+  EXPECT_EQ(f.conclusion.find("force"), std::string::npos) << f.conclusion;
+  ModelFile rotary;
+  rotary.system = "rotary";
+  const Findings quiet = findings_with_residual(0.15);
+  const std::string h = maglead::analysis::headline_of(quiet, rotary);
+  EXPECT_NE(h.find("N·m RMS (torque sensor noise 0.1 N·m)"), std::string::npos) << h;
+}
+
 }  // namespace

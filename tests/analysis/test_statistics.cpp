@@ -21,6 +21,7 @@
 
 namespace {
 
+using maglead::sample_rate_hz;
 using maglead::analysis::stats::Estimates;
 using maglead::analysis::stats::Fit;
 using maglead::analysis::stats::fold_of;
@@ -28,7 +29,6 @@ using maglead::analysis::stats::fold_starts;
 using maglead::analysis::stats::Grams;
 using maglead::analysis::stats::Named;
 using maglead::analysis::stats::require_analysable;
-using maglead::analysis::stats::sample_rate_hz;
 using maglead::analysis::stats::white_noise_sigma;
 
 // Four segments of two samples each; one column of ones, so a fit is the mean residual of the
@@ -160,7 +160,8 @@ TEST(SampleRate, HeaderWinsOverJitteredStampsElseTheMedianStep) {
   EXPECT_EQ(sample_rate_hz(rec), 1000.0);
   rec.set_meta("sample_rate_hz", "fast");
   EXPECT_EQ(message_of([&] { sample_rate_hz(rec); }),
-            "r.csv: header sample_rate_hz 'fast' is not a positive number");
+            "r.csv: header sample_rate_hz 'fast' is not a positive number: fix the "
+            "'# sample_rate_hz:' line or delete it");
   rec.set_meta("sample_rate_hz", "-5");
   EXPECT_NE(message_of([&] { sample_rate_hz(rec); }), "");
   auto still = two_columns(300);

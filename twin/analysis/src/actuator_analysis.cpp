@@ -613,7 +613,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   stats::require_analysable(rec, {"t_s", "nut_pos_m", "load_force_n"});
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
-  P.fs_hz = stats::sample_rate_hz(rec);
+  P.fs_hz = maglead::sample_rate_hz(rec);
   // The nut's mechanics (mass on the coupling stiffness) sit near 100 Hz; the effects live
   // below a few tens of Hz. The filter keeps those and averages encoder steps and load-cell noise.
   P.filter_hz = std::min(opt.filter_hz, rules::kFilterMaxOfRate * P.fs_hz);

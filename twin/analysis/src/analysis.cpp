@@ -429,7 +429,7 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   const std::string position(kind.position), drive(kind.drive);
   stats::require_analysable(rec, {"t_s", position, drive});
   const auto& t = rec.column("t_s");
-  P.fs_hz = stats::sample_rate_hz(rec);
+  P.fs_hz = maglead::sample_rate_hz(rec);
   const double dt = 1.0 / P.fs_hz;
   P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : rules::kAxisFilterHz;
   Signals& s = P.full;
@@ -677,14 +677,16 @@ class AxisRules : public selection::Rules {
 // No segment filter (a drive force acts everywhere); a simpler candidate with at least half the
 // best one's gain goes first; a column the model already spans (the constant part of
 // direction-dependent friction once an offset is in) is left out.
-selection::Settings settings_of(const AnalysisOptions& opt, const effects::Scales& scales = {}) {
+selection::Settings settings_of(const AnalysisOptions& opt, const effects::AxisKind& kind,
+                                const effects::Scales& scales = {}) {
   return {.max_terms = opt.max_terms,
           .min_gain_pct = opt.min_gain_pct,
           .min_t = opt.min_t,
           .acting_share = 0,
           .parsimony = rules::kAxisParsimony,
           .leave_out_spanned = true,
-          .scales = scales};
+          .scales = scales,
+          .drive_unit = kind.drive_unit};
 }
 
 // The validation: the baseline, then each term taken (+) or dropped by the backward check (−).
@@ -710,9 +712,9 @@ selection::Result select_terms(const AxisRun& run) {
   for (const auto* e : effects::library())
     if (run.in_baseline.count(std::string(e->id()))) in_baseline.push_back(e);
   const AxisRules rules(run);
-  const auto o =
-      selection::select(run.g, run.cand, rules, settings_of(run.opt, run.P.scales), run.base_cols,
-                        in_baseline, [&](double f) { run.progress("selection", f); });
+  const auto o = selection::select(run.g, run.cand, rules,
+                                   settings_of(run.opt, run.kind, run.P.scales), run.base_cols,
+                                   in_baseline, [&](double f) { run.progress("selection", f); });
   run.progress("selection", 1.0);
   const selection::Span span{.n_used = run.n_total,
                              .t0_s = run.S->start_s,
@@ -763,7 +765,7 @@ void describe_method(Findings& J, const AxisRun& run) {
   J.method.decimation = run.P.decimation;
   J.method.identification_bandwidth_hz = run.P.bandwidth_hz;
   J.method.folds = run.folds;
-  J.method.selection = selection::describe(settings_of(run.opt)) +
+  J.method.selection = selection::describe(settings_of(run.opt, run.kind)) +
                        run.kind.words(", and explain more RMS than the force noise floor");
   J.method.moving_only = "all samples";
   J.noise_floor_n = run.P.noise_floor_n;
@@ -918,7 +920,7 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
   conclude_misfit(J, sel.terms.size(),
                   "the drive's force constant, the encoder scale and loads the recording does not "
                   "log",
-                  std::string(effects::drive_unit_of_system(J.system)));
+                  run.kind);
 }
 
 // Isolated pulses in the corrected residual (the one pulse finder, as on the actuator): events,
@@ -1359,8 +1361,10 @@ void name_in_kind(Findings& J, const effects::AxisKind& kind) {
     for (auto& a : e.alternatives) rename(a.parameters);
     e.summary = summary_text(e.parameters, e.standard_errors);
   }
-  for (auto& r : J.not_selected)
+  for (auto& r : J.not_selected) {
     if (r.parameters) rename(*r.parameters);
+    if (r.reason) r.reason = kind.words(*r.reason);
+  }
   if (J.unexplained) {
     // Its message quotes the parameters as "name = value" (selection::unexplained_of).
     std::string& m = J.unexplained->message;

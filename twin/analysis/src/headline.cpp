@@ -113,11 +113,14 @@ std::string conclusion_headline(const Findings& f, const ModelFile& baseline) {
            " sliding samples used of " + std::to_string(f.samples) +
            "); no finding is not the same as no anomaly";
   // A rotary axis's residual is a torque (effects/axis_kind.hpp).
-  const std::string unit(effects::drive_unit_of_system(baseline.system));
+  const effects::AxisKind* axis = effects::axis_kind_of_system(baseline.system);
+  const effects::AxisKind& kind = axis ? *axis : effects::linear_axis();
+  const std::string unit(kind.drive_unit);
   if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
-    return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, unit);
+    return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, kind);
   return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) + " " +
-         unit + " RMS (force sensor noise " + number(f.noise_floor_n) + " " + unit + ")";
+         unit + " RMS (" + std::string(kind.quantity) + " sensor noise " + number(f.noise_floor_n) +
+         " " + unit + ")";
 }
 
 }  // namespace

@@ -62,7 +62,8 @@ std::string num(double v) {
 }  // namespace
 
 std::string misfit_text(double final_rms_n, double noise_floor_n,
-                        const std::vector<Rejected>& not_selected, const std::string& unit) {
+                        const std::vector<Rejected>& not_selected, const effects::AxisKind& kind) {
+  const std::string unit(kind.drive_unit);
   // A candidate that would take at least half the held-out error is the misfit's likeliest
   // account, even short of significance; below half it says little of what is left.
   constexpr double kMostOfItPct = rules::kMostOfItPct;
@@ -79,13 +80,13 @@ std::string misfit_text(double final_rms_n, double noise_floor_n,
          (detail == std::string::npos ? std::string("below the threshold")
                                       : r.reason->substr(detail + 2)) +
          ")";
-    return s + "; not settled by this recording: record longer or with more sliding";
+    return kind.words(s + "; not settled by this recording: record longer or with more sliding");
   }
-  return s + " that no library effect explains";
+  return kind.words(s + " that no library effect explains");
 }
 
 void conclude_misfit(Findings& f, std::size_t terms_named, const std::string& check,
-                     const std::string& unit) {
+                     const effects::AxisKind& kind) {
   if (terms_named > 0 || f.unexplained) return;
   // Events' own force (the pulses) is in the final residual: beside them it is no misfit, and
   // "nothing is missing" would hide them.
@@ -99,8 +100,8 @@ void conclude_misfit(Findings& f, std::size_t terms_named, const std::string& ch
     return;
   }
   if (!misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) return;
-  f.conclusion =
-      misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, unit) + "; check " + check;
+  f.conclusion = misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, kind) +
+                 "; check " + kind.words(check);
   f.nothing_missing = false;
 }
 

@@ -165,10 +165,12 @@ std::string why_not_significant(const Search& s, const std::vector<double>& cur,
                   "not consistent over the segments: t = %.2f below %.3g, worst segment %.0f %%",
                   tr.t, s.st.min_t, tr.worst);
   } else {
+    const std::string unit(s.st.drive_unit);
     std::snprintf(b, sizeof b,
-                  "the force it explains, %.3f N RMS where it acts, is not one the recording "
-                  "resolves (floor %.3f N)",
-                  explained_n(s, cur, tr) / std::sqrt(where.share), s.rules.floor_n(*s.terms));
+                  "the force it explains, %.3f %s RMS where it acts, is not one the recording "
+                  "resolves (floor %.3f %s)",
+                  explained_n(s, cur, tr) / std::sqrt(where.share), unit.c_str(),
+                  s.rules.floor_n(*s.terms), unit.c_str());
   }
   return std::string(kBelowSignificance) + ": " + b;
 }

@@ -75,6 +75,7 @@ struct Settings {
       rules::kAxisParsimony;       // a simpler term reaching this share of the best gain goes first
   bool leave_out_spanned = false;  // a variant's columns the model already spans are left out
   effects::Scales scales{};        // the actuator's, that the units' plausible ranges are in
+  std::string_view drive_unit = "N";  // the residual's, in the reasons' texts ("N·m": rotary)
 };
 
 /// Another effect that reproduces a taken term's contribution.

@@ -22,7 +22,6 @@ constexpr double kMadToSigma = 1.4826;
 // The t of gains with no spread at all: certain when positive.
 constexpr double kTWithoutSpread = 1e9;
 // Steps of t_s the median sample step is taken from: enough, and quick on an hour's recording.
-constexpr std::size_t kRateProbeSteps = 20000;
 // Ridge on the normal equations (relative, and absolute below any data's scale): collinear
 // columns stay finite.
 constexpr double kRidge = 1e-9, kTinyRidge = 1e-300, kPartialRidge = 1e-12;
@@ -82,25 +81,6 @@ void require_analysable(const Recording& rec, const std::vector<std::string>& co
     throw std::invalid_argument(rec.path + ": too short to analyse (" + std::to_string(n) +
                                 " rows; the analysis needs at least " +
                                 std::to_string(rules::kMinRows) + ")");
-}
-
-double sample_rate_hz(const Recording& rec) {
-  if (auto h = rec.meta("sample_rate_hz")) {
-    char* end = nullptr;
-    const double f = std::strtod(h->c_str(), &end);
-    while (end && std::isspace(static_cast<unsigned char>(*end))) ++end;
-    if (end == h->c_str() || *end != '\0' || !(f > 0) || !std::isfinite(f))
-      throw std::invalid_argument(rec.path + ": header sample_rate_hz '" + *h +
-                                  "' is not a positive number");
-    return f;
-  }
-  const auto& t = rec.column("t_s");
-  std::vector<double> d;
-  for (std::size_t i = 1; i < t.size() && d.size() < kRateProbeSteps; ++i)
-    d.push_back(t[i] - t[i - 1]);
-  const double dt = median_of(std::move(d));
-  if (!(dt > 0)) throw std::invalid_argument(rec.path + ": t_s does not advance");
-  return 1.0 / dt;
 }
 
 double white_noise_sigma(const std::vector<double>& y) {

@@ -26,11 +26,6 @@ void require_finite(const Recording& rec, const std::vector<double>& x, const st
 /// The columns every analysis reads: each present and finite (require_finite), and enough rows
 /// to analyse; throws naming the file otherwise.
 void require_analysable(const Recording& rec, const std::vector<std::string>& columns);
-/// The logger's sample rate [Hz]: the header's sample_rate_hz where it states one (a logger's
-/// clock is what the header names; the time stamps carry its rounding), else one over the median
-/// of the first 20 000 time steps. Throws naming the file for a header that is not a positive
-/// number or time stamps that do not advance.
-double sample_rate_hz(const Recording& rec);
 /// Standard deviation of white noise on a smooth signal, from its sample-to-sample roughness
 /// (var(Δ²y) = 6σ²; robust to the signal's own steps).
 double white_noise_sigma(const std::vector<double>& y);

@@ -73,6 +73,12 @@ using ColumnChoice = std::function<std::vector<std::string>(const Recording& hea
 Recording read_recording(const std::string& path, const std::vector<std::string>& required = {},
                          const ColumnChoice& keep = {});
 
+/// The rows' sample rate [Hz]: the header's sample_rate_hz where it states one (a logger's clock
+/// is what the header names; the time stamps carry its rounding), else one over the median step
+/// of t_s. Throws RecordingError for a header that is not a positive number or a t_s that does
+/// not advance.
+double sample_rate_hz(const Recording& rec);
+
 /// Makes the rows one sample period apart (the header's sample_rate_hz, else the median step of
 /// t_s), as every reader assumes: a gap of up to 10 rows or 50 ms, whichever is more (a recorder
 /// that fell behind), is filled by linear interpolation, with a warning. Throws RecordingError when

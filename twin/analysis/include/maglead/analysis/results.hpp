@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "maglead/effects/axis_kind.hpp"
+
 namespace maglead::analysis {
 
 /// One named parameter value; the unit is the name's suffix. A count is a whole number.
@@ -125,9 +127,10 @@ inline constexpr const char* kBelowSignificance =
 /// "a misfit of X N RMS remains (floor Y N) …": what no named effect explains, and, when the
 /// candidate the selection stopped at (in `not_selected`) explains most of it held out, that
 /// candidate with why it was not taken, so a near miss is not read as "nothing in the library".
-/// `unit`: the residual's ("N·m" on a rotary axis).
+/// `kind`: the axis the residual is of (a rotary axis's is a torque in N·m, in its words).
 std::string misfit_text(double final_rms_n, double noise_floor_n,
-                        const std::vector<Rejected>& not_selected, const std::string& unit = "N");
+                        const std::vector<Rejected>& not_selected,
+                        const effects::AxisKind& kind = effects::linear_axis());
 
 /// Held-out (and fitted) error after each step of the selection; the first is the baseline.
 struct ValidationStep {
@@ -241,8 +244,8 @@ struct Findings {
 /// Nothing named is not nothing missing: when the selection named no term (`terms_named` 0) and
 /// nothing implausible was found, events found are said first; without events, a final residual
 /// that is a misfit (misfit_remains) is said with what to check, and nothing_missing is false.
-/// `unit`: the residual's.
+/// `kind`: the axis the residual is of.
 void conclude_misfit(Findings& f, std::size_t terms_named, const std::string& check,
-                     const std::string& unit = "N");
+                     const effects::AxisKind& kind = effects::linear_axis());
 
 }  // namespace maglead::analysis
