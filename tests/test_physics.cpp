@@ -189,6 +189,22 @@ TEST(CalibrationFile, RoundTripsAndRejectsBadContent) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("lead_m"), std::string::npos);
   }
+  // Lengths typed in millimetres: refused at the key, with the value in metres to write.
+  for (const auto& [line, said] :
+       {std::pair{"lead_m = 6",
+                  "[actuator] lead_m = 6 cannot be metres (no lead screw "
+                  "advances a metre per turn); likely millimetres: write 0.006"},
+        {"stroke_max_m = 40", "[actuator] stroke_max_m = 40 cannot be metres"},
+        {"linear_count_m = 0.0216", "[actuator] linear_count_m = 0.0216 cannot be metres"}}) {
+    std::ofstream(path) << "[actuator]\n" << line << "\n";
+    try {
+      load_actuator_params(path);
+      ADD_FAILURE() << "accepted " << line;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(path + ":2:"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(said), std::string::npos) << e.what();
+    }
+  }
 }
 
 namespace {

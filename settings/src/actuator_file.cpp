@@ -1,12 +1,45 @@
 #include "maglead/settings/settings.hpp"
 
 #include <cmath>
+#include <cstdio>
+#include <iterator>
 #include <stdexcept>
 #include <utility>
 
 #include "maglead/physics/toml_config.hpp"
 
 namespace maglead {
+namespace {
+
+/// Bounds a length must keep to be in metres at all (not a fit to any actuator): beyond them the
+/// number was typed in millimetres, which the simulated plant would follow without complaint.
+struct LengthBound {
+  const char* key;
+  double max_m;
+  const char* what;  // why no value beyond max_m is metres
+};
+constexpr LengthBound kLengthBounds[] = {
+    {"lead_m", 1.0, "no lead screw advances a metre per turn"},
+    {"linear_count_m", 1e-3,
+     "no linear encoder that resolves the coupling's phase counts coarser than 1 mm"},
+    {"stroke_min_m", 10.0, "no lead-screw actuator travels 10 m"},
+    {"stroke_max_m", 10.0, "no lead-screw actuator travels 10 m"}};
+
+void check_lengths_are_metres(const std::string& path, const toml::table& t,
+                              const ActuatorParams& a) {
+  const double values[] = {a.lead_m, a.linear_count_m, a.stroke_min_m, a.stroke_max_m};
+  for (std::size_t i = 0; i < std::size(kLengthBounds); ++i) {
+    const LengthBound& b = kLengthBounds[i];
+    if (std::abs(values[i]) <= b.max_m) continue;
+    char text[320];
+    std::snprintf(text, sizeof text,
+                  "[actuator] %s = %g cannot be metres (%s); likely millimetres: write %g", b.key,
+                  values[i], b.what, values[i] * 1e-3);
+    config::fail(path, t.get(b.key), text);
+  }
+}
+
+}  // namespace
 
 ActuatorParams load_actuator_params(const std::string& path) {
   const toml::table root = config::parse_file(path);
@@ -30,6 +63,7 @@ ActuatorParams load_actuator_params(const std::string& path) {
                           {"safe_force_fraction", &a.safe_force_fraction}})
     config::read_number(path, t, label, key, *out, positive, "a positive number");
   config::read_number(path, t, label, "stroke_min_m", a.stroke_min_m);
+  check_lengths_are_metres(path, t, a);
   if (a.stroke_min_m >= a.stroke_max_m)
     config::fail(path, t.get("stroke_min_m") ? t.get("stroke_min_m") : t.get("stroke_max_m"),
                  "[actuator] stroke_min_m must be below stroke_max_m");

@@ -33,6 +33,9 @@ void check_actuator(const maglead::ActuatorParams& a) {
     check(v > 0 && std::isfinite(v), "an actuator value not a positive number");
   check(a.stroke_min_m < a.stroke_max_m, "stroke_min_m not below stroke_max_m");
   check(a.safe_force_fraction <= 1.0, "safe_force_fraction above 1");
+  check(a.lead_m <= 1.0 && a.linear_count_m <= 1e-3 && std::abs(a.stroke_min_m) <= 10.0 &&
+            std::abs(a.stroke_max_m) <= 10.0,
+        "a length beyond what metres can be (lead, count or stroke)");
 }
 
 void check_calibration(const maglead::ForceCalibration& c) {
