@@ -136,7 +136,21 @@ std::set<std::string> accepted(const std::vector<const EffectCase*>& truth) {
 struct Outcome {
   int named = 0, missed = 0, false_claims = 0;
   std::string claims;
+  std::string again;  // model terms named when analysed again with its corrected model
 };
+
+// Issue 43: analysed again with its own corrected model, a recording names no new model term
+// (events are the recording's and may recur): the ids of those it does name.
+std::string named_again(const maglead::Recording& rec, const AnalysisResult& first,
+                        const Bench& setup, const maglead::ActuatorParams& act,
+                        const maglead::analysis::AnalysisOptions& aopt) {
+  const auto again =
+      maglead::analysis::analyze_recording(rec, first.corrected, setup.cal, act, aopt);
+  std::string ids;
+  for (const auto& e : again.findings.effects)
+    if (!e.evidence.events) ids += (ids.empty() ? "" : ", ") + e.id;
+  return ids;
+}
 
 Outcome judge(const AnalysisResult& r, const std::vector<const EffectCase*>& truth) {
   const auto ok = accepted(truth);
@@ -186,8 +200,8 @@ Outcome run_case(const Case& c, int index) {
   // MAGLEAD_MATRIX_CALIBRATION_ACCURACY_N=X analyses as `analyze --calibration-accuracy X`.
   if (const char* acc = std::getenv("MAGLEAD_MATRIX_CALIBRATION_ACCURACY_N"))
     aopt.calibration_accuracy_n = std::stod(acc);
-  const auto r = maglead::analysis::analyze_recording(maglead::read_recording(path), c.setup->model,
-                                                      c.setup->cal, act, aopt);
+  const auto rec = maglead::read_recording(path);
+  const auto r = maglead::analysis::analyze_recording(rec, c.setup->model, c.setup->cal, act, aopt);
   // MAGLEAD_MATRIX_KEEP=1 keeps the recordings, to look at one case with `maglead analyze`.
   const char* keep = std::getenv("MAGLEAD_MATRIX_KEEP");
   if (keep && std::string(keep) == "1")
@@ -195,11 +209,13 @@ Outcome run_case(const Case& c, int index) {
   else
     std::filesystem::remove(path);
   auto o = judge(r, c.effects);
+  o.again = named_again(rec, r, *c.setup, act, aopt);
   std::string truth;
   for (const auto* e : c.effects) truth += (truth.empty() ? "" : " + ") + e->id;
-  std::printf("| %s | %s ×%.1f | %s | %.0f Hz | %.1f N | %s | %d | %d |\n", c.setup->name.c_str(),
-              truth.c_str(), c.scale, opt.scenario.c_str(), c.rate_hz, c.noise_n, o.claims.c_str(),
-              o.missed, o.false_claims);
+  std::printf("| %s | %s ×%.1f | %s | %.0f Hz | %.1f N | %s | %d | %d | %s |\n",
+              c.setup->name.c_str(), truth.c_str(), c.scale, opt.scenario.c_str(), c.rate_hz,
+              c.noise_n, o.claims.c_str(), o.missed, o.false_claims,
+              o.again.empty() ? "nothing" : o.again.c_str());
   return o;
 }
 
@@ -324,8 +340,8 @@ TEST_P(Matrix, NamesNoEffectThatIsNotThere) {
   const auto cases = cases_for(s);
   std::printf(
       "| actuator | concealed | scenario | rate | load-cell noise | named | missed | "
-      "false |\n|---|---|---|---|---|---|---|---|\n");
-  int named = 0, missed = 0, false_claims = 0, index = 0, resolved_missed = 0;
+      "false | named again |\n|---|---|---|---|---|---|---|---|---|\n");
+  int named = 0, missed = 0, false_claims = 0, index = 0, resolved_missed = 0, again = 0;
   const char* only = std::getenv("MAGLEAD_MATRIX_FILTER");  // a substring of an effect id
   for (const auto& c : cases) {
     if (only && std::none_of(c.effects.begin(), c.effects.end(),
@@ -333,13 +349,17 @@ TEST_P(Matrix, NamesNoEffectThatIsNotThere) {
       continue;
     const auto o = run_case(c, index++);
     named += o.named, missed += o.missed, false_claims += o.false_claims;
+    again += o.again.empty() ? 0 : 1;
     if (&s == &paper() && c.effects.size() == 1 && c.scale == 1.0 && c.rate_hz == 1000.0)
       resolved_missed += o.missed;
   }
-  std::printf("%s actuator: %zu cases (%s), named %d, missed %d, false claims %d\n", s.name.c_str(),
-              cases.size(), full_matrix() ? "full matrix" : "CI subset", named, missed,
-              false_claims);
+  std::printf(
+      "%s actuator: %zu cases (%s), named %d, missed %d, false claims %d, named again with the "
+      "corrected model %d\n",
+      s.name.c_str(), cases.size(), full_matrix() ? "full matrix" : "CI subset", named, missed,
+      false_claims, again);
   EXPECT_EQ(false_claims, 0);
+  EXPECT_EQ(again, 0) << "a case's corrected model left a term to name again";
   EXPECT_EQ(resolved_missed, 0) << "a resolved effect alone was not named";
 }
 
