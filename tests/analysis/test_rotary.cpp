@@ -105,6 +105,22 @@ TEST(Rotary, AShaftHeldBetweenMovesIsNoEvent) {
     if (w.rfind("held still ", 0) == 0) std::printf("rotary with stops: %s\n", w.c_str());
 }
 
+// A Coulomb friction strong enough to stick the shaft for a few milliseconds at reversals (the
+// drive's torque passes through ±c slower than a hold takes to show): a model with every term
+// explains the recording, and those sticks are the friction the model holds, not disturbances.
+TEST(Rotary, ABriefStickAtAReversalIsNoDisturbance) {
+  RotaryDrive d;
+  d.coulomb_n_m = 0.4;
+  d.viscous_n_m_s_per_rad = 0.0;
+  for (const unsigned seed : {1u, 2u, 3u}) {
+    d.seed = seed;
+    const auto r = analyze(maglead::test::rotary_recording(d),
+                           rotary_model({"nut_mass_kg", "coulomb_n", "viscous_n_s_per_m"}));
+    EXPECT_TRUE(r.findings.effects.empty()) << "seed " << seed << ": " << named(r);
+    std::printf("rotary, c = 0.4 N·m, seed %u: %s\n", seed, r.headline.c_str());
+  }
+}
+
 TEST(Rotary, MissingCoulombFrictionIsNamedInRotaryUnits) {
   RotaryDrive d;
   d.seed = 2;

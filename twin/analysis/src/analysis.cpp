@@ -923,6 +923,28 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
                   run.kind);
 }
 
+// A reversal is a hold too short for holds() to find: the axis may stick there for a few
+// milliseconds with any force within its break-away, where the friction law only flips sign. A
+// pulse within the filters' spread (`spread_s`) of a reversal and no larger than the model's own
+// force swing there (`yf`, which that flip is part of) is that stick, not an event.
+std::vector<pulses::Pulse> off_reversals(const Signals& S, const std::vector<double>& yf,
+                                         double spread_s, std::vector<pulses::Pulse> found) {
+  std::erase_if(found, [&](const pulses::Pulse& p) {
+    const auto from = static_cast<std::size_t>(
+        std::lower_bound(S.t.begin(), S.t.end(), p.t_s - spread_s) - S.t.begin());
+    const double to_s = p.t_s + p.duration_s + spread_s;
+    bool reversal = false;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (std::size_t i = from; i < S.size() && S.t[i] <= to_s; ++i) {
+      if (!S.valid[i]) continue;
+      lo = std::min(lo, yf[i]), hi = std::max(hi, yf[i]);
+      reversal |= i + 1 < S.size() && S.v[i] * S.v[i + 1] < 0.0;
+    }
+    return reversal && std::abs(p.peak_n) <= hi - lo;
+  });
+  return found;
+}
+
 // Isolated pulses in the corrected residual (the one pulse finder, as on the actuator): events,
 // a force no input explains (not a library law's where the axis was: pulses::unexplained), above
 // the force sensor's noise. The residual's band limit is the
@@ -944,7 +966,8 @@ void locate_pulses(AxisRun& run, const std::vector<double>& yf, const std::vecto
   }
   if (!run.P.decimated && r.size() > kMinFilteredSamples)
     r = filtfilt_butter4(r, f.filter_hz, f.fs_hz);
-  auto found = pulses::find(t, r, f);
+  auto found =
+      off_reversals(S, yf, rules::kAxisRestFilterPeriods / f.filter_hz, pulses::find(t, r, f));
   run.pulses.clear();
   if (found.empty()) return;
   std::vector<effects::State> states;  // only where there is a pulse to judge (a long full-rate
