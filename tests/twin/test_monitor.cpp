@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iterator>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "maglead/plant/scenario.hpp"
 #include "maglead/plant/simulated_actuator.hpp"
@@ -42,6 +44,12 @@ struct MonitorRun {
   double max_drift_statistic = 0;
   double healthy_fraction = 0;
   TwinOutputs at_drift{}, last{};
+  std::vector<double> known_s;  // drift_known_s at each whole second of the recording
+  /// Known-force time the flag had used by time t (s).
+  double known_by(double t) const {
+    const auto i = static_cast<std::size_t>(std::max(0.0, std::floor(t)));
+    return known_s.empty() ? kNaN : known_s[std::min(i, known_s.size() - 1)];
+  }
 };
 
 MonitorRun run_recording(const std::string& scenario, double duration_s, std::uint64_t seed,
@@ -76,6 +84,7 @@ MonitorRun run_recording(const std::string& scenario, double duration_s, std::ui
     r.step_out |= o.step_out;
     r.warning |= o.step_out_warning;
     r.max_drift_statistic = std::max(r.max_drift_statistic, o.drift_statistic);
+    if (t[i] >= static_cast<double>(r.known_s.size())) r.known_s.push_back(o.drift_known_s);
   }
   r.healthy_fraction /= static_cast<double>(t.size());
   std::remove(path.c_str());
@@ -388,16 +397,30 @@ TEST(TwinMonitor, MixedMovesSlowDriftFlaggedWithin30sOfTheCrossing) {
   }
 }
 
-// Documents a known lag (issue 44): the same scenario losing 10 % over 154 s crosses 3 % at
-// 46.2 s, while the force segments compare their windows at an anchor ~18 mm from the map and the
-// free moves have few repeated passes; it is flagged only with the first force segment back near
-// the map, at 86.0 s (+39.8 s). Asserted: flagged, as a weaker coupling, within the run.
+// Documents a known lag (issue 44, item 2): the same scenario losing 10 % over 154 s crosses 3 %
+// at 46.2 s and is flagged at 86.0 s (+39.8 s), seeds 1-7 alike (a seed changes the hand
+// segments only). Why: the force segments of 42-48 s and 63-69 s press the spring with the nut
+// at 33-39 mm, within the end zone (one lead of the 40 mm stroke end) where no tick is evidence
+// (an end effect the model lacks would read as drift there when compared at a shift), so their
+// windows keep 17 blocks (20 ms each) at 33-34 mm per segment instead of about 120; the free
+// moves meet their conditions first at 39-41 s and again only at 60-62 s, the third pass-to-pass
+// difference at 78.8 s. From the crossing to 30 s after it the flag gains 4.1 s of known-force
+// time: 0.7 s of those blocks, 3.4 s of free moves whose scatter is not yet measured. Asserted:
+// flagged, as a weaker coupling, within the run; and still late (when it is not, make this the
+// 30 s assertion of MixedMovesSlowDriftFlaggedWithin30sOfTheCrossing).
 TEST(TwinMonitor, MixedMovesFasterDriftFlaggedLateKnownGap) {
   constexpr double kLossPerMin = 0.10 * 60.0 / 154.0;
-  const MonitorRun r = run_recording("mixed-moves", 154.0, 2, -kLossPerMin, {}, false);
-  ASSERT_TRUE(std::isfinite(r.first_drift_s)) << "not flagged";
-  crossing_to_warning_s(r, kLossPerMin, "mixed-moves 154 s, gain -10 %, seed 2 (known lag)");
-  EXPECT_GT(r.at_drift.drift_at_warning.zero_load_n, 0.0);  // a weaker coupling: overstated
+  const double t_cross = 60.0 * 0.03 / kLossPerMin;
+  for (const std::uint64_t seed : {2, 3}) {
+    const MonitorRun r = run_recording("mixed-moves", 154.0, seed, -kLossPerMin, {}, false);
+    const std::string what = "mixed-moves 154 s, gain -10 %, seed " + std::to_string(seed);
+    ASSERT_TRUE(std::isfinite(r.first_drift_s)) << what << ": not flagged";
+    const double delay_s = crossing_to_warning_s(r, kLossPerMin, (what + " (known lag)").c_str());
+    std::printf("  known-force time used: %.1f s at the crossing, %.1f s 30 s after it\n",
+                r.known_by(t_cross), r.known_by(t_cross + 30.0));
+    EXPECT_GT(r.at_drift.drift_at_warning.zero_load_n, 0.0);  // a weaker coupling: overstated
+    EXPECT_GT(delay_s, 30.0) << what << ": within 30 s now; make it an assertion";
+  }
 }
 
 // Every effect of docs/effects.md that is not a drift (of the size found on the bench), on the
@@ -438,7 +461,7 @@ MonitorRun run_control(const Control& c, const char* scenario, double duration_s
                        std::uint64_t seed) {
   PlantEffects e;
   e.*(c.field) = c.value;
-  const MonitorRun r = run_recording(scenario, duration_s, seed, 0.0, e, false);
+  MonitorRun r = run_recording(scenario, duration_s, seed, 0.0, e, false);
   std::printf("%s %.0f s, %s: statistic max %.2f, %.1f s of known-force stretches; at the end %s\n",
               scenario, duration_s, c.name, r.max_drift_statistic, r.last.drift_known_s,
               drift_figures_text(r.last.drift_now).c_str());
