@@ -140,6 +140,8 @@ def main():
         # The alarm's meaning is wrapped, never cut: it ends with what to do.
         alarm = " ".join(r.strip() for r in rows)
         check("then an enable edge" in alarm, f"60x20: the alarm text is whole: {rows[3:8]}")
+        # The PLC's wording, and the tool's: what to type at this terminal.
+        check("from a terminal: 'maglead reset'" in alarm, f"60x20: the alarm says the tool's command: {rows[3:8]}")
 
         # The server restarts on the same port: "reconnecting", then back with fresh values.
         srv.stop()

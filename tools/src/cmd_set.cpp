@@ -112,12 +112,31 @@ void hold_then_release(op::Client& client, const std::string& hold, const op::Co
                 done.c_str());
 }
 
+/// drive_state (IR 13).
+double drive_state(op::Client& client) {
+  const auto* r = reg::find("drive_state");
+  return client.read_range(reg::Table::input_register, r->address, 1).at("drive_state");
+}
+
 /// The latched alarm when the drive is in fault (IR 11-13), else nothing.
 std::optional<double> fault_alarm(op::Client& client) {
   const auto* r = reg::find("alarm_code");
   const auto v = client.read_range(reg::Table::input_register, r->address, 3);
   if (v.at("drive_state") != static_cast<double>(reg::DriveState::fault)) return std::nullopt;
   return v.at("alarm_code");
+}
+
+/// --no-claim on a drive nobody enabled: the controller would reject the execute (not_enabled)
+/// and leave the setpoint and mode_command staged for the next execute by anyone. Refused before
+/// anything is written.
+void refuse_no_claim_unless_enabled(op::Client& client) {
+  const double state = drive_state(client);
+  if (state == static_cast<double>(reg::DriveState::enabled)) return;
+  throw ClientError(Kind::refused_locally,
+                    "refused, nothing sent: --no-claim needs a drive another client has enabled, "
+                    "and this one is not (drive_state " +
+                        op::code_name(reg::drive_states(), state) +
+                        "): drop --no-claim (set claims control itself), or enable first");
 }
 
 /// The release after Ctrl-C, in words. A release that fails (another client took control
@@ -379,6 +398,7 @@ void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions
     // The configured back-and-forth ([reference_move]): the drift flag's free moves on demand.
     p = {reg::Mode::reference_move, {}, "reference move (mode_command 3)"};
   }
+  if (f.no_claim) refuse_no_claim_unless_enabled(client);
   const op::CommandResult res = send_or_release(client, p, f);
   if (res.done)
     std::printf("%s: done (%s) after %.2f s\n", p.summary.c_str(),
@@ -469,6 +489,12 @@ void add_disable(CLI::App& app) {
 void add_reset(CLI::App& app) {
   add_drive_command(app, "reset", "Clear a latched fault (fault_reset edge, ack/done handshake)",
                     [](op::Client& c, bool resync) {
+                      // A reset of a healthy drive resets nothing: say so, send nothing. A
+                      // resync is still sent (the controller says not_stepped_out).
+                      const double state = drive_state(c);
+                      if (!resync && state != static_cast<double>(reg::DriveState::fault))
+                        return "no fault to reset (drive_state " +
+                               op::code_name(reg::drive_states(), state) + ")";
                       op::reset(c, resync, {});
                       return std::string(resync ? "resync and " : "") +
                              "fault reset done; enable again to resume";

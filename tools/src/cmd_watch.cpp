@@ -294,6 +294,15 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
                  : std::string("not running")));
 }
 
+/// The alarm in full: its meaning and the command that clears it from a terminal (a PLC's
+/// wording alone is not the tool's).
+std::string alarm_line(const op::Values& v, double alarm) {
+  std::string s = "alarm: " + op::code_meaning(reg::alarm_codes(), alarm);
+  const auto status = static_cast<std::uint16_t>(v.at("status_word"));
+  return s + "; from a terminal: '" +
+         op::reset_command(alarm, ((status >> reg::kStepOut) & 1u) != 0) + "'";
+}
+
 /// The full screen for a terminal of `scr` size: each line at most scr.width columns, at most
 /// scr.height lines. Styles (bold, reverse) are whole-line prefixes.
 std::vector<std::string> render(const View& view, const std::deque<Sample>& samples,
@@ -334,7 +343,7 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   const auto why =
       wrap(rej != 0 ? "last command rejected: " + op::code_name(reg::reject_codes(), rej) + " (" +
                           op::code_meaning(reg::reject_codes(), rej) + ")"
-           : alarm != 0 ? "alarm: " + op::code_meaning(reg::alarm_codes(), alarm)
+           : alarm != 0 ? alarm_line(v, alarm)
                         : std::string(),
            w, "  ");
   if (why.empty()) L.emplace_back();
