@@ -34,6 +34,7 @@ def main():
         nothing_to_do(srv.port, conn)
         plc_owns_fault(srv.port, conn)
         not_in_position(srv.port, conn)
+        argument_errors(conn)
     finally:
         srv.stop()
     own_fault_during_set()
@@ -101,6 +102,24 @@ def not_in_position(port, conn):
                        "--config", CONFIG)
     check(rc == 4 and "not in position within 1 s: in_position_reason " in err and "nut at " in err
           and "control released" in err and one_line(err), f"set position, --wait too short: {err.strip()}")
+
+
+def argument_errors(conn):
+    """Finding 8: argument errors say what to type."""
+    rc, _, err = run(MAGLEAD, "set", *conn, "force", "5", "--hold", "-1s")
+    check(rc == 2 and "--hold -1s: the value must be positive (e.g. --hold 1s)" in err,
+          f"--hold -1s: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "force", "1,5")
+    check(rc == 2 and "use a decimal point, not a comma: '1.5'" in err and one_line(err), f"set force 1,5: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "force", "5", "kg")
+    check(rc == 2 and "'5kg': unit 'kg' is not one of N, mN, kN" in err and one_line(err),
+          f"set force 5 kg: read as 5kg: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "set", *conn, "force", "5", "7")
+    check(rc == 2 and "unit right after the number (e.g. 'maglead set force 5N')" in err,
+          f"set force 5 7: {err.strip()}")
+    rc, _, err = run(MAGLEAD, "serve", "--config", CONFIG, "--port", "0", "--sim-start", "0.0404", "--duration", "1s")
+    check(rc == 2 and "0.0404 m (40.4 mm) must lie within the stroke 0 .. 0.04 m (0 .. 40 mm" in err,
+          f"serve --sim-start 0.0404: the stroke with units: {err.strip()}")
 
 
 # Seed 30's first disturbance pulse comes 4.66 s after the server starts (the next after 33 s):

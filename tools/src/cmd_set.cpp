@@ -2,6 +2,7 @@
 // (staged setpoint, mode_command, execute edge, ack/done handshake). Every value is checked as
 // the server checks it, before anything is sent.
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -151,7 +152,21 @@ std::string release_after_interrupt(op::Client& client, reg::Mode mode) {
 
 struct SetOptions {
   std::string what, value, speed, accel;
+  std::string unit;  // a unit typed apart from the number: "5 N", "5 kg"
 };
+
+/// "set force 5 N": the unit typed apart is read as "5N" (so "5 kg" is refused as "5kg" is, with
+/// the units accepted); anything else after the value is refused with what to type.
+void join_unit(SetOptions& o) {
+  if (o.unit.empty()) return;
+  const auto first = static_cast<unsigned char>(o.unit[0]);
+  if (std::isalpha(first) == 0 && first < 0x80)
+    throw ClientError(Kind::refused_locally,
+                      "'" + o.unit + "' after '" + o.value +
+                          "' was not expected: set takes one value, its unit right after the "
+                          "number (e.g. 'maglead set force 5N')");
+  o.value += o.unit;
+}
 
 /// A drive command, checked and ready to send: the mode the execute edge applies, its setpoints.
 struct Planned {
@@ -371,7 +386,8 @@ op::CommandResult send_or_release(op::Client& client, const Planned& p, const Co
   }
 }
 
-void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
+void run_set(SetOptions o, const CommandFlags& f, const ConnectionOptions& conn) {
+  join_unit(o);
   catch_interrupt();  // Ctrl-C at any time ends in a clean release, never a vanished owner
   const bool force = o.what == "force", position = o.what == "position";
   const bool reference = o.what == "reference-move" || o.what == "reference_move";
@@ -433,6 +449,7 @@ void add_set(CLI::App& app) {
   cmd->add_option("value", o->value,
                   "Value with optional unit: 12.5, 12.5N, 20mm, 0.02m (a bare number is in SI "
                   "units, N or m; under a raw register name such as watchdog_ms, in its unit)");
+  cmd->add_option("unit", o->unit, "A unit typed apart from the number: '5 N' reads as 5N");
   cmd->add_option("--speed", o->speed,
                   "Position moves: speed limit (e.g. 5mm/s; default: the one staged in the "
                   "controller, velocity_limit_m_s, 10 mm/s at start)");

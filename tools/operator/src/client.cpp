@@ -400,6 +400,13 @@ double parse_quantity(const std::string& text, std::string_view si_unit) {
       throw ClientError(Kind::refused_locally, "'" + text + "' is not a finite number");
     return v;  // a bare number is in the SI unit
   }
+  // A decimal comma ("1,5"): the tools read a decimal point only.
+  if (unit.size() > 1 && unit[0] == ',' && std::isdigit(static_cast<unsigned char>(unit[1]))) {
+    std::string point = text;
+    point[point.find(',')] = '.';
+    throw ClientError(Kind::refused_locally,
+                      "'" + text + "': use a decimal point, not a comma: '" + point + "'");
+  }
   std::string accepted;
   for (const auto& u : kUnits) {
     if (u.si != si_unit) continue;
