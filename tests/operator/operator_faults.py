@@ -39,6 +39,7 @@ def main():
         srv.stop()
     own_fault_during_set()
     slipped_into_stroke_limit()
+    no_load_cell()
     finish()
 
 
@@ -177,6 +178,31 @@ def slipped_into_stroke_limit():
             return
         finally:
             srv.stop()
+
+
+def no_load_cell():
+    """Findings 9 and 10: the CiA 402 backend has no load cell: none, never 0 N; a silent drive's
+    fault shows its cause beside the alarm in watch."""
+    srv = Server(MAGLEAD, CONFIG, "--port", "0", "--backend", "cia402", "--can", "sim",
+                 "--sim-can-silence-at", "3s")
+    try:
+        conn = ["--port", str(srv.port)]
+        rc, out, err = run(MAGLEAD, "poll", *conn, "load_cell_force_n")
+        row = next((l for l in out.splitlines() if "load_cell_force_n" in l), "")
+        check(rc == 0 and row.split()[1:2] == ["none"] and "no load cell on this backend" in row and " N " not in row,
+              f"poll load_cell_force_n on cia402: {row.strip()}")
+        rc, out, err = run(MAGLEAD, "poll", *conn, "--csv", "load_cell_force_n")
+        check(rc == 0 and out.splitlines()[1:] == ["load_cell_force_n,,N"], f"poll --csv: an empty value: {out!r}")
+        run(MAGLEAD, "enable", *conn, "--hold", "5s", timeout=30)
+        end = time.time() + 10
+        while time.time() < end and state(srv.port)[0] != 6:
+            time.sleep(0.1)
+        time.sleep(1.0)  # the cause sharpens after the heartbeat timeout
+        rc, out, err = run(MAGLEAD, "watch", *conn, "--once")
+        check(rc == 0 and ("alarm=drive_fault(drive_silent)" in out or "alarm=drive_fault(process_data_lost)" in out),
+              f"watch names the drive fault's cause: {out.strip()} {err.strip()}")
+    finally:
+        srv.stop()
 
 
 if __name__ == "__main__":
