@@ -26,6 +26,18 @@ TEST(OperatorClient, ParsesQuantitiesWithUnits) {
   }
 }
 
+TEST(OperatorClient, ADecimalCommaIsRefusedWithTheNumberToType) {
+  try {
+    op::parse_quantity("1,5", "N");
+    ADD_FAILURE() << "1,5 accepted";
+  } catch (const op::ClientError& e) {
+    EXPECT_EQ(e.exit_code(), 2);
+    EXPECT_NE(std::string(e.what()).find("use a decimal point, not a comma: '1.5'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(OperatorClient, ForceCheckMatchesTheServersInverse) {
   op::Limits l;
   l.calibration = maglead::paper_calibration();

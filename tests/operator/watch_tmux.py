@@ -140,6 +140,8 @@ def main():
         # The alarm's meaning is wrapped, never cut: it ends with what to do.
         alarm = " ".join(r.strip() for r in rows)
         check("then an enable edge" in alarm, f"60x20: the alarm text is whole: {rows[3:8]}")
+        # The PLC's wording, and the tool's: what to type at this terminal.
+        check("from a terminal: 'maglead reset'" in alarm, f"60x20: the alarm says the tool's command: {rows[3:8]}")
 
         # The server restarts on the same port: "reconnecting", then back with fresh values.
         srv.stop()
@@ -223,7 +225,8 @@ def cia402():
         check(rc == 0 and json.loads(out)["values"]["load_cell_force_n"] is None,
               f"cia402 poll --json: no load cell is null, not 0 N: {out[:200]} {err.strip()}")
         rc, out, err = run(MAGLEAD, "poll", *conn, "load_cell_force_n")
-        check(rc == 0 and "none on this backend" in out, f"cia402 poll: the load cell is none: {out.strip()}")
+        check(rc == 0 and re.search(r"load_cell_force_n\s+none\s+no load cell on this backend", out) is not None,
+              f"cia402 poll: the load cell is none: {out.strip()}")
         rec = os.path.join(os.environ.get("TMPDIR", "/tmp"), f"cia402_rec_{os.getpid()}.csv")
         rc, out, err = run(MAGLEAD, "record", *conn, "--duration", "0.5s", "--out", rec)
         with open(rec) as f:

@@ -20,7 +20,9 @@ bool no_load_cell(const reg::Register& r, const op::Values& all) {
 
 /// What a code register means, for the table's last column; `all` holds every register read.
 std::string meaning(const reg::Register& r, double v, const op::Values& all) {
-  if (no_load_cell(r, all)) return "none on this backend";
+  // The SI value itself reads "none" (Shown::text), --raw the 0 sent: neither is a 0 N reading.
+  if (no_load_cell(r, all))
+    return "no load cell on this backend (the register reads 0, not a force)";
   if (r.name == "status_word") {
     std::string s;
     for (const auto& n : op::status_bits(static_cast<std::uint16_t>(v)))
@@ -138,13 +140,20 @@ struct Shown {
   const op::Values& v;
   std::vector<std::size_t> idx;
   bool raw;
+  bool csv = false;  // a value there is not: CSV's empty field, the table's "none"
   std::string name(std::size_t i) const {
     return raw ? std::string(v.regs[i]->name) : op::si_name(*v.regs[i]);
   }
+  /// No load cell (cia402): not a reading of 0 N. --raw keeps the integer as sent, 0.
+  bool none(std::size_t i) const { return !raw && no_load_cell(*v.regs[i], v); }
   std::string text(std::size_t i) const {
+    if (none(i)) return csv ? "" : "none";
     return raw ? raw_text(*v.regs[i], v.raw[i]) : op::si_text(*v.regs[i], v.si[i]);
   }
-  std::string unit(std::size_t i) const { return raw ? "raw" : std::string(v.regs[i]->unit); }
+  std::string unit(std::size_t i) const {
+    if (none(i) && !csv) return "";
+    return raw ? "raw" : std::string(v.regs[i]->unit);
+  }
 };
 
 void print_json(const Shown& s, const op::Client& client) {
@@ -195,7 +204,7 @@ void run_poll(const PollOptions& o, const ConnectionOptions& conn) {
   op::Client client(endpoint_of(conn));
   client.check_identity();
   const auto v = client.read_tables({reg::Table::input_register, reg::Table::holding_register});
-  const Shown s{v, shown_indices(v, wanted, o.all), o.raw};
+  const Shown s{v, shown_indices(v, wanted, o.all), o.raw, o.csv};
   if (o.json)
     print_json(s, client);
   else if (o.csv)

@@ -166,8 +166,16 @@ runtime::ServiceConfig service_config(const ServeOptions& o, const modbus::Netwo
   cfg = controller_config_of(o.config, o.calibration, o.model, &model_used);
   cfg.watchdog_s = net.watchdog_s;
   cfg.reactions = net.reactions;
-  if (!(o.start_pos_m >= cfg.actuator.stroke_min_m && o.start_pos_m <= cfg.actuator.stroke_max_m))
-    throw CLI::ValidationError("--sim-start", "must lie within the stroke");
+  if (!(o.start_pos_m >= cfg.actuator.stroke_min_m && o.start_pos_m <= cfg.actuator.stroke_max_m)) {
+    // The range with its units, and where it is set: "0.0404 m" alone does not say how far out.
+    char b[200];
+    std::snprintf(b, sizeof b, "%g m (%g mm) must lie within the stroke %g .. %g m (%g .. %g mm",
+                  o.start_pos_m, o.start_pos_m * 1e3, cfg.actuator.stroke_min_m,
+                  cfg.actuator.stroke_max_m, cfg.actuator.stroke_min_m * 1e3,
+                  cfg.actuator.stroke_max_m * 1e3);
+    throw CLI::ValidationError("--sim-start", b + std::string(", stroke_min_m / stroke_max_m in ") +
+                                                  config_file(o.config, "actuator.toml") + ")");
+  }
   sc.backend.simulated = {o.seed, o.spring_n_per_m, o.spring_anchor_m, o.start_pos_m, {}};
   apply_plant_effects("--sim-effect", o.sim_effects, sc.backend.simulated.effects);
   sc.backend.name = o.backend;

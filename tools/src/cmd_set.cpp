@@ -2,6 +2,7 @@
 // (staged setpoint, mode_command, execute edge, ack/done handshake). Every value is checked as
 // the server checks it, before anything is sent.
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -112,12 +113,31 @@ void hold_then_release(op::Client& client, const std::string& hold, const op::Co
                 done.c_str());
 }
 
+/// drive_state (IR 13).
+double drive_state(op::Client& client) {
+  const auto* r = reg::find("drive_state");
+  return client.read_range(reg::Table::input_register, r->address, 1).at("drive_state");
+}
+
 /// The latched alarm when the drive is in fault (IR 11-13), else nothing.
 std::optional<double> fault_alarm(op::Client& client) {
   const auto* r = reg::find("alarm_code");
   const auto v = client.read_range(reg::Table::input_register, r->address, 3);
   if (v.at("drive_state") != static_cast<double>(reg::DriveState::fault)) return std::nullopt;
   return v.at("alarm_code");
+}
+
+/// --no-claim on a drive nobody enabled: the controller would reject the execute (not_enabled)
+/// and leave the setpoint and mode_command staged for the next execute by anyone. Refused before
+/// anything is written.
+void refuse_no_claim_unless_enabled(op::Client& client) {
+  const double state = drive_state(client);
+  if (state == static_cast<double>(reg::DriveState::enabled)) return;
+  throw ClientError(Kind::refused_locally,
+                    "refused, nothing sent: --no-claim needs a drive another client has enabled, "
+                    "and this one is not (drive_state " +
+                        op::code_name(reg::drive_states(), state) +
+                        "): drop --no-claim (set claims control itself), or enable first");
 }
 
 /// The release after Ctrl-C, in words. A release that fails (another client took control
@@ -132,7 +152,21 @@ std::string release_after_interrupt(op::Client& client, reg::Mode mode) {
 
 struct SetOptions {
   std::string what, value, speed, accel;
+  std::string unit;  // a unit typed apart from the number: "5 N", "5 kg"
 };
+
+/// "set force 5 N": the unit typed apart is read as "5N" (so "5 kg" is refused as "5kg" is, with
+/// the units accepted); anything else after the value is refused with what to type.
+void join_unit(SetOptions& o) {
+  if (o.unit.empty()) return;
+  const auto first = static_cast<unsigned char>(o.unit[0]);
+  if (std::isalpha(first) == 0 && first < 0x80)
+    throw ClientError(Kind::refused_locally,
+                      "'" + o.unit + "' after '" + o.value +
+                          "' was not expected: set takes one value, its unit right after the "
+                          "number (e.g. 'maglead set force 5N')");
+  o.value += o.unit;
+}
 
 /// A drive command, checked and ready to send: the mode the execute edge applies, its setpoints.
 struct Planned {
@@ -352,7 +386,8 @@ op::CommandResult send_or_release(op::Client& client, const Planned& p, const Co
   }
 }
 
-void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
+void run_set(SetOptions o, const CommandFlags& f, const ConnectionOptions& conn) {
+  join_unit(o);
   catch_interrupt();  // Ctrl-C at any time ends in a clean release, never a vanished owner
   const bool force = o.what == "force", position = o.what == "position";
   const bool reference = o.what == "reference-move" || o.what == "reference_move";
@@ -379,6 +414,7 @@ void run_set(const SetOptions& o, const CommandFlags& f, const ConnectionOptions
     // The configured back-and-forth ([reference_move]): the drift flag's free moves on demand.
     p = {reg::Mode::reference_move, {}, "reference move (mode_command 3)"};
   }
+  if (f.no_claim) refuse_no_claim_unless_enabled(client);
   const op::CommandResult res = send_or_release(client, p, f);
   if (res.done)
     std::printf("%s: done (%s) after %.2f s\n", p.summary.c_str(),
@@ -413,6 +449,7 @@ void add_set(CLI::App& app) {
   cmd->add_option("value", o->value,
                   "Value with optional unit: 12.5, 12.5N, 20mm, 0.02m (a bare number is in SI "
                   "units, N or m; under a raw register name such as watchdog_ms, in its unit)");
+  cmd->add_option("unit", o->unit, "A unit typed apart from the number: '5 N' reads as 5N");
   cmd->add_option("--speed", o->speed,
                   "Position moves: speed limit (e.g. 5mm/s; default: the one staged in the "
                   "controller, velocity_limit_m_s, 10 mm/s at start)");
@@ -469,6 +506,12 @@ void add_disable(CLI::App& app) {
 void add_reset(CLI::App& app) {
   add_drive_command(app, "reset", "Clear a latched fault (fault_reset edge, ack/done handshake)",
                     [](op::Client& c, bool resync) {
+                      // A reset of a healthy drive resets nothing: say so, send nothing. A
+                      // resync is still sent (the controller says not_stepped_out).
+                      const double state = drive_state(c);
+                      if (!resync && state != static_cast<double>(reg::DriveState::fault))
+                        return "no fault to reset (drive_state " +
+                               op::code_name(reg::drive_states(), state) + ")";
                       op::reset(c, resync, {});
                       return std::string(resync ? "resync and " : "") +
                              "fault reset done; enable again to resume";

@@ -294,6 +294,32 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
                  : std::string("not running")));
 }
 
+/// The alarm's name; a drive fault with its cause beside it, as force_limited(stroke_end):
+/// "drive_fault(drive_silent)".
+std::string alarm_name(const op::Values& v) {
+  const double alarm = v.at("alarm_code");
+  std::string s = op::code_name(reg::alarm_codes(), alarm);
+  if (alarm == static_cast<double>(reg::Alarm::drive_fault) && v.at("drive_fault_cause") != 0)
+    s += "(" + op::code_name(reg::codes_of("drive_fault_cause"), v.at("drive_fault_cause")) + ")";
+  return s;
+}
+
+/// The alarm in full: its meaning, a drive fault's cause (IR 68: a silent drive is not cleared by
+/// a reset), and the command that clears it from a terminal (a PLC's wording alone is not the
+/// tool's).
+std::string alarm_line(const op::Values& v, double alarm) {
+  std::string s = "alarm: " + op::code_meaning(reg::alarm_codes(), alarm);
+  if (alarm == static_cast<double>(reg::Alarm::drive_fault)) {
+    const double why = v.at("drive_fault_cause");
+    const auto codes = reg::codes_of("drive_fault_cause");
+    s += printf_str("; drive_fault_cause %.0f %s (%s)", why, op::code_name(codes, why).c_str(),
+                    op::code_meaning(codes, why).c_str());
+  }
+  const auto status = static_cast<std::uint16_t>(v.at("status_word"));
+  return s + "; from a terminal: '" +
+         op::reset_command(alarm, ((status >> reg::kStepOut) & 1u) != 0) + "'";
+}
+
 /// The full screen for a terminal of `scr` size: each line at most scr.width columns, at most
 /// scr.height lines. Styles (bold, reverse) are whole-line prefixes.
 std::vector<std::string> render(const View& view, const std::deque<Sample>& samples,
@@ -317,12 +343,16 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   const op::Values& v = *view.v;
   const auto at = [&](const char* name) { return v.at(name); };
   const double alarm = at("alarm_code");
-  L.push_back(fit(printf_str("drive %s   mode %s   alarm %s%s",
-                             op::code_name(reg::drive_states(), at("drive_state")).c_str(),
-                             op::code_name(reg::modes(), at("active_mode")).c_str(),
-                             op::code_name(reg::alarm_codes(), alarm).c_str(),
-                             view.connected ? "" : "   (values from before the drop)"),
-                  w));
+  // The drive fault's cause beside the alarm where it fits (the alarm line below has it too).
+  const auto state_line = [&](const std::string& alarm_shown) {
+    return printf_str("drive %s   mode %s   alarm %s%s",
+                      op::code_name(reg::drive_states(), at("drive_state")).c_str(),
+                      op::code_name(reg::modes(), at("active_mode")).c_str(), alarm_shown.c_str(),
+                      view.connected ? "" : "   (values from before the drop)");
+  };
+  std::string top = state_line(alarm_name(v));
+  if (std::ssize(top) > w) top = state_line(op::code_name(reg::alarm_codes(), alarm));
+  L.push_back(fit(top, w));
   // Status bits by name (monochrome terminals too), wrapped; two rows kept so the layout is
   // steady.
   const std::string set_bits = set_bits_text(v, " ");
@@ -334,7 +364,7 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   const auto why =
       wrap(rej != 0 ? "last command rejected: " + op::code_name(reg::reject_codes(), rej) + " (" +
                           op::code_meaning(reg::reject_codes(), rej) + ")"
-           : alarm != 0 ? "alarm: " + op::code_meaning(reg::alarm_codes(), alarm)
+           : alarm != 0 ? alarm_line(v, alarm)
                         : std::string(),
            w, "  ");
   if (why.empty()) L.emplace_back();
@@ -361,8 +391,7 @@ std::string plain_line(const View& view) {
   if (!view.connected) return s + "reconnecting to " + view.endpoint + ": " + view.problem;
   const op::Values& v = *view.v;
   s += "drive=" + op::code_name(reg::drive_states(), v.at("drive_state")) +
-       " mode=" + op::code_name(reg::modes(), v.at("active_mode")) +
-       " alarm=" + op::code_name(reg::alarm_codes(), v.at("alarm_code"));
+       " mode=" + op::code_name(reg::modes(), v.at("active_mode")) + " alarm=" + alarm_name(v);
   const Applies applies = targets_that_apply(v);
   for (const char* name :
        {"nut_pos_um", "load_force_est_mn", "load_cell_force_mn", "active_force_setpoint_mn"}) {

@@ -1,5 +1,6 @@
 // maglead: the command line of the magnetic lead-screw actuator controller and its twin.
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -66,6 +67,15 @@ bool explain_unknown(CLI::App& root, int argc, char** argv) {
     if (expect_value && is_number(tok)) {  // `--min-gain -5`: a value, as CLI11 takes it
       expect_value = false;
       continue;
+    }
+    // `--hold -1s`: CLI11 reads a negative value with a unit as the options -1 -s.
+    if (expect_value && tok.size() > 1 && tok[0] == '-' &&
+        (std::isdigit(static_cast<unsigned char>(tok[1])) || tok[1] == '.')) {
+      std::fprintf(stderr,
+                   "maglead: error: %s %s: the value must be positive (e.g. %s %s)\nrun '%s "
+                   "--help' for the options\n",
+                   argv[i - 1], tok.c_str(), argv[i - 1], tok.c_str() + 1, path_of(at).c_str());
+      return true;
     }
     if (tok.size() > 1 && tok[0] == '-') {
       expect_value = false;

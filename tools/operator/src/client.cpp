@@ -400,6 +400,13 @@ double parse_quantity(const std::string& text, std::string_view si_unit) {
       throw ClientError(Kind::refused_locally, "'" + text + "' is not a finite number");
     return v;  // a bare number is in the SI unit
   }
+  // A decimal comma ("1,5"): the tools read a decimal point only.
+  if (unit.size() > 1 && unit[0] == ',' && std::isdigit(static_cast<unsigned char>(unit[1]))) {
+    std::string point = text;
+    point[point.find(',')] = '.';
+    throw ClientError(Kind::refused_locally,
+                      "'" + text + "': use a decimal point, not a comma: '" + point + "'");
+  }
   std::string accepted;
   for (const auto& u : kUnits) {
     if (u.si != si_unit) continue;
@@ -720,6 +727,20 @@ std::string force_not_reached_text(Client& c) {
          (code_name(codes, why) == "bound_too_wide" ? bound : "");
 }
 
+/// Why the nut is not in position yet, from the controller's own register: "in_position_reason 2
+/// moving (…), nut at 20.512 mm".
+std::string not_in_position_text(Client& c) {
+  const auto* why = reg::find("in_position_reason");
+  const auto* pos = reg::find("nut_pos_um");
+  const double reason = c.read_range(reg::Table::input_register, why->address, 1).at(why->name);
+  const double nut_m = c.read_range(reg::Table::input_register, pos->address, 2).at(pos->name);
+  const auto codes = reg::codes_of("in_position_reason");
+  char b[64];
+  std::snprintf(b, sizeof b, ", nut at %.3f mm", nut_m * 1e3);
+  return "in_position_reason " + fmt(reason) + " " + code_name(codes, reason) + " (" +
+         code_meaning(codes, reason) + ")" + b;
+}
+
 /// A slip leaves φ a lead (or more) away from the stable branch, and the controller refuses a
 /// plain reset while it is (still_faulty): the resync takes the nut's new lead as zero first.
 bool slipped(double alarm) {
@@ -727,10 +748,29 @@ bool slipped(double alarm) {
          alarm == static_cast<double>(reg::Alarm::phase_jump);
 }
 
+/// The step_out status bit: a stroke_limit (or any) fault the nut slipped into needs the resync
+/// as much as a step_out alarm does.
+bool stepped_out(std::uint16_t status_word) { return (status_word >> reg::kStepOut) & 1u; }
+
+/// reset_command for the drive as it is now: its alarm and its step_out status bit. A nut still
+/// moving just after the latch may be slipping yet, its step_out bit a few cycles behind the
+/// alarm: wait for the bit or a standstill, at most kSettle_s.
+std::string reset_command_now(Client& c, double alarm) {
+  constexpr double kSettle_s = 0.5;
+  const auto t0 = Clock::now();
+  Status s = read_status(c);
+  while (!stepped_out(s.status_word) && ((s.status_word >> reg::kMoving) & 1u) != 0 &&
+         since(t0) < kSettle_s) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(kHeartbeatPeriod_s));
+    s = read_status(c);
+  }
+  return reset_command(alarm, stepped_out(s.status_word));
+}
+
 }  // namespace
 
-std::string reset_command(double alarm) {
-  return slipped(alarm) ? "maglead reset --resync" : "maglead reset";
+std::string reset_command(double alarm, bool step_out_bit) {
+  return slipped(alarm) || step_out_bit ? "maglead reset --resync" : "maglead reset";
 }
 
 std::string reset_advice(Client& c, double alarm) {
@@ -739,7 +779,7 @@ std::string reset_advice(Client& c, double alarm) {
   const double id = v.at("control_owner");
   constexpr double kRtuMaster = 65535;  // over RTU the one master is this client
   if (id == 0 || (id == kRtuMaster && !c.endpoint().serial.empty()))
-    return "run '" + reset_command(alarm) + "' first";
+    return "run '" + reset_command_now(c, alarm) + "' first";
   const auto ip = static_cast<std::uint32_t>(v.at("control_owner_ipv4"));
   const std::string who = id == kRtuMaster ? "the RTU master"
                           : ip != 0        ? "the client at " + ipv4_text(ip)
@@ -749,7 +789,7 @@ std::string reset_advice(Client& c, double alarm) {
          "itself (a fault_reset edge in its control word, then enable 0 -> 1 again before its "
          "next execute), or release control (enable cleared) or close its connection, after "
          "which '" +
-         reset_command(alarm) + "' works";
+         reset_command_now(c, alarm) + "' works";
 }
 
 namespace {
@@ -757,8 +797,8 @@ namespace {
 /// The alarm by name and meaning; a drive fault with its cause (IR 68) and the drive's own code
 /// (IR 69), which say what to check: a silent drive is not cleared by a reset.
 std::string alarm_text(Client& c, double alarm) {
-  std::string s =
-      code_name(reg::alarm_codes(), alarm) + ": " + code_meaning(reg::alarm_codes(), alarm);
+  std::string s = fmt(alarm) + " " + code_name(reg::alarm_codes(), alarm) + ": " +
+                  code_meaning(reg::alarm_codes(), alarm);
   if (alarm != static_cast<double>(reg::Alarm::drive_fault)) return s;
   const auto* cause = reg::find("drive_fault_cause");
   const Values v = c.read_range(reg::Table::input_register, cause->address, 2);
@@ -775,6 +815,42 @@ std::string alarm_text(Client& c, double alarm) {
   return s + "; what to check: docs/cia402.md, 'When a fault stays'";
 }
 
+/// The time a watchdog_s takes in words, at its resolution ("0.02 s").
+std::string seconds_text(double s) { return si_text(*reg::find("watchdog_ms"), s) + " s"; }
+
+}  // namespace
+
+void check_watchdog(Client& c, const std::string& what) {
+  const double w = read_image(c).watchdog_s;
+  if (w <= 0 || w >= kShortestWatchdog_s) return;
+  throw ClientError(Kind::refused_locally,
+                    what + ": refused, nothing sent: watchdog_s " + seconds_text(w) +
+                        " is shorter than this tool can feed (it sends the heartbeat every " +
+                        seconds_text(kHeartbeatPeriod_s) + " and needs watchdog_s " +
+                        seconds_text(kShortestWatchdog_s) + " or more): type 'maglead set " +
+                        "watchdog_s " + si_text(*reg::find("watchdog_ms"), kShortestWatchdog_s) +
+                        "' first (or 0 to switch it off), or use a PLC that feeds it faster");
+}
+
+std::string release_after_fault(Client& c, double alarm) {
+  const auto* owner = reg::find("control_owner");
+  const double id = c.read_range(reg::Table::input_register, owner->address, 1).at("control_owner");
+  if (id != 0) {
+    try {  // ours when the controller takes the write; another owner's answers exception 04
+      const Image im = read_image(c);
+      write_cw(c, static_cast<std::uint16_t>(im.control_word &
+                                             ~(bit(reg::kEnable) | bit(reg::kExecute))));
+      return "control released (enable cleared; the drive stays in fault): run '" +
+             reset_command_now(c, alarm) + "'";
+    } catch (const ClientError& e) {
+      if (e.kind() != Kind::exception) throw;
+    }
+  }
+  return reset_advice(c, alarm);
+}
+
+namespace {
+
 [[noreturn]] void rejected(const char* what, const Status& s) {
   throw ClientError(Kind::rejected, std::string(what) + " rejected by the controller: " +
                                         code_name(reg::reject_codes(), s.reject) + " (" +
@@ -788,6 +864,7 @@ CommandResult execute(Client& c, reg::Mode mode,
                       const CommandOptions& o) {
   const auto t0 = Clock::now();
   if (o.claim) {
+    check_watchdog(c, "execute");
     // Take control the documented way: a previous owner's connection that ended left an
     // owner_lost fault (its reaction has run); clear it, then claim with an enable edge.
     const Status st = read_status(c);
@@ -828,9 +905,9 @@ CommandResult execute(Client& c, reg::Mode mode,
       break;
     }
     if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
-      throw ClientError(
-          Kind::rejected,
-          "execute: the drive faulted before reaching the target: alarm " + alarm_text(c, s.alarm));
+      throw ClientError(Kind::rejected,
+                        "execute: the drive faulted before reaching the target (alarm " +
+                            alarm_text(c, s.alarm) + "); " + release_after_fault(c, s.alarm));
     if (s.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled))
       throw ClientError(Kind::rejected,
                         "execute: the drive was disabled before reaching the target");
@@ -844,8 +921,8 @@ CommandResult execute(Client& c, reg::Mode mode,
           Kind::rejected,
           "execute: acknowledged, but " +
               std::string(mode == reg::Mode::force ? "force not reached" : "not in position") +
-              " within " + fmt(o.done_timeout_s) + " s" +
-              (mode == reg::Mode::force ? ": " + force_not_reached_text(c) : std::string()));
+              " within " + fmt(o.done_timeout_s) + " s: " +
+              (mode == reg::Mode::force ? force_not_reached_text(c) : not_in_position_text(c)));
     if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});
     std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
     s = read_status(c);
@@ -854,7 +931,21 @@ CommandResult execute(Client& c, reg::Mode mode,
   return r;
 }
 
+namespace {
+/// A fault seen after our enable edge: a watchdog or stroke_limit alarm latches only in an
+/// enabled drive, so it enabled first and then faulted; control released, and what to type.
+[[noreturn]] void enable_faulted(Client& c, double alarm) {
+  const bool was_enabled = alarm == static_cast<double>(reg::Alarm::watchdog) ||
+                           alarm == static_cast<double>(reg::Alarm::stroke_limit);
+  throw ClientError(Kind::rejected,
+                    std::string(was_enabled ? "enable: the drive enabled, then faulted"
+                                            : "enable: the drive faulted instead of enabling") +
+                        " (alarm " + alarm_text(c, alarm) + "); " + release_after_fault(c, alarm));
+}
+}  // namespace
+
 void enable(Client& c, const CommandOptions& o) {
+  check_watchdog(c, "enable");
   const Image im = read_image(c);
   Status s = read_status(c);
   using DS = reg::DriveState;
@@ -881,11 +972,13 @@ void enable(Client& c, const CommandOptions& o) {
   for (;;) {
     s = read_status(c);
     if (s.drive_state == static_cast<std::uint16_t>(DS::enabled)) return;
+    if (s.drive_state == static_cast<std::uint16_t>(DS::fault)) enable_faulted(c, s.alarm);
     if (since(t0) > o.ack_timeout_s)
       throw ClientError(Kind::rejected,
                         "enable: the drive did not enable within " + fmt(o.ack_timeout_s) +
                             " s (state " + code_name(reg::drive_states(), s.drive_state) +
                             (s.alarm ? ", alarm " + alarm_text(c, s.alarm) : std::string()) + ")");
+    if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});
     std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
   }
 }
@@ -906,16 +999,33 @@ void disable(Client& c, const CommandOptions& o) {
 }
 
 std::string disable_and_say(Client& c) {
+  // Nothing enabled and no fault: nothing to disable, nothing written.
+  if (const Status s0 = read_status(c);
+      s0.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled) &&
+      s0.drive_state != static_cast<std::uint16_t>(reg::DriveState::fault))
+    return "the drive was not enabled: nothing to disable (drive_state " +
+           code_name(reg::drive_states(), s0.drive_state) + ")";
   disable(c, {});
   const Status s = read_status(c);
   if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
     return "enable cleared; the drive stays in fault (alarm " + alarm_text(c, s.alarm) +
-           "): run '" + reset_command(s.alarm) + "' to clear it";
+           "): run '" + reset_command(s.alarm, stepped_out(s.status_word)) + "' to clear it";
   return "drive disabled: enable cleared, control released (drive_state " +
          code_name(reg::drive_states(), s.drive_state) + ")";
 }
 
 void reset(Client& c, bool resync_first, const CommandOptions& o) {
+  // A fault under another client's control takes a reset from that owner only: say what it must
+  // do before writing (the write would be refused, exception 04, with the generic not_owner text).
+  if (const Status s0 = read_status(c);
+      s0.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault)) {
+    const std::string advice = reset_advice(c, s0.alarm);
+    if (advice.starts_with("another client"))
+      throw ClientError(Kind::exception,
+                        "fault reset refused, nothing sent (not_owner): the drive is in fault "
+                        "(alarm " +
+                            alarm_text(c, s0.alarm) + "); " + advice);
+  }
   const Image im = read_image(c);
   std::uint16_t cw = static_cast<std::uint16_t>(im.control_word & ~bit(reg::kExecute));
   const auto edge = [&](int b, int ack, int done, const char* what) {
@@ -927,11 +1037,11 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
     if (s.bit(reg::kRejected) && !s.bit(ack)) {
       // still_faulty after a slip: the command that works for this alarm, not a hint to decode.
       if (s.reject == static_cast<std::uint16_t>(reg::Reject::still_faulty) && !resync_first &&
-          slipped(s.alarm))
+          (slipped(s.alarm) || stepped_out(s.status_word)))
         throw ClientError(Kind::rejected, std::string(what) + " rejected by the controller: " +
                                               code_name(reg::reject_codes(), s.reject) +
                                               " (alarm " + alarm_text(c, s.alarm) + "): run '" +
-                                              reset_command(s.alarm) + "'");
+                                              reset_command(s.alarm, true) + "'");
       rejected(what, s);
     }
     if (!s.bit(ack))
@@ -967,11 +1077,13 @@ void hold(Client& c, double seconds, const CommandOptions& o, const std::functio
   while (since(t0) < seconds && !(stop && stop())) {
     const Status s = read_status(c);
     if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
-      throw ClientError(Kind::rejected, "hold: the drive faulted: alarm " + alarm_text(c, s.alarm));
+      throw ClientError(Kind::rejected, "hold: the drive faulted (alarm " + alarm_text(c, s.alarm) +
+                                            "); " + release_after_fault(c, s.alarm));
     if (s.drive_state != static_cast<std::uint16_t>(reg::DriveState::enabled))
       throw ClientError(Kind::rejected, "hold: the drive was disabled");
     if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});
-    std::this_thread::sleep_for(std::chrono::duration<double>(std::max(o.poll_period_s, 0.02)));
+    std::this_thread::sleep_for(
+        std::chrono::duration<double>(std::max(o.poll_period_s, kHeartbeatPeriod_s)));
   }
 }
 

@@ -203,11 +203,24 @@ std::string disable_and_say(Client& client);
 /// The command that clears a latched alarm: 'maglead reset --resync' after a step-out or a phase
 /// jump (a plain reset is refused, still_faulty, while the phase sits a lead away), else
 /// 'maglead reset'. Every piece of advice to reset takes its command from here.
-std::string reset_command(double alarm);
+/// `step_out_bit`: the status word's step_out bit, set after a slip whatever the alarm (a
+/// stroke_limit fault the nut slipped into).
+std::string reset_command(double alarm, bool step_out_bit = false);
 /// What clears a latched fault, said to a client that has not claimed control: "run 'COMMAND'
 /// first" (reset_command) when nobody owns control; when another client owns it, the controller
 /// refuses our reset (exception 04 not_owner), so the owner must clear it or let go first.
 std::string reset_advice(Client& client, double alarm);
+/// After a fault while this client may own control: clears enable when it does (the controller
+/// takes the write), "control released (…): run 'maglead reset'"; else reset_advice.
+std::string release_after_fault(Client& client, double alarm);
+/// How often the tools feed the drive's communication watchdog (heartbeat) while they own
+/// control, and the shortest watchdog_s they claim under: ten periods, room for a request's
+/// round trip and a loaded machine's scheduling (a PC is no PLC: 0.1 s was seen to expire).
+inline constexpr double kHeartbeatPeriod_s = 0.02;
+inline constexpr double kShortestWatchdog_s = 0.2;
+/// Refuses (refused_locally, nothing written) to claim control under a watchdog_s shorter than
+/// kShortestWatchdog_s, with what to type: the drive would fault while this tool owns it.
+void check_watchdog(Client& client, const std::string& what);
 /// Fault reset edge (optionally a resync edge first), with the ack/done handshake.
 void reset(Client& client, bool resync_first, const CommandOptions& options);
 /// Keeps control for `seconds` (infinity: for ever) or until `stop` says so (polling, feeding a
