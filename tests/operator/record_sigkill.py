@@ -64,6 +64,12 @@ def one_kill(port, i, rng):
     whole_rows = len(rows) - (1 if torn else 0)
     if whole_rows < 2 and rc == 2 and "need at least 2" in err:
         read_ok = True
+    # A recorder the machine's load held up for longer than the reader fills leaves a gap it
+    # refuses, saying where to split: a stall of the poller, not a row lost to the kill (the
+    # rows written are compared below all the same).
+    if rc == 2 and "that are filled in; analyse the rows before and after the gap" in err:
+        print(f"note kill {i}: {err.strip()[-200:]}", flush=True)
+        read_ok = True
     check(read_ok, f"kill {i}: {os.path.basename(path)} ({len(rows)} rows at {rate} Hz{', torn end' if torn else ''}) "
                    f"is read: rc {rc} {first_line} {err.strip()[-300:]}")
     whole = rows[:-1] if torn else rows
