@@ -1042,6 +1042,15 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
                                               code_name(reg::reject_codes(), s.reject) +
                                               " (alarm " + alarm_text(c, s.alarm) + "): run '" +
                                               reset_command(s.alarm, true) + "'");
+      // Refused after a resync: the nut was still slipping when the resync took its lead.
+      if (s.reject == static_cast<std::uint16_t>(reg::Reject::still_faulty) && resync_first)
+        throw ClientError(Kind::rejected,
+                          std::string(what) + " rejected by the controller: " +
+                              code_name(reg::reject_codes(), s.reject) + " (alarm " +
+                              alarm_text(c, s.alarm) +
+                              "): the phase is still outside its stable band, the nut still "
+                              "moving: wait until it stands, then run 'maglead reset --resync' "
+                              "again");
       rejected(what, s);
     }
     if (!s.bit(ack))
