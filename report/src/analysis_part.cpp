@@ -222,6 +222,13 @@ std::string page_head(const std::string& title) {
          escape_html(title) + "</title>\n<style>" + kStyle + "</style>\n" + time_chart_head();
 }
 
+const char* conclusion_class(const analysis::Findings& F) {
+  if (F.conclusion.starts_with("not judged")) return "unjudged";
+  const bool judged_nothing =
+      F.nothing_missing.value_or(false) && F.effects.empty() && !F.unexplained;
+  return judged_nothing ? "ok" : "bad";
+}
+
 std::string physics_section(const AnalysisOutcome& o, int number) {
   std::string h =
       "<h2 id=\"physics\">" + std::to_string(number) + ". What physics is missing</h2>\n";
@@ -244,11 +251,16 @@ std::string physics_section(const AnalysisOutcome& o, int number) {
            escape_html(kind.words(": the model is not judged, and stays as it is; a recording "
                                   "where the nut slides (moves, force steps) can judge it.")) +
            "</p>\n" + after;
+  const std::string cls = conclusion_class(F);
+  // No effect named beside a misfit is no all-clear: the box says so in the headline's colour.
   if (F.effects.empty())
-    return h +
-           "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
+    return h + "<p class=\"" + cls +
+           "\">Nothing: the analysis adds no effect. None from the library explains a "
            "significant part of the held-out " +
-           quantity(kind) + " error, so the model stays as it is.</p>\n" + after;
+           quantity(kind) + " error, so the model stays as it is" +
+           (cls == "ok" ? ""
+                        : "; but it does not explain the recording: " + escape_html(F.conclusion)) +
+           ".</p>\n" + after;
   h += "<p>The analysis compared the model with the recording in the " + quantity(kind) +
        " domain and names what it lacks (effects, laws and parameter names of "
        "docs/effects.md):</p>\n<table><tr><th>effect</th><th>law</th><th>parameters</th>"

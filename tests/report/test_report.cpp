@@ -5,14 +5,20 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <fstream>
+#include <iterator>
 #include <limits>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "../test_tmp.hpp"
+#include "analysis_part.hpp"
 #include "effect_text.hpp"
 #include "image_encode.hpp"
 #include "maglead/effects/effect.hpp"
+#include "maglead/report/analysis_page.hpp"
 #include "maglead/report/html.hpp"
 #include "maglead/report/time_chart.hpp"
 
@@ -82,6 +88,48 @@ TEST(Html, EscapesAndEncodes) {
   EXPECT_EQ(number(std::nan("")), "–");
   EXPECT_EQ(number(2000.0), "2000");
   EXPECT_EQ(number(0.000123), "0.000123");
+}
+
+// A rotary run with no effect named whose misfit remains (a cogging torque, say) is no all-clear:
+// green is for "nothing missing" judged alone; the misfit's conclusion and the "Nothing" box are
+// in the attention style, a conclusion not judged in the neutral one.
+analysis::AnalysisResult result_concluding(const std::string& conclusion,
+                                           std::optional<bool> nothing_missing) {
+  analysis::AnalysisResult r;
+  r.findings.system = "rotary";
+  r.findings.recording = "servo.csv";
+  r.findings.conclusion = conclusion;
+  r.findings.nothing_missing = nothing_missing;
+  r.corrected.system = "rotary";
+  r.headline = conclusion;
+  return r;
+}
+
+std::string page_of(const analysis::AnalysisResult& r, const std::string& name) {
+  const std::string dir = test_tmp_dir() + "/" + name;
+  write_analysis_outputs(r, dir);
+  std::ifstream in(dir + "/index.html");
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST(AnalysisPage, GreenIsForNothingMissingAlone) {
+  const std::string misfit =
+      "a misfit of 0.0207 N·m RMS remains (torque sensor noise 0.00818 N·m) that no library "
+      "effect explains; check the drive's torque constant";
+  const std::string page = page_of(result_concluding(misfit, false), "misfit");
+  EXPECT_EQ(page.find("class=\"ok\""), std::string::npos) << page;
+  EXPECT_NE(page.find("<p class=\"bad\" id=\"conclusion\"><b>a misfit of"), std::string::npos);
+  EXPECT_NE(page.find("<p class=\"bad\">Nothing: the analysis adds no effect."), std::string::npos);
+  EXPECT_NE(page.find("but it does not explain the recording: a misfit of"), std::string::npos);
+
+  const std::string nothing = "nothing is missing: no effect explains a significant part";
+  const std::string ok = page_of(result_concluding(nothing, true), "nothing");
+  EXPECT_NE(ok.find("<p class=\"ok\" id=\"conclusion\">"), std::string::npos) << ok;
+  EXPECT_NE(ok.find("<p class=\"ok\">Nothing: the analysis adds no effect."), std::string::npos);
+
+  const auto unjudged = result_concluding("not judged: too little sliding", std::nullopt);
+  EXPECT_STREQ(conclusion_class(unjudged.findings), "unjudged");
+  EXPECT_STREQ(conclusion_class(result_concluding("found: x", false).findings), "bad");
 }
 
 }  // namespace
