@@ -20,6 +20,7 @@
 #include "maglead/effects/effect.hpp"
 #include "maglead/report/analysis_page.hpp"
 #include "maglead/report/html.hpp"
+#include "maglead/report/plot.hpp"
 #include "maglead/report/time_chart.hpp"
 
 namespace maglead::report {
@@ -212,6 +213,25 @@ std::uint32_t big_endian_at(const std::string& s, std::size_t at) {
 }
 
 }  // namespace
+
+// OpenCV's fonts draw '?' for anything not ASCII: every figure's text is spelled in ASCII first,
+// so a rotary axis's "[N·m]" is "[N*m]", never "[N??m]".
+TEST(Plot, FigureTextIsSpelledInAscii) {
+  using maglead::plot::ascii_label;
+  EXPECT_EQ(ascii_label("drive torque [N·m]"), "drive torque [N*m]");
+  EXPECT_EQ(ascii_label("inertia [kg·m²]"), "inertia [kg*m^2]");
+  EXPECT_EQ(ascii_label("error [µm], −3 … 3"), "error [um], -3 ... 3");
+  EXPECT_EQ(ascii_label("angle θ [rad], speed ω [rad·s⁻¹], τ ± 1°"),
+            "angle theta [rad], speed omega [rad*s^-1], tau +/- 1deg");
+  EXPECT_EQ(ascii_label("plain [N]"), "plain [N]");
+  const std::string unknown = ascii_label("a ☃ b 漢");
+  EXPECT_EQ(unknown, "a _ b _");
+  for (const std::string& s : {ascii_label("N·m·s/rad"), ascii_label("ünïcödé"), unknown}) {
+    EXPECT_TRUE(std::all_of(s.begin(), s.end(), [](char c) {
+      return static_cast<unsigned char>(c) < 0x80 && c != '?';
+    })) << s;
+  }
+}
 
 TEST(ImageEncode, PngCarriesTheImagesSize) {
   const std::string png = maglead::plot::encode_png(SmallImage{}.view());
