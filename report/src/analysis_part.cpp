@@ -86,10 +86,12 @@ std::string floors_text(const analysis::Evidence& ev, const effects::AxisKind& k
   return s;
 }
 
-std::string effect_row(const analysis::EffectFinding& e, const effects::AxisKind& kind) {
+// `axis`: the axis the findings are of, nullptr on the actuator.
+std::string effect_row(const analysis::EffectFinding& e, const effects::AxisKind& kind,
+                       const effects::AxisKind* axis) {
   std::string h =
       "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" + escape_html(e.id) +
-      "</code></td><td>" + escape_html(effect_law(e.id, kind)) + "</td><td>" +
+      "</code></td><td>" + escape_html(effect_law(e.id, axis)) + "</td><td>" +
       parameters_html(kind, e.id, e.parameters, e.standard_errors, e.calibration_errors) +
       "</td><td>" + escape_html(e.where);
   if (!e.finding.empty()) h += "<br>" + escape_html(e.finding);
@@ -265,7 +267,8 @@ std::string physics_section(const AnalysisOutcome& o, int number) {
        " domain and names what it lacks (effects, laws and parameter names of "
        "docs/effects.md):</p>\n<table><tr><th>effect</th><th>law</th><th>parameters</th>"
        "<th>where, evidence</th></tr>\n";
-  for (const auto& e : F.effects) h += effect_row(e, kind);
+  const effects::AxisKind* axis = effects::axis_kind_of_system(F.system);
+  for (const auto& e : F.effects) h += effect_row(e, kind, axis);
   return h + "</table>\n" + after;
 }
 

@@ -125,6 +125,25 @@ TEST(Rotary, ALoadTorqueIsAnOffsetInNewtonMetres) {
   // The drive supplies the load torque: the offset the axis names is the torque the drive adds,
   // the load's with its sign turned.
   expect_found(r, "offset", "offset_n_m", -d.offset_n_m);
+  // A servo has no load cell: the law its finding quotes (and model_corrected.toml's note with
+  // it) says none; the actuator's offset is unseen by its load cell.
+  ASSERT_FALSE(r.findings.effects.empty());
+  EXPECT_EQ(r.findings.effects[0].where,
+            "all samples; the missing torque follows τ = τ_o (constant, along +θ)");
+}
+
+// A torque pulse no input explains (a knock on the arm): the event's finding speaks of torque
+// pulses, in the axis kind's words as every other text of a rotary axis.
+TEST(Rotary, ATorquePulseIsSaidInTorque) {
+  RotaryDrive d;
+  auto rec = maglead::test::rotary_recording(d);
+  auto& torque = rec.columns[2];
+  for (std::size_t i = torque.size() / 2; i < torque.size() / 2 + 30; ++i) torque[i] += 0.4;
+  const auto r = analyze(rec, rotary_model({"nut_mass_kg", "coulomb_n"}));
+  const auto pulse = std::find_if(r.findings.effects.begin(), r.findings.effects.end(),
+                                  [](const auto& e) { return e.id == "external_disturbance"; });
+  ASSERT_NE(pulse, r.findings.effects.end()) << named(r);
+  EXPECT_EQ(pulse->where, "isolated torque pulses no input explains (see events)");
 }
 
 // The model file of a rotary axis names its values and its terms' parameters in rotary units,

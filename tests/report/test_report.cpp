@@ -168,9 +168,9 @@ TEST(EffectText, EveryLibraryParameterHasItsUnit) {
 // with units in them are left to name_of.
 TEST(EffectText, ARotaryAxisSpeaksOfTorqueAndAngle) {
   const auto& rotary = effects::rotary_axis();
-  EXPECT_EQ(effect_law("viscous_friction", rotary), "τ = -C ω");
+  EXPECT_EQ(effect_law("viscous_friction", &rotary), "τ = -C ω");
   EXPECT_EQ(effect_law("viscous_friction"), "F = -C v");
-  EXPECT_EQ(effect_law("asymmetric_friction", rotary),
+  EXPECT_EQ(effect_law("asymmetric_friction", &rotary),
             "τ_f = τ_c+ (ω > 0), -τ_c- (ω < 0); break-away likewise");
   EXPECT_NE(parameter_html("offset", "offset_n_m", 0.1, 0.0, rotary)
                 .find("(constant torque on the shaft along +θ)"),
@@ -181,6 +181,10 @@ TEST(EffectText, ARotaryAxisSpeaksOfTorqueAndAngle) {
   EXPECT_NE(parameter_html("offset", "offset_n", 0.1).find("(constant force on the nut along +p)"),
             std::string::npos);
   EXPECT_EQ(rotary.words("nut_mass_kg: moving mass M"), "nut_mass_kg: moving inertia J");
+  // A servo or a ball screw has no load cell: the offset's law says so only on the actuator.
+  EXPECT_EQ(effect_law("offset", &rotary), "τ = τ_o (constant, along +θ)");
+  EXPECT_EQ(effect_law("offset", &effects::linear_axis()), "F = F_o (constant, along +p)");
+  EXPECT_EQ(effect_law("offset"), "F = F_o (constant, along +p, unseen by the load cell)");
 }
 
 // A parameter with its standard error is shown at the digits the error allows, as analyze prints

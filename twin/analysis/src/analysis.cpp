@@ -795,7 +795,7 @@ EffectFinding finding_of(const AxisRun& run, const selection::Found& f) {
   e.standard_errors = selection::parameters_of(f.standard_errors);
   e.summary = summary_text(e.parameters, e.standard_errors);
   e.where =
-      run.kind.words("all samples; the missing force follows " + std::string(f.effect->law()));
+      run.kind.words("all samples; the missing force follows ") + run.kind.law(f.effect->law());
   e.evidence.heldout_gain_pct = f.gain_pct;
   e.evidence.t_stat = f.t_stat;
   e.evidence.segments_improved =
@@ -1360,6 +1360,8 @@ void name_in_kind(Findings& J, const effects::AxisKind& kind) {
     rename(e.standard_errors);
     for (auto& a : e.alternatives) rename(a.parameters);
     e.summary = summary_text(e.parameters, e.standard_errors);
+    // The one pulse finder speaks of force pulses (pulses.cpp): on a shaft they are torque's.
+    e.where = kind.words(e.where);
   }
   for (auto& r : J.not_selected) {
     if (r.parameters) rename(*r.parameters);
