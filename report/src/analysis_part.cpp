@@ -226,8 +226,10 @@ std::string page_head(const std::string& title) {
 
 const char* conclusion_class(const analysis::Findings& F) {
   if (F.conclusion.starts_with("not judged")) return "unjudged";
-  const bool judged_nothing =
-      F.nothing_missing.value_or(false) && F.effects.empty() && !F.unexplained;
+  // The actuator leaves nothing_missing unset: its conclusion says it (selection::conclusion_of).
+  const bool judged_nothing = F.conclusion.starts_with("nothing is missing") &&
+                              F.nothing_missing.value_or(true) && F.effects.empty() &&
+                              !F.unexplained;
   return judged_nothing ? "ok" : "bad";
 }
 

@@ -128,6 +128,10 @@ TEST(AnalysisPage, GreenIsForNothingMissingAlone) {
   EXPECT_NE(ok.find("<p class=\"ok\" id=\"conclusion\">"), std::string::npos) << ok;
   EXPECT_NE(ok.find("<p class=\"ok\">Nothing: the analysis adds no effect."), std::string::npos);
 
+  // The actuator leaves nothing_missing unset: its conclusion alone says so.
+  const auto actuator =
+      result_concluding(nothing + "; it cannot name changes smaller than: x", std::nullopt);
+  EXPECT_STREQ(conclusion_class(actuator.findings), "ok");
   const auto unjudged = result_concluding("not judged: too little sliding", std::nullopt);
   EXPECT_STREQ(conclusion_class(unjudged.findings), "unjudged");
   EXPECT_STREQ(conclusion_class(result_concluding("found: x", false).findings), "bad");
