@@ -284,6 +284,36 @@ TEST(Rotary, AnAngleInDegreesIsNamedWithWhatToConvert) {
       << e;
 }
 
+// What analyze refuses on a rotary recording says what to fix: a torque in mN·m or a time in
+// ms is named with what to convert (as a linear axis's drive_force_kn is), and a header that
+// says '# axis: linear' is quoted and changed, not told it has no axis line.
+TEST(Rotary, ARefusalSaysWhatToFix) {
+  const auto refusal = [](auto edit) {
+    auto rec = maglead::test::rotary_recording(RotaryDrive{});
+    edit(rec);
+    try {
+      analyze(rec, rotary_model({"nut_mass_kg", "coulomb_n"}));
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const auto says = [](const std::string& text, const std::string& part) {
+    EXPECT_NE(text.find(part), std::string::npos) << text;
+  };
+  says(refusal([](auto& r) { r.names[2] = "drive_torque_mn_m"; }),
+       "'drive_torque_mn_m' looks like drive_torque_n_m in another unit: convert it to newton "
+       "metres and name it 'drive_torque_n_m'");
+  says(refusal([](auto& r) { r.names[0] = "t_ms"; }),
+       "(header has: t_ms, angle_rad, drive_torque_n_m, ref_angle_rad); 't_ms' looks like t_s in "
+       "another unit: convert it to seconds and name it 't_s'");
+  const std::string linear = refusal([](auto& r) { r.set_meta("axis", "linear"); });
+  says(linear,
+       "but the header says '# axis: linear': change the header line '# axis: linear' to "
+       "'# axis: rotary'");
+  EXPECT_EQ(linear.find("no '# axis: rotary' line"), std::string::npos) << linear;
+}
+
 }  // namespace
 
 namespace {
@@ -323,4 +353,7 @@ TEST(Rotary, ColumnsReadAreWhatTheAnalysisReads) {
   // angle_deg as angle_rad in another unit.
   EXPECT_EQ(kept({"t_s", "angle_deg", "drive_torque_n_m", "ref_angle_rad"}, "rotary"),
             (V{"t_s", "angle_deg", "drive_torque_n_m", "ref_angle_rad"}));
+  // No t_s: all kept, for the refusal to list the header and name t_ms.
+  EXPECT_EQ(kept({"t_ms", "angle_rad", "drive_torque_n_m", "temp_c"}, "rotary"),
+            (V{"t_ms", "angle_rad", "drive_torque_n_m", "temp_c"}));
 }

@@ -1259,6 +1259,12 @@ bool has_columns(const Recording& rec, const effects::AxisKind& k) {
   return rec.has(std::string(k.position)) && rec.has(std::string(k.drive));
 }
 
+// A stated axis whose header has neither kind's columns.
+bool neither_kind(const Recording& rec) {
+  return rec.meta("axis") && !has_columns(rec, effects::linear_axis()) &&
+         !has_columns(rec, effects::rotary_axis());
+}
+
 std::string kind_columns(const effects::AxisKind& k) {
   return "t_s, " + std::string(k.position) + ", " + std::string(k.drive);
 }
@@ -1278,13 +1284,24 @@ std::string model_words(const effects::AxisKind& k) {
          k.name_of("viscous_n_s_per_m") + ", " + k.name_of("coulomb_n") + ")";
 }
 
+// What the header says of the kind, for a refusal: "the header says '# axis: linear'", or that
+// it has no '# axis: rotary' line.
+std::string header_words(const Recording& rec) {
+  const auto stated = rec.meta("axis");
+  return stated ? "the header says '# axis: " + *stated + "'"
+                : std::string("the header has no '# axis: rotary' line");
+}
+
 // What to change so that the header and the model agree with the columns the file has.
-std::string agreeing_fix(const effects::AxisKind& logged, const effects::AxisKind& stated,
-                         const effects::AxisKind* modelled) {
+std::string agreeing_fix(const Recording& rec, const effects::AxisKind& logged,
+                         const effects::AxisKind& stated, const effects::AxisKind* modelled) {
   std::string fix;
-  if (&logged != &stated)
-    fix = std::string(logged.name == "rotary" ? "add" : "remove") +
-          " the header line '# axis: rotary'";
+  if (&logged != &stated && logged.name == "rotary")
+    fix = rec.meta("axis")
+              ? "change the header line '# axis: " + *rec.meta("axis") + "' to '# axis: rotary'"
+              : std::string("add the header line '# axis: rotary'");
+  else if (&logged != &stated)
+    fix = "remove the header line '# axis: rotary'";
   if (modelled && modelled != &logged)
     fix += (fix.empty() ? "give " : " and give ") + model_words(logged);
   return fix;
@@ -1296,11 +1313,12 @@ std::string missing_columns_text(const Recording& rec, const effects::AxisKind& 
   std::string msg = rec.path + ": a " + std::string(kind.name) + " axis needs the columns " +
                     kind_columns(kind) + " (optional:";
   for (const auto c : kind.setpoints) msg += " " + std::string(c);
-  // With '# axis:' and neither kind's columns the reader keeps every column (columns_read).
-  const std::string listed = rec.meta("axis") && !logged_kind(rec) ? "header has" : "columns read";
+  // With '# axis:' and neither kind's columns, or without t_s, the reader keeps every column
+  // (columns_read).
+  const std::string listed = neither_kind(rec) || !rec.has("t_s") ? "header has" : "columns read";
   const std::string list = missing_column_detail(rec.names, "", listed);
   msg += ")" + list;
-  for (const auto c : {kind.position, kind.drive})
+  for (const std::string_view c : {std::string_view("t_s"), kind.position, kind.drive})
     if (!rec.has(std::string(c)))
       msg += missing_column_detail(rec.names, std::string(c), listed).substr(list.size());
   return msg;
@@ -1317,19 +1335,22 @@ const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
                                 "' names no axis kind (expected linear or rotary)");
   const effects::AxisKind* modelled = effects::axis_kind_of_system(model.system);
   const effects::AxisKind* logged = logged_kind(rec);
-  if (logged == kind && (!modelled || modelled == kind)) return *kind;
+  if (logged == kind && (!modelled || modelled == kind)) {
+    if (!rec.has("t_s")) throw RecordingError(missing_columns_text(rec, *kind));
+    return *kind;
+  }
   const bool rotary = kind->name == "rotary";
   if (logged && modelled && modelled == logged)  // the header alone is wrong
-    throw std::invalid_argument(
-        rec.path + ": the columns are a " + std::string(logged->name) + " axis's (" +
-        kind_columns(*logged) + "), as the model is, but " +
-        (rotary ? "the header says '# axis: rotary'" : "the header has no '# axis: rotary' line") +
-        ": " + agreeing_fix(*logged, *kind, modelled));
+    throw std::invalid_argument(rec.path + ": the columns are a " + std::string(logged->name) +
+                                " axis's (" + kind_columns(*logged) + "), as the model is, but " +
+                                header_words(rec) + ": " +
+                                agreeing_fix(rec, *logged, *kind, modelled));
   if (logged == kind)  // the model alone is wrong
     throw std::invalid_argument(rec.path + ": the recording is a " + std::string(kind->name) +
                                 " axis (columns " + kind_columns(*kind) + ") but the model is a " +
                                 std::string(modelled->name) + " axis's (system = \"" +
-                                model.system + "\"): " + agreeing_fix(*logged, *kind, modelled));
+                                model.system +
+                                "\"): " + agreeing_fix(rec, *logged, *kind, modelled));
   if (!logged && modelled && modelled != kind)  // no columns to decide: header against model
     throw std::invalid_argument(
         rotary ? rec.path +
@@ -1338,13 +1359,14 @@ const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
                      model_words(effects::rotary_axis())
                : rec.path +
                      ": the model is a rotary axis's (system = \"rotary\") but the "
-                     "recording does not say so: add the header line '# axis: rotary' "
-                     "(columns " +
-                     kind_columns(effects::rotary_axis()) + ")");
+                     "recording does not say so (" +
+                     header_words(rec) +
+                     "): " + agreeing_fix(rec, effects::rotary_axis(), *kind, modelled) +
+                     " (columns " + kind_columns(effects::rotary_axis()) + ")");
   std::string msg = missing_columns_text(rec, *kind);
   if (logged)
     msg += "; this recording has a " + std::string(logged->name) + " axis's (" +
-           kind_columns(*logged) + "): " + agreeing_fix(*logged, *kind, modelled);
+           kind_columns(*logged) + "): " + agreeing_fix(rec, *logged, *kind, modelled);
   throw RecordingError(msg);
 }
 
@@ -1469,10 +1491,10 @@ std::vector<std::string> columns_read(const Recording& header) {
   // only where the kind's own columns are, as only then does the axis path get to them: an
   // actuator's pos_set_m (a linear axis's setpoint) is not read.
   cols.emplace_back("t_s");
-  // A stated axis with neither kind's columns is refused: its message lists the whole header
-  // and a column in another unit (angle_deg), so every column is kept for it.
-  if (header.meta("axis") && !has_columns(header, effects::linear_axis()) &&
-      !has_columns(header, effects::rotary_axis()))
+  // A stated axis with neither kind's columns is refused, as is a recording without t_s: its
+  // message lists the whole header and a column in another unit (angle_deg, t_ms), so every
+  // column is kept for it.
+  if (neither_kind(header) || !header.has("t_s"))
     cols.insert(cols.end(), header.names.begin(), header.names.end());
   for (const effects::AxisKind* kind : {&effects::linear_axis(), &effects::rotary_axis()}) {
     cols.emplace_back(kind->position);
