@@ -1479,6 +1479,11 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   return r;
 }
 
+void check_axis_columns(const Recording& rec) {
+  if (!rec.meta("axis") && !logged_kind(rec)) return;  // the actuator's, or no axis's at all
+  (void)kind_of(rec, ModelFile{});  // the model unknown: the header and the columns decide
+}
+
 std::vector<std::string> columns_read(const Recording& header) {
   std::vector<std::string> cols;
   // The actuator path's (actuator_analysis.cpp, and force_set_n for the twin's check): the
