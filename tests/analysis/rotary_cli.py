@@ -9,6 +9,8 @@ viscous_n_m_s_per_rad, the headline prints N·m·s/rad, and model_corrected.toml
 names (inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m) and is read back by the analysis. The
 same file without its '# axis: rotary' line is refused with what to add, and `inspect` refuses
 what analyze refuses (t_ms, angle_deg, drive_torque_mn_m, no axis line) with the same message.
+The where lines print ranges whose ends differ (3019 … 3025 rad, not 3.02e+03 … 3.03e+03), and
+--calibration-accuracy, the actuator's, is refused with what to drop.
 analysis.json keeps to
 its schema (docs/schema/analysis.schema.json, system "rotary"). `report`, `twin-check` and
 `estimate`, the actuator's, refuse it with the analyze command to run instead. rotary_drive
@@ -151,6 +153,21 @@ for name, edit_line, fix in (
 i = subprocess.run([exe, "inspect", rec], capture_output=True, text=True)
 if i.returncode != 0:
     failures.append(f"inspect on the servo's recording: exit {i.returncode}, {i.stderr.strip()}")
+
+# The where lines' ranges print the digits that tell their ends apart: thousands of radians are
+# "3019 … 3025 rad", never "3.02e+03 … 3.03e+03 rad".
+import re
+for w in j["where"]:
+    for lo, hi in re.findall(r"(-?[0-9.e+]+) … (-?[0-9.e+]+)", w):
+        if lo == hi or "e+" in lo + hi:
+            failures.append(f"a range of '{w}' prints {lo} … {hi}")
+# --calibration-accuracy is the actuator's: refused on an axis with what to drop.
+r = subprocess.run([exe, "analyze", "--recording", rec, "--model", model, "--out",
+                    os.path.join(work, "accuracy"), "--calibration-accuracy", "0.5"],
+                   capture_output=True, text=True)
+if r.returncode != 2 or "applies to the actuator only" not in r.stderr or \
+        "drop --calibration-accuracy" not in r.stderr:
+    failures.append(f"--calibration-accuracy on a rotary axis: exit {r.returncode}, {r.stderr}")
 
 # The actuator's commands refuse an axis's recording with what to run instead (exit 2).
 for command in (["report", "--out", os.path.join(work, "report")], ["twin-check"], ["estimate"]):

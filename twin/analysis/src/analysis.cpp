@@ -241,6 +241,20 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
   std::size_t i = 0;
   int shown = 0;
   const double w = b.centre.size() > 1 ? b.centre[1] - b.centre[0] : 0.0;
+  // A bin's ends at the digits its width needs (1140 … 1145 rad, never 1.14e+03 … 1.14e+03): the
+  // magnitude's digits down to the width's leading one; 3 at least.
+  const double largest = std::max(std::abs(b.centre.front()), std::abs(b.centre.back())) * x_scale;
+  const double width = std::abs(w * x_scale);
+  const int digits =
+      largest > 0 && width > 0
+          ? static_cast<int>(std::floor(std::log10(largest)) - std::floor(std::log10(width))) + 1
+          : 3;
+  const auto end_text = [&](double v) {
+    std::ostringstream e;
+    e.precision(std::clamp(digits, 3, 12));
+    e << v;
+    return e.str();
+  };
   while (i < hot.size() && shown < kMostRegionsListed) {
     std::size_t j = i;
     while (j + 1 < hot.size() && hot[j + 1] == hot[j] + 1 &&
@@ -249,9 +263,9 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
     double peak = 0;
     for (std::size_t k = i; k <= j; ++k)
       if (std::abs(b.mean[hot[k]]) > std::abs(peak)) peak = b.mean[hot[k]];
-    o << (shown ? "; " : "") << (b.centre[hot[i]] - w / 2) * x_scale << " … "
-      << (b.centre[hot[j]] + w / 2) * x_scale << " " << unit << " (up to " << std::showpos << peak
-      << std::noshowpos << " " << drive_unit << ")";
+    o << (shown ? "; " : "") << end_text((b.centre[hot[i]] - w / 2) * x_scale) << " … "
+      << end_text((b.centre[hot[j]] + w / 2) * x_scale) << " " << unit << " (up to " << std::showpos
+      << peak << std::noshowpos << " " << drive_unit << ")";
     ++shown;
     i = j + 1;
   }
