@@ -89,6 +89,13 @@ TEST(Recording, MissingColumnListsTheColumnsAndOneInAnotherUnit) {
               std::string::npos)
         << c.what();
   }
+  // A compound unit with a prefix is the same quantity: millinewton metres, millimetres per second.
+  EXPECT_NE(missing_column_detail({"t_s", "drive_torque_mn_m"}, "drive_torque_n_m")
+                .find("'drive_torque_mn_m' looks like drive_torque_n_m in another unit: convert it "
+                      "to newton metres"),
+            std::string::npos);
+  EXPECT_NE(missing_column_detail({"nut_vel_mm_s"}, "nut_vel_m_s").find("looks like nut_vel_m_s"),
+            std::string::npos);
   // Same quantity, unrelated name: no advice to rename what is something else.
   const auto other = write_file("other.csv", "# format: mls-recording/1\nt_s,pos_set_m\n0,0\n");
   EXPECT_EQ(error_of(other, {"nut_pos_m"}).find("looks like"), std::string::npos);

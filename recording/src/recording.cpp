@@ -43,8 +43,12 @@ namespace {
 /// The quantity of a `<quantity>_<unit>` name: the name less its unit (compound units such as
 /// N·m and m/s included), "" when it has none.
 std::string quantity_of(const std::string& name) {
-  for (const char* unit : {"_n_m", "_m_s", "_rad_s", "_n_s_per_m"})
-    if (name.ends_with(unit)) return name.substr(0, name.size() - std::strlen(unit));
+  // With an SI prefix too (drive_torque_mn_m: millinewton metres, nut_vel_mm_s).
+  for (const char* unit : {"n_m", "m_s", "rad_s", "n_s_per_m"})
+    for (const char* prefix : {"", "m", "k", "u", "c"}) {
+      const std::string suffix = std::string("_") + prefix + unit;
+      if (name.ends_with(suffix)) return name.substr(0, name.size() - suffix.size());
+    }
   const std::size_t cut = name.rfind('_');
   return cut == std::string::npos ? std::string() : name.substr(0, cut);
 }

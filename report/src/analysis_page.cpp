@@ -25,15 +25,10 @@ void write_text(const fs::path& path, const std::string& text) {
 
 std::string intro(const analysis::Findings& F) {
   const std::string file = fs::path(F.recording).filename().string();
-  const bool none = F.effects.empty();
-  const bool unjudged = F.conclusion.rfind("not judged", 0) == 0;
   return "<p>Recording <code title=\"" + escape_html(F.recording) + "\">" + escape_html(file) +
          "</code>: " + std::to_string(F.samples) + " samples, " + std::to_string(F.samples_used) +
          " used by the fit; system <b>" + escape_html(F.system) + "</b>.</p>\n<p class=\"" +
-         (unjudged ? "unjudged"
-          : none   ? "ok"
-                   : "bad") +
-         "\" id=\"headline\"><b>" + escape_html(F.conclusion) +
+         conclusion_class(F) + "\" id=\"conclusion\"><b>" + escape_html(F.conclusion) +
          "</b></p>\n<p class=\"hint\">Plots: drag to zoom, shift-drag to pan, double-click to "
          "reset. Values show on hover.</p>\n";
 }

@@ -86,10 +86,12 @@ std::string floors_text(const analysis::Evidence& ev, const effects::AxisKind& k
   return s;
 }
 
-std::string effect_row(const analysis::EffectFinding& e, const effects::AxisKind& kind) {
+// `axis`: the axis the findings are of, nullptr on the actuator.
+std::string effect_row(const analysis::EffectFinding& e, const effects::AxisKind& kind,
+                       const effects::AxisKind* axis) {
   std::string h =
       "<tr><td><b>" + escape_html(effect_title(e.id)) + "</b><br><code>" + escape_html(e.id) +
-      "</code></td><td>" + escape_html(effect_law(e.id, kind)) + "</td><td>" +
+      "</code></td><td>" + escape_html(effect_law(e.id, axis)) + "</td><td>" +
       parameters_html(kind, e.id, e.parameters, e.standard_errors, e.calibration_errors) +
       "</td><td>" + escape_html(e.where);
   if (!e.finding.empty()) h += "<br>" + escape_html(e.finding);
@@ -222,6 +224,15 @@ std::string page_head(const std::string& title) {
          escape_html(title) + "</title>\n<style>" + kStyle + "</style>\n" + time_chart_head();
 }
 
+const char* conclusion_class(const analysis::Findings& F) {
+  if (F.conclusion.starts_with("not judged")) return "unjudged";
+  // The actuator leaves nothing_missing unset: its conclusion says it (selection::conclusion_of).
+  const bool judged_nothing = F.conclusion.starts_with("nothing is missing") &&
+                              F.nothing_missing.value_or(true) && F.effects.empty() &&
+                              !F.unexplained;
+  return judged_nothing ? "ok" : "bad";
+}
+
 std::string physics_section(const AnalysisOutcome& o, int number) {
   std::string h =
       "<h2 id=\"physics\">" + std::to_string(number) + ". What physics is missing</h2>\n";
@@ -244,16 +255,22 @@ std::string physics_section(const AnalysisOutcome& o, int number) {
            escape_html(kind.words(": the model is not judged, and stays as it is; a recording "
                                   "where the nut slides (moves, force steps) can judge it.")) +
            "</p>\n" + after;
+  const std::string cls = conclusion_class(F);
+  // No effect named beside a misfit is no all-clear: the box says so in the headline's colour.
   if (F.effects.empty())
-    return h +
-           "<p class=\"ok\">Nothing: the analysis adds no effect. None from the library explains a "
+    return h + "<p class=\"" + cls +
+           "\">Nothing: the analysis adds no effect. None from the library explains a "
            "significant part of the held-out " +
-           quantity(kind) + " error, so the model stays as it is.</p>\n" + after;
+           quantity(kind) + " error, so the model stays as it is" +
+           (cls == "ok" ? ""
+                        : "; but it does not explain the recording: " + escape_html(F.conclusion)) +
+           ".</p>\n" + after;
   h += "<p>The analysis compared the model with the recording in the " + quantity(kind) +
        " domain and names what it lacks (effects, laws and parameter names of "
        "docs/effects.md):</p>\n<table><tr><th>effect</th><th>law</th><th>parameters</th>"
        "<th>where, evidence</th></tr>\n";
-  for (const auto& e : F.effects) h += effect_row(e, kind);
+  const effects::AxisKind* axis = effects::axis_kind_of_system(F.system);
+  for (const auto& e : F.effects) h += effect_row(e, kind, axis);
   return h + "</table>\n" + after;
 }
 

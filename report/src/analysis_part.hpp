@@ -13,6 +13,12 @@ namespace maglead::report {
 /// N·m, its laws in θ and τ); the actuator's are a linear axis's.
 const effects::AxisKind& axis_words(const analysis::Findings& F);
 
+/// The style of the conclusion's box: "ok" (green) only when the analysis judged nothing missing
+/// (its conclusion "nothing is missing", nothing named, nothing_missing not false);
+/// "unjudged" for a conclusion not judged; "bad" (attention) for anything found and for a misfit
+/// or a force left unexplained, though no effect is named.
+const char* conclusion_class(const analysis::Findings& F);
+
 /// <head> content both pages share: charset, viewport, title, style and dygraphs.
 std::string page_head(const std::string& title);
 

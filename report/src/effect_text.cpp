@@ -33,9 +33,10 @@ std::string effect_title(const std::string& id) {
   return t;
 }
 
-std::string effect_law(const std::string& id, const effects::AxisKind& kind) {
+std::string effect_law(const std::string& id, const effects::AxisKind* axis) {
   const auto* e = effects::find(id);
-  return e ? kind.words(e->law()) : std::string();
+  if (!e) return "";
+  return axis ? axis->law(e->law()) : std::string(e->law());
 }
 
 std::string parameter_html(const std::string& effect_id, const std::string& name, double value,

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "image_encode.hpp"
@@ -38,14 +39,18 @@ double tick_step(double span, int want) {
 }
 
 void text(cv::Mat& img, const std::string& s, cv::Point at, double scale = 0.45, int thick = 1) {
-  cv::putText(img, s, at, kFont, scale, kInk, thick, cv::LINE_AA);
+  cv::putText(img, ascii_label(s), at, kFont, scale, kInk, thick, cv::LINE_AA);
+}
+
+int text_width_px(const std::string& s, double scale) {
+  int base = 0;
+  return cv::getTextSize(ascii_label(s), kFont, scale, 1, &base).width;
 }
 
 /// The legend's column: as wide as the panel's longest label (up to a third of the width).
 int legend_width_px(const Panel& p, int width_px) {
-  int widest = 0, base = 0;
-  for (const auto& s : p.series)
-    widest = std::max(widest, cv::getTextSize(s.label, kFont, 0.4, 1, &base).width);
+  int widest = 0;
+  for (const auto& s : p.series) widest = std::max(widest, text_width_px(s.label, 0.4));
   return std::clamp(widest + 50, 60, width_px / 3);
 }
 
@@ -196,6 +201,38 @@ void write_png(const std::string& path, const cv::Mat& img) {
 
 }  // namespace
 
+std::string ascii_label(const std::string& s) {
+  // Longer spellings first where one starts another ("⁻¹" before "⁻").
+  static constexpr std::pair<std::string_view, std::string_view> kSpelling[] = {
+      {"·", "*"},      {"⋅", "*"},      {"×", "x"},      {"²", "^2"},  {"³", "^3"},
+      {"⁻¹", "^-1"},   {"⁻", "^-"},     {"¹", "^1"},     {"µ", "u"},   {"μ", "u"},
+      {"−", "-"},      {"–", "-"},      {"—", "-"},      {"±", "+/-"}, {"°", "deg"},
+      {"θ", "theta"},  {"ω", "omega"},  {"τ", "tau"},    {"π", "pi"},  {"Δ", "d"},
+      {"α", "alpha"},  {"σ", "sigma"},  {"φ", "phi"},    {"ε", "eps"}, {"Ω", "Ohm"},
+      {"≈", "~"},      {"≤", "<="},     {"≥", ">="},     {"→", "->"},  {"…", "..."},
+      {"\u00a0", " "}, {"\u2009", " "}, {"\u202f", " "}, {"’", "'"},   {"‘", "'"}};
+  std::string out;
+  out.reserve(s.size());
+  for (std::size_t i = 0; i < s.size();) {
+    if (static_cast<unsigned char>(s[i]) < 0x80) {
+      out += s[i++];
+      continue;
+    }
+    const std::string_view rest = std::string_view(s).substr(i);
+    const auto* known = std::find_if(std::begin(kSpelling), std::end(kSpelling),
+                                     [&](const auto& k) { return rest.starts_with(k.first); });
+    if (known != std::end(kSpelling)) {
+      out += known->second;
+      i += known->first.size();
+      continue;
+    }
+    out += '_';  // a character without a spelling here: its lead and continuation bytes
+    ++i;
+    while (i < s.size() && (static_cast<unsigned char>(s[i]) & 0xC0) == 0x80) ++i;
+  }
+  return out;
+}
+
 /// The image format the file's name asks for; the bytes always match the name.
 std::string image_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
@@ -268,8 +305,7 @@ void save_heatmap_png(const std::string& path, const HeatMap& m, int width_px, i
   text(img, fmt(scale.hi), {bar.x + bar.width + 5, bar.y + 10}, 0.4);
   text(img, fmt(scale.lo), {bar.x + bar.width + 5, bar.y + bar.height}, 0.4);
   if (scale.diverging) text(img, "0", {bar.x + bar.width + 5, bar.y + bar.height / 2 + 4}, 0.4);
-  int base = 0;
-  const int label_w = cv::getTextSize(m.value_label, kFont, 0.45, 1, &base).width;
+  const int label_w = text_width_px(m.value_label, 0.45);
   text(img, m.value_label, {std::min(bar.x, width_px - label_w - 6), plot.y - 10}, 0.45);
   write_png(path, img);
 }

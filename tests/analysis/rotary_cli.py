@@ -7,7 +7,11 @@ The generated servo drive (rotary_drive.hpp: J, b, c known; angle in rad, torque
 analysed with a rotary baseline lacking viscous friction: analysis.json names it as
 viscous_n_m_s_per_rad, the headline prints N·m·s/rad, and model_corrected.toml holds the rotary's
 names (inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m) and is read back by the analysis. The
-same file without its '# axis: rotary' line is refused with what to add. analysis.json keeps to
+same file without its '# axis: rotary' line is refused with what to add, and `inspect` refuses
+what analyze refuses (t_ms, angle_deg, drive_torque_mn_m, no axis line) with the same message.
+The where lines print ranges whose ends differ (3019 … 3025 rad, not 3.02e+03 … 3.03e+03), and
+--calibration-accuracy, the actuator's, is refused with what to drop.
+analysis.json keeps to
 its schema (docs/schema/analysis.schema.json, system "rotary"). `report`, `twin-check` and
 `estimate`, the actuator's, refuse it with the analyze command to run instead. rotary_drive
 prints its usage for -h/--help and for bad use (exit 2) rather than writing a file of that name.
@@ -110,6 +114,60 @@ with open(rec) as src, open(bare, "w") as dst:
 r = analyse(bare, os.path.join(work, "bare"), model)
 if r.returncode == 0 or "add the header line '# axis: rotary'" not in r.stderr:
     failures.append(f"no header: exit {r.returncode}, {r.stderr.strip()}")
+
+# inspect checks an axis's recording as analyze does: what analyze refuses, inspect refuses with
+# the same message (exit 2), and the servo's own recording passes (exit 0).
+def variant(name, edit_line):
+    path = os.path.join(work, name)
+    with open(rec) as src, open(path, "w") as dst:
+        for line in src:
+            line = edit_line(line)
+            if line is not None:
+                dst.write(line)
+    return path
+
+
+def error(run):
+    return [line for line in run.stderr.splitlines() if line.startswith("maglead: error:")]
+
+
+HEADER = "t_s,angle_rad,drive_torque_n_m,ref_angle_rad\n"
+for name, edit_line, fix in (
+        ("servo_t_ms.csv", lambda l: l.replace("t_s,", "t_ms,", 1) if l == HEADER else l,
+         "'t_ms' looks like t_s in another unit: convert it to seconds and name it 't_s'"),
+        ("servo_deg.csv", lambda l: l.replace("angle_rad,d", "angle_deg,d") if l == HEADER else l,
+         "'angle_deg' looks like angle_rad in another unit: convert it to radians"),
+        ("servo_mnm.csv", lambda l: l.replace("_n_m,", "_mn_m,") if l == HEADER else l,
+         "'drive_torque_mn_m' looks like drive_torque_n_m in another unit: convert it to newton "
+         "metres"),
+        ("servo_no_axis.csv", lambda l: None if l.startswith("# axis:") else l,
+         "add the header line '# axis: rotary'")):
+    path = variant(name, edit_line)
+    i = subprocess.run([exe, "inspect", path], capture_output=True, text=True)
+    a = analyse(path, os.path.join(work, "refused"), model)
+    if i.returncode != 2 or fix not in i.stderr or a.returncode != 2 or fix not in a.stderr:
+        failures.append(f"{name}: inspect exit {i.returncode} {i.stderr.strip()!r}, analyze exit "
+                        f"{a.returncode} {a.stderr.strip()!r}")
+    elif name != "servo_no_axis.csv" and error(i) != error(a):  # one check, one message
+        failures.append(f"{name}: inspect says {error(i)!r}, analyze {error(a)!r}")
+i = subprocess.run([exe, "inspect", rec], capture_output=True, text=True)
+if i.returncode != 0:
+    failures.append(f"inspect on the servo's recording: exit {i.returncode}, {i.stderr.strip()}")
+
+# The where lines' ranges print the digits that tell their ends apart: thousands of radians are
+# "3019 … 3025 rad", never "3.02e+03 … 3.03e+03 rad".
+import re
+for w in j["where"]:
+    for lo, hi in re.findall(r"(-?[0-9.e+]+) … (-?[0-9.e+]+)", w):
+        if lo == hi or "e+" in lo + hi:
+            failures.append(f"a range of '{w}' prints {lo} … {hi}")
+# --calibration-accuracy is the actuator's: refused on an axis with what to drop.
+r = subprocess.run([exe, "analyze", "--recording", rec, "--model", model, "--out",
+                    os.path.join(work, "accuracy"), "--calibration-accuracy", "0.5"],
+                   capture_output=True, text=True)
+if r.returncode != 2 or "applies to the actuator only" not in r.stderr or \
+        "drop --calibration-accuracy" not in r.stderr:
+    failures.append(f"--calibration-accuracy on a rotary axis: exit {r.returncode}, {r.stderr}")
 
 # The actuator's commands refuse an axis's recording with what to run instead (exit 2).
 for command in (["report", "--out", os.path.join(work, "report")], ["twin-check"], ["estimate"]):

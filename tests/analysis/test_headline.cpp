@@ -75,6 +75,13 @@ TEST(Conclusion, NothingNamedWithAMisfitIsNotNothingMissing) {
   named.conclusion = "1 effect(s) found";
   maglead::analysis::conclude_misfit(named, 1, "the drive's force constant");
   EXPECT_EQ(named.conclusion, "1 effect(s) found");
+  // A term named and an event (pulses) beside it: two findings, counted as the table lists them.
+  maglead::analysis::EffectFinding pulses;
+  pulses.id = "external_disturbance";
+  pulses.evidence.events = 3;
+  named.effects = {maglead::analysis::EffectFinding{}, pulses};
+  maglead::analysis::conclude_misfit(named, 1, "the drive's force constant");
+  EXPECT_EQ(named.conclusion, "1 model term and 3 events found");
 
   Findings quiet = findings_with_residual(0.15);  // within twice the floor: the recording's noise
   quiet.conclusion = "nothing is missing";

@@ -141,6 +141,25 @@ TEST(Rotary, ALoadTorqueIsAnOffsetInNewtonMetres) {
   // The drive supplies the load torque: the offset the axis names is the torque the drive adds,
   // the load's with its sign turned.
   expect_found(r, "offset", "offset_n_m", -d.offset_n_m);
+  // A servo has no load cell: the law its finding quotes (and model_corrected.toml's note with
+  // it) says none; the actuator's offset is unseen by its load cell.
+  ASSERT_FALSE(r.findings.effects.empty());
+  EXPECT_EQ(r.findings.effects[0].where,
+            "all samples; the missing torque follows τ = τ_o (constant, along +θ)");
+}
+
+// A torque pulse no input explains (a knock on the arm): the event's finding speaks of torque
+// pulses, in the axis kind's words as every other text of a rotary axis.
+TEST(Rotary, ATorquePulseIsSaidInTorque) {
+  RotaryDrive d;
+  auto rec = maglead::test::rotary_recording(d);
+  auto& torque = rec.columns[2];
+  for (std::size_t i = torque.size() / 2; i < torque.size() / 2 + 30; ++i) torque[i] += 0.4;
+  const auto r = analyze(rec, rotary_model({"nut_mass_kg", "coulomb_n"}));
+  const auto pulse = std::find_if(r.findings.effects.begin(), r.findings.effects.end(),
+                                  [](const auto& e) { return e.id == "external_disturbance"; });
+  ASSERT_NE(pulse, r.findings.effects.end()) << named(r);
+  EXPECT_EQ(pulse->where, "isolated torque pulses no input explains (see events)");
 }
 
 // The model file of a rotary axis names its values and its terms' parameters in rotary units,
@@ -281,6 +300,36 @@ TEST(Rotary, AnAngleInDegreesIsNamedWithWhatToConvert) {
       << e;
 }
 
+// What analyze refuses on a rotary recording says what to fix: a torque in mN·m or a time in
+// ms is named with what to convert (as a linear axis's drive_force_kn is), and a header that
+// says '# axis: linear' is quoted and changed, not told it has no axis line.
+TEST(Rotary, ARefusalSaysWhatToFix) {
+  const auto refusal = [](auto edit) {
+    auto rec = maglead::test::rotary_recording(RotaryDrive{});
+    edit(rec);
+    try {
+      analyze(rec, rotary_model({"nut_mass_kg", "coulomb_n"}));
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const auto says = [](const std::string& text, const std::string& part) {
+    EXPECT_NE(text.find(part), std::string::npos) << text;
+  };
+  says(refusal([](auto& r) { r.names[2] = "drive_torque_mn_m"; }),
+       "'drive_torque_mn_m' looks like drive_torque_n_m in another unit: convert it to newton "
+       "metres and name it 'drive_torque_n_m'");
+  says(refusal([](auto& r) { r.names[0] = "t_ms"; }),
+       "(header has: t_ms, angle_rad, drive_torque_n_m, ref_angle_rad); 't_ms' looks like t_s in "
+       "another unit: convert it to seconds and name it 't_s'");
+  const std::string linear = refusal([](auto& r) { r.set_meta("axis", "linear"); });
+  says(linear,
+       "but the header says '# axis: linear': change the header line '# axis: linear' to "
+       "'# axis: rotary'");
+  EXPECT_EQ(linear.find("no '# axis: rotary' line"), std::string::npos) << linear;
+}
+
 }  // namespace
 
 namespace {
@@ -320,4 +369,7 @@ TEST(Rotary, ColumnsReadAreWhatTheAnalysisReads) {
   // angle_deg as angle_rad in another unit.
   EXPECT_EQ(kept({"t_s", "angle_deg", "drive_torque_n_m", "ref_angle_rad"}, "rotary"),
             (V{"t_s", "angle_deg", "drive_torque_n_m", "ref_angle_rad"}));
+  // No t_s: all kept, for the refusal to list the header and name t_ms.
+  EXPECT_EQ(kept({"t_ms", "angle_rad", "drive_torque_n_m", "temp_c"}, "rotary"),
+            (V{"t_ms", "angle_rad", "drive_torque_n_m", "temp_c"}));
 }

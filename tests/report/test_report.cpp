@@ -5,15 +5,22 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <fstream>
+#include <iterator>
 #include <limits>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "../test_tmp.hpp"
+#include "analysis_part.hpp"
 #include "effect_text.hpp"
 #include "image_encode.hpp"
 #include "maglead/effects/effect.hpp"
+#include "maglead/report/analysis_page.hpp"
 #include "maglead/report/html.hpp"
+#include "maglead/report/plot.hpp"
 #include "maglead/report/time_chart.hpp"
 
 namespace maglead::report {
@@ -84,6 +91,52 @@ TEST(Html, EscapesAndEncodes) {
   EXPECT_EQ(number(0.000123), "0.000123");
 }
 
+// A rotary run with no effect named whose misfit remains (a cogging torque, say) is no all-clear:
+// green is for "nothing missing" judged alone; the misfit's conclusion and the "Nothing" box are
+// in the attention style, a conclusion not judged in the neutral one.
+analysis::AnalysisResult result_concluding(const std::string& conclusion,
+                                           std::optional<bool> nothing_missing) {
+  analysis::AnalysisResult r;
+  r.findings.system = "rotary";
+  r.findings.recording = "servo.csv";
+  r.findings.conclusion = conclusion;
+  r.findings.nothing_missing = nothing_missing;
+  r.corrected.system = "rotary";
+  r.headline = conclusion;
+  return r;
+}
+
+std::string page_of(const analysis::AnalysisResult& r, const std::string& name) {
+  const std::string dir = test_tmp_dir() + "/" + name;
+  write_analysis_outputs(r, dir);
+  std::ifstream in(dir + "/index.html");
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST(AnalysisPage, GreenIsForNothingMissingAlone) {
+  const std::string misfit =
+      "a misfit of 0.0207 N·m RMS remains (torque sensor noise 0.00818 N·m) that no library "
+      "effect explains; check the drive's torque constant";
+  const std::string page = page_of(result_concluding(misfit, false), "misfit");
+  EXPECT_EQ(page.find("class=\"ok\""), std::string::npos) << page;
+  EXPECT_NE(page.find("<p class=\"bad\" id=\"conclusion\"><b>a misfit of"), std::string::npos);
+  EXPECT_NE(page.find("<p class=\"bad\">Nothing: the analysis adds no effect."), std::string::npos);
+  EXPECT_NE(page.find("but it does not explain the recording: a misfit of"), std::string::npos);
+
+  const std::string nothing = "nothing is missing: no effect explains a significant part";
+  const std::string ok = page_of(result_concluding(nothing, true), "nothing");
+  EXPECT_NE(ok.find("<p class=\"ok\" id=\"conclusion\">"), std::string::npos) << ok;
+  EXPECT_NE(ok.find("<p class=\"ok\">Nothing: the analysis adds no effect."), std::string::npos);
+
+  // The actuator leaves nothing_missing unset: its conclusion alone says so.
+  const auto actuator =
+      result_concluding(nothing + "; it cannot name changes smaller than: x", std::nullopt);
+  EXPECT_STREQ(conclusion_class(actuator.findings), "ok");
+  const auto unjudged = result_concluding("not judged: too little sliding", std::nullopt);
+  EXPECT_STREQ(conclusion_class(unjudged.findings), "unjudged");
+  EXPECT_STREQ(conclusion_class(result_concluding("found: x", false).findings), "bad");
+}
+
 }  // namespace
 }  // namespace maglead::report
 
@@ -119,9 +172,9 @@ TEST(EffectText, EveryLibraryParameterHasItsUnit) {
 // with units in them are left to name_of.
 TEST(EffectText, ARotaryAxisSpeaksOfTorqueAndAngle) {
   const auto& rotary = effects::rotary_axis();
-  EXPECT_EQ(effect_law("viscous_friction", rotary), "τ = -C ω");
+  EXPECT_EQ(effect_law("viscous_friction", &rotary), "τ = -C ω");
   EXPECT_EQ(effect_law("viscous_friction"), "F = -C v");
-  EXPECT_EQ(effect_law("asymmetric_friction", rotary),
+  EXPECT_EQ(effect_law("asymmetric_friction", &rotary),
             "τ_f = τ_c+ (ω > 0), -τ_c- (ω < 0); break-away likewise");
   EXPECT_NE(parameter_html("offset", "offset_n_m", 0.1, 0.0, rotary)
                 .find("(constant torque on the shaft along +θ)"),
@@ -132,6 +185,10 @@ TEST(EffectText, ARotaryAxisSpeaksOfTorqueAndAngle) {
   EXPECT_NE(parameter_html("offset", "offset_n", 0.1).find("(constant force on the nut along +p)"),
             std::string::npos);
   EXPECT_EQ(rotary.words("nut_mass_kg: moving mass M"), "nut_mass_kg: moving inertia J");
+  // A servo or a ball screw has no load cell: the offset's law says so only on the actuator.
+  EXPECT_EQ(effect_law("offset", &rotary), "τ = τ_o (constant, along +θ)");
+  EXPECT_EQ(effect_law("offset", &effects::linear_axis()), "F = F_o (constant, along +p)");
+  EXPECT_EQ(effect_law("offset"), "F = F_o (constant, along +p, unseen by the load cell)");
 }
 
 // A parameter with its standard error is shown at the digits the error allows, as analyze prints
@@ -164,6 +221,25 @@ std::uint32_t big_endian_at(const std::string& s, std::size_t at) {
 }
 
 }  // namespace
+
+// OpenCV's fonts draw '?' for anything not ASCII: every figure's text is spelled in ASCII first,
+// so a rotary axis's "[N·m]" is "[N*m]", never "[N??m]".
+TEST(Plot, FigureTextIsSpelledInAscii) {
+  using maglead::plot::ascii_label;
+  EXPECT_EQ(ascii_label("drive torque [N·m]"), "drive torque [N*m]");
+  EXPECT_EQ(ascii_label("inertia [kg·m²]"), "inertia [kg*m^2]");
+  EXPECT_EQ(ascii_label("error [µm], −3 … 3"), "error [um], -3 ... 3");
+  EXPECT_EQ(ascii_label("angle θ [rad], speed ω [rad·s⁻¹], τ ± 1°"),
+            "angle theta [rad], speed omega [rad*s^-1], tau +/- 1deg");
+  EXPECT_EQ(ascii_label("plain [N]"), "plain [N]");
+  const std::string unknown = ascii_label("a ☃ b 漢");
+  EXPECT_EQ(unknown, "a _ b _");
+  for (const std::string& s : {ascii_label("N·m·s/rad"), ascii_label("ünïcödé"), unknown}) {
+    EXPECT_TRUE(std::all_of(s.begin(), s.end(), [](char c) {
+      return static_cast<unsigned char>(c) < 0x80 && c != '?';
+    })) << s;
+  }
+}
 
 TEST(ImageEncode, PngCarriesTheImagesSize) {
   const std::string png = maglead::plot::encode_png(SmallImage{}.view());

@@ -181,6 +181,14 @@ void run_analyze(AnalyzeOptions o) {
                                               std::to_string(analysis::rules::kMinFolds) +
                                               " held-out segments: type e.g. --folds " +
                                               std::to_string(analysis::rules::kFolds));
+  if (model.system != "actuator" && o.a.calibration_accuracy_n > 0)
+    throw CLI::ValidationError(
+        "--calibration-accuracy",
+        "applies to the actuator only (how well its coupling calibration is known); the model "
+        "is an axis's (system = \"" +
+            model.system +
+            "\"), whose drive is taken as logged with no calibration: drop "
+            "--calibration-accuracy");
   const ForceCalibration cal =
       model.system != "actuator"
           ? paper_calibration()
@@ -243,7 +251,8 @@ void add_analyze(CLI::App& app) {
       ->check(number_in({0.0, 100.0, "%", "a share of the held-out error", "--min-gain 1"}))
       ->capture_default_str();
   cmd->add_option("--calibration-accuracy", o->a.calibration_accuracy_n,
-                  "Actuator: how well the calibration is known [N] (e.g. its bench's accuracy); "
+                  "Actuator only (refused with an axis's model): how well the calibration is "
+                  "known [N] (e.g. its bench's accuracy); "
                   "a finding must change the force by more. Default: a thousandth of the "
                   "calibrated peak force, at least 0.07 N")
       ->check(number_in({0.0, std::numeric_limits<double>::infinity(), "N",

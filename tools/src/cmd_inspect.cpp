@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "cli_common.hpp"
+#include "maglead/analysis/analysis.hpp"
 
 namespace maglead::cli {
 namespace {
@@ -26,8 +27,11 @@ void add_inspect(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "inspect",
       "Read a recording (mls-recording/1) as analyze does and print its rows, time span and "
-      "columns; exit 0 when every reader will take it (a dropped torn last line is a warning), "
-      "exit 2 with the reason when not (e.g. fewer than 2 data rows)");
+      "columns; an axis's (a '# axis:' line, or an axis's columns) has its kind and columns "
+      "checked as analyze checks them. Exit 0 when the readers will take it (a dropped torn "
+      "last line is a warning), exit 2 with the reason and what to fix when not (e.g. fewer "
+      "than 2 data rows, t_ms for t_s, angle_deg for angle_rad, a rotary file without "
+      "'# axis: rotary')");
   struct Opts {
     std::string recording, config = default_config_dir();
   };
@@ -38,6 +42,7 @@ void add_inspect(CLI::App& app) {
     const std::string* path = &o->recording;
     const Recording rec =
         read_actuator_recording(*path, load_actuator_or_default(o->config), o->config);
+    analysis::check_axis_columns(rec);  // analyze's own check: the same refusal, the same fix
     std::printf("%s: %zu rows, %zu columns", path->c_str(), rec.rows(), rec.names.size());
     if (rec.has("t_s") && rec.rows() > 0)
       std::printf(", t_s %g .. %g s", rec.column("t_s").front(), rec.column("t_s").back());

@@ -241,6 +241,20 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
   std::size_t i = 0;
   int shown = 0;
   const double w = b.centre.size() > 1 ? b.centre[1] - b.centre[0] : 0.0;
+  // A bin's ends at the digits its width needs (1140 … 1145 rad, never 1.14e+03 … 1.14e+03): the
+  // magnitude's digits down to the width's leading one; 3 at least.
+  const double largest = std::max(std::abs(b.centre.front()), std::abs(b.centre.back())) * x_scale;
+  const double width = std::abs(w * x_scale);
+  const int digits =
+      largest > 0 && width > 0
+          ? static_cast<int>(std::floor(std::log10(largest)) - std::floor(std::log10(width))) + 1
+          : 3;
+  const auto end_text = [&](double v) {
+    std::ostringstream e;
+    e.precision(std::clamp(digits, 3, 12));
+    e << v;
+    return e.str();
+  };
   while (i < hot.size() && shown < kMostRegionsListed) {
     std::size_t j = i;
     while (j + 1 < hot.size() && hot[j + 1] == hot[j] + 1 &&
@@ -249,9 +263,9 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
     double peak = 0;
     for (std::size_t k = i; k <= j; ++k)
       if (std::abs(b.mean[hot[k]]) > std::abs(peak)) peak = b.mean[hot[k]];
-    o << (shown ? "; " : "") << (b.centre[hot[i]] - w / 2) * x_scale << " … "
-      << (b.centre[hot[j]] + w / 2) * x_scale << " " << unit << " (up to " << std::showpos << peak
-      << std::noshowpos << " " << drive_unit << ")";
+    o << (shown ? "; " : "") << end_text((b.centre[hot[i]] - w / 2) * x_scale) << " … "
+      << end_text((b.centre[hot[j]] + w / 2) * x_scale) << " " << unit << " (up to " << std::showpos
+      << peak << std::noshowpos << " " << drive_unit << ")";
     ++shown;
     i = j + 1;
   }
@@ -795,7 +809,7 @@ EffectFinding finding_of(const AxisRun& run, const selection::Found& f) {
   e.standard_errors = selection::parameters_of(f.standard_errors);
   e.summary = summary_text(e.parameters, e.standard_errors);
   e.where =
-      run.kind.words("all samples; the missing force follows " + std::string(f.effect->law()));
+      run.kind.words("all samples; the missing force follows ") + run.kind.law(f.effect->law());
   e.evidence.heldout_gain_pct = f.gain_pct;
   e.evidence.t_stat = f.t_stat;
   e.evidence.segments_improved =
@@ -1282,6 +1296,12 @@ bool has_columns(const Recording& rec, const effects::AxisKind& k) {
   return rec.has(std::string(k.position)) && rec.has(std::string(k.drive));
 }
 
+// A stated axis whose header has neither kind's columns.
+bool neither_kind(const Recording& rec) {
+  return rec.meta("axis") && !has_columns(rec, effects::linear_axis()) &&
+         !has_columns(rec, effects::rotary_axis());
+}
+
 std::string kind_columns(const effects::AxisKind& k) {
   return "t_s, " + std::string(k.position) + ", " + std::string(k.drive);
 }
@@ -1301,13 +1321,24 @@ std::string model_words(const effects::AxisKind& k) {
          k.name_of("viscous_n_s_per_m") + ", " + k.name_of("coulomb_n") + ")";
 }
 
+// What the header says of the kind, for a refusal: "the header says '# axis: linear'", or that
+// it has no '# axis: rotary' line.
+std::string header_words(const Recording& rec) {
+  const auto stated = rec.meta("axis");
+  return stated ? "the header says '# axis: " + *stated + "'"
+                : std::string("the header has no '# axis: rotary' line");
+}
+
 // What to change so that the header and the model agree with the columns the file has.
-std::string agreeing_fix(const effects::AxisKind& logged, const effects::AxisKind& stated,
-                         const effects::AxisKind* modelled) {
+std::string agreeing_fix(const Recording& rec, const effects::AxisKind& logged,
+                         const effects::AxisKind& stated, const effects::AxisKind* modelled) {
   std::string fix;
-  if (&logged != &stated)
-    fix = std::string(logged.name == "rotary" ? "add" : "remove") +
-          " the header line '# axis: rotary'";
+  if (&logged != &stated && logged.name == "rotary")
+    fix = rec.meta("axis")
+              ? "change the header line '# axis: " + *rec.meta("axis") + "' to '# axis: rotary'"
+              : std::string("add the header line '# axis: rotary'");
+  else if (&logged != &stated)
+    fix = "remove the header line '# axis: rotary'";
   if (modelled && modelled != &logged)
     fix += (fix.empty() ? "give " : " and give ") + model_words(logged);
   return fix;
@@ -1319,11 +1350,12 @@ std::string missing_columns_text(const Recording& rec, const effects::AxisKind& 
   std::string msg = rec.path + ": a " + std::string(kind.name) + " axis needs the columns " +
                     kind_columns(kind) + " (optional:";
   for (const auto c : kind.setpoints) msg += " " + std::string(c);
-  // With '# axis:' and neither kind's columns the reader keeps every column (columns_read).
-  const std::string listed = rec.meta("axis") && !logged_kind(rec) ? "header has" : "columns read";
+  // With '# axis:' and neither kind's columns, or without t_s, the reader keeps every column
+  // (columns_read).
+  const std::string listed = neither_kind(rec) || !rec.has("t_s") ? "header has" : "columns read";
   const std::string list = missing_column_detail(rec.names, "", listed);
   msg += ")" + list;
-  for (const auto c : {kind.position, kind.drive})
+  for (const std::string_view c : {std::string_view("t_s"), kind.position, kind.drive})
     if (!rec.has(std::string(c)))
       msg += missing_column_detail(rec.names, std::string(c), listed).substr(list.size());
   return msg;
@@ -1340,19 +1372,22 @@ const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
                                 "' names no axis kind (expected linear or rotary)");
   const effects::AxisKind* modelled = effects::axis_kind_of_system(model.system);
   const effects::AxisKind* logged = logged_kind(rec);
-  if (logged == kind && (!modelled || modelled == kind)) return *kind;
+  if (logged == kind && (!modelled || modelled == kind)) {
+    if (!rec.has("t_s")) throw RecordingError(missing_columns_text(rec, *kind));
+    return *kind;
+  }
   const bool rotary = kind->name == "rotary";
   if (logged && modelled && modelled == logged)  // the header alone is wrong
-    throw std::invalid_argument(
-        rec.path + ": the columns are a " + std::string(logged->name) + " axis's (" +
-        kind_columns(*logged) + "), as the model is, but " +
-        (rotary ? "the header says '# axis: rotary'" : "the header has no '# axis: rotary' line") +
-        ": " + agreeing_fix(*logged, *kind, modelled));
+    throw std::invalid_argument(rec.path + ": the columns are a " + std::string(logged->name) +
+                                " axis's (" + kind_columns(*logged) + "), as the model is, but " +
+                                header_words(rec) + ": " +
+                                agreeing_fix(rec, *logged, *kind, modelled));
   if (logged == kind)  // the model alone is wrong
     throw std::invalid_argument(rec.path + ": the recording is a " + std::string(kind->name) +
                                 " axis (columns " + kind_columns(*kind) + ") but the model is a " +
                                 std::string(modelled->name) + " axis's (system = \"" +
-                                model.system + "\"): " + agreeing_fix(*logged, *kind, modelled));
+                                model.system +
+                                "\"): " + agreeing_fix(rec, *logged, *kind, modelled));
   if (!logged && modelled && modelled != kind)  // no columns to decide: header against model
     throw std::invalid_argument(
         rotary ? rec.path +
@@ -1361,13 +1396,14 @@ const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
                      model_words(effects::rotary_axis())
                : rec.path +
                      ": the model is a rotary axis's (system = \"rotary\") but the "
-                     "recording does not say so: add the header line '# axis: rotary' "
-                     "(columns " +
-                     kind_columns(effects::rotary_axis()) + ")");
+                     "recording does not say so (" +
+                     header_words(rec) +
+                     "): " + agreeing_fix(rec, effects::rotary_axis(), *kind, modelled) +
+                     " (columns " + kind_columns(effects::rotary_axis()) + ")");
   std::string msg = missing_columns_text(rec, *kind);
   if (logged)
     msg += "; this recording has a " + std::string(logged->name) + " axis's (" +
-           kind_columns(*logged) + "): " + agreeing_fix(*logged, *kind, modelled);
+           kind_columns(*logged) + "): " + agreeing_fix(rec, *logged, *kind, modelled);
   throw RecordingError(msg);
 }
 
@@ -1383,6 +1419,8 @@ void name_in_kind(Findings& J, const effects::AxisKind& kind) {
     rename(e.standard_errors);
     for (auto& a : e.alternatives) rename(a.parameters);
     e.summary = summary_text(e.parameters, e.standard_errors);
+    // The one pulse finder speaks of force pulses (pulses.cpp): on a shaft they are torque's.
+    e.where = kind.words(e.where);
   }
   for (auto& r : J.not_selected) {
     if (r.parameters) rename(*r.parameters);
@@ -1478,6 +1516,11 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& model,
   return r;
 }
 
+void check_axis_columns(const Recording& rec) {
+  if (!rec.meta("axis") && !logged_kind(rec)) return;  // the actuator's, or no axis's at all
+  (void)kind_of(rec, ModelFile{});  // the model unknown: the header and the columns decide
+}
+
 std::vector<std::string> columns_read(const Recording& header) {
   std::vector<std::string> cols;
   // The actuator path's (actuator_analysis.cpp, and force_set_n for the twin's check): the
@@ -1490,10 +1533,10 @@ std::vector<std::string> columns_read(const Recording& header) {
   // only where the kind's own columns are, as only then does the axis path get to them: an
   // actuator's pos_set_m (a linear axis's setpoint) is not read.
   cols.emplace_back("t_s");
-  // A stated axis with neither kind's columns is refused: its message lists the whole header
-  // and a column in another unit (angle_deg), so every column is kept for it.
-  if (header.meta("axis") && !has_columns(header, effects::linear_axis()) &&
-      !has_columns(header, effects::rotary_axis()))
+  // A stated axis with neither kind's columns is refused, as is a recording without t_s: its
+  // message lists the whole header and a column in another unit (angle_deg, t_ms), so every
+  // column is kept for it.
+  if (neither_kind(header) || !header.has("t_s"))
     cols.insert(cols.end(), header.names.begin(), header.names.end());
   for (const effects::AxisKind* kind : {&effects::linear_axis(), &effects::rotary_axis()}) {
     cols.emplace_back(kind->position);

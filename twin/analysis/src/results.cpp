@@ -85,8 +85,24 @@ std::string misfit_text(double final_rms_n, double noise_floor_n,
   return kind.words(s + " that no library effect explains");
 }
 
+namespace {
+
+std::string count_text(std::size_t n, const std::string& what) {
+  return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
+}
+
+}  // namespace
+
 void conclude_misfit(Findings& f, std::size_t terms_named, const std::string& check,
                      const effects::AxisKind& kind) {
+  // The selection counts the terms it named; events (pulses) are findings beside them, listed
+  // in the events: "1 model term and 2 events found", never "1 effect(s) found" over both.
+  std::size_t events_found = 0;
+  for (const auto& e : f.effects) events_found += e.evidence.events.value_or(0);
+  const std::string named = std::to_string(terms_named) + " effect(s) found";
+  if (terms_named > 0 && events_found > 0 && f.conclusion.starts_with(named))
+    f.conclusion = count_text(terms_named, "model term") + " and " +
+                   count_text(events_found, "event") + " found" + f.conclusion.substr(named.size());
   if (terms_named > 0 || f.unexplained) return;
   // Events' own force (the pulses) is in the final residual: beside them it is no misfit, and
   // "nothing is missing" would hide them.

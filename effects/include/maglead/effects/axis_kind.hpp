@@ -38,6 +38,10 @@ struct AxisKind {
   /// ω, p is θ, M is J (whole words and symbols only; `nut_mass_kg` stays). The linear kind keeps
   /// the text; this is the one place such words change.
   std::string words(std::string_view linear_text) const;
+  /// A library law (Effect::law) on this kind of axis, in its words: an axis has no load cell,
+  /// so what a law says of one (the offset's "unseen by the load cell") is left out. The
+  /// actuator, which has one, reads the library's law itself.
+  std::string law(std::string_view library_law) const;
 };
 
 const AxisKind& linear_axis();

@@ -6,6 +6,11 @@
 
 namespace maglead::plot {
 
+/// Figure text as OpenCV's Hershey fonts can draw it (ASCII only; they draw '?' for anything
+/// else): "N·m" → "N*m", "kg·m²" → "kg*m^2", "µm" → "um", "−" → "-", "θ" → "theta", "±" → "+/-";
+/// a character without a spelling here becomes '_'. Every text of a figure is drawn through it.
+std::string ascii_label(const std::string& s);
+
 struct Series {
   std::string label;
   std::vector<double> x, y;

@@ -66,4 +66,10 @@ AnalysisResult analyze_recording(const Recording& rec, const ModelFile& baseline
 /// rows needed): a reader stores only these (read_recording's ColumnChoice).
 std::vector<std::string> columns_read(const Recording& header);
 
+/// The analysis's own check of an axis's recording (a `# axis:` line or an axis kind's columns),
+/// its model unknown: the kind named, its columns and t_s there, else the refusal analyze gives
+/// (std::invalid_argument or RecordingError, saying what to fix). `inspect` runs it. An
+/// actuator's recording passes: its columns are its reader's to check.
+void check_axis_columns(const Recording& rec);
+
 }  // namespace maglead::analysis
