@@ -64,9 +64,12 @@ std::string method_text(const analysis::Findings& F) {
 /// The headline at the top, coloured as the anomaly report's: found or misfit, nothing missing,
 /// not judged.
 std::string headline_paragraph(const std::string& headline) {
-  const char* cls = headline.rfind("nothing missing", 0) == 0 ? "ok"
-                    : headline.rfind("not judged", 0) == 0    ? "unjudged"
-                                                              : "bad";
+  // "nothing missing: …; not judged: …" (headline_of) is no all-clear either.
+  const bool nothing = headline.rfind("nothing missing", 0) == 0;
+  const bool unjudged =
+      headline.rfind("not judged", 0) == 0 ||
+      (nothing && headline.find(std::string("; ") + analysis::kNotJudged) != std::string::npos);
+  const char* cls = unjudged ? "unjudged" : nothing ? "ok" : "bad";
   return std::string("<p class=\"") + cls + "\" id=\"headline\"><b>" + escape_html(headline) +
          "</b></p>\n";
 }

@@ -224,13 +224,26 @@ std::string page_head(const std::string& title) {
          escape_html(title) + "</title>\n<style>" + kStyle + "</style>\n" + time_chart_head();
 }
 
+namespace {
+/// The laws the selection could not judge on this recording (their reason says "not judged: …").
+std::string unjudged_laws(const analysis::Findings& F) {
+  std::string s;
+  for (const auto& r : F.not_selected)
+    if (r.reason && r.reason->starts_with(analysis::kNotJudged))
+      s += (s.empty() ? "" : ", ") + r.id;
+  return s;
+}
+}  // namespace
+
 const char* conclusion_class(const analysis::Findings& F) {
   if (F.conclusion.starts_with("not judged")) return "unjudged";
   // The actuator leaves nothing_missing unset: its conclusion says it (selection::conclusion_of).
   const bool judged_nothing = F.conclusion.starts_with("nothing is missing") &&
                               F.nothing_missing.value_or(true) && F.effects.empty() &&
                               !F.unexplained;
-  return judged_nothing ? "ok" : "bad";
+  // Nothing missing among the laws judged is no all-clear while some were not judged.
+  if (judged_nothing) return unjudged_laws(F).empty() ? "ok" : "unjudged";
+  return "bad";
 }
 
 std::string physics_section(const AnalysisOutcome& o, int number) {
@@ -262,8 +275,11 @@ std::string physics_section(const AnalysisOutcome& o, int number) {
            "\">Nothing: the analysis adds no effect. None from the library explains a "
            "significant part of the held-out " +
            quantity(kind) + " error, so the model stays as it is" +
-           (cls == "ok" ? ""
-                        : "; but it does not explain the recording: " + escape_html(F.conclusion)) +
+           (cls == std::string("ok") ? ""
+            : cls == std::string("unjudged")
+                ? "; but not every law was judged on this recording: " + unjudged_laws(F) +
+                      " (see the laws left out)"
+                : "; but it does not explain the recording: " + escape_html(F.conclusion)) +
            ".</p>\n" + after;
   h += "<p>The analysis compared the model with the recording in the " + quantity(kind) +
        " domain and names what it lacks (effects, laws and parameter names of "

@@ -135,6 +135,25 @@ TEST(AnalysisPage, GreenIsForNothingMissingAlone) {
   const auto unjudged = result_concluding("not judged: too little sliding", std::nullopt);
   EXPECT_STREQ(conclusion_class(unjudged.findings), "unjudged");
   EXPECT_STREQ(conclusion_class(result_concluding("found: x", false).findings), "bad");
+
+  // Nothing missing among the laws judged, one law not judged: amber, with the law named, in
+  // the box and in the headline at the top; never the green of an all-clear.
+  auto partly = result_concluding(nothing, true);
+  analysis::Rejected skipped;
+  skipped.id = "mass_error";
+  skipped.reason = std::string(analysis::kNotJudged) + "the moves are too slow to show it";
+  partly.findings.not_selected.push_back(skipped);
+  partly.headline = "nothing missing: the model explains the recording to 0.01 N·m RMS; " +
+                    std::string(analysis::kNotJudged) + "mass_error (too slow)";
+  const std::string amber = page_of(partly, "partly");
+  EXPECT_EQ(amber.find("class=\"ok\""), std::string::npos) << amber;
+  EXPECT_NE(amber.find("<p class=\"unjudged\" id=\"headline\">"), std::string::npos) << amber;
+  EXPECT_NE(amber.find("but not every law was judged on this recording: mass_error"),
+            std::string::npos)
+      << amber;
+  partly.headline = "found: x; " + std::string(analysis::kNotJudged) + "mass_error (too slow)";
+  EXPECT_NE(page_of(partly, "found_partly").find("<p class=\"bad\" id=\"headline\">"),
+            std::string::npos);
 }
 
 }  // namespace
