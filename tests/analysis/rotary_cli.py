@@ -10,7 +10,7 @@ names (inertia_kg_m2, viscous_n_m_s_per_rad, coulomb_n_m) and is read back by th
 same file without its '# axis: rotary' line is refused with what to add, and `inspect` refuses
 what analyze refuses (t_ms, angle_deg, drive_torque_mn_m, no axis line) with the same message.
 The where lines print ranges whose ends differ (3019 … 3025 rad, not 3.02e+03 … 3.03e+03), and
---calibration-accuracy, the actuator's, is refused with what to drop.
+--calibration-accuracy and --calibration, the actuator's, are refused with what to drop.
 analysis.json keeps to
 its schema (docs/schema/analysis.schema.json, system "rotary"). `report`, `twin-check` and
 `estimate`, the actuator's, refuse it with the analyze command to run instead. rotary_drive
@@ -161,13 +161,14 @@ for w in j["where"]:
     for lo, hi in re.findall(r"(-?[0-9.e+]+) … (-?[0-9.e+]+)", w):
         if lo == hi or "e+" in lo + hi:
             failures.append(f"a range of '{w}' prints {lo} … {hi}")
-# --calibration-accuracy is the actuator's: refused on an axis with what to drop.
-r = subprocess.run([exe, "analyze", "--recording", rec, "--model", model, "--out",
-                    os.path.join(work, "accuracy"), "--calibration-accuracy", "0.5"],
-                   capture_output=True, text=True)
-if r.returncode != 2 or "applies to the actuator only" not in r.stderr or \
-        "drop --calibration-accuracy" not in r.stderr:
-    failures.append(f"--calibration-accuracy on a rotary axis: exit {r.returncode}, {r.stderr}")
+# --calibration-accuracy and --calibration are the actuator's: refused on an axis with what to drop.
+for option, value in (("--calibration-accuracy", "0.5"), ("--calibration", model)):
+    r = subprocess.run([exe, "analyze", "--recording", rec, "--model", model, "--out",
+                        os.path.join(work, "accuracy"), option, value],
+                       capture_output=True, text=True)
+    if r.returncode != 2 or "applies to the actuator only" not in r.stderr or \
+            f"drop {option}" not in r.stderr:
+        failures.append(f"{option} on a rotary axis: exit {r.returncode}, {r.stderr}")
 
 # The actuator's commands refuse an axis's recording with what to run instead (exit 2).
 for command in (["report", "--out", os.path.join(work, "report")], ["twin-check"], ["estimate"]):

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <tuple>
 
 #include "cli_common.hpp"
 #include "large_blocks.hpp"
@@ -181,14 +182,17 @@ void run_analyze(AnalyzeOptions o) {
                                               std::to_string(analysis::rules::kMinFolds) +
                                               " held-out segments: type e.g. --folds " +
                                               std::to_string(analysis::rules::kFolds));
-  if (model.system != "actuator" && o.a.calibration_accuracy_n > 0)
-    throw CLI::ValidationError(
-        "--calibration-accuracy",
-        "applies to the actuator only (how well its coupling calibration is known); the model "
-        "is an axis's (system = \"" +
-            model.system +
-            "\"), whose drive is taken as logged with no calibration: drop "
-            "--calibration-accuracy");
+  for (const auto& [option, given, what] :
+       {std::tuple{"--calibration-accuracy", o.a.calibration_accuracy_n > 0,
+                   "how well its coupling calibration is known"},
+        {"--calibration", !o.calibration.empty(), "its coupling calibration"}})
+    if (model.system != "actuator" && given)
+      throw CLI::ValidationError(option, std::string("applies to the actuator only (") + what +
+                                             "); the model is an axis's (system = \"" +
+                                             model.system +
+                                             "\"), whose drive is taken as logged with no "
+                                             "calibration: drop " +
+                                             option);
   const ForceCalibration cal =
       model.system != "actuator"
           ? paper_calibration()
