@@ -1377,11 +1377,12 @@ const effects::AxisKind& kind_of(const Recording& rec, const ModelFile& model) {
     return *kind;
   }
   const bool rotary = kind->name == "rotary";
-  if (logged && modelled && modelled == logged)  // the header alone is wrong
-    throw std::invalid_argument(rec.path + ": the columns are a " + std::string(logged->name) +
-                                " axis's (" + kind_columns(*logged) + "), as the model is, but " +
-                                header_words(rec) + ": " +
-                                agreeing_fix(rec, *logged, *kind, modelled));
+  // The header alone is wrong (no model: `inspect` checks the header against the columns).
+  if (logged && (!modelled || modelled == logged))
+    throw std::invalid_argument(
+        rec.path + ": the columns are a " + std::string(logged->name) + " axis's (" +
+        kind_columns(*logged) + ")" + (modelled ? ", as the model is," : "") + " but " +
+        header_words(rec) + ": " + agreeing_fix(rec, *logged, *kind, modelled));
   if (logged == kind)  // the model alone is wrong
     throw std::invalid_argument(rec.path + ": the recording is a " + std::string(kind->name) +
                                 " axis (columns " + kind_columns(*kind) + ") but the model is a " +
