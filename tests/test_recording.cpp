@@ -601,6 +601,15 @@ std::string sampled(int n, const std::function<bool(int)>& drop, double rate_hz 
 bool none(int) { return false; }
 }  // namespace
 
+// A recorder killed a few polls in, one of them missed: a sixth of a short file is missing, but
+// one filled gap's worth, not a wrong rate (record_sigkill met it under a loaded CI machine).
+TEST(Recording, AShortRecordingMissingOnePollIsFilled) {
+  const auto p = write_file("short_gap.csv", sampled(6, [](int i) { return i == 3; }));
+  const Recording r = read_recording(p);
+  EXPECT_EQ(r.rows(), 6u);
+  EXPECT_NEAR(r.column("t_s")[3], 0.003, 1e-12);
+}
+
 TEST(Recording, MissedRowsAreFilledOntoTheSamplePeriod) {
   // Rows 100, 101 and 500 missing (a recorder that fell two cycles, then one, behind), and 30
   // from row 600 (a stall of 30 ms, within the 50 ms filled).

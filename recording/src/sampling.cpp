@@ -20,7 +20,9 @@ constexpr double kGapSteps = 1.5;
 // a lost stretch that interpolation would invent.
 constexpr long kMaxFilledRows = 10;
 constexpr double kMaxFilledGap_s = 0.05;
-// More rows missing than this share of what the rate implies: the rate or the file is wrong.
+// More rows missing than this share of what the rate implies, and more than one filled gap
+// holds, the rate or the file is wrong (a wrong rate leaves most rows missing; a few polls
+// missed in a short recording are a recorder's hiccup).
 constexpr double kMaxMissingShare = 0.1;
 // More rows than the rate implies by this share and these rows: the header's rate is too low
 // (a recorder's clock is far better than 1 %) or rows are repeated. The rows: a recorder polling
@@ -80,7 +82,7 @@ void check_against_rate(const Recording& rec, const std::vector<double>& t, doub
                            "two recordings");
     missing += m;
   }
-  if (static_cast<double>(missing) > kMaxMissingShare * expected)
+  if (missing > kMaxFilledRows && static_cast<double>(missing) > kMaxMissingShare * expected)
     throw RecordingError(
         rec.path + ": " + std::to_string(missing) + " of the " + num(expected) + " rows " + rate +
         " implies are missing; either the header's "
