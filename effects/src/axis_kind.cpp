@@ -87,13 +87,7 @@ std::string AxisKind::words(std::string_view text) const {
   return out;
 }
 
-std::string AxisKind::law(std::string_view library_law) const {
-  std::string s(library_law);
-  const std::string_view load_cell = ", unseen by the load cell";
-  for (auto at = s.find(load_cell); at != std::string::npos; at = s.find(load_cell, at))
-    s.erase(at, load_cell.size());
-  return words(s);
-}
+std::string AxisKind::law(const Effect& e) const { return words(e.axis_law()); }
 
 std::string AxisKind::name_of(std::string_view unit_name) const {
   return name == "rotary" ? rotary_name(unit_name) : std::string(unit_name);

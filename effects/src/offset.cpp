@@ -10,6 +10,7 @@ struct Offset final : Effect {
   std::string_view law() const override {
     return "F = F_o (constant, along +p, unseen by the load cell)";
   }
+  std::string_view axis_law() const override { return "F = F_o (constant, along +p)"; }
   std::vector<ParamSpec> params() const override {
     return {{"offset_n", "constant force on the nut along +p", -1.0, 1.0, Scale::force}};
   }

@@ -36,7 +36,7 @@ std::string effect_title(const std::string& id) {
 std::string effect_law(const std::string& id, const effects::AxisKind* axis) {
   const auto* e = effects::find(id);
   if (!e) return "";
-  return axis ? axis->law(e->law()) : std::string(e->law());
+  return axis ? axis->law(*e) : std::string(e->law());
 }
 
 std::string parameter_html(const std::string& effect_id, const std::string& name, double value,

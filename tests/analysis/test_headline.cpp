@@ -23,6 +23,16 @@ EffectFinding disturbance_events(std::size_t count) {
 }
 
 /// A recording's findings with its final residual `rms_n` over a floor of 0.1 N.
+// What the paths pass beside the findings: `terms` named, what to check, the axis.
+maglead::analysis::Concluding checking(
+    std::size_t terms, const maglead::effects::AxisKind* kind = &maglead::effects::linear_axis()) {
+  maglead::analysis::Concluding c;
+  c.terms_named = terms;
+  c.check = "the drive's force constant";
+  c.kind = kind;
+  return c;
+}
+
 Findings findings_with_residual(double rms_n) {
   Findings f;
   f.noise_floor_n = 0.1;
@@ -48,8 +58,7 @@ TEST(Headline, EventsAreFoundAndTheirPulsesAreNoMisfit) {
   f.effects.push_back(disturbance_events(4));
   const std::string h = maglead::analysis::headline_of(f, ModelFile{});
   EXPECT_TRUE(starts_with(h, "found: external disturbance count 4")) << h;
-  f.conclusion = "nothing is missing: no effect explains a significant part of the held-out error";
-  maglead::analysis::conclude_misfit(f, 0, "the drive's force constant");
+  maglead::analysis::conclude(f, checking(0));
   EXPECT_EQ(f.conclusion,
             "events found (external_disturbance); no effect explains a significant part of the "
             "held-out error")
@@ -64,29 +73,27 @@ TEST(Headline, NothingNamedWithAMisfitSaysTheMisfit) {
 
 TEST(Conclusion, NothingNamedWithAMisfitIsNotNothingMissing) {
   Findings f = findings_with_residual(0.7);
-  f.conclusion = "nothing is missing: no effect explains a significant part of the held-out error";
   f.nothing_missing = true;
-  maglead::analysis::conclude_misfit(f, 0, "the drive's force constant");
+  maglead::analysis::conclude(f, checking(0));
   EXPECT_TRUE(starts_with(f.conclusion, "a misfit of 0.7 N RMS remains")) << f.conclusion;
   EXPECT_NE(f.conclusion.find("; check the drive's force constant"), std::string::npos);
   EXPECT_EQ(f.nothing_missing, false);
 
   Findings named = findings_with_residual(0.7);
-  named.conclusion = "1 effect(s) found";
-  maglead::analysis::conclude_misfit(named, 1, "the drive's force constant");
+  maglead::analysis::conclude(named, checking(1));
   EXPECT_EQ(named.conclusion, "1 effect(s) found");
   // A term named and an event (pulses) beside it: two findings, counted as the table lists them.
   maglead::analysis::EffectFinding pulses;
   pulses.id = "external_disturbance";
   pulses.evidence.events = 3;
   named.effects = {maglead::analysis::EffectFinding{}, pulses};
-  maglead::analysis::conclude_misfit(named, 1, "the drive's force constant");
+  maglead::analysis::conclude(named, checking(1));
   EXPECT_EQ(named.conclusion, "1 model term and 3 events found");
 
   Findings quiet = findings_with_residual(0.15);  // within twice the floor: the recording's noise
-  quiet.conclusion = "nothing is missing";
-  maglead::analysis::conclude_misfit(quiet, 0, "the drive's force constant");
-  EXPECT_EQ(quiet.conclusion, "nothing is missing");
+  maglead::analysis::conclude(quiet, checking(0));
+  EXPECT_EQ(quiet.conclusion,
+            "nothing is missing: no effect explains a significant part of the held-out error");
 }
 
 // On a rotary axis the residual is a torque: the misfit, its noise floor, a near miss's reason
@@ -101,8 +108,7 @@ TEST(Conclusion, ARotaryAxissMisfitIsATorque) {
                 ": the force it explains, 0.050 N·m RMS where it acts, is not one the recording "
                 "resolves (floor 0.100 N·m)";
   f.not_selected.push_back(near);
-  maglead::analysis::conclude_misfit(f, 0, "the drive's force constant",
-                                     maglead::effects::rotary_axis());
+  maglead::analysis::conclude(f, checking(0, &maglead::effects::rotary_axis()));
   EXPECT_TRUE(
       starts_with(f.conclusion, "a misfit of 0.7 N·m RMS remains (torque sensor noise 0.1 N·m)"))
       << f.conclusion;

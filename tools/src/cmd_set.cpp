@@ -505,17 +505,7 @@ void add_disable(CLI::App& app) {
 }
 void add_reset(CLI::App& app) {
   add_drive_command(app, "reset", "Clear a latched fault (fault_reset edge, ack/done handshake)",
-                    [](op::Client& c, bool resync) {
-                      // A reset of a healthy drive resets nothing: say so, send nothing. A
-                      // resync is still sent (the controller says not_stepped_out).
-                      const double state = drive_state(c);
-                      if (!resync && state != static_cast<double>(reg::DriveState::fault))
-                        return "no fault to reset (drive_state " +
-                               op::code_name(reg::drive_states(), state) + ")";
-                      op::reset(c, resync, {});
-                      return std::string(resync ? "resync and " : "") +
-                             "fault reset done; enable again to resume";
-                    });
+                    [](op::Client& c, bool resync) { return op::reset_and_say(c, resync); });
 }
 
 MAGLEAD_COMMAND(81, add_set);

@@ -1076,6 +1076,17 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
   edge(reg::kFaultReset, reg::kResetAck, reg::kResetDone, "fault reset");
 }
 
+std::string reset_and_say(Client& c, bool resync_first) {
+  // A reset of a healthy drive resets nothing: say so, send nothing. A resync is still sent (the
+  // controller says not_stepped_out).
+  if (const Status s0 = read_status(c);
+      !resync_first && s0.drive_state != static_cast<std::uint16_t>(reg::DriveState::fault))
+    return "no fault to reset (drive_state " + code_name(reg::drive_states(), s0.drive_state) + ")";
+  reset(c, resync_first, {});
+  return std::string(resync_first ? "resync and " : "") +
+         "fault reset done; enable again to resume";
+}
+
 }  // namespace maglead::op
 
 namespace maglead::op {

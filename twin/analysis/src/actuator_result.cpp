@@ -507,11 +507,14 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   J.unexplained = unexplained_of(sel);
   J.sliding_note = sliding_note(P, sel);
   J.resolvable = sel.resolvable;
-  J.conclusion = selection::conclusion_of(sel);
-  if (sel.terms.empty() && !sel.implausible && !J.resolvable.empty())
-    J.conclusion += "; it cannot name changes smaller than: " + resolvable_text(J.resolvable);
-  conclude_misfit(J, sel.terms.size(),
-                  "the calibration, the sensors' timing and loads the recording does not log");
+  conclude(J, {.terms_named = sel.terms.size(),
+               .implausible = sel.implausible.has_value(),
+               .unresolved = J.resolvable.empty() ? ""
+                                                  : "; it cannot name changes smaller than: " +
+                                                        resolvable_text(J.resolvable),
+               .check = "the calibration, the sensors' timing and loads the recording does not "
+                        "log",
+               .kind = &effects::linear_axis()});
   // Too little sliding to judge the model, and nothing named from the stands or events: that is
   // not judged, never "nothing is missing".
   if (J.effects.empty() && !J.unexplained && !J.sliding_note.empty()) {

@@ -808,8 +808,7 @@ EffectFinding finding_of(const AxisRun& run, const selection::Found& f) {
   e.parameters = selection::parameters_of(f.params);
   e.standard_errors = selection::parameters_of(f.standard_errors);
   e.summary = summary_text(e.parameters, e.standard_errors);
-  e.where =
-      run.kind.words("all samples; the missing force follows ") + run.kind.law(f.effect->law());
+  e.where = run.kind.words("all samples; the missing force follows ") + run.kind.law(*f.effect);
   e.evidence.heldout_gain_pct = f.gain_pct;
   e.evidence.t_stat = f.t_stat;
   e.evidence.segments_improved =
@@ -910,7 +909,6 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
                 {}};
   for (const auto& f : sel.terms) J.effects.push_back(finding_of(run, f));
   J.nothing_missing = sel.terms.empty() && !sel.implausible;
-  J.conclusion = selection::conclusion_of(sel);
   J.not_selected = rejected_of(sel);
   if (sel.implausible)
     J.unexplained = selection::unexplained_of(
@@ -931,10 +929,12 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
   add_errors(J.final_fit, final_base_se);
   J.validation = validation_of(run, sel);
   pulses::report(J, run.pulses);
-  conclude_misfit(J, sel.terms.size(),
-                  "the drive's force constant, the encoder scale and loads the recording does not "
-                  "log",
-                  run.kind);
+  conclude(J, {.terms_named = sel.terms.size(),
+               .implausible = sel.implausible.has_value(),
+               .unresolved = "",
+               .check = "the drive's force constant, the encoder scale and loads the recording "
+                        "does not log",
+               .kind = &run.kind});
 }
 
 // A reversal is a hold too short for holds() to find: the axis may stick there for a few

@@ -93,32 +93,39 @@ std::string count_text(std::size_t n, const std::string& what) {
 
 }  // namespace
 
-void conclude_misfit(Findings& f, std::size_t terms_named, const std::string& check,
-                     const effects::AxisKind& kind) {
-  // The selection counts the terms it named; events (pulses) are findings beside them, listed
-  // in the events: "1 model term and 2 events found", never "1 effect(s) found" over both.
+void conclude(Findings& f, const Concluding& c) {
+  // Events (pulses) are findings beside the model's terms, listed in the events: "1 model term
+  // and 2 events found", never "1 effect(s) found" over both.
   std::size_t events_found = 0;
-  for (const auto& e : f.effects) events_found += e.evidence.events.value_or(0);
-  const std::string named = std::to_string(terms_named) + " effect(s) found";
-  if (terms_named > 0 && events_found > 0 && f.conclusion.starts_with(named))
-    f.conclusion = count_text(terms_named, "model term") + " and " +
-                   count_text(events_found, "event") + " found" + f.conclusion.substr(named.size());
-  if (terms_named > 0 || f.unexplained) return;
-  // Events' own force (the pulses) is in the final residual: beside them it is no misfit, and
-  // "nothing is missing" would hide them.
-  std::string events;
-  for (const auto& e : f.effects)
-    if (e.evidence.events) events += (events.empty() ? "" : ", ") + e.id;
-  if (!events.empty()) {
-    const std::string nothing = "nothing is missing: ";
-    if (f.conclusion.starts_with(nothing))
-      f.conclusion = "events found (" + events + "); " + f.conclusion.substr(nothing.size());
+  std::string event_ids;
+  for (const auto& e : f.effects) {
+    if (!e.evidence.events) continue;
+    events_found += *e.evidence.events;
+    event_ids += (event_ids.empty() ? "" : ", ") + e.id;
+  }
+  if (c.terms_named > 0) {
+    f.conclusion = events_found == 0 ? std::to_string(c.terms_named) + " effect(s) found"
+                                     : count_text(c.terms_named, "model term") + " and " +
+                                           count_text(events_found, "event") + " found";
     return;
   }
-  if (!misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) return;
-  f.conclusion = misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, kind) +
-                 "; check " + kind.words(check);
-  f.nothing_missing = false;
+  if (c.implausible) {
+    f.conclusion = "a force is missing that no library effect explains plausibly (see below)";
+    return;
+  }
+  const std::string none =
+      "no effect explains a significant part of the held-out error" + c.unresolved;
+  // Events' own force (the pulses) is in the final residual: beside them it is no misfit, and
+  // "nothing is missing" would hide them.
+  if (!event_ids.empty()) {
+    f.conclusion = "events found (" + event_ids + "); " + none;
+  } else if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) {
+    f.conclusion = misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, *c.kind) +
+                   "; check " + c.kind->words(c.check);
+    f.nothing_missing = false;
+  } else {
+    f.conclusion = "nothing is missing: " + none;
+  }
 }
 
 std::string unit_of_parameter(const std::string& name) {

@@ -533,13 +533,6 @@ std::string params_text(const effects::Params& p) {
 }
 }  // namespace
 
-std::string conclusion_of(const Result& r) {
-  if (!r.terms.empty()) return std::to_string(r.terms.size()) + " effect(s) found";
-  if (r.implausible)
-    return "a force is missing that no library effect explains plausibly (see below)";
-  return "nothing is missing: no effect explains a significant part of the held-out error";
-}
-
 Unexplained unexplained_of(const Implausible& imp, std::string check) {
   Unexplained u;
   u.id = imp.id;

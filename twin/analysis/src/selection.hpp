@@ -206,10 +206,6 @@ Parameters parameters_of(const effects::Params& p);
 /// The Outcome as a Result over `folds` held-out segments of `span`.
 Result result_of(const Outcome& o, int folds, const Span& span);
 
-/// The findings' one-line conclusion: terms found, a missing force no library effect explains
-/// plausibly, or nothing missing.
-std::string conclusion_of(const Result& r);
-
 /// The implausible fit as the findings say it; `check`: what a user should look at.
 Unexplained unexplained_of(const Implausible& imp, std::string check);
 

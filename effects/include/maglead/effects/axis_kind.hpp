@@ -11,6 +11,8 @@
 
 namespace maglead::effects {
 
+class Effect;
+
 struct AxisKind {
   std::string_view name;                    // the recording's `# axis:` value ("linear", "rotary")
   std::string_view system;                  // the model file's [model] system ("axis", "rotary")
@@ -38,10 +40,9 @@ struct AxisKind {
   /// ω, p is θ, M is J (whole words and symbols only; `nut_mass_kg` stays). The linear kind keeps
   /// the text; this is the one place such words change.
   std::string words(std::string_view linear_text) const;
-  /// A library law (Effect::law) on this kind of axis, in its words: an axis has no load cell,
-  /// so what a law says of one (the offset's "unseen by the load cell") is left out. The
-  /// actuator, which has one, reads the library's law itself.
-  std::string law(std::string_view library_law) const;
+  /// A unit's law on this kind of axis (Effect::axis_law: no load cell), in the kind's words.
+  /// The actuator, which has a load cell, reads Effect::law itself.
+  std::string law(const Effect& e) const;
 };
 
 const AxisKind& linear_axis();

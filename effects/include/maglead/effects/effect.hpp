@@ -114,6 +114,9 @@ class Effect {
   // no magnetic coupling and no load cell, but every sample, sliding or slow, is in the fit.
   /// False where the law needs the coupling, the screw angle or the load cell.
   virtual bool on_axis() const { return true; }
+  /// The law as an axis reads it: an axis has no load cell, so a law that speaks of one says it
+  /// here without it.
+  virtual std::string_view axis_law() const { return law(); }
   /// The axis fits the law in these columns: by default the nut's, a unit overrides them where
   /// the drive's force resolves more of its law (viscous friction per direction).
   virtual int axis_columns() const { return columns(); }

@@ -223,6 +223,9 @@ inline constexpr double kShortestWatchdog_s = 0.2;
 void check_watchdog(Client& client, const std::string& what);
 /// Fault reset edge (optionally a resync edge first), with the ack/done handshake.
 void reset(Client& client, bool resync_first, const CommandOptions& options);
+/// reset, then what it did in words; with no fault and no resync asked, nothing is sent and it
+/// says so ("no fault to reset (drive_state …)").
+std::string reset_and_say(Client& client, bool resync_first);
 /// Keeps control for `seconds` (infinity: for ever) or until `stop` says so (polling, feeding a
 /// watchdog); throws when the drive faults or is disabled meanwhile. A connection that closes
 /// while it owns control makes the drive run its owner-loss fault reaction: release first

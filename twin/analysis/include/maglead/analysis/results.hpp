@@ -241,11 +241,18 @@ struct Findings {
   std::vector<Resolvable> resolvable;  // actuator: the smallest change it would have named
 };
 
-/// Nothing named is not nothing missing: when the selection named no term (`terms_named` 0) and
-/// nothing implausible was found, events found are said first; without events, a final residual
-/// that is a misfit (misfit_remains) is said with what to check, and nothing_missing is false.
-/// `kind`: the axis the residual is of.
-void conclude_misfit(Findings& f, std::size_t terms_named, const std::string& check,
-                     const effects::AxisKind& kind = effects::linear_axis());
+/// What a conclusion is built from besides the findings.
+struct Concluding {
+  std::size_t terms_named = 0;  // model terms the selection named (events are in the findings)
+  bool implausible = false;     // a missing force no library effect explains plausibly
+  std::string unresolved;       // appended to "no effect explains …" (the actuator's resolvable)
+  std::string check;            // what a user should look at when a misfit remains
+  const effects::AxisKind* kind = &effects::linear_axis();  // the axis the residual is of
+};
+
+/// The findings' one-line conclusion, built once: terms (and events) found; a missing force no
+/// library effect explains plausibly; events found; a misfit (misfit_remains) with what to check,
+/// and then nothing_missing is false — nothing named is not nothing missing; or nothing missing.
+void conclude(Findings& f, const Concluding& c);
 
 }  // namespace maglead::analysis
