@@ -77,6 +77,23 @@ TEST(StaticEstimator, Eq6AddsCoulombInTheDirectionOfMotion) {
   EXPECT_DOUBLE_EQ(est.output_force_n(0.5, 0.0), -fs);
 }
 
+// After a step-out the phase sits leads away from the stable branch, where the polynomial's
+// extrapolation reads millions of newtons: the estimate is the coupling's periodic law there,
+// within the coupling's peaks, and the same a whole lead (2π) on.
+TEST(StaticEstimator, PastTheStableBranchIsTheCouplingsPeriodicLaw) {
+  const auto cal = paper_calibration();
+  StaticForceEstimator est(cal, 0.0, 1e-4);
+  const double slack_n = 0.05 * (cal.peak_push_n - cal.peak_pull_n);  // the periodic fit's error
+  for (double phi = -40.0; phi <= 40.0; phi += 0.37) {
+    const double f = est.output_force_n(phi, 0.0);
+    EXPECT_LE(f, cal.peak_push_n + slack_n) << phi;
+    EXPECT_GE(f, cal.peak_pull_n - slack_n) << phi;
+  }
+  const double slipped = 0.3 - 10 * std::numbers::pi;  // five leads away from 0.3 rad
+  EXPECT_NEAR(est.output_force_n(slipped, 0.0), est.output_force_n(0.3, 0.0), slack_n);
+  EXPECT_DOUBLE_EQ(est.output_force_n(0.3, 0.0), -cal.polynomial.load_force_n(0.3));
+}
+
 TEST(InverseEstimate, RoundTripsOnTheStableBranch) {
   const auto cal = paper_calibration();
   for (double f = -36.0; f <= 36.0; f += 3.0) {

@@ -15,7 +15,7 @@ double StaticForceEstimator::load_force_n(double phase_rad, double nut_vel_m_s) 
   double friction = 0.0;
   if (nut_vel_m_s > deadband_m_s_) friction = coulomb_n_;
   if (nut_vel_m_s < -deadband_m_s_) friction = -coulomb_n_;
-  return cal_.polynomial.load_force_n(phase_rad) + friction;
+  return cal_.load_force_n(phase_rad) + friction;
 }
 
 EncoderVelocityEstimator::EncoderVelocityEstimator(double sample_period_s, double count_m,

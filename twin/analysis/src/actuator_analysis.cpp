@@ -34,20 +34,11 @@ using stats::median_of;
 using stats::require_finite;
 using stats::robust_sigma;
 
-// Coupling force on the nut, F_m = −F̂_s: the polynomial on the calibrated branch, the periodic
-// model past it (step-out), so the force is defined for every phase.
+// Coupling force on the nut, F_m = −F̂_s, at every phase (ForceCalibration::load_force_n).
 struct Coupling {
   const ForceCalibration& cal;
-  double force(double phi) const {
-    if (phi >= cal.stable_min_rad && phi <= cal.stable_max_rad)
-      return -cal.polynomial.load_force_n(phi);
-    return -cal.periodic.load_force_n(phi);
-  }
-  double slope(double phi) const {
-    if (phi >= cal.stable_min_rad && phi <= cal.stable_max_rad)
-      return -cal.polynomial.slope_n_per_rad(phi);
-    return -cal.periodic.slope_n_per_rad(phi);
-  }
+  double force(double phi) const { return -cal.load_force_n(phi); }
+  double slope(double phi) const { return -cal.slope_n_per_rad(phi); }
 };
 
 // Step-outs from the raw phase: a slip carries φ past ±π from the branch it sat on.

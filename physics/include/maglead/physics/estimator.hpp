@@ -7,7 +7,9 @@
 
 namespace maglead {
 
-/// F̂_ext = F̂_s(φ) + F_c·sign(ṗ) (load-cell convention); F̂_out = −F̂_ext.
+/// F̂_ext = F̂_s(φ) + F_c·sign(ṗ) (load-cell convention); F̂_out = −F̂_ext. Past the stable
+/// branch (a step-out) F̂_s is the calibration's periodic model: bounded, never the polynomial's
+/// extrapolation.
 class StaticForceEstimator {
  public:
   StaticForceEstimator(ForceCalibration cal, double coulomb_n, double velocity_deadband_m_s);

@@ -44,6 +44,19 @@ struct ForceCalibration {
 
   /// Fills stable_*, peak_* from the polynomial (extrema of F̂_s around φ = 0).
   void derive_limits();
+  /// F̂_s at any phase: the polynomial on the stable branch, the periodic model past it (a
+  /// step-out carries φ leads away, where the polynomial means nothing), so it is bounded.
+  double load_force_n(double phase_rad) const {
+    return on_stable_branch(phase_rad) ? polynomial.load_force_n(phase_rad)
+                                       : periodic.load_force_n(phase_rad);
+  }
+  double slope_n_per_rad(double phase_rad) const {
+    return on_stable_branch(phase_rad) ? polynomial.slope_n_per_rad(phase_rad)
+                                       : periodic.slope_n_per_rad(phase_rad);
+  }
+  bool on_stable_branch(double phase_rad) const {
+    return phase_rad >= stable_min_rad && phase_rad <= stable_max_rad;
+  }
 };
 
 /// The paper's calibration (eq. 7) with a periodic model fitted to it.
