@@ -469,13 +469,27 @@ bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool h
   if (touches_control && !old_enable && new_enable && owner_ == 0 && client.id != 0)
     owner_ = client.id, owner_ipv4_ = client.ipv4;
   if (old_enable && !new_enable && owner_ == client.id) owner_ = 0, owner_ipv4_ = 0;
+  if (next.position_setpoint_m != image_.position_setpoint_m) start_position_staged_ = true;
   image_ = next;
   return true;
+}
+
+// Until a client writes a target, the staged one is where the nut was when the loop first read
+// it: an execute in position mode without a written target holds the nut where it is, as a
+// drive does at enable, instead of moving it to mid-stroke.
+void ModbusCore::stage_start_position() {
+  if (start_position_staged_) return;
+  const Snapshot snap = controller_.snapshot();
+  if (snap.cycle == 0) return;  // the loop has not read the actuator yet
+  const auto& a = controller_.config().actuator;
+  image_.position_setpoint_m = std::clamp(snap.nut_pos_m, a.stroke_min_m, a.stroke_max_m);
+  start_position_staged_ = true;
 }
 
 std::size_t ModbusCore::handle(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len,
                                std::uint8_t* out) {
   std::lock_guard lock(mutex_);
+  stage_start_position();
   ++bus_messages_;
   ++server_messages_;
   const std::size_t n = dispatch(client, pdu, len, out);

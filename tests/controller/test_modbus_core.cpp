@@ -509,6 +509,43 @@ TEST(ModbusCore, BroadcastStateChangesAreRefused) {
   EXPECT_EQ(r.ctl.snapshot().drive_state, static_cast<std::uint16_t>(reg::DriveState::enabled));
 }
 
+// A PLC that enables and executes position mode without writing a target: the staged target is
+// where the nut started (30 mm here), read back as such, and the nut stays (it moved to
+// mid-stroke, 20 mm, before). A target written first is the one taken.
+TEST(ModbusCore, AnExecuteWithoutATargetHoldsTheNutWhereItStarted) {
+  SimulatedActuator plant{paper_like_plant(), 3, 0.03};
+  ControllerConfig cfg;
+  Controller ctl{cfg, plant};
+  ModbusCore core(ctl, {false, "test"});
+  double t_s = 0.0;
+  const auto run = [&](int cycles) {
+    for (int i = 0; i < cycles; ++i) ctl.step(t_s += 1e-3);
+  };
+  const auto req = [&](const Bytes& pdu) {
+    std::uint8_t out[ModbusCore::kMaxPdu];
+    const std::size_t n =
+        core.handle(ClientInfo{1, 0x7F000001, false}, pdu.data(), pdu.size(), out);
+    return Bytes(out, out + n);
+  };
+  run(5);
+  const double start_m = ctl.snapshot().nut_pos_m;
+  const Bytes target = req(rd(3, addr("position_setpoint_um"), 2));
+  const auto raw = static_cast<std::int32_t>((word_at(target, 0) << 16) | word_at(target, 1));
+  EXPECT_NEAR(raw * 1e-6, start_m, 1e-6);
+  const std::uint16_t cw = addr("control_word");
+  ASSERT_EQ(req(write_one(cw, 1)).size(), 5u);
+  ASSERT_EQ(req(write_one(addr("mode_command"), 1)).size(), 5u);
+  ASSERT_EQ(req(write_one(cw, 1u | (1u << reg::kExecute))).size(), 5u);
+  run(2000);
+  EXPECT_NEAR(ctl.snapshot().nut_pos_m, start_m, 0.2e-3);
+  // A target written is taken, and the start position never replaces it.
+  ASSERT_EQ(req(write_regs(addr("position_setpoint_um"), i32_words(25000))).size(), 5u);
+  ASSERT_EQ(req(write_one(cw, 1)).size(), 5u);
+  ASSERT_EQ(req(write_one(cw, 1u | (1u << reg::kExecute))).size(), 5u);
+  run(3000);
+  EXPECT_NEAR(ctl.snapshot().nut_pos_m, 0.025, 0.2e-3);
+}
+
 TEST(ModbusCore, RegistersCarryTheLoopsValues) {
   CoreRig r;
   r.run(20);
