@@ -166,6 +166,7 @@ def main():
         clean_up(holder, srv)
     plain()
     cia402()
+    alarm_beside_a_rejection()
     finish()
 
 
@@ -265,6 +266,31 @@ def cia402():
               f"cia402 after the disable: neither the setpoint nor a target: {rows[1:2]} {rows[7:8]}")
     finally:
         clean_up(holder, srv)
+
+
+def alarm_beside_a_rejection():
+    """A fault's way out stays on screen when a command ran into it: after a step-out a plain
+    reset is rejected (still_faulty); the screen shows the alarm with 'maglead reset --resync'
+    and the rejection, both."""
+    srv = Server(MAGLEAD, CONFIG, "--port", "0", "--sim-effect", "offset=55")  # steps out at once
+    conn = ["--port", str(srv.port)]
+    text = lambda r: "\n".join(r)
+    try:
+        for _ in range(50):  # the slip takes a few cycles to latch
+            if "step_out" in run(MAGLEAD, "poll", *conn, "alarm_code")[1]:
+                break
+            time.sleep(0.1)
+        rc, out, err = run(MAGLEAD, "reset", *conn)
+        check(rc == 4 and "still_faulty" in err, f"a plain reset after a step-out is rejected: {rc} {err.strip()}")
+        tmux("new-session", "-d", "-s", SESSION, "-x", "80", "-y", "24",
+             f"{shlex.quote(MAGLEAD)} watch {' '.join(conn)} --rate 5; sleep 60")
+        rows = wait_screen(lambda r: "drive fault" in text(r) and "rejected" in text(r))
+        flat = " ".join(x.strip() for x in rows)
+        check("maglead reset --resync" in flat and "last command rejected: still_faulty" in flat,
+              f"the alarm's way out beside the rejection: {rows[:8]}")
+        fits(rows, 80, 24, "80x24 with an alarm and a rejection")
+    finally:
+        clean_up(None, srv)
 
 
 if __name__ == "__main__":

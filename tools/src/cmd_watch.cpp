@@ -359,14 +359,16 @@ std::vector<std::string> render(const View& view, const std::deque<Sample>& samp
   auto bits = wrap("status " + (set_bits.empty() ? "(no bits set)" : set_bits), w, "       ");
   bits.resize(std::max<std::size_t>(bits.size(), 2));
   L.insert(L.end(), bits.begin(), bits.end());
-  // The rejection or the alarm in full, wrapped (what to type is at its end).
+  // The alarm in full (what to type is at its end), then the last rejection, wrapped: a fault's
+  // way out is never hidden behind the command that ran into it.
   const double rej = at("command_reject_reason");
-  const auto why =
-      wrap(rej != 0 ? "last command rejected: " + op::code_name(reg::reject_codes(), rej) + " (" +
-                          op::code_meaning(reg::reject_codes(), rej) + ")"
-           : alarm != 0 ? alarm_line(v, alarm)
-                        : std::string(),
-           w, "  ");
+  auto why = wrap(alarm != 0 ? alarm_line(v, alarm) : std::string(), w, "  ");
+  if (rej != 0) {
+    const auto rejected = wrap("last command rejected: " + op::code_name(reg::reject_codes(), rej) +
+                                   " (" + op::code_meaning(reg::reject_codes(), rej) + ")",
+                               w, "  ");
+    why.insert(why.end(), rejected.begin(), rejected.end());
+  }
   if (why.empty()) L.emplace_back();
   L.insert(L.end(), why.begin(), why.end());
   value_rows(v, w, L);
