@@ -127,15 +127,28 @@ std::optional<double> fault_alarm(op::Client& client) {
   return v.at("alarm_code");
 }
 
-/// --no-claim on a drive nobody enabled: the controller would reject the execute (not_enabled)
-/// and leave the setpoint and mode_command staged for the next execute by anyone. Refused before
-/// anything is written.
+/// --no-claim writes into control held by the line's one master, over RTU (an `enable` running in
+/// another terminal on the same serial line). Over TCP each connection owns control for itself and
+/// the controller refuses another's writes (04 not_owner); on a drive nobody enabled the execute
+/// would be rejected (not_enabled), the setpoint and mode left staged for anyone's next execute.
+/// Each refused before anything is written.
 void refuse_no_claim_unless_enabled(op::Client& client) {
+  if (client.endpoint().serial.empty())
+    throw ClientError(Kind::refused_locally,
+                      "refused, nothing sent: --no-claim writes into control another process on "
+                      "the same serial line (Modbus RTU) holds; over TCP each connection owns "
+                      "control for itself and the controller refuses another's writes "
+                      "(not_owner): drop --no-claim (set claims control itself)");
+  if (const auto who = op::other_owner(client))
+    throw ClientError(Kind::refused_locally,
+                      "refused, nothing sent: " + *who +
+                          " owns control and the controller refuses others' writes (not_owner): "
+                          "stop that owner, then run set without --no-claim");
   const double state = drive_state(client);
   if (state == static_cast<double>(reg::DriveState::enabled)) return;
   throw ClientError(Kind::refused_locally,
-                    "refused, nothing sent: --no-claim needs a drive another client has enabled, "
-                    "and this one is not (drive_state " +
+                    "refused, nothing sent: --no-claim needs a drive enabled by this line's "
+                    "master, and this one is not (drive_state " +
                         op::code_name(reg::drive_states(), state) +
                         "): drop --no-claim (set claims control itself), or enable first");
 }

@@ -773,18 +773,22 @@ std::string reset_command(double alarm, bool step_out_bit) {
   return slipped(alarm) || step_out_bit ? "maglead reset --resync" : "maglead reset";
 }
 
-std::string reset_advice(Client& c, double alarm) {
+std::optional<std::string> other_owner(Client& c) {
   const auto* owner = reg::find("control_owner");
   const Values v = c.read_range(reg::Table::input_register, owner->address, 3);  // IR 17-19
   const double id = v.at("control_owner");
   constexpr double kRtuMaster = 65535;  // over RTU the one master is this client
-  if (id == 0 || (id == kRtuMaster && !c.endpoint().serial.empty()))
-    return "run '" + reset_command_now(c, alarm) + "' first";
+  if (id == 0 || (id == kRtuMaster && !c.endpoint().serial.empty())) return std::nullopt;
   const auto ip = static_cast<std::uint32_t>(v.at("control_owner_ipv4"));
-  const std::string who = id == kRtuMaster ? "the RTU master"
-                          : ip != 0        ? "the client at " + ipv4_text(ip)
-                                           : "TCP connection " + fmt(id);
-  return "another client owns control (" + who +
+  return id == kRtuMaster ? "the RTU master"
+         : ip != 0        ? "the client at " + ipv4_text(ip)
+                          : "TCP connection " + fmt(id);
+}
+
+std::string reset_advice(Client& c, double alarm) {
+  const auto who = other_owner(c);
+  if (!who) return "run '" + reset_command_now(c, alarm) + "' first";
+  return "another client owns control (" + *who +
          ", IR 17-19), and the controller takes a reset from it only: it must clear the fault "
          "itself (a fault_reset edge in its control word, then enable 0 -> 1 again before its "
          "next execute), or release control (enable cleared) or close its connection, after "

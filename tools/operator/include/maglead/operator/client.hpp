@@ -210,6 +210,10 @@ std::string reset_command(double alarm, bool step_out_bit = false);
 /// first" (reset_command) when nobody owns control; when another client owns it, the controller
 /// refuses our reset (exception 04 not_owner), so the owner must clear it or let go first.
 std::string reset_advice(Client& client, double alarm);
+/// Who owns control when it is not this client ("the client at 10.0.0.5", "the RTU master"), or
+/// nothing when nobody does or this client may write as the owner (the RTU master over RTU):
+/// the controller refuses any other client's writes (exception 04 not_owner).
+std::optional<std::string> other_owner(Client& client);
 /// After a fault while this client may own control: clears enable when it does (the controller
 /// takes the write), "control released (…): run 'maglead reset'"; else reset_advice.
 std::string release_after_fault(Client& client, double alarm);
