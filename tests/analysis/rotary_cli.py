@@ -74,7 +74,7 @@ except jsonschema.ValidationError as e:
 # docs/analysis.md quotes this drive's headline (seed 1, b as here): it is what analyze prints.
 doc = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "docs",
                         "analysis.md"), encoding="utf-8").read()
-quoted = ("`viscous_n_m_s_per_rad 0.001981 ± 0.000012 N·m·s/rad (model 0 N·m·s/rad), or "
+quoted = ("`viscous_n_m_s_per_rad 0.001981 ± 0.000013 N·m·s/rad (model 0 N·m·s/rad), or "
           "asymmetric_friction (the data cannot tell them apart)`")
 if " ".join(quoted.split()) not in " ".join(doc.split()):
     failures.append("docs/analysis.md no longer quotes the rotary headline " + quoted)

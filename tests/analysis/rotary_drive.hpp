@@ -30,6 +30,15 @@ struct RotaryDrive {
   // the PD holding the shaft against stiction; 0: the sweep of three sines below.
   double dwell_s = 0.0;
   double move_s = 1.5;
+  // > 0: the drive adds a torque step of this size (either sign, drawn from its own generator) for
+  // 0.3–0.6 s once every step_every_s, as a feed-forward would; the loop works against it.
+  double torque_step_n_m = 0.0;
+  double step_every_s = 2.0;
+  // The moves' and the sweep's lengths are scaled by this (1e-3: millimetres of a linear axis from
+  // the radians of a shaft); `linear` logs the columns of a linear axis (pos_m, drive_force_n,
+  // ref_pos_m, '# axis: linear'), the same law read as M p̈ = F − C ṗ − F_c sign ṗ.
+  double length_scale = 1.0;
+  bool linear = false;
 };
 
 // The reference: a sum of three sines of random phase (0.2–1.3 Hz; speeds up to about
@@ -48,13 +57,15 @@ inline std::vector<Sine> rotary_sines(std::mt19937& rng) {
 }
 
 // Reference angle, speed and acceleration at t.
-inline void reference_at(const std::vector<Sine>& sines, double start_rad, double t, double* ref) {
+inline void reference_at(const std::vector<Sine>& sines, double start_rad, double t, double* ref,
+                         double scale = 1.0) {
   ref[0] = start_rad, ref[1] = 0.0, ref[2] = 0.0;
   for (const Sine& s : sines) {
     const double x = s.rate_rad_s * t + s.phase_rad;
-    ref[0] += s.amplitude_rad * (std::sin(x) - std::sin(s.phase_rad));
-    ref[1] += s.amplitude_rad * s.rate_rad_s * std::cos(x);
-    ref[2] -= s.amplitude_rad * s.rate_rad_s * s.rate_rad_s * std::sin(x);
+    const double a = scale * s.amplitude_rad;
+    ref[0] += a * (std::sin(x) - std::sin(s.phase_rad));
+    ref[1] += a * s.rate_rad_s * std::cos(x);
+    ref[2] -= a * s.rate_rad_s * s.rate_rad_s * std::sin(x);
   }
 }
 
@@ -66,7 +77,7 @@ struct Moves {
 };
 
 inline Moves rotary_moves(const RotaryDrive& d, std::mt19937& rng) {
-  std::uniform_real_distribution<double> length(50.0, 200.0);
+  std::uniform_real_distribution<double> length(50.0 * d.length_scale, 200.0 * d.length_scale);
   Moves m{{d.start_rad}, d.move_s, d.dwell_s};
   const auto count = static_cast<int>(d.duration_s / (d.move_s + d.dwell_s)) + 2;
   for (int k = 0; k < count; ++k)
@@ -85,6 +96,44 @@ inline void reference_at(const Moves& m, double t, double* ref) {
   ref[2] = d * 60 * u * (1 - u) * (1 - 2 * u) / (T * T);
 }
 
+// The drive's torque steps (torque_step_n_m): one of either sign for 0.3–0.6 s at a random time
+// in every step_every_s, from a generator of their own (the other draws stay as they were).
+struct TorqueSteps {
+  std::vector<double> from_s, to_s, torque_n_m;
+  double at(double t) const {
+    for (std::size_t k = 0; k < from_s.size(); ++k)
+      if (t >= from_s[k] && t < to_s[k]) return torque_n_m[k];
+    return 0.0;
+  }
+};
+
+inline TorqueSteps torque_steps(const RotaryDrive& d) {
+  TorqueSteps s;
+  if (!(d.torque_step_n_m > 0)) return s;
+  std::mt19937 rng(d.seed + 1000003u);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (double t0 = 0.0; t0 + d.step_every_s <= d.duration_s; t0 += d.step_every_s) {
+    const double len = 0.3 + 0.3 * unit(rng), at = t0 + (d.step_every_s - len) * unit(rng);
+    s.from_s.push_back(at);
+    s.to_s.push_back(at + len);
+    s.torque_n_m.push_back(unit(rng) < 0.5 ? -d.torque_step_n_m : d.torque_step_n_m);
+  }
+  return s;
+}
+
+// An empty recording with the header and columns of the drive's kind.
+inline Recording drive_columns(const RotaryDrive& d, bool axis_header) {
+  Recording rec;
+  rec.path = d.linear ? "generated linear axis" : "generated rotary drive";
+  if (axis_header) rec.metadata = {{"axis", d.linear ? "linear" : "rotary"}};
+  rec.metadata.emplace_back("sample_rate_hz", "1000");
+  rec.names =
+      d.linear ? std::vector<std::string>{"t_s", "pos_m", "drive_force_n", "ref_pos_m"}
+               : std::vector<std::string>{"t_s", "angle_rad", "drive_torque_n_m", "ref_angle_rad"};
+  rec.columns.assign(4, {});
+  return rec;
+}
+
 /// The recording (`# axis: rotary` in its header unless `axis_header` is false).
 inline Recording rotary_recording(const RotaryDrive& d, bool axis_header = true) {
   std::mt19937 rng(d.seed);
@@ -95,20 +144,16 @@ inline Recording rotary_recording(const RotaryDrive& d, bool axis_header = true)
     if (d.dwell_s > 0)
       reference_at(moves, t, ref);
     else
-      reference_at(sines, d.start_rad, t, ref);
+      reference_at(sines, d.start_rad, t, ref, d.length_scale);
   };
+  const TorqueSteps steps = torque_steps(d);
   std::normal_distribution<double> noise(0.0, d.noise_n_m);
   constexpr int kSubsteps = 10;
   constexpr double kDt_s = 1e-3, kBandwidth_rad_s = 2 * std::numbers::pi * 30.0;
   const double kp = d.inertia_kg_m2 * kBandwidth_rad_s * kBandwidth_rad_s;
   const double kd = 2 * 0.7 * d.inertia_kg_m2 * kBandwidth_rad_s;
   const double count_rad = 2 * std::numbers::pi / d.counts_per_turn;
-  Recording rec;
-  rec.path = "generated rotary drive";
-  if (axis_header) rec.metadata = {{"axis", "rotary"}};
-  rec.metadata.emplace_back("sample_rate_hz", "1000");
-  rec.names = {"t_s", "angle_rad", "drive_torque_n_m", "ref_angle_rad"};
-  rec.columns.assign(4, {});
+  Recording rec = drive_columns(d, axis_header);
   double start[3];
   reference(0.0, start);
   // The shaft is already on the reference (no start-up transient: the logger starts mid-run).
@@ -121,7 +166,8 @@ inline Recording rotary_recording(const RotaryDrive& d, bool axis_header = true)
     const double speed = (q - last_q) / kDt_s;
     last_q = q;
     // The drive's torque: PD on the counted angle with the reference's acceleration fed forward.
-    const double tau = kp * (ref[0] - q) + kd * (ref[1] - speed) + d.inertia_kg_m2 * ref[2];
+    const double tau =
+        kp * (ref[0] - q) + kd * (ref[1] - speed) + d.inertia_kg_m2 * ref[2] + steps.at(t);
     rec.columns[0].push_back(t);
     rec.columns[1].push_back(q);
     rec.columns[2].push_back(tau + noise(rng));

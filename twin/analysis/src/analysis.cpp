@@ -6,6 +6,7 @@
 // forward selection is a small solve on sums of those matrices, whatever the recording's length.
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -862,12 +863,122 @@ std::vector<std::optional<stats::Named>> model_parameters(
   return out;
 }
 
+// ---------------------------------------------------------------- the drive's timing
+// A logged drive value and the position beside it share a time stamp, but what the drive value
+// stands for in time no recording states: a setpoint held over the period after its stamp (a
+// zero-order hold acts half a period later on average), a current averaged over the period
+// before it, a reading at the stamp. The motion's derivatives are central at the stamp, so the
+// force the fit pairs with them may be up to half a sample early or late: a bias every segment
+// shares, which the jackknife cannot see and the data hardly resolve (it is the jerk times the
+// mass times half a period). So the model is fitted again with the motion moved by ±that offset
+// (x(t + δ) ≈ x + δ ẋ, the columns' rates by central differences at the logger's rate, then
+// decimated as the columns are), and each parameter's largest change, as a uniform uncertainty
+// over the interval (÷√3), is added to its standard error in quadrature.
+
+// The time derivatives of the columns `idx` and of the fixed force at the identification samples:
+// decimated, from the full-rate columns (as decimate_columns makes them); at full rate, from each
+// sample's neighbours when asked (an hour's matrix would take hundreds of MB).
+class Rates {
+ public:
+  Rates(const AxisRun& run, const std::vector<int>& idx)
+      : run_(run), cols_(columns_at(run.g, idx)) {
+    if (!run.P.decimated) return;
+    const Signals& F = run.P.full;
+    const double dt = 1.0 / run.P.fs_hz;
+    d_.resize(static_cast<Eigen::Index>(run.P.id.size()), static_cast<Eigen::Index>(idx.size()));
+    std::vector<double> col(F.size());
+    for (std::size_t j = 0; j < cols_.size(); ++j) {
+      const std::vector<Column> one{cols_[j]};
+      for (std::size_t i = 0; i < F.size(); ++i) fill_row(F, i, one, &col[i]);
+      const auto d = decimate(central_diff(col, dt), run.P.decimation, run.P.fs_hz);
+      for (std::size_t i = 0; i < run.P.id.size(); ++i)
+        d_(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = d[i];
+    }
+    fixed_ = decimate(central_diff(F.y_fixed, dt), run.P.decimation, run.P.fs_hz);
+  }
+  // The columns at sample i into x, their rates into dx; returns the fixed force's rate.
+  double at(std::size_t i, const std::vector<int>& idx, Eigen::VectorXd& x,
+            Eigen::VectorXd& dx) const {
+    const Signals& S = *run_.S;
+    if (run_.P.decimated) {
+      for (std::size_t j = 0; j < idx.size(); ++j)
+        x[static_cast<Eigen::Index>(j)] = run_.P.id_columns(static_cast<Eigen::Index>(i), idx[j]);
+      dx = d_.row(static_cast<Eigen::Index>(i)).transpose();
+      return fixed_[i];
+    }
+    const std::size_t lo = i > 0 ? i - 1 : i, hi = std::min(S.size() - 1, i + 1);
+    Eigen::VectorXd before(x.size()), after(x.size());
+    fill_row(S, i, cols_, x.data());
+    fill_row(S, lo, cols_, before.data());
+    fill_row(S, hi, cols_, after.data());
+    const double span_s = S.t[hi] - S.t[lo];
+    if (!(span_s > 0)) return dx.setZero(), 0.0;
+    dx = (after - before) / span_s;
+    return (S.y_fixed[hi] - S.y_fixed[lo]) / span_s;
+  }
+
+ private:
+  const AxisRun& run_;
+  std::vector<Column> cols_;
+  Eigen::MatrixXd d_;
+  std::vector<double> fixed_;
+};
+
+// The model `idx` fitted on every sample with the motion moved later and earlier by the drive's
+// unstated timing (rules::kAxisDriveTimingSamples logger periods).
+std::array<Fit, 2> moved_fits(const AxisRun& run, const std::vector<int>& idx) {
+  const double delta_s = rules::kAxisDriveTimingSamples / run.P.fs_hz;
+  const auto k = static_cast<Eigen::Index>(idx.size());
+  const Rates rates(run, idx);
+  std::array<stats::Grams, 2> g{stats::Grams(1, k), stats::Grams(1, k)};
+  Eigen::VectorXd x(k), dx(k);
+  const Signals& S = *run.S;
+  for (std::size_t i = 0; i < S.size(); ++i) {
+    if (!S.valid[i]) continue;
+    const double dfixed = rates.at(i, idx, x, dx), r = S.y[i] - S.y_fixed[i];
+    g[0].add_row(0, x + delta_s * dx, r - delta_s * dfixed, S.y[i]);
+    g[1].add_row(0, x - delta_s * dx, r + delta_s * dfixed, S.y[i]);
+  }
+  std::vector<int> all(static_cast<std::size_t>(k));
+  std::iota(all.begin(), all.end(), 0);
+  std::array<Fit, 2> out;
+  for (std::size_t s = 0; s < 2; ++s) {
+    g[s].symmetrize();
+    out[s] = Fit{idx, stats::solve(g[s], all).theta};
+  }
+  return out;
+}
+
+// stats::estimate of the model `idx` (the baseline's columns, then `chosen`'s), each standard
+// error widened by the parameter's change over the drive's unstated timing.
+stats::Estimates timed_estimate(const AxisRun& run, const std::vector<int>& idx,
+                                const std::vector<selection::Found>& chosen) {
+  const auto values = [&](const Fit& fit) { return model_parameters(run, chosen, fit); };
+  auto est = stats::estimate(run.g, idx, values);
+  if (idx.empty()) return est;
+  std::vector<stats::Named> change(est.values.size());
+  for (const Fit& moved : moved_fits(run, idx)) {
+    const auto v = values(moved);
+    for (std::size_t k = 0; k < change.size() && k < v.size(); ++k) {
+      if (!v[k] || !est.values[k]) continue;
+      for (const auto& [name, x] : *v[k])
+        if (const auto at = est.values[k]->find(name); at != est.values[k]->end())
+          change[k][name] = std::max(change[k][name], std::abs(x - at->second));
+    }
+  }
+  for (std::size_t k = 0; k < change.size(); ++k)
+    for (auto& [name, se] : est.standard_errors[k])
+      if (const auto c = change[k].find(name); c != change[k].end())
+        se = std::hypot(se, c->second / std::sqrt(3.0));
+  return est;
+}
+
 // The final fit on every segment (stats::estimate, as on the actuator): each term's parameters
 // there, whether they lie in the unit's physical range, and their standard errors from the fits
-// without each segment in turn. Returns the baseline's fitted totals' standard errors.
+// without each segment in turn, widened by the drive's unstated timing (timed_estimate). Returns
+// the baseline's fitted totals' standard errors.
 Parameters finish_terms(const AxisRun& run, selection::Result& sel) {
-  const auto est = stats::estimate(
-      run.g, sel.current, [&](const Fit& fit) { return model_parameters(run, sel.terms, fit); });
+  const auto est = timed_estimate(run, sel.current, sel.terms);
   const auto prm = term_params(run, sel.terms, est.fit);
   for (std::size_t k = 0; k < sel.terms.size(); ++k) {
     auto& f = sel.terms[k];
@@ -880,9 +991,7 @@ Parameters finish_terms(const AxisRun& run, selection::Result& sel) {
 
 // The baseline's fitted totals' standard errors with columns `idx`.
 Parameters base_standard_errors(const AxisRun& run, const std::vector<int>& idx) {
-  const auto est =
-      stats::estimate(run.g, idx, [&](const Fit& fit) { return model_parameters(run, {}, fit); });
-  return selection::parameters_of(est.standard_errors.front());
+  return selection::parameters_of(timed_estimate(run, idx, {}).standard_errors.front());
 }
 
 // The fitted totals' standard errors and their printed form (none when nothing is fitted).

@@ -194,6 +194,10 @@ inline constexpr std::array kTable = {
     Rule{"pulse_min_samples", 100.0, "samples",
          "a residual shorter than this is not searched for pulses",
          "GeneratedSuite.ControlForceStepsNamesNothing", "events"},
+    // refit
+    Rule{"axis_drive_timing_samples", 0.5, "samples",
+         "axis: a logged drive value may stand for the period after its time stamp (a held setpoint) or before it (an averaged current), which no recording states: each parameter's error adds its change over this offset either way, as a uniform uncertainty",
+         "AxisCoverage.RotaryServosAndLinearAxesAreCoveredByTheirErrors", "refit"},
     // twin check
     Rule{"twin_check_blocks", 8.0, "blocks",
          "the scored samples are cut into this many blocks: a standard error from seven degrees of freedom",
@@ -316,6 +320,7 @@ inline constexpr double kPulseEdgeFilterPeriods = value_of("pulse_edge_filter_pe
 inline constexpr double kPulseOppositeFactor = value_of("pulse_opposite_factor");
 inline constexpr double kPulseGapSteps = value_of("pulse_gap_steps");
 inline constexpr std::size_t kPulseMinSamples = static_cast<std::size_t>(value_of("pulse_min_samples"));
+inline constexpr double kAxisDriveTimingSamples = value_of("axis_drive_timing_samples");
 inline constexpr std::size_t kTwinCheckBlocks = static_cast<std::size_t>(value_of("twin_check_blocks"));
 inline constexpr double kTwinRiseSigmas = value_of("twin_rise_sigmas");
 inline constexpr double kWhereMinBinSamples = value_of("where_min_bin_samples");
