@@ -198,6 +198,13 @@ def scenario(port):
         lines = f.read().splitlines()
     check(lines[0] == "# format: mls-recording/1", "recording starts with the format line")
     header_at = next(i for i, l in enumerate(lines) if not l.startswith("#"))
+    with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "docs",
+                           "recording-format.md")) as f:
+        documented = f.read()
+    undocumented = [c for c in lines[header_at].split(",") if f"`{c}`" not in documented]
+    keys = [l[2:].split(":")[0] for l in lines[:header_at]]
+    check(not undocumented and all(f"`{k}`" in documented for k in keys if k not in ("format", "source", "system")),
+          f"every column and header key record writes is in docs/recording-format.md: {undocumented} {keys}")
     names = lines[header_at].split(",")
     data = [[float(x) if x else float("nan") for x in l.split(",")] for l in lines[header_at + 1:]]
     col = {n: [r[i] for r in data] for i, n in enumerate(names)}
