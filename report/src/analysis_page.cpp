@@ -74,7 +74,7 @@ std::string headline_paragraph(const std::string& headline) {
          "</b></p>\n";
 }
 
-std::string page(const AnalysisOutcome& o, const std::string& out_dir) {
+std::string page(const AnalysisOutcome& o) {
   const auto& F = o.result->findings;
   // An axis (linear or rotary) is compared with its model; only the actuator has a twin.
   const bool axis = effects::axis_kind_of_system(F.system) != nullptr;
@@ -90,7 +90,7 @@ std::string page(const AnalysisOutcome& o, const std::string& out_dir) {
   const std::string events = analysis_events(o);
   h << (events.empty() ? "<p>No " + std::string(axis_words(F).quantity) + " pulses.</p>\n"
                        : events);
-  const std::string figures = analysis_figures(o, out_dir);
+  const std::string figures = analysis_figures(o);
   if (!figures.empty()) h << "<h2 id=\"maps\">4. Maps and figures</h2>\n" << figures;
   h << method_text(F) << time_chart_tail() << "</body></html>\n";
   return h.str();
@@ -104,7 +104,7 @@ void write_analysis_outputs(const analysis::AnalysisResult& r, const std::string
   analysis::save_model((fs::path(out_dir) / "model_corrected.toml").string(), r.corrected,
                        "model corrected by maglead analyze from " + r.findings.recording);
   const AnalysisOutcome outcome{AnalysisOutcome::Status::done, "", r};
-  write_text(fs::path(out_dir) / "index.html", page(outcome, out_dir));
+  write_text(fs::path(out_dir) / "index.html", page(outcome));
 }
 
 }  // namespace maglead::report

@@ -318,21 +318,21 @@ std::string analysis_events(const AnalysisOutcome& o) {
          quantity(kind) + " [" + unit(kind) + "]</th></tr>\n" + h + "</table>\n";
 }
 
-std::string analysis_figures(const AnalysisOutcome& o, const std::string& out_dir) {
+std::string analysis_figures(const AnalysisOutcome& o) {
   if (o.status != Status::done) return "";
   std::string h;
   for (const auto& f : o.result->figures) {
-    const auto file = (std::filesystem::path(out_dir) / f.file).string();
+    std::string png;
     if (f.is_grid) {
-      plot::save_heatmap_png(file, heatmap_of(f.grid));
+      png = plot::heatmap_png(heatmap_of(f.grid));
     } else {
       std::vector<plot::Panel> panels;
       for (const auto& c : f.charts) panels.push_back(panel_of(c));
-      plot::save_panels_png(file, panels, 1100, 300);
+      png = plot::panels_png(panels, 1100, 300);
     }
     h += "<figure><figcaption>" + escape_html(f.caption) +
          "</figcaption>\n<img class=\"map\" alt=\"" + escape_html(f.caption) + "\" src=\"" +
-         png_data_url(file) + "\"></figure>\n";
+         png_data_url(png) + "\"></figure>\n";
   }
   return h;
 }

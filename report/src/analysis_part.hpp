@@ -33,6 +33,6 @@ std::string fit_part(const AnalysisOutcome& o);
 std::string analysis_events(const AnalysisOutcome& o);
 
 /// The analysis's other figures (maps of the residual), drawn to PNG in out_dir and embedded.
-std::string analysis_figures(const AnalysisOutcome& o, const std::string& out_dir);
+std::string analysis_figures(const AnalysisOutcome& o);
 
 }  // namespace maglead::report

@@ -96,18 +96,17 @@ std::string error_table(const Anomaly& a) {
   return h.str();
 }
 
-std::string map_figure(const Anomaly& a, const std::string& out_dir) {
+std::string map_figure(const Anomaly& a) {
   const auto& g = a.map_position_velocity;
   // The figure caption holds the title: none drawn into the image.
   plot::HeatMap m{"",      g.x_label, g.y_label, g.value_label, g.x_min, g.x_max,
                   g.y_min, g.y_max,   g.nx,      g.ny,          g.values};
-  const auto file = (fs::path(out_dir) / "map_velocity_position.png").string();
-  plot::save_heatmap_png(file, m, 900, 560);
+  const std::string png = plot::heatmap_png(m, 900, 560);
   return "<figure id=\"fig-map\"><figcaption><b>" + escape_html(g.title) +
          ".</b> Mean over the samples in each cell; blank cells were not "
          "visited.</figcaption>\n<img class=\"map\" "
          "alt=\"" +
-         escape_html(g.title) + "\" src=\"" + png_data_url(file) + "\"></figure>\n";
+         escape_html(g.title) + "\" src=\"" + png_data_url(png) + "\"></figure>\n";
 }
 
 // The drift statistic where the flag judged it; before its first verdict it was not judged,
@@ -131,7 +130,7 @@ std::string drift_chart(const Anomaly& a) {
   return time_chart_html(drift);
 }
 
-std::string where_section(const Anomaly& a, const std::string& out_dir) {
+std::string where_section(const Anomaly& a) {
   std::ostringstream h;
   h << "<h2 id=\"where\">1. Where the twin and the machine part</h2>\n<p>Position residual "
        "(measured − twin) RMS "
@@ -157,7 +156,7 @@ std::string where_section(const Anomaly& a, const std::string& out_dir) {
     h << time_chart_html(err);
     h << drift_chart(a);
   }
-  h << map_figure(a, out_dir);
+  h << map_figure(a);
   return h.str();
 }
 
@@ -371,8 +370,8 @@ void write_anomaly_report(const std::string& out_dir, const std::string& recordi
     << "\" id=\"headline\"><b>" << escape_html(headline)
     << "</b></p>\n<p class=\"hint\">Plots: drag to zoom, shift-drag to pan, double-click "
     << "to reset; every time plot follows the others. Values show on hover.</p>\n"
-    << where_section(a, out_dir) << physics_section(o, 2) << fit_section(a, o)
-    << events_section(a, o) << time_chart_tail() << "</body></html>\n";
+    << where_section(a) << physics_section(o, 2) << fit_section(a, o) << events_section(a, o)
+    << time_chart_tail() << "</body></html>\n";
   write_text(fs::path(out_dir) / "index.html", h.str());
   write_text(fs::path(out_dir) / "report.json", json_of(recording, a, o, headline).dump(2) + "\n");
 }

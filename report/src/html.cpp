@@ -50,11 +50,8 @@ std::string base64(std::string_view in) {
   return out;
 }
 
-std::string png_data_url(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw std::runtime_error("cannot read " + path);
-  const std::string bytes{std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-  return "data:image/png;base64," + base64(bytes);
+std::string png_data_url(const std::string& png_bytes) {
+  return "data:image/png;base64," + base64(png_bytes);
 }
 
 std::string number(double value, int significant) {

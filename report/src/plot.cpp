@@ -242,8 +242,8 @@ std::string image_extension(const std::string& path) {
                            "': give the file a .png (or .jpg) name");
 }
 
-void save_panels_png(const std::string& path, const std::vector<Panel>& panels, int width_px,
-                     int panel_height_px) {
+namespace {
+cv::Mat panels_image(const std::vector<Panel>& panels, int width_px, int panel_height_px) {
   const int n = static_cast<int>(std::max<std::size_t>(1, panels.size()));
   cv::Mat img(n * panel_height_px, width_px, CV_8UC3, cv::Scalar(255, 255, 255));
   // Stacked panels line up: one legend column, and one x range where they share the x axis.
@@ -261,10 +261,10 @@ void save_panels_png(const std::string& path, const std::vector<Panel>& panels, 
   for (int i = 0; i < static_cast<int>(panels.size()); ++i)
     draw_panel(img, panels[static_cast<std::size_t>(i)],
                {0, i * panel_height_px, width_px, panel_height_px}, frame);
-  write_png(path, img);
+  return img;
 }
 
-void save_heatmap_png(const std::string& path, const HeatMap& m, int width_px, int height_px) {
+cv::Mat heatmap_image(const HeatMap& m, int width_px, int height_px) {
   cv::Mat img(height_px, width_px, CV_8UC3, cv::Scalar(255, 255, 255));
   // Room above the plot for the title (if any) and, on its own line, the y label: never one
   // over the other. The colour bar's label is right-aligned so it stays inside the image.
@@ -307,7 +307,26 @@ void save_heatmap_png(const std::string& path, const HeatMap& m, int width_px, i
   if (scale.diverging) text(img, "0", {bar.x + bar.width + 5, bar.y + bar.height / 2 + 4}, 0.4);
   const int label_w = text_width_px(m.value_label, 0.45);
   text(img, m.value_label, {std::min(bar.x, width_px - label_w - 6), plot.y - 10}, 0.45);
-  write_png(path, img);
+  return img;
+}
+
+std::string png_of(const cv::Mat& img) {
+  return encode_png(BgrImage{img.ptr<unsigned char>(0), img.cols, img.rows, img.step[0]});
+}
+}  // namespace
+
+void save_panels_png(const std::string& path, const std::vector<Panel>& panels, int width_px,
+                     int panel_height_px) {
+  write_png(path, panels_image(panels, width_px, panel_height_px));
+}
+std::string panels_png(const std::vector<Panel>& panels, int width_px, int panel_height_px) {
+  return png_of(panels_image(panels, width_px, panel_height_px));
+}
+void save_heatmap_png(const std::string& path, const HeatMap& m, int width_px, int height_px) {
+  write_png(path, heatmap_image(m, width_px, height_px));
+}
+std::string heatmap_png(const HeatMap& m, int width_px, int height_px) {
+  return png_of(heatmap_image(m, width_px, height_px));
 }
 
 }  // namespace maglead::plot

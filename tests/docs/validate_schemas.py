@@ -239,6 +239,12 @@ def main():
         if rc_r is not None:
             ok = rc_r == 0 and os.path.exists(r_json)
             check(ok, f"{name}: report writes report.json" + ("" if ok else f" (rc {rc_r}): {out_r.strip()[-300:]}"))
+        # The pages embed their figures: nothing beside them but what the docs list.
+        for folder, listed in (("analyze", {"analysis.json", "index.html", "model_corrected.toml"}),
+                               ("report", {"index.html", "report.json"})):
+            where = os.path.join(WORK, name, folder)
+            extra = set(os.listdir(where)) - listed if os.path.isdir(where) else set()
+            check(not extra, f"{name}: {folder} writes only {sorted(listed)}, not {sorted(extra)}")
         for kind, path in (("analysis", a_json), ("report", r_json)):
             if not os.path.exists(path):
                 continue

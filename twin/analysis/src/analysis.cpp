@@ -1109,7 +1109,7 @@ struct Residuals {
   std::string unit() const { return std::string(kind->drive_unit); }  // the residual's
 };
 
-void add_map(AnalysisResult& R, const Signals& S, const Residuals& res, const std::string& name,
+void add_map(AnalysisResult& R, const Signals& S, const Residuals& res,
              const std::vector<double>& x, const std::string& label, const std::string& unit,
              double scale, std::pair<double, double> range, int nb) {
   const auto b0 = bin(x, res.before, S.valid, range.first, range.second, nb);
@@ -1117,7 +1117,6 @@ void add_map(AnalysisResult& R, const Signals& S, const Residuals& res, const st
   const std::string text = describe_regions(b0, label, unit, scale, res.rms0, res.unit());
   if (!text.empty()) R.where.push_back(text);
   Figure fig;
-  fig.file = "map_" + name + ".png";
   // The finding already names where ("over velocity: …"): the caption does not repeat it.
   fig.caption = text.empty() ? "Mean residual (measured - model) over " + label
                              : "Mean residual (measured - model) " + text;
@@ -1148,10 +1147,10 @@ std::string direction_text(const Signals& S, const Residuals& res) {
 
 void residual_maps(AnalysisResult& R, const Signals& S, const Residuals& res) {
   const effects::AxisKind& k = *res.kind;
-  add_map(R, S, res, "velocity", S.v, "velocity", std::string(k.map_rate_unit), k.map_scale,
+  add_map(R, S, res, S.v, "velocity", std::string(k.map_rate_unit), k.map_scale,
           percentile_range(S.v, S.valid, kVelocityTail), kVelocityBins);
   if (auto d = direction_text(S, res); !d.empty()) R.where.push_back(d);
-  add_map(R, S, res, "position", S.p, std::string(k.motion), std::string(k.map_unit), k.map_scale,
+  add_map(R, S, res, S.p, std::string(k.motion), std::string(k.map_unit), k.map_scale,
           percentile_range(S.p, S.valid, 0.0), kPositionBins);
 }
 
@@ -1228,7 +1227,6 @@ void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& re
       R.where.push_back("in time: windows with residual RMS over 3× the median: " + w2.str());
   }
   Figure ft;
-  ft.file = "residual_time.png";
   ft.caption = "Residual RMS in time windows";
   ft.charts.push_back(
       {"Residual RMS over time", "time [s]", "RMS [" + res.unit() + "]", {w.before, w.after}});
@@ -1239,7 +1237,7 @@ using Onsets = std::vector<std::pair<std::size_t, double>>;  // sample, signed d
 
 // The residual averaged around events (signed by the new direction), before and after.
 void locked_average(AnalysisResult& R, const Signals& S, const Residuals& res, double fs_id,
-                    const Onsets& at, const std::string& file, const std::string& what) {
+                    const Onsets& at, const std::string& what) {
   const int half = static_cast<int>(kLockedHalfSpan_s * fs_id);
   std::vector<double> acc0(static_cast<std::size_t>(2 * half + 1), 0.0), acc1(acc0.size(), 0.0),
       cnt(acc0.size(), 0.0);
@@ -1256,7 +1254,6 @@ void locked_average(AnalysisResult& R, const Signals& S, const Residuals& res, d
       cnt[kk] += 1;
     }
   Figure fr;
-  fr.file = file;
   fr.caption = "Residual averaged around " + std::to_string(at.size()) + " " + what +
                " (signed by the new direction)";
   Curve s0{"baseline", {}, {}}, s1{"corrected", {}, {}};
@@ -1305,7 +1302,7 @@ void event_locked(AnalysisResult& R, const AxisRun& run, const Residuals& res) {
   const Signals& S = *run.S;
   const double fs_id = run.P.fs_hz / run.P.decimation;
   const Onsets rev = reversals(S);
-  locked_average(R, S, res, fs_id, rev, "reversal_locked.png", "velocity reversals");
+  locked_average(R, S, res, fs_id, rev, "velocity reversals");
   R.findings.reversals = rev.size();
   // Input edges: steps in a setpoint column, if the recording has one.
   for (const std::string_view name : run.kind.setpoints) {
@@ -1313,7 +1310,7 @@ void event_locked(AnalysisResult& R, const AxisRun& run, const Residuals& res) {
     if (!run.rec.has(col)) continue;
     const Onsets edges = input_edges(run.rec.column(col), run.P.decimation);
     if (!edges.empty()) {
-      locked_average(R, S, res, fs_id, edges, "edge_locked_" + col + ".png", "steps of " + col);
+      locked_average(R, S, res, fs_id, edges, "steps of " + col);
       R.findings.input_edges = edges.size();
     }
     break;
@@ -1336,7 +1333,6 @@ void time_figures(AnalysisResult& R, const Signals& S, const Predictions& p, con
     rc.x.push_back(S.t[i]), rc.y.push_back(S.y[i] - p.yf[i]);
   }
   Figure f;
-  f.file = "force_time.png";
   f.caption = "Measured " + std::string(res.kind->quantity) +
               " and the models' predictions from measured motion; residuals below";
   const std::string u = "[" + res.unit() + "]", quantity(res.kind->quantity);
@@ -1346,7 +1342,6 @@ void time_figures(AnalysisResult& R, const Signals& S, const Predictions& p, con
   f.charts.push_back({"Residual (measured - model)", "time [s]", "residual " + u, {rb, rc}});
   R.figures.insert(R.figures.begin(), f);
   Figure v;
-  v.file = "heldout.png";
   v.caption = "Held-out RMS error after each added term";
   Curve hs{"held-out RMS", {}, {}};
   for (std::size_t k = 0; k < R.findings.validation.size(); ++k) {

@@ -11,8 +11,8 @@ std::string escape_html(std::string_view text);
 /// RFC 4648 base64 (with padding), for data: URLs.
 std::string base64(std::string_view bytes);
 
-/// A file's bytes as a data:image/png URL. Throws std::runtime_error if it cannot be read.
-std::string png_data_url(const std::string& path);
+/// PNG bytes as a data:image/png URL: a page's figures live in the page, no file beside it.
+std::string png_data_url(const std::string& png_bytes);
 
 /// `significant` digits, "–" for NaN or infinity, a real minus sign.
 std::string number(double value, int significant = 3);

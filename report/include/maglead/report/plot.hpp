@@ -29,6 +29,9 @@ struct Panel {
 std::string image_extension(const std::string& path);
 void save_panels_png(const std::string& path, const std::vector<Panel>& panels, int width_px = 1200,
                      int panel_height_px = 320);
+/// The same figure as PNG bytes, for a page that embeds it (nothing written beside the page).
+std::string panels_png(const std::vector<Panel>& panels, int width_px = 1200,
+                       int panel_height_px = 320);
 
 struct HeatMap {
   std::string title, x_label, y_label, value_label;
@@ -39,5 +42,6 @@ struct HeatMap {
 /// A colour-mapped grid with axes and a colour bar.
 void save_heatmap_png(const std::string& path, const HeatMap& map, int width_px = 900,
                       int height_px = 600);
+std::string heatmap_png(const HeatMap& map, int width_px = 900, int height_px = 600);
 
 }  // namespace maglead::plot

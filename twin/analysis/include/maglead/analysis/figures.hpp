@@ -27,7 +27,7 @@ struct Grid {
 
 /// One figure of the analysis: stacked charts, or a grid map.
 struct Figure {
-  std::string file, caption;
+  std::string caption;
   std::vector<Chart> charts;
   bool is_grid = false;
   Grid grid;
