@@ -40,10 +40,6 @@ double period_of(const Recording& rec, const std::vector<double>& t) {
   return median_step_s(t);
 }
 
-long missing_at(double step_s, double period_s) {
-  return step_s > kGapSteps * period_s ? std::lround(step_s / period_s) - 1 : 0;
-}
-
 std::string rate_advice(const std::vector<double>& t) {
   return "t_s steps by " + num(median_step_s(t) * 1e3) + " ms (median), i.e. " +
          num(1.0 / median_step_s(t)) + " Hz";
@@ -72,7 +68,7 @@ void check_against_rate(const Recording& rec, const std::vector<double>& t, doub
   const long max_run = std::max(kMaxFilledRows, std::lround(kMaxFilledGap_s / period_s));
   long missing = 0;
   for (std::size_t i = 1; i < t.size(); ++i) {
-    const long m = missing_at(t[i] - t[i - 1], period_s);
+    const long m = rows_missing_between(t[i] - t[i - 1], period_s);
     if (m > max_run)
       throw RecordingError(rec.path + ": t_s jumps from " + num(t[i - 1]) + " s to " + num(t[i]) +
                            " s at data row " + std::to_string(i + 1) + ": " + std::to_string(m) +
@@ -98,7 +94,7 @@ std::vector<double> filled(const std::vector<double>& v, const std::vector<doubl
   out.reserve(rows);
   out.push_back(v.front());
   for (std::size_t i = 1; i < v.size(); ++i) {
-    const long m = missing_at(t[i] - t[i - 1], period_s);
+    const long m = rows_missing_between(t[i] - t[i - 1], period_s);
     const bool coded = !is_time && v[i - 1] == std::floor(v[i - 1]) && v[i] == std::floor(v[i]);
     for (long k = 1; k <= m; ++k) {
       const double w = static_cast<double>(k) / static_cast<double>(m + 1);
@@ -124,7 +120,7 @@ void make_evenly_sampled(Recording& rec) {
   double longest_at_s = 0.0;
   std::size_t gaps = 0;
   for (std::size_t i = 1; i < t.size(); ++i) {
-    const long m = missing_at(t[i] - t[i - 1], period_s);
+    const long m = rows_missing_between(t[i] - t[i - 1], period_s);
     if (m == 0) continue;
     missing += m, ++gaps;
     if (m > longest) longest = m, longest_at_s = t[i - 1];
@@ -148,6 +144,10 @@ double sample_rate_hz(const Recording& rec) {
   const double step_s = rec.has("t_s") ? median_step_s(rec.column("t_s")) : 0.0;
   if (!(step_s > 0)) throw RecordingError(rec.path + ": t_s does not advance");
   return 1.0 / step_s;
+}
+
+long rows_missing_between(double step_s, double period_s) {
+  return step_s > kGapSteps * period_s ? std::lround(step_s / period_s) - 1 : 0;
 }
 
 }  // namespace maglead

@@ -91,6 +91,7 @@ void fill_row(const op::Values& v, double t_s, bool load_cell, std::vector<doubl
 /// What a recording run did, for the summary.
 struct Tally {
   std::size_t rows = 0, timeouts = 0, late = 0, repeated = 0, consecutive_failures = 0;
+  std::size_t gap_rows = 0, gaps = 0;  // what readers fill (rows_missing_between)
   std::uint64_t attempts = 0, cycles = 0;
   std::string lost;  // why the controller was given up, if it was
 };
@@ -99,12 +100,19 @@ struct Tally {
 struct CycleCounter {
   bool have_first = false;
   std::uint32_t last = 0;
+  double loop_hz = 1.0, period_s = 1.0;  // the controller's loop; the rows' period
   bool advance(std::uint32_t cycle, Tally& t) {
     if (have_first && cycle == last) {
       ++t.repeated;  // polled faster than the loop publishes: same cycle again
       return false;
     }
-    if (have_first) t.cycles += static_cast<std::uint32_t>(cycle - last);  // wraps as it does
+    if (have_first) {
+      const std::uint32_t steps = cycle - last;  // wraps as the counter does
+      t.cycles += steps;
+      const long missing = rows_missing_between(steps / loop_hz, period_s);
+      t.gap_rows += static_cast<std::size_t>(missing);
+      t.gaps += missing > 0 ? 1u : 0u;
+    }
     have_first = true;
     last = cycle;
     return true;
@@ -141,7 +149,7 @@ Tally record_rows(const RecordOptions& o, op::Client& client, double loop_hz, bo
   const auto count = static_cast<std::uint16_t>(reg::find("loop_cycle_count")->address + 2 - start);
   const double duration_s = parse_duration_s(o.duration), period_s = 1.0 / o.rate_hz;
   Tally t;
-  CycleCounter counter;
+  CycleCounter counter{.loop_hz = loop_hz, .period_s = period_s};
   std::vector<double> row(columns);
   Progress bar("record " + o.out);
   const auto t0 = Clock::now();
@@ -185,6 +193,11 @@ void print_summary(const RecordOptions& o, const op::Client& client, double loop
       "dropped polls: %zu of %zu (%zu without reply, %zu missed while behind); repeated cycles "
       "skipped: %zu\n",
       t.timeouts + t.late, static_cast<std::size_t>(t.attempts), t.timeouts, t.late, t.repeated);
+  if (t.gaps > 0)  // late replies: the rows' cycles lie further apart than a period
+    std::printf(
+        "gaps: %zu rows missing in %zu places (readers fill them by interpolation and say "
+        "so)\n",
+        t.gap_rows, t.gaps);
   std::printf("wrote %s%s\n", o.out.c_str(), replacing.c_str());
 }
 

@@ -100,6 +100,10 @@ struct PlausibleRanges {
 /// column, the values seen and the likely unit. read_recording applies the default ranges.
 void check_plausible_units(const Recording& rec, const PlausibleRanges& ranges = {});
 
+/// Rows missing between two rows `step_s` apart at `period_s` (0: none, jitter): the rule the
+/// readers fill gaps by, and a recorder counts what it leaves for them by.
+long rows_missing_between(double step_s, double period_s);
+
 /// Writes a whole recording (format line first) atomically: under a temporary name, renamed into
 /// place when complete. Throws std::runtime_error on I/O failure, leaving `path` as it was.
 void write_recording(const std::string& path, const Recording& rec);
