@@ -238,6 +238,11 @@ std::string wrapped(const std::string& text, std::size_t indent, std::size_t wid
   return out;
 }
 
+void print_line(const std::string& text, std::size_t indent) {
+  static const std::size_t width = terminal_columns();
+  std::printf("%s\n", wrapped(text, indent, width).c_str());
+}
+
 void note(const std::string& text) {
   if (show_progress()) std::fprintf(stderr, "%s\n", text.c_str());
 }

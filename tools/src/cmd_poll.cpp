@@ -190,13 +190,21 @@ void print_csv(const Shown& s) {
     std::printf("%s,%s,%s\n", s.name(i).c_str(), s.text(i).c_str(), s.unit(i).c_str());
 }
 
+/// The table for a person: on a terminal a long meaning wraps under its own column; into a pipe
+/// each register stays one line (scripts grep it).
 void print_table(const Shown& s, const op::Client& client) {
-  std::printf("%s\n", client.endpoint().describe().c_str());
+  print_line(client.endpoint().describe());
   int width = 0;  // the longest name shown: values line up whatever --all adds
   for (auto i : s.idx) width = std::max(width, static_cast<int>(s.name(i).size()));
-  for (auto i : s.idx)
-    std::printf("  %-*s %12s %-6s %s\n", width, s.name(i).c_str(), s.text(i).c_str(),
-                s.unit(i).c_str(), meaning(*s.v.regs[i], s.v.si[i], s.v).c_str());
+  constexpr int kValue = 12, kUnit = 6;
+  const int meaning_column = 2 + width + 1 + kValue + 1 + kUnit + 1;
+  for (auto i : s.idx) {
+    char head[160];
+    std::snprintf(head, sizeof head, "  %-*s %*s %-*s ", width, s.name(i).c_str(), kValue,
+                  s.text(i).c_str(), kUnit, s.unit(i).c_str());
+    print_line(head + meaning(*s.v.regs[i], s.v.si[i], s.v),
+               static_cast<std::size_t>(meaning_column));
+  }
 }
 
 void run_poll(const PollOptions& o, const ConnectionOptions& conn) {
