@@ -34,7 +34,9 @@ def usage_errors():
              (["serve", "--port", "99999"], "--port", "maglead serve --help"),
              (["simulate", "--scenario", "hand-push", "--duration", "0s", "--out", "x.csv"], "0s", "simulate"),
              (["analyze", "--recording", "x.csv", "--out", "o", "--model", "nosuch.toml"], "nosuch.toml", ""),
-             (["set"], "required", "maglead set --help")]
+             # What to type, not the positional's internal name ("what is required").
+             (["set"], "say what to set: maglead set force|position|idle|reference-move|SETTING [VALUE]",
+              "maglead set --help")]
     for args, says, hint in cases:
         rc, _, err = run(*args)
         check(rc == 2 and err.startswith("maglead: error:") and says in err and hint in err,

@@ -460,8 +460,15 @@ void add_set(CLI::App& app) {
   auto conn = add_connection_options(cmd);
   auto f = std::make_shared<CommandFlags>();
   auto o = std::make_shared<SetOptions>();
-  cmd->add_option("what", o->what, "force, position, idle, reference-move, or a register name")
-      ->required();
+  cmd->add_option("what", o->what, "force, position, idle, reference-move, or a register name");
+  // Not ->required(): CLI11 would say "what is required", the positional's name in this file.
+  cmd->parse_complete_callback([o] {
+    if (o->what.empty())
+      throw CLI::RequiredError(
+          "say what to set: maglead set force|position|idle|reference-move|SETTING [VALUE] (e.g. "
+          "'maglead set force 12.5', 'maglead set position 20mm', 'maglead set watchdog_s 0.5s')",
+          CLI::ExitCodes::RequiredError);
+  });
   cmd->add_option("value", o->value,
                   "Value with optional unit: 12.5, 12.5N, 20mm, 0.02m (a bare number is in SI "
                   "units, N or m; under a raw register name such as watchdog_ms, in its unit)");
