@@ -49,8 +49,10 @@ struct NumberRange {
 /// "5000 Hz is outside 1 .. 1000 Hz (the loop runs at 1 kHz): type e.g. --rate 100".
 CLI::Validator number_in(const NumberRange& range);
 
-/// "30s", "2min", "500ms", "1h" or a plain number of seconds. Throws CLI::ValidationError.
-double parse_duration_s(const std::string& text);
+/// "30s", "2min", "500ms", "1h" or a plain number of seconds, as typed after `option`
+/// ("--hold"). Throws CLI::ValidationError naming the option: "--hold: '0s' is not a positive
+/// duration (e.g. --hold 30s, 2min, 1h)".
+double parse_duration_s(const std::string& text, const std::string& option);
 /// Applies repeated `--effect NAME=VALUE` words (simulate, serve --sim-effect) to the plant's
 /// effects; throws CLI::ValidationError naming the option and the bad word.
 /// The --effect / --sim-effect help: `intro`, then a line per key with its unit and meaning.

@@ -28,7 +28,7 @@ struct CommandFlags {
     op::CommandOptions c;
     c.wait_done = !no_wait;
     c.claim = !no_claim;
-    c.done_timeout_s = parse_duration_s(wait);
+    c.done_timeout_s = parse_duration_s(wait, "--wait");
     return c;
   }
 };
@@ -100,7 +100,7 @@ std::string fixed(double v, int places) {
 void hold_then_release(op::Client& client, const std::string& hold, const op::CommandOptions& o,
                        const std::string& held, bool force_mode) {
   const double hold_s =
-      hold.empty() ? std::numeric_limits<double>::infinity() : parse_duration_s(hold);
+      hold.empty() ? std::numeric_limits<double>::infinity() : parse_duration_s(hold, "--hold");
   const std::string released = force_mode ? " (force to 0 N, drive disabled)" : " (drive disabled)";
   if (hold.empty())
     print_line("holding " + held + ": control kept until Ctrl-C, then released" + released);
@@ -411,9 +411,10 @@ void run_set(SetOptions o, const CommandFlags& f, const ConnectionOptions& conn)
     return;
   }
   // What can be checked without the controller is, before a connection is opened: the value's
-  // unit, --hold; the limits are the controller's own, read from it.
+  // unit, --hold, --wait; the limits are the controller's own, read from it.
   if (force || position) op::parse_quantity(value_of(o), force ? "N" : "m");
-  if (!f.hold.empty()) parse_duration_s(f.hold);
+  if (!f.hold.empty()) parse_duration_s(f.hold, "--hold");
+  parse_duration_s(f.wait, "--wait");
   if (reference && f.no_wait && f.hold.empty())
     throw ClientError(Kind::refused_locally,
                       "set reference-move --no-wait would keep control until Ctrl-C: drop "
@@ -501,7 +502,7 @@ void add_drive_command(CLI::App& app, const char* name, const char* help, Step s
   const bool holds = std::string_view(name) == "enable";
   cmd->callback([conn, resync, hold, name, step, holds] {
     run_operator(name, [&] {
-      if (!hold->empty()) parse_duration_s(*hold);
+      if (!hold->empty()) parse_duration_s(*hold, "--hold");
       if (holds) catch_interrupt();
       op::Client client(endpoint_of(*conn));
       client.check_identity();

@@ -446,7 +446,7 @@ class Watcher {
         ep_(ep),
         client_(std::move(client)),
         full_screen_(full_screen),
-        window_s_(parse_duration_s(o.window)) {
+        window_s_(parse_duration_s(o.window, "--window")) {
     view_.endpoint = ep.describe();
   }
 
@@ -528,7 +528,7 @@ class Watcher {
 };
 
 void run_watch(const WatchOptions& o, const ConnectionOptions& conn) {
-  parse_duration_s(o.window);  // a bad window is refused before anything is opened
+  parse_duration_s(o.window, "--window");  // a bad window is refused before anything is opened
   const op::Endpoint ep = endpoint_of(conn);
   // Connect before taking the screen: a wrong address stays visible as one line, exit 3.
   auto client = std::make_unique<op::Client>(ep);
