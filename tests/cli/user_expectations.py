@@ -37,7 +37,11 @@ def usage_errors():
              (["analyze", "--recording", "x.csv", "--out", "o", "--model", "nosuch.toml"], "nosuch.toml", ""),
              # What to type, not the positional's internal name ("what is required").
              (["set"], "say what to set: maglead set force|position|idle|reference-move|SETTING [VALUE]",
-              "maglead set --help")]
+              "maglead set --help"),
+             # The project's range wording (units, what to type), not CLI11's "Value 100 not in range".
+             (["watch", "--rate", "100"],
+              "--rate: 100 Hz is outside 0.5 .. 50 Hz (refreshes per second): type e.g. --rate 10",
+              "maglead watch --help")]
     # Every duration error names its option, as '--hold -1s' does (nothing is connected to: no
     # controller runs on port 9).
     for cmd, option in ((["set", "force", "5"], "--hold"), (["set", "force", "5"], "--wait"),

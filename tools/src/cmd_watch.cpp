@@ -556,8 +556,8 @@ void add_watch(CLI::App& app) {
                                  "a terminal (q or Ctrl-C quits)");
   auto conn = add_connection_options(cmd);
   auto o = std::make_shared<WatchOptions>();
-  cmd->add_option("--rate", o->rate_hz, "Refreshes per second")
-      ->check(CLI::Range(0.5, 50.0))
+  cmd->add_option("--rate", o->rate_hz, "Refreshes per second [Hz], 0.5 .. 50")
+      ->check(number_in({0.5, 50.0, "Hz", "refreshes per second", "--rate 10"}))
       ->capture_default_str();
   cmd->add_option("--count", o->count, "Quit after this many refreshes (0: until q or Ctrl-C)")
       ->capture_default_str();
