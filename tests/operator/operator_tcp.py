@@ -117,6 +117,10 @@ def scenario(port):
     raw = int(out.splitlines()[1].split(",")[1]) if rc == 0 else -1
     check(abs(raw - 20000) < 500 and out.splitlines()[1].startswith("nut_pos_um,"),
           f"poll --raw gives the integer as sent under the register name ({raw} um)")
+    # A name not known suggests the kind poll shows: the SI name, or under --raw the register's.
+    for raw_flag, name in (([], "nut_pos_m"), (["--raw"], "nut_pos_um")):
+        rc, _, err = run(MAGLEAD, "poll", *conn, *raw_flag, "nut_pos")
+        check(rc == 2 and f"did you mean '{name}'?" in err, f"poll {' '.join(raw_flag)} nut_pos: {err.strip()}")
 
     # Refusals write nothing: the commands and setpoints (HR 1000-1019) and the refusal reason stay.
     staged0 = read_regs(port, 3, 1000, 20)

@@ -90,15 +90,17 @@ struct PollOptions {
 };
 
 /// The registers --names asks for, each by its register or SI name; an unknown name is refused
-/// (with the closest known one) before anything is sent.
-std::vector<const reg::Register*> wanted_registers(const std::vector<std::string>& names) {
+/// (with the closest known one) before anything is sent. The name suggested is of the kind poll
+/// shows, SI (nut_pos_m) or under --raw the register's (nut_pos_um): the one the user would type.
+std::vector<const reg::Register*> wanted_registers(const std::vector<std::string>& names,
+                                                   bool raw) {
   std::vector<const reg::Register*> wanted;
   for (const auto& n : names) {
     const auto* r = op::find_by_any_name(n);
     if (!r) {
-      std::vector<std::string> all;
-      for (const auto& x : reg::table())
-        all.push_back(std::string(x.name)), all.push_back(op::si_name(x));
+      std::vector<std::string> all;  // the kind shown first: a prefix matches the first it meets
+      for (const auto& x : reg::table()) all.push_back(raw ? std::string(x.name) : op::si_name(x));
+      for (const auto& x : reg::table()) all.push_back(raw ? op::si_name(x) : std::string(x.name));
       const std::string guess = closest_match(n, all);
       throw op::ClientError(op::ClientError::Kind::refused_locally,
                             "no register named '" + n + "'" +
@@ -208,7 +210,7 @@ void print_table(const Shown& s, const op::Client& client) {
 }
 
 void run_poll(const PollOptions& o, const ConnectionOptions& conn) {
-  const auto wanted = wanted_registers(o.names);
+  const auto wanted = wanted_registers(o.names, o.raw);
   op::Client client(endpoint_of(conn));
   client.check_identity();
   const auto v = client.read_tables({reg::Table::input_register, reg::Table::holding_register});
