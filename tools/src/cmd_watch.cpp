@@ -105,8 +105,24 @@ Screen screen_size() {
   return s;
 }
 
+/// The columns `s` takes; UTF-8 (µm): a continuation byte takes none.
+int columns_of(const std::string& s) {
+  return static_cast<int>(std::count_if(
+      s.begin(), s.end(), [](char c) { return (static_cast<unsigned char>(c) & 0xC0U) != 0x80U; }));
+}
+
+/// `s` cut to `width` columns, a UTF-8 character never cut in two.
 std::string fit(std::string s, int width) {
-  if (static_cast<int>(s.size()) > width) s.resize(static_cast<std::size_t>(std::max(0, width)));
+  if (width <= 0) return {};
+  int columns = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if ((static_cast<unsigned char>(s[i]) & 0xC0U) == 0x80U) continue;
+    if (columns == width) {
+      s.resize(i);
+      break;
+    }
+    ++columns;
+  }
   return s;
 }
 
@@ -248,7 +264,7 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
     std::string in(int width) const {
       for (const auto* l : {&label, &short_label}) {
         std::string s = printf_str("%-*s %s", l == &label ? 11 : 0, l->c_str(), value.c_str());
-        if (static_cast<int>(s.size()) <= width) return s;
+        if (columns_of(s) <= width) return s;
       }
       return {};
     }
@@ -264,7 +280,7 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
       L.push_back(fit(b.in(w).empty() ? b.short_label + " " + b.value : b.in(w), w));
       return;
     }
-    left.resize(static_cast<std::size_t>(half), ' ');
+    left.append(static_cast<std::size_t>(half - columns_of(left)), ' ');
     L.push_back(left + right);
   };
   const bool twin = !(at("twin_pred_nut_pos_um") == 0 && at("twin_pred_force_mn") == 0 &&
@@ -289,7 +305,8 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
                             : std::string("-")));
   pair(cell("phase", "phi", printf_str("%.4f rad", at("phase_urad"))),
        cell("twin", "twin",
-            twin ? printf_str("%.2f N, %.1f um", at("twin_dynamic_force_mn"),
+            // The residual is measured minus predicted position, in µm as serve says µs.
+            twin ? printf_str("%.2f N, residual %.1f µm", at("twin_dynamic_force_mn"),
                               at("twin_residual_pos_um") * 1e6)
                  : std::string("not running")));
 }
