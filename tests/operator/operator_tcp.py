@@ -95,6 +95,8 @@ def scenario(port):
           and "drive_state" in out and "ready" in out,
           f"poll prints a table (rc {rc}) {err.strip()}")
     check("float32" not in out and "nut_pos_m_f32" not in out, "poll hides the float32 duplicates by default")
+    check(not [l for l in out.splitlines() if l.endswith(" ")],
+          f"poll's lines end without spaces: {[l for l in out.splitlines() if l.endswith(' ')][:3]}")
     check(re.search(r"^\s+twin_drift_zero_load_error_n\s+\S+\s+N\s", out, re.M) is not None
           and re.search(r"^\s+twin_drift_statistic\s", out, re.M) is not None,
           "poll shows the float32-only figures (the drift flag's) under their SI names")
@@ -162,6 +164,13 @@ def scenario(port):
     # The controller's own rejection, through the handshake.
     rc, _, err = run(MAGLEAD, "reset", *conn, "--resync")
     check(rc == 4 and "not_stepped_out" in err, f"resync without step-out rejected: {err.strip()}")
+    # command_status's bits by name, as status_word's are: the rejection is bit 6.
+    rc, out, _ = run(MAGLEAD, "poll", *conn, "command_status")
+    m = re.search(r"^\s+command_status\s+(\d+)\s+(.*)$", out, re.M)
+    bits = ["execute_ack", "execute_done", "reset_ack", "reset_done", "resync_ack", "resync_done", "rejected"]
+    named = [n for b, n in enumerate(bits) if m and int(m.group(1)) >> b & 1]
+    check(m is not None and "rejected" in named and m.group(2).split() == named,
+          f"poll command_status spells out its bits: {out.strip()!r}")
 
     rc, out, err = run(MAGLEAD, "enable", *conn, "--hold", "0.3s")
     check(rc == 0 and "enabled" in out and "released" in out and "without a fault" in out,

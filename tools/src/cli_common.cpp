@@ -241,7 +241,9 @@ std::string wrapped(const std::string& text, std::size_t indent, std::size_t wid
 
 void print_line(const std::string& text, std::size_t indent) {
   static const std::size_t width = terminal_columns();
-  std::printf("%s\n", wrapped(text, indent, width).c_str());
+  const std::size_t end = text.find_last_not_of(' ');
+  const std::string line = end == std::string::npos ? std::string() : text.substr(0, end + 1);
+  std::printf("%s\n", wrapped(line, indent, width).c_str());
 }
 
 void note(const std::string& text) {

@@ -73,9 +73,9 @@ std::string error_text(const std::string& line);
 /// `text` broken at spaces into lines of at most `width` columns (UTF-8 characters), every
 /// line after the first indented by `indent` spaces; whole when `width` is 0 or too small.
 std::string wrapped(const std::string& text, std::size_t indent, std::size_t width);
-/// A line of human-readable output on stdout: on a terminal broken at spaces to its width,
-/// continuations `indent` columns in; into a pipe or a file whole (scripts match it whole).
-/// Machine output (CSV, JSON) is printed as it is, never through this.
+/// A line of human-readable output on stdout, trailing spaces dropped: on a terminal broken at
+/// spaces to its width, continuations `indent` columns in; into a pipe or a file whole (scripts
+/// match it whole). Machine output (CSV, JSON) is printed as it is, never through this.
 void print_line(const std::string& text, std::size_t indent = 2);
 /// A note on stderr (e.g. "reading FILE"), shown only when show_progress().
 void note(const std::string& text);

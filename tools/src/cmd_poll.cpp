@@ -18,6 +18,19 @@ bool no_load_cell(const reg::Register& r, const op::Values& all) {
   return r.name == "load_cell_force_mn" && !op::has_load_cell(all);
 }
 
+/// command_status's bits by name (registers.hpp CommandBit): "execute_done reset_done rejected".
+std::string command_bits_text(std::uint16_t word) {
+  static constexpr std::pair<reg::CommandBit, const char*> kNames[] = {
+      {reg::kExecuteAck, "execute_ack"}, {reg::kExecuteDone, "execute_done"},
+      {reg::kResetAck, "reset_ack"},     {reg::kResetDone, "reset_done"},
+      {reg::kResyncAck, "resync_ack"},   {reg::kResyncDone, "resync_done"},
+      {reg::kRejected, "rejected"}};
+  std::string s;
+  for (const auto& [bit, name] : kNames)
+    if (((word >> bit) & 1u) != 0) s += (s.empty() ? "" : " ") + std::string(name);
+  return s.empty() ? "(no bits set)" : s;
+}
+
 /// What a code register means, for the table's last column; `all` holds every register read.
 std::string meaning(const reg::Register& r, double v, const op::Values& all) {
   // The SI value itself reads "none" (Shown::text), --raw the 0 sent: neither is a 0 N reading.
@@ -29,6 +42,7 @@ std::string meaning(const reg::Register& r, double v, const op::Values& all) {
       s += (s.empty() ? "" : " ") + n;
     return s.empty() ? "(no bits set)" : s;
   }
+  if (r.name == "command_status") return command_bits_text(static_cast<std::uint16_t>(v));
   if (r.name == "alarm_code")
     return op::code_name(reg::alarm_codes(), v) + ": " + op::code_meaning(reg::alarm_codes(), v);
   if (const auto codes = reg::codes_of(r.name); !codes.empty()) return op::code_name(codes, v);
