@@ -32,9 +32,25 @@ def run(*args, binary=MAGLEAD, cwd=None, timeout=120):
 def usage_errors():
     cases = [(["simulate"], "--scenario is required", "maglead simulate --help"),
              (["serve", "--port", "99999"], "--port", "maglead serve --help"),
-             (["simulate", "--scenario", "hand-push", "--duration", "0s", "--out", "x.csv"], "0s", "simulate"),
+             (["simulate", "--scenario", "hand-push", "--duration", "0s", "--out", "x.csv"],
+              "--duration: '0s' is not a positive duration (e.g. --duration 30s", "simulate"),
              (["analyze", "--recording", "x.csv", "--out", "o", "--model", "nosuch.toml"], "nosuch.toml", ""),
-             (["set"], "required", "maglead set --help")]
+             # What to type, not the positional's internal name ("what is required").
+             (["set"], "say what to set: maglead set force|position|idle|reference-move|SETTING [VALUE]",
+              "maglead set --help"),
+             # The project's range wording (units, what to type), not CLI11's "Value 100 not in range".
+             (["watch", "--rate", "100"],
+              "--rate: 100 Hz is outside 0.5 .. 50 Hz (refreshes per second): type e.g. --rate 10",
+              "maglead watch --help")]
+    # Every duration error names its option, as '--hold -1s' does (nothing is connected to: no
+    # controller runs on port 9).
+    for cmd, option in ((["set", "force", "5"], "--hold"), (["set", "force", "5"], "--wait"),
+                        (["enable"], "--hold"), (["watch"], "--window"),
+                        (["record", "--out", "x.csv"], "--duration"), (["serve"], "--duration")):
+        cases.append(([*cmd, "--port", "9", option, "0s"], f"{option}: '0s' is not a positive duration",
+                      f"maglead {cmd[0]} --help"))
+    cases.append((["watch", "--port", "9", "--window", "soon"], "--window: 'soon' is not a duration",
+                  "maglead watch --help"))
     for args, says, hint in cases:
         rc, _, err = run(*args)
         check(rc == 2 and err.startswith("maglead: error:") and says in err and hint in err,

@@ -4,6 +4,7 @@ refusals are checked to write nothing (the staged commands and setpoints do not 
 Usage: operator_tcp.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
 import contextlib
 import csv
+import fcntl
 import json
 import os
 import pty
@@ -15,6 +16,7 @@ import socket
 import struct
 import subprocess
 import sys
+import termios
 import time
 
 from op_common import (Server, check, finish, i32, one_line, raw_request, read_regs, run,
@@ -93,6 +95,8 @@ def scenario(port):
           and "drive_state" in out and "ready" in out,
           f"poll prints a table (rc {rc}) {err.strip()}")
     check("float32" not in out and "nut_pos_m_f32" not in out, "poll hides the float32 duplicates by default")
+    check(not [l for l in out.splitlines() if l.endswith(" ")],
+          f"poll's lines end without spaces: {[l for l in out.splitlines() if l.endswith(' ')][:3]}")
     check(re.search(r"^\s+twin_drift_zero_load_error_n\s+\S+\s+N\s", out, re.M) is not None
           and re.search(r"^\s+twin_drift_statistic\s", out, re.M) is not None,
           "poll shows the float32-only figures (the drift flag's) under their SI names")
@@ -115,6 +119,10 @@ def scenario(port):
     raw = int(out.splitlines()[1].split(",")[1]) if rc == 0 else -1
     check(abs(raw - 20000) < 500 and out.splitlines()[1].startswith("nut_pos_um,"),
           f"poll --raw gives the integer as sent under the register name ({raw} um)")
+    # A name not known suggests the kind poll shows: the SI name, or under --raw the register's.
+    for raw_flag, name in (([], "nut_pos_m"), (["--raw"], "nut_pos_um")):
+        rc, _, err = run(MAGLEAD, "poll", *conn, *raw_flag, "nut_pos")
+        check(rc == 2 and f"did you mean '{name}'?" in err, f"poll {' '.join(raw_flag)} nut_pos: {err.strip()}")
 
     # Refusals write nothing: the commands and setpoints (HR 1000-1019) and the refusal reason stay.
     staged0 = read_regs(port, 3, 1000, 20)
@@ -156,6 +164,13 @@ def scenario(port):
     # The controller's own rejection, through the handshake.
     rc, _, err = run(MAGLEAD, "reset", *conn, "--resync")
     check(rc == 4 and "not_stepped_out" in err, f"resync without step-out rejected: {err.strip()}")
+    # command_status's bits by name, as status_word's are: the rejection is bit 6.
+    rc, out, _ = run(MAGLEAD, "poll", *conn, "command_status")
+    m = re.search(r"^\s+command_status\s+(\d+)\s+(.*)$", out, re.M)
+    bits = ["execute_ack", "execute_done", "reset_ack", "reset_done", "resync_ack", "resync_done", "rejected"]
+    named = [n for b, n in enumerate(bits) if m and int(m.group(1)) >> b & 1]
+    check(m is not None and "rejected" in named and m.group(2).split() == named,
+          f"poll command_status spells out its bits: {out.strip()!r}")
 
     rc, out, err = run(MAGLEAD, "enable", *conn, "--hold", "0.3s")
     check(rc == 0 and "enabled" in out and "released" in out and "without a fault" in out,
@@ -257,10 +272,16 @@ def scenario(port):
         time.sleep(0.05)
     w = read_regs(port, 4, 11, 1) + read_regs(port, 4, 54, 1)
     check(w == [7, 3], f"holder killed: alarm owner_lost, force released (raw {w})")
+    # On an 80-column terminal the lines for a person break at spaces, never mid-word: poll's
+    # alarm meaning, disable's fault and set's held/released lines are longer than 80.
+    for args in (["poll"], ["disable"]):
+        rc, text = run_pty(*args, *conn)
+        check(rc == 0 and "owner_lost" in text and fits(text, 80),
+              f"{args[0]} during owner_lost fits 80 columns: {text.strip()!r}")
 
-    rc, out, err = run(MAGLEAD, "set", *conn, "position", "22mm", "--speed", "10mm/s", "--hold", "0.2s",
-                       "--config", CONFIG)
-    check(rc == 0 and "done" in out and "released" in out, f"set position 22mm: {out.strip()} {err.strip()}")
+    rc, text = run_pty("set", *conn, "position", "22mm", "--speed", "10mm/s", "--hold", "0.2s", "--config", CONFIG)
+    check(rc == 0 and "done" in text and "released" in text and fits(text, 80),
+          f"set position 22mm on an 80-column terminal: {text.strip()!r}")
     pos_um = i32(read_regs(port, 4, 20, 2))
     check(abs(pos_um - 22000) < 100, f"nut at 22 mm ({pos_um} um, raw read)")
     check(i32(read_regs(port, 3, 1008, 2)) == 10000, "speed limit staged as 10 mm/s")
@@ -625,6 +646,32 @@ def dropped_connection():
     check(status is not None and os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0,
           f"watch still quits on q while reconnecting ({status})")
     check("maglead watch:" in tail and tail.count("\n") <= 2, f"watch: screen restored, then one line: {tail.strip()!r}")
+
+
+def run_pty(*args, columns=80):
+    """Runs maglead with stdout and stderr on a `columns`-wide pseudo-terminal; returns (exit code,
+    output with the terminal's CR LF as LF)."""
+    pid, fd = pty.fork()
+    if pid == 0:
+        fcntl.ioctl(1, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
+        os.execve(MAGLEAD, [MAGLEAD, *args], {k: v for k, v in os.environ.items() if k != "COLUMNS"})
+    out, status, end = b"", None, time.time() + 30
+    while status is None and time.time() < end:
+        out += read_pty(fd, 0.1)
+        done, st = os.waitpid(pid, os.WNOHANG)
+        status = st if done else None
+    if status is None:
+        os.kill(pid, signal.SIGKILL)
+        _, status = os.waitpid(pid, 0)
+    out += read_pty(fd, 0.1)
+    os.close(fd)
+    rc = os.WEXITSTATUS(status) if os.WIFEXITED(status) else -1
+    return rc, out.decode(errors="replace").replace("\r\n", "\n")
+
+
+def fits(text, columns):
+    """Every line within `columns` characters."""
+    return all(len(line) <= columns for line in text.splitlines())
 
 
 def read_pty(fd, seconds):

@@ -118,6 +118,9 @@ def main():
         check(all(plotted(rows, m) for m in "*o-"),
               "80x24: the chart plots estimate (*), load cell (o) and setpoint (-), # where they meet")
         fits(rows, 80, 24, "80x24 in force control")
+        # The twin's force and its position residual, labelled, in µm as serve writes µs.
+        twin = re.search(r"twin\s+-?\d+\.\d\d N, residual -?\d+\.\d µm", text)
+        check(twin is not None, f"80x24: the twin's residual labelled, in µm: {[r for r in rows if 'twin' in r]}")
 
         tmux("resize-window", "-t", SESSION, "-x", "60", "-y", "20")
         rows = wait_screen(lambda r: len(r) == 20 and r[0].startswith("maglead watch") and

@@ -153,13 +153,14 @@ void add_recording_option(CLI::App* cmd, std::string& recording, const std::stri
   });
 }
 
-double parse_duration_s(const std::string& text) {
+double parse_duration_s(const std::string& text, const std::string& option) {
   std::size_t used = 0;
   double v = 0;
   try {
     v = std::stod(text, &used);
   } catch (const std::exception&) {
-    throw CLI::ValidationError("duration", "'" + text + "' is not a duration (e.g. 30s, 2min)");
+    throw CLI::ValidationError(option,
+                               "'" + text + "' is not a duration (e.g. " + option + " 30s, 2min)");
   }
   const std::string unit = text.substr(used);
   double scale = 0;
@@ -172,8 +173,8 @@ double parse_duration_s(const std::string& text) {
   else if (unit == "h")
     scale = 3600;
   if (scale == 0 || !(v > 0))
-    throw CLI::ValidationError("duration",
-                               "'" + text + "' is not a positive duration (e.g. 30s, 2min, 1h)");
+    throw CLI::ValidationError(
+        option, "'" + text + "' is not a positive duration (e.g. " + option + " 30s, 2min, 1h)");
   return v * scale;
 }
 
@@ -236,6 +237,13 @@ std::string wrapped(const std::string& text, std::size_t indent, std::size_t wid
     pos = space == std::string::npos ? text.size() : space + 1;
   }
   return out;
+}
+
+void print_line(const std::string& text, std::size_t indent) {
+  static const std::size_t width = terminal_columns();
+  const std::size_t end = text.find_last_not_of(' ');
+  const std::string line = end == std::string::npos ? std::string() : text.substr(0, end + 1);
+  std::printf("%s\n", wrapped(line, indent, width).c_str());
 }
 
 void note(const std::string& text) {

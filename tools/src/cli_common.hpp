@@ -49,8 +49,10 @@ struct NumberRange {
 /// "5000 Hz is outside 1 .. 1000 Hz (the loop runs at 1 kHz): type e.g. --rate 100".
 CLI::Validator number_in(const NumberRange& range);
 
-/// "30s", "2min", "500ms", "1h" or a plain number of seconds. Throws CLI::ValidationError.
-double parse_duration_s(const std::string& text);
+/// "30s", "2min", "500ms", "1h" or a plain number of seconds, as typed after `option`
+/// ("--hold"). Throws CLI::ValidationError naming the option: "--hold: '0s' is not a positive
+/// duration (e.g. --hold 30s, 2min, 1h)".
+double parse_duration_s(const std::string& text, const std::string& option);
 /// Applies repeated `--effect NAME=VALUE` words (simulate, serve --sim-effect) to the plant's
 /// effects; throws CLI::ValidationError naming the option and the bad word.
 /// The --effect / --sim-effect help: `intro`, then a line per key with its unit and meaning.
@@ -71,6 +73,10 @@ std::string error_text(const std::string& line);
 /// `text` broken at spaces into lines of at most `width` columns (UTF-8 characters), every
 /// line after the first indented by `indent` spaces; whole when `width` is 0 or too small.
 std::string wrapped(const std::string& text, std::size_t indent, std::size_t width);
+/// A line of human-readable output on stdout, trailing spaces dropped: on a terminal broken at
+/// spaces to its width, continuations `indent` columns in; into a pipe or a file whole (scripts
+/// match it whole). Machine output (CSV, JSON) is printed as it is, never through this.
+void print_line(const std::string& text, std::size_t indent = 2);
 /// A note on stderr (e.g. "reading FILE"), shown only when show_progress().
 void note(const std::string& text);
 

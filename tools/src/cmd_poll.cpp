@@ -18,6 +18,19 @@ bool no_load_cell(const reg::Register& r, const op::Values& all) {
   return r.name == "load_cell_force_mn" && !op::has_load_cell(all);
 }
 
+/// command_status's bits by name (registers.hpp CommandBit): "execute_done reset_done rejected".
+std::string command_bits_text(std::uint16_t word) {
+  static constexpr std::pair<reg::CommandBit, const char*> kNames[] = {
+      {reg::kExecuteAck, "execute_ack"}, {reg::kExecuteDone, "execute_done"},
+      {reg::kResetAck, "reset_ack"},     {reg::kResetDone, "reset_done"},
+      {reg::kResyncAck, "resync_ack"},   {reg::kResyncDone, "resync_done"},
+      {reg::kRejected, "rejected"}};
+  std::string s;
+  for (const auto& [bit, name] : kNames)
+    if (((word >> bit) & 1u) != 0) s += (s.empty() ? "" : " ") + std::string(name);
+  return s.empty() ? "(no bits set)" : s;
+}
+
 /// What a code register means, for the table's last column; `all` holds every register read.
 std::string meaning(const reg::Register& r, double v, const op::Values& all) {
   // The SI value itself reads "none" (Shown::text), --raw the 0 sent: neither is a 0 N reading.
@@ -29,6 +42,7 @@ std::string meaning(const reg::Register& r, double v, const op::Values& all) {
       s += (s.empty() ? "" : " ") + n;
     return s.empty() ? "(no bits set)" : s;
   }
+  if (r.name == "command_status") return command_bits_text(static_cast<std::uint16_t>(v));
   if (r.name == "alarm_code")
     return op::code_name(reg::alarm_codes(), v) + ": " + op::code_meaning(reg::alarm_codes(), v);
   if (const auto codes = reg::codes_of(r.name); !codes.empty()) return op::code_name(codes, v);
@@ -90,15 +104,17 @@ struct PollOptions {
 };
 
 /// The registers --names asks for, each by its register or SI name; an unknown name is refused
-/// (with the closest known one) before anything is sent.
-std::vector<const reg::Register*> wanted_registers(const std::vector<std::string>& names) {
+/// (with the closest known one) before anything is sent. The name suggested is of the kind poll
+/// shows, SI (nut_pos_m) or under --raw the register's (nut_pos_um): the one the user would type.
+std::vector<const reg::Register*> wanted_registers(const std::vector<std::string>& names,
+                                                   bool raw) {
   std::vector<const reg::Register*> wanted;
   for (const auto& n : names) {
     const auto* r = op::find_by_any_name(n);
     if (!r) {
-      std::vector<std::string> all;
-      for (const auto& x : reg::table())
-        all.push_back(std::string(x.name)), all.push_back(op::si_name(x));
+      std::vector<std::string> all;  // the kind shown first: a prefix matches the first it meets
+      for (const auto& x : reg::table()) all.push_back(raw ? std::string(x.name) : op::si_name(x));
+      for (const auto& x : reg::table()) all.push_back(raw ? op::si_name(x) : std::string(x.name));
       const std::string guess = closest_match(n, all);
       throw op::ClientError(op::ClientError::Kind::refused_locally,
                             "no register named '" + n + "'" +
@@ -190,17 +206,25 @@ void print_csv(const Shown& s) {
     std::printf("%s,%s,%s\n", s.name(i).c_str(), s.text(i).c_str(), s.unit(i).c_str());
 }
 
+/// The table for a person: on a terminal a long meaning wraps under its own column; into a pipe
+/// each register stays one line (scripts grep it).
 void print_table(const Shown& s, const op::Client& client) {
-  std::printf("%s\n", client.endpoint().describe().c_str());
+  print_line(client.endpoint().describe());
   int width = 0;  // the longest name shown: values line up whatever --all adds
   for (auto i : s.idx) width = std::max(width, static_cast<int>(s.name(i).size()));
-  for (auto i : s.idx)
-    std::printf("  %-*s %12s %-6s %s\n", width, s.name(i).c_str(), s.text(i).c_str(),
-                s.unit(i).c_str(), meaning(*s.v.regs[i], s.v.si[i], s.v).c_str());
+  constexpr int kValue = 12, kUnit = 6;
+  const int meaning_column = 2 + width + 1 + kValue + 1 + kUnit + 1;
+  for (auto i : s.idx) {
+    char head[160];
+    std::snprintf(head, sizeof head, "  %-*s %*s %-*s ", width, s.name(i).c_str(), kValue,
+                  s.text(i).c_str(), kUnit, s.unit(i).c_str());
+    print_line(head + meaning(*s.v.regs[i], s.v.si[i], s.v),
+               static_cast<std::size_t>(meaning_column));
+  }
 }
 
 void run_poll(const PollOptions& o, const ConnectionOptions& conn) {
-  const auto wanted = wanted_registers(o.names);
+  const auto wanted = wanted_registers(o.names, o.raw);
   op::Client client(endpoint_of(conn));
   client.check_identity();
   const auto v = client.read_tables({reg::Table::input_register, reg::Table::holding_register});

@@ -147,7 +147,7 @@ Tally record_rows(const RecordOptions& o, op::Client& client, double loop_hz, bo
   // One request covers status through the cycle counter: every row is one control cycle.
   const auto start = reg::find("status_word")->address;
   const auto count = static_cast<std::uint16_t>(reg::find("loop_cycle_count")->address + 2 - start);
-  const double duration_s = parse_duration_s(o.duration), period_s = 1.0 / o.rate_hz;
+  const double duration_s = parse_duration_s(o.duration, "--duration"), period_s = 1.0 / o.rate_hz;
   Tally t;
   CycleCounter counter{.loop_hz = loop_hz, .period_s = period_s};
   std::vector<double> row(columns);
@@ -202,7 +202,8 @@ void print_summary(const RecordOptions& o, const op::Client& client, double loop
 }
 
 void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
-  parse_duration_s(o.duration);  // a bad duration is refused before anything is opened
+  // A bad duration is refused before anything is opened.
+  parse_duration_s(o.duration, "--duration");
   op::Client client(endpoint_of(conn));
   client.check_identity();
   const double loop_hz = client.read_range(reg::Table::input_register, 3, 1).at("loop_rate_hz");

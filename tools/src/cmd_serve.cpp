@@ -118,7 +118,8 @@ void set_cia402(const ServeOptions& o, const ActuatorParams& actuator,
   c.can = o.can_or_sim();
   c.sim_drop_fraction = o.sim_can_drop;
   c.sim_seed = o.seed;
-  if (!o.sim_can_silence_at.empty()) c.sim_silence_at_s = parse_duration_s(o.sim_can_silence_at);
+  if (!o.sim_can_silence_at.empty())
+    c.sim_silence_at_s = parse_duration_s(o.sim_can_silence_at, "--sim-can-silence-at");
   c.drive.loop_period_s = 1.0 / actuator.sample_rate_hz;
   c.drive.counts_per_motor_turn = actuator.motor_counts_per_rev;
   c.drive.gear_ratio = actuator.gear_ratio;
@@ -388,7 +389,7 @@ void wait_for_stop(double duration_s, runtime::Service& service) {
 
 void run_serve(const ServeOptions& o) {
   const modbus::NetworkConfig net = network_config(o);
-  const double duration_s = o.duration.empty() ? 0.0 : parse_duration_s(o.duration);
+  const double duration_s = o.duration.empty() ? 0.0 : parse_duration_s(o.duration, "--duration");
   std::string model_used;
   const runtime::ServiceConfig sc = service_config(o, net, model_used);
   runtime::Service service(sc);  // "require" makes start() throw

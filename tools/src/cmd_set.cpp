@@ -28,7 +28,7 @@ struct CommandFlags {
     op::CommandOptions c;
     c.wait_done = !no_wait;
     c.claim = !no_claim;
-    c.done_timeout_s = parse_duration_s(wait);
+    c.done_timeout_s = parse_duration_s(wait, "--wait");
     return c;
   }
 };
@@ -88,29 +88,32 @@ std::string release(op::Client& client, bool force_mode, const std::string& said
   return done + "enable cleared, drive disabled without a fault";
 }
 
+/// `v` with `places` decimals, as the lines below say seconds.
+std::string fixed(double v, int places) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.*f", places, v);
+  return b;
+}
+
 /// Keeps control until Ctrl-C or SIGTERM (or for `hold`), then releases it cleanly (release).
 /// Says both, so nothing happens in secret.
 void hold_then_release(op::Client& client, const std::string& hold, const op::CommandOptions& o,
                        const std::string& held, bool force_mode) {
   const double hold_s =
-      hold.empty() ? std::numeric_limits<double>::infinity() : parse_duration_s(hold);
+      hold.empty() ? std::numeric_limits<double>::infinity() : parse_duration_s(hold, "--hold");
+  const std::string released = force_mode ? " (force to 0 N, drive disabled)" : " (drive disabled)";
   if (hold.empty())
-    std::printf("holding %s: control kept until Ctrl-C, then released%s\n", held.c_str(),
-                force_mode ? " (force to 0 N, drive disabled)" : " (drive disabled)");
+    print_line("holding " + held + ": control kept until Ctrl-C, then released" + released);
   else
-    std::printf("holding %s for %.1f s, then released%s\n", held.c_str(), hold_s,
-                force_mode ? " (force to 0 N, drive disabled)" : " (drive disabled)");
+    print_line("holding " + held + " for " + fixed(hold_s, 1) + " s, then released" + released);
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
   op::hold(client, hold_s, o, [] { return g_interrupted != 0; });
   const double held_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::string done = release(client, force_mode);
-  if (force_mode)
-    std::printf("held for %.1f s; released: %s\n", held_s, done.c_str());
-  else
-    std::printf("held for %.1f s; released: %s (the screw stays where it is)\n", held_s,
-                done.c_str());
+  print_line("held for " + fixed(held_s, 1) + " s; released: " + done +
+             (force_mode ? "" : " (the screw stays where it is)"));
 }
 
 /// drive_state (IR 13).
@@ -331,8 +334,7 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
   const std::string unit_or_name = !codes.empty()
                                        ? " (" + op::code_name(codes, v) + ")"
                                        : (r->unit.empty() ? "" : " " + std::string(r->unit));
-  std::printf("%s = %s%s written%s\n", op::si_name(*r).c_str(), op::si_text(*r, v).c_str(),
-              unit_or_name.c_str(), raw_note.c_str());
+  print_line(op::si_name(*r) + " = " + op::si_text(*r, v) + unit_or_name + " written" + raw_note);
 }
 
 /// The controller's own limits, read from its limits block (what it refused against); this
@@ -409,9 +411,10 @@ void run_set(SetOptions o, const CommandFlags& f, const ConnectionOptions& conn)
     return;
   }
   // What can be checked without the controller is, before a connection is opened: the value's
-  // unit, --hold; the limits are the controller's own, read from it.
+  // unit, --hold, --wait; the limits are the controller's own, read from it.
   if (force || position) op::parse_quantity(value_of(o), force ? "N" : "m");
-  if (!f.hold.empty()) parse_duration_s(f.hold);
+  if (!f.hold.empty()) parse_duration_s(f.hold, "--hold");
+  parse_duration_s(f.wait, "--wait");
   if (reference && f.no_wait && f.hold.empty())
     throw ClientError(Kind::refused_locally,
                       "set reference-move --no-wait would keep control until Ctrl-C: drop "
@@ -430,20 +433,21 @@ void run_set(SetOptions o, const CommandFlags& f, const ConnectionOptions& conn)
   if (f.no_claim) refuse_no_claim_unless_enabled(client);
   const op::CommandResult res = send_or_release(client, p, f);
   if (res.done)
-    std::printf("%s: done (%s) after %.2f s\n", p.summary.c_str(),
-                p.mode == reg::Mode::force ? "force reached" : "in position", res.elapsed_s);
+    print_line(p.summary + ": done (" +
+               (p.mode == reg::Mode::force ? "force reached" : "in position") + ") after " +
+               fixed(res.elapsed_s, 2) + " s");
   else if (g_interrupted)  // not done: no "holding" follows, the exit code says so
     throw ClientError(
         Kind::interrupted,
         p.summary + ": acknowledged, interrupted before done" +
             (f.no_claim ? std::string() : "; " + release_after_interrupt(client, p.mode)));
   else
-    std::printf("%s: acknowledged by the controller\n", p.summary.c_str());
+    print_line(p.summary + ": acknowledged by the controller");
   // A claimed control is held, then released; without a claim this client owns nothing. A
   // reference move is a task with an end: done, it lets go (a script calling it returns).
   if (!f.no_claim && p.mode == reg::Mode::reference_move && f.hold.empty() && res.done)
-    std::printf("released: %s (the move is over; --hold keeps control after it)\n",
-                release(client, false).c_str());
+    print_line("released: " + release(client, false) +
+               " (the move is over; --hold keeps control after it)");
   else if (!f.no_claim)
     hold_then_release(client, f.hold, f.options(), p.summary, p.mode == reg::Mode::force);
 }
@@ -457,8 +461,15 @@ void add_set(CLI::App& app) {
   auto conn = add_connection_options(cmd);
   auto f = std::make_shared<CommandFlags>();
   auto o = std::make_shared<SetOptions>();
-  cmd->add_option("what", o->what, "force, position, idle, reference-move, or a register name")
-      ->required();
+  cmd->add_option("what", o->what, "force, position, idle, reference-move, or a register name");
+  // Not ->required(): CLI11 would say "what is required", the positional's name in this file.
+  cmd->parse_complete_callback([o] {
+    if (o->what.empty())
+      throw CLI::RequiredError(
+          "say what to set: maglead set force|position|idle|reference-move|SETTING [VALUE] (e.g. "
+          "'maglead set force 12.5', 'maglead set position 20mm', 'maglead set watchdog_s 0.5s')",
+          CLI::ExitCodes::RequiredError);
+  });
   cmd->add_option("value", o->value,
                   "Value with optional unit: 12.5, 12.5N, 20mm, 0.02m (a bare number is in SI "
                   "units, N or m; under a raw register name such as watchdog_ms, in its unit)");
@@ -491,11 +502,11 @@ void add_drive_command(CLI::App& app, const char* name, const char* help, Step s
   const bool holds = std::string_view(name) == "enable";
   cmd->callback([conn, resync, hold, name, step, holds] {
     run_operator(name, [&] {
-      if (!hold->empty()) parse_duration_s(*hold);
+      if (!hold->empty()) parse_duration_s(*hold, "--hold");
       if (holds) catch_interrupt();
       op::Client client(endpoint_of(*conn));
       client.check_identity();
-      std::printf("%s\n", step(client, *resync).c_str());
+      print_line(step(client, *resync));
       if (holds) hold_then_release(client, *hold, {}, "control", false);
     });
   });

@@ -54,7 +54,7 @@ void add_simulate(CLI::App& app) {
   cmd->callback([o] {
     ScenarioOptions opt;
     opt.scenario = o->scenario;
-    opt.duration_s = parse_duration_s(o->duration);
+    opt.duration_s = parse_duration_s(o->duration, "--duration");
     opt.seed = o->seed;
     opt.plant.actuator = load_actuator_or_default(o->config);
     apply_plant_effects("--effect", o->effects, opt.plant.effects);

@@ -105,8 +105,24 @@ Screen screen_size() {
   return s;
 }
 
+/// The columns `s` takes; UTF-8 (µm): a continuation byte takes none.
+int columns_of(const std::string& s) {
+  return static_cast<int>(std::count_if(
+      s.begin(), s.end(), [](char c) { return (static_cast<unsigned char>(c) & 0xC0U) != 0x80U; }));
+}
+
+/// `s` cut to `width` columns, a UTF-8 character never cut in two.
 std::string fit(std::string s, int width) {
-  if (static_cast<int>(s.size()) > width) s.resize(static_cast<std::size_t>(std::max(0, width)));
+  if (width <= 0) return {};
+  int columns = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if ((static_cast<unsigned char>(s[i]) & 0xC0U) == 0x80U) continue;
+    if (columns == width) {
+      s.resize(i);
+      break;
+    }
+    ++columns;
+  }
   return s;
 }
 
@@ -248,7 +264,7 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
     std::string in(int width) const {
       for (const auto* l : {&label, &short_label}) {
         std::string s = printf_str("%-*s %s", l == &label ? 11 : 0, l->c_str(), value.c_str());
-        if (static_cast<int>(s.size()) <= width) return s;
+        if (columns_of(s) <= width) return s;
       }
       return {};
     }
@@ -264,7 +280,7 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
       L.push_back(fit(b.in(w).empty() ? b.short_label + " " + b.value : b.in(w), w));
       return;
     }
-    left.resize(static_cast<std::size_t>(half), ' ');
+    left.append(static_cast<std::size_t>(half - columns_of(left)), ' ');
     L.push_back(left + right);
   };
   const bool twin = !(at("twin_pred_nut_pos_um") == 0 && at("twin_pred_force_mn") == 0 &&
@@ -289,7 +305,8 @@ void value_rows(const op::Values& v, int w, std::vector<std::string>& L) {
                             : std::string("-")));
   pair(cell("phase", "phi", printf_str("%.4f rad", at("phase_urad"))),
        cell("twin", "twin",
-            twin ? printf_str("%.2f N, %.1f um", at("twin_dynamic_force_mn"),
+            // The residual is measured minus predicted position, in µm as serve says µs.
+            twin ? printf_str("%.2f N, residual %.1f µm", at("twin_dynamic_force_mn"),
                               at("twin_residual_pos_um") * 1e6)
                  : std::string("not running")));
 }
@@ -446,7 +463,7 @@ class Watcher {
         ep_(ep),
         client_(std::move(client)),
         full_screen_(full_screen),
-        window_s_(parse_duration_s(o.window)) {
+        window_s_(parse_duration_s(o.window, "--window")) {
     view_.endpoint = ep.describe();
   }
 
@@ -528,7 +545,7 @@ class Watcher {
 };
 
 void run_watch(const WatchOptions& o, const ConnectionOptions& conn) {
-  parse_duration_s(o.window);  // a bad window is refused before anything is opened
+  parse_duration_s(o.window, "--window");  // a bad window is refused before anything is opened
   const op::Endpoint ep = endpoint_of(conn);
   // Connect before taking the screen: a wrong address stays visible as one line, exit 3.
   auto client = std::make_unique<op::Client>(ep);
@@ -556,8 +573,8 @@ void add_watch(CLI::App& app) {
                                  "a terminal (q or Ctrl-C quits)");
   auto conn = add_connection_options(cmd);
   auto o = std::make_shared<WatchOptions>();
-  cmd->add_option("--rate", o->rate_hz, "Refreshes per second")
-      ->check(CLI::Range(0.5, 50.0))
+  cmd->add_option("--rate", o->rate_hz, "Refreshes per second [Hz], 0.5 .. 50")
+      ->check(number_in({0.5, 50.0, "Hz", "refreshes per second", "--rate 10"}))
       ->capture_default_str();
   cmd->add_option("--count", o->count, "Quit after this many refreshes (0: until q or Ctrl-C)")
       ->capture_default_str();
