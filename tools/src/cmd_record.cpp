@@ -201,6 +201,20 @@ void print_summary(const RecordOptions& o, const op::Client& client, double loop
   std::printf("wrote %s%s\n", o.out.c_str(), replacing.c_str());
 }
 
+/// Gaps too many or too long make the readers refuse the file: said now, by the reader's own
+/// rule, not when the analysis is run on it.
+void warn_if_readers_refuse(const RecordOptions& o, const Tally& t) {
+  if (t.gaps == 0 || t.rows == 0) return;
+  try {
+    (void)read_recording(o.out);
+  } catch (const RecordingError& e) {
+    std::fprintf(stderr,
+                 "warning: the readers (analyze, inspect, …) refuse this recording as it is: %s; "
+                 "record again at a lower --rate (the polls fell behind)\n",
+                 e.what());
+  }
+}
+
 void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   // A bad duration is refused before anything is opened.
   parse_duration_s(o.duration, "--duration");
@@ -228,6 +242,7 @@ void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   print_summary(o, client, loop_hz, t, replacing);
+  warn_if_readers_refuse(o, t);
   // Stopped before its duration: the file is whole and readable, but shorter than asked.
   if (g_interrupted && t.lost.empty())
     throw ClientError(ClientError::Kind::interrupted,
