@@ -403,3 +403,37 @@ TEST(ForceEnvelope, ASetpointBelowTheHeldLoadBacksOffTheWindowEnd) {
     EXPECT_NE(after.force_reached_reason, stroke_end);
   }
 }
+
+// A PLC reads force_loop_state: near a landing it must see approaching (2) → landing (3) once
+// per approach, not a flip with each encoder edge. Creeping in, the sliding estimate swings by
+// up to ±2.8 N around the setpoint; before, the published state followed it across the land
+// tolerance (10–22 flips 3→2 per setpoint here). The loads are the same to the hundredth of a
+// newton before and after: the feed-forward was not delayed. (A second approach after a
+// break-away, 1 → 2 → 3, is a landing of its own.)
+TEST(ForceLoopState, ALandingIsPublishedOnce) {
+  const auto approaching = static_cast<std::uint16_t>(ForceLoopState::approaching);
+  const auto landing = static_cast<std::uint16_t>(ForceLoopState::landing);
+  for (const double k : {600.0, 2000.0, 10000.0}) {
+    Rig rig({"spring", k}, PlantEffects{}, ServedModel{});
+    for (const double sp : {10.0, -10.0, 3.0, 15.0, 0.0}) {
+      rig.force(sp);
+      std::vector<std::uint16_t> seq;
+      int back = 0, into = 0, approaches = 0;
+      rig.run(kStep_s, [&](const Snapshot& s) {
+        const std::uint16_t now = s.force_loop_state;
+        if (!seq.empty() && seq.back() == now) return;
+        if (!seq.empty() && seq.back() == landing && now == approaching) ++back;
+        if (!seq.empty() && seq.back() == approaching && now == landing) ++into;
+        if (now == approaching) ++approaches;
+        seq.push_back(now);
+      });
+      std::printf("%5.0f N/m, %5.1f N: load %6.2f N, %2d back to approaching, %2d into landing:", k,
+                  sp, rig.load_out_n(), back, into);
+      for (std::size_t i = 0; i < seq.size() && i < 16; ++i) std::printf(" %u", seq[i]);
+      std::printf("%s\n", seq.size() > 16 ? " ..." : "");
+      EXPECT_EQ(back, 0) << k << " N/m, " << sp << " N";
+      EXPECT_LE(into, approaches) << k << " N/m, " << sp << " N";
+      EXPECT_NEAR(rig.load_out_n(), sp, ForceLoopConfig{}.tolerance_n) << k << " N/m, " << sp;
+    }
+  }
+}
