@@ -29,6 +29,9 @@ constexpr double kWindowNear_m = 5e-3;
 constexpr double kEndApproach_s = 2.0 * kWindowLookahead_s;
 // On that curve the nut arrives this close to the end slow enough to hold at once (2 mm/s).
 constexpr double kWindowArrive_m = 0.2e-3;
+// The window's hold counts as settled once the nut stands this close to where it began: the
+// position loop integrates only errors beyond it (quantization).
+constexpr double kHoldSettled_counts = 1.5;
 constexpr double kMaxTrack_rad = 0.5;  // most the phase tracking may add to a command
 // A fault reset is done after the fault stayed away this long: longer than a CiA 402 drive's
 // fault-reset handshake and the master's PDO supervision (a few cycles), short for a person.
@@ -440,6 +443,11 @@ bool Controller::next_reference_leg() noexcept {
 }
 
 double Controller::position_command_rad(double dt) noexcept {
+  return position_command_rad(dt, phase_lo_rad_, phase_hi_rad_);
+}
+
+/// The position loop with its phase command kept within [lo_rad, hi_rad] (at most the safe range).
+double Controller::position_command_rad(double dt, double lo_rad, double hi_rad) noexcept {
   const auto& a = cfg_.actuator;
   const double gain_rad_per_m = kTwoPi / a.lead_m + cfg_.position_gain_rad_per_m;
   if (!waiting_for_nut(gain_rad_per_m)) run_profile(dt);
@@ -448,11 +456,12 @@ double Controller::position_command_rad(double dt) noexcept {
   // not while the command is at the safe limit the error pushes towards (windup).
   const bool pushing_limit = position_clamped_ && (err > 0) == (integral_rad_ > 0);
   if (std::abs(err) > 1.5 * a.linear_count_m && !pushing_limit)
-    integral_rad_ = std::clamp(integral_rad_ + cfg_.position_integral_rad_per_m_s * err * dt,
-                               phase_lo_rad_, phase_hi_rad_);
+    integral_rad_ =
+        std::clamp(integral_rad_ + cfg_.position_integral_rad_per_m_s * err * dt, lo_rad, hi_rad);
   const double wanted_rad = gain_rad_per_m * err + integral_rad_;
-  const double phase = std::clamp(wanted_rad, phase_lo_rad_, phase_hi_rad_);
+  const double phase = std::clamp(wanted_rad, lo_rad, hi_rad);
   position_clamped_ = phase != wanted_rad;
+  position_phase_rad_ = phase;
   return rest_angle_rad(s_.nut_pos_m, a.lead_m) + phase_offset_rad_ + phase;
 }
 
@@ -721,8 +730,11 @@ void Controller::start_force_loop(bool afresh) noexcept {
 }
 
 double Controller::force_mode_command_rad(double dt, Reached& r) noexcept {
-  if (window_end_ == 0) check_force_window();
-  if (window_end_ != 0) return position_command_rad(dt);
+  if (window_end_ == 0)
+    check_force_window();
+  else
+    release_window_end();
+  if (window_end_ != 0) return window_hold_command_rad(dt);
   const auto [lo, hi] = force_window();
   force_loop_.set_speed_caps(std::max(0.0, hi - s_.nut_pos_m) / kEndApproach_s,
                              std::max(0.0, s_.nut_pos_m - lo) / kEndApproach_s);
@@ -745,9 +757,43 @@ void Controller::check_force_window() noexcept {
                     (p <= lo + kWindowArrive_m || (ahead <= lo && p <= lo + kWindowNear_m));
   window_end_ = up ? 1 : down ? -1 : 0;
   if (window_end_ == 0) return;
+  hold_at_setpoint_ = hold_settled_ = false;
   target_m_ = prof_pos_m_ = std::clamp(s_.nut_pos_m, lo, hi);
   prof_vel_m_s_ = 0.0;
   integral_rad_ = 0.0;
+}
+
+/// Held at a window's end, the hold lasts only while the force error asks for motion towards
+/// that end. A load that presses harder from outside pushes the nut off the end against the
+/// hold's drive, which is at most the setpoint's (window_hold_command_rad): once it slides away
+/// with the hold at that drive and the observer's load force past the setpoint, the force loop
+/// takes over at once. A nut still coasting out, stopping, or pulled back by the hold itself is
+/// not released: while it stops the sliding estimate carries its braking, not the load.
+void Controller::release_window_end() noexcept {
+  const bool pushed_off = load_.motion == -window_end_ && hold_at_setpoint_;
+  if (pushed_off && (force_set_n_ - load_.force_n) * window_end_ < 0.0) start_force_loop(true);
+}
+
+/// The hold at a window's end: the position loop, but never pushing towards that end harder
+/// than the setpoint asks (the force loop's drive for it). A load pressing back harder than the
+/// setpoint and the nut's break-away then moves the nut off the end, and the observer sees the
+/// slide and the load's force: a stiffer hold would stand, and no one would know the load.
+double Controller::window_hold_command_rad(double dt) noexcept {
+  const auto inv =
+      phase_for_output_force(cfg_.calibration, force_set_n_ - cfg_.friction.offset_n, 1.0);
+  const double set_rad = std::clamp(inv.status == InverseStatus::ok ? inv.phase_rad : 0.0,
+                                    phase_lo_rad_, phase_hi_rad_);
+  // Only once the nut stands where the hold began (within the position loop's quantization):
+  // stopping it and taking it back there may need more, and the force the observer keeps is
+  // the one it stops with.
+  hold_settled_ = hold_settled_ ||
+                  (load_.motion == 0 && std::abs(target_m_ - s_.nut_pos_m) <=
+                                            kHoldSettled_counts * cfg_.actuator.linear_count_m);
+  if (!hold_settled_) return position_command_rad(dt);
+  const double cmd = position_command_rad(dt, window_end_ < 0 ? set_rad : phase_lo_rad_,
+                                          window_end_ > 0 ? set_rad : phase_hi_rad_);
+  hold_at_setpoint_ = position_phase_rad_ == set_rad;
+  return cmd;
 }
 
 /// The fault reaction's own state machine: releasing (ramp the output force to zero) →

@@ -16,6 +16,14 @@ constexpr double kAtLimitShare = 0.9;
 // again once it has landed, so the state (and a PLC's force_limited bit) does not blink with
 // each count of the speed estimate.
 constexpr double kLeaveLimitShare = 0.5;
+// Once landing, the state stays landing while the nut slides on, unless the estimate stays
+// beyond the force_reached tolerance this long. Creeping in, the sliding estimate swings with
+// each encoder edge, beyond the land tolerance for up to 60 ms and beyond the force_reached
+// tolerance for up to 8 ms (ForceAtLoad's four loads): the state would flip 2↔3 with each edge
+// (up to 38 flips 3→2 per setpoint). 30 ms is about four times that longest swing. Only the
+// published state waits: the feed-forward still follows the land tolerance every cycle, so
+// force control is not delayed.
+constexpr double kLeaveLanding_s = 0.03;
 }  // namespace
 
 ForceLoop::ForceLoop(const ForceLoopConfig& config) : cfg_(config) {
@@ -79,16 +87,21 @@ double ForceLoop::breakaway_drive_n(const LoadEstimate& est, double dt_s) noexce
   return ramp_n_;
 }
 
-double ForceLoop::sliding_drive_n(const LoadEstimate& est) noexcept {
+double ForceLoop::sliding_drive_n(const LoadEstimate& est, double dt_s) noexcept {
   const double e = setpoint_n_ - est.force_n;
   const double damping = cfg_.damping_n_s_per_m * est.nut_vel_m_s;
+  const bool was_landing = state_ == ForceLoopState::landing;
+  off_setpoint_s_ = was_landing && std::abs(e) > cfg_.tolerance_n ? off_setpoint_s_ + dt_s : 0.0;
   if (std::abs(e) <= cfg_.land_tolerance_n) {
     state_ = ForceLoopState::landing;  // friction alone stops the nut here
     landed_once_ = true;
     return setpoint_n_ - damping;
   }
   const bool was_limited = state_ == ForceLoopState::speed_limited;
-  state_ = ForceLoopState::approaching;
+  // The feed-forward comes back at once; the state says approaching again only once the
+  // estimate has stayed off the setpoint (kLeaveLanding_s).
+  state_ = was_landing && off_setpoint_s_ < kLeaveLanding_s ? ForceLoopState::landing
+                                                            : ForceLoopState::approaching;
   // Feed friction forward only while the nut moves the way the load force must go; moving
   // the other way, friction and damping brake it.
   const bool towards = (e > 0.0) == (est.motion > 0);
@@ -120,7 +133,7 @@ double ForceLoop::drive_n(const LoadEstimate& est, double dt_s) noexcept {
   double drive;
   if (est.motion != 0) {
     slid_ = true;
-    drive = sliding_drive_n(est);
+    drive = sliding_drive_n(est, dt_s);
   } else {
     const bool holding =
         state_ == ForceLoopState::holding || state_ == ForceLoopState::holding_no_motion;

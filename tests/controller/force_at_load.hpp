@@ -164,6 +164,9 @@ class Rig {
     run(seconds, [](const Snapshot&) {});
   }
   double t_s() const { return t_s_; }
+  /// Moves the load's anchor (a spring's free length): a push from outside, not the loop's.
+  void move_anchor(double anchor_m) { anchor_m_ = anchor_m; }
+  double anchor_m() const { return anchor_m_; }
   const std::vector<double>& commands() const { return *commands_; }
 
   static constexpr double kAnchor_m = 0.05;

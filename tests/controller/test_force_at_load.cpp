@@ -403,3 +403,113 @@ TEST(ForceEnvelope, ASetpointBelowTheHeldLoadBacksOffTheWindowEnd) {
     EXPECT_NE(after.force_reached_reason, stroke_end);
   }
 }
+
+// A PLC reads force_loop_state: near a landing it must see approaching (2) → landing (3) once
+// per approach, not a flip with each encoder edge. Creeping in, the sliding estimate swings by
+// up to ±2.8 N around the setpoint; before, the published state followed it across the land
+// tolerance (10–22 flips 3→2 per setpoint here). The loads are the same to the hundredth of a
+// newton before and after: the feed-forward was not delayed. (A second approach after a
+// break-away, 1 → 2 → 3, is a landing of its own.)
+TEST(ForceLoopState, ALandingIsPublishedOnce) {
+  const auto approaching = static_cast<std::uint16_t>(ForceLoopState::approaching);
+  const auto landing = static_cast<std::uint16_t>(ForceLoopState::landing);
+  for (const double k : {600.0, 2000.0, 10000.0}) {
+    Rig rig({"spring", k}, PlantEffects{}, ServedModel{});
+    for (const double sp : {10.0, -10.0, 3.0, 15.0, 0.0}) {
+      rig.force(sp);
+      std::vector<std::uint16_t> seq;
+      int back = 0, into = 0, approaches = 0;
+      rig.run(kStep_s, [&](const Snapshot& s) {
+        const std::uint16_t now = s.force_loop_state;
+        if (!seq.empty() && seq.back() == now) return;
+        if (!seq.empty() && seq.back() == landing && now == approaching) ++back;
+        if (!seq.empty() && seq.back() == approaching && now == landing) ++into;
+        if (now == approaching) ++approaches;
+        seq.push_back(now);
+      });
+      std::printf("%5.0f N/m, %5.1f N: load %6.2f N, %2d back to approaching, %2d into landing:", k,
+                  sp, rig.load_out_n(), back, into);
+      for (std::size_t i = 0; i < seq.size() && i < 16; ++i) std::printf(" %u", seq[i]);
+      std::printf("%s\n", seq.size() > 16 ? " ..." : "");
+      EXPECT_EQ(back, 0) << k << " N/m, " << sp << " N";
+      EXPECT_LE(into, approaches) << k << " N/m, " << sp << " N";
+      EXPECT_NEAR(rig.load_out_n(), sp, ForceLoopConfig{}.tolerance_n) << k << " N/m, " << sp;
+    }
+  }
+}
+
+// Held at the window's end by a setpoint beyond it (7.5 N on a 600 N/m spring anchored 10 mm
+// from the end), the load then presses harder from outside (the spring's anchor moves 25 mm
+// away from that end over 2 s): past the setpoint the force error asks for motion away from the
+// end, and the loop releases the hold and lands on the setpoint inside the window, with no new
+// setpoint. Before, it stayed held (stroke_end) with the load 11 N past the setpoint. Sensorless,
+// the load is seen only when it pushes the nut off the end against the hold's drive (at most
+// the setpoint's) and its break-away: 4.6 N and 8.0 N past the setpoint here, never before it.
+// Both ends: a push at the far one, a pull at the near one.
+namespace {
+void load_presses_past_the_setpoint(double sign) {
+  const double anchor0 = sign > 0 ? 0.030 : 0.010, setpoint = sign * 7.5;
+  Rig rig({"600-40mm", 600.0}, PlantEffects{}, ServedModel{}, LoadCellTamper::Mode::as_measured, 3,
+          0.040, anchor0);
+  const auto stroke_end = static_cast<std::uint16_t>(ForceReachedReason::stroke_end);
+  rig.force(setpoint);
+  rig.run(2.0, [&](const Snapshot& s) {
+    if (std::getenv("ENVELOPE_TRACE") && s.cycle % 5 == 0 && s.t_s < 1.0)
+      std::printf(
+          "  %.3f s nut %.3f mm v %.4f load %.2f N observer %.2f [%.2f, %.2f] basis %u"
+          " state %u reason %u\n",
+          s.t_s, s.nut_pos_m * 1e3, s.nut_vel_m_s, rig.load_out_n(), s.observer_force_n,
+          s.observer_force_lo_n, s.observer_force_hi_n, s.observer_basis, s.force_loop_state,
+          s.force_reached_reason);
+  });
+  const Snapshot held = rig.snap();
+  std::printf("set %.1f N: held at %.2f mm, load %.2f N, observer %.2f N, reason %u\n", setpoint,
+              held.nut_pos_m * 1e3, rig.load_out_n(), held.observer_force_n,
+              held.force_reached_reason);
+  ASSERT_EQ(held.force_reached_reason, stroke_end);
+  double past_s = NAN, released_s = NAN;  // the load past the setpoint; the hold released
+  double released_load_n = NAN;
+  for (int i = 0; i < 2000; ++i) {
+    rig.move_anchor(anchor0 - sign * 0.025 * (i + 1) / 2000.0);
+    rig.run(1e-3, [&](const Snapshot& s) {
+      if (std::isnan(past_s) && (rig.load_out_n() - setpoint) * sign > 0) past_s = s.t_s;
+      if (std::isnan(released_s) && s.force_reached_reason != stroke_end)
+        released_s = s.t_s, released_load_n = rig.load_out_n();
+      if (std::getenv("ENVELOPE_TRACE") && i % 20 == 0)
+        std::printf(
+            "  %.3f s anchor %.2f mm nut %.3f mm load %.2f N observer %.2f [%.2f, %.2f]"
+            " basis %u state %u reason %u\n",
+            s.t_s, rig.anchor_m() * 1e3, s.nut_pos_m * 1e3, rig.load_out_n(), s.observer_force_n,
+            s.observer_force_lo_n, s.observer_force_hi_n, s.observer_basis, s.force_loop_state,
+            s.force_reached_reason);
+    });
+  }
+  double acc = 0;
+  int n = 0;
+  const double t_end = rig.t_s() + kStep_s;
+  rig.run(kStep_s, [&](const Snapshot& s) {
+    if (std::isnan(released_s) && s.force_reached_reason != stroke_end)
+      released_s = s.t_s, released_load_n = rig.load_out_n();
+    if (s.t_s > t_end - kWindow_s) acc += rig.load_out_n(), ++n;
+  });
+  const Snapshot after = rig.snap();
+  std::printf(
+      "load past %.1f N at %.3f s, hold released at %.3f s (%.0f ms later, load %.2f N); then "
+      "nut %.2f mm, load %.2f N over the last %.1f s, state %u, reason %u, alarm %u\n",
+      setpoint, past_s, released_s, (released_s - past_s) * 1e3, released_load_n,
+      after.nut_pos_m * 1e3, n ? acc / n : NAN, kWindow_s, after.force_loop_state,
+      after.force_reached_reason, after.alarm_code);
+  EXPECT_GE(released_s, past_s);  // never released while the load is short of the setpoint
+  EXPECT_NE(after.force_reached_reason, stroke_end);
+  EXPECT_FALSE((after.status_word >> reg::kForceLimited) & 1u);
+  EXPECT_EQ(after.alarm_code, 0);
+  EXPECT_NEAR(acc / n, setpoint, 1.0);
+}
+}  // namespace
+
+TEST(ForceEnvelope, ALoadPressingPastTheSetpointReleasesTheHoldPush) {
+  load_presses_past_the_setpoint(1.0);
+}
+TEST(ForceEnvelope, ALoadPressingPastTheSetpointReleasesTheHoldPull) {
+  load_presses_past_the_setpoint(-1.0);
+}

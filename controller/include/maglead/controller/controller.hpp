@@ -176,6 +176,8 @@ class Controller {
   void fault_reaction_command(double dt) noexcept;
   double force_mode_command_rad(double dt, Reached& reached) noexcept;
   void check_force_window() noexcept;
+  void release_window_end() noexcept;
+  double window_hold_command_rad(double dt) noexcept;
   void resync_to_nut() noexcept;
   void note_drive_fault_cause() noexcept;
   void update_position_limit(double dt) noexcept;
@@ -195,6 +197,7 @@ class Controller {
   /// Starts the reference move's next leg (a position target at its speed), if any.
   bool next_reference_leg() noexcept;
   double position_command_rad(double dt) noexcept;
+  double position_command_rad(double dt, double lo_rad, double hi_rad) noexcept;
   bool waiting_for_nut(double gain_rad_per_m) const noexcept;
   void start_force_loop(bool afresh) noexcept;
   void reject(registers::Reject why) noexcept;
@@ -245,6 +248,9 @@ class Controller {
   bool position_limited_ = false;     // …and the nut stalled there (force_limited)
   double stall_s_ = 0.0;
   int window_end_ = 0;  // force mode held at its window's end: +1 the far end, -1 the near one
+  double position_phase_rad_ = 0.0;  // the position loop's last phase command
+  bool hold_settled_ = false;        // the nut has stood still since the window's hold began
+  bool hold_at_setpoint_ = false;    // the window's hold pushes towards its end at the setpoint
   // The power stage: the last request made of the hardware, and a reset it still has to pass on.
   PowerRequest power_ = PowerRequest::disable;
   bool drive_reset_pending_ = false;

@@ -25,7 +25,7 @@ enum class ForceLoopState : std::uint8_t {
   off = 0,                 // not in force mode
   breaking_away = 1,       // stuck off the setpoint (or unknown): ramping the drive until it moves
   approaching = 2,         // sliding towards the setpoint with friction feed-forward and damping
-  landing = 3,             // at the setpoint: feed-forward off, friction stops the nut
+  landing = 3,             // came within the land tolerance: feed-forward off, friction stops it
   holding = 4,             // stuck with the load force at the setpoint: coupling held mid-band
   holding_no_motion = 5,   // the setpoint was already inside the known load-force bound
   blocked = 6,             // the ramp reached twice the model's break-away without motion
@@ -82,12 +82,13 @@ class ForceLoop {
 
  private:
   double breakaway_drive_n(const LoadEstimate& est, double dt_s) noexcept;
-  double sliding_drive_n(const LoadEstimate& est) noexcept;
+  double sliding_drive_n(const LoadEstimate& est, double dt_s) noexcept;
   double speed_limited_n(double drive_n, const LoadEstimate& est, bool was_limited) noexcept;
 
   ForceLoopConfig cfg_;
   ForceLoopState state_ = ForceLoopState::off;
   double setpoint_n_ = 0.0, hold_drive_n_ = 0.0, ramp_n_ = 0.0;
+  double off_setpoint_s_ = 0.0;  // landing, the estimate beyond the tolerance this long
   double cap_up_m_s_ = std::numeric_limits<double>::infinity();
   double cap_down_m_s_ = std::numeric_limits<double>::infinity();
   int dir_ = 1;
