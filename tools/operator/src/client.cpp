@@ -1046,15 +1046,17 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
                                               code_name(reg::reject_codes(), s.reject) +
                                               " (alarm " + alarm_text(c, s.alarm) + "): run '" +
                                               reset_command(s.alarm, true) + "'");
-      // Refused after a resync: the nut was still slipping when the resync took its lead.
+      // Refused after a resync: the nut was still slipping when the resync took its lead, or a
+      // load beyond the coupling's peak keeps the phase off the band.
       if (s.reject == static_cast<std::uint16_t>(reg::Reject::still_faulty) && resync_first)
         throw ClientError(Kind::rejected,
                           std::string(what) + " rejected by the controller: " +
                               code_name(reg::reject_codes(), s.reject) + " (alarm " +
                               alarm_text(c, s.alarm) +
-                              "): the phase is still outside its stable band, the nut still "
-                              "moving: wait until it stands, then run 'maglead reset --resync' "
-                              "again");
+                              "): the phase is still outside its stable band: the nut is still "
+                              "slipping, or a load beyond the coupling's peak holds it there; "
+                              "wait until it stands with that load taken off, then run 'maglead "
+                              "reset --resync' again");
       rejected(what, s);
     }
     if (!s.bit(ack))
