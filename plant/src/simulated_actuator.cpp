@@ -115,19 +115,6 @@ double SimulatedActuator::screw_angle_at(double motor_rad, double nut_pos_m) con
   return std::clamp(rest, gear_out - half_play, gear_out + half_play);
 }
 
-// The nut's mechanical end stops, kEndStopOvertravel_m beyond each end of the stroke: a nut
-// pushed past the stroke (the controller's stroke_limit fault) stops there, as a real one does,
-// rather than sliding on for metres.
-void SimulatedActuator::stop_at_end_stops() noexcept {
-  const auto& a = params_.actuator;
-  const double lo = a.stroke_min_m - kEndStopOvertravel_m,
-               hi = a.stroke_max_m + kEndStopOvertravel_m;
-  if (pos_m_ >= lo && pos_m_ <= hi) return;
-  pos_m_ = std::clamp(pos_m_, lo, hi);
-  vel_m_s_ = 0.0;
-  stuck_ = true;  // at rest against the stop; break-away is tested again next step
-}
-
 void SimulatedActuator::step(double dt) noexcept {
   const auto& a = params_.actuator;
   const auto& e = params_.effects;
@@ -177,7 +164,6 @@ void SimulatedActuator::step(double dt) noexcept {
     }
   }
   pos_m_ += vel_m_s_ * dt;
-  stop_at_end_stops();
   t_s_ += dt;
 
   // Motor position servo: critically damped second order with a speed limit.

@@ -111,10 +111,6 @@ class SimulatedActuator final : public ActuatorHardware {
 
  private:
   void step(double dt) noexcept;
-  void stop_at_end_stops() noexcept;
-  // The end stops lie this far beyond the stroke: past the controller's stroke_limit margin
-  // (0.5 mm), so the fault comes first, and within a few millimetres, as on a real axis.
-  static constexpr double kEndStopOvertravel_m = 2e-3;
   double external_force_n() const noexcept;
   /// The laws that scale F_m (gain error, drift, angle ripple, end effect) at one state.
   double coupling_gain(double t_s, double nut_pos_m, double screw_angle_rad) const noexcept;
