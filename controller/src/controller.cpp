@@ -574,6 +574,7 @@ void Controller::read_measurements(double now_s, const SensorSample& sample) noe
     last_heartbeat_s_ = now_s;
     state_ = DriveState::ready;
     synced_ = true;
+    s_.actuator_read = true;
     if (twin_) twin_->resync(now_s, screw, pos);
     observer_.reset();
   }

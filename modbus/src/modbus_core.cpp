@@ -469,30 +469,47 @@ bool ModbusCore::write_image(const ClientInfo& client, CommandImage next, bool h
   if (touches_control && !old_enable && new_enable && owner_ == 0 && client.id != 0)
     owner_ = client.id, owner_ipv4_ = client.ipv4;
   if (old_enable && !new_enable && owner_ == client.id) owner_ = 0, owner_ipv4_ = 0;
-  if (next.position_setpoint_m != image_.position_setpoint_m) start_position_staged_ = true;
   image_ = next;
   return true;
 }
 
-// Until a client writes a target, the staged one is where the nut was when the loop first read
-// it: an execute in position mode without a written target holds the nut where it is, as a
-// drive does at enable, instead of moving it to mid-stroke.
-void ModbusCore::stage_start_position() {
-  if (start_position_staged_) return;
+// Until a client writes a target, the staged one is where the nut is at each request: an execute
+// in position mode without a written target holds the nut where it is, as a drive takes its
+// actual position at enable, instead of moving it to mid-stroke.
+void ModbusCore::stage_position_until_written() {
+  if (target_written_) return;
   const Snapshot snap = controller_.snapshot();
-  if (snap.cycle == 0) return;  // the loop has not read the actuator yet
+  if (!snap.actuator_read) return;  // nut_pos_m is no measurement yet
   const auto& a = controller_.config().actuator;
   image_.position_setpoint_m = std::clamp(snap.nut_pos_m, a.stroke_min_m, a.stroke_max_m);
-  start_position_staged_ = true;
 }
+
+namespace {
+// Whether an accepted write request `pdu` covered a position-target register.
+bool writes_position_target(const std::uint8_t* pdu, std::size_t len) {
+  const auto u16 = [&](std::size_t i) {
+    return i + 1 < len ? static_cast<std::uint16_t>((pdu[i] << 8) | pdu[i + 1]) : std::uint16_t{0};
+  };
+  const std::uint8_t fc = pdu[0];
+  const std::uint16_t start = fc == 23 ? u16(5) : u16(1);
+  const std::uint16_t count = fc == 6 ? 1 : fc == 23 ? u16(7) : u16(3);
+  if (fc != 6 && fc != 16 && fc != 23) return false;
+  for (const char* name : {"position_setpoint_um", "position_setpoint_m_f32"}) {
+    const auto at = reg::find(name)->address;
+    if (start <= at + 1 && at < start + count) return true;
+  }
+  return false;
+}
+}  // namespace
 
 std::size_t ModbusCore::handle(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len,
                                std::uint8_t* out) {
   std::lock_guard lock(mutex_);
-  stage_start_position();
+  stage_position_until_written();
   ++bus_messages_;
   ++server_messages_;
   const std::size_t n = dispatch(client, pdu, len, out);
+  if (n >= 2 && !(out[0] & 0x80) && writes_position_target(pdu, len)) target_written_ = true;
   if (n >= 2 && (out[0] & 0x80)) {
     ++exceptions_;
     if (out[1] == static_cast<std::uint8_t>(Exception::server_busy)) ++busy_;

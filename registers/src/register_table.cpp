@@ -221,8 +221,8 @@ constexpr std::array kTable = std::to_array<Register>({
     {"force_setpoint_mn", HR, 1004, Type::i32, 1e-3, "N", RW, -100.0, 100.0,
      "Output-force setpoint (also refused beyond the calibrated safe limit)"},
     {"position_setpoint_um", HR, 1006, Type::i32, 1e-6, "m", RW, 0.0, 0.040,
-     "Target nut position (also refused outside the configured stroke); until written, where "
-     "the nut was at start"},
+     "Target nut position (also refused outside the configured stroke); until a client writes "
+     "one, where the nut is"},
     {"velocity_limit_um_s", HR, 1008, Type::i32, 1e-6, "m/s", RW, 1e-5, 0.1, "Profile speed limit"},
     {"accel_limit_um_s2", HR, 1010, Type::i32, 1e-6, "m/s^2", RW, 1e-4, 5.0,
      "Profile acceleration limit"},

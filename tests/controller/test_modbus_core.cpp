@@ -510,8 +510,8 @@ TEST(ModbusCore, BroadcastStateChangesAreRefused) {
 }
 
 // A PLC that enables and executes position mode without writing a target: the staged target is
-// where the nut started (30 mm here), read back as such, and the nut stays (it moved to
-// mid-stroke, 20 mm, before). A target written first is the one taken.
+// where the nut is (30 mm here), read back as such, and the nut stays (it moved to mid-stroke,
+// 20 mm, before). A target written is the one taken, even one equal to what was staged.
 TEST(ModbusCore, AnExecuteWithoutATargetHoldsTheNutWhereItStarted) {
   SimulatedActuator plant{paper_like_plant(), 3, 0.03};
   ControllerConfig cfg;
@@ -538,8 +538,11 @@ TEST(ModbusCore, AnExecuteWithoutATargetHoldsTheNutWhereItStarted) {
   ASSERT_EQ(req(write_one(cw, 1u | (1u << reg::kExecute))).size(), 5u);
   run(2000);
   EXPECT_NEAR(ctl.snapshot().nut_pos_m, start_m, 0.2e-3);
-  // A target written is taken, and the start position never replaces it.
+  // A target written is taken, and the nut's position never replaces it.
   ASSERT_EQ(req(write_regs(addr("position_setpoint_um"), i32_words(25000))).size(), 5u);
+  run(5);
+  const Bytes kept = req(rd(3, addr("position_setpoint_um"), 2));
+  EXPECT_EQ(static_cast<std::int32_t>((word_at(kept, 0) << 16) | word_at(kept, 1)), 25000);
   ASSERT_EQ(req(write_one(cw, 1)).size(), 5u);
   ASSERT_EQ(req(write_one(cw, 1u | (1u << reg::kExecute))).size(), 5u);
   run(3000);

@@ -87,6 +87,7 @@ enum class InPositionReason : std::uint16_t {
 
 struct Snapshot {
   std::uint64_t cycle = 0;
+  bool actuator_read = false;  // nut_pos_m is a measurement (the loop has read the actuator)
   double t_s = 0.0;
   double nut_pos_m = 0.0, nut_vel_m_s = 0.0, screw_angle_rad = 0.0, phase_rad = 0.0;
   double force_est_n = 0.0,

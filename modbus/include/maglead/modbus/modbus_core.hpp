@@ -108,7 +108,7 @@ class ModbusCore {
   std::optional<double> configured_value(std::string_view name) const;
   bool refuse(registers::Refusal why, Exception& ex);        // exception 04 with its reason; false
   bool refuse_value(registers::Refusal why, Exception& ex);  // exception 03 with its reason
-  void stage_start_position();
+  void stage_position_until_written();
 
   Controller& controller_;
   ServerOptions options_;
@@ -117,7 +117,7 @@ class ModbusCore {
   std::vector<const Binding*> bindings_;           // per table entry
   std::vector<std::optional<double>> configured_;  // per table entry: configured_value's
   CommandImage image_;
-  bool start_position_staged_ = false;  // stage_start_position done, or a client wrote one
+  bool target_written_ = false;  // a client wrote a position target (stage_position_until_written)
   std::uint16_t owner_ = 0;
   std::uint32_t owner_ipv4_ = 0;
   std::uint16_t refusal_ = 0;  // registers::Refusal of the last write refused (03 or 04)
