@@ -332,7 +332,7 @@ std::string analysis_figures(const AnalysisOutcome& o) {
     }
     h += "<figure><figcaption>" + escape_html(f.caption) +
          "</figcaption>\n<img class=\"map\" alt=\"" + escape_html(f.caption) + "\" src=\"" +
-         png_data_url(png) + "\"></figure>\n";
+         data_url_of_png_bytes(png) + "\"></figure>\n";
   }
   return h;
 }

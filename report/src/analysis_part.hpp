@@ -32,7 +32,7 @@ std::string fit_part(const AnalysisOutcome& o);
 /// Force pulses the analysis found, as a table (empty when none).
 std::string analysis_events(const AnalysisOutcome& o);
 
-/// The analysis's other figures (maps of the residual), drawn to PNG in out_dir and embedded.
+/// The analysis's other figures (maps of the residual), as PNG embedded in the page.
 std::string analysis_figures(const AnalysisOutcome& o);
 
 }  // namespace maglead::report

@@ -106,7 +106,7 @@ std::string map_figure(const Anomaly& a) {
          ".</b> Mean over the samples in each cell; blank cells were not "
          "visited.</figcaption>\n<img class=\"map\" "
          "alt=\"" +
-         escape_html(g.title) + "\" src=\"" + png_data_url(png) + "\"></figure>\n";
+         escape_html(g.title) + "\" src=\"" + data_url_of_png_bytes(png) + "\"></figure>\n";
 }
 
 // The drift statistic where the flag judged it; before its first verdict it was not judged,

@@ -50,7 +50,7 @@ std::string base64(std::string_view in) {
   return out;
 }
 
-std::string png_data_url(const std::string& png_bytes) {
+std::string data_url_of_png_bytes(const std::string& png_bytes) {
   return "data:image/png;base64," + base64(png_bytes);
 }
 

@@ -322,9 +322,6 @@ void save_panels_png(const std::string& path, const std::vector<Panel>& panels, 
 std::string panels_png(const std::vector<Panel>& panels, int width_px, int panel_height_px) {
   return png_of(panels_image(panels, width_px, panel_height_px));
 }
-void save_heatmap_png(const std::string& path, const HeatMap& m, int width_px, int height_px) {
-  write_png(path, heatmap_image(m, width_px, height_px));
-}
 std::string heatmap_png(const HeatMap& m, int width_px, int height_px) {
   return png_of(heatmap_image(m, width_px, height_px));
 }

@@ -418,13 +418,12 @@ TEST(ForceLoopState, ALandingIsPublishedOnce) {
     for (const double sp : {10.0, -10.0, 3.0, 15.0, 0.0}) {
       rig.force(sp);
       std::vector<std::uint16_t> seq;
-      int back = 0, into = 0, approaches = 0;
+      int back = 0, into = 0;
       rig.run(kStep_s, [&](const Snapshot& s) {
         const std::uint16_t now = s.force_loop_state;
         if (!seq.empty() && seq.back() == now) return;
         if (!seq.empty() && seq.back() == landing && now == approaching) ++back;
         if (!seq.empty() && seq.back() == approaching && now == landing) ++into;
-        if (now == approaching) ++approaches;
         seq.push_back(now);
       });
       std::printf("%5.0f N/m, %5.1f N: load %6.2f N, %2d back to approaching, %2d into landing:", k,
@@ -432,7 +431,6 @@ TEST(ForceLoopState, ALandingIsPublishedOnce) {
       for (std::size_t i = 0; i < seq.size() && i < 16; ++i) std::printf(" %u", seq[i]);
       std::printf("%s\n", seq.size() > 16 ? " ..." : "");
       EXPECT_EQ(back, 0) << k << " N/m, " << sp << " N";
-      EXPECT_LE(into, approaches) << k << " N/m, " << sp << " N";
       EXPECT_NEAR(rig.load_out_n(), sp, ForceLoopConfig{}.tolerance_n) << k << " N/m, " << sp;
     }
   }

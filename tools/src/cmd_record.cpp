@@ -195,8 +195,8 @@ void print_summary(const RecordOptions& o, const op::Client& client, double loop
       t.timeouts + t.late, static_cast<std::size_t>(t.attempts), t.timeouts, t.late, t.repeated);
   if (t.gaps > 0)  // late replies: the rows' cycles lie further apart than a period
     std::printf(
-        "gaps: %zu rows missing in %zu places (readers fill them by interpolation and say "
-        "so)\n",
+        "gaps: %zu rows missing in %zu places (readers fill short gaps by interpolation and "
+        "say so)\n",
         t.gap_rows, t.gaps);
   std::printf("wrote %s%s\n", o.out.c_str(), replacing.c_str());
 }

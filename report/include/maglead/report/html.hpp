@@ -12,7 +12,7 @@ std::string escape_html(std::string_view text);
 std::string base64(std::string_view bytes);
 
 /// PNG bytes as a data:image/png URL: a page's figures live in the page, no file beside it.
-std::string png_data_url(const std::string& png_bytes);
+std::string data_url_of_png_bytes(const std::string& png_bytes);
 
 /// `significant` digits, "–" for NaN or infinity, a real minus sign.
 std::string number(double value, int significant = 3);

@@ -40,8 +40,6 @@ struct HeatMap {
   std::vector<double> values;  // row-major ny × nx, NaN = no data
 };
 /// A colour-mapped grid with axes and a colour bar.
-void save_heatmap_png(const std::string& path, const HeatMap& map, int width_px = 900,
-                      int height_px = 600);
 std::string heatmap_png(const HeatMap& map, int width_px = 900, int height_px = 600);
 
 }  // namespace maglead::plot
