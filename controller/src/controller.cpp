@@ -475,12 +475,22 @@ bool Controller::waiting_for_nut(double gain_rad_per_m) const noexcept {
   return (prof_pos_m_ - s_.nut_pos_m) * way > lead_max_m;
 }
 
+/// The phase whose coupling force gives `drive_n` on the nut: the drive is the coupling force
+/// plus the model's offset, and the calibration gives F_m. Within the safe phase range; a drive
+/// beyond the coupling's peak takes the range's end on its side, one not finite none.
+double Controller::phase_for_drive_rad(double drive_n) const noexcept {
+  const auto inv = phase_for_output_force(cfg_.calibration, drive_n - cfg_.friction.offset_n, 1.0);
+  const double phase = inv.status == InverseStatus::ok ? inv.phase_rad
+                       : !std::isfinite(drive_n)       ? 0.0  // no drive known: no force
+                       : inv.limit_n > 0               ? phase_hi_rad_
+                                                       : phase_lo_rad_;
+  return std::clamp(phase, phase_lo_rad_, phase_hi_rad_);
+}
+
 double Controller::force_command_rad(double dt) noexcept {
   const auto& a = cfg_.actuator;
   drive_n_ = force_loop_.drive_n(load_, dt);
-  // The drive is the coupling force plus the model's offset; the calibration gives F_m.
-  const auto inv = phase_for_output_force(cfg_.calibration, drive_n_ - cfg_.friction.offset_n, 1.0);
-  const double phase = inv.status == InverseStatus::ok ? inv.phase_rad : 0.0;
+  const double phase = phase_for_drive_rad(drive_n_);
   // The motor's servo lags a moving nut (a phase error that grows with speed and acts like
   // strong viscous friction): integrate the phase the coupling misses into the command.
   phase_track_rad_ =
@@ -780,10 +790,7 @@ void Controller::release_window_end() noexcept {
 /// setpoint and the nut's break-away then moves the nut off the end, and the observer sees the
 /// slide and the load's force: a stiffer hold would stand, and no one would know the load.
 double Controller::window_hold_command_rad(double dt) noexcept {
-  const auto inv =
-      phase_for_output_force(cfg_.calibration, force_set_n_ - cfg_.friction.offset_n, 1.0);
-  const double set_rad = std::clamp(inv.status == InverseStatus::ok ? inv.phase_rad : 0.0,
-                                    phase_lo_rad_, phase_hi_rad_);
+  const double set_rad = phase_for_drive_rad(force_set_n_);
   // Only once the nut stands where the hold began (within the position loop's quantization):
   // stopping it and taking it back there may need more, and the force the observer keeps is
   // the one it stops with.

@@ -497,6 +497,18 @@ std::span<const Code> drive_states() { return kStates; }
 std::span<const Code> modes() { return kModes; }
 std::span<const Code> reactions() { return kReactions; }
 std::span<const Code> refusals() { return kRefusals; }
+std::span<const Code> command_bits() {
+  static constexpr Code kBits[] = {
+      {kExecuteAck, "execute_ack", "the controller took the execute edge (while execute is held)"},
+      {kExecuteDone, "execute_done", "the executed target was reached and held for settle_s"},
+      {kResetAck, "reset_ack", "the controller took the fault_reset edge"},
+      {kResetDone, "reset_done",
+       "the fault stayed away: the reset is done (kept until the next reset)"},
+      {kResyncAck, "resync_ack", "the controller took the resync edge"},
+      {kResyncDone, "resync_done", "the phase was taken again on the nearest lead"},
+      {kRejected, "rejected", "the last edge command was rejected (command_reject_reason)"}};
+  return kBits;
+}
 std::span<const Code> codes_of(std::string_view register_name) {
   for (const auto& c : kCodeRegisters)
     if (c.register_name == register_name) return c.codes;

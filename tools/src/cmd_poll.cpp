@@ -20,14 +20,8 @@ bool no_load_cell(const reg::Register& r, const op::Values& all) {
 
 /// command_status's bits by name (registers.hpp CommandBit): "execute_done reset_done rejected".
 std::string command_bits_text(std::uint16_t word) {
-  static constexpr std::pair<reg::CommandBit, const char*> kNames[] = {
-      {reg::kExecuteAck, "execute_ack"}, {reg::kExecuteDone, "execute_done"},
-      {reg::kResetAck, "reset_ack"},     {reg::kResetDone, "reset_done"},
-      {reg::kResyncAck, "resync_ack"},   {reg::kResyncDone, "resync_done"},
-      {reg::kRejected, "rejected"}};
   std::string s;
-  for (const auto& [bit, name] : kNames)
-    if (((word >> bit) & 1u) != 0) s += (s.empty() ? "" : " ") + std::string(name);
+  for (const auto& name : op::command_bits(word)) s += (s.empty() ? "" : " ") + name;
   return s.empty() ? "(no bits set)" : s;
 }
 

@@ -492,6 +492,13 @@ std::string si_text(const reg::Register& r, double v) {
 
 bool has_load_cell(const Values& v) { return !std::isnan(v.at("load_cell_force_n_f32")); }
 
+std::vector<std::string> command_bits(std::uint16_t command_status) {
+  std::vector<std::string> out;
+  for (const auto& b : reg::command_bits())
+    if ((command_status >> b.value) & 1u) out.emplace_back(b.name);
+  return out;
+}
+
 std::vector<std::string> status_bits(std::uint16_t status_word) {
   std::vector<std::string> out;
   for (const auto& r : reg::table())

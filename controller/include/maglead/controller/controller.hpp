@@ -194,6 +194,7 @@ class Controller {
   void controlled_stop() noexcept;
   void run_profile(double dt) noexcept;
   double force_command_rad(double dt) noexcept;
+  double phase_for_drive_rad(double drive_n) const noexcept;
   void publish_observer() noexcept;
   /// Starts the reference move's next leg (a position target at its speed), if any.
   bool next_reference_leg() noexcept;

@@ -112,6 +112,8 @@ std::span<const Code> drive_states();
 std::span<const Code> modes();
 std::span<const Code> reactions();
 std::span<const Code> refusals();
+/// command_status's bits (IR 15): value is the bit number (CommandBit).
+std::span<const Code> command_bits();
 /// The codes of a register that holds one (drive_state, alarm_code, force_loop_state …); empty
 /// for a register that holds a quantity.
 std::span<const Code> codes_of(std::string_view register_name);

@@ -134,6 +134,8 @@ std::string code_name(std::span<const registers::Code> codes, double value);
 std::string code_meaning(std::span<const registers::Code> codes, double value);
 /// The names of the status bits that are set.
 std::vector<std::string> status_bits(std::uint16_t status_word);
+/// The bits set in command_status (IR 15), by name (registers::command_bits).
+std::vector<std::string> command_bits(std::uint16_t command_status);
 /// Whether the controller has a load cell: false on a backend without one (cia402), where its
 /// float32 register reads NaN and the fixed-point one 0 N, a reading no load cell made. `v` holds
 /// load_cell_force_n_f32.
