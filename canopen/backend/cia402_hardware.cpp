@@ -73,7 +73,7 @@ Cia402Hardware::Cia402Hardware(const ActuatorParams& actuator, const Cia402Backe
     sim_ = std::make_unique<Sim>(*plant_, opt_, d);
     bus = &sim_->port;
   } else {
-    auto socket = std::make_unique<SocketCanBus>(opt_.can);
+    auto socket = std::make_unique<SocketCanBus>(opt_.can, opt_.drive.bitrate_bit_s);
     socket->set_receive_filter(drive_receive_filter(opt_.drive.node_id));
     socket_ = std::move(socket);
     bus = socket_.get();

@@ -149,12 +149,14 @@ void Cia402Master::read_identity() {
   identity_.product_code = u32(0x1018, 2);
   identity_.revision = u32(0x1018, 3);
   identity_.serial = u32(0x1018, 4);
-  // 0x1008 is optional in CiA 301: a drive without it has no name to print, no more.
+  // 0x1008 is optional in CiA 301: a drive without it has no name to print, no more. Nor does
+  // one whose name was lost on every attempt: the node answered the identity just before, and
+  // a start-up is not refused for a name.
   std::vector<std::uint8_t> name;
   const SdoResult r = upload(0x1008, 0, name);
   if (r.ok())
     identity_.device_name.assign(name.begin(), name.end());
-  else if (r.abort_code != abort_no_object)
+  else if (r.abort_code != abort_no_object && r.status != SdoStatus::timeout)
     throw std::runtime_error("drive node " + std::to_string(cfg_.node_id) + ": " +
                              describe_sdo(r, true, 0x1008, 0) + timeout_advice(r));
 }

@@ -22,10 +22,10 @@
 namespace maglead::canopen {
 namespace {
 
-std::string bring_up_hint(const std::string& interface) {
-  return " (bring one up with `ip link set " + interface +
-         " up type can bitrate 1000000`; for a virtual test bus: `ip link add dev vcan0 type "
-         "vcan && ip link set vcan0 up`)";
+std::string bring_up_hint(const std::string& interface, std::uint32_t bitrate_bit_s) {
+  return " (bring one up at the drive's bit rate with `ip link set " + interface +
+         " up type can bitrate " + std::to_string(bitrate_bit_s) +
+         "`; for a virtual test bus: `ip link add dev vcan0 type vcan && ip link set vcan0 up`)";
 }
 
 }  // namespace
@@ -55,13 +55,14 @@ void SocketCanBus::set_receive_filter(std::span<const CanIdFilter> filters) {
                              "\": the receive filter was refused (" + std::strerror(errno) + ")");
 }
 
-SocketCanBus::SocketCanBus(const std::string& interface) : interface_(interface) {
+SocketCanBus::SocketCanBus(const std::string& interface, std::uint32_t bitrate_bit_s)
+    : interface_(interface) {
   if (interface.empty() || interface.size() >= IFNAMSIZ)
     throw std::runtime_error("CAN interface name \"" + interface + "\" is not valid");
   const unsigned index = if_nametoindex(interface.c_str());
   if (index == 0)
     throw std::runtime_error("CAN interface \"" + interface + "\" does not exist" +
-                             bring_up_hint(interface));
+                             bring_up_hint(interface, bitrate_bit_s));
   fd_ = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
   if (fd_ < 0)
     throw std::runtime_error("CAN interface \"" + interface + "\": no CAN_RAW socket (" +
@@ -80,7 +81,7 @@ SocketCanBus::SocketCanBus(const std::string& interface) : interface_(interface)
     close(fd_);
     fd_ = -1;
     throw std::runtime_error("CAN interface \"" + interface + "\" cannot be used: " + why +
-                             bring_up_hint(interface));
+                             bring_up_hint(interface, bitrate_bit_s));
   }
 }
 

@@ -44,7 +44,7 @@ DriveConfig load_drive_config(const std::string& path, DriveConfig base) {
   config::check_keys(path, *t, "[drive]",
                      {"node_id", "bitrate_bit_s", "counts_per_motor_turn", "second_encoder_index",
                       "second_encoder_sub", "second_encoder_m_per_count", "heartbeat_producer_s",
-                      "heartbeat_timeout_s"});
+                      "heartbeat_timeout_s", "sdo_timeout_s", "sdo_attempts"});
   read(path, *t, "node_id", base.node_id, 1, 127);
   read(path, *t, "bitrate_bit_s", base.bitrate_bit_s, 10'000, 1'000'000);
   read(path, *t, "counts_per_motor_turn", base.counts_per_motor_turn, 1, 1e9);
@@ -53,6 +53,8 @@ DriveConfig load_drive_config(const std::string& path, DriveConfig base) {
   read(path, *t, "second_encoder_m_per_count", base.second_encoder_m_per_count, 1e-9, 1e-2);
   read(path, *t, "heartbeat_producer_s", base.heartbeat_producer_s, 0.001, 65.535);
   read(path, *t, "heartbeat_timeout_s", base.heartbeat_timeout_s, 0.0015, 600);
+  read(path, *t, "sdo_timeout_s", base.sdo_timeout_s, 0.001, 10);
+  read(path, *t, "sdo_attempts", base.sdo_attempts, 1, 100);
   // What needs more than one key (a CiA bit rate, the bus load, heartbeat against timeout).
   try {
     check_drive_config(base);

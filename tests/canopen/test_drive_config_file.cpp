@@ -40,6 +40,18 @@ TEST(DriveConfigFile, TheShippedFileIsThePaperActuatorsDrive) {
   EXPECT_NEAR(c.second_encoder_m_per_count, paper.linear_count_m, 1e-8);  // 3 digits in the file
   EXPECT_EQ(c.heartbeat_producer_s, 0.1);
   EXPECT_EQ(c.heartbeat_timeout_s, 0.3);
+  EXPECT_EQ(c.sdo_timeout_s, 0.05);
+  EXPECT_EQ(c.sdo_attempts, 3);
+}
+
+// The keys the start-up's timeout advice names are ones the file takes.
+TEST(DriveConfigFile, TheSdoRetriesTheAdviceNamesAreSettable) {
+  const DriveConfig c = load_drive_config(
+      write_file("drive_sdo.toml", "[drive]\nsdo_timeout_s = 0.2\nsdo_attempts = 8\n"),
+      DriveConfig{});
+  EXPECT_EQ(c.sdo_timeout_s, 0.2);
+  EXPECT_EQ(c.sdo_attempts, 8);
+  EXPECT_NE(refusal("[drive]\nsdo_attempts = 0\n").find("outside 1 .. 100"), std::string::npos);
 }
 
 TEST(DriveConfigFile, AbsentKeysKeepTheBase) {

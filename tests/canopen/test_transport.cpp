@@ -130,6 +130,14 @@ TEST(SocketCan, AMissingInterfaceIsRefusedByNameWithHowToBringOneUp) {
     EXPECT_NE(what.find("ip link set mlnocan7 up type can bitrate 1000000"), std::string::npos)
         << what;
   }
+  // The hint brings the interface up at the drive's bit rate (drive.toml), not a fixed one.
+  try {
+    SocketCanBus bus("mlnocan7", 500'000);
+    FAIL() << "opened a CAN interface that does not exist";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("up type can bitrate 500000"), std::string::npos)
+        << e.what();
+  }
   EXPECT_THROW(SocketCanBus(""), std::runtime_error);
   EXPECT_THROW(SocketCanBus("an-interface-name-too-long"), std::runtime_error);
 }

@@ -201,6 +201,10 @@ def no_load_cell():
         rc, out, err = run(MAGLEAD, "watch", *conn, "--once")
         check(rc == 0 and ("alarm=drive_fault(drive_silent)" in out or "alarm=drive_fault(process_data_lost)" in out),
               f"watch names the drive fault's cause: {out.strip()} {err.strip()}")
+        # A silent drive is not cleared by a reset: the advice says to bring it back first.
+        rc, out, err = run(MAGLEAD, "set", *conn, "force", "3", "--config", CONFIG)
+        check(rc == 4 and "once the drive answers again" in err and "candump can0" in err,
+              f"set on a silent drive: bring it back before the reset: {err.strip()}")
     finally:
         srv.stop()
 

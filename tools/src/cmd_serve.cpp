@@ -96,7 +96,7 @@ void add_backend_options(CLI::App* cmd, ServeOptions& o) {
   b->add_option("--sim-can-drop", o.sim_can_drop,
                 "cia402 --can sim: fraction of CAN frames lost on the simulated bus (start-up "
                 "tries each SDO sdo_attempts times, 3 in drive.toml: from about 5 % loss it may "
-                "fail; raise sdo_attempts)")
+                "fail; raise sdo_attempts there)")
       ->check(CLI::Range(0.0, 0.5))
       ->capture_default_str();
   b->add_option("--sim-can-silence-at", o.sim_can_silence_at,
@@ -114,7 +114,9 @@ void set_cia402(const ServeOptions& o, const ActuatorParams& actuator,
     throw CLI::ValidationError(
         "--can", "applies to --backend cia402 only: type --backend cia402 --can " + o.can_or_sim());
   if (o.can_or_sim() != "sim" && (o.sim_can_drop > 0.0 || !o.sim_can_silence_at.empty()))
-    throw CLI::ValidationError("--sim-can-drop", "applies to --can sim only");
+    throw CLI::ValidationError(
+        o.sim_can_drop > 0.0 ? "--sim-can-drop" : "--sim-can-silence-at",
+        "applies to --can sim only (the simulated drive), not --can " + o.can_or_sim());
   c.can = o.can_or_sim();
   c.sim_drop_fraction = o.sim_can_drop;
   c.sim_seed = o.seed;

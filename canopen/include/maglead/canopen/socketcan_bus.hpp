@@ -23,7 +23,8 @@ class SocketCanBus final : public CanBus {
  public:
   /// Opens `interface` (e.g. "can0"); throws std::runtime_error naming it when it is missing or
   /// down, with the command that brings a CAN interface up.
-  explicit SocketCanBus(const std::string& interface);
+  /// `bitrate_bit_s`: the drive's, for the hint to bring the interface up at it.
+  explicit SocketCanBus(const std::string& interface, std::uint32_t bitrate_bit_s = 1'000'000);
   ~SocketCanBus() override;
   SocketCanBus(const SocketCanBus&) = delete;
   SocketCanBus& operator=(const SocketCanBus&) = delete;
