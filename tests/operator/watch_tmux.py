@@ -144,7 +144,7 @@ def main():
         alarm = " ".join(r.strip() for r in rows)
         check("then an enable edge" in alarm, f"60x20: the alarm text is whole: {rows[3:8]}")
         # The PLC's wording, and the tool's: what to type at this terminal.
-        check("from a terminal: 'maglead reset'" in alarm, f"60x20: the alarm says the tool's command: {rows[3:8]}")
+        check("from a terminal: run 'maglead reset'" in alarm, f"60x20: the alarm says the tool's command: {rows[3:8]}")
 
         # The server restarts on the same port: "reconnecting", then back with fresh values.
         srv.stop()

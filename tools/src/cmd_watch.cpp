@@ -333,8 +333,9 @@ std::string alarm_line(const op::Values& v, double alarm) {
                     op::code_meaning(codes, why).c_str());
   }
   const auto status = static_cast<std::uint16_t>(v.at("status_word"));
-  return s + "; from a terminal: '" +
-         op::reset_command(alarm, ((status >> reg::kStepOut) & 1u) != 0) + "'";
+  return s + "; from a terminal: " +
+         op::reset_step(alarm, v.at("drive_fault_cause"),
+                        op::reset_command(alarm, ((status >> reg::kStepOut) & 1u) != 0));
 }
 
 /// The full screen for a terminal of `scr` size: each line at most scr.width columns, at most

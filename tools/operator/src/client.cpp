@@ -792,31 +792,37 @@ std::optional<std::string> other_owner(Client& c) {
                           : "TCP connection " + fmt(id);
 }
 
-namespace {
-/// "run 'COMMAND'" and `tail`, unless a reset cannot clear the fault yet: a drive or bus that is
-/// gone is cleared only once it answers again, a drive that restarted only by starting serve
-/// again (only the start-up configures it).
-std::string reset_step(Client& c, double alarm, const std::string& command, const char* tail) {
+std::string reset_step(double alarm, double drive_fault_cause, const std::string& command,
+                       const char* tail) {
   std::string run = "run '" + command + "'" + tail;
   if (alarm != static_cast<double>(reg::Alarm::drive_fault)) return run;
-  const double cause =
-      c.read_range(reg::Table::input_register, reg::find("drive_fault_cause")->address, 1)
-          .at("drive_fault_cause");
   constexpr double kSilent = 2, kDataLost = 3, kBusOff = 4, kRestarted = 5;
-  if (cause == kRestarted)
+  if (drive_fault_cause == kRestarted)
     return "restart 'maglead serve' (a drive that restarted is configured only at start; a "
            "reset is refused)";
-  if (cause == kSilent || cause == kDataLost || cause == kBusOff)
+  if (drive_fault_cause == kSilent || drive_fault_cause == kDataLost ||
+      drive_fault_cause == kBusOff)
     return "once the drive answers again (its power and fault display, then 'ip -details "
            "-statistics link show can0' and 'candump can0'; a reset is refused until then), " +
            run;
   return run;
 }
+
+namespace {
+/// reset_step with the drive fault's cause read from the controller.
+std::string reset_step_read(Client& c, double alarm, const std::string& command, const char* tail) {
+  const double cause =
+      alarm != static_cast<double>(reg::Alarm::drive_fault)
+          ? 0.0
+          : c.read_range(reg::Table::input_register, reg::find("drive_fault_cause")->address, 1)
+                .at("drive_fault_cause");
+  return reset_step(alarm, cause, command, tail);
+}
 }  // namespace
 
 std::string reset_advice(Client& c, double alarm) {
   const auto who = other_owner(c);
-  if (!who) return reset_step(c, alarm, reset_command_now(c, alarm), " first");
+  if (!who) return reset_step_read(c, alarm, reset_command_now(c, alarm), " first");
   return "another client owns control (" + *who +
          ", IR 17-19), and the controller takes a reset from it only: it must clear the fault "
          "itself (a fault_reset edge in its control word, then enable 0 -> 1 again before its "
@@ -1042,8 +1048,8 @@ std::string disable_and_say(Client& c) {
   const Status s = read_status(c);
   if (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault))
     return "enable cleared; the drive stays in fault (alarm " + alarm_text(c, s.alarm) + "): " +
-           reset_step(c, s.alarm, reset_command(s.alarm, stepped_out(s.status_word)),
-                      " to clear it");
+           reset_step_read(c, s.alarm, reset_command(s.alarm, stepped_out(s.status_word)),
+                           " to clear it");
   return "drive disabled: enable cleared, control released (drive_state " +
          code_name(reg::drive_states(), s.drive_state) + ")";
 }

@@ -208,6 +208,11 @@ std::string disable_and_say(Client& client);
 /// `step_out_bit`: the status word's step_out bit, set after a slip whatever the alarm (a
 /// stroke_limit fault the nut slipped into).
 std::string reset_command(double alarm, bool step_out_bit = false);
+/// "run 'COMMAND'" and `tail`, unless a reset cannot clear the fault yet: a drive or bus that is
+/// gone (drive_fault_cause 2-4) is cleared only once it answers again, a drive that restarted (5)
+/// only by starting serve again (only the start-up configures it): then what to do instead.
+std::string reset_step(double alarm, double drive_fault_cause, const std::string& command,
+                       const char* tail = "");
 /// What clears a latched fault, said to a client that has not claimed control: "run 'COMMAND'
 /// first" (reset_command) when nobody owns control; when another client owns it, the controller
 /// refuses our reset (exception 04 not_owner), so the owner must clear it or let go first.
