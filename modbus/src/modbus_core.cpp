@@ -424,6 +424,8 @@ bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count,
     if (n_written < written.size()) written[n_written++] = {&r, binding, binding->image_get(image)};
     if (r.name == "heartbeat") heartbeat = true;
     if (r.name == "control_word") touches_control = true;
+    if (r.name == "position_setpoint_um" || r.name == "position_setpoint_m_f32")
+      request_writes_target_ = true;  // taken once the whole request is accepted (handle)
     addr += static_cast<std::uint32_t>(w);
   }
   return true;
@@ -484,32 +486,15 @@ void ModbusCore::stage_position_until_written() {
   image_.position_setpoint_m = std::clamp(snap.nut_pos_m, a.stroke_min_m, a.stroke_max_m);
 }
 
-namespace {
-// Whether an accepted write request `pdu` covered a position-target register.
-bool writes_position_target(const std::uint8_t* pdu, std::size_t len) {
-  const auto u16 = [&](std::size_t i) {
-    return i + 1 < len ? static_cast<std::uint16_t>((pdu[i] << 8) | pdu[i + 1]) : std::uint16_t{0};
-  };
-  const std::uint8_t fc = pdu[0];
-  const std::uint16_t start = fc == 23 ? u16(5) : u16(1);
-  const std::uint16_t count = fc == 6 ? 1 : fc == 23 ? u16(7) : u16(3);
-  if (fc != 6 && fc != 16 && fc != 23) return false;
-  for (const char* name : {"position_setpoint_um", "position_setpoint_m_f32"}) {
-    const auto at = reg::find(name)->address;
-    if (start <= at + 1 && at < start + count) return true;
-  }
-  return false;
-}
-}  // namespace
-
 std::size_t ModbusCore::handle(const ClientInfo& client, const std::uint8_t* pdu, std::size_t len,
                                std::uint8_t* out) {
   std::lock_guard lock(mutex_);
   stage_position_until_written();
   ++bus_messages_;
   ++server_messages_;
+  request_writes_target_ = false;
   const std::size_t n = dispatch(client, pdu, len, out);
-  if (n >= 2 && !(out[0] & 0x80) && writes_position_target(pdu, len)) target_written_ = true;
+  if (n >= 2 && !(out[0] & 0x80) && request_writes_target_) target_written_ = true;
   if (n >= 2 && (out[0] & 0x80)) {
     ++exceptions_;
     if (out[1] == static_cast<std::uint8_t>(Exception::server_busy)) ++busy_;

@@ -796,12 +796,11 @@ std::string reset_step(double alarm, double drive_fault_cause, const std::string
                        const char* tail) {
   std::string run = "run '" + command + "'" + tail;
   if (alarm != static_cast<double>(reg::Alarm::drive_fault)) return run;
-  constexpr double kSilent = 2, kDataLost = 3, kBusOff = 4, kRestarted = 5;
-  if (drive_fault_cause == kRestarted)
+  const std::string cause = code_name(reg::codes_of("drive_fault_cause"), drive_fault_cause);
+  if (cause == "drive_restarted")
     return "restart 'maglead serve' (a drive that restarted is configured only at start; a "
            "reset is refused)";
-  if (drive_fault_cause == kSilent || drive_fault_cause == kDataLost ||
-      drive_fault_cause == kBusOff)
+  if (cause == "drive_silent" || cause == "process_data_lost" || cause == "bus_off")
     return "once the drive answers again (its power and fault display, then 'ip -details "
            "-statistics link show can0' and 'candump can0'; a reset is refused until then), " +
            run;

@@ -118,6 +118,7 @@ class ModbusCore {
   std::vector<std::optional<double>> configured_;  // per table entry: configured_value's
   CommandImage image_;
   bool target_written_ = false;  // a client wrote a position target (stage_position_until_written)
+  bool request_writes_target_ = false;  // the request being handled writes one
   std::uint16_t owner_ = 0;
   std::uint32_t owner_ipv4_ = 0;
   std::uint16_t refusal_ = 0;  // registers::Refusal of the last write refused (03 or 04)
