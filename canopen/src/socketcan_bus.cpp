@@ -28,6 +28,20 @@ std::string bring_up_hint(const std::string& interface, std::uint32_t bitrate_bi
          "`; for a virtual test bus: `ip link add dev vcan0 type vcan && ip link set vcan0 up`)";
 }
 
+// An interface that exists but is down: a virtual one takes no bit rate.
+std::string down_hint(const std::string& interface, std::uint32_t bitrate_bit_s) {
+  return " (bring it up at the drive's bit rate with `ip link set " + interface +
+         " up type can bitrate " + std::to_string(bitrate_bit_s) +
+         "`; a virtual bus (vcan) has no bit rate: `ip link set " + interface + " up`)";
+}
+
+// A kernel without CAN_RAW support answers the socket call so; its module loads by name.
+std::string socket_hint(int error) {
+  return error == EAFNOSUPPORT || error == EPROTONOSUPPORT
+             ? "; load the kernel's CAN support with `modprobe can_raw`"
+             : "";
+}
+
 }  // namespace
 
 CanStatus classify_error_frame(std::uint32_t can_id) noexcept {
@@ -58,7 +72,9 @@ void SocketCanBus::set_receive_filter(std::span<const CanIdFilter> filters) {
 SocketCanBus::SocketCanBus(const std::string& interface, std::uint32_t bitrate_bit_s)
     : interface_(interface) {
   if (interface.empty() || interface.size() >= IFNAMSIZ)
-    throw std::runtime_error("CAN interface name \"" + interface + "\" is not valid");
+    throw std::runtime_error("CAN interface name \"" + interface + "\" is not valid: 1 to " +
+                             std::to_string(IFNAMSIZ - 1) +
+                             " characters, as `ip link` lists it (e.g. can0)");
   const unsigned index = if_nametoindex(interface.c_str());
   if (index == 0)
     throw std::runtime_error("CAN interface \"" + interface + "\" does not exist" +
@@ -66,7 +82,7 @@ SocketCanBus::SocketCanBus(const std::string& interface, std::uint32_t bitrate_b
   fd_ = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
   if (fd_ < 0)
     throw std::runtime_error("CAN interface \"" + interface + "\": no CAN_RAW socket (" +
-                             std::strerror(errno) + ")");
+                             std::strerror(errno) + ")" + socket_hint(errno));
   ifreq request{};
   std::strncpy(request.ifr_name, interface.c_str(), IFNAMSIZ - 1);
   const bool up = ioctl(fd_, SIOCGIFFLAGS, &request) == 0 && (request.ifr_flags & IFF_UP) != 0;
@@ -81,7 +97,7 @@ SocketCanBus::SocketCanBus(const std::string& interface, std::uint32_t bitrate_b
     close(fd_);
     fd_ = -1;
     throw std::runtime_error("CAN interface \"" + interface + "\" cannot be used: " + why +
-                             bring_up_hint(interface, bitrate_bit_s));
+                             (up ? std::string() : down_hint(interface, bitrate_bit_s)));
   }
 }
 

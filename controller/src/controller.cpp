@@ -227,7 +227,9 @@ void Controller::latch_fault(Alarm alarm) noexcept {
       break;
     }
     default:
-      reaction_ = registers::Reaction::holding;
+      // A faulted or silent drive takes no command: what it does is its own reaction.
+      reaction_ = alarm == Alarm::drive_fault ? registers::Reaction::drive_own
+                                              : registers::Reaction::holding;
       if (slipped) {
         // Stop commanding force: park the screw at the rest angle of the lead the nut is in now.
         screw_cmd_rad_ =

@@ -300,6 +300,9 @@ constexpr std::array kReactions = std::to_array<Code>({
     {1, "releasing", "ramping the output force to zero"},
     {2, "holding", "holding position (a running move decelerates first)"},
     {3, "released", "zero output force: the screw follows the nut"},
+    {4, "drive_own",
+     "the drive faulted or fell silent: what the axis does is the drive's own fault reaction "
+     "(CiA 402 object 0x605E); the controller keeps its last command until the fault reset"},
 });
 constexpr std::array kRefusals = std::to_array<Code>({
     {0, "none", "no write refused"},

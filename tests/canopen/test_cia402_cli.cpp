@@ -56,6 +56,11 @@ TEST(Cia402Cli, CanOptionsWithoutTheirBackendAreRefused) {
   EXPECT_NE(sim.out.find("type --backend cia402 --can sim"), std::string::npos) << sim.out;
   EXPECT_EQ(serve("--backend cia402 --can can0 --sim-can-drop 0.01 --duration 1s").exit_code, 2);
   EXPECT_EQ(serve("--backend nosuch --duration 1s").exit_code, 2);
+  // An empty name is no interface: refused, not taken as the simulated drive.
+  const auto empty = serve("--backend cia402 --can '' --duration 1s");
+  EXPECT_EQ(empty.exit_code, 2);
+  EXPECT_NE(empty.out.find("--can: an interface name (e.g. can0) or sim"), std::string::npos)
+      << empty.out;
 }
 
 }  // namespace

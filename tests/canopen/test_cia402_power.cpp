@@ -93,6 +93,8 @@ TEST(Cia402Power, ADriveFaultIsClearedByTheControllersResetWithoutARestart) {
   EXPECT_EQ(r.ctl.snapshot().drive_fault_cause,
             static_cast<std::uint16_t>(DriveFaultCause::drive_reports_fault));
   EXPECT_EQ(r.ctl.snapshot().drive_error_code, 0x2310);
+  // Not "holding": a drive in fault holds nothing of the controller's (IR 54).
+  EXPECT_EQ(r.ctl.snapshot().fault_reaction, static_cast<std::uint16_t>(reg::Reaction::drive_own));
   // The operator's reset: enable low, a fault reset edge. The drive leaves fault (controlword
   // bit 7's rising edge) for switch on disabled, and the fault is not reported meanwhile; then
   // the controller can enable again.

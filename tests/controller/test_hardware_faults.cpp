@@ -116,6 +116,8 @@ TEST(HardwareFault, DriveFaultOnReadLatchesAlarm6AndSendsNoCommand) {
   const auto s = rig.snap();
   EXPECT_EQ(s.drive_state, kFault);
   EXPECT_EQ(s.alarm_code, static_cast<std::uint16_t>(reg::Alarm::drive_fault));
+  // Nothing of the controller's holds the axis: the PLC reads that the drive's reaction acts.
+  EXPECT_EQ(s.fault_reaction, static_cast<std::uint16_t>(reg::Reaction::drive_own));
   EXPECT_EQ(rig.loop.stats().hardware_error_cycles, 50u);
   EXPECT_TRUE(constant_from(rig.hw.commands(), at_fault - 1));
   EXPECT_LT(std::abs(rig.plant.truth().nut_vel_m_s), 1e-4);

@@ -92,7 +92,13 @@ void add_backend_options(CLI::App* cmd, ServeOptions& o) {
       ->capture_default_str();
   b->add_option("--can", o.can,
                 "cia402: the SocketCAN interface of the drive (e.g. can0), or sim: the simulated "
-                "CiA 402 drive in-process around the simulated actuator (default: sim)");
+                "CiA 402 drive in-process around the simulated actuator (default: sim)")
+      ->check(CLI::Validator(
+          [](const std::string& name) {
+            return name.empty() ? std::string("an interface name (e.g. can0) or sim, not empty")
+                                : std::string();
+          },
+          "INTERFACE"));
   b->add_option("--sim-can-drop", o.sim_can_drop,
                 "cia402 --can sim: fraction of CAN frames lost on the simulated bus (start-up "
                 "tries each SDO sdo_attempts times, 3 in drive.toml: from about 5 % loss it may "

@@ -75,7 +75,13 @@ enum class Alarm : std::uint16_t {
   following_error = 8,
 };
 /// The fault reaction the drive is carrying out (register fault_reaction).
-enum class Reaction : std::uint16_t { none = 0, releasing = 1, holding = 2, released = 3 };
+enum class Reaction : std::uint16_t {
+  none = 0,
+  releasing = 1,
+  holding = 2,
+  released = 3,
+  drive_own = 4
+};
 /// Why the last write was refused with exception 03 or 04 (register write_refusal_reason):
 /// refusals that retrying cannot fix.
 enum class Refusal : std::uint16_t {
