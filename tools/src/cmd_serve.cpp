@@ -325,9 +325,9 @@ void say_drive_fault_cause(const controller::Snapshot& s) {
   char code[48] = "";
   if (s.drive_error_code != 0)
     std::snprintf(code, sizeof code, "; drive_error_code 0x%04X", s.drive_error_code);
-  say("  cause: drive_fault_cause %u %.*s (%.*s)%s", static_cast<unsigned>(s.drive_fault_cause),
-      static_cast<int>(it->name.size()), it->name.data(), static_cast<int>(it->description.size()),
-      it->description.data(), code);
+  say("  cause at %.2f s: drive_fault_cause %u %.*s (%.*s)%s", s.t_s,
+      static_cast<unsigned>(s.drive_fault_cause), static_cast<int>(it->name.size()),
+      it->name.data(), static_cast<int>(it->description.size()), it->description.data(), code);
 }
 
 /// A fault latched or cleared since the last look, said once: the terminal running serve is
@@ -343,8 +343,9 @@ void say_alarm_change(const controller::Snapshot& s, AlarmSeen& seen) {
       s.reject_reason == static_cast<std::uint16_t>(registers::Reject::fault_returned) &&
       ((s.command_status >> registers::kRejected) & 1u) != 0;
   if (returned && !seen.returned)
-    say("fault reset rejected: the fault came back at once (alarm_code %u); its cause persists",
-        static_cast<unsigned>(s.alarm_code));
+    say("fault reset rejected at %.2f s: the fault came back at once (alarm_code %u); its cause "
+        "persists",
+        s.t_s, static_cast<unsigned>(s.alarm_code));
   seen.returned = returned;
   const std::uint16_t alarm = s.alarm_code;
   // A drive fault's cause can sharpen after the latch (its PDOs time out before its heartbeat).
@@ -356,13 +357,13 @@ void say_alarm_change(const controller::Snapshot& s, AlarmSeen& seen) {
   const auto it = std::find_if(codes.begin(), codes.end(),
                                [&](const registers::Code& c) { return c.value == alarm; });
   if (alarm == 0)
-    say("fault cleared (alarm_code 0)");
+    say("fault cleared at %.2f s (alarm_code 0)", s.t_s);
   else if (it != codes.end())
-    say("fault latched: alarm_code %u %.*s (%.*s)", static_cast<unsigned>(alarm),
+    say("fault latched at %.2f s: alarm_code %u %.*s (%.*s)", s.t_s, static_cast<unsigned>(alarm),
         static_cast<int>(it->name.size()), it->name.data(),
         static_cast<int>(it->description.size()), it->description.data());
   else
-    say("fault latched: alarm_code %u", static_cast<unsigned>(alarm));
+    say("fault latched at %.2f s: alarm_code %u", s.t_s, static_cast<unsigned>(alarm));
   if (s.drive_fault_cause != 0) say_drive_fault_cause(s);
   seen.alarm = alarm;
 }
