@@ -68,7 +68,44 @@ TEST(Headline, EventsAreFoundAndTheirPulsesAreNoMisfit) {
 TEST(Headline, NothingNamedWithAMisfitSaysTheMisfit) {
   const Findings f = findings_with_residual(0.7);
   const std::string h = maglead::analysis::headline_of(f, ModelFile{});
-  EXPECT_TRUE(starts_with(h, "a misfit of 0.7 N RMS remains (force sensor noise 0.1 N)")) << h;
+  EXPECT_TRUE(starts_with(h, "a misfit of 0.7 N RMS remains (noise floor 0.1 N)")) << h;
+}
+
+TEST(Headline, ATermFoundWithAMisfitBesideItSaysBoth) {
+  Findings f = findings_with_residual(0.45);
+  EffectFinding drift;
+  drift.id = "gain_drift";
+  drift.parameters = {{"gain_change_per_min", -0.29, true}};
+  f.effects.push_back(drift);
+  const std::string h = maglead::analysis::headline_of(f, ModelFile{});
+  EXPECT_TRUE(starts_with(h, "found: gain drift gain_change_per_min -0.29")) << h;
+  EXPECT_NE(h.find("; a misfit of 0.45 N RMS remains beside them (noise floor 0.1 N)"),
+            std::string::npos)
+      << h;
+  // Within twice the floor what is left is the recording's noise: nothing more is said.
+  f.final_fit.rms_n = 0.15;
+  EXPECT_EQ(maglead::analysis::headline_of(f, ModelFile{}).find("misfit"), std::string::npos);
+}
+
+TEST(Headline, SlidingLawsNotJudgedAreSaidBesideAFinding) {
+  // A break-away named from the stands while the nut never slid: the sliding laws are unjudged.
+  Findings f = findings_with_residual(0.15);
+  EffectFinding stribeck;
+  stribeck.id = "stribeck_friction";
+  stribeck.parameters = {{"breakaway_n", 12.0, true}};
+  f.effects.push_back(stribeck);
+  f.samples = 37037;
+  f.sliding_note =
+      "the nut barely slides (0 sliding samples of 37037): the sliding fit says little";
+  const std::string h = maglead::analysis::headline_of(f, ModelFile{});
+  EXPECT_NE(h.find("; the sliding laws not judged: the nut barely slides (0 sliding samples of "
+                   "37037)"),
+            std::string::npos)
+      << h;
+  // Enough to fit, if few: judged, and said so.
+  f.samples_used = 158;
+  EXPECT_NE(maglead::analysis::headline_of(f, ModelFile{}).find("judged on few samples"),
+            std::string::npos);
 }
 
 TEST(Conclusion, NothingNamedWithAMisfitIsNotNothingMissing) {
@@ -109,8 +146,7 @@ TEST(Conclusion, ARotaryAxissMisfitIsATorque) {
                 "resolves (floor 0.100 N·m)";
   f.not_selected.push_back(near);
   maglead::analysis::conclude(f, checking(0, &maglead::effects::rotary_axis()));
-  EXPECT_TRUE(
-      starts_with(f.conclusion, "a misfit of 0.7 N·m RMS remains (torque sensor noise 0.1 N·m)"))
+  EXPECT_TRUE(starts_with(f.conclusion, "a misfit of 0.7 N·m RMS remains (noise floor 0.1 N·m)"))
       << f.conclusion;
   EXPECT_NE(f.conclusion.find("the torque it explains, 0.050 N·m"), std::string::npos)
       << f.conclusion;
@@ -121,7 +157,7 @@ TEST(Conclusion, ARotaryAxissMisfitIsATorque) {
   rotary.system = "rotary";
   const Findings quiet = findings_with_residual(0.15);
   const std::string h = maglead::analysis::headline_of(quiet, rotary);
-  EXPECT_NE(h.find("N·m RMS (torque sensor noise 0.1 N·m)"), std::string::npos) << h;
+  EXPECT_NE(h.find("N·m RMS (noise floor 0.1 N·m)"), std::string::npos) << h;
 }
 
 }  // namespace

@@ -115,7 +115,7 @@ std::string page_of(const analysis::AnalysisResult& r, const std::string& name) 
 
 TEST(AnalysisPage, GreenIsForNothingMissingAlone) {
   const std::string misfit =
-      "a misfit of 0.0207 N·m RMS remains (torque sensor noise 0.00818 N·m) that no library "
+      "a misfit of 0.0207 N·m RMS remains (noise floor 0.00818 N·m) that no library "
       "effect explains; check the drive's torque constant";
   const std::string page = page_of(result_concluding(misfit, false), "misfit");
   EXPECT_EQ(page.find("class=\"ok\""), std::string::npos) << page;

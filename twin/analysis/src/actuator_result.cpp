@@ -515,12 +515,15 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
                .check = "the calibration, the sensors' timing and loads the recording does not "
                         "log",
                .kind = &effects::linear_axis()});
-  // Too little sliding to judge the model, and nothing named from the stands or events: that is
-  // not judged, never "nothing is missing".
-  if (J.effects.empty() && !J.unexplained && !J.sliding_note.empty()) {
-    J.conclusion = "not judged: too little sliding to judge the model (" +
-                   std::to_string(J.samples_used) + " sliding samples used of " +
-                   std::to_string(J.samples) + ")";
+  // Too little sliding for the selection to run, and nothing named from the stands or events:
+  // that is not judged, never "nothing is missing". Counted in the recording's samples, as the
+  // sliding note counts them (the fit's are after decimation).
+  if (J.effects.empty() && !J.unexplained && sel.too_little_sliding) {
+    const auto decimation = static_cast<std::size_t>(P.decimation);
+    J.conclusion = std::string(kNotJudged) + "too little sliding to judge the model (" +
+                   std::to_string(J.samples_used * decimation) + " sliding samples of " +
+                   std::to_string(J.samples) + ", the fit needs " +
+                   std::to_string(rules::kMinSlidingSamples * decimation) + ")";
     J.nothing_missing = std::nullopt;
   }
   return J;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/rules.hpp"
 #include "maglead/effects/axis_kind.hpp"
 #include "maglead/effects/effect.hpp"
 
@@ -91,8 +92,29 @@ std::string unjudged_suffix(const Findings& f) {
   return s;
 }
 
+/// Sliding laws judged on few samples or none (the note's first clause): neither "found" nor
+/// "nothing missing" is read as covering them.
+std::string sliding_caveat(const Findings& f) {
+  if (f.sliding_note.empty()) return {};
+  return (f.samples_used < rules::kMinSlidingSamples
+              ? "; the sliding laws not judged: "
+              : "; the sliding laws judged on few samples: ") +
+         f.sliding_note.substr(0, f.sliding_note.find(':'));
+}
+
+/// A misfit above the floor beside the terms found, so "found" is not read as the whole story.
+std::string misfit_beside(const Findings& f, const effects::AxisKind& kind) {
+  if (!misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) return {};
+  const std::string unit(kind.drive_unit);
+  return "; a misfit of " + number(f.final_fit.rms_n) + " " + unit +
+         " RMS remains beside them (noise floor " + number(f.noise_floor_n) + " " + unit + ")";
+}
+
 /// The headline without the laws left unjudged.
 std::string conclusion_headline(const Findings& f, const ModelFile& baseline) {
+  // A rotary axis's residual is a torque (effects/axis_kind.hpp).
+  const effects::AxisKind* axis = effects::axis_kind_of_system(baseline.system);
+  const effects::AxisKind& kind = axis ? *axis : effects::linear_axis();
   const auto found = [&](std::string s) {
     for (std::size_t k = 0; k < f.effects.size(); ++k)
       s += (k ? "; " : "") + finding_text(f.effects[k], baseline);
@@ -100,27 +122,24 @@ std::string conclusion_headline(const Findings& f, const ModelFile& baseline) {
   };
   const bool events_only = std::all_of(f.effects.begin(), f.effects.end(),
                                        [](const auto& e) { return e.evidence.events.has_value(); });
-  if (!events_only) return found("found: ");
+  if (!events_only) return found("found: ") + misfit_beside(f, kind) + sliding_caveat(f);
   // With events alone named, a force no library effect explains leads: events (pulses on a load
   // cell of the wrong sign, say) are no account of it.
   if (f.unexplained)
     return "not explained: " + f.unexplained->message +
            (f.effects.empty() ? std::string() : found("; events found beside it: "));
   // The pulses' own force is in the final residual: beside events it is no misfit.
-  if (!f.effects.empty()) return found("found: ");
-  if (!f.sliding_note.empty())
-    return "not judged: too little sliding to judge the model (" + std::to_string(f.samples_used) +
-           " sliding samples used of " + std::to_string(f.samples) +
-           "); no finding is not the same as no anomaly";
-  // A rotary axis's residual is a torque (effects/axis_kind.hpp).
-  const effects::AxisKind* axis = effects::axis_kind_of_system(baseline.system);
-  const effects::AxisKind& kind = axis ? *axis : effects::linear_axis();
+  if (!f.effects.empty()) return found("found: ") + sliding_caveat(f);
+  // The conclusion says why the model was not judged (too little sliding), with its counts.
+  if (f.conclusion.starts_with(kNotJudged))
+    return f.conclusion + "; no finding is not the same as no anomaly";
   const std::string unit(kind.drive_unit);
   if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
-    return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, kind);
+    return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, kind) +
+           sliding_caveat(f);
   return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) + " " +
-         unit + " RMS (" + std::string(kind.quantity) + " sensor noise " + number(f.noise_floor_n) +
-         " " + unit + ")";
+         unit + " RMS (noise floor " + number(f.noise_floor_n) + " " + unit + ")" +
+         sliding_caveat(f);
 }
 
 }  // namespace

@@ -67,8 +67,8 @@ std::string misfit_text(double final_rms_n, double noise_floor_n,
   // A candidate that would take at least half the held-out error is the misfit's likeliest
   // account, even short of significance; below half it says little of what is left.
   constexpr double kMostOfItPct = rules::kMostOfItPct;
-  std::string s = "a misfit of " + num(final_rms_n) + " " + unit +
-                  " RMS remains (force sensor noise " + num(noise_floor_n) + " " + unit + ")";
+  std::string s = "a misfit of " + num(final_rms_n) + " " + unit + " RMS remains (noise floor " +
+                  num(noise_floor_n) + " " + unit + ")";
   for (const auto& r : not_selected) {
     if (!r.reason || !r.reason->starts_with(kBelowSignificance) ||
         !(r.heldout_gain_pct >= kMostOfItPct))
