@@ -318,7 +318,8 @@ std::vector<unsigned char> holds(const std::vector<double>& raw, double tol, std
 }
 
 // Valid samples at every `step`-th full-rate sample: none within `margin` samples of a hold (a
-// filter spreads the hold's force that far). All valid when nothing is held.
+// filter spreads the hold's force that far) or of the recording's ends (where it spreads the
+// padding it invents). All the rest valid when nothing is held.
 std::vector<unsigned char> valid_outside(const std::vector<unsigned char>& held, std::size_t margin,
                                          std::size_t step) {
   const std::size_t n = held.size();
@@ -328,7 +329,8 @@ std::vector<unsigned char> valid_outside(const std::vector<unsigned char>& held,
   valid.reserve(n / step + 1);
   for (std::size_t i = 0; i < n; i += step) {
     const std::size_t lo = i > margin ? i - margin : 0, hi = std::min(n, i + margin + 1);
-    valid.push_back(before[hi] == before[lo] ? 1 : 0);
+    const bool inside = i >= margin && i + margin < n;
+    valid.push_back(inside && before[hi] == before[lo] ? 1 : 0);
   }
   return valid;
 }
@@ -446,7 +448,9 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   const auto& t = rec.column("t_s");
   P.fs_hz = maglead::sample_rate_hz(rec);
   const double dt = 1.0 / P.fs_hz;
-  P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : rules::kAxisFilterHz;
+  // As on the actuator: a slow logger still resolves the filter's corner.
+  P.filter_hz = std::min(opt.filter_hz > 0 ? opt.filter_hz : rules::kAxisFilterHz,
+                         rules::kFilterMaxOfRate * P.fs_hz);
   Signals& s = P.full;
   s.t = t;
   s.start_s = t.front();
@@ -794,12 +798,13 @@ Parameters fitted_base(const AxisRun& run, const Fit& fit) {
   return b;
 }
 
-// A term's alternatives as the findings list them, plausible or not.
+// A term's plausible alternatives, as on the actuator: one outside its physical range (no
+// parameters to show) explains nothing here.
 std::vector<Alternative> alternatives_of(const selection::Found& f) {
   std::vector<Alternative> out;
   for (const auto& a : f.alternatives)
-    out.push_back({a.id, selection::parameters_of(a.params.value_or(effects::Params{})),
-                   a.explains_pct, a.plausible});
+    if (a.plausible && a.params)
+      out.push_back({a.id, selection::parameters_of(*a.params), a.explains_pct, true});
   return out;
 }
 
@@ -819,9 +824,9 @@ EffectFinding finding_of(const AxisRun& run, const selection::Found& f) {
   e.evidence.noise_floor_n = run.P.noise_floor_n;
   e.evidence.plausible = f.plausible;
   e.improvement_pct = f.improvement_pct;
-  e.identifiable = f.alternatives.empty();
-  if (!f.alternatives.empty()) {
-    e.alternatives = alternatives_of(f);
+  e.alternatives = alternatives_of(f);
+  e.identifiable = e.alternatives.empty();
+  if (!e.alternatives.empty()) {
     std::string names = e.id;
     for (const auto& a : e.alternatives) names += " or " + a.id;
     e.finding = "one combined finding: the data cannot tell " + names + " apart";
