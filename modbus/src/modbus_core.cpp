@@ -411,12 +411,16 @@ bool ModbusCore::decode_registers(std::uint16_t start, std::uint16_t count,
     std::uint16_t words[2] = {0, 0};
     const std::uint8_t* d = data + std::size_t{2} * (addr - start);
     for (std::size_t k = 0; k < static_cast<std::size_t>(w); ++k) words[k] = be16(d + 2 * k);
-    const double v = reg::decode(r, words);
+    const double decoded = reg::decode(r, words);
     // A round float32 sent low word first (10.0 as 0, 16672) decodes to a subnormal, inside every
     // setpoint's range and never a real setpoint: staged, it would be held as 0.
-    if (r.type == reg::Type::f32 && v != 0.0 && std::abs(v) < std::numeric_limits<float>::min())
+    if (r.type == reg::Type::f32 && decoded != 0.0 &&
+        std::abs(decoded) < std::numeric_limits<float>::min())
       return refuse_value(reg::Refusal::word_order, ex);
-    if (!reg::in_range(r, v)) return refuse_value(reg::Refusal::out_of_range, ex);
+    if (!reg::in_range(r, decoded)) return refuse_value(reg::Refusal::out_of_range, ex);
+    // A float32 taken within its rounding slack past a limit is the limit: its integer mirror
+    // then reads inside the documented range, and the block written back as read is taken.
+    const double v = std::clamp(decoded, r.min, r.max);
     const auto* binding = bindings_[static_cast<std::size_t>(s.reg)];
     binding->image_set(image, v);
     if (!copies_agree(r, v, image, std::span(written.data(), n_written)))

@@ -294,6 +294,21 @@ TEST(ModbusCore, WritesReadBackAndBothScalingsShareOneValue) {
   EXPECT_FLOAT_EQ(v, -12.5f);
 }
 
+// A float32 just past a limit, within its rounding slack, is taken as the limit: its integer
+// mirror reads inside its documented range, and the block written back as read is taken.
+TEST(ModbusCore, AFloatWithinItsSlackPastALimitIsStoredAsTheLimit) {
+  CoreRig r;
+  const auto& acc = *std::find_if(reg::table().begin(), reg::table().end(),
+                                  [](const auto& x) { return x.name == "accel_limit_m_s2_f32"; });
+  // 0.8 ppm past: inside the float32 slack (1 ppm), 4 units of the integer mirror (1 µm/s²).
+  const auto past = static_cast<float>(acc.max * (1.0 + 0.8e-6));
+  ASSERT_EQ(r.req(write_regs(addr("accel_limit_m_s2_f32"), f32_words(past))).size(), 5u);
+  const Bytes block_read = r.req(rd(3, 1000, 20));
+  std::vector<std::uint16_t> block;
+  for (std::size_t i = 0; i < 20; ++i) block.push_back(word_at(block_read, i));
+  EXPECT_EQ(r.req(write_regs(1000, block)).size(), 5u);
+}
+
 // The commands block read and written back whole (FC16 at HR 1000, 20 registers) carries both
 // copies of each setpoint: one copy changed alone used to lose to the float32 one silently.
 TEST(ModbusCore, AWriteWhoseTwoCopiesOfASetpointDisagreeIsRefused) {

@@ -383,8 +383,8 @@ void wait_for_stop(double duration_s, runtime::Service& service) {
     if (now - last_report >= std::chrono::seconds(1)) {
       const auto snap = service.controller().snapshot();
       if (snap.overrun_count > reported) {
-        say("%llu loop overrun(s) in the last second (%llu in all), latest "
-            "start %.0f µs late",
+        say("%llu loop overrun(s) in the last second (%llu in all), the worst start since "
+            "serve started %.0f µs late",
             static_cast<unsigned long long>(snap.overrun_count - reported),
             static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
         std::fflush(stdout);
@@ -409,7 +409,7 @@ void run_serve(const ServeOptions& o) {
   wait_for_stop(duration_s, service);
   service.stop();
   const auto snap = service.controller().snapshot();
-  say("stopped after %llu cycles, %llu overruns, latest start %.0f µs late",
+  say("stopped after %llu cycles, %llu overruns, the worst start %.0f µs late",
       static_cast<unsigned long long>(snap.cycle),
       static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
 }
