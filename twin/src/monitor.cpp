@@ -152,8 +152,11 @@ struct TwinMonitor::Impl {
   // … and from a passive load the force loop presses, revisited (no load cell either).
   PassiveLoadDrift passive_drift;
   double passive_judged_t = -std::numeric_limits<double>::infinity();
-  // Health: open-loop intervals in a row whose prediction missed by more than the tolerance.
+  // Health: open-loop intervals in a row whose prediction missed by more than the tolerance,
+  // and whether the current one saw the nut or the twin stick or slip.
   int bad_intervals = 0;
+  bool stick_or_slip = false;
+  FrictionMode twin_mode = FrictionMode::stick, measured_mode = FrictionMode::stick;
 
   explicit Impl(const TwinMonitorConfig& c)
       : cfg(c),
@@ -228,6 +231,8 @@ struct TwinMonitor::Impl {
     load_prev = std::numeric_limits<double>::quiet_NaN();
     slide_start_t = t;
     twin.reset(t, {pos_hat, 0.0, FrictionMode::stick}, theta, fext_hat);
+    twin_mode = measured_mode = FrictionMode::stick;
+    stick_or_slip = false;
     next_resync_t = t + cfg.resync_s;
     ticks = 0;
     solver_ok = true;
@@ -527,6 +532,8 @@ struct TwinMonitor::Impl {
     }
     const bool ok = twin.advance(t, theta, fext_hat) == TwinStatus::ok;
     const NutState& ts = twin.state();
+    stick_or_slip |= ts.mode != twin_mode || mode != measured_mode;
+    twin_mode = ts.mode, measured_mode = mode;
     o.predicted_nut_pos_m = ts.pos_m;
     o.residual_pos_m = pos_hat - ts.pos_m;
     const double twin_acc = model.accel_m_s2(ts.mode, t, theta, ts.pos_m, ts.vel_m_s, fext_hat);
@@ -537,9 +544,18 @@ struct TwinMonitor::Impl {
     fext_hat = fext_new;
     if (t >= next_resync_t || !ok) {
       // Health: judged on what the twin predicted over one open-loop interval, in counts.
-      bad_intervals =
-          std::abs(o.residual_pos_m) > cfg.healthy_residual_counts * q_m ? bad_intervals + 1 : 0;
+      // Where the nut or the twin stuck or slipped in the interval, the tolerance adds the
+      // screw's travel over the stick timing: in a stick-slip (a move against a stiff spring)
+      // when a stick ends is chaotic, and a twin equal to the plant times it a few ms
+      // differently. The screw's speed, not the nut's, so a noisy encoder widens nothing.
+      const double screw_speed_m_s = std::abs(theta_rate) * lead_m / (2.0 * kPi);
+      const double tolerance_m =
+          cfg.healthy_residual_counts * q_m +
+          (stick_or_slip ? screw_speed_m_s * cfg.healthy_stick_timing_s : 0.0);
+      bad_intervals = std::abs(o.residual_pos_m) > tolerance_m ? bad_intervals + 1 : 0;
+      stick_or_slip = false;
       twin.reset(t, {pos_hat, vel, mode}, theta, fext_hat);
+      twin_mode = mode;
       next_resync_t = t + cfg.resync_s;
     }
     return ok;

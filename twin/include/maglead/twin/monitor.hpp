@@ -164,6 +164,10 @@ struct TwinMonitorConfig {
   // measured position by more than this many linear counts, in this many intervals in a row.
   double healthy_residual_counts = 3.0;
   int healthy_intervals = 3;
+  // … where the nut or the twin stuck or slipped in the interval, plus the screw's travel over
+  // this long: the stick-slip of a move against a stiff spring ends its sticks chaotically, and
+  // a twin equal to the plant times them up to about 5 ms apart (at 30 and 50 mm/s).
+  double healthy_stick_timing_s = 0.006;
   // The open-loop twin (CVODE): the predicted nut position and force, the health verdict and the
   // step-out look-ahead. The force estimate is the observer's and does not need it; off, those
   // outputs read NaN / healthy and a tick costs the observer alone (the analysis's twin check).
