@@ -207,7 +207,7 @@ actuator::Options options_of(const AnalysisOptions& opt, const actuator::Baselin
   if (opt.filter_hz > 0) o.filter_hz = opt.filter_hz;
   o.min_gain_pct = opt.min_gain_pct;
   o.min_t = opt.min_t;
-  o.calibration_accuracy_n = opt.calibration_accuracy_n;
+  o.calibration_accuracy_n = opt.actuator.calibration_accuracy_n;
   for (const auto& t : base.terms) o.exclude.emplace_back(t.effect->id());
   return o;
 }
@@ -616,7 +616,7 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
                                  sel.rejected.end());
   r.findings.not_selected.insert(r.findings.not_selected.end(), unjudged.begin(), unjudged.end());
   r.corrected = corrected_model(model, sel.fit.terms, rec.path);
-  if (opt.twin_force_check) {
+  if (opt.actuator.twin_force_check) {
     std::vector<std::string> why;
     r.findings.twin_force_check =
         check_with_twin(rec, act, cal, P.floor_n, model, sel.fit.terms, r.corrected, why);

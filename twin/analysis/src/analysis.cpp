@@ -472,8 +472,8 @@ Prepared prepare(const Recording& rec, const ModelFile& model, const AnalysisOpt
   const auto keep = static_cast<int>(
       s.size() / (rules::kAxisMinSegmentSamples *
                   static_cast<std::size_t>(std::max(rules::kAxisMinFolds, opt.folds))));
-  decimate_signals(P, opt.decimation > 0
-                          ? opt.decimation
+  decimate_signals(P, opt.axis.decimation > 0
+                          ? opt.axis.decimation
                           : std::clamp(bandwidth_decimation(P), 1, std::max(1, keep)));
   return P;
 }
@@ -694,7 +694,7 @@ class AxisRules : public selection::Rules {
 // direction-dependent friction once an offset is in) is left out.
 selection::Settings settings_of(const AnalysisOptions& opt, const effects::AxisKind& kind,
                                 const effects::Scales& scales = {}) {
-  return {.max_terms = opt.max_terms,
+  return {.max_terms = opt.axis.max_terms,
           .min_gain_pct = opt.min_gain_pct,
           .min_t = opt.min_t,
           .acting_share = 0,
