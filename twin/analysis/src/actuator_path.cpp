@@ -1,17 +1,19 @@
-// The actuator analysis end to end: runs the stages of actuator_analysis.cpp and turns their
-// typed results into the analysis result (findings, corrected model, figures).
+// The actuator's path of the analysis (path.hpp): runs the stages of actuator_analysis.cpp and
+// turns their typed results into the analysis result (findings, corrected model, figures).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <future>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
 
 #include "actuator_analysis.hpp"
-#include "actuator_path.hpp"
 #include "actuator_twin_force.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "path.hpp"
 #include "statistics.hpp"
 
 namespace maglead::analysis {
@@ -60,8 +62,8 @@ std::string replaces_text(const ModelFile& base, const std::string& name) {
 }
 
 // The baseline plus the findings given: what the twin should run from now on.
-ModelFile corrected_model(const ModelFile& base, const std::vector<selection::Found>& terms,
-                          const std::string& recording) {
+ModelFile model_with(const ModelFile& base, const std::vector<selection::Found>& terms,
+                     const std::string& recording) {
   ModelFile m = base;
   m.source = "maglead analyze of " + recording;
   for (const auto& c : terms) {
@@ -144,8 +146,7 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
   for (const auto& c : terms) {
     auto trial = kept;
     trial.push_back(c);
-    const auto err =
-        actuator::twin_force_errors(rec, act, cal, corrected_model(base, trial, rec.path));
+    const auto err = actuator::twin_force_errors(rec, act, cal, model_with(base, trial, rec.path));
     if (err && !actuator::rises_beyond_noise(*err, current, resolved_n)) {
       kept = std::move(trial);
       current = *err;
@@ -157,7 +158,7 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
     }
   }
   out.corrected_mae_n = current.mae_n;
-  corrected = corrected_model(base, kept, rec.path);
+  corrected = model_with(base, kept, rec.path);
   for (std::size_t k = 0; k < out.dropped.size(); ++k)
     for (const auto& c : terms)
       if (c.id == out.dropped[k]) {
@@ -526,12 +527,7 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   return J;
 }
 
-struct Progress {
-  const AnalysisOptions& opt;
-  void operator()(const std::string& stage, double f) const {
-    if (opt.progress) opt.progress(stage, f);
-  }
-};
+using Progress = std::function<void(const std::string& stage, double fraction)>;
 
 struct SlidingFit {
   actuator::Selection fit;
@@ -549,7 +545,9 @@ Rejected refused(const selection::Found& c, const std::string& why) {
 SlidingFit sliding_fit(const actuator::Prepared& P, const actuator::Baseline& base,
                        actuator::Options& o, const Progress& progress) {
   SlidingFit out;
-  const auto report = [&](double f) { progress("selection", f); };
+  const auto report = [&](double f) {
+    if (progress) progress("selection", f);
+  };
   out.fit = actuator::select(P, o, report);
   if (auto why = actuator::stribeck_unseen_at_rest(P, base, out.fit, o)) {
     for (const auto& c : out.fit.terms)
@@ -562,27 +560,60 @@ SlidingFit sliding_fit(const actuator::Prepared& P, const actuator::Baseline& ba
   return out;
 }
 
-}  // namespace
+class ActuatorPath final : public AnalysisPath {
+ public:
+  ActuatorPath(const Recording& rec, const ModelFile& model, const ForceCalibration& cal,
+               const ActuatorParams& act, const AnalysisOptions& opt)
+      : rec_(rec),
+        model_(model),
+        cal_(cal),
+        act_(act),
+        opt_(opt),
+        base_(baseline_of(model)),
+        o_(options_of(opt, base_)) {}
 
-AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
-                                const ForceCalibration& cal, const ActuatorParams& act,
-                                const AnalysisOptions& opt) {
-  const Progress progress{opt};
-  const auto base = baseline_of(model);
-  auto o = options_of(opt, base);
-  progress("prepare", 0.0);
-  auto P = actuator::prepare(rec, base, cal, act, o);
-  progress("prepare", 1.0);
-  // Laws this recording cannot judge (too slow a rate for them) are not offered; said why.
-  std::vector<Rejected> unjudged;
-  for (const effects::Effect* e : effects::library())
-    if (auto why = e->unjudged_at(P.scales)) {
-      o.exclude.emplace_back(e->id());
-      unjudged.push_back(Rejected{std::string(e->id()), 0.0, 0.0, {}, {}, *why, {}});
-    }
-  auto sel = sliding_fit(P, base, o, progress);
-  auto bt = actuator::breakaway_test(P, base, sel.fit.terms);
-  auto stribeck = actuator::stribeck_from_breakaway(P, base, sel.fit, bt, o);
+  void prepare() override {
+    P_ = actuator::prepare(rec_, base_, cal_, act_, o_);
+    // Laws this recording cannot judge (too slow a rate for them) are not offered; said why.
+    for (const effects::Effect* e : effects::library())
+      if (auto why = e->unjudged_at(P_.scales)) {
+        o_.exclude.emplace_back(e->id());
+        unjudged_.push_back(Rejected{std::string(e->id()), 0.0, 0.0, {}, {}, *why, {}});
+      }
+  }
+
+  void select() override;
+
+  Findings findings() override {
+    Findings J = findings_of(rec_, P_, sel_.fit, stribeck_, offset_, bt_, o_);
+    J.not_selected.insert(J.not_selected.begin(), sel_.rejected.begin(), sel_.rejected.end());
+    J.not_selected.insert(J.not_selected.end(), unjudged_.begin(), unjudged_.end());
+    return J;
+  }
+
+  void figures(AnalysisResult& r) override { r.fit_over_time = fit_over_time(P_, sel_.fit); }
+
+  void corrected_model(AnalysisResult& r) override;
+
+ private:
+  const Recording& rec_;
+  const ModelFile& model_;
+  const ForceCalibration& cal_;
+  const ActuatorParams& act_;
+  const AnalysisOptions& opt_;
+  actuator::Baseline base_;
+  actuator::Options o_;
+  actuator::Prepared P_;
+  std::vector<Rejected> unjudged_;
+  SlidingFit sel_;
+  actuator::BreakawayTest bt_;
+  std::optional<selection::Found> stribeck_, offset_;
+};
+
+void ActuatorPath::select() {
+  sel_ = sliding_fit(P_, base_, o_, opt_.progress);
+  bt_ = actuator::breakaway_test(P_, base_, sel_.fit.terms);
+  stribeck_ = actuator::stribeck_from_breakaway(P_, base_, sel_.fit, bt_, o_);
   // Break-away friction: a release is a jump (the friction drops from F_s to F_c at once), many
   // within one filter period where the nut stick-slips, and the filtered speed averages stuck and
   // slipping motion, where no friction law of the speed holds (the slips' accelerations would
@@ -590,45 +621,56 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   // the break-away test on it still names the hump. Without a hump a release is gentle and those
   // samples stay: a pulse that stalls the nut is seen there. (They are set aside in place, not
   // copied, and put back when the refit does not hold.)
-  if (stribeck) {
-    const auto aside = actuator::take_stops(P);
+  if (stribeck_) {
+    const auto aside = actuator::take_stops(P_);
     bool kept = false;
     if (!aside.at.empty()) {
-      auto o2 = o;
-      auto sel2 = sliding_fit(P, base, o2, progress);
-      const auto bt2 = actuator::breakaway_test(P, base, sel2.fit.terms);
-      if (auto s2 = actuator::stribeck_from_breakaway(P, base, sel2.fit, bt2, o2)) {
-        sel = std::move(sel2), bt = bt2, stribeck = s2, o = std::move(o2), kept = true;
-        stribeck->from_releases->stops_left_out = P.stops.size();
+      auto o2 = o_;
+      auto sel2 = sliding_fit(P_, base_, o2, opt_.progress);
+      const auto bt2 = actuator::breakaway_test(P_, base_, sel2.fit.terms);
+      if (auto s2 = actuator::stribeck_from_breakaway(P_, base_, sel2.fit, bt2, o2)) {
+        sel_ = std::move(sel2), bt_ = bt2, stribeck_ = s2, o_ = std::move(o2), kept = true;
+        stribeck_->from_releases->stops_left_out = P_.stops.size();
       }
     }
-    if (!kept) actuator::put_back(P, aside);
+    if (!kept) actuator::put_back(P_, aside);
   }
-  progress("selection", 1.0);
-  kinetic_level_into_stribeck(sel.fit);
-  if (stribeck) fold_in_stribeck(sel.fit, P, *stribeck);
-  const auto offset = actuator::offset_from_breakaway(P, sel.fit, bt, o);
-  if (offset) fold_in_offset(sel.fit, P, *offset);
+  kinetic_level_into_stribeck(sel_.fit);
+  if (stribeck_) fold_in_stribeck(sel_.fit, P_, *stribeck_);
+  offset_ = actuator::offset_from_breakaway(P_, sel_.fit, bt_, o_);
+  if (offset_) fold_in_offset(sel_.fit, P_, *offset_);
+}
 
-  AnalysisResult r;
-  r.findings = findings_of(rec, P, sel.fit, stribeck, offset, bt, o);
-  r.findings.not_selected.insert(r.findings.not_selected.begin(), sel.rejected.begin(),
-                                 sel.rejected.end());
-  r.findings.not_selected.insert(r.findings.not_selected.end(), unjudged.begin(), unjudged.end());
-  r.corrected = corrected_model(model, sel.fit.terms, rec.path);
-  if (opt.actuator.twin_force_check) {
-    std::vector<std::string> why;
-    r.findings.twin_force_check =
-        check_with_twin(rec, act, cal, P.floor_n, model, sel.fit.terms, r.corrected, why);
-    const auto& dropped = r.findings.twin_force_check->dropped;
-    for (auto& e : r.findings.effects)
-      for (std::size_t k = 0; k < dropped.size(); ++k)
-        if (e.id == dropped[k])
-          e.note += std::string(e.note.empty() ? "" : "; ") +
-                    "left out of model_corrected.toml (there disabled): " + why[k];
-  }
-  r.fit_over_time = fit_over_time(P, sel.fit);
-  return r;
+void ActuatorPath::corrected_model(AnalysisResult& r) {
+  r.corrected = model_with(model_, sel_.fit.terms, rec_.path);
+  if (!opt_.actuator.twin_force_check) return;
+  std::vector<std::string> why;
+  r.findings.twin_force_check =
+      check_with_twin(rec_, act_, cal_, P_.floor_n, model_, sel_.fit.terms, r.corrected, why);
+  const auto& dropped = r.findings.twin_force_check->dropped;
+  for (auto& e : r.findings.effects)
+    for (std::size_t k = 0; k < dropped.size(); ++k)
+      if (e.id == dropped[k])
+        e.note += std::string(e.note.empty() ? "" : "; ") +
+                  "left out of model_corrected.toml (there disabled): " + why[k];
+}
+
+}  // namespace
+
+ModelFile actuator_model_from_config(const ActuatorParams& act) {
+  ModelFile m;
+  m.system = "actuator";
+  m.source = "config/actuator.toml (paper model)";
+  m.nut_mass_kg = act.nut_mass_kg;
+  m.viscous_n_s_per_m = act.viscous_n_s_per_m;
+  m.coulomb_n = act.coulomb_n;
+  return m;
+}
+
+std::unique_ptr<AnalysisPath> actuator_path(const Recording& rec, const ModelFile& baseline,
+                                            const ForceCalibration& cal, const ActuatorParams& act,
+                                            const AnalysisOptions& options) {
+  return std::make_unique<ActuatorPath>(rec, baseline, cal, act, options);
 }
 
 }  // namespace maglead::analysis
