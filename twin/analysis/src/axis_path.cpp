@@ -92,7 +92,7 @@ const effects::Effect* effect_of_total(const std::string& name) {
 }
 
 // ---------------------------------------------------------------- signals
-struct Signals {
+struct AxisSignals {
   std::vector<double> t, p, v, a, y, y_fixed;
   std::vector<unsigned char> valid;
   double stroke_min_m = 0.0, stroke_max_m = 0.0;
@@ -121,28 +121,28 @@ struct Signals {
 double sgn(double x) { return effects::sgn(x); }
 
 // The columns `cols` at sample i: the units' axis regressors with their sign turned.
-void fill_row(const Signals& s, std::size_t i, const std::vector<Column>& cols, double* row) {
+void fill_row(const AxisSignals& s, std::size_t i, const std::vector<Column>& cols, double* row) {
   unit_row(Form::axis, cols, s.state(i), row);
   for (std::size_t j = 0; j < cols.size(); ++j) row[j] = -row[j];
 }
 
 // ---------------------------------------------------------------- Gram per segment
 // The shared per-segment normal equations, with the columns in matrix order.
-struct Grams : stats::Grams {
+struct AxisGrams : stats::Grams {
   std::vector<Column> cols;
 };
 
-std::vector<Column> columns_at(const Grams& g, const std::vector<int>& idx) {
+std::vector<Column> columns_at(const AxisGrams& g, const std::vector<int>& idx) {
   std::vector<Column> cols;
   cols.reserve(idx.size());
   for (int k : idx) cols.push_back(g.cols[static_cast<std::size_t>(k)]);
   return cols;
 }
 
-Grams accumulate(const Signals& s, const std::vector<Column>& cols, int folds,
-                 const std::function<void(double)>& progress) {
+AxisGrams accumulate_full_rate(const AxisSignals& s, const std::vector<Column>& cols, int folds,
+                               const std::function<void(double)>& progress) {
   const auto m = static_cast<Eigen::Index>(cols.size());
-  Grams g{stats::Grams(static_cast<std::size_t>(folds), m), cols};
+  AxisGrams g{stats::Grams(static_cast<std::size_t>(folds), m), cols};
   const auto starts = s.fold_starts(folds);
   constexpr std::size_t kChunk = 2048;
   stats::Grams::RowMatrix x(kChunk, m);
@@ -168,7 +168,7 @@ Grams accumulate(const Signals& s, const std::vector<Column>& cols, int folds,
   return g;
 }
 
-Fit fit_all(const Grams& g, const std::vector<int>& idx) { return stats::solve(g, idx); }
+Fit fit_all(const AxisGrams& g, const std::vector<int>& idx) { return stats::solve(g, idx); }
 
 // ---------------------------------------------------------------- binned maps
 struct Binned {
@@ -274,9 +274,9 @@ std::string describe_regions(const Binned& b, const std::string& what, const std
 }
 
 // ---------------------------------------------------------------- preparation
-struct Prepared {
-  Signals full;  // every sample
-  Signals id;    // identification rate (decimated); same as full when not decimated
+struct AxisPrepared {
+  AxisSignals full;  // every sample
+  AxisSignals id;    // identification rate (decimated); same as full when not decimated
   bool decimated = false;
   Eigen::MatrixXd id_columns;  // decimated: parallel-filtered columns (n × columns)
   int decimation = 1;
@@ -358,7 +358,7 @@ effects::State model_totals(const ModelFile& model) {
 // known dynamics M a + C v + F_c sign(v) and whatever every term of the model file takes from
 // the moving part (the units' laws, the same the twin runs). A term whose total is fitted here
 // is left to the fit. The law is the actuator's (missing_force; no coupling or load here).
-void fixed_force(Signals& s, const ModelFile& model) {
+void fixed_force(AxisSignals& s, const ModelFile& model) {
   std::vector<BaselineTerm> terms;
   for (const auto& t : model.terms) {
     const auto* e = effects::find(t.id);
@@ -380,7 +380,7 @@ void fixed_force(Signals& s, const ModelFile& model) {
 // Identification bandwidth: the lowest frequency below which the acceleration (the most
 // demanding regressor) keeps 99 % of its energy; decimate as far as the decimation filter
 // (80 % of the new Nyquist frequency) stays above it.
-int bandwidth_decimation(Prepared& P) {
+int bandwidth_decimation(AxisPrepared& P) {
   const auto& a = P.full.a;
   double ea = 0;
   for (double x : a) ea += x * x;
@@ -399,13 +399,13 @@ int bandwidth_decimation(Prepared& P) {
 }
 
 // Decimation to the identification bandwidth: parallel filtering of every signal.
-void decimate_signals(Prepared& P, int nd) {
+void decimate_signals(AxisPrepared& P, int nd) {
   P.decimation = nd;
   if (nd <= 1) return;
-  const Signals& s = P.full;
+  const AxisSignals& s = P.full;
   P.decimated = true;
-  Signals& d = P.id;
-  d = Signals{};
+  AxisSignals& d = P.id;
+  d = AxisSignals{};
   d.stroke_min_m = s.stroke_min_m;
   d.stroke_max_m = s.stroke_max_m;
   d.start_s = s.start_s;
@@ -424,16 +424,16 @@ void decimate_signals(Prepared& P, int nd) {
 
 // A force-driven axis: position filtered zero-phase, velocity and acceleration by central
 // differences, the drive force as logged, the baseline's fixed part at every sample.
-Prepared prepare_axis(const Recording& rec, const ModelFile& model, const AnalysisOptions& opt,
-                      const effects::AxisKind& kind) {
-  Prepared P;
+AxisPrepared prepare_axis(const Recording& rec, const ModelFile& model, const AnalysisOptions& opt,
+                          const effects::AxisKind& kind) {
+  AxisPrepared P;
   const std::string position(kind.position), drive(kind.drive);
   stats::require_analysable(rec, {"t_s", position, drive});
   const auto& t = rec.column("t_s");
   P.fs_hz = maglead::sample_rate_hz(rec);
   const double dt = 1.0 / P.fs_hz;
   P.filter_hz = opt.filter_hz > 0 ? opt.filter_hz : rules::kAxisFilterHz;
-  Signals& s = P.full;
+  AxisSignals& s = P.full;
   s.t = t;
   s.start_s = t.front();
   s.span_s = t.back() - t.front();
@@ -466,7 +466,7 @@ Prepared prepare_axis(const Recording& rec, const ModelFile& model, const Analys
 
 // Columns of the decimated axis data are filtered and decimated one by one (parallel
 // filtering, as the benchmark does), so a nonlinear column like sign(q̇) is low-passed too.
-void decimate_columns(Prepared& P, const std::vector<Column>& cols) {
+void decimate_columns(AxisPrepared& P, const std::vector<Column>& cols) {
   const std::size_t n = P.full.size(), nd_n = P.id.size();
   P.id_columns.resize(static_cast<Eigen::Index>(nd_n), static_cast<Eigen::Index>(cols.size()));
   std::vector<double> col(n);
@@ -479,10 +479,10 @@ void decimate_columns(Prepared& P, const std::vector<Column>& cols) {
   }
 }
 
-Grams accumulate_matrix(const Prepared& P, const std::vector<Column>& cols, int folds) {
-  Grams g;
+AxisGrams accumulate_decimated(const AxisPrepared& P, const std::vector<Column>& cols, int folds) {
+  AxisGrams g;
   g.cols = cols;
-  const Signals& s = P.id;
+  const AxisSignals& s = P.id;
   const auto starts = s.fold_starts(folds);
   for (int f = 0; f < folds; ++f) {
     const std::size_t lo = starts[static_cast<std::size_t>(f)];
@@ -508,7 +508,7 @@ Grams accumulate_matrix(const Prepared& P, const std::vector<Column>& cols, int 
 
 // Prediction of the fitted extra columns at every sample of `s` (streaming; no matrix): the
 // fixed force plus each column θ_j (−u_j), u the unit's axis regressor (less_fitted).
-std::vector<double> predict(const Signals& s, const Grams& g, const Fit& fit) {
+std::vector<double> predict(const AxisSignals& s, const AxisGrams& g, const Fit& fit) {
   const std::vector<Column> cols = columns_at(g, fit.idx);
   std::vector<double> out(s.size());
   for (std::size_t i = 0; i < s.size(); ++i)
@@ -516,7 +516,7 @@ std::vector<double> predict(const Signals& s, const Grams& g, const Fit& fit) {
   return out;
 }
 
-std::vector<double> predict_decimated(const Prepared& P, const Fit& fit) {
+std::vector<double> predict_decimated(const AxisPrepared& P, const Fit& fit) {
   std::vector<double> out(P.id.size());
   for (std::size_t i = 0; i < out.size(); ++i) {
     double y = P.id.y_fixed[i];
@@ -548,8 +548,8 @@ Errors errors(const std::vector<double>& y, const std::vector<double>& yhat,
 // ---------------------------------------------------------------- physical parameters
 // The unit's parameters from the fitted coefficients of its columns `idx` (a column left out,
 // because the model already spans it, counts zero); none where the unit gives no value.
-std::optional<effects::Params> axis_params(const Grams& g, const effects::Effect& e, double shape,
-                                           const std::vector<int>& idx,
+std::optional<effects::Params> axis_params(const AxisGrams& g, const effects::Effect& e,
+                                           double shape, const std::vector<int>& idx,
                                            const Eigen::VectorXd& theta,
                                            const effects::State& totals) {
   std::vector<double> c(static_cast<std::size_t>(e.axis_columns()), 0.0);
@@ -566,14 +566,14 @@ struct AxisRun {
   const ModelFile& model;
   const AnalysisOptions& opt;
   const effects::AxisKind& kind;  // its columns, units and parameter names
-  Prepared P;
-  Signals* S = nullptr;  // P.id when decimated, else P.full (no copy: an hour is 3.6 M samples)
+  AxisPrepared P;
+  AxisSignals* S = nullptr;  // P.id when decimated, else P.full (no copy: an hour is 3.6 M samples)
   int folds = 3;
   Candidates cand;                    // every column the units give an axis
   std::vector<int> base_cols;         // baseline totals whose values are unknown (fit = [...])
   std::set<std::string> in_baseline;  // effects the model has already: not candidates again
   std::vector<pulses::Pulse> pulses;
-  Grams g;
+  AxisGrams g;
   double yy_total = 0, n_total = 0;
   AxisRun(const Recording& r, const ModelFile& m, const AnalysisOptions& o,
           const effects::AxisKind& k)
@@ -622,13 +622,13 @@ effects::State fitted_totals(const AxisRun& run, const Fit& fit,
 }
 
 // One pass: per-segment Grams of every column (decimated: each column filtered first).
-void accumulate_all(AxisRun& run) {
+void accumulate_axis(AxisRun& run) {
   if (run.P.decimated) {
     decimate_columns(run.P, run.cand.cols);
-    run.g = accumulate_matrix(run.P, run.cand.cols, run.folds);
+    run.g = accumulate_decimated(run.P, run.cand.cols, run.folds);
   } else {
-    run.g =
-        accumulate(*run.S, run.cand.cols, run.folds, [&](double f) { run.progress("gram", f); });
+    run.g = accumulate_full_rate(*run.S, run.cand.cols, run.folds,
+                                 [&](double f) { run.progress("gram", f); });
   }
   for (std::size_t f = 0; f < run.g.folds(); ++f) {
     run.yy_total += run.g.yy[f];
@@ -678,8 +678,8 @@ class AxisRules : public selection::Rules {
 // No segment filter (a drive force acts everywhere); a simpler candidate with at least half the
 // best one's gain goes first; a column the model already spans (the constant part of
 // direction-dependent friction once an offset is in) is left out.
-selection::Settings settings_of(const AnalysisOptions& opt, const effects::AxisKind& kind,
-                                const effects::Scales& scales = {}) {
+selection::Settings axis_settings(const AnalysisOptions& opt, const effects::AxisKind& kind,
+                                  const effects::Scales& scales = {}) {
   return {.max_terms = opt.axis.max_terms,
           .min_gain_pct = opt.min_gain_pct,
           .min_t = opt.min_t,
@@ -700,7 +700,7 @@ std::vector<ValidationStep> validation_of(const AxisRun& run, const selection::R
 }
 
 // The terms not selected: the best remaining one and those the backward check dropped.
-std::vector<Rejected> rejected_of(const selection::Result& r) {
+std::vector<Rejected> not_selected_of(const selection::Result& r) {
   std::vector<Rejected> out;
   if (r.stopped_at) out.push_back(selection::best_left_out(*r.stopped_at, r.stopped_reason));
   out.insert(out.end(), r.dropped.begin(), r.dropped.end());
@@ -714,7 +714,7 @@ selection::Result select_terms(const AxisRun& run) {
     if (run.in_baseline.count(std::string(e->id()))) in_baseline.push_back(e);
   const AxisRules rules(run);
   const auto o = selection::select(run.g, run.cand, rules,
-                                   settings_of(run.opt, run.kind, run.P.scales), run.base_cols,
+                                   axis_settings(run.opt, run.kind, run.P.scales), run.base_cols,
                                    in_baseline, [&](double f) { run.progress("selection", f); });
   const selection::Span span{.n_used = run.n_total,
                              .t0_s = run.S->start_s,
@@ -733,8 +733,8 @@ struct Predictions {
 
 Predictions predictions(AxisRun& run, const selection::Result& sel) {
   Predictions p;
-  const Grams& g = run.g;
-  Signals& S = *run.S;
+  const AxisGrams& g = run.g;
+  AxisSignals& S = *run.S;
   p.final_fit = fit_all(g, sel.current);
   p.base_fit = fit_all(g, run.base_cols);
   p.yb = predict_any(run, p.base_fit);
@@ -742,7 +742,7 @@ Predictions predictions(AxisRun& run, const selection::Result& sel) {
   p.eb = errors(S.y, p.yb, S.valid);
   p.ef = errors(S.y, p.yf, S.valid);
   // Full rate: raw force against the model evaluated on every sample (undecimated).
-  Signals& F = run.P.full;
+  AxisSignals& F = run.P.full;
   const auto yb_full = run.P.decimated ? predict(F, g, p.base_fit) : p.yb;
   const auto yf_full = run.P.decimated ? predict(F, g, p.final_fit) : p.yf;
   p.eb_full = errors(run.P.y_raw, yb_full, F.valid);
@@ -750,22 +750,16 @@ Predictions predictions(AxisRun& run, const selection::Result& sel) {
   return p;
 }
 
-std::string fmt(double v) {
-  std::ostringstream o;
-  o << v;
-  return o.str();
-}
-
 void describe_method(Findings& J, const AxisRun& run) {
   J.method.domain =
       run.kind.words("force (inverse model: measured force predicted from measured motion)");
   J.method.filter = run.kind.words("4th-order Butterworth, zero phase (forward-backward), ") +
-                    std::string(run.kind.motion) + " at " + fmt(run.P.filter_hz) +
+                    std::string(run.kind.motion) + " at " + number_text(run.P.filter_hz, 6) +
                     " Hz; central differences";
   J.method.decimation = run.P.decimation;
   J.method.identification_bandwidth_hz = run.P.bandwidth_hz;
   J.method.folds = run.folds;
-  J.method.selection = selection::describe(settings_of(run.opt, run.kind)) +
+  J.method.selection = selection::describe(axis_settings(run.opt, run.kind)) +
                        run.kind.words(", and explain more RMS than the force noise floor");
   J.method.moving_only = "all samples";
   J.noise_floor_n = run.P.noise_floor_n;
@@ -780,7 +774,7 @@ Parameters fitted_base(const AxisRun& run, const Fit& fit) {
 }
 
 // A term's alternatives as the findings list them, plausible or not.
-std::vector<Alternative> alternatives_of(const selection::Found& f) {
+std::vector<Alternative> finding_alternatives(const selection::Found& f) {
   std::vector<Alternative> out;
   for (const auto& a : f.alternatives)
     out.push_back({a.id, selection::parameters_of(a.params.value_or(effects::Params{})),
@@ -788,7 +782,7 @@ std::vector<Alternative> alternatives_of(const selection::Found& f) {
   return out;
 }
 
-EffectFinding finding_of(const AxisRun& run, const selection::Found& f) {
+EffectFinding axis_finding(const AxisRun& run, const selection::Found& f) {
   EffectFinding e;
   e.id = f.id;
   e.parameters = selection::parameters_of(f.params);
@@ -806,7 +800,7 @@ EffectFinding finding_of(const AxisRun& run, const selection::Found& f) {
   e.improvement_pct = f.improvement_pct;
   e.identifiable = f.alternatives.empty();
   if (!f.alternatives.empty()) {
-    e.alternatives = alternatives_of(f);
+    e.alternatives = finding_alternatives(f);
     std::string names = e.id;
     for (const auto& a : e.alternatives) names += " or " + a.id;
     e.finding = "one combined finding: the data cannot tell " + names + " apart";
@@ -868,7 +862,7 @@ class Rates {
   Rates(const AxisRun& run, const std::vector<int>& idx)
       : run_(run), cols_(columns_at(run.g, idx)) {
     if (!run.P.decimated) return;
-    const Signals& F = run.P.full;
+    const AxisSignals& F = run.P.full;
     const double dt = 1.0 / run.P.fs_hz;
     d_.resize(static_cast<Eigen::Index>(run.P.id.size()), static_cast<Eigen::Index>(idx.size()));
     std::vector<double> col(F.size());
@@ -884,7 +878,7 @@ class Rates {
   // The columns at sample i into x, their rates into dx; returns the fixed force's rate.
   double at(std::size_t i, const std::vector<int>& idx, Eigen::VectorXd& x,
             Eigen::VectorXd& dx) const {
-    const Signals& S = *run_.S;
+    const AxisSignals& S = *run_.S;
     if (run_.P.decimated) {
       for (std::size_t j = 0; j < idx.size(); ++j)
         x[static_cast<Eigen::Index>(j)] = run_.P.id_columns(static_cast<Eigen::Index>(i), idx[j]);
@@ -917,7 +911,7 @@ std::array<Fit, 2> moved_fits(const AxisRun& run, const std::vector<int>& idx) {
   const Rates rates(run, idx);
   std::array<stats::Grams, 2> g{stats::Grams(1, k), stats::Grams(1, k)};
   Eigen::VectorXd x(k), dx(k);
-  const Signals& S = *run.S;
+  const AxisSignals& S = *run.S;
   for (std::size_t i = 0; i < S.size(); ++i) {
     if (!S.valid[i]) continue;
     const double dfixed = rates.at(i, idx, x, dx), r = S.y[i] - S.y_fixed[i];
@@ -1001,9 +995,9 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
                 fitted_base(run, p.base_fit),
                 {},
                 {}};
-  for (const auto& f : sel.terms) J.effects.push_back(finding_of(run, f));
+  for (const auto& f : sel.terms) J.effects.push_back(axis_finding(run, f));
   J.nothing_missing = sel.terms.empty() && !sel.implausible;
-  J.not_selected = rejected_of(sel);
+  J.not_selected = not_selected_of(sel);
   if (sel.implausible)
     J.unexplained = selection::unexplained_of(
         *sel.implausible,
@@ -1035,7 +1029,7 @@ void fill_findings(Findings& J, const AxisRun& run, const selection::Result& sel
 // milliseconds with any force within its break-away, where the friction law only flips sign. A
 // pulse within the filters' spread (`spread_s`) of a reversal and no larger than the model's own
 // force swing there (`yf`, which that flip is part of) is that stick, not an event.
-std::vector<pulses::Pulse> off_reversals(const Signals& S, const std::vector<double>& yf,
+std::vector<pulses::Pulse> off_reversals(const AxisSignals& S, const std::vector<double>& yf,
                                          double spread_s, std::vector<pulses::Pulse> found) {
   std::erase_if(found, [&](const pulses::Pulse& p) {
     const auto from = static_cast<std::size_t>(
@@ -1057,8 +1051,8 @@ std::vector<pulses::Pulse> off_reversals(const Signals& S, const std::vector<dou
 // a force no input explains (not a library law's where the axis was: pulses::unexplained), above
 // the force sensor's noise. The residual's band limit is the
 // decimation filter's, or at full rate the position's filter, applied to the residual here.
-void locate_pulses(AxisRun& run, const std::vector<double>& yf, const std::vector<int>& model) {
-  const Signals& S = *run.S;
+void axis_pulses(AxisRun& run, const std::vector<double>& yf, const std::vector<int>& model) {
+  const AxisSignals& S = *run.S;
   pulses::Floors f;
   f.min_n = run.P.noise_floor_n;
   f.fs_hz = run.P.fs_hz;
@@ -1094,7 +1088,7 @@ struct Residuals {
   std::string unit() const { return std::string(kind->drive_unit); }  // the residual's
 };
 
-void add_map(AnalysisResult& R, const Signals& S, const Residuals& res,
+void add_map(AnalysisResult& R, const AxisSignals& S, const Residuals& res,
              const std::vector<double>& x, const std::string& label, const std::string& unit,
              double scale, std::pair<double, double> range, int nb) {
   const auto b0 = bin(x, res.before, S.valid, range.first, range.second, nb);
@@ -1113,7 +1107,7 @@ void add_map(AnalysisResult& R, const Signals& S, const Residuals& res,
 }
 
 // Direction dependence in words.
-std::string direction_text(const Signals& S, const Residuals& res) {
+std::string direction_text(const AxisSignals& S, const Residuals& res) {
   double sp = 0, sn = 0, np = 0, nn = 0;
   for (std::size_t i = 0; i < S.size(); ++i) {
     if (!S.valid[i]) continue;
@@ -1130,7 +1124,7 @@ std::string direction_text(const Signals& S, const Residuals& res) {
   return o.str();
 }
 
-void residual_maps(AnalysisResult& R, const Signals& S, const Residuals& res) {
+void residual_maps(AnalysisResult& R, const AxisSignals& S, const Residuals& res) {
   const effects::AxisKind& k = *res.kind;
   add_map(R, S, res, S.v, "velocity", std::string(k.map_rate_unit), k.map_scale,
           percentile_range(S.v, S.valid, kVelocityTail), kVelocityBins);
@@ -1145,7 +1139,7 @@ struct Windows {
   Curve before{"baseline", {}, {}}, after{"corrected", {}, {}};
 };
 
-Windows windowed_rms(const Signals& S, const Residuals& res) {
+Windows windowed_rms(const AxisSignals& S, const Residuals& res) {
   Windows w;
   w.win_s = std::max(1.0, (S.t.back() - S.t.front()) / kMostTimeWindows);
   for (std::size_t i = 0; i < S.size();) {
@@ -1170,7 +1164,7 @@ Windows windowed_rms(const Signals& S, const Residuals& res) {
 }
 
 // Growth over time, and windows far above the median (events).
-void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& res,
+void residual_over_time(AnalysisResult& R, const AxisSignals& S, const Residuals& res,
                         double noise_floor_n) {
   const Windows w = windowed_rms(S, res);
   const auto& wr = w.before.y;
@@ -1221,7 +1215,7 @@ void residual_over_time(AnalysisResult& R, const Signals& S, const Residuals& re
 using Onsets = std::vector<std::pair<std::size_t, double>>;  // sample, signed direction
 
 // The residual averaged around events (signed by the new direction), before and after.
-void locked_average(AnalysisResult& R, const Signals& S, const Residuals& res, double fs_id,
+void locked_average(AnalysisResult& R, const AxisSignals& S, const Residuals& res, double fs_id,
                     const Onsets& at, const std::string& what) {
   const int half = static_cast<int>(kLockedHalfSpan_s * fs_id);
   std::vector<double> acc0(static_cast<std::size_t>(2 * half + 1), 0.0), acc1(acc0.size(), 0.0),
@@ -1257,7 +1251,7 @@ void locked_average(AnalysisResult& R, const Signals& S, const Residuals& res, d
   R.figures.push_back(fr);
 }
 
-Onsets reversals(const Signals& S) {
+Onsets reversals(const AxisSignals& S) {
   Onsets rev;
   double last_dir = 0;
   for (std::size_t i = 0; i < S.size(); ++i) {
@@ -1284,7 +1278,7 @@ Onsets input_edges(const std::vector<double>& x, int decimation) {
 
 // Event-locked averages: the residual around velocity reversals and input edges.
 void event_locked(AnalysisResult& R, const AxisRun& run, const Residuals& res) {
-  const Signals& S = *run.S;
+  const AxisSignals& S = *run.S;
   const double fs_id = run.P.fs_hz / run.P.decimation;
   const Onsets rev = reversals(S);
   locked_average(R, S, res, fs_id, rev, "velocity reversals");
@@ -1304,8 +1298,8 @@ void event_locked(AnalysisResult& R, const AxisRun& run, const Residuals& res) {
 
 // Measured force with both models over time, the held-out error per step, and the fit over time
 // (the page's interactive chart, as the actuator path gives it).
-void time_figures(AnalysisResult& R, const Signals& S, const Predictions& p, const Residuals& res,
-                  bool added) {
+void time_figures(AnalysisResult& R, const AxisSignals& S, const Predictions& p,
+                  const Residuals& res, bool added) {
   const std::size_t step = std::max<std::size_t>(1, S.size() / kChartPoints);
   Curve m{"measured", {}, {}}, b{"baseline", {}, {}}, c{"corrected", {}, {}},
       rb{"baseline", {}, {}}, rc{"corrected", {}, {}};
@@ -1566,7 +1560,7 @@ class AxisPath final : public AnalysisPath {
 
   void select() override {
     baseline_columns(run_);
-    accumulate_all(run_);
+    accumulate_axis(run_);
     sel_ = select_terms(run_);
     final_base_se_ = finish_terms(run_, sel_);
   }
@@ -1574,7 +1568,7 @@ class AxisPath final : public AnalysisPath {
   // In the kind's names (name_in_kind); the corrected model takes the units' own, kept aside.
   Findings findings() override {
     p_ = predictions(run_, sel_);
-    locate_pulses(run_, p_.yf, sel_.current);
+    axis_pulses(run_, p_.yf, sel_.current);
     Findings J;
     fill_findings(J, run_, sel_, p_, final_base_se_);
     J.twin_simulation = TwinSimulation{};
@@ -1587,7 +1581,7 @@ class AxisPath final : public AnalysisPath {
 
   void figures(AnalysisResult& R) override {
     if (auto h = held_text(run_); !h.empty()) R.where.push_back(std::move(h));
-    const Signals& S = *run_.S;
+    const AxisSignals& S = *run_.S;
     Residuals res{std::vector<double>(S.size()), std::vector<double>(S.size()), p_.eb.rms,
                   &run_.kind};
     for (std::size_t i = 0; i < S.size(); ++i) {

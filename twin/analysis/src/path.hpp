@@ -5,10 +5,20 @@
 // for it, and every path runs the one selection (selection.hpp) and builds its findings with the
 // one conclusion (conclude).
 #include <memory>
+#include <sstream>
+#include <string>
 
 #include "maglead/analysis/analysis.hpp"
 
 namespace maglead::analysis {
+
+/// `value` as a stream writes it at `digits` significant digits: the paths' numbers in words.
+inline std::string number_text(double value, int digits) {
+  std::ostringstream o;
+  o.precision(digits);
+  o << value;
+  return o.str();
+}
 
 class AnalysisPath {
  public:
