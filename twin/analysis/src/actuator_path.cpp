@@ -265,7 +265,7 @@ Method method_of(const actuator::ActuatorPrepared& P, const actuator::StageOptio
       "from measured motion and load)";
   m.filter = "4th-order Butterworth at " + fmt3(P.filter_hz) + " Hz, zero phase, on every signal";
   m.decimation = P.decimation;
-  m.folds = o.folds;
+  m.folds = std::max(rules::kMinFolds, o.folds);  // as select_sliding uses them
   m.selection = actuator::selection_rule(o);
   m.moving_only = "sliding samples only (faster than " + fmt3(P.v_min_m_s * 1e3) +
                   " mm/s, one direction over the filter's support); stuck episodes feed "
