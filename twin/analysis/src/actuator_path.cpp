@@ -461,12 +461,24 @@ std::string sliding_note(const actuator::ActuatorPrepared& P,
          "an offset; events (step-outs, pulses) are still found";
 }
 
+// Candidates the findings list as not selected beside the selection's own.
+struct LeftOut {
+  const std::vector<Rejected>& rejected;  // taken, then refused (sliding_fit)
+  const std::vector<Rejected>& unjudged;  // laws the recording cannot judge at all
+};
+
+// What the releases name beside the sliding fit (ActuatorPath::select), and their test.
+struct ReleaseFindings {
+  const std::optional<selection::Found>& stribeck;
+  const std::optional<selection::Found>& offset;
+  const actuator::Breakaway& bt;
+};
+
 // The typed findings of the stages' results.
 Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
-                     actuator::SlidingSelection& sel,
-                     const std::optional<selection::Found>& stribeck,
-                     const std::optional<selection::Found>& offset, const actuator::Breakaway& bt,
-                     const actuator::StageOptions& o) {
+                     actuator::SlidingSelection& sel, const LeftOut& left_out,
+                     const ReleaseFindings& releases, const actuator::StageOptions& o) {
+  const actuator::Breakaway& bt = releases.bt;
   Findings J;
   J.system = "actuator";
   J.recording = rec.path;
@@ -485,8 +497,8 @@ Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
                 {},
                 {}};
   add_sliding_findings(J, sel, P, es);
-  if (stribeck) add_stribeck(J, sel, *stribeck, bt, P);
-  if (offset) add_offset(J, sel, *offset, bt, P);
+  if (releases.stribeck) add_stribeck(J, sel, *releases.stribeck, bt, P);
+  if (releases.offset) add_offset(J, sel, *releases.offset, bt, P);
   add_step_outs(J, P);
   pulses::report(J, actuator::actuator_pulses(P, sel, o));
   add_step_out_finding(J, P);
@@ -503,6 +515,8 @@ Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
   if (sel.stopped_at)
     J.not_selected.push_back(selection::best_left_out(*sel.stopped_at, sel.stopped_reason));
   J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
+  J.not_selected.insert(J.not_selected.begin(), left_out.rejected.begin(), left_out.rejected.end());
+  J.not_selected.insert(J.not_selected.end(), left_out.unjudged.begin(), left_out.unjudged.end());
   J.unexplained = actuator_unexplained(sel);
   J.sliding_note = sliding_note(P, sel);
   J.resolvable = sel.resolvable;
@@ -582,10 +596,8 @@ class ActuatorPath final : public AnalysisPath {
   void select() override;
 
   Findings findings() override {
-    Findings J = findings_of(rec_, P_, sel_.fit, stribeck_, offset_, bt_, o_);
-    J.not_selected.insert(J.not_selected.begin(), sel_.rejected.begin(), sel_.rejected.end());
-    J.not_selected.insert(J.not_selected.end(), unjudged_.begin(), unjudged_.end());
-    return J;
+    return findings_of(rec_, P_, sel_.fit, {sel_.rejected, unjudged_}, {stribeck_, offset_, bt_},
+                       o_);
   }
 
   void figures(AnalysisResult& r) override { r.fit_over_time = fit_over_time(P_, sel_.fit); }

@@ -43,7 +43,8 @@ using stats::sse;
 constexpr std::size_t kPercentileProbe = 200000, kChartPoints = 6000;
 // A map's bin is drawn from this many samples; at most this many regions and windows are listed.
 constexpr double kMinCurveBinSamples = 5;
-constexpr int kMostRegionsListed = 4, kMostWindowsListed = 6;
+constexpr int kMostRegionsListed = 4;
+constexpr std::size_t kMostWindowsListed = 6;
 constexpr double kTinyVariance = 1e-12;  // N²: a bin of equal residuals still has an error
 // The maps' bins over velocity (its extreme tails left out) and over position.
 constexpr int kVelocityBins = 60, kPositionBins = 80;
@@ -1163,10 +1164,37 @@ Windows windowed_rms(const AxisSignals& S, const Residuals& res) {
   return w;
 }
 
-// Growth over time, and windows far above the median (events).
-void residual_over_time(AnalysisResult& R, const AxisSignals& S, const Residuals& res,
-                        double noise_floor_n) {
-  const Windows w = windowed_rms(S, res);
+// The time windows whose residual RMS stands out (at most kMostWindowsListed, with at least
+// kMinWindows windows): this many times the median window's and the noise floor.
+std::vector<std::size_t> misfit_windows(const Windows& w, double noise_floor_n) {
+  std::vector<std::size_t> out;
+  const auto& wr = w.before.y;
+  if (wr.size() < kMinWindows) return out;
+  std::vector<double> sorted = wr;
+  std::sort(sorted.begin(), sorted.end());
+  const double med = sorted[sorted.size() / 2];
+  for (std::size_t k = 0; k < wr.size() && out.size() < kMostWindowsListed; ++k)
+    if (wr[k] > rules::kWhereWindowOverMedian * med &&
+        wr[k] > noise_floor_n * rules::kWhereWindowOverMedian)
+      out.push_back(k);
+  return out;
+}
+
+// Those windows as the findings' events (misfit_window).
+void add_misfit_windows(Findings& J, const Windows& w, const std::vector<std::size_t>& at) {
+  for (const std::size_t k : at) {
+    Event ev;
+    ev.type = "misfit_window";
+    ev.t_s = w.before.x[k] - w.win_s / 2;
+    ev.duration_s = w.win_s;
+    ev.rms_n = w.before.y[k];
+    J.events.push_back(ev);
+  }
+}
+
+// Growth over time, and the misfit windows `at` (misfit_windows) in words.
+void residual_over_time(AnalysisResult& R, const Windows& w, const std::vector<std::size_t>& at,
+                        const Residuals& res) {
   const auto& wr = w.before.y;
   const double win = w.win_s;
   if (wr.size() >= kMinWindows) {
@@ -1183,26 +1211,12 @@ void residual_over_time(AnalysisResult& R, const AxisSignals& S, const Residuals
         << " in the first third, " << last << " " << res.unit() << " in the last)";
       R.where.push_back(o.str());
     }
-    std::vector<double> sorted = wr;
-    std::sort(sorted.begin(), sorted.end());
-    const double med = sorted[sorted.size() / 2];
-    int shown = 0;
     std::ostringstream w2;
     w2.precision(4);
-    for (std::size_t k = 0; k < wr.size() && shown < kMostWindowsListed; ++k)
-      if (wr[k] > rules::kWhereWindowOverMedian * med &&
-          wr[k] > noise_floor_n * rules::kWhereWindowOverMedian) {
-        w2 << (shown ? ", " : "") << w.before.x[k] - win / 2 << "–" << w.before.x[k] + win / 2
-           << " s";
-        Event ev;
-        ev.type = "misfit_window";
-        ev.t_s = w.before.x[k] - win / 2;
-        ev.duration_s = win;
-        ev.rms_n = wr[k];
-        R.findings.events.push_back(ev);
-        ++shown;
-      }
-    if (shown)
+    for (std::size_t k : at)
+      w2 << (k == at.front() ? "" : ", ") << w.before.x[k] - win / 2 << "–"
+         << w.before.x[k] + win / 2 << " s";
+    if (!at.empty())
       R.where.push_back("in time: windows with residual RMS over 3× the median: " + w2.str());
   }
   Figure ft;
@@ -1276,24 +1290,33 @@ Onsets input_edges(const std::vector<double>& x, int decimation) {
   return edges;
 }
 
+// Input edges: steps in the first setpoint column the recording has, with its name (none: it has
+// none).
+std::optional<std::pair<std::string, Onsets>> setpoint_edges(const AxisRun& run) {
+  for (const std::string_view name : run.kind.setpoints) {
+    std::string col(name);
+    if (run.rec.has(col)) {
+      Onsets edges = input_edges(run.rec.column(col), run.P.decimation);
+      return std::pair{std::move(col), std::move(edges)};
+    }
+  }
+  return std::nullopt;
+}
+
+// How many velocity reversals and input edges the event-locked averages are over.
+void count_onsets(Findings& J, const AxisRun& run) {
+  J.reversals = reversals(*run.S).size();
+  if (const auto edges = setpoint_edges(run); edges && !edges->second.empty())
+    J.input_edges = edges->second.size();
+}
+
 // Event-locked averages: the residual around velocity reversals and input edges.
 void event_locked(AnalysisResult& R, const AxisRun& run, const Residuals& res) {
   const AxisSignals& S = *run.S;
   const double fs_id = run.P.fs_hz / run.P.decimation;
-  const Onsets rev = reversals(S);
-  locked_average(R, S, res, fs_id, rev, "velocity reversals");
-  R.findings.reversals = rev.size();
-  // Input edges: steps in a setpoint column, if the recording has one.
-  for (const std::string_view name : run.kind.setpoints) {
-    const std::string col(name);
-    if (!run.rec.has(col)) continue;
-    const Onsets edges = input_edges(run.rec.column(col), run.P.decimation);
-    if (!edges.empty()) {
-      locked_average(R, S, res, fs_id, edges, "steps of " + col);
-      R.findings.input_edges = edges.size();
-    }
-    break;
-  }
+  locked_average(R, S, res, fs_id, reversals(S), "velocity reversals");
+  if (const auto edges = setpoint_edges(run); edges && !edges->second.empty())
+    locked_average(R, S, res, fs_id, edges->second, "steps of " + edges->first);
 }
 
 // Measured force with both models over time, the held-out error per step, and the fit over time
@@ -1569,8 +1592,18 @@ class AxisPath final : public AnalysisPath {
   Findings findings() override {
     p_ = predictions(run_, sel_);
     axis_pulses(run_, p_.yf, sel_.current);
+    const AxisSignals& S = *run_.S;
+    res_ = {std::vector<double>(S.size()), std::vector<double>(S.size()), p_.eb.rms, &run_.kind};
+    for (std::size_t i = 0; i < S.size(); ++i) {
+      res_.before[i] = S.y[i] - p_.yb[i];
+      res_.after[i] = S.y[i] - p_.yf[i];
+    }
+    windows_ = windowed_rms(S, res_);
+    misfit_at_ = misfit_windows(windows_, run_.P.noise_floor_n);
     Findings J;
     fill_findings(J, run_, sel_, p_, final_base_se_);
+    add_misfit_windows(J, windows_, misfit_at_);
+    count_onsets(J, run_);
     J.twin_simulation = TwinSimulation{};
     J.twin_simulation->reason =
         run_.kind.words("the twin models the magnetic actuator; this is a force-driven axis");
@@ -1582,16 +1615,10 @@ class AxisPath final : public AnalysisPath {
   void figures(AnalysisResult& R) override {
     if (auto h = held_text(run_); !h.empty()) R.where.push_back(std::move(h));
     const AxisSignals& S = *run_.S;
-    Residuals res{std::vector<double>(S.size()), std::vector<double>(S.size()), p_.eb.rms,
-                  &run_.kind};
-    for (std::size_t i = 0; i < S.size(); ++i) {
-      res.before[i] = S.y[i] - p_.yb[i];
-      res.after[i] = S.y[i] - p_.yf[i];
-    }
-    residual_maps(R, S, res);
-    residual_over_time(R, S, res, run_.P.noise_floor_n);
-    event_locked(R, run_, res);
-    time_figures(R, S, p_, res, !sel_.terms.empty());
+    residual_maps(R, S, res_);
+    residual_over_time(R, windows_, misfit_at_, res_);
+    event_locked(R, run_, res_);
+    time_figures(R, S, p_, res_, !sel_.terms.empty());
   }
 
   void corrected_model(AnalysisResult& R) override {
@@ -1603,6 +1630,9 @@ class AxisPath final : public AnalysisPath {
   selection::Result sel_;
   Parameters final_base_se_;  // the baseline's fitted totals' standard errors (finish_terms)
   Predictions p_;
+  Residuals res_;  // before and after, at the identification samples
+  Windows windows_;
+  std::vector<std::size_t> misfit_at_;     // the windows that stand out (misfit_windows)
   std::vector<EffectFinding> unit_named_;  // the findings' effects before name_in_kind
 };
 

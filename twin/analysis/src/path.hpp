@@ -28,12 +28,14 @@ class AnalysisPath {
   /// The forward selection over the prepared samples with the path's rules, its final fit, and
   /// what the path names beside it (the actuator: from its stuck episodes).
   virtual void select() = 0;
-  /// The findings of what was selected, with the events, concluded once (conclude).
+  /// The findings, every field of them but what a check of the corrected model says (below),
+  /// concluded once (conclude).
   virtual Findings findings() = 0;
   /// Where the model and the recording part: figures, the localisation in words, the fit over
-  /// time (events found there join `r.findings`).
+  /// time; the findings stay as they are.
   virtual void figures(AnalysisResult& r) = 0;
-  /// The corrected model (`r.corrected`); what a check of it finds joins `r.findings`.
+  /// The corrected model (`r.corrected`), and what a check of it finds (the actuator's twin
+  /// check: `r.findings.twin_force_check` and a note on each term it leaves out).
   virtual void corrected_model(AnalysisResult& r) = 0;
 };
 
