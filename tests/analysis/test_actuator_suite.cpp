@@ -196,10 +196,11 @@ Outcome run_case(const Case& c, int index) {
   auto act = c.setup->act;
   act.sample_rate_hz = c.rate_hz;
   maglead::analysis::AnalysisOptions aopt;
-  aopt.twin_force_check = false;  // analysis_twin_round_trip checks it (and costs twin runs)
+  // analysis_twin_round_trip checks it (and costs twin runs)
+  aopt.actuator.twin_force_check = false;
   // MAGLEAD_MATRIX_CALIBRATION_ACCURACY_N=X analyses as `analyze --calibration-accuracy X`.
   if (const char* acc = std::getenv("MAGLEAD_MATRIX_CALIBRATION_ACCURACY_N"))
-    aopt.calibration_accuracy_n = std::stod(acc);
+    aopt.actuator.calibration_accuracy_n = std::stod(acc);
   const auto rec = maglead::read_recording(path);
   const auto r = maglead::analysis::analyze_recording(rec, c.setup->model, c.setup->cal, act, aopt);
   // MAGLEAD_MATRIX_KEEP=1 keeps the recordings, to look at one case with `maglead analyze`.
@@ -511,7 +512,7 @@ maglead::analysis::AnalysisResult analyze_generated(
   const std::string path = test_tmp_dir() + "/single_" + scenario + ".csv";
   maglead::run_scenario(opt, path);
   maglead::analysis::AnalysisOptions aopt;
-  aopt.twin_force_check = false;
+  aopt.actuator.twin_force_check = false;
   auto r = maglead::analysis::analyze_recording(maglead::read_recording(path), s.model, cal, s.act,
                                                 aopt);
   std::filesystem::remove(path);
@@ -558,7 +559,7 @@ TEST(Uncertainty, CoversTheTruthOverTwentySeeds) {
       const std::string path = test_tmp_dir() + "/cover_" + std::to_string(seed) + ".csv";
       maglead::run_scenario(opt, path);
       maglead::analysis::AnalysisOptions aopt;
-      aopt.twin_force_check = false;
+      aopt.actuator.twin_force_check = false;
       const auto r = maglead::analysis::analyze_recording(maglead::read_recording(path), s.model,
                                                           s.cal, s.act, aopt);
       std::filesystem::remove(path);

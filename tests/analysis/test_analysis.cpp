@@ -81,7 +81,8 @@ maglead::ActuatorParams actuator() { return {}; }
 AnalysisResult analyze(const maglead::Recording& rec) {
   const auto act = actuator();
   maglead::analysis::AnalysisOptions opt;
-  opt.twin_force_check = false;  // analysis_twin_round_trip checks it through the command line
+  // analysis_twin_round_trip checks it through the command line
+  opt.actuator.twin_force_check = false;
   return maglead::analysis::analyze_recording(
       rec, maglead::analysis::actuator_model_from_config(act),
       maglead::load_calibration(std::string(MAGLEAD_CONFIG_DIR) + "/calibration.toml"), act, opt);
@@ -96,7 +97,7 @@ void expect_nothing_new_with_the_corrected_model(const maglead::Recording& rec,
                                                  const std::string& scenario) {
   const auto act = actuator();
   maglead::analysis::AnalysisOptions opt;
-  opt.twin_force_check = false;
+  opt.actuator.twin_force_check = false;
   const auto again = maglead::analysis::analyze_recording(
       rec, first.corrected,
       maglead::load_calibration(std::string(MAGLEAD_CONFIG_DIR) + "/calibration.toml"), act, opt);
@@ -509,14 +510,14 @@ TEST(GeneratedSuite, AStatedCalibrationAccuracyIsTheMinimum) {
   const auto act = actuator();
   const auto cal = maglead::load_calibration(std::string(MAGLEAD_CONFIG_DIR) + "/calibration.toml");
   maglead::analysis::AnalysisOptions o;
-  o.twin_force_check = false;
+  o.actuator.twin_force_check = false;
   const auto model = maglead::analysis::actuator_model_from_config(act);
   const auto by_default = maglead::analysis::analyze_recording(rec, model, cal, act, o);
   Parameters p;
   const auto* named = finding(by_default, "offset", &p);
   ASSERT_NE(named, nullptr) << named_as(by_default);
   EXPECT_NE(named->summary.find("minimum 0.070 N"), std::string::npos) << named->summary;
-  o.calibration_accuracy_n = 0.3;
+  o.actuator.calibration_accuracy_n = 0.3;
   const auto stated = maglead::analysis::analyze_recording(rec, model, cal, act, o);
   EXPECT_EQ(finding(stated, "offset", &p), nullptr) << named_as(stated);
 }

@@ -195,7 +195,7 @@ TEST(Folds, CutTheSpanByTimeNotBySampleCount) {
 // the floor exactly.
 TEST(StopSamples, TakenOutInPlaceAndPutBackExactly) {
   namespace act = maglead::analysis::actuator;
-  act::Prepared P;
+  act::ActuatorPrepared P;
   P.count_force_n = 0.4;
   P.floor_n = 0.1;
   P.locked_period = {2, 5};
@@ -209,7 +209,7 @@ TEST(StopSamples, TakenOutInPlaceAndPutBackExactly) {
   }
   P.stops = {{0.25, 0.5}, {1.2, 1.3}};  // samples 3, 4, 5 and 12, 13 (t = 1.2, 1.3)
   act::put_back(P, {});                 // nothing aside: the locked floor as prepare sets it
-  const act::Prepared before = P;
+  const act::ActuatorPrepared before = P;
   const auto aside = act::take_stops(P);
   EXPECT_EQ(aside.at, (std::vector<std::size_t>{3, 4, 5, 12, 13}));
   ASSERT_EQ(P.states.size(), 15U);

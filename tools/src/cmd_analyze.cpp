@@ -169,7 +169,7 @@ Recording read_for_analysis(const AnalyzeOptions& o, const ActuatorParams& act,
 }
 
 void run_analyze(AnalyzeOptions o) {
-  o.a.twin_force_check = !o.no_twin_check;
+  o.a.actuator.twin_force_check = !o.no_twin_check;
   const ActuatorParams act = load_actuator_or_default(o.config);
   const std::string model_path = baseline_path(o);
   if (!model_path.empty()) twin::check_model_format(model_path);  // the analysis reader does not
@@ -183,7 +183,7 @@ void run_analyze(AnalyzeOptions o) {
                                               " held-out segments: type e.g. --folds " +
                                               std::to_string(analysis::rules::kFolds));
   for (const auto& [option, given, what] :
-       {std::tuple{"--calibration-accuracy", o.a.calibration_accuracy_n > 0,
+       {std::tuple{"--calibration-accuracy", o.a.actuator.calibration_accuracy_n > 0,
                    "how well its coupling calibration is known"},
         {"--calibration", !o.calibration.empty(), "its coupling calibration"}})
     if (model.system != "actuator" && given)
@@ -246,7 +246,7 @@ void add_analyze(CLI::App& app) {
                   "period: a higher cutoff leaves slow moves out")
       ->check(number_in(
           {0.0, std::numeric_limits<double>::infinity(), "Hz", "0 chooses it", "--filter-hz 20"}));
-  cmd->add_option("--decimation", o->a.decimation,
+  cmd->add_option("--decimation", o->a.axis.decimation,
                   "Decimation factor (default: down to the identification bandwidth for an axis)")
       ->check(number_in(
           {0.0, kMaxDecimation, "", "0 chooses it, 1 keeps every sample", "--decimation 1"}));
@@ -254,7 +254,7 @@ void add_analyze(CLI::App& app) {
                   "Held-out mean-square-error reduction a term must bring [%], 0 .. 100")
       ->check(number_in({0.0, 100.0, "%", "a share of the held-out error", "--min-gain 1"}))
       ->capture_default_str();
-  cmd->add_option("--calibration-accuracy", o->a.calibration_accuracy_n,
+  cmd->add_option("--calibration-accuracy", o->a.actuator.calibration_accuracy_n,
                   "Actuator only (refused with an axis's model): how well the calibration is "
                   "known [N] (e.g. its bench's accuracy); "
                   "a finding must change the force by more. Default: a thousandth of the "

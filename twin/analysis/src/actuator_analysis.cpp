@@ -111,8 +111,8 @@ const std::vector<double>& angle_column(const Recording& rec, const ActuatorPara
 // ------------------------------------------------------------------------------- prepare
 namespace {
 
-// Signals derived from stored ones where they are read: each full-rate array would cost 8 bytes
-// a sample (29 MB for an hour at 1 kHz), a read costs a subtraction or two. The arithmetic is
+// ActuatorSignals derived from stored ones where they are read: each full-rate array would cost 8
+// bytes a sample (29 MB for an hour at 1 kHz), a read costs a subtraction or two. The arithmetic is
 // central_diff's and central_diff2's (signal.hpp), so the values are theirs to the bit.
 struct PhaseOf {  // φ = θ − 2π p / lead
   const std::vector<double>& theta_rad;
@@ -157,12 +157,12 @@ const std::vector<double>& finite_angle(const Recording& rec, const ActuatorPara
 
 // The recording's signals, raw and filtered, with the derivatives the force balance needs.
 // `geared` holds the screw angle when only the motor's is logged (angle_column). The derived
-// signals refer to the stored ones: a Signals is built in place and never copied.
-struct Signals {
-  Signals(const Recording& rec, const ActuatorParams& act, const Prepared& P,
-          std::vector<double>& geared);
-  Signals(const Signals&) = delete;
-  Signals& operator=(const Signals&) = delete;
+// signals refer to the stored ones: a ActuatorSignals is built in place and never copied.
+struct ActuatorSignals {
+  ActuatorSignals(const Recording& rec, const ActuatorParams& act, const ActuatorPrepared& P,
+                  std::vector<double>& geared);
+  ActuatorSignals(const ActuatorSignals&) = delete;
+  ActuatorSignals& operator=(const ActuatorSignals&) = delete;
   const std::vector<double>& t;
   const std::vector<double>& pos_raw;
   const std::vector<double>& load_raw;
@@ -176,8 +176,8 @@ struct Signals {
   const RateOf<PhaseOf> phi_rate{phi, dt_s};
 };
 
-Signals::Signals(const Recording& rec, const ActuatorParams& act, const Prepared& P,
-                 std::vector<double>& geared)
+ActuatorSignals::ActuatorSignals(const Recording& rec, const ActuatorParams& act,
+                                 const ActuatorPrepared& P, std::vector<double>& geared)
     : t(rec.column("t_s")),
       pos_raw(rec.column("nut_pos_m")),
       load_raw(rec.column("load_force_n")),
@@ -190,7 +190,7 @@ Signals::Signals(const Recording& rec, const ActuatorParams& act, const Prepared
 
 // The standard deviation of white load-cell noise after the filter, and of its rate (the
 // filter's and the derivative's impulse response, summed in squares).
-std::pair<double, double> filtered_noise(const Prepared& P) {
+std::pair<double, double> filtered_noise(const ActuatorPrepared& P) {
   const auto half =
       static_cast<std::size_t>(kResponseFilterPeriods * std::ceil(P.fs_hz / P.filter_hz));
   std::vector<double> x(2 * half + 1, 0.0);
@@ -206,8 +206,9 @@ std::pair<double, double> filtered_noise(const Prepared& P) {
 // needs to cross one count means the nut stood still (or nearly) in between, as in stick-slip,
 // where it sticks and jumps several times within one filter period. Each stop, widened by the
 // filter's support either side (the samples whose filtered values it reaches), as times since t0.
-std::vector<Prepared::Window> hidden_stops(const Signals& s, const Prepared& P) {
-  std::vector<Prepared::Window> out;
+std::vector<ActuatorPrepared::Window> hidden_stops(const ActuatorSignals& s,
+                                                   const ActuatorPrepared& P) {
+  std::vector<ActuatorPrepared::Window> out;
   const std::size_t n = s.t.size();
   const double reach_s = std::ceil(P.fs_hz / P.filter_hz) / P.fs_hz;
   std::size_t i = 0;
@@ -228,7 +229,7 @@ std::vector<Prepared::Window> hidden_stops(const Signals& s, const Prepared& P) 
 // Sliding samples: moving in one direction for the whole filter support around the sample,
 // faster than one encoder count per filter time constant (slower, the nut may be stuck and its
 // friction is anywhere in the break-away band), and away from step-outs.
-std::vector<unsigned char> sliding_mask(const Signals& s, const Prepared& P) {
+std::vector<unsigned char> sliding_mask(const ActuatorSignals& s, const ActuatorPrepared& P) {
   const std::size_t n = s.t.size();
   const auto w = static_cast<std::size_t>(std::ceil(P.fs_hz / P.filter_hz));
   std::vector<unsigned char> ok(n, 0);
@@ -255,7 +256,7 @@ std::vector<unsigned char> sliding_mask(const Signals& s, const Prepared& P) {
 // The nut rings on its coupling faster than the filter, as under a loop that reads it late: its
 // mass M on the coupling's stiffness k_c = F_m'(0) 2π/L (the count's force over the count), at
 // ω = √(k_c/M) with the model's mass.
-double ring_rad_s(const Prepared& P, const Baseline& base) {
+double ring_rad_s(const ActuatorPrepared& P, const Baseline& base) {
   return std::sqrt(P.count_force_n / P.count_m / std::max(base.nut_mass_kg, kLeastMass_kg));
 }
 
@@ -266,7 +267,8 @@ double ring_rad_s(const Prepared& P, const Baseline& base) {
 // no friction law of the filtered speed holds there (a lower Coulomb level, and a sensor delay
 // read 40 % long, took it up on the other actuator). The samples stay for what they show as
 // events; the fits leave them out.
-std::vector<unsigned char> ringing(const Signals& s, const Prepared& P, double omega_rad_s) {
+std::vector<unsigned char> ringing(const ActuatorSignals& s, const ActuatorPrepared& P,
+                                   double omega_rad_s) {
   const std::size_t n = s.t.size();
   const auto w = static_cast<std::size_t>(std::ceil(P.fs_hz / P.filter_hz));
   const double rounding2 = P.count_m * P.count_m / 12.0;
@@ -287,7 +289,7 @@ std::vector<unsigned char> ringing(const Signals& s, const Prepared& P, double o
 // then repeats every q samples: the filter removes its ripple but keeps its mean, which the
 // phase of the move sets anywhere within half a count over q. Periods whose mean the white
 // rounding floor already covers (c / 2q below the filtered c / √12) are not looked for.
-LockedRuns locked_runs(const Signals& s, const Prepared& P) {
+LockedRuns locked_runs(const ActuatorSignals& s, const ActuatorPrepared& P) {
   const std::size_t n = s.t.size();
   const auto w = static_cast<std::size_t>(std::ceil(P.fs_hz / P.filter_hz));
   const double kept = std::sqrt(std::min(1.0, 2.0 * P.filter_hz / P.fs_hz));
@@ -316,8 +318,8 @@ LockedRuns locked_runs(const Signals& s, const Prepared& P) {
 
 // What a finding must exceed: the force of one count, what the recording resolves and the
 // stated minimum.
-void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
-                const ActuatorParams& act, const Options& opt) {
+void set_floors(ActuatorPrepared& P, const Coupling& cp, const ForceCalibration& cal,
+                const ActuatorParams& act, const StageOptions& opt) {
   P.count_force_n = std::abs(cp.slope(0.0)) * 2 * kPi * P.count_m / act.lead_m;
   // Rounding to a count is uniform over one count (RMS c/√12); both it and the load-cell noise
   // are broadband, and the filter keeps 2 f_c / f_s of their power.
@@ -332,7 +334,7 @@ void set_floors(Prepared& P, const Coupling& cp, const ForceCalibration& cal,
 // Where the count is locked the rounding error's mean is one unknown value per run, kept whole by
 // the filter, and repeated moves lock alike, so it need not average out: it may hold the force
 // off by up to half a count's force over the run's period, as a constant over each run.
-void set_locked_floor(Prepared& P) {
+void set_locked_floor(ActuatorPrepared& P) {
   std::size_t locked = 0;
   double held2 = 0;  // mean square of the most each sample's locked rounding may hold
   for (int r : P.locked_run) {
@@ -357,7 +359,7 @@ double spread_of(const std::vector<State>& states, double State::*value) {
 
 // The effect library's view of one filtered sample.
 struct StateAt {
-  const Signals& s;
+  const ActuatorSignals& s;
   const Coupling& cp;
   const ActuatorParams& act;
   const Baseline& base;
@@ -388,7 +390,7 @@ struct StateAt {
 
 // Sample k of a nut standing still, from unfiltered signals (the filter would smear a release into
 // the stuck part).
-State held_state(const Signals& s, const StateAt& state_at, std::size_t k) {
+State held_state(const ActuatorSignals& s, const StateAt& state_at, std::size_t k) {
   State x = state_at(k);
   x.coupling_n = state_at.cp.force(s.phi_raw[k]);
   x.load_n = s.load_raw[k];
@@ -407,8 +409,8 @@ double net_drive_n(const Baseline& base, const State& x) {
 
 // The drive the stand from i to j held for three quarters of it (its lower quartile along the
 // release's direction) and that sample's state.
-void hold_for_most(const Signals& s, const Baseline& base, const StateAt& state_at, std::size_t i,
-                   std::size_t j, StuckEpisode& e) {
+void hold_for_most(const ActuatorSignals& s, const Baseline& base, const StateAt& state_at,
+                   std::size_t i, std::size_t j, StuckEpisode& e) {
   std::vector<std::pair<double, std::size_t>> held;  // (net along dir, sample)
   held.reserve(j - i + 1);
   for (std::size_t k = i; k <= j; ++k)
@@ -423,14 +425,16 @@ void hold_for_most(const Signals& s, const Baseline& base, const StateAt& state_
 // A move, not encoder chatter: the raw count went rules::kReleaseMoveCounts along dir from sample
 // a to b, looked for within rules::kReleaseWindow_s after a stand (it slipped on) or before it (it
 // was moving).
-bool moved(const Signals& s, const Prepared& P, std::size_t a, std::size_t b, double dir) {
+bool moved(const ActuatorSignals& s, const ActuatorPrepared& P, std::size_t a, std::size_t b,
+           double dir) {
   return dir * (s.pos_raw[b] - s.pos_raw[a]) >= rules::kReleaseMoveCounts * P.count_m;
 }
 
 // The stuck episode that ends at sample j (the raw count unchanged since sample i), if the nut
 // then slipped on (not encoder chatter) away from any step-out.
-std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, const Baseline& base,
-                                        const StateAt& state_at, std::size_t i, std::size_t j) {
+std::optional<StuckEpisode> released_at(const ActuatorSignals& s, const ActuatorPrepared& P,
+                                        const Baseline& base, const StateAt& state_at,
+                                        std::size_t i, std::size_t j) {
   const std::size_t n = s.t.size();
   const double dir = s.pos_raw[j + 1] > s.pos_raw[i] ? 1.0 : -1.0;
   const auto w = static_cast<std::size_t>(rules::kReleaseWindow_s * P.fs_hz) + 1;
@@ -455,7 +459,8 @@ std::optional<StuckEpisode> released_at(const Signals& s, const Prepared& P, con
 
 // The stands: samples [i, j] whose raw count stays within half a count of sample i's for at least
 // rules::kMinHold_s (and rules::kMinHoldSamples samples); shorter is encoder chatter.
-std::vector<std::pair<std::size_t, std::size_t>> stands(const Signals& s, const Prepared& P) {
+std::vector<std::pair<std::size_t, std::size_t>> stands(const ActuatorSignals& s,
+                                                        const ActuatorPrepared& P) {
   std::vector<std::pair<std::size_t, std::size_t>> out;
   const std::size_t n = s.t.size();
   const double hold_s = std::max(rules::kMinHold_s, rules::kMinHoldSamples / P.fs_hz);
@@ -472,8 +477,8 @@ std::vector<std::pair<std::size_t, std::size_t>> stands(const Signals& s, const 
 }
 
 // Stuck episodes (raw nut count unchanged) and the net force on the nut as each one ends.
-std::vector<StuckEpisode> stuck_episodes(const Signals& s, const Prepared& P, const Baseline& base,
-                                         const StateAt& state_at) {
+std::vector<StuckEpisode> stuck_episodes(const ActuatorSignals& s, const ActuatorPrepared& P,
+                                         const Baseline& base, const StateAt& state_at) {
   std::vector<StuckEpisode> out;
   for (const auto& [i, j] : stands(s, P))
     if (j + 1 < s.t.size())
@@ -485,8 +490,9 @@ std::vector<StuckEpisode> stuck_episodes(const Signals& s, const Prepared& P, co
 // recorded forces did over it from the raw samples (trapezoids: the coupling is smooth between
 // two samples), unless it is no move (less than rules::kReleaseMoveCounts of travel) or the phase
 // left its branch (a step-out: the calibration holds on the stable branch only).
-std::optional<Jump> jump_between(const Signals& s, const Prepared& P, const Baseline& base,
-                                 const StateAt& state_at, std::size_t a, std::size_t b) {
+std::optional<Jump> jump_between(const ActuatorSignals& s, const ActuatorPrepared& P,
+                                 const Baseline& base, const StateAt& state_at, std::size_t a,
+                                 std::size_t b) {
   for (const auto& sl : P.slips)
     if (s.t[b] > sl.start_s - rules::kStepOutBefore_s && s.t[a] < sl.t_s + rules::kStepOutAfter_s)
       return std::nullopt;
@@ -511,7 +517,7 @@ std::optional<Jump> jump_between(const Signals& s, const Prepared& P, const Base
 
 // The jumps between consecutive stands no longer than a pulse (`max_s`), each marked whether it
 // left a sliding sample (`sliding`, per recording sample) where the residual sees what moved it.
-std::vector<Jump> jumps(const Signals& s, const Prepared& P, const Baseline& base,
+std::vector<Jump> jumps(const ActuatorSignals& s, const ActuatorPrepared& P, const Baseline& base,
                         const StateAt& state_at, const std::vector<unsigned char>& sliding,
                         double max_s) {
   std::vector<Jump> out;
@@ -548,7 +554,7 @@ std::vector<T> every_nth(std::vector<T> full, std::size_t step) {
 // the load's coefficient is about 1; beyond kScaleFactor either way by 4 standard errors, or
 // negative, it is a unit or a sign, not physics (a coupling error within any plausible range
 // moves it by tens of per cent).
-void check_load_cell_scale(const std::string& path, const Signals& s, const Coupling& cp) {
+void check_load_cell_scale(const std::string& path, const ActuatorSignals& s, const Coupling& cp) {
   constexpr double kMinExplained = 0.5;  // R² of the fit: the balance holds at all
   constexpr double kScaleFactor = 3.0;
   constexpr double kSure = 4.0;        // standard errors beyond the bound
@@ -598,9 +604,10 @@ void check_load_cell_scale(const std::string& path, const Signals& s, const Coup
                           "; likely unit: " + unit);
 }
 
-Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
-                 const ActuatorParams& act, const Options& opt) {
-  Prepared P;
+ActuatorPrepared prepare_actuator(const Recording& rec, const Baseline& base,
+                                  const ForceCalibration& cal, const ActuatorParams& act,
+                                  const StageOptions& opt) {
+  ActuatorPrepared P;
   stats::require_analysable(rec, {"t_s", "nut_pos_m", "load_force_n"});
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
@@ -612,7 +619,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   P.count_m = stated(rec, "linear_encoder_m_per_count", act.linear_count_m);
   P.scales.phase_count_rad = phase_count_rad(rec, act, P.count_m);
   std::vector<double> geared;
-  const Signals s(rec, act, P, geared);
+  const ActuatorSignals s(rec, act, P, geared);
   P.slips = find_slips(t, s.phi_raw);
   P.load_noise_n = stats::white_noise_sigma(s.load_raw);  // the load cell's noise
   std::tie(P.load_filtered_noise_n, P.load_rate_noise_n_s) = filtered_noise(P);
@@ -661,7 +668,7 @@ Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibrat
   return P;
 }
 
-StopSamples take_stops(Prepared& P) {
+StopSamples take_stops(ActuatorPrepared& P) {
   StopSamples aside;
   std::size_t kept = 0;
   auto w = P.stops.begin();
@@ -681,7 +688,7 @@ StopSamples take_stops(Prepared& P) {
   return aside;
 }
 
-void put_back(Prepared& P, const StopSamples& aside) {
+void put_back(ActuatorPrepared& P, const StopSamples& aside) {
   const std::size_t n = P.states.size() + aside.at.size();
   P.resize(n);
   // From the back, so every kept sample moves once to its place and none is overwritten first.
@@ -709,7 +716,7 @@ using stats::total;
 // the filtered load and its rate move by their noise's standard deviation (the columns are linear
 // in them, as the effect units' regressors are), on up to 2000 samples spread over the sliding
 // ones, scaled to all of them. Zero for columns made from motion alone.
-Eigen::VectorXd column_noise(const Prepared& P, const std::vector<Column>& cols) {
+Eigen::VectorXd column_noise(const ActuatorPrepared& P, const std::vector<Column>& cols) {
   const auto m = static_cast<Eigen::Index>(cols.size());
   Eigen::VectorXd out = Eigen::VectorXd::Zero(m);
   constexpr std::size_t kProbeSamples = 2000;  // enough for a noise scale, little work
@@ -730,7 +737,7 @@ Eigen::VectorXd column_noise(const Prepared& P, const std::vector<Column>& cols)
                   : out;
 }
 
-Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) {
+Grams accumulate_sliding(const ActuatorPrepared& P, const std::vector<Column>& cols, int folds) {
   const auto m = static_cast<Eigen::Index>(cols.size());
   Grams g(static_cast<std::size_t>(folds), m);
   Eigen::VectorXd x(m);
@@ -751,10 +758,12 @@ Grams accumulate(const Prepared& P, const std::vector<Column>& cols, int folds) 
 namespace {
 
 // The nut's balance as the selection's rules: the units' parameters at the first sliding state,
-// and a force must exceed the recording's floors (Prepared::floor_n, locked_floor_n, minimum_n).
+// and a force must exceed the recording's floors (ActuatorPrepared::floor_n, locked_floor_n,
+// minimum_n).
 class NutRules : public selection::Rules {
  public:
-  NutRules(const Prepared& P, State model, double min_t) : P_(P), model_(model), min_t_(min_t) {}
+  NutRules(const ActuatorPrepared& P, State model, double min_t)
+      : P_(P), model_(model), min_t_(min_t) {}
   std::optional<effects::Params> parameters(const Variant& var, const std::vector<int>& cols,
                                             const Fit& fit) const override {
     const auto k = static_cast<Eigen::Index>(cols.size());
@@ -770,7 +779,7 @@ class NutRules : public selection::Rules {
   const State& model() const { return model_; }
 
  private:
-  const Prepared& P_;
+  const ActuatorPrepared& P_;
   State model_;
   double min_t_;  // the t that makes a trial consistent (Settings::min_t)
   std::vector<double> contribution(const selection::Trial& tr) const;
@@ -835,7 +844,8 @@ double NutRules::minimum_n(const std::vector<selection::Term>& model) const {
 // A force the recording resolves and a user would act on (given where the trial's law acts: a
 // coupling 50 % weaker in the end zones is no smaller for the nut spending little time there):
 // beyond the minimum and the floor; where the count is locked, beyond what its rounding may hold
-// (Prepared::locked_floor_n) unless the term varies within the locked runs by more than the floor.
+// (ActuatorPrepared::locked_floor_n) unless the term varies within the locked runs by more than the
+// floor.
 bool NutRules::resolved(const selection::Trial& tr, double explained_n,
                         const selection::Acting& where,
                         const std::vector<selection::Term>& model) const {
@@ -855,7 +865,7 @@ bool NutRules::resolved(const selection::Trial& tr, double explained_n,
   return where.own_rms_n * sure >= least_n;
 }
 
-selection::Settings settings_of(const Options& opt, const effects::Scales& scales = {}) {
+selection::Settings actuator_settings(const StageOptions& opt, const effects::Scales& scales = {}) {
   return {.max_terms = opt.max_terms,
           .min_gain_pct = opt.min_gain_pct,
           .min_t = opt.min_t,
@@ -883,7 +893,7 @@ std::vector<std::optional<stats::Named>> term_parameters(
 // error_n Σ |(A⁻¹ xᵢ)ⱼ|, each column's worst error taking the sign of its own weights. A
 // calibration error is one function of φ for the whole recording, which the jackknife over
 // segments cannot see; φ differs by direction, so that worst sign is within its reach.
-Eigen::VectorXd calibration_shift(const Prepared& P, const Grams& g,
+Eigen::VectorXd calibration_shift(const ActuatorPrepared& P, const Grams& g,
                                   const std::vector<Column>& cols, const std::vector<int>& current,
                                   double error_n) {
   const auto m = static_cast<Eigen::Index>(current.size());
@@ -891,7 +901,7 @@ Eigen::VectorXd calibration_shift(const Prepared& P, const Grams& g,
       stats::summed_gram(g, current).completeOrthogonalDecomposition().pseudoInverse();
   Eigen::VectorXd x(m), weight_sum = Eigen::VectorXd::Zero(m);
   for (std::size_t i = 0; i < P.states.size(); ++i) {
-    if (P.ringing[i]) continue;  // the samples accumulate() used
+    if (P.ringing[i]) continue;  // the samples accumulate_sliding() used
     unit_row(Form::nut, cols, P.states[i], x.data());
     weight_sum += (a_inv * x).cwiseAbs();
   }
@@ -920,8 +930,8 @@ void set_calibration_errors(const Eigen::VectorXd& theta, const Eigen::VectorXd&
 }
 
 // Final fit on everything: the corrected residual, the parameters and their standard errors.
-void finish(const Prepared& P, const Grams& g, const Candidates& cand, const State& model,
-            const std::vector<int>& current, Selection& out) {
+void finish(const ActuatorPrepared& P, const Grams& g, const Candidates& cand, const State& model,
+            const std::vector<int>& current, SlidingSelection& out) {
   const auto est = stats::estimate(
       g, current, [&](const Fit& fit) { return term_parameters(out.terms, fit, model); });
   const Fit& final_fit = est.fit;
@@ -947,7 +957,9 @@ void finish(const Prepared& P, const Grams& g, const Candidates& cand, const Sta
 
 }  // namespace
 
-std::string selection_rule(const Options& opt) { return selection::describe(settings_of(opt)); }
+std::string selection_rule(const StageOptions& opt) {
+  return selection::describe(actuator_settings(opt));
+}
 
 namespace {
 // Each one-column effect's smallest change the recording could name beside the final model's
@@ -983,12 +995,12 @@ std::vector<Resolvable> resolvable_of(const Grams& g, const Candidates& cand, co
 }
 }  // namespace
 
-Selection select(const Prepared& P, const Options& opt,
-                 const std::function<void(double)>& progress) {
-  Selection out;
+SlidingSelection select_sliding(const ActuatorPrepared& P, const StageOptions& opt,
+                                const std::function<void(double)>& progress) {
+  SlidingSelection out;
   const Candidates cand = candidate_columns(Form::nut, opt.exclude);
   const int folds = std::max(rules::kMinFolds, opt.folds);
-  const Grams g = accumulate(P, cand.cols, folds);
+  const Grams g = accumulate_sliding(P, cand.cols, folds);
   std::size_t n_used = 0;
   for (auto c : g.n) n_used += c;
   out.samples_used = n_used;
@@ -1000,7 +1012,8 @@ Selection select(const Prepared& P, const Options& opt,
     return out;
   }
   const NutRules rules(P, P.states.empty() ? State{} : P.states.front(), opt.min_t);
-  const auto o = selection::select(g, cand, rules, settings_of(opt, P.scales), {}, {}, progress);
+  const auto o =
+      selection::select(g, cand, rules, actuator_settings(opt, P.scales), {}, {}, progress);
   const selection::Span span{.n_used = static_cast<double>(n_used),
                              .t0_s = P.t0_s,
                              .duration_s = P.duration_s,
@@ -1013,9 +1026,9 @@ Selection select(const Prepared& P, const Options& opt,
 }
 
 // ------------------------------------------------------------------------------- break-away
-BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
-                             const std::vector<selection::Found>& chosen) {
-  BreakawayTest out;
+Breakaway breakaway_test(const ActuatorPrepared& P, const Baseline& base,
+                         const std::vector<selection::Found>& chosen) {
+  Breakaway out;
   // The model's break-away level per direction, with the terms found so far.
   std::vector<std::pair<const effects::Effect*, effects::Params>> terms;
   terms.reserve(chosen.size());
@@ -1064,7 +1077,7 @@ BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
 
 namespace maglead::analysis::actuator {
 
-double breakaway_margin(const BreakawayTest::Side& s) {
+double breakaway_margin(const Breakaway::Side& s) {
   if (s.episodes < rules::kMinReleases || !(s.se_n > 0))
     return -std::numeric_limits<double>::infinity();
   return (s.median_excess_n - s.lag_bound_n - rules::kReleasePhaseCounts * s.count_force_n) /
@@ -1076,8 +1089,9 @@ double breakaway_margin(const BreakawayTest::Side& s) {
 // stands for it left 0.2 N at 5 mm/s, 0.05 N at 20 mm/s and none at 50 mm/s, with no break-away
 // beyond the first-count lag at the releases). Where the recording has releases in both
 // directions, the hump must show there as well, by the test stribeck_from_breakaway names it on.
-std::optional<std::string> stribeck_unseen_at_rest(const Prepared& P, const Baseline& base,
-                                                   const Selection& sel, const Options& opt) {
+std::optional<std::string> stribeck_unseen_at_rest(const ActuatorPrepared& P, const Baseline& base,
+                                                   const SlidingSelection& sel,
+                                                   const StageOptions& opt) {
   auto without = sel.terms;
   const auto n_before = without.size();
   std::erase_if(without, [](const selection::Found& c) { return c.id == "stribeck_friction"; });
@@ -1110,7 +1124,7 @@ struct StribeckVelocity {
 // slow sliding, every value: all predict nothing there). The velocity is determined when one
 // value stands alone; otherwise the middle (on a log scale) of those the data allow, and the
 // finding says so.
-StribeckVelocity stribeck_velocity(const Prepared& P, const Selection& sel,
+StribeckVelocity stribeck_velocity(const ActuatorPrepared& P, const SlidingSelection& sel,
                                    const effects::Effect& e, double excess_n) {
   const auto shapes = e.shapes();
   std::vector<double> sse;
@@ -1144,10 +1158,11 @@ StribeckVelocity stribeck_velocity(const Prepared& P, const Selection& sel,
 // The release is seen only once the nut has crossed an encoder count: the force read then is
 // late by up to the lag bound (breakaway_test), and the phase it is computed from is known to
 // half a count's coupling force. Only an excess beyond both is physics.
-std::optional<selection::Found> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
-                                                        const Selection& sel,
-                                                        const BreakawayTest& bt,
-                                                        const Options& opt) {
+std::optional<selection::Found> stribeck_from_breakaway(const ActuatorPrepared& P,
+                                                        const Baseline& base,
+                                                        const SlidingSelection& sel,
+                                                        const Breakaway& bt,
+                                                        const StageOptions& opt) {
   // A kinetic level found by the sliding fit stays: Stribeck's law carries it as its coulomb_n.
   double kinetic_n = base.coulomb_n;
   for (const auto& c : sel.terms) {
@@ -1182,8 +1197,10 @@ std::optional<selection::Found> stribeck_from_breakaway(const Prepared& P, const
 // corrected for its first-count lag, is F_o, whatever the break-away B (Stribeck's hump or none).
 // The phase at each release is known to half a count's force, so the difference must exceed
 // that by opt.breakaway_sigmas standard errors, and the floors a sliding finding must beat.
-std::optional<selection::Found> offset_from_breakaway(const Prepared& P, const Selection& sel,
-                                                      const BreakawayTest& bt, const Options& opt) {
+std::optional<selection::Found> offset_from_breakaway(const ActuatorPrepared& P,
+                                                      const SlidingSelection& sel,
+                                                      const Breakaway& bt,
+                                                      const StageOptions& opt) {
   if (!sel.too_little_sliding || bt.pos.episodes < rules::kMinReleases ||
       bt.neg.episodes < rules::kMinReleases)
     return std::nullopt;
@@ -1224,13 +1241,13 @@ namespace {
 // than the pulse threshold, was held by a force no input explains: at least that excess, against
 // the motion. Both are measured with the final model's terms (a spring it names drives the nut
 // too). Stick-slip stalls hold no more than the break-away, so they are not pulses.
-void add_stalls(const Prepared& P, const std::vector<selection::Found>& terms, double thr,
-                const pulses::Floors& f, std::vector<Pulse>& found) {
+void add_stalls(const ActuatorPrepared& P, const std::vector<selection::Found>& terms, double thr,
+                const pulses::Floors& f, std::vector<pulses::Pulse>& found) {
   const auto along = [&](double dir, double net_n, const State& x) {
     for (const auto& c : terms) net_n += c.effect->force_n(c.params, x);
     return dir * net_n;
   };
-  std::vector<Pulse> stalls;
+  std::vector<pulses::Pulse> stalls;
   for (const double dir : {1.0, -1.0}) {
     std::optional<double> breakaway_n;
     for (const auto& e : P.stuck)
@@ -1242,7 +1259,7 @@ void add_stalls(const Prepared& P, const std::vector<selection::Found>& terms, d
       if (e.dir != dir || !e.interrupts || e.held_s > f.max_s) continue;
       const double t0 = e.t_release_s - e.held_s;
       const double excess = along(dir, e.held_net_n, e.held) - *breakaway_n;
-      const bool seen = std::any_of(found.begin(), found.end(), [&](const Pulse& q) {
+      const bool seen = std::any_of(found.begin(), found.end(), [&](const pulses::Pulse& q) {
         return q.t_s < e.t_release_s && t0 < q.t_s + q.duration_s;
       });
       if (excess > thr && !seen) stalls.push_back({t0, e.held_s, -dir * excess});
@@ -1252,7 +1269,7 @@ void add_stalls(const Prepared& P, const std::vector<selection::Found>& terms, d
   if (static_cast<double>(found.size() + stalls.size()) > f.span_s / f.min_spacing_s) return;
   found.insert(found.end(), stalls.begin(), stalls.end());
   std::sort(found.begin(), found.end(),
-            [](const Pulse& a, const Pulse& b) { return a.t_s < b.t_s; });
+            [](const pulses::Pulse& a, const pulses::Pulse& b) { return a.t_s < b.t_s; });
 }
 
 // The work the final model's terms (beyond the baseline's, which the jump's work holds) did over
@@ -1271,9 +1288,9 @@ double terms_work_j(const std::vector<selection::Found>& terms, const Jump& jp) 
 // its direction's level (at least rules::kMinReleases jumps) by more than the pulse threshold and
 // the pulse sigmas of the jumps' own robust spread was pushed along by a force no input explains:
 // at least that shortfall, over the jump (the stand it reaches may hold the rest of the pulse).
-void add_throws(const Prepared& P, const std::vector<selection::Found>& terms, double thr,
-                const pulses::Floors& f, std::vector<Pulse>& found) {
-  std::vector<Pulse> throws;
+void add_throws(const ActuatorPrepared& P, const std::vector<selection::Found>& terms, double thr,
+                const pulses::Floors& f, std::vector<pulses::Pulse>& found) {
+  std::vector<pulses::Pulse> throws;
   const double reach_s = rules::kPulseFlankFilterPeriods / f.filter_hz;
   for (const double dir : {1.0, -1.0}) {
     std::vector<double> per_m;  // each jump's work per metre of travel [N]
@@ -1289,7 +1306,7 @@ void add_throws(const Prepared& P, const std::vector<selection::Found>& terms, d
     for (std::size_t q = 0; q < side.size(); ++q) {
       const Jump& jp = *side[q];
       // One pulse is one event: a jump within a found pulse's flanks is that pulse's.
-      const auto near = [&](const Pulse& p) {
+      const auto near = [&](const pulses::Pulse& p) {
         return p.t_s - reach_s < jp.t_s + jp.duration_s && jp.t_s < p.t_s + p.duration_s + reach_s;
       };
       const bool seen = std::any_of(found.begin(), found.end(), near) ||
@@ -1302,14 +1319,15 @@ void add_throws(const Prepared& P, const std::vector<selection::Found>& terms, d
   if (static_cast<double>(found.size() + throws.size()) > f.span_s / f.min_spacing_s) return;
   found.insert(found.end(), throws.begin(), throws.end());
   std::sort(found.begin(), found.end(),
-            [](const Pulse& a, const Pulse& b) { return a.t_s < b.t_s; });
+            [](const pulses::Pulse& a, const pulses::Pulse& b) { return a.t_s < b.t_s; });
 }
 }  // namespace
 
 // Force pulses no input explains in the corrected residual on the sliding samples (the one
 // pulse finder), above one encoder count's worth of force and not a library law's force where
 // the nut was (pulses::unexplained); pulses that stall a sliding nut or throw a standing one.
-std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt) {
+std::vector<pulses::Pulse> actuator_pulses(const ActuatorPrepared& P, const SlidingSelection& sel,
+                                           const StageOptions& opt) {
   pulses::Floors f;
   f.min_n = P.count_force_n;
   f.sigmas = opt.pulse_sigmas;

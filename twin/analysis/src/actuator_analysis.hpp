@@ -31,7 +31,9 @@ struct Baseline {
   std::vector<BaselineTerm> terms;
 };
 
-struct Options {
+/// What the actuator's stages read: the rules' values, the user's options (AnalysisOptions and
+/// ActuatorPathOptions) and the effects not offered.
+struct StageOptions {
   // The defaults are the rule table's (maglead/analysis/rules.hpp), which says why.
   int folds = rules::kFolds;            // contiguous held-out time segments
   double filter_hz = rules::kFilterHz;  // zero-phase low-pass of every signal
@@ -39,8 +41,8 @@ struct Options {
       rules::kMinHeldOutGainPct;  // held-out mean-square error a term must remove …
   double min_t = rules::kMinT;    // … consistently over the segments (t of per-segment gains)
   double acting_share = rules::kActingShare;  // segments where the term carries this share count
-  // … and change the force by more than the recording resolves (Prepared::floor_n) and than a
-  // stated minimum: how well the calibration is known. Unless the user states it, a bench
+  // … and change the force by more than the recording resolves (ActuatorPrepared::floor_n) and than
+  // a stated minimum: how well the calibration is known. Unless the user states it, a bench
   // calibration's: a thousandth of its range, and not better than a bench's absolute error (a
   // load cell and a fixture: the bench calibrations are off by up to 0.07 N, our own
   // `calibrate` on a bench with an unseen 0.05 N force by 0.070 N); below that nobody can act.
@@ -109,7 +111,8 @@ struct SampleColumns {
   }
 };
 
-struct Prepared : SampleColumns {
+/// The actuator's recording prepared: its sliding samples, floors, stuck episodes and jumps.
+struct ActuatorPrepared : SampleColumns {
   double fs_hz = 0, filter_hz = 0, lead_m = 0, count_m = 0, v_min_m_s = 0, t0_s = 0;
   double duration_s = 0, load_noise_n = 0;
   double load_filtered_noise_n = 0, load_rate_noise_n_s = 0;  // that noise after the filter
@@ -136,17 +139,17 @@ struct Prepared : SampleColumns {
 
 /// The selection's result (the one type both paths read) with what the actuator adds: the
 /// errors over the sliding samples and the corrected residual.
-struct Selection : selection::Result {
+struct SlidingSelection : selection::Result {
   double baseline_sse = 0, final_sse = 0, measured_ss = 0;
-  std::vector<double> final_residual;  // at Prepared::states, after every chosen term
+  std::vector<double> final_residual;  // at ActuatorPrepared::states, after every chosen term
   std::size_t samples_used = 0;
   bool too_little_sliding = false;
   std::vector<Resolvable> resolvable;  // beside the final model's terms
 };
 
-using Pulse = pulses::Pulse;  // peak_n: the missing force on the nut
-
-struct BreakawayTest {
+/// The break-away read from the releases, per direction (analysis.json's breakaway_test holds
+/// its episodes, median excess and standard error).
+struct Breakaway {
   struct Side {
     std::size_t episodes = 0;
     double median_excess_n = 0, se_n = 0;
@@ -156,40 +159,46 @@ struct BreakawayTest {
   } pos, neg;
 };
 
-Prepared prepare(const Recording& rec, const Baseline& base, const ForceCalibration& cal,
-                 const ActuatorParams& act, const Options& opt);
-/// The sliding samples a hidden stop reaches (Prepared::stops), set aside with their places.
+ActuatorPrepared prepare_actuator(const Recording& rec, const Baseline& base,
+                                  const ForceCalibration& cal, const ActuatorParams& act,
+                                  const StageOptions& opt);
+/// The sliding samples a hidden stop reaches (ActuatorPrepared::stops), set aside with their
+/// places.
 struct StopSamples : SampleColumns {
   std::vector<std::size_t> at;  // their indices in the whole sample set, increasing
 };
 /// Takes those samples out of `P` (its locked floor follows): the stages see the recording
 /// without them, and no second copy of the sample set is made.
-StopSamples take_stops(Prepared& P);
+StopSamples take_stops(ActuatorPrepared& P);
 /// `P` as it was before take_stops (the samples back in their places, the floor recomputed).
-void put_back(Prepared& P, const StopSamples& aside);
+void put_back(ActuatorPrepared& P, const StopSamples& aside);
 /// The forward selection's rule in words (the report's method).
-std::string selection_rule(const Options& opt);
-Selection select(const Prepared& P, const Options& opt,
-                 const std::function<void(double)>& progress);
-std::optional<selection::Found> stribeck_from_breakaway(const Prepared& P, const Baseline& base,
-                                                        const Selection& sel,
-                                                        const BreakawayTest& bt,
-                                                        const Options& opt);
+std::string selection_rule(const StageOptions& opt);
+SlidingSelection select_sliding(const ActuatorPrepared& P, const StageOptions& opt,
+                                const std::function<void(double)>& progress);
+std::optional<selection::Found> stribeck_from_breakaway(const ActuatorPrepared& P,
+                                                        const Baseline& base,
+                                                        const SlidingSelection& sel,
+                                                        const Breakaway& bt,
+                                                        const StageOptions& opt);
 /// Significance of a break-away above the kinetic level on one side: the median excess beyond the
 /// first-count lag bound and half a count's force, in standard errors (−∞ below 3 releases).
-double breakaway_margin(const BreakawayTest::Side& s);
+double breakaway_margin(const Breakaway::Side& s);
 /// Why a Stribeck term the sliding fit chose is not named: the recording has releases in both
 /// directions and they show no break-away above the kinetic level beyond what the encoder
 /// resolves. None: the term stands (or none was chosen, or the releases are too few to tell).
-std::optional<std::string> stribeck_unseen_at_rest(const Prepared& P, const Baseline& base,
-                                                   const Selection& sel, const Options& opt);
+std::optional<std::string> stribeck_unseen_at_rest(const ActuatorPrepared& P, const Baseline& base,
+                                                   const SlidingSelection& sel,
+                                                   const StageOptions& opt);
 /// Where the nut barely slides (no sliding fit), a force along +p the load cell does not see, from
 /// the releases: it lowers the break-away read in +p and raises it in −p by as much. None: too
 /// few releases, or a difference the releases do not resolve.
-std::optional<selection::Found> offset_from_breakaway(const Prepared& P, const Selection& sel,
-                                                      const BreakawayTest& bt, const Options& opt);
-std::vector<Pulse> find_pulses(const Prepared& P, const Selection& sel, const Options& opt);
-BreakawayTest breakaway_test(const Prepared& P, const Baseline& base,
-                             const std::vector<selection::Found>& chosen);
+std::optional<selection::Found> offset_from_breakaway(const ActuatorPrepared& P,
+                                                      const SlidingSelection& sel,
+                                                      const Breakaway& bt, const StageOptions& opt);
+std::vector<pulses::Pulse> actuator_pulses(const ActuatorPrepared& P, const SlidingSelection& sel,
+                                           const StageOptions& opt);
+Breakaway breakaway_test(const ActuatorPrepared& P, const Baseline& base,
+                         const std::vector<selection::Found>& chosen);
 
 }  // namespace maglead::analysis::actuator

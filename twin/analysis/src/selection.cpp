@@ -208,8 +208,8 @@ std::size_t preferred(const Search& s, const std::vector<Trial>& trials, std::si
 }
 
 // Identifiability: other effects whose columns reproduce the taken term's contribution.
-std::vector<Alternative> alternatives_of(const Search& s, const Trial& tr) {
-  std::vector<Alternative> out;
+std::vector<AlternativeFit> alternatives_of(const Search& s, const Trial& tr) {
+  std::vector<AlternativeFit> out;
   for (const auto* e : effects::library()) {
     if (e == tr.var->effect || s.taken(e)) continue;
     const auto [var, r2] = best_reproducing(s.g, s.cand, e, s.current, tr.idx, tr.w);

@@ -78,8 +78,8 @@ struct Settings {
   std::string_view drive_unit = "N";  // the residual's, in the reasons' texts ("N·m": rotary)
 };
 
-/// Another effect that reproduces a taken term's contribution.
-struct Alternative {
+/// Another effect that reproduces a taken term's contribution, as the selection fits it.
+struct AlternativeFit {
   const Variant* var;
   std::optional<effects::Params> params;
   double r2;
@@ -92,12 +92,12 @@ struct Term {
   double acting_share = 1;                // Rules::acting
   double before = 0, after = 0;           // total held-out error before and after it was taken
   const effects::Effect* over = nullptr;  // the richer best trial it was preferred to, if any
-  std::vector<Alternative> alternatives;
+  std::vector<AlternativeFit> alternatives;
   double left_out = 0;  // total held-out error of the final model without it (set by select)
 };
 
-/// A step of the validation: a term taken (+) or dropped (−) and the model it leaves.
-struct Step {
+/// A step of the selection: a term taken (+) or dropped (−) and the model it leaves.
+struct OutcomeStep {
   char sign;
   const effects::Effect* effect;
   std::vector<int> current;
@@ -115,7 +115,7 @@ struct Outcome {
   std::vector<int> current;  // the final model's columns: the start's, then each term's
   std::vector<double> start_ho, ho;
   std::vector<Term> terms;  // the terms kept, in the order taken
-  std::vector<Step> steps;
+  std::vector<OutcomeStep> steps;
   std::optional<Trial> stopped_at;  // the trial the rule named next, below the threshold
   std::string stopped_reason;       // which rule it failed, with its figures
   double stopped_explained_n = 0;
@@ -128,15 +128,16 @@ struct Outcome {
 /// A term as every path reports it: the one result type of the analysis. result_of builds it
 /// from the Outcome; a path that names a term otherwise (the actuator's Stribeck friction from its
 /// stuck episodes) fills the same type, and a new path plugs in by reading these.
+/// Another effect the data cannot tell from a found term; every one, plausible or not (a path
+/// that lists only the plausible filters where it renders the findings' Alternative).
+struct FoundAlternative {
+  std::string id;
+  std::optional<effects::Params> params;
+  double explains_pct = 0;
+  bool plausible = false;
+};
+
 struct Found {
-  /// Another effect the data cannot tell from this one; every one, plausible or not (a path
-  /// that lists only the plausible filters where it renders).
-  struct Alternative {
-    std::string id;
-    std::optional<effects::Params> params;
-    double explains_pct = 0;
-    bool plausible = false;
-  };
   /// Stribeck friction named from the releases, not by the selection (optional extras).
   struct FromReleases {
     bool velocity_determined = true;                 // did slow sliding pin down v_s?
@@ -161,7 +162,7 @@ struct Found {
   // (its part in the final model, whatever was taken before it or dropped after).
   double improvement_pct = 0;
   const effects::Effect* over = nullptr;  // the richer best trial it was preferred to, if any
-  std::vector<Alternative> alternatives;
+  std::vector<FoundAlternative> alternatives;
   std::optional<FromReleases> from_releases;
 };
 
@@ -182,17 +183,19 @@ struct Span {
   double min_gain_pct = 0;          // the held-out gain a term must bring
 };
 
+/// A step of the selection as the paths' validation reports it.
+struct HeldOutStep {
+  std::string model;  // "+ id" taken, "- id" dropped by the backward check
+  std::vector<int> current;
+  double heldout_sse = 0;  // of the model it leaves
+};
+
 /// The selection's result as both paths read it.
 struct Result {
-  struct Step {
-    std::string model;  // "+ id" taken, "- id" dropped by the backward check
-    std::vector<int> current;
-    double heldout_sse = 0;  // of the model it leaves
-  };
   std::vector<int> current;  // the final model's columns: the start's, then each term's
   double start_heldout_sse = 0;
   std::vector<Found> terms;  // the terms kept, in the order taken
-  std::vector<Step> steps;
+  std::vector<HeldOutStep> steps;
   std::vector<Rejected> dropped;    // by the backward check
   std::vector<Rejected> refused;    // outside their range or within their error in the final fit
   std::optional<Found> stopped_at;  // the next term the rule named, below the threshold

@@ -17,22 +17,33 @@
 
 namespace maglead::analysis {
 
+/// What only the actuator's path reads (analyze_recording with a model of system "actuator").
+struct ActuatorPathOptions {
+  // How well the calibration is known [N]; a finding must change the force by more
+  // (0: not stated: a thousandth of the calibrated peak force, at least 0.07 N).
+  double calibration_accuracy_n = 0.0;
+  // Run the twin's force estimate with the corrected model against the load cell and keep only
+  // terms that do not raise its error (several twin runs over the recording).
+  bool twin_force_check = true;
+};
+
+/// What only the axis's path reads (a linear or rotary axis's model).
+struct AxisPathOptions {
+  int decimation = 0;                    // 0: down to the identification bandwidth, 1: none
+  int max_terms = rules::kAxisMaxTerms;  // the actuator's is the rule max_terms, not an option
+};
+
+/// What both paths read, and each path's own options.
 struct AnalysisOptions {
   // The defaults are the rule table's (maglead/analysis/rules.hpp), which says why.
   int folds = rules::kFolds;  // contiguous held-out time segments
   double filter_hz = 0.0;     // zero-phase low-pass of position (0: 100 Hz axis, 20 Hz actuator)
-  int decimation = 0;         // 0: down to the identification bandwidth (axis), 1: none
   double min_gain_pct =
       rules::kMinHeldOutGainPct;  // a term must cut the held-out error this much …
   double min_t = rules::kMinT;    // … consistently over the segments (t statistic of the gains)
-  // actuator: how well the calibration is known [N]; a finding must change the force by more
-  // (0: not stated: a thousandth of the calibrated peak force, at least 0.07 N).
-  double calibration_accuracy_n = 0.0;
-  int max_terms = rules::kAxisMaxTerms;  // the axis path's; the actuator's is its own
-  // actuator: run the twin's force estimate with the corrected model against the load cell and
-  // keep only terms that do not raise its error (several twin runs over the recording).
-  bool twin_force_check = true;
   std::function<void(const std::string& stage, double fraction)> progress;
+  ActuatorPathOptions actuator;
+  AxisPathOptions axis;
 };
 
 struct AnalysisResult {

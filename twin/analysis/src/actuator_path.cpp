@@ -1,17 +1,19 @@
-// The actuator analysis end to end: runs the stages of actuator_analysis.cpp and turns their
-// typed results into the analysis result (findings, corrected model, figures).
+// The actuator's path of the analysis (path.hpp): runs the stages of actuator_analysis.cpp and
+// turns their typed results into the analysis result (findings, corrected model, figures).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <future>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
 
 #include "actuator_analysis.hpp"
-#include "actuator_path.hpp"
 #include "actuator_twin_force.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "path.hpp"
 #include "statistics.hpp"
 
 namespace maglead::analysis {
@@ -20,12 +22,8 @@ namespace {
 using selection::parameters_of;
 using stats::ErrorScale;  // over the sliding samples used
 
-std::string fmt(double v, int prec = 3) {
-  std::ostringstream o;
-  o.precision(prec);
-  o << v;
-  return o.str();
-}
+// Numbers in the findings' words: three significant digits.
+std::string fmt3(double v) { return number_text(v, 3); }
 
 actuator::Baseline baseline_of(const ModelFile& m) {
   actuator::Baseline b;
@@ -60,8 +58,8 @@ std::string replaces_text(const ModelFile& base, const std::string& name) {
 }
 
 // The baseline plus the findings given: what the twin should run from now on.
-ModelFile corrected_model(const ModelFile& base, const std::vector<selection::Found>& terms,
-                          const std::string& recording) {
+ModelFile model_with(const ModelFile& base, const std::vector<selection::Found>& terms,
+                     const std::string& recording) {
   ModelFile m = base;
   m.source = "maglead analyze of " + recording;
   for (const auto& c : terms) {
@@ -88,7 +86,7 @@ ModelFile corrected_model(const ModelFile& base, const std::vector<selection::Fo
 // The missing force at the sliding samples over recording time, before and after the findings.
 // Samples further apart than two decimated periods belong to different sliding stretches: a NaN
 // between them keeps a plot from drawing a line across the stuck time in between.
-Chart fit_over_time(const actuator::Prepared& P, const actuator::Selection& sel) {
+Chart fit_over_time(const actuator::ActuatorPrepared& P, const actuator::SlidingSelection& sel) {
   const bool added = !sel.terms.empty();
   Chart c{"The fit before and after",
           "time [s]",
@@ -144,20 +142,19 @@ TwinForceCheck check_with_twin(const Recording& rec, const ActuatorParams& act,
   for (const auto& c : terms) {
     auto trial = kept;
     trial.push_back(c);
-    const auto err =
-        actuator::twin_force_errors(rec, act, cal, corrected_model(base, trial, rec.path));
+    const auto err = actuator::twin_force_errors(rec, act, cal, model_with(base, trial, rec.path));
     if (err && !actuator::rises_beyond_noise(*err, current, resolved_n)) {
       kept = std::move(trial);
       current = *err;
       out.kept.push_back(c.id);
     } else {
       out.dropped.push_back(c.id);
-      why.push_back("with it the twin's force error rose beyond its noise: " + fmt(current.mae_n) +
-                    " -> " + fmt(err ? err->mae_n : NAN) + " N");
+      why.push_back("with it the twin's force error rose beyond its noise: " + fmt3(current.mae_n) +
+                    " -> " + fmt3(err ? err->mae_n : NAN) + " N");
     }
   }
   out.corrected_mae_n = current.mae_n;
-  corrected = corrected_model(base, kept, rec.path);
+  corrected = model_with(base, kept, rec.path);
   for (std::size_t k = 0; k < out.dropped.size(); ++k)
     for (const auto& c : terms)
       if (c.id == out.dropped[k]) {
@@ -178,7 +175,7 @@ std::string calibration_text(const effects::Params& errors) {
   return s.empty() ? s : "; a calibration error within the minimum moves " + s;
 }
 
-std::string summary_of(const selection::Found& c, const actuator::Prepared& P) {
+std::string summary_of(const selection::Found& c, const actuator::ActuatorPrepared& P) {
   const std::string s = summary_text(parameters_of(c.params), parameters_of(c.standard_errors)) +
                         calibration_text(c.calibration_errors);
   char buf[224];
@@ -193,7 +190,7 @@ std::string summary_of(const selection::Found& c, const actuator::Prepared& P) {
   return s + buf;
 }
 
-std::optional<Unexplained> unexplained_of(const actuator::Selection& sel) {
+std::optional<Unexplained> actuator_unexplained(const actuator::SlidingSelection& sel) {
   if (!sel.implausible) return std::nullopt;
   return selection::unexplained_of(
       *sel.implausible,
@@ -201,20 +198,20 @@ std::optional<Unexplained> unexplained_of(const actuator::Selection& sel) {
       "scales (lead, counts) and the load cell itself");
 }
 
-actuator::Options options_of(const AnalysisOptions& opt, const actuator::Baseline& base) {
-  actuator::Options o;
+actuator::StageOptions options_of(const AnalysisOptions& opt, const actuator::Baseline& base) {
+  actuator::StageOptions o;
   o.folds = opt.folds;
   if (opt.filter_hz > 0) o.filter_hz = opt.filter_hz;
   o.min_gain_pct = opt.min_gain_pct;
   o.min_t = opt.min_t;
-  o.calibration_accuracy_n = opt.calibration_accuracy_n;
+  o.calibration_accuracy_n = opt.actuator.calibration_accuracy_n;
   for (const auto& t : base.terms) o.exclude.emplace_back(t.effect->id());
   return o;
 }
 
 // Stribeck's sliding part belongs to the corrected model's error too; a kinetic level the sliding
 // fit already found is in it (and in the residual) once.
-void fold_in_stribeck(actuator::Selection& sel, const actuator::Prepared& P,
+void fold_in_stribeck(actuator::SlidingSelection& sel, const actuator::ActuatorPrepared& P,
                       const selection::Found& stribeck) {
   const auto* e = effects::find(stribeck.id);
   const auto* coulomb = effects::find("coulomb_friction");
@@ -231,7 +228,7 @@ void fold_in_stribeck(actuator::Selection& sel, const actuator::Prepared& P,
 // Coulomb level the sliding fit took beside a hump it also took is that law's F_c, one finding,
 // not a second effect. The force is the same: the hump's column is its excess over the baseline's
 // level, so the break-away moves with the level.
-void kinetic_level_into_stribeck(actuator::Selection& sel) {
+void kinetic_level_into_stribeck(actuator::SlidingSelection& sel) {
   auto& terms = sel.terms;
   const auto named = [&](std::string_view id) {
     return std::find_if(terms.begin(), terms.end(), [&](const auto& c) { return c.id == id; });
@@ -252,7 +249,7 @@ void kinetic_level_into_stribeck(actuator::Selection& sel) {
 }
 
 // An offset from the releases acts on the sliding samples too (the few there are).
-void fold_in_offset(actuator::Selection& sel, const actuator::Prepared& P,
+void fold_in_offset(actuator::SlidingSelection& sel, const actuator::ActuatorPrepared& P,
                     const selection::Found& offset) {
   sel.final_sse = 0;
   for (std::size_t i = 0; i < P.states.size(); ++i) {
@@ -261,22 +258,22 @@ void fold_in_offset(actuator::Selection& sel, const actuator::Prepared& P,
   }
 }
 
-Method method_of(const actuator::Prepared& P, const actuator::Options& o) {
+Method method_of(const actuator::ActuatorPrepared& P, const actuator::StageOptions& o) {
   Method m;
   m.domain =
       "force (inverse model: the force the baseline leaves out of the nut's balance, "
       "from measured motion and load)";
-  m.filter = "4th-order Butterworth at " + fmt(P.filter_hz) + " Hz, zero phase, on every signal";
+  m.filter = "4th-order Butterworth at " + fmt3(P.filter_hz) + " Hz, zero phase, on every signal";
   m.decimation = P.decimation;
-  m.folds = o.folds;
+  m.folds = std::max(rules::kMinFolds, o.folds);  // as select_sliding uses them
   m.selection = actuator::selection_rule(o);
-  m.moving_only = "sliding samples only (faster than " + fmt(P.v_min_m_s * 1e3) +
+  m.moving_only = "sliding samples only (faster than " + fmt3(P.v_min_m_s * 1e3) +
                   " mm/s, one direction over the filter's support); stuck episodes feed "
                   "the break-away test";
   return m;
 }
 
-EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepared& P,
+EffectFinding sliding_finding(const selection::Found& c, const actuator::ActuatorPrepared& P,
                               const ErrorScale& es) {
   const double sse_before = c.heldout_before, sse_after = c.heldout_after;
   EffectFinding e;
@@ -320,8 +317,8 @@ EffectFinding sliding_finding(const selection::Found& c, const actuator::Prepare
 }
 
 // The terms the sliding fit chose, and the validation: each term taken or dropped.
-void add_sliding_findings(Findings& J, const actuator::Selection& sel, const actuator::Prepared& P,
-                          const ErrorScale& es) {
+void add_sliding_findings(Findings& J, const actuator::SlidingSelection& sel,
+                          const actuator::ActuatorPrepared& P, const ErrorScale& es) {
   J.validation.push_back({"baseline", es.rms(sel.start_heldout_sse), es.rel(sel.start_heldout_sse),
                           std::nullopt, std::nullopt});
   for (const auto& c : sel.terms) J.effects.push_back(sliding_finding(c, P, es));
@@ -331,7 +328,7 @@ void add_sliding_findings(Findings& J, const actuator::Selection& sel, const act
 }
 
 // A finding read from the releases (the break-away test), with them as its evidence.
-EffectFinding release_finding(const selection::Found& c, const actuator::BreakawayTest& bt,
+EffectFinding release_finding(const selection::Found& c, const actuator::Breakaway& bt,
                               std::string where) {
   EffectFinding e;
   e.id = c.id;
@@ -345,8 +342,8 @@ EffectFinding release_finding(const selection::Found& c, const actuator::Breakaw
   return e;
 }
 
-EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator::BreakawayTest& bt,
-                               const actuator::Prepared& P) {
+EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator::Breakaway& bt,
+                               const actuator::ActuatorPrepared& P) {
   auto e = release_finding(
       stribeck, bt,
       "stuck episodes: the nut breaks away above its sliding friction in both directions");
@@ -367,13 +364,13 @@ EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator:
                  "the sliding samples prefer"
                : "break-away from the net force at release; the Stribeck velocity is not "
                  "determined (the sliding samples fit every value from " +
-                     fmt(vs_low) + " to " + fmt(vs_high) +
+                     fmt3(vs_low) + " to " + fmt3(vs_high) +
                      " m/s alike: too little slow sliding): the middle of those";
   e.note +=
       "; the force read at release is corrected for what rose while the nut crossed "
       "its first count (" +
-      fmt(0.5 * (bt.pos.lag_expected_n + bt.neg.lag_expected_n)) + " N, at most " +
-      fmt(std::max(bt.pos.lag_bound_n, bt.neg.lag_bound_n)) + " N)";
+      fmt3(0.5 * (bt.pos.lag_expected_n + bt.neg.lag_expected_n)) + " N, at most " +
+      fmt3(std::max(bt.pos.lag_bound_n, bt.neg.lag_bound_n)) + " N)";
   if (releases.stops_left_out > 0)
     e.note += "; the sliding fit leaves out the samples within the filter's reach of " +
               std::to_string(releases.stops_left_out) +
@@ -383,8 +380,8 @@ EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator:
 }
 
 // Stribeck's law holds the kinetic level: a coulomb_friction finding becomes part of it.
-void add_stribeck(Findings& J, actuator::Selection& sel, const selection::Found& stribeck,
-                  const actuator::BreakawayTest& bt, const actuator::Prepared& P) {
+void add_stribeck(Findings& J, actuator::SlidingSelection& sel, const selection::Found& stribeck,
+                  const actuator::Breakaway& bt, const actuator::ActuatorPrepared& P) {
   std::erase_if(sel.terms, [](const selection::Found& c) { return c.id == "coulomb_friction"; });
   for (auto it = J.effects.begin(); it != J.effects.end(); ++it)
     if (it->id == "coulomb_friction") {
@@ -397,8 +394,8 @@ void add_stribeck(Findings& J, actuator::Selection& sel, const selection::Found&
 
 // An offset the releases show where the nut barely slides (actuator::offset_from_breakaway): a
 // term of the corrected model like a sliding finding, with the releases as its evidence.
-void add_offset(Findings& J, actuator::Selection& sel, const selection::Found& offset,
-                const actuator::BreakawayTest& bt, const actuator::Prepared& P) {
+void add_offset(Findings& J, actuator::SlidingSelection& sel, const selection::Found& offset,
+                const actuator::Breakaway& bt, const actuator::ActuatorPrepared& P) {
   auto e = release_finding(
       offset, bt, "stuck episodes: the nut breaks away at levels that differ by direction");
   e.evidence.resolution_floor_n = P.floor_n;
@@ -415,7 +412,7 @@ void add_offset(Findings& J, actuator::Selection& sel, const selection::Found& o
   sel.terms.push_back(offset);
 }
 
-void add_step_outs(Findings& J, const actuator::Prepared& P) {
+void add_step_outs(Findings& J, const actuator::ActuatorPrepared& P) {
   for (const auto& s : P.slips) {
     Event ev;
     ev.type = "step_out";
@@ -426,7 +423,7 @@ void add_step_outs(Findings& J, const actuator::Prepared& P) {
   }
 }
 
-void add_step_out_finding(Findings& J, const actuator::Prepared& P) {
+void add_step_out_finding(Findings& J, const actuator::ActuatorPrepared& P) {
   if (P.slips.empty()) return;
   EffectFinding e;
   e.id = "step_out";
@@ -437,7 +434,8 @@ void add_step_out_finding(Findings& J, const actuator::Prepared& P) {
 }
 
 // A recording that barely slides says so, and what it can still tell (empty: it slides enough).
-std::string sliding_note(const actuator::Prepared& P, const actuator::Selection& sel) {
+std::string sliding_note(const actuator::ActuatorPrepared& P,
+                         const actuator::SlidingSelection& sel) {
   // Sliding samples are counted after decimation; the recording's samples before.
   const std::size_t sliding = sel.samples_used * static_cast<std::size_t>(P.decimation);
   if (!sel.too_little_sliding && sliding >= P.samples / rules::kBarelySlidesOneIn) return {};
@@ -448,11 +446,11 @@ std::string sliding_note(const actuator::Prepared& P, const actuator::Selection&
   // option's doing, not the recording's: say which option and what the default counts.
   const double default_hz = std::min(rules::kFilterHz, rules::kFilterMaxOfRate * P.fs_hz);
   if (P.filter_hz > default_hz)
-    head = "too few samples slide faster than " + fmt(P.v_min_m_s * 1e3) + " mm/s (" +
+    head = "too few samples slide faster than " + fmt3(P.v_min_m_s * 1e3) + " mm/s (" +
            std::to_string(sliding) + " of " + std::to_string(P.samples) +
-           "), the speed --filter-hz " + fmt(P.filter_hz) +
-           " sets (one encoder count per filter period); the default " + fmt(default_hz) +
-           " Hz counts sliding from " + fmt(P.count_m * default_hz * 1e3) +
+           "), the speed --filter-hz " + fmt3(P.filter_hz) +
+           " sets (one encoder count per filter period); the default " + fmt3(default_hz) +
+           " Hz counts sliding from " + fmt3(P.count_m * default_hz * 1e3) +
            " mm/s: leave --filter-hz out or lower it. The sliding fit says little; ";
   if (P.stuck.empty())  // nothing released either: the stands tell nothing
     return head +
@@ -463,11 +461,24 @@ std::string sliding_note(const actuator::Prepared& P, const actuator::Selection&
          "an offset; events (step-outs, pulses) are still found";
 }
 
+// Candidates the findings list as not selected beside the selection's own.
+struct LeftOut {
+  const std::vector<Rejected>& rejected;  // taken, then refused (sliding_fit)
+  const std::vector<Rejected>& unjudged;  // laws the recording cannot judge at all
+};
+
+// What the releases name beside the sliding fit (ActuatorPath::select), and their test.
+struct ReleaseFindings {
+  const std::optional<selection::Found>& stribeck;
+  const std::optional<selection::Found>& offset;
+  const actuator::Breakaway& bt;
+};
+
 // The typed findings of the stages' results.
-Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator::Selection& sel,
-                     const std::optional<selection::Found>& stribeck,
-                     const std::optional<selection::Found>& offset,
-                     const actuator::BreakawayTest& bt, const actuator::Options& o) {
+Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
+                     actuator::SlidingSelection& sel, const LeftOut& left_out,
+                     const ReleaseFindings& releases, const actuator::StageOptions& o) {
+  const actuator::Breakaway& bt = releases.bt;
   Findings J;
   J.system = "actuator";
   J.recording = rec.path;
@@ -486,10 +497,10 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
                 {},
                 {}};
   add_sliding_findings(J, sel, P, es);
-  if (stribeck) add_stribeck(J, sel, *stribeck, bt, P);
-  if (offset) add_offset(J, sel, *offset, bt, P);
+  if (releases.stribeck) add_stribeck(J, sel, *releases.stribeck, bt, P);
+  if (releases.offset) add_offset(J, sel, *releases.offset, bt, P);
   add_step_outs(J, P);
-  pulses::report(J, actuator::find_pulses(P, sel, o));
+  pulses::report(J, actuator::actuator_pulses(P, sel, o));
   add_step_out_finding(J, P);
   J.breakaway_test = BreakawayTest{{bt.pos.episodes, bt.pos.median_excess_n, bt.pos.se_n},
                                    {bt.neg.episodes, bt.neg.median_excess_n, bt.neg.se_n}};
@@ -504,7 +515,9 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   if (sel.stopped_at)
     J.not_selected.push_back(selection::best_left_out(*sel.stopped_at, sel.stopped_reason));
   J.not_selected.insert(J.not_selected.end(), sel.dropped.begin(), sel.dropped.end());
-  J.unexplained = unexplained_of(sel);
+  J.not_selected.insert(J.not_selected.begin(), left_out.rejected.begin(), left_out.rejected.end());
+  J.not_selected.insert(J.not_selected.end(), left_out.unjudged.begin(), left_out.unjudged.end());
+  J.unexplained = actuator_unexplained(sel);
   J.sliding_note = sliding_note(P, sel);
   J.resolvable = sel.resolvable;
   conclude(J, {.terms_named = sel.terms.size(),
@@ -529,15 +542,8 @@ Findings findings_of(const Recording& rec, const actuator::Prepared& P, actuator
   return J;
 }
 
-struct Progress {
-  const AnalysisOptions& opt;
-  void operator()(const std::string& stage, double f) const {
-    if (opt.progress) opt.progress(stage, f);
-  }
-};
-
 struct SlidingFit {
-  actuator::Selection fit;
+  actuator::SlidingSelection fit;
   std::vector<Rejected> rejected;  // terms taken, then refused (unseen hump, implausible)
 };
 
@@ -549,43 +555,77 @@ Rejected refused(const selection::Found& c, const std::string& why) {
 // The forward selection on the sliding samples; a Stribeck term it takes that the releases do
 // not show is rejected and the others chosen again without it. That and the terms the
 // selection refused in the final fit stay out of `o`.
-SlidingFit sliding_fit(const actuator::Prepared& P, const actuator::Baseline& base,
-                       actuator::Options& o, const Progress& progress) {
+SlidingFit sliding_fit(const actuator::ActuatorPrepared& P, const actuator::Baseline& base,
+                       actuator::StageOptions& o,
+                       const std::function<void(const std::string&, double)>& progress) {
   SlidingFit out;
-  const auto report = [&](double f) { progress("selection", f); };
-  out.fit = actuator::select(P, o, report);
+  const auto report = [&](double f) {
+    if (progress) progress("selection", f);
+  };
+  out.fit = actuator::select_sliding(P, o, report);
   if (auto why = actuator::stribeck_unseen_at_rest(P, base, out.fit, o)) {
     for (const auto& c : out.fit.terms)
       if (c.id == "stribeck_friction") out.rejected.push_back(refused(c, *why));
     o.exclude.emplace_back("stribeck_friction");
-    out.fit = actuator::select(P, o, report);
+    out.fit = actuator::select_sliding(P, o, report);
   }
   for (const auto& r : out.fit.refused) o.exclude.push_back(r.id);
   out.rejected.insert(out.rejected.end(), out.fit.refused.begin(), out.fit.refused.end());
   return out;
 }
 
-}  // namespace
+class ActuatorPath final : public AnalysisPath {
+ public:
+  ActuatorPath(const Recording& rec, const ModelFile& model, const ForceCalibration& cal,
+               const ActuatorParams& act, const AnalysisOptions& opt)
+      : rec_(rec),
+        model_(model),
+        cal_(cal),
+        act_(act),
+        opt_(opt),
+        base_(baseline_of(model)),
+        o_(options_of(opt, base_)) {}
 
-AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
-                                const ForceCalibration& cal, const ActuatorParams& act,
-                                const AnalysisOptions& opt) {
-  const Progress progress{opt};
-  const auto base = baseline_of(model);
-  auto o = options_of(opt, base);
-  progress("prepare", 0.0);
-  auto P = actuator::prepare(rec, base, cal, act, o);
-  progress("prepare", 1.0);
-  // Laws this recording cannot judge (too slow a rate for them) are not offered; said why.
-  std::vector<Rejected> unjudged;
-  for (const effects::Effect* e : effects::library())
-    if (auto why = e->unjudged_at(P.scales)) {
-      o.exclude.emplace_back(e->id());
-      unjudged.push_back(Rejected{std::string(e->id()), 0.0, 0.0, {}, {}, *why, {}});
-    }
-  auto sel = sliding_fit(P, base, o, progress);
-  auto bt = actuator::breakaway_test(P, base, sel.fit.terms);
-  auto stribeck = actuator::stribeck_from_breakaway(P, base, sel.fit, bt, o);
+  void prepare() override {
+    P_ = actuator::prepare_actuator(rec_, base_, cal_, act_, o_);
+    // Laws this recording cannot judge (too slow a rate for them) are not offered; said why.
+    for (const effects::Effect* e : effects::library())
+      if (auto why = e->unjudged_at(P_.scales)) {
+        o_.exclude.emplace_back(e->id());
+        unjudged_.push_back(Rejected{std::string(e->id()), 0.0, 0.0, {}, {}, *why, {}});
+      }
+  }
+
+  void select() override;
+
+  Findings findings() override {
+    return findings_of(rec_, P_, sel_.fit, {sel_.rejected, unjudged_}, {stribeck_, offset_, bt_},
+                       o_);
+  }
+
+  void figures(AnalysisResult& r) override { r.fit_over_time = fit_over_time(P_, sel_.fit); }
+
+  void corrected_model(AnalysisResult& r) override;
+
+ private:
+  const Recording& rec_;
+  const ModelFile& model_;
+  const ForceCalibration& cal_;
+  const ActuatorParams& act_;
+  const AnalysisOptions& opt_;
+  actuator::Baseline base_;
+  actuator::StageOptions o_;
+  actuator::ActuatorPrepared P_;
+  std::vector<Rejected> unjudged_;
+  SlidingFit sel_;
+  actuator::Breakaway bt_;
+  std::optional<selection::Found> stribeck_, offset_;
+};
+
+void ActuatorPath::select() {
+  sel_ = sliding_fit(P_, base_, o_, opt_.progress);
+  bt_ = actuator::breakaway_test(P_, base_, sel_.fit.terms);
+  stribeck_ = actuator::stribeck_from_breakaway(P_, base_, sel_.fit, bt_, o_);
   // Break-away friction: a release is a jump (the friction drops from F_s to F_c at once), many
   // within one filter period where the nut stick-slips, and the filtered speed averages stuck and
   // slipping motion, where no friction law of the speed holds (the slips' accelerations would
@@ -593,45 +633,56 @@ AnalysisResult analyze_actuator(const Recording& rec, const ModelFile& model,
   // the break-away test on it still names the hump. Without a hump a release is gentle and those
   // samples stay: a pulse that stalls the nut is seen there. (They are set aside in place, not
   // copied, and put back when the refit does not hold.)
-  if (stribeck) {
-    const auto aside = actuator::take_stops(P);
+  if (stribeck_) {
+    const auto aside = actuator::take_stops(P_);
     bool kept = false;
     if (!aside.at.empty()) {
-      auto o2 = o;
-      auto sel2 = sliding_fit(P, base, o2, progress);
-      const auto bt2 = actuator::breakaway_test(P, base, sel2.fit.terms);
-      if (auto s2 = actuator::stribeck_from_breakaway(P, base, sel2.fit, bt2, o2)) {
-        sel = std::move(sel2), bt = bt2, stribeck = s2, o = std::move(o2), kept = true;
-        stribeck->from_releases->stops_left_out = P.stops.size();
+      auto o2 = o_;
+      auto sel2 = sliding_fit(P_, base_, o2, opt_.progress);
+      const auto bt2 = actuator::breakaway_test(P_, base_, sel2.fit.terms);
+      if (auto s2 = actuator::stribeck_from_breakaway(P_, base_, sel2.fit, bt2, o2)) {
+        sel_ = std::move(sel2), bt_ = bt2, stribeck_ = s2, o_ = std::move(o2), kept = true;
+        stribeck_->from_releases->stops_left_out = P_.stops.size();
       }
     }
-    if (!kept) actuator::put_back(P, aside);
+    if (!kept) actuator::put_back(P_, aside);
   }
-  progress("selection", 1.0);
-  kinetic_level_into_stribeck(sel.fit);
-  if (stribeck) fold_in_stribeck(sel.fit, P, *stribeck);
-  const auto offset = actuator::offset_from_breakaway(P, sel.fit, bt, o);
-  if (offset) fold_in_offset(sel.fit, P, *offset);
+  kinetic_level_into_stribeck(sel_.fit);
+  if (stribeck_) fold_in_stribeck(sel_.fit, P_, *stribeck_);
+  offset_ = actuator::offset_from_breakaway(P_, sel_.fit, bt_, o_);
+  if (offset_) fold_in_offset(sel_.fit, P_, *offset_);
+}
 
-  AnalysisResult r;
-  r.findings = findings_of(rec, P, sel.fit, stribeck, offset, bt, o);
-  r.findings.not_selected.insert(r.findings.not_selected.begin(), sel.rejected.begin(),
-                                 sel.rejected.end());
-  r.findings.not_selected.insert(r.findings.not_selected.end(), unjudged.begin(), unjudged.end());
-  r.corrected = corrected_model(model, sel.fit.terms, rec.path);
-  if (opt.twin_force_check) {
-    std::vector<std::string> why;
-    r.findings.twin_force_check =
-        check_with_twin(rec, act, cal, P.floor_n, model, sel.fit.terms, r.corrected, why);
-    const auto& dropped = r.findings.twin_force_check->dropped;
-    for (auto& e : r.findings.effects)
-      for (std::size_t k = 0; k < dropped.size(); ++k)
-        if (e.id == dropped[k])
-          e.note += std::string(e.note.empty() ? "" : "; ") +
-                    "left out of model_corrected.toml (there disabled): " + why[k];
-  }
-  r.fit_over_time = fit_over_time(P, sel.fit);
-  return r;
+void ActuatorPath::corrected_model(AnalysisResult& r) {
+  r.corrected = model_with(model_, sel_.fit.terms, rec_.path);
+  if (!opt_.actuator.twin_force_check) return;
+  std::vector<std::string> why;
+  r.findings.twin_force_check =
+      check_with_twin(rec_, act_, cal_, P_.floor_n, model_, sel_.fit.terms, r.corrected, why);
+  const auto& dropped = r.findings.twin_force_check->dropped;
+  for (auto& e : r.findings.effects)
+    for (std::size_t k = 0; k < dropped.size(); ++k)
+      if (e.id == dropped[k])
+        e.note += std::string(e.note.empty() ? "" : "; ") +
+                  "left out of model_corrected.toml (there disabled): " + why[k];
+}
+
+}  // namespace
+
+ModelFile actuator_model_from_config(const ActuatorParams& act) {
+  ModelFile m;
+  m.system = "actuator";
+  m.source = "config/actuator.toml (paper model)";
+  m.nut_mass_kg = act.nut_mass_kg;
+  m.viscous_n_s_per_m = act.viscous_n_s_per_m;
+  m.coulomb_n = act.coulomb_n;
+  return m;
+}
+
+std::unique_ptr<AnalysisPath> actuator_path(const Recording& rec, const ModelFile& baseline,
+                                            const ForceCalibration& cal, const ActuatorParams& act,
+                                            const AnalysisOptions& options) {
+  return std::make_unique<ActuatorPath>(rec, baseline, cal, act, options);
 }
 
 }  // namespace maglead::analysis
