@@ -409,6 +409,12 @@ def analyze_options(rec):
         rc, _, err = run("analyze", "--recording", rec, "--out", out, *args, "--config", CONFIG)
         check(rc == 2 and says in err and "type e.g. " + typed in err and not os.path.exists(out),
               f"analyze {' '.join(args)}: refused with the range and what to type: {err.strip()!r}")
+    # The axis's --decimation with the actuator's model: refused, not silently ignored.
+    out = os.path.join(WORK, "opt_out")
+    rc, _, err = run("analyze", "--recording", rec, "--out", out, "--decimation", "2",
+                     "--config", CONFIG)
+    check(rc == 2 and "applies to an axis's model only" in err and "drop --decimation" in err
+          and not os.path.exists(out), f"analyze --decimation 2 on the actuator: {err.strip()!r}")
     # The hand push slides at about 1 mm/s: a 60 Hz filter counts sliding from 1.3 mm/s.
     rc, out, err = run("analyze", rec, "--out", "filter_out", "--filter-hz", "60",
                        "--no-twin-check", "--config", CONFIG)

@@ -193,6 +193,11 @@ void run_analyze(AnalyzeOptions o) {
                                              "\"), whose drive is taken as logged with no "
                                              "calibration: drop " +
                                              option);
+  // The actuator decimates to its own rule (a few sliding samples per filter period).
+  if (model.system == "actuator" && o.a.axis.decimation > 0)
+    throw CLI::ValidationError("--decimation",
+                               "applies to an axis's model only; the actuator keeps its own "
+                               "number of samples per filter period: drop --decimation");
   const ForceCalibration cal =
       model.system != "actuator"
           ? paper_calibration()
@@ -247,7 +252,8 @@ void add_analyze(CLI::App& app) {
       ->check(number_in(
           {0.0, std::numeric_limits<double>::infinity(), "Hz", "0 chooses it", "--filter-hz 20"}));
   cmd->add_option("--decimation", o->a.axis.decimation,
-                  "Decimation factor (default: down to the identification bandwidth for an axis)")
+                  "Axis only (refused with the actuator's model): decimation factor (default: "
+                  "down to the identification bandwidth)")
       ->check(number_in(
           {0.0, kMaxDecimation, "", "0 chooses it, 1 keeps every sample", "--decimation 1"}));
   cmd->add_option("--min-gain", o->a.min_gain_pct,
