@@ -143,7 +143,7 @@ TEST(Conclusion, ARotaryAxissMisfitIsATorque) {
   near.heldout_gain_pct = 60;
   near.reason = std::string(maglead::analysis::kBelowSignificance) +
                 ": the force it explains, 0.050 N·m RMS where it acts, is not one the recording "
-                "resolves (floor 0.100 N·m)";
+                "resolves (it must beat 0.100 N·m)";
   f.not_selected.push_back(near);
   maglead::analysis::conclude(f, checking(0, &maglead::effects::rotary_axis()));
   EXPECT_TRUE(starts_with(f.conclusion, "a misfit of 0.7 N·m RMS remains (noise floor 0.1 N·m)"))

@@ -73,13 +73,19 @@ void print_finding(const analysis::EffectFinding& e, int k) {
       kIndent);
   if (e.evidence.heldout_gain_pct) {
     char evidence[160];
+    // "6/10" as "better in 6 of 10 segments": beside a t statistic a bare 6/10 reads as a score.
+    std::string segments = e.evidence.segments_improved.value_or("?");
+    if (const auto slash = segments.find('/'); slash != std::string::npos)
+      segments.replace(slash, 1, " of ");
     std::snprintf(evidence, sizeof evidence,
-                  "     held-out gain %.2f %% (t = %.1f, %s segments), improvement %.2f %%",
-                  *e.evidence.heldout_gain_pct, e.evidence.t_stat.value_or(NAN),
-                  e.evidence.segments_improved.value_or("?").c_str(), e.improvement_pct);
+                  "     held-out gain %.2f %% (t = %.1f, better in %s segments), improvement "
+                  "%.2f %%",
+                  *e.evidence.heldout_gain_pct, e.evidence.t_stat.value_or(NAN), segments.c_str(),
+                  e.improvement_pct);
     say(evidence, kIndent);
   }
   if (!e.finding.empty()) say("     " + e.finding, kIndent);
+  if (!e.note.empty()) say("     note: " + e.note, kIndent);
   for (const auto& a : e.alternatives) {
     char share[48];
     std::snprintf(share, sizeof share, " (reproduces %.2f %% of it)", a.explains_pct);
@@ -104,7 +110,7 @@ void print_findings(const analysis::Findings& J) {
                   c->baseline_mae_n, c->corrected_mae_n);
     std::string line = errors;
     for (const auto& d : c->dropped)
-      line += "; " + d + " left out (it raised the error beyond its noise; in the file, disabled)";
+      line += "; " + d + " left out (with it the error rose beyond its noise: its note above)";
     say(line, 2);
   }
 }

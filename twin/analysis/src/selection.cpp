@@ -168,7 +168,7 @@ std::string why_not_significant(const Search& s, const std::vector<double>& cur,
     const std::string unit(s.st.drive_unit);
     std::snprintf(b, sizeof b,
                   "the force it explains, %.3f %s RMS where it acts, is not one the recording "
-                  "resolves (floor %.3f %s)",
+                  "resolves (it must beat %.3f %s)",
                   explained_n(s, cur, tr) / std::sqrt(where.share), unit.c_str(),
                   s.rules.floor_n(*s.terms), unit.c_str());
   }
