@@ -81,9 +81,10 @@ double sample_rate_hz(const Recording& rec);
 
 /// Makes the rows one sample period apart (the header's sample_rate_hz, else the median step of
 /// t_s), as every reader assumes: a gap of up to 10 rows or 50 ms, whichever is more (a recorder
-/// that fell behind), is filled by linear interpolation, with a warning. Throws RecordingError when
-/// the rows contradict the header's rate (more rows than it allows, over a tenth of them missing)
-/// or a longer stretch is missing, saying what to fix. read_recording applies it.
+/// that fell behind), is filled by linear interpolation, with a warning. Throws RecordingError for
+/// a time stamp equal to the one before (naming the rows), rows that contradict the header's rate
+/// (more rows than it allows, over a tenth of them missing) or a longer stretch missing, saying
+/// what to fix. read_recording applies it.
 void make_evenly_sampled(Recording& rec);
 
 /// Bounds a column's values must keep to be in its unit at all (not a fit to any actuator).
