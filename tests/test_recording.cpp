@@ -101,6 +101,30 @@ TEST(Recording, MissingColumnListsTheColumnsAndOneInAnotherUnit) {
   EXPECT_EQ(error_of(other, {"nut_pos_m"}).find("looks like"), std::string::npos);
 }
 
+// The walkthrough's headers: upper case is not another unit, quotes are no part of a name (R's
+// write.csv), and a reader that stores only some columns keeps one that stands in for a missing
+// one, so its error names it (analyze on t_s,pos_mm,drive_force_n listed t_s, drive_force_n).
+TEST(Recording, UpperCaseQuotedAndStandInColumnsAreNamedWithTheFix) {
+  EXPECT_EQ(missing_column_detail({"T_S", "POS_M"}, "t_s"),
+            " (header has: T_S, POS_M); column names are lower case: rename 'T_S' to 't_s'");
+  EXPECT_EQ(stand_in_hint("screw_angle_deg", "screw_angle_rad"),
+            "'screw_angle_deg' looks like screw_angle_rad in another unit: convert it to radians "
+            "and name it 'screw_angle_rad' (units are SI: docs/recording-format.md)");
+  const auto quoted =
+      write_file("quoted.csv", "# format: mls-recording/1\n\"t_s\", \"x_m\"\n0,1\n0.001,2\n");
+  EXPECT_EQ(read_recording(quoted, {"t_s", "x_m"}).names, (std::vector<std::string>{"t_s", "x_m"}));
+  const auto mm = write_file(
+      "stand_in.csv", "# format: mls-recording/1\nt_s,pos_mm,drive_force_n,other_v\n0,1,2,3\n");
+  const Recording r = read_recording(mm, {}, [](const Recording&) {
+    return std::vector<std::string>{"t_s", "pos_m", "drive_force_n"};
+  });
+  EXPECT_EQ(r.names, (std::vector<std::string>{"t_s", "pos_mm", "drive_force_n"}));
+  const auto na = write_file("na.csv", "# format: mls-recording/1\nt_s,x_m\n0,NA\n");
+  EXPECT_NE(error_of(na).find("'NA' is not a number: a missing value is an empty field"),
+            std::string::npos)
+      << error_of(na);
+}
+
 TEST(Recording, NonNumericFieldNamesLineAndColumn) {
   const auto p =
       write_file("nan.csv", "# format: mls-recording/1\nt_s,nut_pos_m\n0,0\n0.001,abc\n");
