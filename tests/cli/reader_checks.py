@@ -1,6 +1,7 @@
 """What the readers refuse, every command alike (a test engineer's walkthrough of the recording
-reader): a repeated time stamp is refused with its row; a column in another unit is named with
-what to do, in every command that reads it.
+reader): a repeated time stamp is refused with its row; `inspect` exits 2 for what `analyze`
+refuses, with the same reason; a column in another unit, in upper case or in quotes is named
+with what to do.
 Usage: reader_checks.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
 import os
 import shutil
@@ -41,6 +42,54 @@ def write(name, meta, header, rows):
     return path
 
 
+def axis_files():
+    """Broken copies of the EMPS axis recording (t_s, pos_m, ref_pos_m, drive_force_n)."""
+    meta, header, rows = split(EMPS)
+    rows = rows[:3000]
+    names = header.split(",")
+    pos, drive = names.index("pos_m"), names.index("drive_force_n")
+
+    def cells(f):
+        return [",".join(f(r.split(","))) for r in rows]
+
+    def set_at(row, i, v):
+        row = list(row)
+        row[i] = v
+        return row
+    in_ms = [m for m in meta if not m.startswith("# sample_rate_hz")]
+    return {
+        "two_rows": (meta, header, rows[:2], "too short to analyse (2 rows"),
+        "empty_cell": (meta, header, rows[:1500] + [",".join(set_at(rows[1500].split(","), pos, ""))]
+                       + rows[1501:], "column 'pos_m' is empty in data row 1501"),
+        "pos_mm": (meta, header.replace("pos_m,", "pos_mm,", 1),
+                   cells(lambda c: set_at(c, pos, repr(float(c[pos]) * 1e3))),
+                   "'pos_mm' looks like pos_m in another unit: convert it to metres"),
+        "no_drive": (meta, ",".join(n for n in names if n != "drive_force_n"),
+                     cells(lambda c: [v for i, v in enumerate(c) if i != drive]),
+                     "a linear axis needs the columns t_s, pos_m, drive_force_n"),
+        "ms_as_s": (in_ms, header, cells(lambda c: set_at(c, 0, repr(round(float(c[0]) * 1e3, 6)))),
+                    "if t_s is in milliseconds, divide it by 1000"),
+        "upper": (meta, header.upper(), rows, "column names are lower case: rename 'T_S' to 't_s'"),
+    }
+
+
+def inspect_refuses_what_analyze_refuses():
+    for name, (meta, header, rows, said) in axis_files().items():
+        path = write(name + ".csv", meta, header, rows)
+        rc, _, err = run("inspect", path, "--config", CONFIG)
+        check(rc == 2 and said in err, f"inspect {name}: exit {rc}, {err.strip()!r}")
+        rc, _, aerr = run("analyze", path, "--model", EMPS_MODEL, "--out", name + "_out")
+        check(rc == 2 and said in aerr, f"analyze {name}: exit {rc}, {aerr.strip()!r}")
+    # Quoted names (R's write.csv) are the names: read, not refused.
+    meta, header, rows = split(EMPS)
+    quoted = write("quoted.csv", meta, ",".join(f'"{n}"' for n in header.split(",")), rows[:3000])
+    rc, out, err = run("inspect", quoted, "--config", CONFIG)
+    check(rc == 0 and "  pos_m " in out and '"' not in out, f"inspect quoted names: {out[:200]!r} {err!r}")
+    # What inspect did not check is said.
+    rc, out, err = run("inspect", EMPS, "--config", CONFIG)
+    check(rc == 0 and "not checked: the model file" in out, f"inspect EMPS: {out[-200:]!r} {err!r}")
+
+
 def repeated_rows():
     meta, header, rows = split(EMPS)
     rows = rows[:3000]
@@ -70,7 +119,7 @@ def actuator_files():
     keep = [i for i, n in enumerate(names) if n != "motor_angle_rad"]
     deg = write("deg.csv", meta, ",".join(names[i] for i in keep).replace("screw_angle_rad", "screw_angle_deg"),
                 [",".join(r.split(",")[i] for i in keep) for r in rows])
-    for cmd in (["twin-check"], ["estimate"], ["analyze", "--out", "deg_out"]):
+    for cmd in (["inspect"], ["twin-check"], ["estimate"], ["analyze", "--out", "deg_out"]):
         rc, _, err = run(*cmd, deg, "--config", CONFIG)
         check(rc == 2 and "'screw_angle_deg' looks like screw_angle_rad in another unit: convert it "
               "to radians" in err, f"{cmd[0]} on screw_angle_deg: {err.strip()!r}")
@@ -88,6 +137,7 @@ def main():
     shutil.rmtree(WORK, ignore_errors=True)
     os.makedirs(WORK)
     repeated_rows()
+    inspect_refuses_what_analyze_refuses()
     missing_value_words()
     actuator_files()
     if failures:
