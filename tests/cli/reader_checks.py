@@ -1,7 +1,8 @@
 """What the readers refuse, every command alike (a test engineer's walkthrough of the recording
 reader): a repeated time stamp is refused with its row; `inspect` exits 2 for what `analyze`
 refuses, with the same reason; a column in another unit, in upper case or in quotes is named
-with what to do.
+with what to do; `estimate` and `twin-check` judge a load cell as `analyze` does (the other sign
+is not scored).
 Usage: reader_checks.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
 import os
 import shutil
@@ -123,6 +124,25 @@ def actuator_files():
         rc, _, err = run(*cmd, deg, "--config", CONFIG)
         check(rc == 2 and "'screw_angle_deg' looks like screw_angle_rad in another unit: convert it "
               "to radians" in err, f"{cmd[0]} on screw_angle_deg: {err.strip()!r}")
+    # The load cell of the other sign: analyze refuses it, estimate scores nothing against it,
+    # twin-check sets it aside, with the analysis's own reason.
+    load = names.index("load_force_n")
+    sign = write("sign.csv", meta, header,
+                 [",".join(v if i != load or v == "" else repr(-float(v))
+                           for i, v in enumerate(r.split(","))) for r in rows])
+    reason = "newtons of the other sign (load_force_n negated)"
+    rc, _, err = run("analyze", sign, "--out", "sign_out", "--config", CONFIG)
+    check(rc == 2 and reason in err, f"analyze on a negated load cell: {err.strip()!r}")
+    rc, out, err = run("estimate", sign, "--plot", "sign.png", "--config", CONFIG)
+    check(rc == 2 and reason in err and "mean absolute error" not in out,
+          f"estimate on a negated load cell: exit {rc}, {out.strip()[:200]!r} {err.strip()!r}")
+    rc, out, err = run("twin-check", sign, "--config", CONFIG)
+    check(rc == 0 and "not judged" in out and reason in out and "MAE" not in out,
+          f"twin-check on a negated load cell: exit {rc}, {out.strip()!r} {err.strip()!r}")
+    rc, out, err = run("twin-check", rec, "--config", CONFIG)
+    check(rc == 0 and "force MAE against load cell" in out, f"twin-check scores a right load cell: {out!r}")
+    rc, out, err = run("inspect", sign, "--config", CONFIG)
+    check(rc == 0 and reason in out and "estimate refuse it" in out, f"inspect on a negated load cell: {out[-300:]!r}")
 
 
 def missing_value_words():

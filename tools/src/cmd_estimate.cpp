@@ -7,6 +7,7 @@
 
 #include "cli_common.hpp"
 #include "large_blocks.hpp"
+#include "maglead/analysis/anomaly.hpp"
 #include "maglead/physics/estimator.hpp"
 #include "maglead/physics/load_observer.hpp"
 #include "maglead/recording/error_stats.hpp"
@@ -182,6 +183,16 @@ void run_estimate(const EstimateOptions& o) {
   load_control_settings(o.config, c);
   const Recording rec = read_estimated(o, c.actuator);
   check_phase_on_branch(rec, c.actuator, c.calibration);
+  // A load cell analyze would refuse (another unit, the other sign) scores nothing: the
+  // analysis's own judgement of it, not a second one.
+  if (const auto why = analysis::load_cell_unusable(rec, c.calibration, c.actuator))
+    throw LoadCellUnitError(*why +
+                            ". estimate scores the force estimate against the load cell, so it "
+                            "scores none against this one: fix the column (load_force_n is the "
+                            "load on the nut along +p: docs/recording-format.md) or, if it is "
+                            "right, the calibration (--calibration); without it: maglead "
+                            "twin-check --recording " +
+                            o.recording + " --no-load-cell");
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
   if (n < 2) throw RecordingError(o.recording + ": needs at least two samples");

@@ -6,6 +6,7 @@
 
 #include "cli_common.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/anomaly.hpp"
 #include "maglead/effects/axis_kind.hpp"
 #include "maglead/settings/settings.hpp"
 
@@ -60,13 +61,15 @@ std::string check_axis(Recording& rec) {
 }
 
 /// The actuator's readers' checks: the columns every one of them reads (twin-check's), the phase
-/// on the calibration's branch, and what the analysis needs of the rows where it is possible.
+/// on the calibration's branch, what the analysis needs of the rows where it is possible, and the
+/// load cell's unit and sign as the analysis judges them.
 std::string check_actuator(const InspectOptions& o, const Recording& rec,
                            const ActuatorParams& act) {
   if (!rec.has("t_s") || !rec.has("nut_pos_m"))  // read again as they read it: their refusal
     (void)read_actuator_recording(o.recording, act, o.config, {"t_s", "nut_pos_m"}, {}, "inspect");
   require_angle(rec);
-  check_phase_on_branch(rec, act, load_calibration(config_file(o.config, "calibration.toml")));
+  const ForceCalibration cal = load_calibration(config_file(o.config, "calibration.toml"));
+  check_phase_on_branch(rec, act, cal);
   if (!rec.has("load_force_n"))
     return "no load_force_n (load cell): twin-check and report read it; estimate, calibrate and "
            "analyze with the actuator's model need one";
@@ -75,8 +78,9 @@ std::string check_actuator(const InspectOptions& o, const Recording& rec,
   } catch (const std::exception& e) {
     return std::string("twin-check, estimate and report read it; analyze will not: ") + e.what();
   }
-  return "not checked: the load cell's unit and sign (analyze and report judge them against the "
-         "calibrated coupling)";
+  if (const auto why = analysis::load_cell_unusable(rec, cal, act))
+    return *why + ": analyze and estimate refuse it, twin-check and report do not compare with it";
+  return "not checked: the model file and what the analysis finds";
 }
 
 void print_summary(const Recording& rec) {

@@ -4,10 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <span>
 
 #include "cli_common.hpp"
 #include "large_blocks.hpp"
+#include "maglead/analysis/anomaly.hpp"
 #include "maglead/twin/replay.hpp"
 
 namespace maglead::cli {
@@ -142,7 +144,12 @@ void run_twin_check(const TwinCheckOptions& o) {
   const auto optional = [&](const char* name) {
     return rec.has(name) ? std::span<const double>(rec.column(name)) : std::span<const double>();
   };
-  const bool has_load = rec.has("load_force_n") && !o.no_load_cell;
+  // A load cell analyze and report set aside (another unit, the other sign) is not scored.
+  const std::optional<std::string> unusable =
+      rec.has("load_force_n") && !o.no_load_cell
+          ? analysis::load_cell_unusable(rec, tc.calibration, tc.actuator)
+          : std::nullopt;
+  const bool has_load = rec.has("load_force_n") && !o.no_load_cell && !unusable;
   const auto load = has_load ? optional("load_force_n") : std::span<const double>();
   CheckSummary c;
   Trace trace(o.trace);
@@ -164,10 +171,13 @@ void run_twin_check(const TwinCheckOptions& o) {
                 c.err_dyn_n / static_cast<double>(c.counted),
                 c.err_static_n / static_cast<double>(c.counted));
   else
-    std::printf("  force estimate against load cell: not judged (%s)\n",
-                !rec.has("load_force_n") ? "no load_force_n column"
-                : o.no_load_cell         ? "--no-load-cell"
-                                         : "no sample where both are numbers");
+    print_line("  force estimate against load cell: not judged (" +
+                   std::string(!rec.has("load_force_n") ? "no load_force_n column"
+                               : o.no_load_cell         ? "--no-load-cell"
+                               : unusable               ? unusable->c_str()
+                                                        : "no sample where both are numbers") +
+                   ")",
+               4);
   std::printf("  position residual: max %.1f µm; healthy %.1f %% of ticks\n", c.max_res_m * 1e6,
               100.0 * static_cast<double>(c.healthy) / static_cast<double>(n));
   print_drift(c.last, c.at_drift, c.t_drift, c.drift_stat);
