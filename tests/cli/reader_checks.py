@@ -2,12 +2,17 @@
 reader): a repeated time stamp is refused with its row; `inspect` exits 2 for what `analyze`
 refuses, with the same reason; a column in another unit, in upper case or in quotes is named
 with what to do; `estimate` and `twin-check` judge a load cell as `analyze` does (the other sign
-is not scored).
+is not scored); `twin-check --trace` writes a recording the readers take; report, estimate and
+twin-check wrap their lines at a terminal's width.
 Usage: reader_checks.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
+import fcntl
 import os
+import pty
 import shutil
+import struct
 import subprocess
 import sys
+import termios
 
 MAGLEAD, CONFIG, WORK = (os.path.abspath(a) for a in sys.argv[1:4])
 ROOT = os.path.dirname(CONFIG)
@@ -136,13 +141,52 @@ def actuator_files():
     rc, out, err = run("estimate", sign, "--plot", "sign.png", "--config", CONFIG)
     check(rc == 2 and reason in err and "mean absolute error" not in out,
           f"estimate on a negated load cell: exit {rc}, {out.strip()[:200]!r} {err.strip()!r}")
-    rc, out, err = run("twin-check", sign, "--config", CONFIG)
+    rc, out, err = run("twin-check", sign, "--config", CONFIG, "--trace", "trace.csv")
     check(rc == 0 and "not judged" in out and reason in out and "MAE" not in out,
           f"twin-check on a negated load cell: exit {rc}, {out.strip()!r} {err.strip()!r}")
     rc, out, err = run("twin-check", rec, "--config", CONFIG)
     check(rc == 0 and "force MAE against load cell" in out, f"twin-check scores a right load cell: {out!r}")
     rc, out, err = run("inspect", sign, "--config", CONFIG)
     check(rc == 0 and reason in out and "estimate refuse it" in out, f"inspect on a negated load cell: {out[-300:]!r}")
+    # The trace is a recording: its values not formed yet are empty fields, which the readers take.
+    trace = open(os.path.join(WORK, "trace.csv")).read()
+    check("nan" not in trace and trace.startswith("# format: mls-recording/1"),
+          f"twin-check --trace writes no nan: {trace[:300]!r}")
+    rc, out, err = run("inspect", os.path.join(WORK, "trace.csv"), "--config", CONFIG)
+    check("is not a number" not in err, f"the trace reads back: {err.strip()!r}")
+
+
+def at_80_columns(*args):
+    """Exit code and stdout of a command whose stdout is a terminal 80 columns wide."""
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
+    p = subprocess.Popen([MAGLEAD, *args], stdout=slave, stderr=subprocess.DEVNULL, cwd=WORK, env=ENV)
+    os.close(slave)
+    out = b""
+    while True:
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:  # the other end closed
+            break
+        if not chunk:
+            break
+        out += chunk
+    os.close(master)
+    return p.wait(timeout=300), out.decode().replace("\r\n", "\n")
+
+
+def wrapped_at_80_columns():
+    """report, estimate and twin-check wrap their lines on a terminal as analyze does; report
+    says every file it wrote and its --help none it does not write."""
+    for args in (["report", "push.csv", "--out", "push_report"], ["estimate", "push.csv", "--plot", "push.png"],
+                 ["twin-check", "push.csv"], ["twin-check", "sign.csv"]):
+        rc, out = at_80_columns(*args, "--config", CONFIG)
+        long = [l for l in out.splitlines() if len(l) > 80]
+        check(rc == 0 and out and not long, f"{args[0]} at 80 columns: exit {rc}, {long!r}")
+        if args[0] == "report":
+            check("report.json" in out, f"report says it wrote report.json: {out[-200:]!r}")
+    rc, out, _ = run("report", "--help")
+    check(rc == 0 and "PNG" not in out, "report --help promises no PNG it does not write")
 
 
 def missing_value_words():
@@ -160,6 +204,7 @@ def main():
     inspect_refuses_what_analyze_refuses()
     missing_value_words()
     actuator_files()
+    wrapped_at_80_columns()
     if failures:
         sys.exit(f"{len(failures)} failed")
 
