@@ -26,10 +26,12 @@ EncoderVelocityEstimator::EncoderVelocityEstimator(double sample_period_s, doubl
   // A recording sampled this slowly has no two encoder readings within one hold: say it as such.
   if (!(hold_s > sample_period_s)) {
     char buf[200];
-    std::snprintf(buf, sizeof buf,
-                  "sampled every %.3g s (%.3g Hz): the nut's velocity needs a sample within "
-                  "%.3g s, so more than %.3g Hz (record at 100 Hz or more)",
-                  sample_period_s, 1.0 / sample_period_s, hold_s, 1.0 / hold_s);
+    std::snprintf(
+        buf, sizeof buf,
+        "sampled every %.3g s (%.3g Hz): the nut's velocity needs a sample within "
+        "%.3g s, so more than %.3g Hz (if t_s is in milliseconds, divide it by 1000; else "
+        "record at 100 Hz or more)",
+        sample_period_s, 1.0 / sample_period_s, hold_s, 1.0 / hold_s);
     throw std::invalid_argument(buf);
   }
 }

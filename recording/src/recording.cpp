@@ -71,23 +71,29 @@ std::string lower(std::string s) {
 
 }  // namespace
 
+std::string stand_in_hint(const std::string& name, const std::string& wanted) {
+  const std::string quantity = quantity_of(wanted);
+  if (name == wanted || quantity.empty()) return "";
+  // Upper case first: T_S is t_s as a spreadsheet capitalised it, not t in another unit.
+  if (lower(name) == wanted)
+    return "column names are lower case: rename '" + name + "' to '" + wanted + "'";
+  const std::string units = unit_words(wanted, quantity);
+  if (lower(name) == lower(quantity))
+    return "'" + name + "' has no unit in its name: if it is in " + units + ", name it '" + wanted +
+           "' (docs/recording-format.md)";
+  if (lower(quantity_of(name)) == lower(quantity))
+    return "'" + name + "' looks like " + wanted + " in another unit: convert it to " + units +
+           " and name it '" + wanted + "' (units are SI: docs/recording-format.md)";
+  return "";
+}
+
 std::string missing_column_detail(const std::vector<std::string>& names, const std::string& wanted,
                                   const std::string& listed) {
   std::string have;
   for (const auto& n : names) have += (have.empty() ? "" : ", ") + n;
   std::string out = " (" + listed + ": " + (have.empty() ? std::string("no column") : have) + ")";
-  const std::string quantity = quantity_of(wanted);
-  if (quantity.empty()) return out;
-  const std::string units = unit_words(wanted, quantity);
-  for (const auto& n : names) {
-    // Another unit of the same quantity (nut_pos_mm), or the quantity without a unit (nut_pos).
-    if (lower(n) == lower(quantity))
-      return out + "; '" + n + "' has no unit in its name: if it is in " + units + ", name it '" +
-             wanted + "' (docs/recording-format.md)";
-    if (lower(quantity_of(n)) == lower(quantity) && n != wanted)
-      return out + "; '" + n + "' looks like " + wanted + " in another unit: convert it to " +
-             units + " and name it '" + wanted + "' (units are SI: docs/recording-format.md)";
-  }
+  for (const auto& n : names)
+    if (const std::string hint = stand_in_hint(n, wanted); !hint.empty()) return out + "; " + hint;
   return out;
 }
 
@@ -121,6 +127,16 @@ std::string trim(std::string_view s) {
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
     s.remove_suffix(1);
   return std::string(s);
+}
+
+/// For a field that is a word for a missing value (NA, NaN, null): how to write one.
+std::string missing_value_hint(std::string_view field) {
+  const std::string word = lower(std::string(field));
+  for (const char* missing : {"na", "nan", "-nan", "null", "none", "#n/a", "n/a"})
+    if (word == missing)
+      return ": a missing value is an empty field: write nothing between the commas (R: "
+             "write.csv(x, na = \"\"))";
+  return "";
 }
 
 std::string where(const std::string& path, std::size_t line) {
@@ -324,7 +340,8 @@ class RowParser {
         auto [p, ec] = std::from_chars(field.data(), field.data() + field.size(), v);
         if (ec != std::errc() || p != field.data() + field.size() || !std::isfinite(v))
           throw RecordingError(where(path, line_no_) + "column " + std::to_string(c + 1) + " (" +
-                               header_[c] + "): '" + std::string(field) + "' is not a number");
+                               header_[c] + "): '" + std::string(field) + "' is not a number" +
+                               missing_value_hint(field));
       }
       if (c == t_col_) {
         if (std::isnan(v))
@@ -418,7 +435,11 @@ bool take_head_line(Recording& rec, std::string_view line, std::size_t line_no) 
   std::size_t start = 0;
   while (true) {
     const std::size_t comma = line.find(',', start);
-    rec.names.push_back(trim(line.substr(start, comma - start)));
+    std::string name = trim(line.substr(start, comma - start));
+    // R's write.csv and pandas' QUOTE_ALL put names in double quotes: the name is inside.
+    if (name.size() >= 2 && name.front() == '"' && name.back() == '"')
+      name = name.substr(1, name.size() - 2);
+    rec.names.push_back(std::move(name));
     if (comma == std::string_view::npos) return true;
     start = comma + 1;
   }
@@ -503,9 +524,17 @@ std::vector<std::size_t> choose_columns(Recording& rec, const std::vector<std::s
   }
   std::vector<std::string> wanted = keep(rec);
   wanted.insert(wanted.end(), required.begin(), required.end());
+  // A column that stands in for a wanted one the header lacks (pos_mm for pos_m) is kept too:
+  // the reader's error about the missing one then names it and what to convert.
+  const auto stands_in = [&](const std::string& name) {
+    return std::any_of(wanted.begin(), wanted.end(), [&](const std::string& w) {
+      return !rec.has(w) && !stand_in_hint(name, w).empty();
+    });
+  };
   std::vector<std::string> kept;
   for (std::size_t c = 0; c < slot.size(); ++c) {
-    const bool wants = std::find(wanted.begin(), wanted.end(), rec.names[c]) != wanted.end();
+    const bool wants = std::find(wanted.begin(), wanted.end(), rec.names[c]) != wanted.end() ||
+                       stands_in(rec.names[c]);
     slot[c] = wants ? kept.size() : kSkipped;
     if (wants) kept.push_back(rec.names[c]);
   }

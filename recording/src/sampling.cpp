@@ -25,9 +25,9 @@ constexpr double kMaxFilledGap_s = 0.05;
 // missed in a short recording are a recorder's hiccup).
 constexpr double kMaxMissingShare = 0.1;
 // More rows than the rate implies by this share and these rows: the header's rate is too low
-// (a recorder's clock is far better than 1 %) or rows are repeated. The rows: a recorder polling
-// on a schedule may write its first and last row up to a period or so off the grid, which
-// shortens the span of a short recording by as much.
+// (a recorder's clock is far better than 1 %; repeated rows are refused before). The rows: a
+// recorder polling on a schedule may write its first and last row up to a period or so off the
+// grid, which shortens the span of a short recording by as much.
 constexpr double kMaxExtraShare = 0.01;
 constexpr double kMaxExtraRows = 3.0;
 
@@ -45,6 +45,41 @@ std::string rate_advice(const std::vector<double>& t) {
          num(1.0 / median_step_s(t)) + " Hz";
 }
 
+/// Refuses a time stamp equal to the one before: every reader takes the rows as a period apart,
+/// so one repeated row shifts all later ones by a period (and a stamp written twice has a gap
+/// after it that filling would turn into an extra row). Names the rows, up to kListedRepeats.
+void refuse_repeated_times(const Recording& rec, const std::vector<double>& t) {
+  constexpr std::size_t kListedRepeats = 5;
+  std::size_t repeats = 0, same_values = 0;
+  std::string rows;
+  for (std::size_t i = 1; i < t.size(); ++i) {
+    if (t[i] != t[i - 1]) continue;
+    bool same = true;
+    for (const auto& c : rec.columns)
+      same = same && (c[i] == c[i - 1] || (std::isnan(c[i]) && std::isnan(c[i - 1])));
+    same_values += same;
+    if (++repeats <= kListedRepeats)
+      rows += (rows.empty() ? "" : ", ") + std::to_string(i + 1) + " (t = " + num(t[i]) + " s)";
+  }
+  if (repeats == 0) return;
+  std::string what = rec.path + ": " + std::to_string(repeats) +
+                     (repeats == 1 ? " row repeats" : " rows repeat") +
+                     " the time of the row before, at data row" + (repeats == 1 ? " " : "s ") +
+                     rows + (repeats > kListedRepeats ? ", …" : "") +
+                     "; the readers take each row as one sample period after the one before: ";
+  if (same_values == repeats)
+    what += "the repeated rows are copies, delete them";
+  else if (same_values == 0)
+    what +=
+        "their values differ, so the time stamps are wrong: fix t_s (a recorder's clock "
+        "that stalled) or delete the rows that are not samples";
+  else
+    what += std::to_string(same_values) +
+            " of them are copies of the row before (delete them), the others differ (fix their "
+            "t_s)";
+  throw RecordingError(what);
+}
+
 /// Refuses rows the header's rate contradicts: more than it allows, too many missing, or a gap
 /// too long to fill.
 void check_against_rate(const Recording& rec, const std::vector<double>& t, double period_s) {
@@ -52,19 +87,11 @@ void check_against_rate(const Recording& rec, const std::vector<double>& t, doub
   const double expected = span_s / period_s + 1.0;
   const auto rows = static_cast<double>(t.size());
   const std::string rate = num(1.0 / period_s) + " Hz";
-  if (rows > expected * (1.0 + kMaxExtraShare) + kMaxExtraRows) {
-    std::size_t repeats = 0, first = 0;
-    for (std::size_t i = t.size() - 1; i > 0; --i)
-      if (t[i] == t[i - 1]) ++repeats, first = i + 1;
-    const std::string head = rec.path + ": " + num(rows) + " rows over " + num(span_s) +
-                             " s of t_s are more than " + rate + " allows (" + num(expected) + ")";
-    if (repeats > 0)
-      throw RecordingError(head + ": " + std::to_string(repeats) +
-                           " rows repeat the time of the row before (the first at data row " +
-                           std::to_string(first) + "); delete the repeated rows");
-    throw RecordingError(head + ": the header's sample_rate_hz is wrong; " + rate_advice(t) +
+  if (rows > expected * (1.0 + kMaxExtraShare) + kMaxExtraRows)
+    throw RecordingError(rec.path + ": " + num(rows) + " rows over " + num(span_s) +
+                         " s of t_s are more than " + rate + " allows (" + num(expected) +
+                         "): the header's sample_rate_hz is wrong; " + rate_advice(t) +
                          ": fix the '# sample_rate_hz:' line or delete it");
-  }
   const long max_run = std::max(kMaxFilledRows, std::lround(kMaxFilledGap_s / period_s));
   long missing = 0;
   for (std::size_t i = 1; i < t.size(); ++i) {
@@ -111,10 +138,8 @@ void make_evenly_sampled(Recording& rec) {
   if (!rec.has("t_s")) return;
   const std::vector<double>& t = rec.column("t_s");
   if (t.size() < 3) return;  // too short for any reader: each says so
+  refuse_repeated_times(rec, t);
   const double period_s = period_of(rec, t);
-  if (!(period_s > 0))
-    throw RecordingError(rec.path + ": most rows repeat the time of the row before (t_s steps " +
-                         "by 0 s, median): delete the repeated rows");
   check_against_rate(rec, t, period_s);
   long missing = 0, longest = 0;
   double longest_at_s = 0.0;

@@ -107,6 +107,17 @@ TEST(Rotary, ASlowLoggerIsAnalysedWithTheFilterBelowItsNyquist) {
   EXPECT_NE(r.findings.method.filter.find("angle at 20 Hz"), std::string::npos)
       << r.findings.method.filter;
   expect_found(r, "viscous_friction", "viscous_n_m_s_per_rad", d.viscous_n_m_s_per_rad);
+  // Below axis_min_rate_hz (here t_s as if in milliseconds: 0.1 Hz) it is refused, saying why.
+  for (double& t : rec.columns[0]) t *= 1e3;
+  rec.set_meta("sample_rate_hz", "0.1");
+  try {
+    (void)analyze(rec, rotary_model({"nut_mass_kg", "coulomb_n"}));
+    ADD_FAILURE() << "a 0.1 Hz axis recording was analysed";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("if t_s is in milliseconds, divide it by 1000"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 // Moves with stops between them, the PD holding the shaft against stiction with whatever torque

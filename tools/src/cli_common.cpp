@@ -300,10 +300,21 @@ std::string closest_match(const std::string& word, const std::vector<std::string
 
 namespace maglead::cli {
 
+void require_angle(const Recording& rec) {
+  if (rec.has("screw_angle_rad") || rec.has("motor_angle_rad")) return;
+  std::string hint;
+  for (const char* wanted : {"screw_angle_rad", "motor_angle_rad"})
+    for (const auto& n : rec.names)
+      if (hint.empty()) hint = stand_in_hint(n, wanted);
+  throw MissingColumnError(rec.path + ": needs column 'screw_angle_rad' or 'motor_angle_rad'" +
+                               missing_column_detail(rec.names, "") +
+                               (hint.empty() ? "" : "; " + hint),
+                           "screw_angle_rad");
+}
+
 std::vector<double> screw_angle_of(const Recording& rec, const ActuatorParams& act) {
   if (rec.has("screw_angle_rad")) return rec.column("screw_angle_rad");
-  if (!rec.has("motor_angle_rad"))
-    throw RecordingError(rec.path + ": needs column 'screw_angle_rad' or 'motor_angle_rad'");
+  require_angle(rec);
   double gear = act.gear_ratio;
   if (auto g = rec.meta("gear_ratio")) gear = std::stod(*g);
   std::vector<double> out = rec.column("motor_angle_rad");
@@ -453,7 +464,14 @@ Recording read_actuator_recording(const std::string& path, const ActuatorParams&
                                   const std::string& config_dir,
                                   const std::vector<std::string>& required,
                                   const ColumnChoice& keep, const std::string& reader) {
-  Recording rec = read_with_columns(path, required, keep, reader);
+  // The actuator's readers (nut_pos_m) all turn the angle: refused from the header, where every
+  // name is (a keep would drop screw_angle_deg before the error could name it).
+  const bool actuator = std::find(required.begin(), required.end(), "nut_pos_m") != required.end();
+  const ColumnChoice checked = [&](const Recording& header) {
+    if (actuator) require_angle(header);
+    return keep ? keep(header) : header.names;
+  };
+  Recording rec = read_with_columns(path, required, checked, reader);
   // Every reader needs two samples at least (a sample period, a step of the twin, a difference):
   // refused here, once, so inspect says what analyze, report, twin-check and estimate will do.
   if (rec.rows() < kMinRecordingRows)

@@ -124,8 +124,13 @@ inline constexpr int kExitBadInput = 2;
 
 namespace maglead::cli {
 /// θ from a recording: `screw_angle_rad`, else `motor_angle_rad` / gear ratio (the recording's
-/// `# gear_ratio:` if given, else the actuator's). Throws RecordingError if neither is there.
+/// `# gear_ratio:` if given, else the actuator's). Throws require_angle's error if neither is
+/// there.
 std::vector<double> screw_angle_of(const Recording& rec, const ActuatorParams& act);
+/// Refuses a recording (or its header) with neither `screw_angle_rad` nor `motor_angle_rad`:
+/// MissingColumnError listing the columns, and one that stands in for either (screw_angle_deg:
+/// convert it to radians).
+void require_angle(const Recording& rec);
 /// The fewest data rows any command that reads a recording takes.
 inline constexpr std::size_t kMinRecordingRows = 2;
 /// Reads a recording as read_recording does, refuses one of fewer than kMinRecordingRows rows
@@ -134,7 +139,8 @@ inline constexpr std::size_t kMinRecordingRows = 2;
 /// where metres belong pass the reader's machine-independent 10 m bound on a short stroke.
 /// `keep` stores only the columns it chooses (read_recording). An axis's recording lacking a
 /// `required` column is refused with the command that analyses it, saying that `reader` (the
-/// command, or what of it) reads the actuator's.
+/// command, or what of it) reads the actuator's. Requiring nut_pos_m (the actuator's readers)
+/// requires the screw or motor angle too (require_angle, on the header: before any row is read).
 Recording read_actuator_recording(const std::string& path, const ActuatorParams& act,
                                   const std::string& config_dir,
                                   const std::vector<std::string>& required = {},

@@ -160,8 +160,11 @@ void print_result(const AnalyzeOptions& o, const std::string& model_path,
 /// 1 kHz stores 29 MB per column.
 Recording read_for_analysis(const AnalyzeOptions& o, const ActuatorParams& act,
                             const analysis::ModelFile& model, const std::string& model_path) {
-  if (model.system != "actuator")  // an axis's columns: the axis path names what it misses
-    return read_actuator_recording(o.recording, act, o.config, {}, analysis::columns_read);
+  if (model.system != "actuator") {  // an axis's columns: the axis path names what it misses
+    Recording rec = read_actuator_recording(o.recording, act, o.config, {}, analysis::columns_read);
+    analysis::check_axis_rows(rec);  // as inspect: a rate the analysis resolves
+    return rec;
+  }
   const std::string baseline =
       model_path.empty() ? config_file(o.config, "actuator.toml") : model_path;
   try {

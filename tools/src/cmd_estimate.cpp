@@ -7,6 +7,7 @@
 
 #include "cli_common.hpp"
 #include "large_blocks.hpp"
+#include "maglead/analysis/anomaly.hpp"
 #include "maglead/physics/estimator.hpp"
 #include "maglead/physics/load_observer.hpp"
 #include "maglead/recording/error_stats.hpp"
@@ -165,12 +166,16 @@ void print_what_was_compared(const std::vector<double>& measured_n,
   for (std::size_t i = 1; i < nut_pos_m.size(); ++i) moved += nut_pos_m[i] != nut_pos_m[i - 1];
   const double moved_pct = 100.0 * static_cast<double>(moved) /
                            static_cast<double>(std::max<std::size_t>(1, nut_pos_m.size() - 1));
-  std::printf("  over loads           %.2f .. %.2f N, the nut moving in %.1f %% of the samples\n",
-              lo, hi, moved_pct);
+  char line[160];
+  std::snprintf(line, sizeof line,
+                "  over loads           %.2f .. %.2f N, the nut moving in %.1f %% of the samples",
+                lo, hi, moved_pct);
+  print_line(line, 23);
   if (moved == 0)
-    std::printf(
+    print_line(
         "  (the nut never moved: the figures say how far the estimate sits from one held "
-        "load, not how it tracks a force, and are not comparable with the paper's)\n");
+        "load, not how it tracks a force, and are not comparable with the paper's)",
+        3);
 }
 
 void run_estimate(const EstimateOptions& o) {
@@ -182,6 +187,16 @@ void run_estimate(const EstimateOptions& o) {
   load_control_settings(o.config, c);
   const Recording rec = read_estimated(o, c.actuator);
   check_phase_on_branch(rec, c.actuator, c.calibration);
+  // A load cell analyze would refuse (another unit, the other sign) scores nothing: the
+  // analysis's own judgement of it, not a second one.
+  if (const auto why = analysis::load_cell_unusable(rec, c.calibration, c.actuator))
+    throw LoadCellUnitError(*why +
+                            ". estimate scores the force estimate against the load cell, so it "
+                            "scores none against this one: fix the column (load_force_n is the "
+                            "load on the nut along +p: docs/recording-format.md) or, if it is "
+                            "right, the calibration (--calibration); without it: maglead "
+                            "twin-check --recording " +
+                            o.recording + " --no-load-cell");
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
   if (n < 2) throw RecordingError(o.recording + ": needs at least two samples");
@@ -198,11 +213,14 @@ void run_estimate(const EstimateOptions& o) {
     error[i] = e.force_n[i] - measured[i];
   }
   const ErrorStats s = error_stats(error);
-  std::printf("force estimate (%s) against load cell, %s, %zu samples\n", o.estimator.c_str(),
-              o.recording.c_str(), s.samples);
-  std::printf(
-      "  mean absolute error  %6.2f N   (the paper reports 2.3 N for its static estimate)\n",
-      s.mean_abs);
+  print_line("force estimate (" + o.estimator + ") against load cell, " + o.recording + ", " +
+             std::to_string(s.samples) + " samples");
+  char mean[160];
+  std::snprintf(mean, sizeof mean,
+                "  mean absolute error  %6.2f N   (the paper reports 2.3 N for its static "
+                "estimate)",
+                s.mean_abs);
+  print_line(mean, 23);
   std::printf("  RMS error            %6.2f N\n", s.rms);
   std::printf("  max absolute error   %6.2f N\n", s.max_abs);
   print_what_was_compared(measured, rec.column("nut_pos_m"));

@@ -78,7 +78,8 @@ void add_report(CLI::App& app) {
   add_recording_option(cmd, o->recording,
                        "mls-recording/1 (t_s, screw or motor angle, nut_pos_m; "
                        "load_force_n, out_force_est_n, force_set_n if logged)");
-  cmd->add_option("-o,--out", o->out, "Output directory (index.html, report.json, the map's PNG)")
+  cmd->add_option("-o,--out", o->out,
+                  "Output directory (index.html, the page with its plots inlined; report.json)")
       ->required()
       ->check(CLI::Validator(output_directory_problem, ""));
   add_config_option(cmd, o->config);
@@ -103,17 +104,22 @@ void add_report(CLI::App& app) {
     const auto outcome = run_analysis(*o, rec, act, cal);
     if (outcome.load_cell_unusable) analysis::set_aside_load_cell(anomaly, outcome.reason);
     report::write_anomaly_report(o->out, o->recording, anomaly, outcome);
-    std::printf("%s\n", report::anomaly_headline(anomaly, outcome).c_str());
+    print_line(report::anomaly_headline(anomaly, outcome));
     std::printf("step-outs: %zu, drift windows: %zu, twin position residual RMS %.1f µm\n",
                 anomaly.step_outs.size(), anomaly.drift_windows.size(),
                 anomaly.residual_pos_rms_m * 1e6);
-    if (anomaly.static_error && anomaly.twin_error)
-      std::printf(
-          "force error against load cell: static %.2f N, twin %.2f N (mean absolute, after the "
-          "first %.2g s)\n",
-          anomaly.static_error->mean_abs_n, anomaly.twin_error->mean_abs_n, anomaly.settle_s);
-    std::printf("analysis: %s\n", analysis_line(outcome).c_str());
-    std::printf("wrote %s\n", (std::filesystem::path(o->out) / "index.html").string().c_str());
+    if (anomaly.static_error && anomaly.twin_error) {
+      char line[160];
+      std::snprintf(line, sizeof line,
+                    "force error against load cell: static %.2f N, twin %.2f N (mean absolute, "
+                    "after the first %.2g s)",
+                    anomaly.static_error->mean_abs_n, anomaly.twin_error->mean_abs_n,
+                    anomaly.settle_s);
+      print_line(line);
+    }
+    print_line("analysis: " + analysis_line(outcome));
+    print_line("wrote " + (std::filesystem::path(o->out) / "index.html").string() +
+               ", report.json");
   });
 }
 

@@ -3,11 +3,15 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <span>
 
 #include "cli_common.hpp"
 #include "large_blocks.hpp"
+#include "maglead/analysis/anomaly.hpp"
 #include "maglead/twin/replay.hpp"
 
 namespace maglead::cli {
@@ -17,31 +21,28 @@ namespace {
 void print_drift(const twin::TwinOutputs& last, const twin::TwinOutputs& at_drift, double t_drift,
                  double max_stat) {
   using twin::DriftObservability;
+  char line[480];
   if (!std::isnan(t_drift)) {
-    std::printf("  drift warning: at t = %.2f s: %s [reason %d]\n", t_drift,
-                twin::drift_message(at_drift).c_str(), static_cast<int>(at_drift.drift_reason));
-    return;
+    std::snprintf(line, sizeof line, "  drift warning: at t = %.2f s: %s [reason %d]", t_drift,
+                  twin::drift_message(at_drift).c_str(), static_cast<int>(at_drift.drift_reason));
+  } else if (last.drift_observability == DriftObservability::none) {
+    std::snprintf(line, sizeof line,
+                  "  drift not observable: no stretch with a known external force");
+  } else if (last.drift_observability == DriftObservability::reference) {
+    std::snprintf(line, sizeof line,
+                  "  drift not observable yet: %.1f s of known-force stretches (free moves, a "
+                  "passive load revisited), no reference formed from them",
+                  last.drift_known_s);
+  } else {
+    // Compared but never judged (too few differences to measure the scatter): not a "none".
+    std::snprintf(line, sizeof line,
+                  "  %s (%.1f s of known-force stretches, reference at t = %.1f s; at the end %s; "
+                  "max statistic %.2f of the margin)",
+                  max_stat > 0.0 ? "drift warning: none" : "drift not judged yet",
+                  last.drift_known_s, last.drift_reference_t_s,
+                  twin::drift_figures_text(last.drift_now).c_str(), max_stat);
   }
-  switch (last.drift_observability) {
-    case DriftObservability::none:
-      std::printf("  drift not observable: no stretch with a known external force\n");
-      return;
-    case DriftObservability::reference:
-      std::printf(
-          "  drift not observable yet: %.1f s of known-force stretches (free moves, a passive "
-          "load revisited), no reference formed from them\n",
-          last.drift_known_s);
-      return;
-    case DriftObservability::tracking:
-      // Compared but never judged (too few differences to measure the scatter): not a "none".
-      std::printf("  %s", max_stat > 0.0 ? "drift warning: none" : "drift not judged yet");
-      std::printf(
-          " (%.1f s of known-force stretches, reference at t = %.1f s; at the end %s; max "
-          "statistic %.2f of the margin)\n",
-          last.drift_known_s, last.drift_reference_t_s,
-          twin::drift_figures_text(last.drift_now).c_str(), max_stat);
-      return;
-  }
+  print_line(line, 4);
 }
 
 /// A check of the flag against the load cell, where one is logged (the flag never reads it).
@@ -50,12 +51,14 @@ void print_load_cell_check(const twin::TwinOutputs& last) {
     std::printf("  load cell check: no coupling-gain estimate (too little sliding under load)\n");
     return;
   }
-  std::printf(
-      "  load cell check (not used by the flag): coupling gain %.3f ± %.3f at the end, "
-      "%.3f ± %.3f at its reference: change %+.3f ± %.3f\n",
-      last.drift_gain_estimate, last.drift_gain_stderr, last.drift_reference_gain,
-      last.drift_reference_stderr, last.drift_gain_estimate - last.drift_reference_gain,
-      std::hypot(last.drift_gain_stderr, last.drift_reference_stderr));
+  char line[240];
+  std::snprintf(line, sizeof line,
+                "  load cell check (not used by the flag): coupling gain %.3f ± %.3f at the end, "
+                "%.3f ± %.3f at its reference: change %+.3f ± %.3f",
+                last.drift_gain_estimate, last.drift_gain_stderr, last.drift_reference_gain,
+                last.drift_reference_stderr, last.drift_gain_estimate - last.drift_reference_gain,
+                std::hypot(last.drift_gain_stderr, last.drift_reference_stderr));
+  print_line(line, 4);
 }
 
 struct TwinCheckOptions {
@@ -87,35 +90,46 @@ struct CheckSummary {
   }
 };
 
-/// --trace: the monitor's outputs every 10 ms.
+/// --trace: the monitor's outputs every 10 ms, as an mls-recording/1 (a value the monitor has
+/// not formed, NaN, is an empty field: the readers take it as missing), written whole at the end.
 class Trace {
  public:
   explicit Trace(const std::string& path) {
     if (path.empty()) return;
-    f_ = std::fopen(path.c_str(), "w");
-    if (!f_) throw std::runtime_error("cannot write " + path);
-    std::fprintf(f_,
-                 "t_s,zero_load_error_n,zero_load_stderr_n,drift_statistic,drift_observability,"
-                 "drift_warning,drift_reason,check_gain,check_gain_stderr,healthy,health_reason,"
-                 "residual_pos_m,step_out_warning,step_out_reason\n");
+    writer_ = std::make_unique<RecordingWriter>(
+        path, std::vector<std::pair<std::string, std::string>>{{"source", "maglead twin-check"}},
+        std::vector<std::string>{"t_s", "zero_load_error_n", "zero_load_stderr_n",
+                                 "drift_statistic", "drift_observability", "drift_warning",
+                                 "drift_reason", "check_gain", "check_gain_stderr", "healthy",
+                                 "health_reason", "residual_pos_m", "step_out_warning",
+                                 "step_out_reason"},
+        WriteMode::whole);
   }
-  ~Trace() {
-    if (f_) std::fclose(f_);
+  /// Puts the whole trace in place (a run that fails leaves the path as it was).
+  void close() {
+    if (writer_) writer_->close();
   }
-  Trace(const Trace&) = delete;
-  Trace& operator=(const Trace&) = delete;
   void write(std::size_t i, double t, const twin::TwinOutputs& out) {
-    if (!f_ || i % 10 != 0) return;
-    std::fprintf(f_, "%.3f,%.4f,%.4f,%.3f,%d,%d,%d,%.5f,%.5f,%d,%d,%.3e,%d,%d\n", t,
-                 out.drift_now.zero_load_n, out.drift_now.zero_load_se_n, out.drift_statistic,
-                 static_cast<int>(out.drift_observability), out.drift_warning,
-                 static_cast<int>(out.drift_reason), out.drift_gain_estimate, out.drift_gain_stderr,
-                 out.healthy, static_cast<int>(out.health_reason), out.residual_pos_m,
-                 out.step_out_warning, static_cast<int>(out.step_out_reason));
+    if (!writer_ || i % 10 != 0) return;
+    const double row[] = {t,
+                          out.drift_now.zero_load_n,
+                          out.drift_now.zero_load_se_n,
+                          out.drift_statistic,
+                          static_cast<double>(out.drift_observability),
+                          static_cast<double>(out.drift_warning),
+                          static_cast<double>(out.drift_reason),
+                          out.drift_gain_estimate,
+                          out.drift_gain_stderr,
+                          static_cast<double>(out.healthy),
+                          static_cast<double>(out.health_reason),
+                          out.residual_pos_m,
+                          static_cast<double>(out.step_out_warning),
+                          static_cast<double>(out.step_out_reason)};
+    writer_->write_row(row, std::size(row));
   }
 
  private:
-  std::FILE* f_ = nullptr;
+  std::unique_ptr<RecordingWriter> writer_;
 };
 
 void print_step_out(const CheckSummary& c) {
@@ -142,7 +156,12 @@ void run_twin_check(const TwinCheckOptions& o) {
   const auto optional = [&](const char* name) {
     return rec.has(name) ? std::span<const double>(rec.column(name)) : std::span<const double>();
   };
-  const bool has_load = rec.has("load_force_n") && !o.no_load_cell;
+  // A load cell analyze and report set aside (another unit, the other sign) is not scored.
+  const std::optional<std::string> unusable =
+      rec.has("load_force_n") && !o.no_load_cell
+          ? analysis::load_cell_unusable(rec, tc.calibration, tc.actuator)
+          : std::nullopt;
+  const bool has_load = rec.has("load_force_n") && !o.no_load_cell && !unusable;
   const auto load = has_load ? optional("load_force_n") : std::span<const double>();
   CheckSummary c;
   Trace trace(o.trace);
@@ -154,20 +173,26 @@ void run_twin_check(const TwinCheckOptions& o) {
         trace.write(i, t[i], out);
         c.add(t[i], out, has_load ? load[i] : CheckSummary::kNaN);
       });
+  trace.close();
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::size_t n = t.size();
-  std::printf("twin check of %s: %.1f s, %zu ticks (%.0f x real time)\n", o.recording.c_str(),
-              t.back() - t.front(), n, (t.back() - t.front()) / wall_s);
+  char head[96];
+  std::snprintf(head, sizeof head, ": %.1f s, %zu ticks (%.0f x real time)", t.back() - t.front(),
+                n, (t.back() - t.front()) / wall_s);
+  print_line("twin check of " + o.recording + head);
   if (c.counted)
     std::printf("  force MAE against load cell: twin %.2f N, static %.2f N\n",
                 c.err_dyn_n / static_cast<double>(c.counted),
                 c.err_static_n / static_cast<double>(c.counted));
   else
-    std::printf("  force estimate against load cell: not judged (%s)\n",
-                !rec.has("load_force_n") ? "no load_force_n column"
-                : o.no_load_cell         ? "--no-load-cell"
-                                         : "no sample where both are numbers");
+    print_line("  force estimate against load cell: not judged (" +
+                   std::string(!rec.has("load_force_n") ? "no load_force_n column"
+                               : o.no_load_cell         ? "--no-load-cell"
+                               : unusable               ? unusable->c_str()
+                                                        : "no sample where both are numbers") +
+                   ")",
+               4);
   std::printf("  position residual: max %.1f µm; healthy %.1f %% of ticks\n", c.max_res_m * 1e6,
               100.0 * static_cast<double>(c.healthy) / static_cast<double>(n));
   print_drift(c.last, c.at_drift, c.t_drift, c.drift_stat);
@@ -189,8 +214,8 @@ void add_twin_check(CLI::App& app) {
   cmd->add_option("--model", o->model, "Twin model file (default: CONFIG/model.toml)");
   cmd->add_option(
       "--trace", o->trace,
-      "Write the monitor's outputs every 10 ms to this CSV (gain, its error, reference, "
-      "statistic, flags and reason codes)");
+      "Write the monitor's outputs every 10 ms to this mls-recording/1 CSV (gain, its error, "
+      "reference, statistic, flags and reason codes; a value not formed yet is an empty field)");
   cmd->add_flag("--no-load-cell", o->no_load_cell,
                 "Ignore a logged load_force_n column (the flag never reads it; this shows it)");
   cmd->callback([o] {

@@ -432,6 +432,7 @@ AxisPrepared prepare_axis(const Recording& rec, const ModelFile& model, const An
   AxisPrepared P;
   const std::string position(kind.position), drive(kind.drive);
   stats::require_analysable(rec, {"t_s", position, drive});
+  check_axis_rows(rec);  // a rate the analysis resolves (t_s in milliseconds reads as 1 Hz)
   const auto& t = rec.column("t_s");
   P.fs_hz = maglead::sample_rate_hz(rec);
   const double dt = 1.0 / P.fs_hz;

@@ -38,6 +38,11 @@ class MissingColumnError : public RecordingError {
   std::string column_;
 };
 
+/// What header column `name` is to a `wanted` one the header lacks, as a fix: "column names are
+/// lower case: rename 'T_S' to 't_s'", the quantity without a unit (nut_pos), or the quantity in
+/// another unit (nut_pos_mm, screw_angle_deg: what to convert); "" when it is none of them.
+std::string stand_in_hint(const std::string& name, const std::string& wanted);
+
 /// " (header has: a, b, c)" (`listed` says what the names are) and, where one of `names` is
 /// `wanted` in another unit or without one (nut_pos_mm for nut_pos_m), what to convert and
 /// rename: the tail of a missing-column error.
@@ -66,10 +71,12 @@ struct Recording {
 /// every name, no rows yet. Names the header lacks are ignored.
 using ColumnChoice = std::function<std::vector<std::string>(const Recording& header)>;
 
-/// Reads and validates a recording; `required` columns must be present. Time (`t_s`) must be
-/// non-decreasing. Throws RecordingError on any malformed content. With `keep`, only the columns
-/// it chooses (and the required ones) are stored, in the file's order; the others are checked
-/// for syntax as every column is, but take no memory and no units check (check_plausible_units).
+/// Reads and validates a recording; `required` columns must be present. Time (`t_s`) must
+/// increase (make_evenly_sampled refuses a repeated time stamp). Throws RecordingError on any
+/// malformed content. With `keep`, only the columns it chooses (and the required ones) are stored,
+/// in the file's order; the others are checked for syntax as every column is, but take no memory
+/// and no units check (check_plausible_units); one that stands in for a chosen column the header
+/// lacks (stand_in_hint) is kept for the error.
 Recording read_recording(const std::string& path, const std::vector<std::string>& required = {},
                          const ColumnChoice& keep = {});
 
@@ -81,9 +88,10 @@ double sample_rate_hz(const Recording& rec);
 
 /// Makes the rows one sample period apart (the header's sample_rate_hz, else the median step of
 /// t_s), as every reader assumes: a gap of up to 10 rows or 50 ms, whichever is more (a recorder
-/// that fell behind), is filled by linear interpolation, with a warning. Throws RecordingError when
-/// the rows contradict the header's rate (more rows than it allows, over a tenth of them missing)
-/// or a longer stretch is missing, saying what to fix. read_recording applies it.
+/// that fell behind), is filled by linear interpolation, with a warning. Throws RecordingError for
+/// a time stamp equal to the one before (naming the rows), rows that contradict the header's rate
+/// (more rows than it allows, over a tenth of them missing) or a longer stretch missing, saying
+/// what to fix. read_recording applies it.
 void make_evenly_sampled(Recording& rec);
 
 /// Bounds a column's values must keep to be in its unit at all (not a fit to any actuator).

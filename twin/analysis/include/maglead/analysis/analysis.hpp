@@ -83,4 +83,16 @@ std::vector<std::string> columns_read(const Recording& header);
 /// actuator's recording passes: its columns are its reader's to check.
 void check_axis_columns(const Recording& rec);
 
+/// What the analysis of a force-driven axis needs of the rows before any fit, refused as it
+/// refuses them: t_s, the kind's position and drive (`# axis:`; none: linear) with a value in
+/// every row and rules::kMinRows rows (RecordingError, std::invalid_argument), and a sample rate
+/// of rules::kAxisMinRateHz or more, saying what to fix (t_s in milliseconds: divide by 1000).
+/// Missing columns are check_axis_columns' to refuse: this passes them. `inspect` and `analyze`
+/// run it.
+void check_axis_rows(const Recording& rec);
+
+/// The actuator's alike: t_s, nut_pos_m and load_force_n with a value in every row, and
+/// rules::kMinRows rows (its position filter follows the rate: no rate is refused).
+void check_actuator_rows(const Recording& rec);
+
 }  // namespace maglead::analysis

@@ -76,4 +76,12 @@ Anomaly inspect_recording(const Recording& rec, const twin::TwinMonitorConfig& m
 /// the force errors against it are dropped and the reason kept.
 void set_aside_load_cell(Anomaly& anomaly, std::string why);
 
+/// Why the recording's load_force_n cannot be the load in newtons (another unit, or the other
+/// sign: LoadCellUnitError's what()), judged as analyze and report judge it (by the analysis's
+/// first stage, against the calibrated coupling beside friction and inertia); nothing when it
+/// can be, or when the recording is too short or too still to tell. For the commands that score
+/// against the load cell without analysing (estimate, twin-check).
+std::optional<std::string> load_cell_unusable(const Recording& rec, const ForceCalibration& cal,
+                                              const ActuatorParams& act);
+
 }  // namespace maglead::analysis

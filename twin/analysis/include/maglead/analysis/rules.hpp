@@ -62,6 +62,9 @@ inline constexpr std::array kTable = {
     Rule{"axis_filter_hz", 100.0, "Hz",
          "linear axis: zero-phase low-pass of position, above a drive's dynamics and below encoder noise",
          "Axis.GeneratedSpringIsNamedWithTheUnitsParameters", "prepare"},
+    Rule{"axis_min_rate_hz", 50.0, "Hz",
+         "axis: a logger's rate at least this, so a move's acceleration (M·a) is resolved; t_s written in milliseconds reads as 1 Hz",
+         "Rotary.ASlowLoggerIsAnalysedWithTheFilterBelowItsNyquist", "prepare"},
     Rule{"axis_bandwidth_energy_lost", 0.01, "1",
          "linear axis: the identification bandwidth is where the acceleration loses at most this share of its energy",
          "Emps.AModelCorrectedOnTheFirstHalfPredictsTheSecond", "prepare"},
@@ -277,6 +280,7 @@ inline constexpr int kMinFolds = static_cast<int>(value_of("min_folds"));
 inline constexpr int kFolds = static_cast<int>(value_of("folds"));
 inline constexpr std::size_t kMinSlidingSamples = static_cast<std::size_t>(value_of("min_sliding_samples"));
 inline constexpr double kAxisFilterHz = value_of("axis_filter_hz");
+inline constexpr double kAxisMinRateHz = value_of("axis_min_rate_hz");
 inline constexpr double kAxisBandwidthEnergyLost = value_of("axis_bandwidth_energy_lost");
 inline constexpr double kAxisDecimationOfRate = value_of("axis_decimation_of_rate");
 inline constexpr std::size_t kAxisMinSegmentSamples = static_cast<std::size_t>(value_of("axis_min_segment_samples"));
