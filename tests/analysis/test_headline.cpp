@@ -5,6 +5,7 @@
 #include <string>
 
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/headline.hpp"
 #include "maglead/analysis/results.hpp"
 
 namespace {

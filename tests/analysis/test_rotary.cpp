@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/reading.hpp"
 #include "maglead/physics/force_model.hpp"
 #include "rotary_drive.hpp"
 

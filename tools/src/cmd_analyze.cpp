@@ -9,6 +9,7 @@
 #include "cli_common.hpp"
 #include "large_blocks.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/reading.hpp"
 #include "maglead/analysis/rules.hpp"
 #include "maglead/effects/axis_kind.hpp"
 #include "maglead/report/analysis_json.hpp"

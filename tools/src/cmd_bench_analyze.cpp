@@ -21,6 +21,7 @@
 #include "cli_common.hpp"
 #include "large_blocks.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/reading.hpp"
 #include "maglead/plant/scenario.hpp"
 #include "maglead/report/analysis_page.hpp"
 #include "maglead/twin/model.hpp"

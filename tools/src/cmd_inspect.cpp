@@ -7,6 +7,7 @@
 #include "cli_common.hpp"
 #include "maglead/analysis/analysis.hpp"
 #include "maglead/analysis/anomaly.hpp"
+#include "maglead/analysis/reading.hpp"
 #include "maglead/effects/axis_kind.hpp"
 #include "maglead/settings/settings.hpp"
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/reading.hpp"
 #include "maglead/analysis/rules.hpp"
 #include "maglead/effects/axis_kind.hpp"
 #include "statistics.hpp"

@@ -1,5 +1,6 @@
 // analyze_recording: the one driver of the analysis, the same stages for every path (path.hpp).
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/headline.hpp"
 
 #include <stdexcept>
 

@@ -21,6 +21,7 @@
 
 #include "candidates.hpp"
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/reading.hpp"
 #include "maglead/analysis/rules.hpp"
 #include "maglead/analysis/signal.hpp"
 #include "maglead/effects/axis_kind.hpp"

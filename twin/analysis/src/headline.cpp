@@ -7,6 +7,7 @@
 #include <string>
 
 #include "maglead/analysis/analysis.hpp"
+#include "maglead/analysis/headline.hpp"
 #include "maglead/analysis/rules.hpp"
 #include "maglead/effects/axis_kind.hpp"
 #include "maglead/effects/effect.hpp"

@@ -59,40 +59,12 @@ struct AnalysisResult {
   std::string headline;
 };
 
-/// The findings in one line: "found: viscous friction viscous_n_s_per_m 22.55 ± 0.12 N·s/m
-/// (model 2 N·s/m)", "not judged: too little sliding …", "a misfit of X N RMS remains …" or
-/// "nothing missing: …"; never "nothing missing" for what was not judged.
-std::string headline_of(const Findings& findings, const ModelFile& baseline);
-
-/// Actuator baseline from config/actuator.toml: mass, viscous and Coulomb friction.
-ModelFile actuator_model_from_config(const ActuatorParams& act);
-
-/// Runs the whole analysis. `cal` is the coupling calibration (actuator only). Throws
-/// RecordingError for missing columns and std::invalid_argument for unusable data.
+/// Runs the whole analysis (the one entry; what it reads and refuses of a recording, for the
+/// readers and `inspect`: maglead/analysis/reading.hpp; its first line: headline.hpp). `cal` is the
+/// coupling calibration (actuator only). Throws RecordingError for missing columns and
+/// std::invalid_argument for unusable data.
 AnalysisResult analyze_recording(const Recording& rec, const ModelFile& baseline,
                                  const ForceCalibration& cal, const ActuatorParams& act,
                                  const AnalysisOptions& options);
-
-/// The columns analyze_recording may read of a recording with this header (names, metadata; no
-/// rows needed): a reader stores only these (read_recording's ColumnChoice).
-std::vector<std::string> columns_read(const Recording& header);
-
-/// The analysis's own check of an axis's recording (a `# axis:` line or an axis kind's columns),
-/// its model unknown: the kind named, its columns and t_s there, else the refusal analyze gives
-/// (std::invalid_argument or RecordingError, saying what to fix). `inspect` runs it. An
-/// actuator's recording passes: its columns are its reader's to check.
-void check_axis_columns(const Recording& rec);
-
-/// What the analysis of a force-driven axis needs of the rows before any fit, refused as it
-/// refuses them: t_s, the kind's position and drive (`# axis:`; none: linear) with a value in
-/// every row and rules::kMinRows rows (RecordingError, std::invalid_argument), and a sample rate
-/// of rules::kAxisMinRateHz or more, saying what to fix (t_s in milliseconds: divide by 1000).
-/// Missing columns are check_axis_columns' to refuse: this passes them. `inspect` and `analyze`
-/// run it.
-void check_axis_rows(const Recording& rec);
-
-/// The actuator's alike: t_s, nut_pos_m and load_force_n with a value in every row, and
-/// rules::kMinRows rows (its position filter follows the rate: no rate is refused).
-void check_actuator_rows(const Recording& rec);
 
 }  // namespace maglead::analysis
