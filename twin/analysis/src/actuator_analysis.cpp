@@ -876,7 +876,7 @@ selection::Settings actuator_settings(const StageOptions& opt, const effects::Sc
 }
 
 // The chosen terms' parameters at a fit, in their order (none: the unit gives no value there).
-std::vector<std::optional<stats::Named>> term_parameters(
+std::vector<std::optional<stats::Named>> sliding_term_parameters(
     const std::vector<selection::Found>& chosen, const Fit& fit, const State& model) {
   std::vector<std::optional<stats::Named>> out;
   Eigen::Index off = 0;
@@ -930,10 +930,10 @@ void set_calibration_errors(const Eigen::VectorXd& theta, const Eigen::VectorXd&
 }
 
 // Final fit on everything: the corrected residual, the parameters and their standard errors.
-void finish(const ActuatorPrepared& P, const Grams& g, const Candidates& cand, const State& model,
-            const std::vector<int>& current, SlidingSelection& out) {
+void finish_sliding(const ActuatorPrepared& P, const Grams& g, const Candidates& cand,
+                    const State& model, const std::vector<int>& current, SlidingSelection& out) {
   const auto est = stats::estimate(
-      g, current, [&](const Fit& fit) { return term_parameters(out.terms, fit, model); });
+      g, current, [&](const Fit& fit) { return sliding_term_parameters(out.terms, fit, model); });
   const Fit& final_fit = est.fit;
   out.final_sse = sse(g, final_fit);
   out.final_residual = P.residual;
@@ -1020,7 +1020,7 @@ SlidingSelection select_sliding(const ActuatorPrepared& P, const StageOptions& o
                              .floor_n = std::max(P.floor_n, P.minimum_n),
                              .min_gain_pct = opt.min_gain_pct};
   static_cast<selection::Result&>(out) = selection::result_of(o, folds, span);
-  finish(P, g, cand, rules.model(), out.current, out);
+  finish_sliding(P, g, cand, rules.model(), out.current, out);
   out.resolvable = resolvable_of(g, cand, rules.model(), out.current, span.floor_n, span.n_used);
   return out;
 }

@@ -827,9 +827,8 @@ stats::Named named(const Parameters& p) {
 
 // Each chosen term's parameters at one fit of the model (the baseline's columns first); none
 // where the unit gives no value.
-std::vector<std::optional<effects::Params>> term_params(const AxisRun& run,
-                                                        const std::vector<selection::Found>& chosen,
-                                                        const Fit& fit) {
+std::vector<std::optional<effects::Params>> axis_term_params(
+    const AxisRun& run, const std::vector<selection::Found>& chosen, const Fit& fit) {
   std::vector<std::optional<effects::Params>> out;
   auto off = static_cast<Eigen::Index>(run.base_cols.size());
   for (const auto& f : chosen) {
@@ -846,7 +845,8 @@ std::vector<std::optional<effects::Params>> term_params(const AxisRun& run,
 std::vector<std::optional<stats::Named>> model_parameters(
     const AxisRun& run, const std::vector<selection::Found>& chosen, const Fit& fit) {
   std::vector<std::optional<stats::Named>> out{named(fitted_base(run, fit))};
-  for (const auto& p : term_params(run, chosen, fit)) out.emplace_back(p.value_or(stats::Named{}));
+  for (const auto& p : axis_term_params(run, chosen, fit))
+    out.emplace_back(p.value_or(stats::Named{}));
   return out;
 }
 
@@ -964,9 +964,9 @@ stats::Estimates timed_estimate(const AxisRun& run, const std::vector<int>& idx,
 // there, whether they lie in the unit's physical range, and their standard errors from the fits
 // without each segment in turn, widened by the drive's unstated timing (timed_estimate). Returns
 // the baseline's fitted totals' standard errors.
-Parameters finish_terms(const AxisRun& run, selection::Result& sel) {
+Parameters finish_axis_terms(const AxisRun& run, selection::Result& sel) {
   const auto est = timed_estimate(run, sel.current, sel.terms);
-  const auto prm = term_params(run, sel.terms, est.fit);
+  const auto prm = axis_term_params(run, sel.terms, est.fit);
   for (std::size_t k = 0; k < sel.terms.size(); ++k) {
     auto& f = sel.terms[k];
     f.params = prm[k].value_or(effects::Params{});
@@ -1592,7 +1592,7 @@ class AxisPath final : public AnalysisPath {
     baseline_columns(run_);
     accumulate_axis(run_);
     sel_ = select_terms(run_);
-    final_base_se_ = finish_terms(run_, sel_);
+    final_base_se_ = finish_axis_terms(run_, sel_);
   }
 
   // In the kind's names (name_in_kind); the corrected model takes the units' own, kept aside.
@@ -1635,7 +1635,7 @@ class AxisPath final : public AnalysisPath {
  private:
   AxisRun run_;
   selection::Result sel_;
-  Parameters final_base_se_;  // the baseline's fitted totals' standard errors (finish_terms)
+  Parameters final_base_se_;  // the baseline's fitted totals' standard errors (finish_axis_terms)
   Predictions p_;
   Residuals res_;  // before and after, at the identification samples
   Windows windows_;
