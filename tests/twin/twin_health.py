@@ -4,7 +4,8 @@ the nut across the stroke against a 2000 N/m spring (`simulate --scenario positi
 there, and when a stick ends is chaotic: the twin, equal to the plant, times it a few ms apart,
 and a PLC alarming on the bit must not trip on every move: `twin-check` reads it healthy on
 100 % of ticks. The same recording with an encoder that reads up to 5 counts off at random is
-not healthy on a tenth of its ticks or more, which shows the check can fail.
+not healthy on 15 % of its ticks or more (about 20 % before the stick timing was allowed for:
+the noise's reversals against the screw widen nothing), which shows the check can fail.
 Usage: twin_health.py MAGLEAD_BIN CONFIG_DIR WORK_DIR"""
 import os
 import random
@@ -52,7 +53,7 @@ with open(clean) as src, open(noisy, "w") as dst:
             dst.write(",".join(f) + "\n")
 pct_noisy = healthy_pct(noisy)
 print(f"the same with an encoder up to 5 counts off: healthy {pct_noisy} % of ticks")
-if pct_noisy > 90.0:
+if pct_noisy > 85.0:
     failures.append(f"an encoder 5 counts off at random reads healthy on {pct_noisy} % of ticks")
 
 for f in failures:

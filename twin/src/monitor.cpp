@@ -155,7 +155,7 @@ struct TwinMonitor::Impl {
   // Health: open-loop intervals in a row whose prediction missed by more than the tolerance,
   // and whether the current one saw the nut or the twin stick or slip.
   int bad_intervals = 0;
-  bool stick_or_slip = false;
+  bool stick_or_slip = false, against_screw = false;
   FrictionMode twin_mode = FrictionMode::stick, measured_mode = FrictionMode::stick;
 
   explicit Impl(const TwinMonitorConfig& c)
@@ -231,8 +231,9 @@ struct TwinMonitor::Impl {
     load_prev = std::numeric_limits<double>::quiet_NaN();
     slide_start_t = t;
     twin.reset(t, {pos_hat, 0.0, FrictionMode::stick}, theta, fext_hat);
-    twin_mode = measured_mode = FrictionMode::stick;
-    stick_or_slip = false;
+    twin_mode = twin.state().mode;
+    measured_mode = mode;
+    stick_or_slip = against_screw = false;
     next_resync_t = t + cfg.resync_s;
     ticks = 0;
     solver_ok = true;
@@ -532,8 +533,7 @@ struct TwinMonitor::Impl {
     }
     const bool ok = twin.advance(t, theta, fext_hat) == TwinStatus::ok;
     const NutState& ts = twin.state();
-    stick_or_slip |= ts.mode != twin_mode || mode != measured_mode;
-    twin_mode = ts.mode, measured_mode = mode;
+    note_modes(ts.mode);
     o.predicted_nut_pos_m = ts.pos_m;
     o.residual_pos_m = pos_hat - ts.pos_m;
     const double twin_acc = model.accel_m_s2(ts.mode, t, theta, ts.pos_m, ts.vel_m_s, fext_hat);
@@ -543,22 +543,38 @@ struct TwinMonitor::Impl {
                                        : 0.0);
     fext_hat = fext_new;
     if (t >= next_resync_t || !ok) {
-      // Health: judged on what the twin predicted over one open-loop interval, in counts.
-      // Where the nut or the twin stuck or slipped in the interval, the tolerance adds the
-      // screw's travel over the stick timing: in a stick-slip (a move against a stiff spring)
-      // when a stick ends is chaotic, and a twin equal to the plant times it a few ms
-      // differently. The screw's speed, not the nut's, so a noisy encoder widens nothing.
-      const double screw_speed_m_s = std::abs(theta_rate) * lead_m / (2.0 * kPi);
-      const double tolerance_m =
-          cfg.healthy_residual_counts * q_m +
-          (stick_or_slip ? screw_speed_m_s * cfg.healthy_stick_timing_s : 0.0);
-      bad_intervals = std::abs(o.residual_pos_m) > tolerance_m ? bad_intervals + 1 : 0;
-      stick_or_slip = false;
+      judge_interval(o.residual_pos_m, ok);
       twin.reset(t, {pos_hat, vel, mode}, theta, fext_hat);
-      twin_mode = mode;
+      twin_mode = twin.state().mode;  // the reset may take another mode than the one it is given
       next_resync_t = t + cfg.resync_s;
     }
     return ok;
+  }
+
+  /// Health, each tick: whether the twin or the nut stuck or slipped in this open-loop interval,
+  /// and whether the nut slid against the screw (a reversal, which no stick-slip of a move
+  /// makes: an encoder's noise does).
+  void note_modes(FrictionMode twin_now) noexcept {
+    stick_or_slip |= twin_now != twin_mode || mode != measured_mode;
+    const int nut_dir = mode == FrictionMode::slide_pos   ? 1
+                        : mode == FrictionMode::slide_neg ? -1
+                                                          : 0;
+    against_screw |= nut_dir * theta_rate < 0.0;
+    twin_mode = twin_now, measured_mode = mode;
+  }
+
+  /// Health, at the end of an interval: what the twin predicted, in counts. Where the nut or the
+  /// twin stuck or slipped with the screw, the tolerance adds the screw's travel over the stick
+  /// timing: in a stick-slip (a move against a stiff spring) when a stick ends is chaotic, and a
+  /// twin equal to the plant times it a few ms apart. A failed solver's prediction is a miss.
+  void judge_interval(double residual_m, bool ok) noexcept {
+    const double screw_speed_m_s = std::abs(theta_rate) * lead_m / (2.0 * kPi);
+    const bool stick_slip = stick_or_slip && !against_screw;
+    const double tolerance_m = cfg.healthy_residual_counts * q_m +
+                               (stick_slip ? screw_speed_m_s * cfg.healthy_stick_timing_s : 0.0);
+    const bool missed = !ok || !(std::abs(residual_m) <= tolerance_m);
+    bad_intervals = missed ? bad_intervals + 1 : 0;
+    stick_or_slip = against_screw = false;
   }
 
   /// Step-out: the measured φ against the stable branch, and the look-ahead every few ticks.
