@@ -206,7 +206,14 @@ void Controller::latch_fault(Alarm alarm) noexcept {
   const bool slipped = alarm == Alarm::step_out || alarm == Alarm::phase_jump;
   if (slipped)
     lead_rad_ = kTwoPi * std::round(s_.phase_rad / kTwoPi);  // the lead the nut is in now
-  if (!first && !slipped) return;                            // the first fault's reaction goes on
+  // A faulted or silent drive takes no command, whatever latched before or after it: what the
+  // axis does is the drive's own reaction, and the controller keeps its last command.
+  if (alarm == Alarm::drive_fault || reaction_ == registers::Reaction::drive_own) {
+    reaction_ = registers::Reaction::drive_own;
+    fault_position_hold_ = false;
+    return;
+  }
+  if (!first && !slipped) return;  // the first fault's reaction goes on
   FaultReaction how = configured_reaction(alarm);
   if (how == FaultReaction::mode_default)
     how = mode_ == Mode::force ? FaultReaction::release : FaultReaction::hold;
@@ -227,9 +234,7 @@ void Controller::latch_fault(Alarm alarm) noexcept {
       break;
     }
     default:
-      // A faulted or silent drive takes no command: what it does is its own reaction.
-      reaction_ = alarm == Alarm::drive_fault ? registers::Reaction::drive_own
-                                              : registers::Reaction::holding;
+      reaction_ = registers::Reaction::holding;
       if (slipped) {
         // Stop commanding force: park the screw at the rest angle of the lead the nut is in now.
         screw_cmd_rad_ =
@@ -237,8 +242,7 @@ void Controller::latch_fault(Alarm alarm) noexcept {
         mode_ = Mode::idle;
         prof_pos_m_ = target_m_ = s_.nut_pos_m;
         prof_vel_m_s_ = 0.0;
-      } else if (alarm == Alarm::sensor_fault || alarm == Alarm::drive_fault ||
-                 alarm == Alarm::following_error) {
+      } else if (alarm == Alarm::sensor_fault || alarm == Alarm::following_error) {
         // Nothing measured, or a motor that does not follow: keep the last command.
       } else {
         controlled_stop();

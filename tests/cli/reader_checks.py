@@ -144,6 +144,19 @@ def actuator_files():
     rc, out, err = run("twin-check", sign, "--config", CONFIG, "--trace", "trace.csv")
     check(rc == 0 and "not judged" in out and reason in out and "MAE" not in out,
           f"twin-check on a negated load cell: exit {rc}, {out.strip()!r} {err.strip()!r}")
+    # One empty load-cell cell does not turn the judgement off (it had, and both scored).
+    blank_rows = list(rows)
+    cells = blank_rows[len(rows) // 2].split(",")
+    cells[load] = ""
+    blank_rows[len(rows) // 2] = ",".join(cells)
+    blank = write("sign_blank.csv", meta, header,
+                  [",".join(v if i != load or v == "" else repr(-float(v))
+                            for i, v in enumerate(r.split(","))) for r in blank_rows])
+    rc, out, err = run("estimate", blank, "--plot", "blank.png", "--config", CONFIG)
+    check(rc == 2 and reason in err, f"estimate on a negated load cell with a blank cell: exit {rc}, {err.strip()!r}")
+    rc, out, err = run("twin-check", blank, "--config", CONFIG)
+    check(rc == 0 and reason in out and "MAE" not in out,
+          f"twin-check on a negated load cell with a blank cell: {out.strip()!r}")
     rc, out, err = run("twin-check", rec, "--config", CONFIG)
     check(rc == 0 and "force MAE against load cell" in out, f"twin-check scores a right load cell: {out!r}")
     rc, out, err = run("inspect", sign, "--config", CONFIG)

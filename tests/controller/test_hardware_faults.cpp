@@ -73,6 +73,13 @@ bool constant_from(const std::vector<double>& c, std::size_t from) {
                                         [&](double v) { return v == c[from]; });
 }
 
+/// Enabled and 200 cycles into a move to 30 mm, where a test injects its fault.
+void start_moving(FaultRig& rig) {
+  rig.control(bit(reg::kEnable));
+  rig.move_to(0.03);
+  rig.loop.run_cycles(200);
+}
+
 }  // namespace
 
 TEST(HardwareFault, SensorFaultMidMoveLatchesAlarm5AndStopsTheMotor) {
@@ -104,9 +111,7 @@ TEST(HardwareFault, SensorFaultMidMoveLatchesAlarm5AndStopsTheMotor) {
 
 TEST(HardwareFault, DriveFaultOnReadLatchesAlarm6AndSendsNoCommand) {
   FaultRig rig;
-  rig.control(bit(reg::kEnable));
-  rig.move_to(0.03);
-  rig.loop.run_cycles(200);
+  start_moving(rig);
   rig.hw.inject(Fault::drive_on_read);
   const std::size_t at_fault = rig.hw.commands().size();
   rig.loop.run_cycles(50);
@@ -123,11 +128,26 @@ TEST(HardwareFault, DriveFaultOnReadLatchesAlarm6AndSendsNoCommand) {
   EXPECT_LT(std::abs(rig.plant.truth().nut_vel_m_s), 1e-4);
 }
 
+// A drive that faults after another fault latched (here a sensor fault, whose reaction holds):
+// the first alarm stays, but the controller's hold no longer holds anything.
+TEST(HardwareFault, ADriveFaultAfterAnotherFaultIsTheDrivesOwnReaction) {
+  FaultRig rig;
+  start_moving(rig);
+  rig.hw.inject(Fault::sensor);
+  rig.loop.run_cycles(5);
+  rig.hw.inject(Fault::none);
+  rig.loop.run_cycles(100);
+  ASSERT_EQ(rig.snap().fault_reaction, static_cast<std::uint16_t>(reg::Reaction::holding));
+  rig.hw.inject(Fault::drive_on_read);
+  rig.loop.run_cycles(20);
+  const auto s = rig.snap();
+  EXPECT_EQ(s.alarm_code, static_cast<std::uint16_t>(reg::Alarm::sensor_fault));
+  EXPECT_EQ(s.fault_reaction, static_cast<std::uint16_t>(reg::Reaction::drive_own));
+}
+
 TEST(HardwareFault, RefusedWriteLatchesAlarm6AndTheCommandStaysPut) {
   FaultRig rig;
-  rig.control(bit(reg::kEnable));
-  rig.move_to(0.03);
-  rig.loop.run_cycles(200);
+  start_moving(rig);
   rig.hw.inject(Fault::drive_on_write);
   const std::size_t at_fault = rig.hw.commands().size();
   rig.loop.run_cycles(3);

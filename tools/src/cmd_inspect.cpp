@@ -54,7 +54,9 @@ bool axis_recording(const Recording& rec) {
 /// kind and its columns (a file without `# axis:` is a linear axis's, as analyze reads it), then
 /// the rows. Returns what analyze alone can judge.
 std::string check_axis(Recording& rec) {
-  const bool rotary_columns = resembles(rec, "angle_rad") || resembles(rec, "drive_torque_n_m");
+  const auto& rotary = effects::rotary_axis();
+  const bool rotary_columns =
+      resembles(rec, std::string(rotary.position)) || resembles(rec, std::string(rotary.drive));
   if (!rec.meta("axis") && !rotary_columns) rec.set_meta("axis", "linear");
   analysis::check_axis_columns(rec);  // analyze's own check: the same refusal, the same fix
   analysis::check_axis_rows(rec);
@@ -104,7 +106,7 @@ void add_inspect(CLI::App& app) {
       "Read a recording (mls-recording/1) as analyze does and print its rows, time span and "
       "columns, checked as the commands that read it check them: an axis's (a '# axis:' line, "
       "or an axis's columns) as analyze does with an axis's model (kind, columns, a value in "
-      "every row, 200 rows, a sample rate its filter fits under), the actuator's as twin-check, "
+      "every row, 200 rows, a sample rate of 50 Hz or more), the actuator's as twin-check, "
       "estimate and report do (the angle, nut_pos_m, the phase on the calibration's branch). "
       "Exit 0 when the readers will take it (a dropped torn last line is a warning; the last "
       "line says what was not checked or which command still refuses it), exit 2 with the "
@@ -116,9 +118,9 @@ void add_inspect(CLI::App& app) {
   cmd->callback([o] {
     const ActuatorParams act = load_actuator_or_default(o->config);
     Recording rec = read_actuator_recording(o->recording, act, o->config);
+    print_summary(rec);  // what was read, before any check may refuse it
     const std::string unchecked =
         axis_recording(rec) ? check_axis(rec) : check_actuator(*o, rec, act);
-    print_summary(rec);
     print_line(unchecked, 2);
   });
 }

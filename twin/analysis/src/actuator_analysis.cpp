@@ -3,6 +3,7 @@
 // segments) → break-away test on stuck episodes → refit and validate → events. Every law and
 // regressor comes from the effect library (effects/); nothing here knows an effect's formula.
 #include "actuator_analysis.hpp"
+#include "maglead/analysis/reading.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -604,20 +605,38 @@ void check_load_cell_scale(const std::string& path, const ActuatorSignals& s, co
                           "; likely unit: " + unit);
 }
 
+namespace {
+
+// The rate, the filter and the counts the signals are built with.
+void set_rates(ActuatorPrepared& P, const Recording& rec, const ActuatorParams& act,
+               double filter_hz) {
+  P.fs_hz = maglead::sample_rate_hz(rec);
+  // The nut's mechanics (mass on the coupling stiffness) sit near 100 Hz; the effects live
+  // below a few tens of Hz. The filter keeps those and averages encoder steps and load-cell noise.
+  P.filter_hz = std::min(filter_hz, rules::kFilterMaxOfRate * P.fs_hz);
+  P.lead_m = act.lead_m;
+  P.count_m = stated(rec, "linear_encoder_m_per_count", act.linear_count_m);
+  P.scales.phase_count_rad = phase_count_rad(rec, act, P.count_m);
+}
+
+}  // namespace
+
+void judge_load_cell(const Recording& rec, const ForceCalibration& cal, const ActuatorParams& act) {
+  ActuatorPrepared P;
+  set_rates(P, rec, act, StageOptions{}.filter_hz);
+  std::vector<double> geared;
+  const ActuatorSignals s(rec, act, P, geared);
+  check_load_cell_scale(rec.path, s, Coupling{cal});
+}
+
 ActuatorPrepared prepare_actuator(const Recording& rec, const Baseline& base,
                                   const ForceCalibration& cal, const ActuatorParams& act,
                                   const StageOptions& opt) {
   ActuatorPrepared P;
-  stats::require_analysable(rec, {"t_s", "nut_pos_m", "load_force_n"});
+  check_actuator_rows(rec);
   const auto& t = rec.column("t_s");
   const std::size_t n = t.size();
-  P.fs_hz = maglead::sample_rate_hz(rec);
-  // The nut's mechanics (mass on the coupling stiffness) sit near 100 Hz; the effects live
-  // below a few tens of Hz. The filter keeps those and averages encoder steps and load-cell noise.
-  P.filter_hz = std::min(opt.filter_hz, rules::kFilterMaxOfRate * P.fs_hz);
-  P.lead_m = act.lead_m;
-  P.count_m = stated(rec, "linear_encoder_m_per_count", act.linear_count_m);
-  P.scales.phase_count_rad = phase_count_rad(rec, act, P.count_m);
+  set_rates(P, rec, act, opt.filter_hz);
   std::vector<double> geared;
   const ActuatorSignals s(rec, act, P, geared);
   P.slips = find_slips(t, s.phi_raw);

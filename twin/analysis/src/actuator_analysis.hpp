@@ -159,6 +159,11 @@ struct Breakaway {
   } pos, neg;
 };
 
+/// The load cell's unit and sign against the calibrated coupling beside friction and inertia
+/// (the first thing prepare_actuator judges): throws LoadCellUnitError when it cannot be the load
+/// in newtons. Its columns must have a value in every row.
+void judge_load_cell(const Recording& rec, const ForceCalibration& cal, const ActuatorParams& act);
+
 ActuatorPrepared prepare_actuator(const Recording& rec, const Baseline& base,
                                   const ForceCalibration& cal, const ActuatorParams& act,
                                   const StageOptions& opt);

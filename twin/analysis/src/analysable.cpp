@@ -25,15 +25,16 @@ void check_axis_rows(const Recording& rec) {
   // the motion's acceleration is not resolved; far below it t_s is most often in milliseconds.
   const double rate_hz = maglead::sample_rate_hz(rec);
   if (rate_hz >= rules::kAxisMinRateHz) return;
-  char b[480];
-  std::snprintf(b, sizeof b,
-                "%s: the sample rate is %.6g Hz (%s), and the analysis of a %s axis needs %g Hz or "
-                "more to resolve its acceleration: if t_s is in milliseconds, divide it by 1000; "
-                "else record faster",
-                rec.path.c_str(), rate_hz,
+  char rate[160];
+  std::snprintf(rate, sizeof rate,
+                ": the sample rate is %.6g Hz (%s), and the analysis of a %s axis needs %g Hz or "
+                "more",
+                rate_hz,
                 rec.meta("sample_rate_hz") ? "the header's sample_rate_hz" : "t_s's median step",
                 std::string(kind.name).c_str(), rules::kAxisMinRateHz);
-  throw std::invalid_argument(b);
+  throw std::invalid_argument(rec.path + rate +
+                              " to resolve its acceleration: if t_s is in milliseconds, divide "
+                              "it by 1000; else record faster");
 }
 
 void check_actuator_rows(const Recording& rec) {

@@ -321,7 +321,7 @@ std::vector<unsigned char> holds(const std::vector<double>& raw, double tol, std
 
 // Valid samples at every `step`-th full-rate sample: none within `margin` samples of a hold (a
 // filter spreads the hold's force that far) or of the recording's ends (where it spreads the
-// padding it invents). All the rest valid when nothing is held.
+// padding it invents).
 std::vector<unsigned char> valid_outside(const std::vector<unsigned char>& held, std::size_t margin,
                                          std::size_t step) {
   const std::size_t n = held.size();
@@ -433,7 +433,7 @@ AxisPrepared prepare_axis(const Recording& rec, const ModelFile& model, const An
   AxisPrepared P;
   const std::string position(kind.position), drive(kind.drive);
   stats::require_analysable(rec, {"t_s", position, drive});
-  check_axis_rows(rec);  // a rate the analysis resolves (t_s in milliseconds reads as 1 Hz)
+  check_axis_rows(rec);  // and a rate the analysis resolves (t_s in milliseconds reads as 1 Hz)
   const auto& t = rec.column("t_s");
   P.fs_hz = maglead::sample_rate_hz(rec);
   const double dt = 1.0 / P.fs_hz;
@@ -505,7 +505,7 @@ AxisGrams accumulate_decimated(const AxisPrepared& P, const std::vector<Column>&
       yy += s.y[i] * s.y[i];
     }
     const auto n = static_cast<Eigen::Index>(hi - lo);
-    if (static_cast<Eigen::Index>(rows.size()) == n)  // nothing held: the block as it stands
+    if (static_cast<Eigen::Index>(rows.size()) == n)  // every row valid: the block as it stands
       g.add_segment(P.id_columns.middleRows(static_cast<Eigen::Index>(lo), n), r, yy);
     else
       g.add_segment(P.id_columns(rows, Eigen::all), r, yy);

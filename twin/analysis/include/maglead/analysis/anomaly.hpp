@@ -78,9 +78,10 @@ void set_aside_load_cell(Anomaly& anomaly, std::string why);
 
 /// Why the recording's load_force_n cannot be the load in newtons (another unit, or the other
 /// sign: LoadCellUnitError's what()), judged as analyze and report judge it (by the analysis's
-/// first stage, against the calibrated coupling beside friction and inertia); nothing when it
-/// can be, or when the recording is too short or too still to tell. For the commands that score
-/// against the load cell without analysing (estimate, twin-check).
+/// first stage, against the calibrated coupling beside friction and inertia; empty cells held
+/// over from the row before); nothing when it can be, or when the recording is too short (fewer
+/// than rules::kMinRows rows), has a column without any value, or is too still to tell. For the
+/// commands that score against the load cell without analysing (estimate, twin-check).
 std::optional<std::string> load_cell_unusable(const Recording& rec, const ForceCalibration& cal,
                                               const ActuatorParams& act);
 
