@@ -712,4 +712,13 @@ TEST(Recording, ARepeatedTimeStampIsRefusedWithItsRow) {
     jitter +=
         std::to_string(1e-3 * i + (i % 2 == 0 ? 2e-4 : -2e-4)) + "," + std::to_string(i) + "\n";
   EXPECT_EQ(read_recording(write_file("jitter.csv", jitter)).rows(), 1000u);
+  // Written with three decimals at 2 kHz: every other stamp repeats, and that is what is said.
+  std::string coarse = "# format: mls-recording/1\nt_s,x_m\n";
+  for (int i = 0; i < 1000; ++i) {
+    char row[48];
+    std::snprintf(row, sizeof row, "%.3f,%d\n", 5e-4 * i, i);
+    coarse += row;
+  }
+  const std::string few = error_of(write_file("coarse.csv", coarse));
+  EXPECT_NE(few.find("t_s has too few decimals for its rate"), std::string::npos) << few;
 }

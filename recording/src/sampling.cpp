@@ -67,7 +67,14 @@ void refuse_repeated_times(const Recording& rec, const std::vector<double>& t) {
                      " the time of the row before, at data row" + (repeats == 1 ? " " : "s ") +
                      rows + (repeats > kListedRepeats ? ", …" : "") +
                      "; the readers take each row as one sample period after the one before: ";
-  if (same_values == repeats)
+  // Many stamps repeated with their values differing, the rows still advancing at a rate: t_s
+  // was written with fewer decimals than its rate needs (%.3f at 2 kHz).
+  constexpr std::size_t kCoarseShare = 10;  // one row in this many repeats its stamp
+  const double mean_step_s = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
+  if (same_values < repeats && repeats * kCoarseShare >= t.size() && mean_step_s > 0)
+    what += "t_s has too few decimals for its rate (a step of " + num(mean_step_s) +
+            " s on average): write it with more (six decimals, say)";
+  else if (same_values == repeats)
     what += "the repeated rows are copies, delete them";
   else if (same_values == 0)
     what +=
