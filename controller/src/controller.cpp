@@ -538,6 +538,7 @@ CycleStatus Controller::step(double now_s, double late_s) noexcept {
   if (mode_ != Mode::force || state_ != DriveState::enabled) {
     force_loop_.stop();
     window_end_ = 0;
+    observer_.position_hold(false);
   }
   if (mode_ == Mode::force || state_ != DriveState::enabled) {
     position_limited_ = false;
@@ -740,6 +741,7 @@ void Controller::start_force_loop(bool afresh) noexcept {
   }
   force_loop_.start(force_set_n_, drive_n_, load_);
   window_end_ = 0;
+  observer_.position_hold(false);
 }
 
 double Controller::force_mode_command_rad(double dt, Reached& r) noexcept {
@@ -770,6 +772,9 @@ void Controller::check_force_window() noexcept {
                     (p <= lo + kWindowArrive_m || (ahead <= lo && p <= lo + kWindowNear_m));
   window_end_ = up ? 1 : down ? -1 : 0;
   if (window_end_ == 0) return;
+  // The position loop stops the nut now: that stop is its braking, not the load (2 to 17 N off
+  // on a free nut stopped from 30 to 60 mm/s); the observer learns nothing from it.
+  observer_.position_hold(true);
   hold_at_setpoint_ = hold_settled_ = false;
   target_m_ = prof_pos_m_ = std::clamp(s_.nut_pos_m, lo, hi);
   prof_vel_m_s_ = 0.0;

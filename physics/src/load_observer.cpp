@@ -42,6 +42,7 @@ double LoadForceObserver::drive_n(double phase_rad) const noexcept {
 void LoadForceObserver::start(double t_s, double nut_pos_m) noexcept {
   started_ = true;
   stick_running_ = false;
+  position_held_ = hold_ends_at_stop_ = false;
   nut_.reset(t_s, nut_pos_m);
   last_t_s_ = t_s;
   est_ = {};
@@ -116,10 +117,13 @@ const LoadEstimate& LoadForceObserver::update(double t_s, double phase_rad, doub
   const EdgeEvent ev = nut_.update(t_s, nut_pos_m);
   if (ev == EdgeEvent::stopped) {
     // Stopped: the load keeps the force it had at the last edge, known within a slide's width.
+    // A stop a position hold made is its braking (the slide has no M·a term): the band only.
+    const double u = position_held_ ? kInf : sliding_half_width_n();
     est_.force_n = edge_force_n_;
-    est_.lo_n = edge_force_n_ - sliding_half_width_n();
-    est_.hi_n = edge_force_n_ + sliding_half_width_n();
-    est_.basis = ObserverBasis::stuck;
+    est_.lo_n = edge_force_n_ - u;
+    est_.hi_n = edge_force_n_ + u;
+    est_.basis = position_held_ ? ObserverBasis::band : ObserverBasis::stuck;
+    if (hold_ends_at_stop_) position_held_ = hold_ends_at_stop_ = false;
   }
   // The phase where the tracker puts the nut (inside its count), not at the reading.
   const double phi =
