@@ -583,6 +583,7 @@ void Controller::read_measurements(double now_s, const SensorSample& sample) noe
     // At power-up the coupling is taken to be at rest within its lead.
     phase_offset_rad_ = kTwoPi * std::round(phase_rad(screw, pos, a.lead_m) / kTwoPi);
     velocity_.reset(pos);
+    recent_count_ = 0;
     screw_cmd_rad_ = screw;
     last_heartbeat_s_ = now_s;
     state_ = DriveState::ready;
@@ -595,6 +596,7 @@ void Controller::read_measurements(double now_s, const SensorSample& sample) noe
   s_.nut_pos_m = pos;
   s_.phase_rad = phase_rad(screw, pos, a.lead_m) - phase_offset_rad_;
   s_.nut_vel_m_s = velocity_.update(pos);
+  update_mean_speed(pos);
   s_.force_est_n = estimator_.output_force_n(s_.phase_rad, s_.nut_vel_m_s);
   // NaN without a load cell (the cia402 backend): the f32 register carries it so that a client
   // can say "none" rather than show 0 N; the i32 register reads 0, as documented.
@@ -603,6 +605,18 @@ void Controller::read_measurements(double now_s, const SensorSample& sample) noe
   // Under force control the load is what the loop presses; else loads come and go.
   load_ = observer_.update(now_s, s_.phase_rad, s_.nut_pos_m,
                            mode_ == Mode::force ? LoadForceObserver::kPassiveLoad : 0.0);
+}
+
+/// The nut's mean speed over the last kMeanSpeedSamples samples (fewer after start-up).
+void Controller::update_mean_speed(double pos_m) noexcept {
+  const int size = kMeanSpeedSamples + 1;
+  recent_pos_m_[static_cast<std::size_t>(recent_next_)] = pos_m;
+  recent_next_ = (recent_next_ + 1) % size;
+  recent_count_ = std::min(recent_count_ + 1, size);
+  const int oldest = (recent_next_ - recent_count_ + size) % size;
+  const double span_s = (recent_count_ - 1) / cfg_.actuator.sample_rate_hz;
+  mean_vel_m_s_ =
+      span_s > 0.0 ? (pos_m - recent_pos_m_[static_cast<std::size_t>(oldest)]) / span_s : 0.0;
 }
 
 void Controller::take_commands() noexcept {
@@ -762,7 +776,7 @@ double Controller::force_mode_command_rad(double dt, Reached& r) noexcept {
 /// is (inside the window): the push ends as a defined outcome, not a stroke_limit fault.
 void Controller::check_force_window() noexcept {
   const auto [lo, hi] = force_window();
-  const double p = s_.nut_pos_m, v = s_.nut_vel_m_s;
+  const double p = s_.nut_pos_m, v = mean_vel_m_s_;
   const double ahead = p + v * kWindowLookahead_s;
   // Only a nut the loop drives outwards is held (its setpoint beyond the load that way); one
   // still coasting out while the setpoint calls it back is left to the loop.
