@@ -628,3 +628,39 @@ TEST(ForceEnvelope, ASetpointNearTheWindowEndIsReached) {
     EXPECT_LE(r.worst_n, 1.0) << sp;  // as the force-at-load sequence's mean error
   }
 }
+
+// force_limited at the default speed limit (0.1 m/s), as a PLC sees it: on once when the push
+// reaches the limit, off once (it lands) or on for good (held at the window's end), not with each
+// swing of the speed. The speed-limited slide swings between about 30 and 70 mm/s (and its
+// edge-timed estimate between 43.2 and 108 mm/s); the state left at half the limit and came
+// back at 90 %: 19 to 82 changes per push live. A 600 N/m spring anchored mid-stroke on the
+// 40 mm stroke, 12 and 15 N each way, as live: the window ends first.
+namespace {
+int limited_changes(double setpoint_n, double stroke_max_m) {
+  Rig rig({"600", 600.0}, PlantEffects{}, ServedModel{}, LoadCellTamper::Mode::as_measured, 3,
+          stroke_max_m, 0.5 * stroke_max_m);
+  rig.force(setpoint_n);
+  int changes = 0, limited_cycles = 0;
+  bool was = false;
+  std::vector<std::uint16_t> states;
+  rig.run(kStep_s, [&](const Snapshot& s) {
+    const bool limited = (s.status_word >> reg::kForceLimited) & 1u;
+    if (limited != was) ++changes, was = limited;
+    limited_cycles += limited ? 1 : 0;
+    if (states.empty() || states.back() != s.force_loop_state) states.push_back(s.force_loop_state);
+  });
+  std::printf(
+      "set %+.0f N, stroke %.0f mm: force_limited %d cycles, %d changes, load %.2f N, "
+      "states",
+      setpoint_n, stroke_max_m * 1e3, limited_cycles, changes, rig.load_out_n());
+  for (std::size_t i = 0; i < states.size() && i < 16; ++i) std::printf(" %u", states[i]);
+  std::printf("%s\n", states.size() > 16 ? " ..." : "");
+  EXPECT_GT(limited_cycles, 50) << setpoint_n;  // else this case would not test the limit
+  return changes;
+}
+}  // namespace
+
+TEST(ForceEnvelope, ForceLimitedAtTheSpeedLimitGoesOnOnceAndOffOnce) {
+  for (const double sp : {12.0, -12.0, 15.0, -15.0})
+    EXPECT_EQ(limited_changes(sp, 0.040), 1) << sp;  // on, and on through the hold at the end
+}
