@@ -106,6 +106,7 @@ class LoadForceObserver {
   double edge_force_n_ = 0.0;   // the sliding estimate at the last edge
   bool position_held_ = false;  // a position loop holds the nut: its stops measure no load
   bool hold_ends_at_stop_ = false;  // … until the nut's next stop (the hold has ended)
+  bool band_keeps_edge_ = false;    // the band after a hold's stop: the estimate is the slide's
   // An unheld load while stuck: the filter over F_out − drive, and the drive it last saw.
   StickFilter stick_;
   bool stick_running_ = false;
