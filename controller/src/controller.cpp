@@ -596,7 +596,7 @@ void Controller::read_measurements(double now_s, const SensorSample& sample) noe
   s_.nut_pos_m = pos;
   s_.phase_rad = phase_rad(screw, pos, a.lead_m) - phase_offset_rad_;
   s_.nut_vel_m_s = velocity_.update(pos);
-  update_mean_speed(pos);
+  update_mean_speed(now_s, pos);
   s_.force_est_n = estimator_.output_force_n(s_.phase_rad, s_.nut_vel_m_s);
   // NaN without a load cell (the cia402 backend): the f32 register carries it so that a client
   // can say "none" rather than show 0 N; the i32 register reads 0, as documented.
@@ -607,16 +607,17 @@ void Controller::read_measurements(double now_s, const SensorSample& sample) noe
                            mode_ == Mode::force ? LoadForceObserver::kPassiveLoad : 0.0);
 }
 
-/// The nut's mean speed over the last kMeanSpeedSamples samples (fewer after start-up).
-void Controller::update_mean_speed(double pos_m) noexcept {
+/// The nut's mean speed over the last kMeanSpeedSamples samples (fewer after start-up), by
+/// their times: a late cycle is a longer step, not a faster nut.
+void Controller::update_mean_speed(double t_s, double pos_m) noexcept {
   const int size = kMeanSpeedSamples + 1;
-  recent_pos_m_[static_cast<std::size_t>(recent_next_)] = pos_m;
+  recent_[static_cast<std::size_t>(recent_next_)] = {t_s, pos_m};
   recent_next_ = (recent_next_ + 1) % size;
   recent_count_ = std::min(recent_count_ + 1, size);
-  const int oldest = (recent_next_ - recent_count_ + size) % size;
-  const double span_s = (recent_count_ - 1) / cfg_.actuator.sample_rate_hz;
-  mean_vel_m_s_ =
-      span_s > 0.0 ? (pos_m - recent_pos_m_[static_cast<std::size_t>(oldest)]) / span_s : 0.0;
+  const auto& oldest =
+      recent_[static_cast<std::size_t>((recent_next_ - recent_count_ + size) % size)];
+  const double span_s = t_s - oldest.t_s;
+  mean_vel_m_s_ = span_s > 0.0 ? (pos_m - oldest.pos_m) / span_s : 0.0;
 }
 
 void Controller::take_commands() noexcept {

@@ -179,7 +179,7 @@ class Controller {
   double force_mode_command_rad(double dt, Reached& reached) noexcept;
   void check_force_window() noexcept;
   void release_window_end() noexcept;
-  void update_mean_speed(double pos_m) noexcept;
+  void update_mean_speed(double t_s, double pos_m) noexcept;
   double window_hold_command_rad(double dt) noexcept;
   void resync_to_nut() noexcept;
   void note_drive_fault_cause() noexcept;
@@ -258,7 +258,10 @@ class Controller {
   // The nut's positions of the last samples (a ring): its mean speed over them, which the
   // window's look-ahead reads (one sample's speed moves in steps of a count per sample).
   static constexpr int kMeanSpeedSamples = 20;
-  std::array<double, kMeanSpeedSamples + 1> recent_pos_m_{};
+  struct Sample {
+    double t_s = 0.0, pos_m = 0.0;
+  };
+  std::array<Sample, kMeanSpeedSamples + 1> recent_{};
   int recent_next_ = 0, recent_count_ = 0;
   double mean_vel_m_s_ = 0.0;
   // The power stage: the last request made of the hardware, and a reset it still has to pass on.
