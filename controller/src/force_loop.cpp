@@ -12,10 +12,14 @@ constexpr int kRefineAttempts = 3;
 // The speed counts as at the limit from this share of it on: the estimate moves in steps of one
 // encoder count per sample, so the limited speed dithers just below the limit.
 constexpr double kAtLimitShare = 0.9;
-// Once at the limit the loop says so until the speed falls below this share of it, and not
-// again once it has landed, so the state (and a PLC's force_limited bit) does not blink with
-// each count of the speed estimate.
+// Once at the limit the loop says so until the speed stays below this share of it (and the
+// drive unclipped) for kLeaveLimit_s, and not again once it has landed, so the state (and a
+// PLC's force_limited bit) does not blink with each count of the speed estimate.
 constexpr double kLeaveLimitShare = 0.5;
+// The speed-limited slide swings at the nut-and-coupling resonance (about 90 Hz: between 30
+// and 70 mm/s near the window's end) and its edge-timed estimate in steps of a count per
+// sample: below half the limit for up to 5 ms at a time. 50 ms is several swings.
+constexpr double kLeaveLimit_s = 0.05;
 // Once landing, the state stays landing while the nut slides on, unless the estimate stays
 // beyond the force_reached tolerance this long. Creeping in, the sliding estimate swings with
 // each encoder edge, beyond the land tolerance for up to 60 ms and beyond the force_reached
@@ -91,13 +95,18 @@ double ForceLoop::sliding_drive_n(const LoadEstimate& est, double dt_s) noexcept
   const double e = setpoint_n_ - est.force_n;
   const double damping = cfg_.damping_n_s_per_m * est.nut_vel_m_s;
   const bool was_landing = state_ == ForceLoopState::landing;
+  const bool was_limited = state_ == ForceLoopState::speed_limited;
   off_setpoint_s_ = was_landing && std::abs(e) > cfg_.tolerance_n ? off_setpoint_s_ + dt_s : 0.0;
   if (std::abs(e) <= cfg_.land_tolerance_n) {
-    state_ = ForceLoopState::landing;  // friction alone stops the nut here
+    // Friction alone stops the nut here. At the speed limit the estimate swings by up to 2 N
+    // and touches the setpoint now and then: the state leaves the limit for a landing only as
+    // it would for a slower slide (kLeaveLimit_s), so force_limited does not blink.
+    below_limit_s_ = was_limited ? below_limit_s_ + dt_s : 0.0;
+    if (was_limited && below_limit_s_ < kLeaveLimit_s) return setpoint_n_ - damping;
+    state_ = ForceLoopState::landing;
     landed_once_ = true;
     return setpoint_n_ - damping;
   }
-  const bool was_limited = state_ == ForceLoopState::speed_limited;
   // The feed-forward comes back at once; the state says approaching again only once the
   // estimate has stayed off the setpoint (kLeaveLanding_s).
   state_ = was_landing && off_setpoint_s_ < kLeaveLanding_s ? ForceLoopState::landing
@@ -107,13 +116,13 @@ double ForceLoop::sliding_drive_n(const LoadEstimate& est, double dt_s) noexcept
   const bool towards = (e > 0.0) == (est.motion > 0);
   if (!towards) return setpoint_n_ - damping;
   return speed_limited_n(setpoint_n_ - damping + cfg_.friction.sliding_n(est.nut_vel_m_s), est,
-                         was_limited);
+                         was_limited, dt_s);
 }
 
 /// The gentler of `drive_n` and the drive that holds the nut at the speed limit: the load force
 /// and friction it slides against, plus D times the speed still allowed (negative past it).
-double ForceLoop::speed_limited_n(double drive_n, const LoadEstimate& est,
-                                  bool was_limited) noexcept {
+double ForceLoop::speed_limited_n(double drive_n, const LoadEstimate& est, bool was_limited,
+                                  double dt_s) noexcept {
   const double v = est.nut_vel_m_s;
   const double dir = v >= 0.0 ? 1.0 : -1.0;
   const double limit = std::min(cfg_.speed_limit_m_s, dir > 0 ? cap_up_m_s_ : cap_down_m_s_);
@@ -121,8 +130,10 @@ double ForceLoop::speed_limited_n(double drive_n, const LoadEstimate& est,
       est.force_n + cfg_.friction.sliding_n(v) + cfg_.damping_n_s_per_m * (dir * limit - v);
   const bool clipped = (drive_n - at_limit_n) * dir > 0.0;
   const double share = std::abs(v) / limit;
+  const bool at_limit = clipped || share >= kLeaveLimitShare;
+  below_limit_s_ = was_limited && !at_limit ? below_limit_s_ + dt_s : 0.0;
   if (!landed_once_ &&
-      ((clipped && share >= kAtLimitShare) || (was_limited && share >= kLeaveLimitShare)))
+      ((clipped && share >= kAtLimitShare) || (was_limited && below_limit_s_ < kLeaveLimit_s)))
     state_ = ForceLoopState::speed_limited;
   return clipped ? at_limit_n : drive_n;
 }

@@ -42,6 +42,7 @@ double LoadForceObserver::drive_n(double phase_rad) const noexcept {
 void LoadForceObserver::start(double t_s, double nut_pos_m) noexcept {
   started_ = true;
   stick_running_ = false;
+  position_held_ = hold_ends_at_stop_ = band_keeps_edge_ = false;
   nut_.reset(t_s, nut_pos_m);
   last_t_s_ = t_s;
   est_ = {};
@@ -79,10 +80,14 @@ void LoadForceObserver::stuck_sample(double t_s, double phase_rad,
   if (lo > hi) {  // the load changed while the nut stuck, or the model's friction is off
     lo = band_lo, hi = band_hi;
     est_.basis = ObserverBasis::band;
+    band_keeps_edge_ = false;
   }
   est_.lo_n = lo, est_.hi_n = hi;
-  est_.force_n =
-      est_.basis == ObserverBasis::band ? 0.5 * (lo + hi) : std::clamp(est_.force_n, lo, hi);
+  // Only the band: its centre, unless a slide ended in a hold's stop (its force is still the
+  // best guess of a load the braking moved it from; the bound says how little it pins down).
+  est_.force_n = est_.basis == ObserverBasis::band && !band_keeps_edge_
+                     ? 0.5 * (lo + hi)
+                     : std::clamp(est_.force_n, lo, hi);
 }
 
 void LoadForceObserver::unheld_stuck_sample(double t_s, double band_lo_n, double band_hi_n,
@@ -116,10 +121,14 @@ const LoadEstimate& LoadForceObserver::update(double t_s, double phase_rad, doub
   const EdgeEvent ev = nut_.update(t_s, nut_pos_m);
   if (ev == EdgeEvent::stopped) {
     // Stopped: the load keeps the force it had at the last edge, known within a slide's width.
+    // A stop a position hold made is its braking (the slide has no M·a term): the band only.
+    const double u = position_held_ ? kInf : sliding_half_width_n();
     est_.force_n = edge_force_n_;
-    est_.lo_n = edge_force_n_ - sliding_half_width_n();
-    est_.hi_n = edge_force_n_ + sliding_half_width_n();
-    est_.basis = ObserverBasis::stuck;
+    est_.lo_n = edge_force_n_ - u;
+    est_.hi_n = edge_force_n_ + u;
+    est_.basis = position_held_ ? ObserverBasis::band : ObserverBasis::stuck;
+    band_keeps_edge_ = position_held_;
+    if (hold_ends_at_stop_) position_held_ = hold_ends_at_stop_ = false;
   }
   // The phase where the tracker puts the nut (inside its count), not at the reading.
   const double phi =

@@ -2,6 +2,7 @@
 // The control loop's one cycle: read encoders, compute phase and force, run the drive state
 // machine and the active mode, command the motor, publish a snapshot. Time comes from the
 // caller (LoopRunner in service, a fake clock in tests); no allocation or lock in step().
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <limits>
@@ -178,6 +179,7 @@ class Controller {
   double force_mode_command_rad(double dt, Reached& reached) noexcept;
   void check_force_window() noexcept;
   void release_window_end() noexcept;
+  void update_mean_speed(double t_s, double pos_m) noexcept;
   double window_hold_command_rad(double dt) noexcept;
   void resync_to_nut() noexcept;
   void note_drive_fault_cause() noexcept;
@@ -253,6 +255,15 @@ class Controller {
   double position_phase_rad_ = 0.0;  // the position loop's last phase command
   bool hold_settled_ = false;        // the nut has stood still since the window's hold began
   bool hold_at_setpoint_ = false;    // the window's hold pushes towards its end at the setpoint
+  // The nut's positions of the last samples (a ring): its mean speed over them, which the
+  // window's look-ahead reads (one sample's speed moves in steps of a count per sample).
+  static constexpr int kMeanSpeedSamples = 20;
+  struct Sample {
+    double t_s = 0.0, pos_m = 0.0;
+  };
+  std::array<Sample, kMeanSpeedSamples + 1> recent_{};
+  int recent_next_ = 0, recent_count_ = 0;
+  double mean_vel_m_s_ = 0.0;
   // The power stage: the last request made of the hardware, and a reset it still has to pass on.
   PowerRequest power_ = PowerRequest::disable;
   bool drive_reset_pending_ = false;

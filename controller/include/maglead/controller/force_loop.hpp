@@ -83,12 +83,14 @@ class ForceLoop {
  private:
   double breakaway_drive_n(const LoadEstimate& est, double dt_s) noexcept;
   double sliding_drive_n(const LoadEstimate& est, double dt_s) noexcept;
-  double speed_limited_n(double drive_n, const LoadEstimate& est, bool was_limited) noexcept;
+  double speed_limited_n(double drive_n, const LoadEstimate& est, bool was_limited,
+                         double dt_s) noexcept;
 
   ForceLoopConfig cfg_;
   ForceLoopState state_ = ForceLoopState::off;
   double setpoint_n_ = 0.0, hold_drive_n_ = 0.0, ramp_n_ = 0.0;
   double off_setpoint_s_ = 0.0;  // landing, the estimate beyond the tolerance this long
+  double below_limit_s_ = 0.0;   // speed-limited, the speed below the limit's share this long
   double cap_up_m_s_ = std::numeric_limits<double>::infinity();
   double cap_down_m_s_ = std::numeric_limits<double>::infinity();
   int dir_ = 1;

@@ -71,6 +71,15 @@ class LoadForceObserver {
   const LoadEstimate& update(double t_s, double phase_rad, double nut_pos_m,
                              double expected_load_n = kPassiveLoad) noexcept;
   static constexpr double kPassiveLoad = std::numeric_limits<double>::quiet_NaN();
+  /// While on, a position loop holds the nut, not the force balance: a stop then measures its
+  /// braking (up to the nut's momentum into the position loop's stiffness: several newtons from
+  /// the force mode's speeds) and the loop's creep, not the load. It leaves the stick band alone
+  /// (basis band): the load is known again only from a slide of the force loop. Off while the
+  /// nut still moves, the stop that ends that motion is still the hold's.
+  void position_hold(bool on) noexcept {
+    position_held_ = on || (position_held_ && nut_.moving());
+    hold_ends_at_stop_ = !on && position_held_;
+  }
   const LoadEstimate& estimate() const noexcept { return est_; }
   /// Force of one linear-encoder count of phase near φ = 0: the resolution of any estimate.
   double count_force_n() const noexcept { return count_force_n_; }
@@ -91,10 +100,13 @@ class LoadForceObserver {
   LoadEstimate est_{};
   bool started_ = false;
   double last_t_s_ = 0.0;
-  double screw_rad_ = 0.0;     // the screw angle of this sample (the ripple's argument)
-  double end_distance_m_ = 0;  // the nut's distance to the nearer stroke end (the end effect's)
-  EdgeTracker nut_;            // position and speed from the encoder's edges
-  double edge_force_n_ = 0.0;  // the sliding estimate at the last edge
+  double screw_rad_ = 0.0;      // the screw angle of this sample (the ripple's argument)
+  double end_distance_m_ = 0;   // the nut's distance to the nearer stroke end (the end effect's)
+  EdgeTracker nut_;             // position and speed from the encoder's edges
+  double edge_force_n_ = 0.0;   // the sliding estimate at the last edge
+  bool position_held_ = false;  // a position loop holds the nut: its stops measure no load
+  bool hold_ends_at_stop_ = false;  // … until the nut's next stop (the hold has ended)
+  bool band_keeps_edge_ = false;    // the band after a hold's stop: the estimate is the slide's
   // An unheld load while stuck: the filter over F_out − drive, and the drive it last saw.
   StickFilter stick_;
   bool stick_running_ = false;
