@@ -36,6 +36,10 @@ constexpr double kMaxTrack_rad = 0.5;  // most the phase tracking may add to a c
 // A fault reset is done after the fault stayed away this long: longer than a CiA 402 drive's
 // fault-reset handshake and the master's PDO supervision (a few cycles), short for a person.
 constexpr double kResetConfirm_s = 0.02;
+// A reset takes a phase that has stood still this long (within a quarter of the stable branch's
+// width: encoder steps and a load's slow change stay inside it, a slip's lead does not): a nut
+// still sliding over the screw may pass through the branch and would latch again at once.
+constexpr double kResetSettle_s = 0.1;
 // A position command at the coupling's safe limit with the nut standing (its velocity estimate
 // zero: no encoder edge for 0.2 s) this long more is a stall, not a slow start.
 constexpr double kStallConfirm_s = 0.1;
@@ -361,6 +365,7 @@ void Controller::resync_to_nut() noexcept {
   phase_offset_rad_ += leads * kTwoPi;
   s_.phase_rad -= leads * kTwoPi;
   last_phase_rad_ = s_.phase_rad;
+  steady_phase_rad_ -= leads * kTwoPi;
   if (twin_) twin_->resync(s_.t_s, s_.screw_angle_rad, s_.nut_pos_m);
   observer_.reset();
 }
@@ -374,7 +379,8 @@ void Controller::on_fault_reset() noexcept {
   // The operator has seen the twin's latched drift warning: clear it (README "Digital twin").
   if (twin_) twin_->clear_warnings();
   const auto& cal = cfg_.calibration;
-  const bool phase_ok = s_.phase_rad >= cal.stable_min_rad && s_.phase_rad <= cal.stable_max_rad;
+  const bool phase_ok = s_.phase_rad >= cal.stable_min_rad && s_.phase_rad <= cal.stable_max_rad &&
+                        s_.t_s - phase_steady_since_s_ >= kResetSettle_s;
   if (state_ == DriveState::fault && !phase_ok) {
     reject(Reject::still_faulty);
     return;
@@ -656,6 +662,11 @@ void Controller::supervise(double now_s) noexcept {
   const auto& a = cfg_.actuator;
   const auto& cal = cfg_.calibration;
   const bool outside = s_.phase_rad < cal.stable_min_rad || s_.phase_rad > cal.stable_max_rad;
+  if (std::abs(s_.phase_rad - steady_phase_rad_) >
+      0.25 * (cal.stable_max_rad - cal.stable_min_rad)) {
+    steady_phase_rad_ = s_.phase_rad;
+    phase_steady_since_s_ = now_s;
+  }
   if (outside && !stepped_out_) {
     stepped_out_ = true;
     s_.step_out_count++;

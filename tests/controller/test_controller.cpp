@@ -293,6 +293,51 @@ TEST(Controller, StepOutLatchesAFaultStopsForceAndNeedsResyncThenReset) {
   EXPECT_FALSE(rig.status(reg::kStepOut));
 }
 
+// A nut still sliding over the screw after a slip may pass through the stable branch; a reset
+// taken then would latch again a moment later. The reset is refused (still_faulty) until the
+// phase has stood still, even right after a resync put it on the branch.
+TEST(Controller, AResetWhileTheNutStillSlidesIsRefused) {
+  Rig rig(0.0);
+  rig.enable();
+  rig.plant.set_load(constant_load(-80.0));  // a fast pull past the peak: a step-out
+  LoadSetting drag = constant_load(-70.0);
+  drag.damping_n_s_per_m = 2000.0;  // then a slow slide (tens of mm/s) through the tries
+  bool fault_seen = false;
+  rig.run(0.3, [&](const Snapshot& s) {
+    if (!fault_seen && s.drive_state == 3) rig.plant.set_load(drag);
+    fault_seen = fault_seen || s.drive_state == 3;
+  });
+  ASSERT_TRUE(fault_seen);
+  std::printf("nut at %.2f mm\n", rig.plant.truth().nut_pos_m * 1e3);
+  ASSERT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::fault));
+  const auto& cal = rig.cfg.calibration;
+  int tried_on_branch = 0, accepted = 0;
+  for (int i = 0; i < 20 && rig.plant.truth().nut_pos_m > 0.002; ++i) {
+    rig.control(bit(reg::kResync));
+    rig.control(0);
+    const double phase_rad = rig.snap().phase_rad;
+    if (phase_rad < cal.stable_min_rad || phase_rad > cal.stable_max_rad) continue;
+    ++tried_on_branch;
+    rig.control(bit(reg::kFaultReset));
+    accepted += rig.cmd(reg::kResetAck) ? 1 : 0;
+    EXPECT_EQ(rig.snap().reject_reason, static_cast<std::uint16_t>(reg::Reject::still_faulty));
+    rig.control(0);
+  }
+  std::printf("resets tried with the phase on the branch while the nut slid: %d, accepted %d\n",
+              tried_on_branch, accepted);
+  EXPECT_GE(tried_on_branch, 3) << "the nut stopped sliding: nothing was tested";
+  EXPECT_EQ(accepted, 0);
+  // Standing again (the load gone), the same reset works.
+  rig.plant.set_load(LoadSetting{});
+  rig.run(0.5);
+  rig.control(bit(reg::kResync));
+  rig.control(0);
+  rig.control(bit(reg::kFaultReset));
+  rig.run(0.03);
+  EXPECT_TRUE(rig.cmd(reg::kResetDone));
+  EXPECT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::ready));
+}
+
 TEST(Controller, FaultNeedsAFreshEnableEdge) {
   Rig rig;
   rig.enable();

@@ -774,6 +774,31 @@ std::string reset_command_now(Client& c, double alarm) {
   return reset_command(alarm, stepped_out(s.status_word));
 }
 
+/// After a slip the nut may still be sliding over the screw: a resync would take a passing lead
+/// and the controller refuses a reset until the phase stands. Wait, as a person would, until the
+/// nut stands (the moving bit clear: no encoder edge for a while), at most kSlipEnd_s; then the
+/// controller's answer decides.
+void wait_for_slip_to_end(Client& c) {
+  constexpr double kSlipEnd_s = 1.0;
+  const auto t0 = Clock::now();
+  Status s = read_status(c);
+  while (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault) &&
+         (slipped(s.alarm) || stepped_out(s.status_word)) &&
+         ((s.status_word >> reg::kMoving) & 1u) != 0 && since(t0) < kSlipEnd_s) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(kHeartbeatPeriod_s));
+    s = read_status(c);
+  }
+}
+
+/// What to type when a fault latched again while its reset was confirming.
+std::string returned_fault_advice(const Status& s) {
+  if (slipped(s.alarm) || stepped_out(s.status_word))
+    return "the nut slipped again (still sliding, or a load beyond the coupling's peak): wait "
+           "until it stands with that load taken off, then run 'maglead reset --resync'";
+  return "its cause persists: remove it (the alarm codes: docs/registers.md, 'alarm_code'), then "
+         "run 'maglead reset' again";
+}
+
 }  // namespace
 
 std::string reset_command(double alarm, bool step_out_bit) {
@@ -1065,6 +1090,7 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
                         "(alarm " +
                             alarm_text(c, s0.alarm) + "); " + advice);
   }
+  wait_for_slip_to_end(c);
   const Image im = read_image(c);
   std::uint16_t cw = static_cast<std::uint16_t>(im.control_word & ~bit(reg::kExecute));
   const auto edge = [&](int b, int ack, int done, const char* what) {
@@ -1105,7 +1131,8 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
         throw ClientError(Kind::rejected, std::string(what) + " rejected by the controller: " +
                                               code_name(reg::reject_codes(), s.reject) + " (" +
                                               code_meaning(reg::reject_codes(), s.reject) +
-                                              "): alarm " + alarm_text(c, s.alarm));
+                                              "): alarm " + alarm_text(c, s.alarm) + ": " +
+                                              returned_fault_advice(s));
       if (since(t0) > o.ack_timeout_s)
         throw ClientError(Kind::no_reply, std::string(what) + ": acknowledged, not done within " +
                                               fmt(o.ack_timeout_s) + " s");

@@ -230,6 +230,8 @@ class Controller {
   double last_t_s_ = 0.0, last_heartbeat_s_ = 0.0;
   double phase_offset_rad_ = 0.0;  // whole leads the nut slipped, taken up by resync
   double last_phase_rad_ = 0.0;
+  double steady_phase_rad_ = 0.0;       // the phase the nut last stood at (kResetSettle_s)
+  double phase_steady_since_s_ = -1e9;  // since when the phase stays near steady_phase_rad_
   registers::DriveState state_ = registers::DriveState::disabled;
   registers::Mode mode_ = registers::Mode::idle;
   bool stopping_ = false, watchdog_expired_ = false, stepped_out_ = false, execute_pending_ = false;
