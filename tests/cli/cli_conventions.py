@@ -78,6 +78,7 @@ def main():
     shutil.rmtree(WORK, ignore_errors=True)
     os.makedirs(WORK)
     version_and_usage()
+    front_door()
     relative_paths_and_progress()
     file_errors()
     against_a_server()
@@ -222,6 +223,21 @@ def version_and_usage():
     rc, out, _ = run("analyze", "--recording", moved, "-o", os.path.join(WORK, "moved_out2"), "--no-twin-check")
     check(rc == 0 and any(l.startswith("1. viscous_friction") and len(l) > 80 for l in out.splitlines()),
           "analyze into a pipe keeps each line whole")
+
+
+def front_door():
+    """A newcomer's first commands at an 80-column terminal."""
+    unset = {k: v for k, v in os.environ.items() if k != "COLUMNS"}
+    # `maglead help` and `maglead version` mean the flags; the command list wraps at spaces.
+    for word, flag in (("help", "--help"), ("version", "--version")):
+        rc, _, err = run(word)
+        check(rc == 2 and f"unknown command '{word}'; did you mean 'maglead {flag}'?" in err,
+              f"maglead {word} points to {flag}: {err.strip()!r}")
+    rc, text = run_in_pty("help", columns=80)
+    lines = [l for l in text.replace("\r", "").split("\n") if l]
+    words = [w.strip(",") for w in text.split()]
+    check(rc == 2 and all(len(l) <= 80 for l in lines) and "twin-check" in words and "analysis-rules" in words,
+          f"maglead help on 80 columns: no line wider, no command broken: {lines!r}")
 
 
 def relative_paths_and_progress():

@@ -111,12 +111,18 @@ bool explain_unknown(CLI::App& root, int argc, char** argv) {
     }
     std::string list;
     for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
-    const std::string guess = closest_match(tok, names);
-    std::fprintf(
-        stderr, "maglead: unknown command '%s'%s\nusage: %s COMMAND [OPTIONS]   (commands: %s)\n",
-        tok.c_str(),
-        guess.empty() ? "" : ("; did you mean '" + path_of(at) + " " + guess + "'?").c_str(),
-        path_of(at).c_str(), list.c_str());
+    // `maglead help`, `maglead version`: the words other tools take, meant as the flags.
+    std::string guess = closest_match(tok, names);
+    if (tok == "help") guess = "--help";
+    if (tok == "version" && at == &root) guess = "--version";
+    // The command list on its own line, wrapped on a terminal as every error is.
+    std::fprintf(stderr, "%s\n",
+                 maglead::cli::error_text(
+                     "maglead: unknown command '" + tok + "'" +
+                     (guess.empty() ? "" : "; did you mean '" + path_of(at) + " " + guess + "'?") +
+                     "\nusage: " + path_of(at) + " COMMAND [OPTIONS]   ('" + path_of(at) +
+                     " --help' says what each does)\ncommands: " + list)
+                     .c_str());
     return true;
   }
   return false;
