@@ -238,6 +238,17 @@ def front_door():
     words = [w.strip(",") for w in text.split()]
     check(rc == 2 and all(len(l) <= 80 for l in lines) and "twin-check" in words and "analysis-rules" in words,
           f"maglead help on 80 columns: no line wider, no command broken: {lines!r}")
+    # --help names a man page man can open: in a build tree, by its path (man maglead has none).
+    repo = os.path.dirname(os.path.dirname(os.path.dirname(MAGLEAD)))
+    page = os.path.join(os.path.dirname(os.path.dirname(MAGLEAD)), "man", "maglead.1.gz")
+    _, out, _ = run("--help", cwd=repo, env=unset)
+    m = re.search(r"See man (?:-l )?(\S+) for every command", out)
+    if os.path.exists(page):
+        shown = os.path.join(repo, m.group(1)) if m else ""
+        check(os.path.exists(shown) and os.path.samefile(shown, page),
+              f"--help names the build tree's man page by a path that opens it: {out[:300]!r}")
+    else:
+        check(m is None, f"no man page built: --help names none: {out[:300]!r}")
 
 
 def relative_paths_and_progress():

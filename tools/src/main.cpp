@@ -4,7 +4,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -184,13 +186,38 @@ class WrappingFormatter : public CLI::Formatter {
   }
 };
 
+/// The sentence of --help that points to the man page, for where this binary runs: a build
+/// tree's page (BIN/../man, which man(1) does not search) by its path, an installed one
+/// (BIN/../share/man/man1) by name under /usr or /usr/local (man's own path) and by its path
+/// elsewhere, and "" when the build made none (no help2man).
+std::string man_pointer() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path bin = fs::read_symlink("/proc/self/exe", ec).parent_path();
+  if (ec) return "";
+  const fs::path prefix = fs::weakly_canonical(bin / "..", ec);
+  for (const fs::path& page :
+       {prefix / "man/maglead.1.gz", prefix / "share/man/man1/maglead.1.gz"}) {
+    if (!fs::exists(page, ec)) continue;
+    if (page.parent_path().filename() == "man1" && (prefix == "/usr" || prefix == "/usr/local"))
+      return " See man maglead for every command.";
+    // Relative to the working directory when under it (`man -l build/man/maglead.1.gz` in a
+    // checkout); from / the whole path reads better.
+    const fs::path cwd = fs::current_path(ec);
+    const fs::path shown = page.lexically_proximate(cwd);
+    const bool under = cwd != cwd.root_path() && !shown.empty() && *shown.begin() != "..";
+    return " See man -l " + (under ? shown : page).string() + " for every command.";
+  }
+  return "";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
       "maglead: force-estimating controller for a magnetic lead-screw actuator, with its "
-      "simulated plant and digital twin.\nRun 'maglead COMMAND --help' for a command's options. "
-      "See man maglead for every command.",
+      "simulated plant and digital twin.\nRun 'maglead COMMAND --help' for a command's options." +
+          man_pointer(),
       "maglead"};
   app.formatter(std::make_shared<WrappingFormatter>());  // before the commands: they inherit it
   app.set_version_flag("--version", "maglead " MAGLEAD_VERSION, "Print the version and exit");
