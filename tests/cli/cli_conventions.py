@@ -249,6 +249,12 @@ def front_door():
               f"--help names the build tree's man page by a path that opens it: {out[:300]!r}")
     else:
         check(m is None, f"no man page built: --help names none: {out[:300]!r}")
+    # MAGLEAD_CONFIG naming no directory: said, with what to do.
+    absent = os.path.join(WORK, "absent")
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "1s", "-o",
+                     os.path.join(WORK, "absent.csv"), env=dict(os.environ, MAGLEAD_CONFIG=absent))
+    check(rc == 2 and f"no configuration directory '{absent}' (from MAGLEAD_CONFIG; unset it or fix it, "
+          "or pass --config DIR)" in err, f"MAGLEAD_CONFIG absent: {err.strip()!r}")
 
 
 def relative_paths_and_progress():

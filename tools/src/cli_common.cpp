@@ -71,7 +71,15 @@ std::string replacing_note(const std::string& path, const std::string& what) {
 std::string missing_config_hint(const std::string& error) {
   const std::string dir = default_config_dir();
   std::error_code ec;
-  if (std::getenv("MAGLEAD_CONFIG") != nullptr ||
+  const char* env = std::getenv("MAGLEAD_CONFIG");
+  // The directory came from the environment, not from anything typed: say where it came from.
+  if (env != nullptr && *env != '\0' && error.rfind(dir + "/", 0) == 0)
+    return std::filesystem::is_directory(dir, ec)
+               ? "\n(the configuration directory '" + dir +
+                     "' comes from MAGLEAD_CONFIG; unset it or fix it, or pass --config DIR)"
+               : "\nno configuration directory '" + dir +
+                     "' (from MAGLEAD_CONFIG; unset it or fix it, or pass --config DIR)";
+  if (env != nullptr ||
       std::filesystem::exists(std::filesystem::path(dir) / "calibration.toml", ec) ||
       error.rfind(dir + "/", 0) != 0)
     return "";

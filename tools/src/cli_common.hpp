@@ -27,8 +27,9 @@ std::vector<std::string> config_dir_candidates();
 /// " (replacing WHAT)" when `path` exists, else "": said beside "wrote PATH", so an
 /// earlier recording or result overwritten is never a surprise. Ask before writing.
 std::string replacing_note(const std::string& path, const std::string& what = "the one there");
-/// For an error naming a missing file of the default configuration directory when no candidate
-/// had one: where maglead looked and what to type; "" otherwise.
+/// For an error naming a file of the default configuration directory: when $MAGLEAD_CONFIG
+/// chose it, that it did (and whether the directory exists); when no candidate had one, where
+/// maglead looked; with what to type. "" otherwise.
 std::string missing_config_hint(const std::string& error);
 /// An option naming an image to write: refused at once (exit 2) unless it ends .png or .jpg, so
 /// nothing is written before the name is found wrong.
