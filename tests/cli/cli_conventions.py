@@ -255,6 +255,18 @@ def front_door():
                      os.path.join(WORK, "absent.csv"), env=dict(os.environ, MAGLEAD_CONFIG=absent))
     check(rc == 2 and f"no configuration directory '{absent}' (from MAGLEAD_CONFIG; unset it or fix it, "
           "or pass --config DIR)" in err, f"MAGLEAD_CONFIG absent: {err.strip()!r}")
+    # serve's lengths and times take set's units; a bare number keeps the option's unit.
+    for opts in (["--sim-start", "20mm"], ["--sim-spring-anchor", "25 mm"], ["--watchdog", "0.5s"],
+                 ["--frame-timeout", "500ms"], ["--sim-spring", "2000N/m"]):
+        rc, _, err = run("serve", "--port", "0", "--duration", "0.3s", *opts)
+        check(rc == 0, f"serve {' '.join(opts)}: {err.strip()[-300:]!r}")
+    rc, _, err = run("serve", "--port", "0", "--duration", "0.3s", "--sim-start", "45mm")
+    check(rc == 2 and "0.045 m (45 mm) must lie within the stroke" in err, f"--sim-start 45mm: {err.strip()!r}")
+    rc, _, err = run("serve", "--port", "0", "--duration", "0.3s", "--watchdog", "70s")
+    check(rc == 2 and "70000 ms is outside 0 .. 60000 ms" in err, f"--watchdog 70s: {err.strip()!r}")
+    rc, _, err = run("serve", "--port", "0", "--duration", "0.3s", "--sim-start", "2in")
+    check(rc == 2 and "unit 'in' is not one of m, mm" in err and "--sim-start 0.02 or 20mm" in err,
+          f"--sim-start 2in: {err.strip()!r}")
 
 
 def relative_paths_and_progress():

@@ -1,5 +1,6 @@
 #include "cli_common.hpp"
 
+#include "maglead/operator/client.hpp"
 #include "maglead/report/plot.hpp"
 
 #include <sys/ioctl.h>
@@ -117,6 +118,33 @@ CLI::Validator number_in(const NumberRange& range) {
                       range.lo, range.hi);
         return text + unit + " is " + bounds + unit +
                (range.why.empty() ? "" : " (" + range.why + ")") + type;
+      },
+      "");  // no name: the option's own type stays in --help
+}
+
+CLI::Validator quantity_in(const Quantity& q) {
+  return CLI::Validator(
+      [q](std::string& text) {
+        const std::string type = ": type e.g. " + q.example;
+        char* end = nullptr;
+        std::strtod(text.c_str(), &end);
+        const auto used = static_cast<std::size_t>(end - text.c_str());
+        std::string rest = text.substr(used);
+        rest.erase(std::remove(rest.begin(), rest.end(), ' '), rest.end());
+        if (used > 0 && (rest.empty() || rest == q.unit)) {  // in the option's unit
+          text.resize(used);
+          return std::string();
+        }
+        if (q.si_unit.empty()) return "'" + text + "' is not a number of " + q.unit + type;
+        try {  // set's vocabulary: 20mm, 500ms, 0.5s
+          char converted[32];
+          std::snprintf(converted, sizeof converted, "%.17g",
+                        op::parse_quantity(text, q.si_unit) / q.si_per_unit);
+          text = converted;
+          return std::string();
+        } catch (const op::ClientError& e) {
+          return std::string(e.what()) + " (" + q.unit + " when no unit is typed)" + type;
+        }
       },
       "");  // no name: the option's own type stays in --help
 }

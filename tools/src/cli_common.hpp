@@ -50,6 +50,18 @@ struct NumberRange {
 /// "5000 Hz is outside 1 .. 1000 Hz (the loop runs at 1 kHz): type e.g. --rate 100".
 CLI::Validator number_in(const NumberRange& range);
 
+/// A length or time an option takes: a bare number in `unit` ("m", "ms"), or a number with a
+/// unit of set's (20mm, 0.5s) when `si_unit` ("m", "s") is given: `si_per_unit` SI units make
+/// one `unit` (1e-3 for ms). `example`: the option as one would type it, for the error.
+struct Quantity {
+  std::string unit, si_unit;
+  double si_per_unit = 1.0;
+  std::string example;
+};
+/// Rewrites "20mm" to the number in the option's unit (0.02 for metres) before CLI11 converts
+/// it; refuses another unit or no number, saying the option's unit (exit 2).
+CLI::Validator quantity_in(const Quantity& q);
+
 /// "30s", "2min", "500ms", "1h" or a plain number of seconds, as typed after `option`
 /// ("--hold"). Throws CLI::ValidationError naming the option: "--hold: '0s' is not a positive
 /// duration (e.g. --hold 30s, 2min, 1h)".
