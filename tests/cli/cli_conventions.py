@@ -249,6 +249,26 @@ def front_door():
               f"--help names the build tree's man page by a path that opens it: {out[:300]!r}")
     else:
         check(m is None, f"no man page built: --help names none: {out[:300]!r}")
+    # The top-level list: a line or two per command, details in `maglead COMMAND --help`.
+    env80 = dict(os.environ, COLUMNS="80")
+    _, out, _ = run("--help", env=env80)
+    listed = out.split("Subcommands:\n", 1)[-1].split("\n")
+    at = next((i for i, l in enumerate(listed) if l.startswith("  inspect ")), None)
+    rest = listed[at + 1:] if at is not None else []
+    entry = 1 + next((i for i, l in enumerate(rest) if not l.startswith(" " * 6)), len(rest))
+    check(len(out.split("\n")) <= 45 and at is not None and entry <= 2,
+          f"maglead --help at 80 columns: {len(out.splitlines())} lines, inspect's entry {entry}")
+    # serve --help: every continuation of an option's description under its description column.
+    _, out, _ = run("serve", "--help", env=env80)
+    lines = out.split("\n")
+    unit = next(i for i, l in enumerate(lines) if l.lstrip().startswith("--unit "))
+    watchdog_at = next(i for i, l in enumerate(lines) if l.lstrip().startswith("--watchdog "))
+    indent = lambda l: len(l) - len(l.lstrip(" "))  # noqa: E731
+    check(indent(lines[unit + 1]) == 32 and lines[unit].find("Unit id") == 32,
+          f"serve --help: --unit continues under its description: {lines[unit:unit + 2]!r}")
+    below = lines[watchdog_at + 1:watchdog_at + 4]
+    check(all(indent(l) == 30 for l in below),
+          f"serve --help: --watchdog's description lines all at column 30: {below!r}")
     # MAGLEAD_CONFIG naming no directory: said, with what to do.
     absent = os.path.join(WORK, "absent")
     rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "1s", "-o",

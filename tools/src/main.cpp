@@ -141,17 +141,38 @@ void usage_error(const CLI::App& root, const CLI::ParseError& e) {
                path_of(at).c_str());
 }
 
-/// One help line at most `width` columns: broken at spaces, each continuation under the line's
-/// description (the text after the first run of two or more spaces), else two columns in.
-std::string wrap_help_line(const std::string& line, std::size_t width) {
+/// One help line at most `width` columns, broken at spaces, each continuation under the line's
+/// description: in an entry (2 columns in, 4 in an option group) where CLI11 padded the name to
+/// `column`; in a line of its own deeper in (a description under a name too long for the
+/// column, or a list inside one), at its start or past its first run of two spaces; else two
+/// columns in.
+std::string wrap_help_line(const std::string& line, std::size_t width, std::size_t column) {
   constexpr std::size_t kLeastDescription = 24;  // a narrower column reads worse than a wide one
+  constexpr std::size_t kEntryIndent = 4;        // an option group's entries sit 2 deeper
   const std::size_t lead = line.find_first_not_of(' ');
   if (lead == std::string::npos) return line;
+  std::size_t desc = std::string::npos;
+  const std::size_t padded = lead + column - 2;  // CLI11 counts the entry's 2 columns in
+  if (lead >= 2 && lead <= kEntryIndent && padded < line.size() && line[padded - 1] == ' ' &&
+      line[padded] != ' ')
+    desc = padded;
   const std::size_t gap = line.find("  ", lead);
-  const std::size_t desc = gap == std::string::npos ? gap : line.find_first_not_of(' ', gap);
+  if (desc == std::string::npos && gap != std::string::npos)
+    desc = line.find_first_not_of(' ', gap);
+  else if (desc == std::string::npos && lead > kEntryIndent)
+    desc = lead;
   std::size_t indent = lead + 2;
   if (desc != std::string::npos && desc + kLeastDescription <= width) indent = desc;
   return maglead::cli::wrapped(line, indent, width);
+}
+
+/// A command's line in its parent's list: its description up to the first clause break (". ",
+/// "; ", ": ", " ("), so the list stays a line or two per command; `maglead COMMAND --help`
+/// gives the whole.
+std::string summary_of(const std::string& description) {
+  std::size_t end = description.size();
+  for (const char* brk : {". ", "; ", ": ", " ("}) end = std::min(end, description.find(brk));
+  return description.substr(0, end);
 }
 
 /// The width --help wraps to: $COLUMNS when it is a number, as for ls and man (`COLUMNS=80
@@ -170,6 +191,13 @@ std::size_t help_columns() {
 /// whole.
 class WrappingFormatter : public CLI::Formatter {
  public:
+  std::string make_subcommand(const CLI::App* sub) const override {
+    std::stringstream out;
+    CLI::detail::format_help(out, sub->get_display_name(true), summary_of(sub->get_description()),
+                             get_column_width());
+    return out.str();
+  }
+
   std::string make_help(const CLI::App* app, std::string name,
                         CLI::AppFormatMode mode) const override {
     std::string text = CLI::Formatter::make_help(app, std::move(name), mode);
@@ -179,7 +207,7 @@ class WrappingFormatter : public CLI::Formatter {
     std::size_t pos = 0;
     while (pos < text.size()) {
       const std::size_t end = std::min(text.find('\n', pos), text.size());
-      out += wrap_help_line(text.substr(pos, end - pos), width) + "\n";
+      out += wrap_help_line(text.substr(pos, end - pos), width, get_column_width()) + "\n";
       pos = end + 1;
     }
     return out;
