@@ -382,6 +382,15 @@ def file_errors():
     rc, _, err = run("serve", "--config", cfg, "--port", "0", "--duration", "1s")
     check(rc == 2 and re.search(r"actuator\.toml:\d+:27: \[control\] unknown key 'force_reached_tolerance'", err)
           is not None, f"unknown [control] key: {err.strip()!r}")
+    # Every command that reads the configuration refuses it, not only those that run the controller.
+    moved = os.path.join(WORK, "moved.csv")
+    for cmd in (["simulate", "--scenario", "hand-push", "--duration", "1s", "-o", os.path.join(WORK, "c.csv")],
+                ["analyze", moved, "-o", os.path.join(WORK, "c_out"), "--no-twin-check"],
+                ["report", moved, "-o", os.path.join(WORK, "c_report")], ["twin-check", moved], ["inspect", moved],
+                ["calibrate", moved, "-o", os.path.join(WORK, "c_cal.toml")]):
+        rc, _, err = run(*cmd, "--config", cfg)
+        check(rc == 2 and "[control] unknown key 'force_reached_tolerance'" in err,
+              f"{cmd[0]} refuses an unknown [control] key: {err.strip()[-200:]!r}")
     # [reference_move]: read by serve (its banner says so), bad values refused at their line.
     def with_reference_move(name, old, new):
         cfg = copy_config(name)
