@@ -287,6 +287,16 @@ def front_door():
     rc, _, err = run("serve", "--port", "0", "--duration", "0.3s", "--sim-start", "2in")
     check(rc == 2 and "unit 'in' is not one of m, mm" in err and "--sim-start 0.02 or 20mm" in err,
           f"--sim-start 2in: {err.strip()!r}")
+    # An effect id misspelt: the closest one; a force far past the coupling: refused with its range.
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "1s", "--effect", "ofset=2",
+                     "-o", os.path.join(WORK, "ofset.csv"))
+    check(rc == 2 and "unknown effect 'ofset'; did you mean 'offset'?" in err and "viscous_friction" not in err,
+          f"--effect ofset=2: {err.strip()!r}")
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "1s", "--effect", "offset=1e9",
+                     "-o", os.path.join(WORK, "offset_1e9.csv"))
+    check(rc == 2 and re.search(r"effect 'offset' = 1e\+09 N is beyond 10 x the coupling's peak force "
+                                r"[\d.]+ N: .* within -[\d.]+ \.\. [\d.]+ N", err) is not None,
+          f"--effect offset=1e9: {err.strip()!r}")
 
 
 def relative_paths_and_progress():

@@ -553,8 +553,19 @@ void apply_plant_effects(const std::string& option, const std::vector<std::strin
     const std::string name = e.substr(0, eq), text = e.substr(eq + 1);
     // A value may carry exactly its effect's unit (offset=2N), as set's values carry theirs.
     std::string unit;
-    for (const auto& k : plant_effect_keys())
+    std::vector<std::string> names;
+    for (const auto& k : plant_effect_keys()) {
       if (k.name == name) unit = k.unit;
+      names.push_back(k.name);
+    }
+    if (unit.empty()) {  // a typo: the closest id, not the whole list
+      const std::string guess = closest_match(name, names);
+      throw CLI::ValidationError(
+          option, "unknown effect '" + name + "'" +
+                      (guess.empty() ? "" : "; did you mean '" + guess + "'?") + " ('maglead " +
+                      (option == "--effect" ? "simulate" : "serve") + " --help' lists the " +
+                      std::to_string(names.size()) + " effects)");
+    }
     double v = 0;
     std::size_t used = 0;
     try {
