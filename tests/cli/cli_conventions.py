@@ -12,6 +12,7 @@ import pty
 import re
 import select
 import shutil
+import signal
 import struct
 import subprocess
 import sys
@@ -74,7 +75,7 @@ def copy_config(name):
 
 
 def main():
-    watchdog(240)
+    watchdog(300)
     shutil.rmtree(WORK, ignore_errors=True)
     os.makedirs(WORK)
     version_and_usage()
@@ -297,6 +298,25 @@ def front_door():
     check(rc == 2 and re.search(r"effect 'offset' = 1e\+09 N is beyond 10 x the coupling's peak force "
                                 r"[\d.]+ N: .* within -[\d.]+ \.\. [\d.]+ N", err) is not None,
           f"--effect offset=1e9: {err.strip()!r}")
+    serve_overruns()
+
+
+def serve_overruns():
+    """Loop overruns under load: the first said with what it means, later ones summed, not a line
+    a second. Stopping serve twice (SIGSTOP) makes a late cycle each time."""
+    p = subprocess.Popen([MAGLEAD, "serve", "--port", "0", "--duration", "6s"], stdout=subprocess.PIPE,
+                         stderr=subprocess.STDOUT, text=True)
+    for _ in range(2):
+        time.sleep(1.5)
+        p.send_signal(signal.SIGSTOP)
+        time.sleep(0.2)
+        p.send_signal(signal.SIGCONT)
+    out, _ = p.communicate(timeout=60)
+    said = [l for l in out.splitlines() if "overrun" in l and not l.startswith("maglead serve: stopped")]
+    m = re.search(r"stopped after \d+ cycles, (\d+) overruns", out)
+    check(p.returncode == 0 and m is not None and int(m.group(1)) >= 2 and len(said) == 1
+          and "A late cycle runs with the period it measured" in said[0],
+          f"serve says the first overrun and what it means, not each second's: {said!r} {out[-200:]!r}")
 
 
 def relative_paths_and_progress():

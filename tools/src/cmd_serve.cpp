@@ -375,30 +375,52 @@ void say_alarm_change(const controller::Snapshot& s, AlarmSeen& seen) {
   seen.alarm = alarm;
 }
 
-/// Until Ctrl-C (or SIGTERM), or for duration_s when it is positive. Loop overruns are reported
-/// as they happen (at most once a second), not only at exit.
+/// Loop overruns said on serve's terminal: the first as it happens, with what it means, then
+/// at most one summary per kOverrunSummary with the count since, so a loaded machine does not
+/// fill the terminal (a line a second scrolled the start-up lines away within a minute).
+class OverrunReport {
+ public:
+  void operator()(const controller::Snapshot& snap, std::chrono::steady_clock::time_point now) {
+    constexpr std::chrono::seconds kOverrunSummary{30};  // a trend, not a stream
+    if (snap.overrun_count == reported_) return;
+    if (reported_ == 0) {
+      say("loop overrun: a cycle started %.0f µs late. A late cycle runs with the period it "
+          "measured (after a stall the missed ones are skipped, not bunched), so control stays "
+          "consistent but reacts that much later: now and then is harmless; steady overruns mean "
+          "the machine is too busy for the control loop (realtime in "
+          "network.toml). Further ones are summed every %lld s.",
+          snap.late_max_s * 1e6, static_cast<long long>(kOverrunSummary.count()));
+    } else if (now - last_ >= kOverrunSummary) {
+      say("%llu loop overrun(s) in the last %.0f s (%llu in all), the worst start since serve "
+          "started %.0f µs late",
+          static_cast<unsigned long long>(snap.overrun_count - reported_),
+          std::chrono::duration<double>(now - last_).count(),
+          static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
+    } else {
+      return;
+    }
+    reported_ = snap.overrun_count;
+    last_ = now;
+  }
+
+ private:
+  std::uint64_t reported_ = 0;
+  std::chrono::steady_clock::time_point last_;
+};
+
+/// Until Ctrl-C (or SIGTERM), or for duration_s when it is positive; faults and loop overruns
+/// are said as they happen (OverrunReport), not only at exit.
 void wait_for_stop(double duration_s, runtime::Service& service) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
-  auto last_report = t0;
-  std::uint64_t reported = 0;
   AlarmSeen alarm_seen;
+  OverrunReport overruns;
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const auto now = Clock::now();
-    say_alarm_change(service.controller().snapshot(), alarm_seen);
-    if (now - last_report >= std::chrono::seconds(1)) {
-      const auto snap = service.controller().snapshot();
-      if (snap.overrun_count > reported) {
-        say("%llu loop overrun(s) in the last second (%llu in all), the worst start since "
-            "serve started %.0f µs late",
-            static_cast<unsigned long long>(snap.overrun_count - reported),
-            static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
-        std::fflush(stdout);
-        reported = snap.overrun_count;
-      }
-      last_report = now;
-    }
+    const auto snap = service.controller().snapshot();
+    say_alarm_change(snap, alarm_seen);
+    overruns(snap, now);
     if (duration_s > 0 && std::chrono::duration<double>(now - t0).count() >= duration_s) break;
   }
 }
