@@ -253,12 +253,11 @@ def front_door():
     # The top-level list: a line or two per command, details in `maglead COMMAND --help`.
     env80 = dict(os.environ, COLUMNS="80")
     _, out, _ = run("--help", env=env80)
-    listed = out.split("Subcommands:\n", 1)[-1].split("\n")
-    at = next((i for i, l in enumerate(listed) if l.startswith("  inspect ")), None)
-    rest = listed[at + 1:] if at is not None else []
-    entry = 1 + next((i for i, l in enumerate(rest) if not l.startswith(" " * 6)), len(rest))
-    check(len(out.split("\n")) <= 45 and at is not None and entry <= 2,
-          f"maglead --help at 80 columns: {len(out.splitlines())} lines, inspect's entry {entry}")
+    listed = [l for l in out.split("Subcommands:\n", 1)[-1].split("\n") if l]
+    starts = [i for i, l in enumerate(listed) if not l.startswith(" " * 6)] + [len(listed)]
+    entries = {listed[a].split()[0]: b - a for a, b in zip(starts, starts[1:])}
+    check(len(out.split("\n")) <= 45 and "inspect" in entries and max(entries.values()) <= 2,
+          f"maglead --help at 80 columns: {len(out.splitlines())} lines, entries {entries}")
     # serve --help: every continuation of an option's description under its description column.
     _, out, _ = run("serve", "--help", env=env80)
     lines = out.split("\n")

@@ -167,12 +167,26 @@ std::string wrap_help_line(const std::string& line, std::size_t width, std::size
 }
 
 /// A command's line in its parent's list: its description up to the first clause break (". ",
-/// "; ", ": ", " ("), so the list stays a line or two per command; `maglead COMMAND --help`
-/// gives the whole.
-std::string summary_of(const std::string& description) {
+/// "; ", ": ", " ("), shortened at its last ", " or " and " while it would take more than two
+/// lines at 80 columns beside `column`; `maglead COMMAND --help` gives the whole.
+std::string summary_of(const std::string& description, std::size_t column) {
+  constexpr std::size_t kWidth = 80;  // the narrowest terminal the list is kept short for
+  constexpr std::size_t kMostLines = 2;
   std::size_t end = description.size();
   for (const char* brk : {". ", "; ", ": ", " ("}) end = std::min(end, description.find(brk));
-  return description.substr(0, end);
+  std::string text = description.substr(0, end);
+  const auto lines = [&](const std::string& t) {
+    const std::string w = maglead::cli::wrapped(t, 0, kWidth - column);
+    return 1 + static_cast<std::size_t>(std::count(w.begin(), w.end(), '\n'));
+  };
+  while (lines(text) > kMostLines) {
+    std::size_t cut = 0;
+    for (const char* brk : {", ", " and "})
+      if (const std::size_t at = text.rfind(brk); at != std::string::npos) cut = std::max(cut, at);
+    if (cut == 0) break;
+    text.resize(cut);
+  }
+  return text;
 }
 
 /// The width --help wraps to: $COLUMNS when it is a number, as for ls and man (`COLUMNS=80
@@ -193,7 +207,8 @@ class WrappingFormatter : public CLI::Formatter {
  public:
   std::string make_subcommand(const CLI::App* sub) const override {
     std::stringstream out;
-    CLI::detail::format_help(out, sub->get_display_name(true), summary_of(sub->get_description()),
+    CLI::detail::format_help(out, sub->get_display_name(true),
+                             summary_of(sub->get_description(), get_column_width()),
                              get_column_width());
     return out.str();
   }
