@@ -19,7 +19,7 @@ import sys
 
 MAGLEAD, OUT = sys.argv[1], sys.argv[2]
 # The sentence of `maglead --help` that points to this page: left out of the page itself.
-POINTER = re.compile(r"\s*See man maglead for every command\.")
+POINTER = re.compile(r"\s*See man (maglead|-l \S+) for every command\.")
 SEE_ALSO = r"""[SEE ALSO]
 The README and the Modbus register map are installed in
 .IR share/doc/maglead

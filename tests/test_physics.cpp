@@ -222,6 +222,22 @@ TEST(CalibrationFile, RoundTripsAndRejectsBadContent) {
       EXPECT_NE(std::string(e.what()).find(said), std::string::npos) << e.what();
     }
   }
+  // The file's other tables are checked by whoever reads it, not only by serve: a misspelt key
+  // under [control] or [reference_move], or a misspelt table, is refused at its line.
+  for (const auto& [text, said] :
+       {std::pair{"[control]\nstroke_maxx_m = 0.04\n",
+                  ":3:17: [control] unknown key 'stroke_maxx_m'"},
+        {"[reference_move]\nslow_ms = 0.01\n", ":3:11: [reference_move] unknown key 'slow_ms'"},
+        {"[reference_move]\nslow_m_s = 5\n", ":3:12: [reference_move] slow_m_s must be"},
+        {"[contrl]\nreached_dwell_s = 1\n", "actuator.toml unknown key 'contrl'"}}) {
+    std::ofstream(path) << "[actuator]\n" << text;
+    try {
+      load_actuator_params(path);
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(said), std::string::npos) << e.what();
+    }
+  }
 }
 
 namespace {

@@ -84,10 +84,11 @@ void set_plant_effect(PlantEffects& effects, const std::string& name, double val
     if (name == e.name) {
       if (value < e.min || value > e.max) {
         char range[96];
+        const std::string unit = std::string(e.unit) == "1" ? "(a ratio)" : e.unit;
         if (std::isinf(e.max))
-          std::snprintf(range, sizeof range, "at least %g", e.min);
+          std::snprintf(range, sizeof range, "at least %g %s", e.min, unit.c_str());
         else
-          std::snprintf(range, sizeof range, "between %g and %g", e.min, e.max);
+          std::snprintf(range, sizeof range, "between %g and %g %s", e.min, e.max, unit.c_str());
         throw std::invalid_argument("effect '" + name + "': value must be " + range);
       }
       effects.*(e.field) = value;
@@ -99,7 +100,46 @@ void set_plant_effect(PlantEffects& effects, const std::string& name, double val
   throw std::invalid_argument("unknown effect '" + name + "' (known: " + known + ")");
 }
 
-void check_plant_totals(const PlantEffects& e, const ActuatorParams& a) {
+namespace {
+
+/// Refuses force effects beyond kPeaks × the coupling's peak force, where they stop describing
+/// a bench: the nut only steps out, lead after lead (offset=1e9 stepped out 10^8 leads).
+void check_plant_forces(const PlantEffects& e, const ActuatorParams& a, double coupling_peak_n) {
+  constexpr double kPeaks = 10.0;  // well past a step-out, which an effect may want to provoke
+  if (!(coupling_peak_n > 0)) return;
+  const double bound_n = kPeaks * coupling_peak_n;
+  const double half_stroke_m = 0.5 * (a.stroke_max_m - a.stroke_min_m);
+  struct Force {
+    const char* effect;
+    double value, force_n;
+    const char* unit;
+  };
+  const Force forces[] = {
+      {"coulomb_friction", e.coulomb_friction_n, e.coulomb_friction_n, "N"},
+      {"asymmetric_friction", e.asymmetric_friction_n, e.asymmetric_friction_n, "N"},
+      {"stribeck_friction", e.stribeck_friction_n, e.stribeck_friction_n, "N"},
+      {"offset", e.offset_n, e.offset_n, "N"},
+      {"position_ripple", e.position_ripple_n, e.position_ripple_n, "N"},
+      {"external_disturbance", e.external_disturbance_n, e.external_disturbance_n, "N"},
+      // A spring's force at the stroke ends, half a stroke from its rest at mid-stroke.
+      {"spring", e.spring_n_per_m, e.spring_n_per_m * half_stroke_m, "N/m"},
+  };
+  for (const auto& f : forces) {
+    if (std::abs(f.force_n) <= bound_n) continue;
+    const double limit = f.force_n == f.value ? bound_n : bound_n / half_stroke_m;
+    char msg[320];
+    std::snprintf(msg, sizeof msg,
+                  "effect '%s' = %g %s is beyond %g x the coupling's peak force %.3g N: the nut "
+                  "would only step out, lead after lead; type a value within -%.4g .. %.4g %s",
+                  f.effect, f.value, f.unit, kPeaks, coupling_peak_n, limit, limit, f.unit);
+    throw std::invalid_argument(msg);
+  }
+}
+
+}  // namespace
+
+void check_plant_totals(const PlantEffects& e, const ActuatorParams& a, double coupling_peak_n) {
+  check_plant_forces(e, a, coupling_peak_n);
   struct Total {
     const char* effect;
     double change, total, least;

@@ -70,6 +70,13 @@ ActuatorParams load_actuator_params(const std::string& path) {
   if (a.safe_force_fraction > 1.0)
     config::fail(path, t.get("safe_force_fraction"),
                  "[actuator] safe_force_fraction must be at most 1");
+  // The file's other tables, checked here whoever reads the file: a misspelt key under [control]
+  // is refused by analyze as by serve (docs/configuration.md: any unknown key is refused).
+  config::check_keys(path, root, "actuator.toml", {"actuator", "reference_move", "control"});
+  controller::ControllerConfig control;
+  settings::read_control_section(path, control);
+  controller::ReferenceMoveConfig move;
+  settings::read_reference_move_section(path, a, move);
   return a;
 }
 

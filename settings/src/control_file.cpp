@@ -24,6 +24,10 @@ void serve_model_terms(const twin::TwinModel& model, controller::ControllerConfi
 void load_control_settings(const std::string& config_dir, controller::ControllerConfig& r) {
   const std::string path = config_file(config_dir, "actuator.toml");
   if (!std::filesystem::exists(path)) return;
+  read_control_section(path, r);
+}
+
+void read_control_section(const std::string& path, controller::ControllerConfig& r) {
   const toml::table root = config::parse_file(path);
   const toml::table* t = config::section(path, root, "control");
   if (!t) return;
@@ -79,6 +83,11 @@ void load_reference_move(const std::string& config_dir, const ActuatorParams& ac
                          controller::ReferenceMoveConfig& move) {
   const std::string path = config_file(config_dir, "actuator.toml");
   if (!std::filesystem::exists(path)) return;
+  read_reference_move_section(path, actuator, move);
+}
+
+void read_reference_move_section(const std::string& path, const ActuatorParams& actuator,
+                                 controller::ReferenceMoveConfig& move) {
   const toml::table root = config::parse_file(path);
   const toml::table* t = config::section(path, root, "reference_move");
   if (!t) return;

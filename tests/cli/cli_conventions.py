@@ -12,6 +12,7 @@ import pty
 import re
 import select
 import shutil
+import signal
 import struct
 import subprocess
 import sys
@@ -74,10 +75,11 @@ def copy_config(name):
 
 
 def main():
-    watchdog(240)
+    watchdog(300)
     shutil.rmtree(WORK, ignore_errors=True)
     os.makedirs(WORK)
     version_and_usage()
+    front_door()
     relative_paths_and_progress()
     file_errors()
     against_a_server()
@@ -224,6 +226,98 @@ def version_and_usage():
           "analyze into a pipe keeps each line whole")
 
 
+def front_door():
+    """A newcomer's first commands at an 80-column terminal."""
+    unset = {k: v for k, v in os.environ.items() if k != "COLUMNS"}
+    # `maglead help` and `maglead version` mean the flags; the command list wraps at spaces.
+    for word, flag in (("help", "--help"), ("version", "--version")):
+        rc, _, err = run(word)
+        check(rc == 2 and f"unknown command '{word}'; did you mean 'maglead {flag}'?" in err,
+              f"maglead {word} points to {flag}: {err.strip()!r}")
+    rc, text = run_in_pty("help", columns=80)
+    lines = [l for l in text.replace("\r", "").split("\n") if l]
+    words = [w.strip(",") for w in text.split()]
+    check(rc == 2 and all(len(l) <= 80 for l in lines) and "twin-check" in words and "analysis-rules" in words,
+          f"maglead help on 80 columns: no line wider, no command broken: {lines!r}")
+    # --help names a man page man can open: in a build tree, by its path (man maglead has none).
+    repo = os.path.dirname(os.path.dirname(os.path.dirname(MAGLEAD)))
+    page = os.path.join(os.path.dirname(os.path.dirname(MAGLEAD)), "man", "maglead.1.gz")
+    _, out, _ = run("--help", cwd=repo, env=unset)
+    m = re.search(r"See man (?:-l )?(\S+) for every command", out)
+    if os.path.exists(page):
+        shown = os.path.join(repo, m.group(1)) if m else ""
+        check(os.path.exists(shown) and os.path.samefile(shown, page),
+              f"--help names the build tree's man page by a path that opens it: {out[:300]!r}")
+    else:
+        check(m is None, f"no man page built: --help names none: {out[:300]!r}")
+    # The top-level list: a line or two per command, details in `maglead COMMAND --help`.
+    env80 = dict(os.environ, COLUMNS="80")
+    _, out, _ = run("--help", env=env80)
+    listed = [l for l in out.split("Subcommands:\n", 1)[-1].split("\n") if l]
+    starts = [i for i, l in enumerate(listed) if not l.startswith(" " * 6)] + [len(listed)]
+    entries = {listed[a].split()[0]: b - a for a, b in zip(starts, starts[1:])}
+    check(len(out.split("\n")) <= 45 and "inspect" in entries and max(entries.values()) <= 2,
+          f"maglead --help at 80 columns: {len(out.splitlines())} lines, entries {entries}")
+    # serve --help: every continuation of an option's description under its description column.
+    _, out, _ = run("serve", "--help", env=env80)
+    lines = out.split("\n")
+    unit = next(i for i, l in enumerate(lines) if l.lstrip().startswith("--unit "))
+    watchdog_at = next(i for i, l in enumerate(lines) if l.lstrip().startswith("--watchdog "))
+    indent = lambda l: len(l) - len(l.lstrip(" "))  # noqa: E731
+    check(indent(lines[unit + 1]) == 32 and lines[unit].find("Unit id") == 32,
+          f"serve --help: --unit continues under its description: {lines[unit:unit + 2]!r}")
+    below = lines[watchdog_at + 1:watchdog_at + 4]
+    check(all(indent(l) == 30 for l in below),
+          f"serve --help: --watchdog's description lines all at column 30: {below!r}")
+    # MAGLEAD_CONFIG naming no directory: said, with what to do.
+    absent = os.path.join(WORK, "absent")
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "1s", "-o",
+                     os.path.join(WORK, "absent.csv"), env=dict(os.environ, MAGLEAD_CONFIG=absent))
+    check(rc == 2 and f"no configuration directory '{absent}' (from MAGLEAD_CONFIG; unset it or fix it, "
+          "or pass --config DIR)" in err, f"MAGLEAD_CONFIG absent: {err.strip()!r}")
+    # serve's lengths and times take set's units; a bare number keeps the option's unit.
+    for opts in (["--sim-start", "20mm"], ["--sim-spring-anchor", "25 mm"], ["--watchdog", "0.5s"],
+                 ["--frame-timeout", "500ms"], ["--sim-spring", "2000N/m"]):
+        rc, _, err = run("serve", "--port", "0", "--duration", "0.3s", *opts)
+        check(rc == 0, f"serve {' '.join(opts)}: {err.strip()[-300:]!r}")
+    rc, _, err = run("serve", "--port", "0", "--duration", "0.3s", "--sim-start", "45mm")
+    check(rc == 2 and "0.045 m (45 mm) must lie within the stroke" in err, f"--sim-start 45mm: {err.strip()!r}")
+    rc, _, err = run("serve", "--port", "0", "--duration", "0.3s", "--watchdog", "70s")
+    check(rc == 2 and "70000 ms is outside 0 .. 60000 ms" in err, f"--watchdog 70s: {err.strip()!r}")
+    rc, _, err = run("serve", "--port", "0", "--duration", "0.3s", "--sim-start", "2in")
+    check(rc == 2 and "unit 'in' is not one of m, mm" in err and "--sim-start 0.02 or 20mm" in err,
+          f"--sim-start 2in: {err.strip()!r}")
+    # An effect id misspelt: the closest one; a force far past the coupling: refused with its range.
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "1s", "--effect", "ofset=2",
+                     "-o", os.path.join(WORK, "ofset.csv"))
+    check(rc == 2 and "unknown effect 'ofset'; did you mean 'offset'?" in err and "viscous_friction" not in err,
+          f"--effect ofset=2: {err.strip()!r}")
+    rc, _, err = run("simulate", "--scenario", "hand-push", "--duration", "1s", "--effect", "offset=1e9",
+                     "-o", os.path.join(WORK, "offset_1e9.csv"))
+    check(rc == 2 and re.search(r"effect 'offset' = 1e\+09 N is beyond 10 x the coupling's peak force "
+                                r"[\d.]+ N: .* within -[\d.]+ \.\. [\d.]+ N", err) is not None,
+          f"--effect offset=1e9: {err.strip()!r}")
+    serve_overruns()
+
+
+def serve_overruns():
+    """Loop overruns under load: the first said with what it means, later ones summed, not a line
+    a second. Stopping serve twice (SIGSTOP) makes a late cycle each time."""
+    p = subprocess.Popen([MAGLEAD, "serve", "--port", "0", "--duration", "6s"], stdout=subprocess.PIPE,
+                         stderr=subprocess.STDOUT, text=True)
+    for _ in range(2):
+        time.sleep(1.5)
+        p.send_signal(signal.SIGSTOP)
+        time.sleep(0.2)
+        p.send_signal(signal.SIGCONT)
+    out, _ = p.communicate(timeout=60)
+    said = [l for l in out.splitlines() if "overrun" in l and not l.startswith("maglead serve: stopped")]
+    m = re.search(r"stopped after \d+ cycles, (\d+) overruns", out)
+    check(p.returncode == 0 and m is not None and int(m.group(1)) >= 2 and len(said) == 1
+          and "A late cycle runs with the period it measured" in said[0],
+          f"serve says the first overrun and what it means, not each second's: {said!r} {out[-200:]!r}")
+
+
 def relative_paths_and_progress():
     # From a directory that is neither the source nor the build tree, every path is relative to it.
     elsewhere = os.path.join(WORK, "elsewhere")
@@ -317,6 +411,15 @@ def file_errors():
     rc, _, err = run("serve", "--config", cfg, "--port", "0", "--duration", "1s")
     check(rc == 2 and re.search(r"actuator\.toml:\d+:27: \[control\] unknown key 'force_reached_tolerance'", err)
           is not None, f"unknown [control] key: {err.strip()!r}")
+    # Every command that reads the configuration refuses it, not only those that run the controller.
+    moved = os.path.join(WORK, "moved.csv")
+    for cmd in (["simulate", "--scenario", "hand-push", "--duration", "1s", "-o", os.path.join(WORK, "c.csv")],
+                ["analyze", moved, "-o", os.path.join(WORK, "c_out"), "--no-twin-check"],
+                ["report", moved, "-o", os.path.join(WORK, "c_report")], ["twin-check", moved], ["inspect", moved],
+                ["calibrate", moved, "-o", os.path.join(WORK, "c_cal.toml")]):
+        rc, _, err = run(*cmd, "--config", cfg)
+        check(rc == 2 and "[control] unknown key 'force_reached_tolerance'" in err,
+              f"{cmd[0]} refuses an unknown [control] key: {err.strip()[-200:]!r}")
     # [reference_move]: read by serve (its banner says so), bad values refused at their line.
     def with_reference_move(name, old, new):
         cfg = copy_config(name)

@@ -95,6 +95,10 @@ def main():
     man = os.path.join(prefix, "share", "man", "man1", "maglead.1.gz")
     page = gzip.open(man, "rt").read() if os.path.exists(man) else ""
     check(".TH MAGLEAD \"1\"" in page and ".SH COMMANDS" in page, "installed share/man/man1/maglead.1.gz, maglead(1)")
+    # Outside /usr, man's own path may not hold the prefix: --help names the page by its path.
+    r = sh(binary, "--help", cwd="/", env={k: v for k, v in os.environ.items() if k != "COLUMNS"})
+    check(f"See man -l {man} for every command." in r.stdout,
+          f"installed --help names the installed man page: {r.stdout[:400]!r}")
 
     # 2. The .deb.
     pkg = os.path.join(WORK, "pkg")

@@ -1,5 +1,6 @@
 #include "cli_common.hpp"
 
+#include "maglead/operator/client.hpp"
 #include "maglead/report/plot.hpp"
 
 #include <sys/ioctl.h>
@@ -71,7 +72,15 @@ std::string replacing_note(const std::string& path, const std::string& what) {
 std::string missing_config_hint(const std::string& error) {
   const std::string dir = default_config_dir();
   std::error_code ec;
-  if (std::getenv("MAGLEAD_CONFIG") != nullptr ||
+  const char* env = std::getenv("MAGLEAD_CONFIG");
+  // The directory came from the environment, not from anything typed: say where it came from.
+  if (env != nullptr && *env != '\0' && error.rfind(dir + "/", 0) == 0)
+    return std::filesystem::is_directory(dir, ec)
+               ? "\n(the configuration directory '" + dir +
+                     "' comes from MAGLEAD_CONFIG; unset it or fix it, or pass --config DIR)"
+               : "\nno configuration directory '" + dir +
+                     "' (from MAGLEAD_CONFIG; unset it or fix it, or pass --config DIR)";
+  if (env != nullptr ||
       std::filesystem::exists(std::filesystem::path(dir) / "calibration.toml", ec) ||
       error.rfind(dir + "/", 0) != 0)
     return "";
@@ -109,6 +118,33 @@ CLI::Validator number_in(const NumberRange& range) {
                       range.lo, range.hi);
         return text + unit + " is " + bounds + unit +
                (range.why.empty() ? "" : " (" + range.why + ")") + type;
+      },
+      "");  // no name: the option's own type stays in --help
+}
+
+CLI::Validator quantity_in(const Quantity& q) {
+  return CLI::Validator(
+      [q](std::string& text) {
+        const std::string type = ": type e.g. " + q.example;
+        char* end = nullptr;
+        std::strtod(text.c_str(), &end);
+        const auto used = static_cast<std::size_t>(end - text.c_str());
+        std::string rest = text.substr(used);
+        rest.erase(std::remove(rest.begin(), rest.end(), ' '), rest.end());
+        if (used > 0 && (rest.empty() || rest == q.unit)) {  // in the option's unit
+          text.resize(used);
+          return std::string();
+        }
+        if (q.si_unit.empty()) return "'" + text + "' is not a number of " + q.unit + type;
+        try {  // set's vocabulary: 20mm, 500ms, 0.5s
+          char converted[32];
+          std::snprintf(converted, sizeof converted, "%.17g",
+                        op::parse_quantity(text, q.si_unit) / q.si_per_unit);
+          text = converted;
+          return std::string();
+        } catch (const op::ClientError& e) {
+          return std::string(e.what()) + " (" + q.unit + " when no unit is typed)" + type;
+        }
       },
       "");  // no name: the option's own type stays in --help
 }
@@ -517,8 +553,19 @@ void apply_plant_effects(const std::string& option, const std::vector<std::strin
     const std::string name = e.substr(0, eq), text = e.substr(eq + 1);
     // A value may carry exactly its effect's unit (offset=2N), as set's values carry theirs.
     std::string unit;
-    for (const auto& k : plant_effect_keys())
+    std::vector<std::string> names;
+    for (const auto& k : plant_effect_keys()) {
       if (k.name == name) unit = k.unit;
+      names.push_back(k.name);
+    }
+    if (unit.empty()) {  // a typo: the closest id, not the whole list
+      const std::string guess = closest_match(name, names);
+      throw CLI::ValidationError(
+          option, "unknown effect '" + name + "'" +
+                      (guess.empty() ? "" : "; did you mean '" + guess + "'?") + " ('maglead " +
+                      (option == "--effect" ? "simulate" : "serve") + " --help' lists the " +
+                      std::to_string(names.size()) + " effects)");
+    }
     double v = 0;
     std::size_t used = 0;
     try {

@@ -27,8 +27,9 @@ std::vector<std::string> config_dir_candidates();
 /// " (replacing WHAT)" when `path` exists, else "": said beside "wrote PATH", so an
 /// earlier recording or result overwritten is never a surprise. Ask before writing.
 std::string replacing_note(const std::string& path, const std::string& what = "the one there");
-/// For an error naming a missing file of the default configuration directory when no candidate
-/// had one: where maglead looked and what to type; "" otherwise.
+/// For an error naming a file of the default configuration directory: when $MAGLEAD_CONFIG
+/// chose it, that it did (and whether the directory exists); when no candidate had one, where
+/// maglead looked; with what to type. "" otherwise.
 std::string missing_config_hint(const std::string& error);
 /// An option naming an image to write: refused at once (exit 2) unless it ends .png or .jpg, so
 /// nothing is written before the name is found wrong.
@@ -48,6 +49,18 @@ struct NumberRange {
 /// Refuses a value that is not a number or lies outside the range, before any work (exit 2):
 /// "5000 Hz is outside 1 .. 1000 Hz (the loop runs at 1 kHz): type e.g. --rate 100".
 CLI::Validator number_in(const NumberRange& range);
+
+/// A length or time an option takes: a bare number in `unit` ("m", "ms"), or a number with a
+/// unit of set's (20mm, 0.5s) when `si_unit` ("m", "s") is given: `si_per_unit` SI units make
+/// one `unit` (1e-3 for ms). `example`: the option as one would type it, for the error.
+struct Quantity {
+  std::string unit, si_unit;
+  double si_per_unit = 1.0;
+  std::string example;
+};
+/// Rewrites "20mm" to the number in the option's unit (0.02 for metres) before CLI11 converts
+/// it; refuses another unit or no number, saying the option's unit (exit 2).
+CLI::Validator quantity_in(const Quantity& q);
 
 /// "30s", "2min", "500ms", "1h" or a plain number of seconds, as typed after `option`
 /// ("--hold"). Throws CLI::ValidationError naming the option: "--hold: '0s' is not a positive

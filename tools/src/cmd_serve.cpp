@@ -47,10 +47,12 @@ void add_network_options(CLI::App* cmd, ServeOptions& o) {
                 "Connection cap (default 32; at the cap the longest idle one is closed)")
       ->check(CLI::Range(1, 1024));
   g->add_option("--frame-timeout", o.frame_timeout_s,
-                "Seconds a started request may take (default 1.0)")
+                "Seconds a started request may take (default 1.0; 500ms also reads)")
+      ->transform(quantity_in({"s", "s", 1.0, "--frame-timeout 0.5 or 500ms"}))
       ->check(CLI::Range(0.001, 3600.0));
   g->add_option("--idle-timeout", o.idle_timeout_s,
                 "Close idle connections after this many seconds (default 60; 0 never)")
+      ->transform(quantity_in({"s", "s", 1.0, "--idle-timeout 60"}))
       ->check(CLI::Range(0.0, 1e7));
   g->add_option("--allow", o.allow, "Allowed client IPv4 address or a.b.c.d/len (repeatable)");
   g->add_flag("--no-tcp", o.no_tcp, "Do not serve TCP");
@@ -72,11 +74,16 @@ void add_sim_options(CLI::App* cmd, ServeOptions& o) {
   auto* s = cmd->add_option_group("Simulated actuator");
   s->add_option("--sim-seed", o.seed, "Random seed of the simulated plant")->capture_default_str();
   s->add_option("--sim-spring", o.spring_n_per_m, "Load: spring rate to a wall [N/m], 0 = free nut")
+      ->transform(quantity_in({"N/m", "", 1.0, "--sim-spring 2000"}))
       ->check(CLI::Range(0.0, 1e6))
       ->capture_default_str();
-  s->add_option("--sim-spring-anchor", o.spring_anchor_m, "Load: spring free length position [m]")
+  s->add_option("--sim-spring-anchor", o.spring_anchor_m,
+                "Load: spring free length position [m; 20mm also reads]")
+      ->transform(quantity_in({"m", "m", 1.0, "--sim-spring-anchor 0.02 or 20mm"}))
       ->capture_default_str();
-  s->add_option("--sim-start", o.start_pos_m, "Nut position at start [m]")->capture_default_str();
+  s->add_option("--sim-start", o.start_pos_m, "Nut position at start [m; 20mm also reads]")
+      ->transform(quantity_in({"m", "m", 1.0, "--sim-start 0.02 or 20mm"}))
+      ->capture_default_str();
   const std::string effects_help = plant_effects_help(
       "Where the simulated plant differs from the model, NAME=VALUE as simulate --effect "
       "(repeatable):");
@@ -368,30 +375,52 @@ void say_alarm_change(const controller::Snapshot& s, AlarmSeen& seen) {
   seen.alarm = alarm;
 }
 
-/// Until Ctrl-C (or SIGTERM), or for duration_s when it is positive. Loop overruns are reported
-/// as they happen (at most once a second), not only at exit.
+/// Loop overruns said on serve's terminal: the first as it happens, with what it means, then
+/// at most one summary per kOverrunSummary with the count since, so a loaded machine does not
+/// fill the terminal (a line a second scrolled the start-up lines away within a minute).
+class OverrunReport {
+ public:
+  void operator()(const controller::Snapshot& snap, std::chrono::steady_clock::time_point now) {
+    constexpr std::chrono::seconds kOverrunSummary{30};  // a trend, not a stream
+    if (snap.overrun_count == reported_) return;
+    if (reported_ == 0) {
+      say("loop overrun: a cycle started %.0f µs late. A late cycle runs with the period it "
+          "measured (after a stall the missed ones are skipped, not bunched), so control stays "
+          "consistent but reacts that much later: now and then is harmless; steady overruns mean "
+          "the machine is too busy for the control loop (realtime in "
+          "network.toml). Further ones are summed every %lld s.",
+          snap.late_max_s * 1e6, static_cast<long long>(kOverrunSummary.count()));
+    } else if (now - last_ >= kOverrunSummary) {
+      say("%llu loop overrun(s) in the last %.0f s (%llu in all), the worst start since serve "
+          "started %.0f µs late",
+          static_cast<unsigned long long>(snap.overrun_count - reported_),
+          std::chrono::duration<double>(now - last_).count(),
+          static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
+    } else {
+      return;
+    }
+    reported_ = snap.overrun_count;
+    last_ = now;
+  }
+
+ private:
+  std::uint64_t reported_ = 0;
+  std::chrono::steady_clock::time_point last_;
+};
+
+/// Until Ctrl-C (or SIGTERM), or for duration_s when it is positive; faults and loop overruns
+/// are said as they happen (OverrunReport), not only at exit.
 void wait_for_stop(double duration_s, runtime::Service& service) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
-  auto last_report = t0;
-  std::uint64_t reported = 0;
   AlarmSeen alarm_seen;
+  OverrunReport overruns;
   while (!g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const auto now = Clock::now();
-    say_alarm_change(service.controller().snapshot(), alarm_seen);
-    if (now - last_report >= std::chrono::seconds(1)) {
-      const auto snap = service.controller().snapshot();
-      if (snap.overrun_count > reported) {
-        say("%llu loop overrun(s) in the last second (%llu in all), the worst start since "
-            "serve started %.0f µs late",
-            static_cast<unsigned long long>(snap.overrun_count - reported),
-            static_cast<unsigned long long>(snap.overrun_count), snap.late_max_s * 1e6);
-        std::fflush(stdout);
-        reported = snap.overrun_count;
-      }
-      last_report = now;
-    }
+    const auto snap = service.controller().snapshot();
+    say_alarm_change(snap, alarm_seen);
+    overruns(snap, now);
     if (duration_s > 0 && std::chrono::duration<double>(now - t0).count() >= duration_s) break;
   }
 }
@@ -434,10 +463,12 @@ void add_serve(CLI::App& app) {
   cmd->add_flag("--read-only", o->read_only, "Refuse every write (exception 01)");
   cmd->add_flag("--no-twin", o->no_twin, "Run without the digital twin (its registers read 0)");
   cmd->add_option("--watchdog", o->watchdog_ms,
-                  "Communication watchdog at start [ms], 0 = off (default: network.toml's "
-                  "watchdog_ms, shipped 0); the register watchdog_ms (HR 1003), which poll and set "
-                  "show in seconds as watchdog_s")
-      ->check(CLI::Range(0.0, 60000.0));
+                  "Communication watchdog at start [ms; 0.5s also reads], 0 = off (default: "
+                  "network.toml's watchdog_ms, shipped 0); the register watchdog_ms (HR 1003), "
+                  "which poll and set show in seconds as watchdog_s")
+      ->transform(quantity_in({"ms", "s", 1e-3, "--watchdog 500 or 0.5s"}))
+      ->check(
+          number_in({0.0, 60000.0, "ms", "0 = off, at most a minute", "--watchdog 500 or 0.5s"}));
   add_sim_options(cmd, *o);
   add_backend_options(cmd, *o);
   cmd->callback([o] { run_serve(*o); });

@@ -4,7 +4,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -111,12 +113,18 @@ bool explain_unknown(CLI::App& root, int argc, char** argv) {
     }
     std::string list;
     for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
-    const std::string guess = closest_match(tok, names);
-    std::fprintf(
-        stderr, "maglead: unknown command '%s'%s\nusage: %s COMMAND [OPTIONS]   (commands: %s)\n",
-        tok.c_str(),
-        guess.empty() ? "" : ("; did you mean '" + path_of(at) + " " + guess + "'?").c_str(),
-        path_of(at).c_str(), list.c_str());
+    // `maglead help`, `maglead version`: the words other tools take, meant as the flags.
+    std::string guess = closest_match(tok, names);
+    if (tok == "help") guess = "--help";
+    if (tok == "version" && at == &root) guess = "--version";
+    // The command list on its own line, wrapped on a terminal as every error is.
+    std::fprintf(stderr, "%s\n",
+                 maglead::cli::error_text(
+                     "maglead: unknown command '" + tok + "'" +
+                     (guess.empty() ? "" : "; did you mean '" + path_of(at) + " " + guess + "'?") +
+                     "\nusage: " + path_of(at) + " COMMAND [OPTIONS]   ('" + path_of(at) +
+                     " --help' says what each does)\ncommands: " + list)
+                     .c_str());
     return true;
   }
   return false;
@@ -133,17 +141,52 @@ void usage_error(const CLI::App& root, const CLI::ParseError& e) {
                path_of(at).c_str());
 }
 
-/// One help line at most `width` columns: broken at spaces, each continuation under the line's
-/// description (the text after the first run of two or more spaces), else two columns in.
-std::string wrap_help_line(const std::string& line, std::size_t width) {
+/// One help line at most `width` columns, broken at spaces, each continuation under the line's
+/// description: in an entry (2 columns in, 4 in an option group) where CLI11 padded the name to
+/// `column`; in a line of its own deeper in (a description under a name too long for the
+/// column, or a list inside one), at its start or past its first run of two spaces; else two
+/// columns in.
+std::string wrap_help_line(const std::string& line, std::size_t width, std::size_t column) {
   constexpr std::size_t kLeastDescription = 24;  // a narrower column reads worse than a wide one
+  constexpr std::size_t kEntryIndent = 4;        // an option group's entries sit 2 deeper
   const std::size_t lead = line.find_first_not_of(' ');
   if (lead == std::string::npos) return line;
+  std::size_t desc = std::string::npos;
+  const std::size_t padded = lead + column - 2;  // CLI11 counts the entry's 2 columns in
+  if (lead >= 2 && lead <= kEntryIndent && padded < line.size() && line[padded - 1] == ' ' &&
+      line[padded] != ' ')
+    desc = padded;
   const std::size_t gap = line.find("  ", lead);
-  const std::size_t desc = gap == std::string::npos ? gap : line.find_first_not_of(' ', gap);
+  if (desc == std::string::npos && gap != std::string::npos)
+    desc = line.find_first_not_of(' ', gap);
+  else if (desc == std::string::npos && lead > kEntryIndent)
+    desc = lead;
   std::size_t indent = lead + 2;
   if (desc != std::string::npos && desc + kLeastDescription <= width) indent = desc;
   return maglead::cli::wrapped(line, indent, width);
+}
+
+/// A command's line in its parent's list: its description up to the first clause break (". ",
+/// "; ", ": ", " ("), shortened at its last ", " or " and " while it would take more than two
+/// lines at 80 columns beside `column`; `maglead COMMAND --help` gives the whole.
+std::string summary_of(const std::string& description, std::size_t column) {
+  constexpr std::size_t kWidth = 80;  // the narrowest terminal the list is kept short for
+  constexpr std::size_t kMostLines = 2;
+  std::size_t end = description.size();
+  for (const char* brk : {". ", "; ", ": ", " ("}) end = std::min(end, description.find(brk));
+  std::string text = description.substr(0, end);
+  const auto lines = [&](const std::string& t) {
+    const std::string w = maglead::cli::wrapped(t, 0, kWidth - column);
+    return 1 + static_cast<std::size_t>(std::count(w.begin(), w.end(), '\n'));
+  };
+  while (lines(text) > kMostLines) {
+    std::size_t cut = 0;
+    for (const char* brk : {", ", " and "})
+      if (const std::size_t at = text.rfind(brk); at != std::string::npos) cut = std::max(cut, at);
+    if (cut == 0) break;
+    text.resize(cut);
+  }
+  return text;
 }
 
 /// The width --help wraps to: $COLUMNS when it is a number, as for ls and man (`COLUMNS=80
@@ -162,6 +205,14 @@ std::size_t help_columns() {
 /// whole.
 class WrappingFormatter : public CLI::Formatter {
  public:
+  std::string make_subcommand(const CLI::App* sub) const override {
+    std::stringstream out;
+    CLI::detail::format_help(out, sub->get_display_name(true),
+                             summary_of(sub->get_description(), get_column_width()),
+                             get_column_width());
+    return out.str();
+  }
+
   std::string make_help(const CLI::App* app, std::string name,
                         CLI::AppFormatMode mode) const override {
     std::string text = CLI::Formatter::make_help(app, std::move(name), mode);
@@ -171,20 +222,45 @@ class WrappingFormatter : public CLI::Formatter {
     std::size_t pos = 0;
     while (pos < text.size()) {
       const std::size_t end = std::min(text.find('\n', pos), text.size());
-      out += wrap_help_line(text.substr(pos, end - pos), width) + "\n";
+      out += wrap_help_line(text.substr(pos, end - pos), width, get_column_width()) + "\n";
       pos = end + 1;
     }
     return out;
   }
 };
 
+/// The sentence of --help that points to the man page, for where this binary runs: a build
+/// tree's page (BIN/../man, which man(1) does not search) by its path, an installed one
+/// (BIN/../share/man/man1) by name under /usr or /usr/local (man's own path) and by its path
+/// elsewhere, and "" when the build made none (no help2man).
+std::string man_pointer() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path bin = fs::read_symlink("/proc/self/exe", ec).parent_path();
+  if (ec) return "";
+  const fs::path prefix = fs::weakly_canonical(bin / "..", ec);
+  for (const fs::path& page :
+       {prefix / "man/maglead.1.gz", prefix / "share/man/man1/maglead.1.gz"}) {
+    if (!fs::exists(page, ec)) continue;
+    if (page.parent_path().filename() == "man1" && (prefix == "/usr" || prefix == "/usr/local"))
+      return " See man maglead for every command.";
+    // Relative to the working directory when under it (`man -l build/man/maglead.1.gz` in a
+    // checkout); from / the whole path reads better.
+    const fs::path cwd = fs::current_path(ec);
+    const fs::path shown = page.lexically_proximate(cwd);
+    const bool under = cwd != cwd.root_path() && !shown.empty() && *shown.begin() != "..";
+    return " See man -l " + (under ? shown : page).string() + " for every command.";
+  }
+  return "";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
       "maglead: force-estimating controller for a magnetic lead-screw actuator, with its "
-      "simulated plant and digital twin.\nRun 'maglead COMMAND --help' for a command's options. "
-      "See man maglead for every command.",
+      "simulated plant and digital twin.\nRun 'maglead COMMAND --help' for a command's options." +
+          man_pointer(),
       "maglead"};
   app.formatter(std::make_shared<WrappingFormatter>());  // before the commands: they inherit it
   app.set_version_flag("--version", "maglead " MAGLEAD_VERSION, "Print the version and exit");

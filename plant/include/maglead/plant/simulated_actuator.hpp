@@ -49,9 +49,11 @@ struct PlantEffects {
 /// angle_ripple.phase_rad) to `value`; throws std::invalid_argument naming the bad word.
 void set_plant_effect(PlantEffects& effects, const std::string& name, double value);
 /// Refuses effects whose total (the nominal actuator's value plus the change) has no physical
-/// meaning: a negative friction or viscous coefficient, a mass at or below zero. Throws
-/// std::invalid_argument naming the effect, the total and the nominal value.
-void check_plant_totals(const PlantEffects& effects, const ActuatorParams& actuator);
+/// meaning: a negative friction or viscous coefficient, a mass at or below zero, and force
+/// effects many times `coupling_peak_n` (the coupling's largest force; 0 skips that check).
+/// Throws std::invalid_argument naming the effect, the value, the range and its unit.
+void check_plant_totals(const PlantEffects& effects, const ActuatorParams& actuator,
+                        double coupling_peak_n = 0.0);
 /// An --effect key: its name, the unit of its value ("1" for a ratio) and what it changes.
 struct PlantEffectKey {
   std::string name, unit, meaning;

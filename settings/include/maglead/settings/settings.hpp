@@ -79,5 +79,11 @@ void serve_model_terms(const twin::TwinModel& model, controller::ControllerConfi
 /// `move` unchanged.
 void load_reference_move(const std::string& config_dir, const ActuatorParams& actuator,
                          controller::ReferenceMoveConfig& move);
+/// load_control_settings and load_reference_move on the actuator file `path`:
+/// load_actuator_params checks both tables with them, so that every command reading the file
+/// refuses what serve refuses.
+void read_control_section(const std::string& path, controller::ControllerConfig& cfg);
+void read_reference_move_section(const std::string& path, const ActuatorParams& actuator,
+                                 controller::ReferenceMoveConfig& move);
 
 }  // namespace maglead::settings
