@@ -161,9 +161,19 @@ def scenario(port):
     check(staged1 == staged0, f"refusals wrote nothing to the controller (HR 1000-1019 {staged0} -> {staged1})")
     drive_limits(port, conn)
 
-    # The controller's own rejection, through the handshake.
-    rc, _, err = run(MAGLEAD, "reset", *conn, "--resync")
-    check(rc == 4 and "not_stepped_out" in err, f"resync without step-out rejected: {err.strip()}")
+    # reset --resync with neither a step-out nor a fault says so and sends nothing, as reset does.
+    before = read_regs(port, 4, 15, 2)  # command_status, command_reject_reason
+    rc, out, err = run(MAGLEAD, "reset", *conn, "--resync")
+    check(rc == 0 and out.strip() == "no step-out to resync and no fault to reset (drive_state ready)"
+          and read_regs(port, 4, 15, 2) == before, f"reset --resync with nothing to do: rc {rc} {out.strip()} {err.strip()}")
+    # The controller's own rejection stays for a raw client: a resync edge without a step-out.
+    raw_request(port, struct.pack(">BHH", 6, 1000, 1 << 3))
+    raw_request(port, struct.pack(">BHH", 6, 1000, 0))
+    end = time.time() + 2
+    while time.time() < end and read_regs(port, 4, 16, 1) != [7]:  # the loop takes it in a cycle
+        time.sleep(0.02)
+    reason = read_regs(port, 4, 16, 1)
+    check(reason == [7], f"a raw resync edge: rejected not_stepped_out ({reason})")
     # command_status's bits by name, as status_word's are: the rejection is bit 6.
     rc, out, _ = run(MAGLEAD, "poll", *conn, "command_status")
     m = re.search(r"^\s+command_status\s+(\d+)\s+(.*)$", out, re.M)

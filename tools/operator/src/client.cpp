@@ -1164,14 +1164,17 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
 }
 
 std::string reset_and_say(Client& c, bool resync_first) {
-  // A reset of a healthy drive resets nothing: say so, send nothing. A resync is still sent (the
-  // controller says not_stepped_out).
-  if (const Status s0 = read_status(c);
-      !resync_first && s0.drive_state != static_cast<std::uint16_t>(reg::DriveState::fault))
-    return "no fault to reset (drive_state " + code_name(reg::drive_states(), s0.drive_state) + ")";
+  // A reset of a healthy drive resets nothing, a resync without a step-out resyncs nothing: say
+  // so, send nothing (the controller's own not_stepped_out stays for raw Modbus clients).
+  const Status s0 = read_status(c);
+  const std::string state = "(drive_state " + code_name(reg::drive_states(), s0.drive_state) + ")";
+  if (s0.drive_state != static_cast<std::uint16_t>(reg::DriveState::fault)) {
+    if (!resync_first) return "no fault to reset " + state;
+    if (!stepped_out(s0.status_word)) return "no step-out to resync and no fault to reset " + state;
+  }
   reset(c, resync_first, {});
   return std::string(resync_first ? "resync and " : "") +
-         "fault reset done; enable again to resume";
+         "fault reset done; enable again to resume ('maglead enable', or 'maglead set ...')";
 }
 
 }  // namespace maglead::op
