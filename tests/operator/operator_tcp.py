@@ -364,12 +364,15 @@ def scenario(port):
     # A bare number under the register's own name is in its raw unit (ms), said in SI; with a
     # unit it is read in that unit; under the SI name a bare number is in s.
     for name, typed, raw_ms, said in (("watchdog_ms", "50", 50, "watchdog_s = 0.05 s written (watchdog_ms 50:"),
-                                      ("watchdog_ms", "0.07s", 70, "watchdog_s = 0.07 s written\n"),
-                                      ("watchdog_s", "0.09", 90, "watchdog_s = 0.09 s written\n")):
+                                      ("watchdog_ms", "0.07s", 70, "watchdog_s = 0.07 s written;"),
+                                      ("watchdog_s", "0.09", 90, "watchdog_s = 0.09 s written;")):
         rc, out, err = run(MAGLEAD, "set", *conn, name, typed)
         got = read_regs(port, 3, 1003, 1)[0]
         check(rc == 0 and said in out and got == raw_ms,
               f"set {name} {typed}: {raw_ms} ms written (raw {got}): {out.strip()} {err.strip()}")
+        # Written, and said that the tools cannot feed it (set and enable refuse under it).
+        check("cannot feed a watchdog shorter than 0.2 s" in out and "a PLC can feed it" in out,
+              f"set {name} {typed}: the note that set and enable cannot feed it: {out.strip()}")
     # A non-zero value the register's resolution rounds to 0 would write another meaning (the
     # watchdog off, 0 N): refused with the resolution and what to type, nothing written. Before,
     # watchdog_ms 0.05 said "watchdog_s = 0 s written" and switched the watchdog off.
@@ -387,12 +390,26 @@ def scenario(port):
               and read_regs(port, 3, 1001, 5) == staged,
               f"set {name} {typed} (rounds to 0): refused, nothing written: {out.strip()} {err.strip()}")
     rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
-    check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
+    check(rc == 0 and "written" in out and "note" not in out, f"set a plain register: {out.strip()} {err.strip()}")
+    rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_s", "0.2")
+    check(rc == 0 and out.strip() == "watchdog_s = 0.2 s written", f"a watchdog the tools feed, no note: {out.strip()}")
+    run(MAGLEAD, "set", *conn, "watchdog_s", "0")
     # A code register takes its number or its name, and says both.
+    staged_note = " (staged: applied by the next execute; to apply a mode now type 'maglead set force|position|idle|reference-move')"
     for typed in ("2", "force"):
         rc, out, err = run(MAGLEAD, "set", *conn, "mode_command", typed)
-        check(rc == 0 and out.strip() == "mode_command = 2 (force) written" and read_regs(port, 3, 1001, 1) == [2],
-              f"set mode_command {typed}: {out.strip()} {err.strip()}")
+        check(rc == 0 and out.strip() == "mode_command = 2 (force) written" + staged_note
+              and read_regs(port, 3, 1001, 1) == [2], f"set mode_command {typed}: {out.strip()} {err.strip()}")
+    # A staged setpoint moves nothing until an execute: said, with what applies it now.
+    for name, typed, said in (("force_setpoint_n", "5", "to apply a force now type 'maglead set force 5N'"),
+                              ("force_setpoint_n_f32", "-2.5", "to apply a force now type 'maglead set force -2.5N'"),
+                              ("position_setpoint_m", "20mm", "to move there now type 'maglead set position 20mm'"),
+                              ("velocity_limit_m_s", "5mm/s", "the next move's limit"),
+                              ("accel_limit_m_s2", "0.1", "the next move's limit")):
+        rc, out, err = run(MAGLEAD, "set", *conn, name, typed, "--config", CONFIG)
+        check(rc == 0 and "written (staged:" in out and said in out and read_regs(port, 4, 14, 1) == [0],
+              f"set {name} {typed}: written, staged until an execute, said so: {out.strip()} {err.strip()}")
+    run(MAGLEAD, "set", *conn, "velocity_limit_m_s", "10mm/s")
     rc, _, err = run(MAGLEAD, "set", *conn, "mode_command", "forse")
     check(rc == 2 and "0 idle, 1 position, 2 force, 3 reference_move" in err,
           f"set mode_command forse: the codes: {err.strip()}")

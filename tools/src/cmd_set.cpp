@@ -309,6 +309,33 @@ std::optional<double> code_value(std::span<const reg::Code> codes, std::string t
   return std::nullopt;
 }
 
+/// What a plain write leaves to do: a staged setpoint (HR 1001, 1004-1019) acts only at the next
+/// execute edge, and a watchdog shorter than the tools can feed stops set and enable. Else "".
+std::string after_write_note(const reg::Register& r, double v) {
+  const std::string name(r.name);
+  const auto typed = [](double x, const char* unit) {
+    char b[48];
+    std::snprintf(b, sizeof b, "%g%s", x, unit);
+    return std::string(b);
+  };
+  const std::string staged = " (staged: applied by the next execute; ";
+  if (name.starts_with("force_setpoint"))
+    return staged + "to apply a force now type 'maglead set force " + typed(v, "N") + "')";
+  if (name.starts_with("position_setpoint"))
+    return staged + "to move there now type 'maglead set position " + typed(v * 1e3, "mm") + "')";
+  if (name.starts_with("velocity_limit") || name.starts_with("accel_limit"))
+    return " (staged: the next move's limit, applied by its execute; 'maglead set position "
+           "POSITION' moves at it now)";
+  if (name == "mode_command")
+    return staged + "to apply a mode now type 'maglead set force|position|idle|reference-move')";
+  if (name == "watchdog_ms" && v > 0 && v < op::kShortestWatchdog_s)
+    return "; note: set and enable cannot feed a watchdog shorter than " +
+           typed(op::kShortestWatchdog_s, " s") +
+           " and refuse to run while it is (a PLC can feed it); 'maglead set watchdog_s " +
+           typed(op::kShortestWatchdog_s, "") + "' or 0 lets them";
+  return {};
+}
+
 /// A plain register write (limits, watchdog …): checked, written, no execute edge.
 void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
   const std::string& text = value_of(o);
@@ -358,7 +385,8 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
   const std::string unit_or_name = !codes.empty()
                                        ? " (" + op::code_name(codes, v) + ")"
                                        : (r->unit.empty() ? "" : " " + std::string(r->unit));
-  print_line(op::si_name(*r) + " = " + op::si_text(*r, v) + unit_or_name + " written" + raw_note);
+  print_line(op::si_name(*r) + " = " + op::si_text(*r, v) + unit_or_name + " written" + raw_note +
+             after_write_note(*r, v));
 }
 
 // A move or a force that takes longer than this gets a progress line; a quick one none (no
