@@ -347,7 +347,9 @@ def scenario(port):
                                 "drive disabled without a fault"),
                                (["enable", *conn], b"holding", "drive disabled without a fault"),
                                (["--quiet", "record", *conn, "--duration", "20s", "--out", rec], 1.0,
-                                "repeated cycles skipped")):
+                                "repeated cycles skipped"),
+                               (["serve", "--config", CONFIG, "--port", "0"], b"Modbus TCP on",
+                                "maglead serve: stopped after")):
         rc, text = run_pty(*args, interrupt_when=when)
         after = text[text.find("^C"):]
         joined = re.sub(r" *\n *", " ", after)
