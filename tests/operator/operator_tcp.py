@@ -321,6 +321,13 @@ def scenario(port):
     m = re.search(r"the load gets ([0-9.]+) N \(load_force_est_n.*'maglead set force ([0-9.]+)'", err)
     check(rc == 4 and m is not None and 20 < float(m.group(2)) < 30 and float(m.group(2)) <= float(m.group(1)),
           f"set force 30 stopped at the coupling's limit gives the figure to try: {err.strip()}")
+    # On a terminal the wait shows the nut and the force estimate (the climb to the limit takes
+    # about 0.9 s), then the error alone.
+    rc, text = run_pty("set", *conn, "force", "30", "--config", CONFIG)
+    screen = rendered(text)
+    check(rc == 4 and re.search(r"\rreaching 30\.000 N: nut at [0-9.]+ mm, force estimate -?[0-9.]+ N", text)
+          and "reaching" not in screen and screen.startswith("maglead set: execute:") and fits(screen, 80),
+          f"set force 30 on a terminal: a progress line, then the error alone: {text[:300]!r}")
     if m:
         rc, out, err = run(MAGLEAD, "set", *conn, "force", m.group(2), "--hold", "0.1s", "--config", CONFIG)
         check(rc == 0 and "done (force reached)" in out, f"set force {m.group(2)} as advised: {out.strip()} {err.strip()}")
