@@ -161,9 +161,19 @@ def scenario(port):
     check(staged1 == staged0, f"refusals wrote nothing to the controller (HR 1000-1019 {staged0} -> {staged1})")
     drive_limits(port, conn)
 
-    # The controller's own rejection, through the handshake.
-    rc, _, err = run(MAGLEAD, "reset", *conn, "--resync")
-    check(rc == 4 and "not_stepped_out" in err, f"resync without step-out rejected: {err.strip()}")
+    # reset --resync with neither a step-out nor a fault says so and sends nothing, as reset does.
+    before = read_regs(port, 4, 15, 2)  # command_status, command_reject_reason
+    rc, out, err = run(MAGLEAD, "reset", *conn, "--resync")
+    check(rc == 0 and out.strip() == "no step-out to resync and no fault to reset (drive_state ready)"
+          and read_regs(port, 4, 15, 2) == before, f"reset --resync with nothing to do: rc {rc} {out.strip()} {err.strip()}")
+    # The controller's own rejection stays for a raw client: a resync edge without a step-out.
+    raw_request(port, struct.pack(">BHH", 6, 1000, 1 << 3))
+    raw_request(port, struct.pack(">BHH", 6, 1000, 0))
+    end = time.time() + 2
+    while time.time() < end and read_regs(port, 4, 16, 1) != [7]:  # the loop takes it in a cycle
+        time.sleep(0.02)
+    reason = read_regs(port, 4, 16, 1)
+    check(reason == [7], f"a raw resync edge: rejected not_stepped_out ({reason})")
     # command_status's bits by name, as status_word's are: the rejection is bit 6.
     rc, out, _ = run(MAGLEAD, "poll", *conn, "command_status")
     m = re.search(r"^\s+command_status\s+(\d+)\s+(.*)$", out, re.M)
@@ -289,8 +299,38 @@ def scenario(port):
     pos_um = i32(read_regs(port, 4, 20, 2))
     check(abs(pos_um - 22000) < 100, f"nut at 22 mm ({pos_um} um, raw read)")
     check(i32(read_regs(port, 3, 1008, 2)) == 10000, "speed limit staged as 10 mm/s")
+    # A move that takes a while shows its progress on a terminal, one line redrawn in place and
+    # replaced by the result; into a pipe nothing but the result (scripts parse it).
+    rc, text = run_pty("set", *conn, "position", "24mm", "--speed", "2mm/s", "--hold", "0.1s", "--config", CONFIG)
+    m = re.search(r"\rmoving to 24\.000 mm: nut at (2[2-4]\.[0-9]{3}) mm, ([0-9.]+) mm to go", text)
+    check(rc == 0 and m is not None and abs(24 - float(m.group(1)) - float(m.group(2))) < 0.06,
+          f"set position 24mm at 2 mm/s: a progress line with the nut and the distance to go: {text[:300]!r}")
+    screen = rendered(text)
+    check("moving to" not in screen and screen.startswith("position 24.000 mm: done (in position)")
+          and fits(screen, 80), f"the progress line is replaced by the result: {screen!r}")
+    rc, out, err = run(MAGLEAD, "set", *conn, "position", "22mm", "--speed", "2mm/s", "--hold", "0.1s",
+                       "--config", CONFIG)
+    check(rc == 0 and "moving" not in out and "\r" not in out and "\x1b" not in out
+          and out.startswith("position 22.000 mm: done"), f"set into a pipe: no progress line: {out!r}")
     rc, out, err = run(MAGLEAD, "set", *conn, "position", "21mm", "--no-wait", "--hold", "0.2s", "--config", CONFIG)
     check(rc == 0 and "acknowledged" in out, f"set --no-wait returns on ack: {out.strip()} {err.strip()}")
+    # A force inside the safe limit that friction keeps from the load: the coupling stops at its
+    # limit, and the message gives the force the controller estimates the load gets there, a
+    # figure 'set force' then reaches.
+    rc, out, err = run(MAGLEAD, "set", *conn, "force", "30", "--config", CONFIG)
+    m = re.search(r"the load gets ([0-9.]+) N \(load_force_est_n.*'maglead set force ([0-9.]+)'", err)
+    check(rc == 4 and m is not None and 20 < float(m.group(2)) < 30 and float(m.group(2)) <= float(m.group(1)),
+          f"set force 30 stopped at the coupling's limit gives the figure to try: {err.strip()}")
+    # On a terminal the wait shows the nut and the force estimate (the climb to the limit takes
+    # about 0.9 s), then the error alone.
+    rc, text = run_pty("set", *conn, "force", "30", "--config", CONFIG)
+    screen = rendered(text)
+    check(rc == 4 and re.search(r"\rreaching 30\.000 N: nut at [0-9.]+ mm, force estimate -?[0-9.]+ N", text)
+          and "reaching" not in screen and screen.startswith("maglead set: execute:") and fits(screen, 80),
+          f"set force 30 on a terminal: a progress line, then the error alone: {text[:300]!r}")
+    if m:
+        rc, out, err = run(MAGLEAD, "set", *conn, "force", m.group(2), "--hold", "0.1s", "--config", CONFIG)
+        check(rc == 0 and "done (force reached)" in out, f"set force {m.group(2)} as advised: {out.strip()} {err.strip()}")
     # Not done within --wait: exit 4 with the controller's own state and reason; control released.
     rc, out, err = run(MAGLEAD, "set", *conn, "force", "12", "--wait", "0.05s", "--config", CONFIG)
     check(rc == 4 and "force not reached within 0.05 s" in err and "force_reached_reason" in err
@@ -307,6 +347,22 @@ def scenario(port):
           and "control released" in merr, f"Ctrl-C before done: rc {mover.returncode} {mout.strip()} {merr.strip()}")
     w = read_regs(port, 4, 11, 3)
     check(w[0] == 0 and w[2] == 1, f"after Ctrl-C: no alarm, drive ready (raw {w})")
+    # Ctrl-C on a terminal: it echoes "^C" where the cursor stands, and the closing lines start
+    # on a fresh line after it, so they wrap at 80 columns at spaces.
+    rec = os.path.join(WORK, "tcp_ctrl_c.csv")
+    for args, when, phrase in ((["set", *conn, "force", "10", "--config", CONFIG], b"holding",
+                                "drive disabled without a fault"),
+                               (["enable", *conn], b"holding", "drive disabled without a fault"),
+                               (["--quiet", "record", *conn, "--duration", "20s", "--out", rec], 1.0,
+                                "repeated cycles skipped"),
+                               (["serve", "--config", CONFIG, "--port", "0"], b"Modbus TCP on",
+                                "maglead serve: stopped after")):
+        rc, text = run_pty(*args, interrupt_when=when)
+        after = text[text.find("^C"):]
+        joined = re.sub(r" *\n *", " ", after)
+        check("^C\n" in text and phrase in joined and fits(text, 80),
+              f"{' '.join(args[:2])}: Ctrl-C, then the closing lines on a fresh line, words whole: "
+              f"rc {rc} {after!r}")
     # Without --hold it returns once the move is done, control released (a script calling it ends).
     rc, out, err = run(MAGLEAD, "set", *conn, "reference-move", timeout=30)
     w = read_regs(port, 4, 13, 5)
@@ -317,12 +373,15 @@ def scenario(port):
     # A bare number under the register's own name is in its raw unit (ms), said in SI; with a
     # unit it is read in that unit; under the SI name a bare number is in s.
     for name, typed, raw_ms, said in (("watchdog_ms", "50", 50, "watchdog_s = 0.05 s written (watchdog_ms 50:"),
-                                      ("watchdog_ms", "0.07s", 70, "watchdog_s = 0.07 s written\n"),
-                                      ("watchdog_s", "0.09", 90, "watchdog_s = 0.09 s written\n")):
+                                      ("watchdog_ms", "0.07s", 70, "watchdog_s = 0.07 s written;"),
+                                      ("watchdog_s", "0.09", 90, "watchdog_s = 0.09 s written;")):
         rc, out, err = run(MAGLEAD, "set", *conn, name, typed)
         got = read_regs(port, 3, 1003, 1)[0]
         check(rc == 0 and said in out and got == raw_ms,
               f"set {name} {typed}: {raw_ms} ms written (raw {got}): {out.strip()} {err.strip()}")
+        # Written, and said that the tools cannot feed it (set and enable refuse under it).
+        check("cannot feed a watchdog shorter than 0.2 s" in out and "a PLC can feed it" in out,
+              f"set {name} {typed}: the note that set and enable cannot feed it: {out.strip()}")
     # A non-zero value the register's resolution rounds to 0 would write another meaning (the
     # watchdog off, 0 N): refused with the resolution and what to type, nothing written. Before,
     # watchdog_ms 0.05 said "watchdog_s = 0 s written" and switched the watchdog off.
@@ -340,12 +399,26 @@ def scenario(port):
               and read_regs(port, 3, 1001, 5) == staged,
               f"set {name} {typed} (rounds to 0): refused, nothing written: {out.strip()} {err.strip()}")
     rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_ms", "0s")
-    check(rc == 0 and "written" in out, f"set a plain register: {out.strip()} {err.strip()}")
+    check(rc == 0 and "written" in out and "note" not in out, f"set a plain register: {out.strip()} {err.strip()}")
+    rc, out, err = run(MAGLEAD, "set", *conn, "watchdog_s", "0.2")
+    check(rc == 0 and out.strip() == "watchdog_s = 0.2 s written", f"a watchdog the tools feed, no note: {out.strip()}")
+    run(MAGLEAD, "set", *conn, "watchdog_s", "0")
     # A code register takes its number or its name, and says both.
+    staged_note = " (staged: applied by the next execute; to apply a mode now type 'maglead set force|position|idle|reference-move')"
     for typed in ("2", "force"):
         rc, out, err = run(MAGLEAD, "set", *conn, "mode_command", typed)
-        check(rc == 0 and out.strip() == "mode_command = 2 (force) written" and read_regs(port, 3, 1001, 1) == [2],
-              f"set mode_command {typed}: {out.strip()} {err.strip()}")
+        check(rc == 0 and out.strip() == "mode_command = 2 (force) written" + staged_note
+              and read_regs(port, 3, 1001, 1) == [2], f"set mode_command {typed}: {out.strip()} {err.strip()}")
+    # A staged setpoint moves nothing until an execute: said, with what applies it now.
+    for name, typed, said in (("force_setpoint_n", "5", "to apply a force now type 'maglead set force 5N'"),
+                              ("force_setpoint_n_f32", "-2.5", "to apply a force now type 'maglead set force -2.5N'"),
+                              ("position_setpoint_m", "20mm", "to move there now type 'maglead set position 20mm'"),
+                              ("velocity_limit_m_s", "5mm/s", "the next move's limit"),
+                              ("accel_limit_m_s2", "0.1", "the next move's limit")):
+        rc, out, err = run(MAGLEAD, "set", *conn, name, typed, "--config", CONFIG)
+        check(rc == 0 and "written (staged:" in out and said in out and read_regs(port, 4, 14, 1) == [0],
+              f"set {name} {typed}: written, staged until an execute, said so: {out.strip()} {err.strip()}")
+    run(MAGLEAD, "set", *conn, "velocity_limit_m_s", "10mm/s")
     rc, _, err = run(MAGLEAD, "set", *conn, "mode_command", "forse")
     check(rc == 2 and "0 idle, 1 position, 2 force, 3 reference_move" in err,
           f"set mode_command forse: the codes: {err.strip()}")
@@ -587,6 +660,16 @@ def step_out_advice():
         srv.stop()
 
 
+def stop_server_then_wait(srv, client):
+    """Stops the controller under a running client, then waits for the client's (stdout, stderr)."""
+    srv.stop()
+    try:
+        return client.communicate(timeout=15)
+    except subprocess.TimeoutExpired:
+        client.kill()
+        return client.communicate()
+
+
 def dropped_connection():
     """The controller goes away during a recording: one line, exit 3, the rows so far kept."""
     srv = Server(MAGLEAD, CONFIG, "--port", "0")
@@ -603,18 +686,30 @@ def dropped_connection():
             if sum(1 for l in f if l[:1].isdigit()) >= 25:
                 break
         time.sleep(0.1)
-    srv.stop()
-    try:
-        out, err = rec_proc.communicate(timeout=15)
-    except subprocess.TimeoutExpired:
-        rec_proc.kill()
-        out, err = rec_proc.communicate()
+    out, err = stop_server_then_wait(srv, rec_proc)
     rc = rec_proc.returncode
     check(rc == 3 and one_line(err) and ("dropped" in err or "connection" in err),
           f"record across a dropped connection: rc {rc}: {err.strip()[-300:]}")
     with open(rec) as f:
         rows = [l for l in f.read().splitlines() if l and not l.startswith("#")]
     check(len(rows) > 10, f"rows before the drop are kept ({len(rows) - 1})")
+
+    # The controller goes away while set or enable holds control: what that means and what to type.
+    for args, again in ((["set", "force", "10", "--config", CONFIG, "--hold", "30s"], "maglead set force 10"),
+                        (["set", "position", "20mm", "--config", CONFIG, "--hold", "30s"], "maglead set position 20mm"),
+                        (["enable", "--hold", "30s"], "maglead enable")):
+        srv = Server(MAGLEAD, CONFIG, "--port", "0")
+        holder = subprocess.Popen([MAGLEAD, args[0], "--port", str(srv.port), *args[1:]],
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        end = time.time() + 15
+        while time.time() < end and read_regs(srv.port, 4, 13, 1)[0] != 2:  # drive_state enabled
+            time.sleep(0.05)
+        time.sleep(0.5)
+        out, err = stop_server_then_wait(srv, holder)
+        check(holder.returncode == 3 and one_line(err) and "lost the controller while holding" in err
+              and "control and the hold are lost" in err and "owner_lost" in err
+              and f"then run '{again}' again" in err and ("dropped" in err or "no reply" in err),
+              f"{args[0]} {args[1]}: the controller gone while holding: rc {holder.returncode} {err.strip()}")
 
     # watch when the controller goes away: it says "reconnecting" and keeps going; q still quits
     # cleanly (the full reconnect, in a real terminal, is tests/operator/watch_tmux.py).
@@ -652,16 +747,24 @@ def dropped_connection():
     check("maglead watch:" in tail and tail.count("\n") <= 2, f"watch: screen restored, then one line: {tail.strip()!r}")
 
 
-def run_pty(*args, columns=80):
+def run_pty(*args, columns=80, interrupt_when=None):
     """Runs maglead with stdout and stderr on a `columns`-wide pseudo-terminal; returns (exit code,
-    output with the terminal's CR LF as LF)."""
+    output with the terminal's CR LF as LF). With `interrupt_when`, types Ctrl-C once that text
+    has appeared (or that many seconds have passed): the terminal sends SIGINT and echoes "^C",
+    as it does for a person."""
     pid, fd = pty.fork()
     if pid == 0:
         fcntl.ioctl(1, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
         os.execve(MAGLEAD, [MAGLEAD, *args], {k: v for k, v in os.environ.items() if k != "COLUMNS"})
-    out, status, end = b"", None, time.time() + 30
+    out, status, start = b"", None, time.time()
+    end = start + 30
     while status is None and time.time() < end:
         out += read_pty(fd, 0.1)
+        if isinstance(interrupt_when, float) and time.time() - start > interrupt_when:
+            interrupt_when = b""  # seconds: then at once
+        if isinstance(interrupt_when, bytes) and interrupt_when in out:
+            os.write(fd, b"\x03")
+            interrupt_when = None
         done, st = os.waitpid(pid, os.WNOHANG)
         status = st if done else None
     if status is None:
@@ -671,6 +774,12 @@ def run_pty(*args, columns=80):
     os.close(fd)
     rc = os.WEXITSTATUS(status) if os.WIFEXITED(status) else -1
     return rc, out.decode(errors="replace").replace("\r\n", "\n")
+
+
+def rendered(text):
+    """The lines as a terminal leaves them: a line redrawn in place (CR, text, erase to its end)
+    shows only what was drawn last."""
+    return "\n".join(line.split("\r")[-1] for line in text.replace("\x1b[K", "").split("\n"))
 
 
 def fits(text, columns):

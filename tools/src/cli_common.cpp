@@ -275,11 +275,52 @@ std::string wrapped(const std::string& text, std::size_t indent, std::size_t wid
   return out;
 }
 
+namespace {
+bool g_status_line_cleared = false;  // the cursor stands at the start of an empty line
+}  // namespace
+
 void print_line(const std::string& text, std::size_t indent) {
   static const std::size_t width = terminal_columns();
   const std::size_t end = text.find_last_not_of(' ');
   const std::string line = end == std::string::npos ? std::string() : text.substr(0, end + 1);
   std::printf("%s\n", wrapped(line, indent, width).c_str());
+  g_status_line_cleared = false;
+}
+
+void fresh_line_after_interrupt() {
+  static bool done = false;
+  if (done) return;
+  done = true;
+  if (g_status_line_cleared) return;
+  if (isatty(STDOUT_FILENO) != 0) {
+    std::fputs("\n", stdout);
+    std::fflush(stdout);
+  } else if (isatty(STDERR_FILENO) != 0) {
+    std::fputs("\n", stderr);
+  }
+}
+
+StatusLine::StatusLine() : width_(quiet() ? 0 : terminal_columns()) {}
+
+StatusLine::~StatusLine() { clear(); }
+
+void StatusLine::show(const std::string& text) {
+  if (width_ == 0) return;
+  // One column short of the width: a line that fills it would wrap on some terminals, and the
+  // carriage return would then redraw only its second half.
+  std::string line = text.substr(0, width_ - 1);
+  std::printf("\r%s\033[K", line.c_str());
+  std::fflush(stdout);
+  shown_ = true;
+  g_status_line_cleared = false;
+}
+
+void StatusLine::clear() {
+  if (!shown_) return;
+  std::printf("\r\033[K");
+  std::fflush(stdout);
+  shown_ = false;
+  g_status_line_cleared = true;
 }
 
 void note(const std::string& text) {

@@ -90,6 +90,28 @@ std::string wrapped(const std::string& text, std::size_t indent, std::size_t wid
 /// spaces to its width, continuations `indent` columns in; into a pipe or a file whole (scripts
 /// match it whole). Machine output (CSV, JSON) is printed as it is, never through this.
 void print_line(const std::string& text, std::size_t indent = 2);
+/// After Ctrl-C the terminal has echoed "^C" where the cursor stood: the final message starts on
+/// a fresh line (a newline first, on whichever of stdout and stderr is a terminal), so its wrapped
+/// lines keep their columns. Once per process; nothing when a StatusLine was just cleared.
+void fresh_line_after_interrupt();
+
+/// One line on stdout redrawn in place while a command waits ("moving to 20.000 mm: …"): on a
+/// terminal only, and not under --quiet (a pipe or a file gets nothing: scripts parse the
+/// output). Cleared when destroyed or by clear(), before anything else is printed.
+class StatusLine {
+ public:
+  StatusLine();
+  ~StatusLine();
+  StatusLine(const StatusLine&) = delete;
+  StatusLine& operator=(const StatusLine&) = delete;
+  bool enabled() const { return width_ > 0; }
+  void show(const std::string& text);
+  void clear();
+
+ private:
+  std::size_t width_;
+  bool shown_ = false;
+};
 /// A note on stderr (e.g. "reading FILE"), shown only when show_progress().
 void note(const std::string& text);
 

@@ -183,22 +183,28 @@ Tally record_rows(const RecordOptions& o, op::Client& client, double loop_hz, bo
 void print_summary(const RecordOptions& o, const op::Client& client, double loop_hz, const Tally& t,
                    const std::string& replacing) {
   const double span_s = static_cast<double>(t.cycles) / loop_hz;
-  std::printf(
-      "recorded %zu samples over %.2f s of controller time from %s at %g Hz requested (%.1f Hz "
-      "achieved)%s\n",
-      t.rows, span_s, client.endpoint().describe().c_str(), o.rate_hz,
-      span_s > 0 && t.rows > 1 ? static_cast<double>(t.rows - 1) / span_s : 0.0,
-      g_interrupted ? ", interrupted" : "");
-  std::printf(
-      "dropped polls: %zu of %zu (%zu without reply, %zu missed while behind); repeated cycles "
-      "skipped: %zu\n",
-      t.timeouts + t.late, static_cast<std::size_t>(t.attempts), t.timeouts, t.late, t.repeated);
-  if (t.gaps > 0)  // late replies: the rows' cycles lie further apart than a period
-    std::printf(
-        "gaps: %zu rows missing in %zu places (readers fill short gaps by interpolation and "
-        "say so)\n",
-        t.gap_rows, t.gaps);
-  std::printf("wrote %s%s\n", o.out.c_str(), replacing.c_str());
+  char b[512];
+  std::snprintf(b, sizeof b,
+                "recorded %zu samples over %.2f s of controller time from %s at %g Hz requested "
+                "(%.1f Hz achieved)%s",
+                t.rows, span_s, client.endpoint().describe().c_str(), o.rate_hz,
+                span_s > 0 && t.rows > 1 ? static_cast<double>(t.rows - 1) / span_s : 0.0,
+                g_interrupted ? ", interrupted" : "");
+  print_line(b);
+  std::snprintf(b, sizeof b,
+                "dropped polls: %zu of %zu (%zu without reply, %zu missed while behind); repeated "
+                "cycles skipped: %zu",
+                t.timeouts + t.late, static_cast<std::size_t>(t.attempts), t.timeouts, t.late,
+                t.repeated);
+  print_line(b);
+  if (t.gaps > 0) {  // late replies: the rows' cycles lie further apart than a period
+    std::snprintf(b, sizeof b,
+                  "gaps: %zu rows missing in %zu places (readers fill short gaps by interpolation "
+                  "and say so)",
+                  t.gap_rows, t.gaps);
+    print_line(b);
+  }
+  print_line("wrote " + o.out + replacing);
 }
 
 /// Gaps too many or too long make the readers refuse the file: said now, by the reader's own
@@ -208,10 +214,13 @@ void warn_if_readers_refuse(const RecordOptions& o, const Tally& t) {
   try {
     (void)read_recording(o.out);
   } catch (const RecordingError& e) {
-    std::fprintf(stderr,
-                 "warning: the readers (analyze, inspect, …) refuse this recording as it is: %s; "
-                 "record again at a lower --rate (the polls fell behind)\n",
-                 e.what());
+    std::fflush(stdout);  // after the summary, as it was printed
+    std::fprintf(stderr, "%s\n",
+                 error_text("warning: the readers (analyze, inspect, …) refuse this recording as "
+                            "it is: " +
+                            std::string(e.what()) +
+                            "; record again at a lower --rate (the polls fell behind)")
+                     .c_str());
   }
 }
 
@@ -241,6 +250,8 @@ void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   out.close();
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
+  // The progress bar's own newline has left the "^C" behind already when it was drawn.
+  if (g_interrupted && !show_progress()) fresh_line_after_interrupt();
   print_summary(o, client, loop_hz, t, replacing);
   warn_if_readers_refuse(o, t);
   // Stopped before its duration: the file is whole and readable, but shorter than asked.

@@ -436,6 +436,7 @@ void run_serve(const ServeOptions& o) {
   service.start();
   print_banner(o, sc, model_used, service);
   wait_for_stop(duration_s, service);
+  if (g_stop) fresh_line_after_interrupt();
   service.stop();
   const auto snap = service.controller().snapshot();
   say("stopped after %llu cycles, %llu overruns, the worst start %.0f µs late",

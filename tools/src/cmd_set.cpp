@@ -7,6 +7,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <span>
@@ -95,10 +96,25 @@ std::string fixed(double v, int places) {
   return b;
 }
 
+/// The controller lost while holding: what that means for the drive and what to type, with the
+/// line's own error after it. `again` is the command that held ("maglead enable").
+[[noreturn]] void lost_while_holding(const ClientError& e, const std::string& held, bool force_mode,
+                                     const std::string& again) {
+  throw ClientError(
+      e.kind(),
+      "lost the controller while holding " + held +
+          ": control and the hold are lost; a controller still running faults with owner_lost "
+          "and runs its fault reaction (by default " +
+          (force_mode ? "the force ramped to 0 N" : "the position held") +
+          "; docs/plc.md, 'Fault reactions'). Check that 'maglead serve' runs (start it again if "
+          "it stopped), then run '" +
+          again + "' again (" + e.what() + ")");
+}
+
 /// Keeps control until Ctrl-C or SIGTERM (or for `hold`), then releases it cleanly (release).
 /// Says both, so nothing happens in secret.
 void hold_then_release(op::Client& client, const std::string& hold, const op::CommandOptions& o,
-                       const std::string& held, bool force_mode) {
+                       const std::string& held, bool force_mode, const std::string& again) {
   const double hold_s =
       hold.empty() ? std::numeric_limits<double>::infinity() : parse_duration_s(hold, "--hold");
   const std::string released = force_mode ? " (force to 0 N, drive disabled)" : " (drive disabled)";
@@ -108,7 +124,15 @@ void hold_then_release(op::Client& client, const std::string& hold, const op::Co
     print_line("holding " + held + " for " + fixed(hold_s, 1) + " s, then released" + released);
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
-  op::hold(client, hold_s, o, [] { return g_interrupted != 0; });
+  try {
+    op::hold(client, hold_s, o, [] { return g_interrupted != 0; });
+  } catch (const ClientError& e) {
+    if (g_interrupted) fresh_line_after_interrupt();
+    if (e.kind() == Kind::connection || e.kind() == Kind::no_reply)
+      lost_while_holding(e, held, force_mode, again);
+    throw;
+  }
+  if (g_interrupted) fresh_line_after_interrupt();
   const double held_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::string done = release(client, force_mode);
@@ -285,6 +309,33 @@ std::optional<double> code_value(std::span<const reg::Code> codes, std::string t
   return std::nullopt;
 }
 
+/// What a plain write leaves to do: a staged setpoint (HR 1001, 1004-1019) acts only at the next
+/// execute edge, and a watchdog shorter than the tools can feed stops set and enable. Else "".
+std::string after_write_note(const reg::Register& r, double v) {
+  const std::string name(r.name);
+  const auto typed = [](double x, const char* unit) {
+    char b[48];
+    std::snprintf(b, sizeof b, "%g%s", x, unit);
+    return std::string(b);
+  };
+  const std::string staged = " (staged: applied by the next execute; ";
+  if (name.starts_with("force_setpoint"))
+    return staged + "to apply a force now type 'maglead set force " + typed(v, "N") + "')";
+  if (name.starts_with("position_setpoint"))
+    return staged + "to move there now type 'maglead set position " + typed(v * 1e3, "mm") + "')";
+  if (name.starts_with("velocity_limit") || name.starts_with("accel_limit"))
+    return " (staged: the next move's limit, applied by its execute; 'maglead set position "
+           "POSITION' moves at it now)";
+  if (name == "mode_command")
+    return staged + "to apply a mode now type 'maglead set force|position|idle|reference-move')";
+  if (name == "watchdog_ms" && v > 0 && v < op::kShortestWatchdog_s)
+    return "; note: set and enable cannot feed a watchdog shorter than " +
+           typed(op::kShortestWatchdog_s, " s") +
+           " and refuse to run while it is (a PLC can feed it); 'maglead set watchdog_s " +
+           typed(op::kShortestWatchdog_s, "") + "' or 0 lets them";
+  return {};
+}
+
 /// A plain register write (limits, watchdog …): checked, written, no execute edge.
 void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionOptions& conn) {
   const std::string& text = value_of(o);
@@ -334,7 +385,44 @@ void write_setting(const SetOptions& o, const CommandFlags& f, const ConnectionO
   const std::string unit_or_name = !codes.empty()
                                        ? " (" + op::code_name(codes, v) + ")"
                                        : (r->unit.empty() ? "" : " " + std::string(r->unit));
-  print_line(op::si_name(*r) + " = " + op::si_text(*r, v) + unit_or_name + " written" + raw_note);
+  print_line(op::si_name(*r) + " = " + op::si_text(*r, v) + unit_or_name + " written" + raw_note +
+             after_write_note(*r, v));
+}
+
+// A move or a force that takes longer than this gets a progress line; a quick one none (no
+// flicker on a short move).
+constexpr double kProgressAfter_s = 0.5;
+// The line is redrawn at most this often: readable, and one extra read per redraw only.
+constexpr double kProgressPeriod_s = 0.2;
+
+/// The progress line while execute waits for done, from the controller's own nut position and
+/// force estimate: "moving to 20.000 mm: nut at 12.345 mm, 7.7 mm to go".
+std::function<void(op::Client&)> progress_of(const Planned& p, StatusLine& line) {
+  if (!line.enabled() || p.setpoints.empty()) return {};
+  const auto t0 = std::chrono::steady_clock::now();
+  auto last = t0 - std::chrono::hours(1);
+  const double target = p.setpoints.front().second;
+  const bool force = p.mode == reg::Mode::force;
+  return [&line, t0, last, target, force](op::Client& c) mutable {
+    const auto now = std::chrono::steady_clock::now();
+    if (std::chrono::duration<double>(now - t0).count() < kProgressAfter_s ||
+        std::chrono::duration<double>(now - last).count() < kProgressPeriod_s)
+      return;
+    last = now;
+    const auto* pos = reg::find("nut_pos_um");
+    const auto* est = reg::find("force_est_mn");
+    const auto v = c.read_range(reg::Table::input_register, pos->address,
+                                static_cast<std::uint16_t>(est->address + 2 - pos->address));
+    const double nut_m = v.at("nut_pos_um"), force_n = v.at("force_est_mn");
+    char b[128];
+    if (force)
+      std::snprintf(b, sizeof b, "reaching %.3f N: nut at %.3f mm, force estimate %.1f N", target,
+                    nut_m * 1e3, force_n);
+    else
+      std::snprintf(b, sizeof b, "moving to %.3f mm: nut at %.3f mm, %.1f mm to go", target * 1e3,
+                    nut_m * 1e3, std::abs(target - nut_m) * 1e3);
+    line.show(b);
+  };
 }
 
 /// The controller's own limits, read from its limits block (what it refused against); this
@@ -348,9 +436,11 @@ std::string drive_limit_text(op::Client& client, reg::Mode mode) {
 
 /// Sends the command. The controller's own limit refusing it (exception 03 on the staged
 /// setpoint, or a reject reason) is said with the value and the limit the controller reports.
-op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags& f) {
+op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags& f,
+                       StatusLine& line) {
   op::CommandOptions options = f.options();
   options.stop = [] { return g_interrupted != 0; };
+  options.waiting = progress_of(p, line);
   try {
     return op::execute(client, p.mode, p.setpoints, options);
   } catch (const ClientError& e) {
@@ -371,9 +461,11 @@ op::CommandResult send(op::Client& client, const Planned& p, const CommandFlags&
 /// send, and when it fails after this client may have claimed control, release it before the
 /// error is reported: a failed command leaves no owner-loss fault behind.
 op::CommandResult send_or_release(op::Client& client, const Planned& p, const CommandFlags& f) {
+  StatusLine line;
   try {
-    return send(client, p, f);
+    return send(client, p, f, line);
   } catch (const ClientError& e) {
+    line.clear();
     if (f.no_claim || e.kind() == Kind::refused_locally || e.kind() == Kind::connection) throw;
     // A latched fault has stopped the drive already: there is nothing to bring to 0 N, and only a
     // reset clears it.
@@ -436,12 +528,13 @@ void run_set(SetOptions o, const CommandFlags& f, const ConnectionOptions& conn)
     print_line(p.summary + ": done (" +
                (p.mode == reg::Mode::force ? "force reached" : "in position") + ") after " +
                fixed(res.elapsed_s, 2) + " s");
-  else if (g_interrupted)  // not done: no "holding" follows, the exit code says so
+  else if (g_interrupted) {  // not done: no "holding" follows, the exit code says so
+    fresh_line_after_interrupt();
     throw ClientError(
         Kind::interrupted,
         p.summary + ": acknowledged, interrupted before done" +
             (f.no_claim ? std::string() : "; " + release_after_interrupt(client, p.mode)));
-  else
+  } else
     print_line(p.summary + ": acknowledged by the controller");
   // A claimed control is held, then released; without a claim this client owns nothing. A
   // reference move is a task with an end: done, it lets go (a script calling it returns).
@@ -449,7 +542,8 @@ void run_set(SetOptions o, const CommandFlags& f, const ConnectionOptions& conn)
     print_line("released: " + release(client, false) +
                " (the move is over; --hold keeps control after it)");
   else if (!f.no_claim)
-    hold_then_release(client, f.hold, f.options(), p.summary, p.mode == reg::Mode::force);
+    hold_then_release(client, f.hold, f.options(), p.summary, p.mode == reg::Mode::force,
+                      "maglead set " + o.what + (o.value.empty() ? "" : " " + o.value));
 }
 
 void add_set(CLI::App& app) {
@@ -507,7 +601,7 @@ void add_drive_command(CLI::App& app, const char* name, const char* help, Step s
       op::Client client(endpoint_of(*conn));
       client.check_identity();
       print_line(step(client, *resync));
-      if (holds) hold_then_release(client, *hold, {}, "control", false);
+      if (holds) hold_then_release(client, *hold, {}, "control", false, "maglead enable");
     });
   });
 }

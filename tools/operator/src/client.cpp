@@ -672,6 +672,26 @@ Status settle(Client& c, std::uint32_t after, const Image& im, const CommandOpti
   }
 }
 
+/// The coupling at its safe limit short of the force: the load force the controller estimates
+/// there is what friction leaves of the limit, the most 'set force' can reach against this load.
+std::string drive_limit_text(Client& c, const Values& loop) {
+  const double load_n = loop.at("load_force_est_mn");
+  const auto limits = read_reported_limits(c);
+  // Rounded towards 0 N: the figure said must be one the drive can reach.
+  const double try_n = std::trunc(load_n * 10.0) / 10.0;
+  char b[320];
+  std::snprintf(
+      b, sizeof b,
+      "the coupling reached its safe limit%s before the force (force_limited, "
+      "force_reached_reason 9 drive_limit): friction takes the rest of the drive, so "
+      "the load gets %.2f N (load_force_est_n, the controller's estimate there); ask "
+      "for no more than that: 'maglead set force %.1f'",
+      limits ? (" " + fmt(load_n < 0 ? limits->force_pull_n : limits->force_push_n) + " N").c_str()
+             : "",
+      load_n, try_n);
+  return b;
+}
+
 /// force_limited for good: the stroke window ended before the force (stroke_end), or the
 /// coupling is at its safe limit and the loop gave up raising it (drive_limit while blocked);
 /// then what to say. Another limit (the speed limit) passes and ends no command.
@@ -689,9 +709,7 @@ std::optional<std::string> limited_before_force(Client& c) {
            "load";
   if (why == "drive_limit" &&
       code_name(reg::codes_of("force_loop_state"), v.at("force_loop_state")) == "blocked")
-    return "the coupling reached its safe limit before the force (force_limited, "
-           "force_reached_reason 9 drive_limit): friction takes up to the model's F_c of the "
-           "drive, so the load gets less than the limit 'set force' allows; ask for less force";
+    return drive_limit_text(c, v);
   return std::nullopt;
 }
 
@@ -987,6 +1005,7 @@ CommandResult execute(Client& c, reg::Mode mode,
               " within " + fmt(o.done_timeout_s) + " s: " +
               (mode == reg::Mode::force ? force_not_reached_text(c) : not_in_position_text(c)));
     if (im.watchdog_s > 0) c.write({{"heartbeat", 0}});
+    if (o.waiting) o.waiting(c);
     std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_period_s));
     s = read_status(c);
   }
@@ -1145,14 +1164,17 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
 }
 
 std::string reset_and_say(Client& c, bool resync_first) {
-  // A reset of a healthy drive resets nothing: say so, send nothing. A resync is still sent (the
-  // controller says not_stepped_out).
-  if (const Status s0 = read_status(c);
-      !resync_first && s0.drive_state != static_cast<std::uint16_t>(reg::DriveState::fault))
-    return "no fault to reset (drive_state " + code_name(reg::drive_states(), s0.drive_state) + ")";
+  // A reset of a healthy drive resets nothing, a resync without a step-out resyncs nothing: say
+  // so, send nothing (the controller's own not_stepped_out stays for raw Modbus clients).
+  const Status s0 = read_status(c);
+  const std::string state = "(drive_state " + code_name(reg::drive_states(), s0.drive_state) + ")";
+  if (s0.drive_state != static_cast<std::uint16_t>(reg::DriveState::fault)) {
+    if (!resync_first) return "no fault to reset " + state;
+    if (!stepped_out(s0.status_word)) return "no step-out to resync and no fault to reset " + state;
+  }
   reset(c, resync_first, {});
   return std::string(resync_first ? "resync and " : "") +
-         "fault reset done; enable again to resume";
+         "fault reset done; enable again to resume ('maglead enable', or 'maglead set ...')";
 }
 
 }  // namespace maglead::op

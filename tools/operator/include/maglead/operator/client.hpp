@@ -183,6 +183,8 @@ struct CommandOptions {
   bool claim = true;
   /// execute: stop waiting for done when this returns true (Ctrl-C); done then stays false.
   std::function<bool()> stop;
+  /// execute: called once per poll while it waits for done (a progress line on a terminal).
+  std::function<void(Client&)> waiting;
 };
 struct CommandResult {
   bool done = false;  // execute done (target reached) seen
