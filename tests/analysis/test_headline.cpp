@@ -2,6 +2,7 @@
 // account of a misfit, and nothing named is not nothing missing on either path.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 
 #include "maglead/analysis/analysis.hpp"
@@ -64,6 +65,17 @@ TEST(Headline, EventsAreFoundAndTheirPulsesAreNoMisfit) {
             "events found (external_disturbance); no effect explains a significant part of the "
             "held-out error")
       << f.conclusion;
+}
+
+// A load cell logged in steps coarser than its noise: the floor is the step's rounding, said as
+// not measured, and a misfit far above it is a misfit, never "nothing missing".
+TEST(Headline, AFloorNotMeasurableBelowTheLoggingStepSaysSo) {
+  Findings f = findings_with_residual(1.197);
+  f.noise_floor_n = 0.5 / std::sqrt(12.0);
+  f.noise_step_n = 0.5;
+  EXPECT_EQ(maglead::analysis::headline_of(f, ModelFile{}),
+            "a misfit of 1.2 N RMS remains (noise floor not measurable below the 0.5 N logging "
+            "step: 0.144 N) that no library effect explains");
 }
 
 TEST(Headline, NothingNamedWithAMisfitSaysTheMisfit) {

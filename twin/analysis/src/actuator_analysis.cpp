@@ -640,7 +640,9 @@ ActuatorPrepared prepare_actuator(const Recording& rec, const Baseline& base,
   std::vector<double> geared;
   const ActuatorSignals s(rec, act, P, geared);
   P.slips = find_slips(t, s.phi_raw);
-  P.load_noise_n = stats::white_noise_sigma(s.load_raw);  // the load cell's noise
+  const stats::SensorNoise noise = stats::sensor_noise(s.load_raw);  // the load cell's noise
+  P.load_noise_n = noise.sigma;
+  if (!noise.measured) P.load_noise_step_n = noise.step;
   std::tie(P.load_filtered_noise_n, P.load_rate_noise_n_s) = filtered_noise(P);
   P.v_min_m_s = P.count_m * P.filter_hz;
   // Keep every `decim`-th sliding sample: the signals are band-limited to filter_hz, so samples

@@ -486,6 +486,7 @@ Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
   J.samples_used = sel.samples_used;
   J.method = method_of(P, o);
   J.noise_floor_n = P.load_noise_n;
+  J.noise_step_n = P.load_noise_step_n;
   const ErrorScale es{std::max<double>(1.0, static_cast<double>(sel.samples_used)),
                       sel.measured_ss};
   J.baseline = {es.rms(sel.baseline_sse),

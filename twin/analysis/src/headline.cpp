@@ -107,8 +107,8 @@ std::string sliding_caveat(const Findings& f) {
 std::string misfit_beside(const Findings& f, const effects::AxisKind& kind) {
   if (!misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) return {};
   const std::string unit(kind.drive_unit);
-  return "; a misfit of " + number(f.final_fit.rms_n) + " " + unit +
-         " RMS remains beside them (noise floor " + number(f.noise_floor_n) + " " + unit + ")";
+  return "; a misfit of " + number(f.final_fit.rms_n) + " " + unit + " RMS remains beside them (" +
+         noise_floor_text(f, kind, 4) + ")";
 }
 
 /// The headline without the laws left unjudged.
@@ -136,11 +136,9 @@ std::string conclusion_headline(const Findings& f, const ModelFile& baseline) {
     return f.conclusion + "; no finding is not the same as no anomaly";
   const std::string unit(kind.drive_unit);
   if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
-    return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, kind) +
-           sliding_caveat(f);
+    return misfit_text(f, kind) + sliding_caveat(f);
   return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) + " " +
-         unit + " RMS (noise floor " + number(f.noise_floor_n) + " " + unit + ")" +
-         sliding_caveat(f);
+         unit + " RMS (" + noise_floor_text(f, kind, 4) + ")" + sliding_caveat(f);
 }
 
 }  // namespace

@@ -128,9 +128,11 @@ inline constexpr const char* kBelowSignificance =
 /// candidate the selection stopped at (in `not_selected`) explains most of it held out, that
 /// candidate with why it was not taken, so a near miss is not read as "nothing in the library".
 /// `kind`: the axis the residual is of (a rotary axis's is a torque in N·m, in its words).
-std::string misfit_text(double final_rms_n, double noise_floor_n,
-                        const std::vector<Rejected>& not_selected,
-                        const effects::AxisKind& kind = effects::linear_axis());
+struct Findings;
+std::string misfit_text(const Findings& f, const effects::AxisKind& kind = effects::linear_axis());
+/// "noise floor 0.0992 N", or, when the noise is not measurable below the logging step, "noise
+/// floor not measurable below the 0.5 N logging step: 0.144 N".
+std::string noise_floor_text(const Findings& f, const effects::AxisKind& kind, int digits);
 
 /// Held-out (and fitted) error after each step of the selection; the first is the baseline.
 struct ValidationStep {
@@ -223,6 +225,9 @@ struct Findings {
   std::size_t samples_used = 0;
   Method method;
   double noise_floor_n = 0.0;
+  // The force's logging step when the noise is not measurable below it (noise_floor_n is then
+  // the step's rounding error); 0 when the floor is measured.
+  std::optional<double> noise_step_n;
   FitErrors baseline;
   FitErrors final_fit;
   std::vector<EffectFinding> effects;
