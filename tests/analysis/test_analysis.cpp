@@ -615,6 +615,21 @@ TEST(GeneratedSuite, ALoadCellLoggedInCoarseStepsKeepsItsMisfit) {
   EXPECT_NEAR(r.findings.noise_floor_n, kStepN / std::sqrt(12.0), 1e-9);
 }
 
+// A load cell that reads one value over the whole recording (unplugged, stuck) carries no load:
+// the analysis judges nothing against it, and says why.
+TEST(GeneratedSuite, ALoadCellReadingAConstantIsNotJudged) {
+  auto rec = generated("mixed-moves", 20.0, {{"external_disturbance", 8.0}}, 1);
+  for (auto& v : load_cell(rec)) v = 0.0;
+  try {
+    analyze(rec);
+    FAIL() << "a constant load cell must not be judged";
+  } catch (const maglead::LoadCellUnitError& e) {
+    EXPECT_NE(std::string(e.what()).find("not judged: the load cell reads a constant 0 N"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(GeneratedSuite, SensorDelay) {
   // Both encoders 10 ms late: the motion is late against the load cell; the sweep's force rate
   // (up to 250 N/s) makes that up to 2.5 N.

@@ -556,6 +556,17 @@ std::vector<T> every_nth(std::vector<T> full, std::size_t step) {
 // negative, it is a unit or a sign, not physics (a coupling error within any plausible range
 // moves it by tens of per cent).
 void check_load_cell_scale(const std::string& path, const ActuatorSignals& s, const Coupling& cp) {
+  // A load cell reading one value over the whole recording (unplugged, stuck, a column of
+  // zeros) carries no load: the force left out of the balance would be the whole coupling's,
+  // and no fit against it judges the model.
+  if (const auto [lo, hi] = std::minmax_element(s.load_raw.begin(), s.load_raw.end());
+      lo != s.load_raw.end() && *lo == *hi) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.4g", *lo);
+    throw LoadCellUnitError(path + ": not judged: the load cell reads a constant " + b +
+                            " N over the whole recording (column load_force_n), so it carries no "
+                            "load to judge the model against; check its wiring");
+  }
   constexpr double kMinExplained = 0.5;  // R² of the fit: the balance holds at all
   constexpr double kScaleFactor = 3.0;
   constexpr double kSure = 4.0;        // standard errors beyond the bound

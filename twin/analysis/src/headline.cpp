@@ -129,8 +129,9 @@ std::string conclusion_headline(const Findings& f, const ModelFile& baseline) {
   if (f.unexplained)
     return "not explained: " + f.unexplained->message +
            (f.effects.empty() ? std::string() : found("; events found beside it: "));
-  // The pulses' own force is in the final residual: beside events it is no misfit.
-  if (!f.effects.empty()) return found("found: ") + sliding_caveat(f);
+  // A misfit beside events is said as beside terms: a short pulse leaves little of its force in
+  // the sliding residual, so what is left above the floor is force the events do not account for.
+  if (!f.effects.empty()) return found("found: ") + misfit_beside(f, kind) + sliding_caveat(f);
   // The conclusion says why the model was not judged (too little sliding), with its counts.
   if (f.conclusion.starts_with(kNotJudged))
     return f.conclusion + "; no finding is not the same as no anomaly";

@@ -127,10 +127,15 @@ void conclude(Findings& f, const Concluding& c) {
   }
   const std::string none =
       "no effect explains a significant part of the held-out error" + c.unresolved;
-  // Events' own force (the pulses) is in the final residual: beside them it is no misfit, and
-  // "nothing is missing" would hide them.
+  // "Nothing is missing" would hide the events; a misfit above the floor beside them is said.
   if (!event_ids.empty()) {
-    f.conclusion = "events found (" + event_ids + "); " + none;
+    if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) {
+      f.conclusion = "events found (" + event_ids + "); " + misfit_text(f, *c.kind) + "; check " +
+                     c.kind->words(c.check);
+      f.nothing_missing = false;
+    } else {
+      f.conclusion = "events found (" + event_ids + "); " + none;
+    }
   } else if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) {
     f.conclusion = misfit_text(f, *c.kind) + "; check " + c.kind->words(c.check);
     f.nothing_missing = false;
