@@ -630,6 +630,20 @@ TEST(GeneratedSuite, ALoadCellReadingAConstantIsNotJudged) {
   }
 }
 
+// A 2 s move goes one way: friction, an offset and a coupling gain differ by the direction of
+// travel only, and eight laws fit a 2 N Coulomb friction alike. Not judged, with the laws; the
+// same friction over 40 s of moves both ways is found.
+TEST(GeneratedSuite, AOneWayMoveWithLawsAlikeIsNotJudged) {
+  const auto one_way =
+      analyze(generated("position-moves", 2.0, {{"coulomb_friction", 2.0}}, 1)).headline;
+  EXPECT_EQ(one_way.rfind("not judged: the nut slides in one direction of travel only", 0), 0u)
+      << one_way;
+  EXPECT_NE(one_way.find("coulomb_friction"), std::string::npos) << one_way;
+  const auto both_ways =
+      analyze(generated("position-moves", 40.0, {{"coulomb_friction", 2.0}}, 1)).headline;
+  EXPECT_EQ(both_ways.rfind("found: ", 0), 0u) << both_ways;
+}
+
 TEST(GeneratedSuite, SensorDelay) {
   // Both encoders 10 ms late: the motion is late against the load cell; the sweep's force rate
   // (up to 250 N/s) makes that up to 2.5 N.

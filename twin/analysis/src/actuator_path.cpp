@@ -474,6 +474,36 @@ struct ReleaseFindings {
   const actuator::Breakaway& bt;
 };
 
+// With the nut sliding one way, friction, an offset and a coupling gain differ by nothing the
+// recording shows (they differ by the direction of travel): a term with many alternatives that
+// fit alike names no law there, and the conclusion says so first, not "found".
+void one_way_unjudged(Findings& J, const actuator::ActuatorPrepared& P) {
+  std::size_t up = 0, down = 0;
+  for (const auto& st : P.states) {
+    if (st.v_m_s > 0) ++up;
+    if (st.v_m_s < 0) ++down;
+  }
+  const std::size_t sliding = up + down, other = std::min(up, down);
+  if (sliding == 0 ||
+      static_cast<double>(other) >= rules::kOneWayOtherShare * static_cast<double>(sliding))
+    return;
+  for (const auto& e : J.effects) {
+    if (e.evidence.events || e.alternatives.size() < rules::kOneWayAlikeAlternatives) continue;
+    std::string laws = e.id;
+    for (std::size_t k = 0; k < e.alternatives.size(); ++k)
+      laws += (k + 1 == e.alternatives.size() ? " or " : ", ") + e.alternatives[k].id;
+    J.conclusion = std::string(kNotJudged) + "the nut slides in one direction of travel only (" +
+                   std::to_string(other) + " of " + std::to_string(sliding) +
+                   " sliding samples the other way), where laws that differ by the direction "
+                   "fit alike; " +
+                   std::to_string(e.alternatives.size() + 1) + " laws fit alike here (" + laws +
+                   "); record moves both ways to tell them apart (the corrected model takes " +
+                   e.id + " as one of them)";
+    J.nothing_missing = std::nullopt;
+    return;
+  }
+}
+
 // The typed findings of the stages' results.
 Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
                      actuator::SlidingSelection& sel, const LeftOut& left_out,
@@ -540,6 +570,7 @@ Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
                    std::to_string(rules::kMinSlidingSamples * decimation) + ")";
     J.nothing_missing = std::nullopt;
   }
+  one_way_unjudged(J, P);
   return J;
 }
 

@@ -123,6 +123,9 @@ std::string conclusion_headline(const Findings& f, const ModelFile& baseline) {
   };
   const bool events_only = std::all_of(f.effects.begin(), f.effects.end(),
                                        [](const auto& e) { return e.evidence.events.has_value(); });
+  // Terms fitted where the recording cannot tell their laws apart (one_way_unjudged): that leads.
+  if (!events_only && f.conclusion.starts_with(kNotJudged))
+    return f.conclusion + misfit_beside(f, kind) + sliding_caveat(f);
   if (!events_only) return found("found: ") + misfit_beside(f, kind) + sliding_caveat(f);
   // With events alone named, a force no library effect explains leads: events (pulses on a load
   // cell of the wrong sign, say) are no account of it.
