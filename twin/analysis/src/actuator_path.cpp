@@ -553,8 +553,10 @@ Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
   J.resolvable = sel.resolvable;
   conclude(J, {.terms_named = sel.terms.size(),
                .implausible = sel.implausible.has_value(),
+               // Each size is one effect's alone: two changes together can cancel in the force.
                .unresolved = J.resolvable.empty() ? ""
-                                                  : "; it cannot name changes smaller than: " +
+                                                  : "; it cannot name changes smaller than (each "
+                                                    "effect alone; two can cancel): " +
                                                         resolvable_text(J.resolvable),
                .check = "the calibration, the sensors' timing and loads the recording does not "
                         "log",
