@@ -287,7 +287,7 @@ EffectFinding sliding_finding(const selection::Found& c, const actuator::Actuato
   e.evidence.noise_floor_n = P.load_noise_n;
   e.evidence.resolution_floor_n = P.floor_n;
   e.evidence.minimum_n = P.minimum_n;
-  e.standard_errors = parameters_of(c.standard_errors);
+  e.standard_errors = stated_errors(e.parameters, parameters_of(c.standard_errors));
   e.calibration_errors = parameters_of(c.calibration_errors);
   e.summary = summary_of(c, P);
   if (c.acting_share < 1.0) {

@@ -798,8 +798,8 @@ EffectFinding axis_finding(const AxisRun& run, const selection::Found& f) {
   EffectFinding e;
   e.id = f.id;
   e.parameters = selection::parameters_of(f.params);
-  e.standard_errors = selection::parameters_of(f.standard_errors);
-  e.summary = summary_text(e.parameters, e.standard_errors);
+  e.summary = summary_text(e.parameters, selection::parameters_of(f.standard_errors));
+  e.standard_errors = stated_errors(e.parameters, selection::parameters_of(f.standard_errors));
   e.where = run.kind.words("all samples; the missing force follows ") + run.kind.law(*f.effect);
   e.evidence.heldout_gain_pct = f.gain_pct;
   e.evidence.t_stat = f.t_stat;

@@ -184,6 +184,13 @@ std::string resolvable_text(const std::vector<Resolvable>& r) {
   return s;
 }
 
+Parameters stated_errors(const Parameters& values, const Parameters& standard_errors) {
+  Parameters out;
+  for (const auto& e : standard_errors)
+    if (!value_with_error(parameter_value(values, e.name, 0.0), e.value).empty()) out.push_back(e);
+  return out;
+}
+
 std::string summary_text(const Parameters& values, const Parameters& standard_errors) {
   std::string s;
   for (const auto& p : values) {

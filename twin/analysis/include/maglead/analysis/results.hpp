@@ -37,6 +37,10 @@ std::string calibration_bound_text(const std::string& name, double bound);
 /// Every value with its error (`standard_errors` by name; missing: none), in the values' order:
 /// "coulomb_n 20.56 ± 0.05 N, offset_n 0.008 ± 0.004 N".
 std::string summary_text(const Parameters& values, const Parameters& standard_errors);
+/// The standard errors of the values that have one (value_with_error): a value scanned on a grid
+/// or held at the model's has a spread of rounding (1e-18) that the text calls "(no standard
+/// error)"; its key is left out, as analysis.json's reader would otherwise take it for exact.
+Parameters stated_errors(const Parameters& values, const Parameters& standard_errors);
 /// Whether a final residual is a misfit rather than the recording's own noise (the one rule the
 /// conclusion and the headline share).
 bool misfit_remains(double final_rms_n, double noise_floor_n);
