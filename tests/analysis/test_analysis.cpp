@@ -133,20 +133,6 @@ Generated run(const std::string& scenario, double duration_s, const std::vector<
   return {std::move(result), summary};
 }
 
-// A generated recording read back (seed 5, one effect), its file removed.
-maglead::Recording recorded(const std::string& scenario, double duration_s, const Key& effect) {
-  maglead::ScenarioOptions opt;
-  opt.scenario = scenario;
-  opt.duration_s = duration_s;
-  opt.seed = 5;
-  maglead::set_plant_effect(opt.plant.effects, effect.name, effect.value);
-  const std::string path = test_tmp_dir() + "/" + scenario + "_recorded.csv";
-  maglead::run_scenario(opt, path);
-  auto rec = maglead::read_recording(path);
-  std::filesystem::remove(path);
-  return rec;
-}
-
 // A generated recording read back (`seed`, the effects `keys`), its file removed.
 maglead::Recording generated(const std::string& scenario, double duration_s,
                              const std::vector<Key>& keys, std::uint64_t seed) {
@@ -155,11 +141,16 @@ maglead::Recording generated(const std::string& scenario, double duration_s,
   opt.duration_s = duration_s;
   opt.seed = seed;
   for (const auto& k : keys) maglead::set_plant_effect(opt.plant.effects, k.name, k.value);
-  const std::string path = test_tmp_dir() + "/" + scenario + "_generated.csv";
+  const std::string path = test_tmp_dir() + "/" + scenario + "_recorded.csv";
   maglead::run_scenario(opt, path);
   auto rec = maglead::read_recording(path);
   std::filesystem::remove(path);
   return rec;
+}
+
+// The same with seed 5 and one effect.
+maglead::Recording recorded(const std::string& scenario, double duration_s, const Key& effect) {
+  return generated(scenario, duration_s, {effect}, 5);
 }
 
 std::vector<double>& load_cell(maglead::Recording& rec) {

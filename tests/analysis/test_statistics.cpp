@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -120,10 +121,12 @@ TEST(SensorNoise, AColumnLoggedInCoarseStepsHasItsRoundingAsTheFloor) {
   std::mt19937 rng(3);
   std::normal_distribution<double> noise(0.0, 0.02);
   std::vector<double> y(20000);
-  for (std::size_t i = 0; i < y.size(); ++i) {
-    const double t = static_cast<double>(i) / 1000.0;
-    y[i] = std::round((3.0 * std::sin(2 * std::numbers::pi * 0.2 * t) + noise(rng)) / 0.5) * 0.5;
-  }
+  double t_s = 0.0;  // a 0.2 Hz sine of 3 N logged at 1 kHz
+  std::generate(y.begin(), y.end(), [&] {
+    const double force_n = 3.0 * std::sin(2 * std::numbers::pi * 0.2 * t_s) + noise(rng);
+    t_s += 1e-3;
+    return std::round(force_n / 0.5) * 0.5;
+  });
   EXPECT_EQ(white_noise_sigma(y), 0.0);  // what the floor was before: no noise at all
   EXPECT_NEAR(logging_step(y), 0.5, 1e-12);
   const auto n = sensor_noise(y);
