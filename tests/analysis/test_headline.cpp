@@ -2,6 +2,7 @@
 // account of a misfit, and nothing named is not nothing missing on either path.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 
 #include "maglead/analysis/analysis.hpp"
@@ -53,17 +54,41 @@ TEST(Headline, AForceNoEffectExplainsLeadsBeforeEventsBesideIt) {
   EXPECT_NE(h.find("; events found beside it: external disturbance"), std::string::npos) << h;
 }
 
-TEST(Headline, EventsAreFoundAndTheirPulsesAreNoMisfit) {
-  // The pulses' force is in the final residual (0.7 N over a 0.1 N floor here): it is theirs.
+TEST(Headline, EventsWithAMisfitBesideThemSayTheMisfit) {
+  // A short pulse leaves little of its force in the sliding residual (8 N pulses alone: 0.053 N
+  // over a 0.1 N floor): 0.7 N left beside events is force they do not account for.
   Findings f = findings_with_residual(0.7);
   f.effects.push_back(disturbance_events(4));
   const std::string h = maglead::analysis::headline_of(f, ModelFile{});
-  EXPECT_TRUE(starts_with(h, "found: external disturbance count 4")) << h;
+  EXPECT_EQ(h,
+            "found: external disturbance count 4 (not in the model); a misfit of 0.7 N RMS "
+            "remains beside them (noise floor 0.1 N)");
   maglead::analysis::conclude(f, checking(0));
-  EXPECT_EQ(f.conclusion,
+  EXPECT_TRUE(starts_with(f.conclusion,
+                          "events found (external_disturbance); a misfit of 0.7 N RMS remains"))
+      << f.conclusion;
+  EXPECT_EQ(f.nothing_missing, false);
+  // Within twice the floor the residual is the noise: events alone, nothing left.
+  Findings quiet = findings_with_residual(0.15);
+  quiet.effects.push_back(disturbance_events(4));
+  EXPECT_EQ(maglead::analysis::headline_of(quiet, ModelFile{}),
+            "found: external disturbance count 4 (not in the model)");
+  maglead::analysis::conclude(quiet, checking(0));
+  EXPECT_EQ(quiet.conclusion,
             "events found (external_disturbance); no effect explains a significant part of the "
             "held-out error")
-      << f.conclusion;
+      << quiet.conclusion;
+}
+
+// A load cell logged in steps coarser than its noise: the floor is the step's rounding, said as
+// not measured, and a misfit far above it is a misfit, never "nothing missing".
+TEST(Headline, AFloorNotMeasurableBelowTheLoggingStepSaysSo) {
+  Findings f = findings_with_residual(1.197);
+  f.noise_floor_n = 0.5 / std::sqrt(12.0);
+  f.noise_step_n = 0.5;
+  EXPECT_EQ(maglead::analysis::headline_of(f, ModelFile{}),
+            "a misfit of 1.2 N RMS remains (noise floor not measurable below the 0.5 N logging "
+            "step: 0.144 N) that no library effect explains");
 }
 
 TEST(Headline, NothingNamedWithAMisfitSaysTheMisfit) {

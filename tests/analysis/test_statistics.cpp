@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -27,8 +28,10 @@ using maglead::analysis::stats::Fit;
 using maglead::analysis::stats::fold_of;
 using maglead::analysis::stats::fold_starts;
 using maglead::analysis::stats::Grams;
+using maglead::analysis::stats::logging_step;
 using maglead::analysis::stats::Named;
 using maglead::analysis::stats::require_analysable;
+using maglead::analysis::stats::sensor_noise;
 using maglead::analysis::stats::white_noise_sigma;
 
 // Four segments of two samples each; one column of ones, so a fit is the mean residual of the
@@ -109,6 +112,42 @@ TEST(WhiteNoiseSigma, ReadsTheNoiseUnderASmoothSignalWithSteps) {
         5.0 * std::sin(2 * std::numbers::pi * 0.5 * t) + (i % 2000 < 1000 ? 2.0 : 0.0) + noise(rng);
   }
   EXPECT_NEAR(white_noise_sigma(y), 0.3, 0.015);
+}
+
+// A load cell logged in 0.5 N steps with noise of 0.02 N under them: most second differences
+// are 0, so the roughness reads no noise, yet the logged value is off the force by the step's
+// rounding (uniform, 0.5/√12 = 0.144 N). The floor is at least that, and says it was not measured.
+TEST(SensorNoise, AColumnLoggedInCoarseStepsHasItsRoundingAsTheFloor) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  std::vector<double> y(20000);
+  double t_s = 0.0;  // a 0.2 Hz sine of 3 N logged at 1 kHz
+  std::generate(y.begin(), y.end(), [&] {
+    const double force_n = 3.0 * std::sin(2 * std::numbers::pi * 0.2 * t_s) + noise(rng);
+    t_s += 1e-3;
+    return std::round(force_n / 0.5) * 0.5;
+  });
+  EXPECT_EQ(white_noise_sigma(y), 0.0);  // what the floor was before: no noise at all
+  EXPECT_NEAR(logging_step(y), 0.5, 1e-12);
+  const auto n = sensor_noise(y);
+  EXPECT_FALSE(n.measured);
+  EXPECT_NEAR(n.sigma, 0.5 / std::sqrt(12.0), 1e-12);
+}
+
+// Continuous noise shares no step: the floor is the measured noise, and says so.
+TEST(SensorNoise, AContinuousColumnHasItsMeasuredNoise) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  std::vector<double> y(20000);
+  for (auto& v : y) v = noise(rng);
+  EXPECT_EQ(logging_step(y), 0.0);
+  const auto n = sensor_noise(y);
+  EXPECT_TRUE(n.measured);
+  EXPECT_NEAR(n.sigma, 0.3, 0.015);  // as WhiteNoiseSigma: six standard errors
+  // Logged at 0.01 N, far below the noise: the step is found, the floor is still the noise.
+  for (auto& v : y) v = std::round(v / 0.01) * 0.01;
+  EXPECT_NEAR(logging_step(y), 0.01, 1e-9);
+  EXPECT_TRUE(sensor_noise(y).measured);
 }
 
 maglead::Recording two_columns(std::size_t rows) {

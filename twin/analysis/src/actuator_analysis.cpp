@@ -556,6 +556,17 @@ std::vector<T> every_nth(std::vector<T> full, std::size_t step) {
 // negative, it is a unit or a sign, not physics (a coupling error within any plausible range
 // moves it by tens of per cent).
 void check_load_cell_scale(const std::string& path, const ActuatorSignals& s, const Coupling& cp) {
+  // A load cell reading one value over the whole recording (unplugged, stuck, a column of
+  // zeros) carries no load: the force left out of the balance would be the whole coupling's,
+  // and no fit against it judges the model.
+  if (const auto [lo, hi] = std::minmax_element(s.load_raw.begin(), s.load_raw.end());
+      lo != s.load_raw.end() && *lo == *hi) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.4g", *lo);
+    throw LoadCellUnitError(path + ": not judged: the load cell reads a constant " + b +
+                            " N over the whole recording (column load_force_n), so it carries no "
+                            "load to judge the model against; check its wiring");
+  }
   constexpr double kMinExplained = 0.5;  // R² of the fit: the balance holds at all
   constexpr double kScaleFactor = 3.0;
   constexpr double kSure = 4.0;        // standard errors beyond the bound
@@ -640,7 +651,9 @@ ActuatorPrepared prepare_actuator(const Recording& rec, const Baseline& base,
   std::vector<double> geared;
   const ActuatorSignals s(rec, act, P, geared);
   P.slips = find_slips(t, s.phi_raw);
-  P.load_noise_n = stats::white_noise_sigma(s.load_raw);  // the load cell's noise
+  const stats::SensorNoise noise = stats::sensor_noise(s.load_raw);  // the load cell's noise
+  P.load_noise_n = noise.sigma;
+  if (!noise.measured) P.load_noise_step_n = noise.step;
   std::tie(P.load_filtered_noise_n, P.load_rate_noise_n_s) = filtered_noise(P);
   P.v_min_m_s = P.count_m * P.filter_hz;
   // Keep every `decim`-th sliding sample: the signals are band-limited to filter_hz, so samples

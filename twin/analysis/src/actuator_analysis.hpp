@@ -115,6 +115,7 @@ struct SampleColumns {
 struct ActuatorPrepared : SampleColumns {
   double fs_hz = 0, filter_hz = 0, lead_m = 0, count_m = 0, v_min_m_s = 0, t0_s = 0;
   double duration_s = 0, load_noise_n = 0;
+  std::optional<double> load_noise_step_n;  // the logging step the noise rests on (not measured)
   double load_filtered_noise_n = 0, load_rate_noise_n_s = 0;  // that noise after the filter
   double count_force_n = 0;  // coupling force of one linear encoder count at φ = 0
   double floor_n = 0;        // RMS force the recording resolves: one count's rounding and the

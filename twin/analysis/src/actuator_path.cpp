@@ -287,7 +287,7 @@ EffectFinding sliding_finding(const selection::Found& c, const actuator::Actuato
   e.evidence.noise_floor_n = P.load_noise_n;
   e.evidence.resolution_floor_n = P.floor_n;
   e.evidence.minimum_n = P.minimum_n;
-  e.standard_errors = parameters_of(c.standard_errors);
+  e.standard_errors = stated_errors(e.parameters, parameters_of(c.standard_errors));
   e.calibration_errors = parameters_of(c.calibration_errors);
   e.summary = summary_of(c, P);
   if (c.acting_share < 1.0) {
@@ -474,6 +474,36 @@ struct ReleaseFindings {
   const actuator::Breakaway& bt;
 };
 
+// With the nut sliding one way, friction, an offset and a coupling gain differ by nothing the
+// recording shows (they differ by the direction of travel): a term with many alternatives that
+// fit alike names no law there, and the conclusion says so first, not "found".
+void one_way_unjudged(Findings& J, const actuator::ActuatorPrepared& P) {
+  std::size_t up = 0, down = 0;
+  for (const auto& st : P.states) {
+    if (st.v_m_s > 0) ++up;
+    if (st.v_m_s < 0) ++down;
+  }
+  const std::size_t sliding = up + down, other = std::min(up, down);
+  if (sliding == 0 ||
+      static_cast<double>(other) >= rules::kOneWayOtherShare * static_cast<double>(sliding))
+    return;
+  for (const auto& e : J.effects) {
+    if (e.evidence.events || e.alternatives.size() < rules::kOneWayAlikeAlternatives) continue;
+    std::string laws = e.id;
+    for (std::size_t k = 0; k < e.alternatives.size(); ++k)
+      laws += (k + 1 == e.alternatives.size() ? " or " : ", ") + e.alternatives[k].id;
+    J.conclusion = std::string(kNotJudged) + "the nut slides in one direction of travel only (" +
+                   std::to_string(other) + " of " + std::to_string(sliding) +
+                   " sliding samples the other way), where laws that differ by the direction "
+                   "fit alike; " +
+                   std::to_string(e.alternatives.size() + 1) + " laws fit alike here (" + laws +
+                   "); record moves both ways to tell them apart (the corrected model takes " +
+                   e.id + " as one of them)";
+    J.nothing_missing = std::nullopt;
+    return;
+  }
+}
+
 // The typed findings of the stages' results.
 Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
                      actuator::SlidingSelection& sel, const LeftOut& left_out,
@@ -486,6 +516,7 @@ Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
   J.samples_used = sel.samples_used;
   J.method = method_of(P, o);
   J.noise_floor_n = P.load_noise_n;
+  J.noise_step_n = P.load_noise_step_n;
   const ErrorScale es{std::max<double>(1.0, static_cast<double>(sel.samples_used)),
                       sel.measured_ss};
   J.baseline = {es.rms(sel.baseline_sse),
@@ -522,8 +553,10 @@ Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
   J.resolvable = sel.resolvable;
   conclude(J, {.terms_named = sel.terms.size(),
                .implausible = sel.implausible.has_value(),
+               // Each size is one effect's alone: two changes together can cancel in the force.
                .unresolved = J.resolvable.empty() ? ""
-                                                  : "; it cannot name changes smaller than: " +
+                                                  : "; it cannot name changes smaller than (each "
+                                                    "effect alone; two can cancel): " +
                                                         resolvable_text(J.resolvable),
                .check = "the calibration, the sensors' timing and loads the recording does not "
                         "log",
@@ -539,6 +572,7 @@ Findings findings_of(const Recording& rec, const actuator::ActuatorPrepared& P,
                    std::to_string(rules::kMinSlidingSamples * decimation) + ")";
     J.nothing_missing = std::nullopt;
   }
+  one_way_unjudged(J, P);
   return J;
 }
 

@@ -283,11 +283,12 @@ struct AxisPrepared {
   Eigen::MatrixXd id_columns;  // decimated: parallel-filtered columns (n × columns)
   int decimation = 1;
   double fs_hz = 0, filter_hz = 0, noise_floor_n = 0, bandwidth_hz = 0;
-  std::vector<double> y_raw;        // full-rate measured force, unfiltered
-  effects::Scales scales;           // the units' plausible ranges are stated in these
-  std::vector<unsigned char> held;  // full rate: the axis held still (holds(), not widened)
-  double held_s = 0;                // their total time
-  double count = 0;                 // the position's encoder count (its smallest step)
+  std::optional<double> noise_step_n;  // the logging step the noise rests on (not measured)
+  std::vector<double> y_raw;           // full-rate measured force, unfiltered
+  effects::Scales scales;              // the units' plausible ranges are stated in these
+  std::vector<unsigned char> held;     // full rate: the axis held still (holds(), not widened)
+  double held_s = 0;                   // their total time
+  double count = 0;                    // the position's encoder count (its smallest step)
 };
 
 // ---------------------------------------------------------------- holds
@@ -448,8 +449,10 @@ AxisPrepared prepare_axis(const Recording& rec, const ModelFile& model, const An
   s.v = central_diff(s.p, dt);
   s.a = central_diff2(s.p, dt);
   P.y_raw = rec.column(drive);
-  P.noise_floor_n = stats::white_noise_sigma(P.y_raw);  // the force sensor's noise
-  P.scales = {max_abs(P.y_raw), max_abs(s.v)};          // what the drive produced and reached
+  const stats::SensorNoise noise = stats::sensor_noise(P.y_raw);  // the force sensor's noise
+  P.noise_floor_n = noise.sigma;
+  if (!noise.measured) P.noise_step_n = noise.step;
+  P.scales = {max_abs(P.y_raw), max_abs(s.v)};  // what the drive produced and reached
   const std::size_t hold_len = filter_samples(rules::kAxisRestFilterPeriods, P.filter_hz, P.fs_hz);
   P.count = position_count(rec.column(position));
   P.held = holds(rec.column(position), rules::kAxisRestCounts * P.count, hold_len);
@@ -770,6 +773,7 @@ void describe_method(Findings& J, const AxisRun& run) {
                        run.kind.words(", and explain more RMS than the force noise floor");
   J.method.moving_only = "all samples";
   J.noise_floor_n = run.P.noise_floor_n;
+  J.noise_step_n = run.P.noise_step_n;
 }
 
 // The baseline's unknown totals (fit = [...]) as the fit gives them.
@@ -794,8 +798,8 @@ EffectFinding axis_finding(const AxisRun& run, const selection::Found& f) {
   EffectFinding e;
   e.id = f.id;
   e.parameters = selection::parameters_of(f.params);
-  e.standard_errors = selection::parameters_of(f.standard_errors);
-  e.summary = summary_text(e.parameters, e.standard_errors);
+  e.summary = summary_text(e.parameters, selection::parameters_of(f.standard_errors));
+  e.standard_errors = stated_errors(e.parameters, selection::parameters_of(f.standard_errors));
   e.where = run.kind.words("all samples; the missing force follows ") + run.kind.law(*f.effect);
   e.evidence.heldout_gain_pct = f.gain_pct;
   e.evidence.t_stat = f.t_stat;

@@ -107,8 +107,8 @@ std::string sliding_caveat(const Findings& f) {
 std::string misfit_beside(const Findings& f, const effects::AxisKind& kind) {
   if (!misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) return {};
   const std::string unit(kind.drive_unit);
-  return "; a misfit of " + number(f.final_fit.rms_n) + " " + unit +
-         " RMS remains beside them (noise floor " + number(f.noise_floor_n) + " " + unit + ")";
+  return "; a misfit of " + number(f.final_fit.rms_n) + " " + unit + " RMS remains beside them (" +
+         noise_floor_text(f, kind, 4) + ")";
 }
 
 /// The headline without the laws left unjudged.
@@ -123,24 +123,26 @@ std::string conclusion_headline(const Findings& f, const ModelFile& baseline) {
   };
   const bool events_only = std::all_of(f.effects.begin(), f.effects.end(),
                                        [](const auto& e) { return e.evidence.events.has_value(); });
+  // Terms fitted where the recording cannot tell their laws apart (one_way_unjudged): that leads.
+  if (!events_only && f.conclusion.starts_with(kNotJudged))
+    return f.conclusion + misfit_beside(f, kind) + sliding_caveat(f);
   if (!events_only) return found("found: ") + misfit_beside(f, kind) + sliding_caveat(f);
   // With events alone named, a force no library effect explains leads: events (pulses on a load
   // cell of the wrong sign, say) are no account of it.
   if (f.unexplained)
     return "not explained: " + f.unexplained->message +
            (f.effects.empty() ? std::string() : found("; events found beside it: "));
-  // The pulses' own force is in the final residual: beside events it is no misfit.
-  if (!f.effects.empty()) return found("found: ") + sliding_caveat(f);
+  // A misfit beside events is said as beside terms: a short pulse leaves little of its force in
+  // the sliding residual, so what is left above the floor is force the events do not account for.
+  if (!f.effects.empty()) return found("found: ") + misfit_beside(f, kind) + sliding_caveat(f);
   // The conclusion says why the model was not judged (too little sliding), with its counts.
   if (f.conclusion.starts_with(kNotJudged))
     return f.conclusion + "; no finding is not the same as no anomaly";
   const std::string unit(kind.drive_unit);
   if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
-    return misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, kind) +
-           sliding_caveat(f);
+    return misfit_text(f, kind) + sliding_caveat(f);
   return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) + " " +
-         unit + " RMS (noise floor " + number(f.noise_floor_n) + " " + unit + ")" +
-         sliding_caveat(f);
+         unit + " RMS (" + noise_floor_text(f, kind, 4) + ")" + sliding_caveat(f);
 }
 
 }  // namespace

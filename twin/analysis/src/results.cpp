@@ -61,15 +61,27 @@ std::string num(double v) {
 }
 }  // namespace
 
-std::string misfit_text(double final_rms_n, double noise_floor_n,
-                        const std::vector<Rejected>& not_selected, const effects::AxisKind& kind) {
+std::string noise_floor_text(const Findings& f, const effects::AxisKind& kind, int digits) {
+  const std::string unit(kind.drive_unit);
+  const auto figure = [&](double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.*g", digits, v);
+    return std::string(b) + " " + unit;
+  };
+  if (!f.noise_step_n) return "noise floor " + figure(f.noise_floor_n);
+  if (!(*f.noise_step_n > 0)) return "noise floor not measurable";
+  return "noise floor not measurable below the " + figure(*f.noise_step_n) +
+         " logging step: " + figure(f.noise_floor_n);
+}
+
+std::string misfit_text(const Findings& f, const effects::AxisKind& kind) {
   const std::string unit(kind.drive_unit);
   // A candidate that would take at least half the held-out error is the misfit's likeliest
   // account, even short of significance; below half it says little of what is left.
   constexpr double kMostOfItPct = rules::kMostOfItPct;
-  std::string s = "a misfit of " + num(final_rms_n) + " " + unit + " RMS remains (noise floor " +
-                  num(noise_floor_n) + " " + unit + ")";
-  for (const auto& r : not_selected) {
+  std::string s = "a misfit of " + num(f.final_fit.rms_n) + " " + unit + " RMS remains (" +
+                  noise_floor_text(f, kind, 3) + ")";
+  for (const auto& r : f.not_selected) {
     if (!r.reason || !r.reason->starts_with(kBelowSignificance) ||
         !(r.heldout_gain_pct >= kMostOfItPct))
       continue;
@@ -115,13 +127,17 @@ void conclude(Findings& f, const Concluding& c) {
   }
   const std::string none =
       "no effect explains a significant part of the held-out error" + c.unresolved;
-  // Events' own force (the pulses) is in the final residual: beside them it is no misfit, and
-  // "nothing is missing" would hide them.
+  // "Nothing is missing" would hide the events; a misfit above the floor beside them is said.
   if (!event_ids.empty()) {
-    f.conclusion = "events found (" + event_ids + "); " + none;
+    if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) {
+      f.conclusion = "events found (" + event_ids + "); " + misfit_text(f, *c.kind) + "; check " +
+                     c.kind->words(c.check);
+      f.nothing_missing = false;
+    } else {
+      f.conclusion = "events found (" + event_ids + "); " + none;
+    }
   } else if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) {
-    f.conclusion = misfit_text(f.final_fit.rms_n, f.noise_floor_n, f.not_selected, *c.kind) +
-                   "; check " + c.kind->words(c.check);
+    f.conclusion = misfit_text(f, *c.kind) + "; check " + c.kind->words(c.check);
     f.nothing_missing = false;
   } else {
     f.conclusion = "nothing is missing: " + none;
@@ -166,6 +182,13 @@ std::string resolvable_text(const std::vector<Resolvable>& r) {
     s += b;
   }
   return s;
+}
+
+Parameters stated_errors(const Parameters& values, const Parameters& standard_errors) {
+  Parameters out;
+  for (const auto& e : standard_errors)
+    if (!value_with_error(parameter_value(values, e.name, 0.0), e.value).empty()) out.push_back(e);
+  return out;
 }
 
 std::string summary_text(const Parameters& values, const Parameters& standard_errors) {

@@ -90,6 +90,42 @@ double white_noise_sigma(const std::vector<double>& y) {
   return robust_sigma(std::move(d2)) / std::sqrt(6.0);
 }
 
+double logging_step(const std::vector<double>& y) {
+  // Values within this share of the column's largest are one logged value (a decimal step such
+  // as 0.1 is written with rounding in its last digits).
+  constexpr double kSameValue = 1e-9;
+  // A gap within this share of a step from a whole number of steps is that many steps.
+  constexpr double kOnTheStep = 0.01;
+  std::vector<double> v;
+  v.reserve(y.size());
+  for (double x : y)
+    if (std::isfinite(x)) v.push_back(x);
+  std::sort(v.begin(), v.end());
+  if (v.size() < 2) return 0.0;
+  const double same = kSameValue * std::max(std::abs(v.front()), std::abs(v.back()));
+  std::vector<double> gaps;
+  for (std::size_t i = 1; i < v.size(); ++i)
+    if (v[i] - v[i - 1] > same) gaps.push_back(v[i] - v[i - 1]);
+  if (gaps.empty()) return 0.0;
+  const double step = *std::min_element(gaps.begin(), gaps.end());
+  for (double g : gaps)
+    if (std::abs(g / step - std::round(g / step)) > kOnTheStep) return 0.0;
+  return step;
+}
+
+SensorNoise sensor_noise(const std::vector<double>& y) {
+  SensorNoise n;
+  n.sigma = white_noise_sigma(y);
+  n.step = logging_step(y);
+  // A uniform rounding error over one step has this standard deviation.
+  const double rounding = n.step / std::sqrt(12.0);
+  if (n.sigma <= rounding) {
+    n.sigma = rounding;
+    n.measured = false;
+  }
+  return n;
+}
+
 std::size_t fold_of(double since_start_s, double span_s, int folds) {
   if (!(span_s > 0)) return 0;
   return static_cast<std::size_t>(

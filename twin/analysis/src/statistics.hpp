@@ -29,6 +29,17 @@ void require_analysable(const Recording& rec, const std::vector<std::string>& co
 /// Standard deviation of white noise on a smooth signal, from its sample-to-sample roughness
 /// (var(Δ²y) = 6σ²; robust to the signal's own steps).
 double white_noise_sigma(const std::vector<double>& y);
+/// The step a column is logged in: the smallest gap between its distinct values when every gap
+/// is a whole multiple of it; 0 when the values share no step (a continuous column).
+double logging_step(const std::vector<double>& y);
+/// A sensor's noise floor: its white noise, but never below the rounding error of its logging
+/// step (step/√12), which a column logged in steps coarser than its noise hides from the second
+/// differences (most are 0). `measured` is false when the floor rests on the step alone.
+struct SensorNoise {
+  double sigma = 0.0, step = 0.0;
+  bool measured = true;
+};
+SensorNoise sensor_noise(const std::vector<double>& y);
 
 /// RMS and relative error of a sum of squares over `n_used` samples whose measured force has
 /// the sum of squares `measured_ss`.

@@ -37,6 +37,10 @@ std::string calibration_bound_text(const std::string& name, double bound);
 /// Every value with its error (`standard_errors` by name; missing: none), in the values' order:
 /// "coulomb_n 20.56 ± 0.05 N, offset_n 0.008 ± 0.004 N".
 std::string summary_text(const Parameters& values, const Parameters& standard_errors);
+/// The standard errors of the values that have one (value_with_error): a value scanned on a grid
+/// or held at the model's has a spread of rounding (1e-18) that the text calls "(no standard
+/// error)"; its key is left out, as analysis.json's reader would otherwise take it for exact.
+Parameters stated_errors(const Parameters& values, const Parameters& standard_errors);
 /// Whether a final residual is a misfit rather than the recording's own noise (the one rule the
 /// conclusion and the headline share).
 bool misfit_remains(double final_rms_n, double noise_floor_n);
@@ -128,9 +132,11 @@ inline constexpr const char* kBelowSignificance =
 /// candidate the selection stopped at (in `not_selected`) explains most of it held out, that
 /// candidate with why it was not taken, so a near miss is not read as "nothing in the library".
 /// `kind`: the axis the residual is of (a rotary axis's is a torque in N·m, in its words).
-std::string misfit_text(double final_rms_n, double noise_floor_n,
-                        const std::vector<Rejected>& not_selected,
-                        const effects::AxisKind& kind = effects::linear_axis());
+struct Findings;
+std::string misfit_text(const Findings& f, const effects::AxisKind& kind = effects::linear_axis());
+/// "noise floor 0.0992 N", or, when the noise is not measurable below the logging step, "noise
+/// floor not measurable below the 0.5 N logging step: 0.144 N".
+std::string noise_floor_text(const Findings& f, const effects::AxisKind& kind, int digits);
 
 /// Held-out (and fitted) error after each step of the selection; the first is the baseline.
 struct ValidationStep {
@@ -223,6 +229,9 @@ struct Findings {
   std::size_t samples_used = 0;
   Method method;
   double noise_floor_n = 0.0;
+  // The force's logging step when the noise is not measurable below it (noise_floor_n is then
+  // the step's rounding error); 0 when the floor is measured.
+  std::optional<double> noise_step_n;
   FitErrors baseline;
   FitErrors final_fit;
   std::vector<EffectFinding> effects;

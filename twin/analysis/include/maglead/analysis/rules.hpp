@@ -239,6 +239,12 @@ inline constexpr std::array kTable = {
     Rule{"most_of_it_pct", 50.0, "%",
          "a candidate short of significance taking this much of the held-out error is named as the misfit's likeliest account",
          "analysis_resolvable", "conclusion"},
+    Rule{"one_way_other_share", 0.05, "1",
+         "actuator: sliding samples the other way below this share make a recording of one direction of travel, where laws differing by the direction fit alike",
+         "GeneratedSuite.AOneWayMoveWithLawsAlikeIsNotJudged", "conclusion"},
+    Rule{"one_way_alike_alternatives", 3.0, "laws",
+         "actuator: on one direction of travel, a finding with this many alternatives fitting alike names no law: the headline says not judged",
+         "GeneratedSuite.AOneWayMoveWithLawsAlikeIsNotJudged", "conclusion"},
 };
 // clang-format on
 
@@ -337,6 +343,8 @@ inline constexpr double kWhereWindowOverMedian = value_of("where_window_over_med
 inline constexpr double kWhereEdgeOfRange = value_of("where_edge_of_range");
 inline constexpr double kMisfitOverFloor = value_of("misfit_over_floor");
 inline constexpr double kMostOfItPct = value_of("most_of_it_pct");
+inline constexpr double kOneWayOtherShare = value_of("one_way_other_share");
+inline constexpr std::size_t kOneWayAlikeAlternatives = static_cast<std::size_t>(value_of("one_way_alike_alternatives"));
 // clang-format on
 
 /// The table as Markdown, one row per rule in stage order (docs/analysis.md's "How it decides"
