@@ -36,10 +36,12 @@ constexpr double kMaxTrack_rad = 0.5;  // most the phase tracking may add to a c
 // A fault reset is done after the fault stayed away this long: longer than a CiA 402 drive's
 // fault-reset handshake and the master's PDO supervision (a few cycles), short for a person.
 constexpr double kResetConfirm_s = 0.02;
-// A reset takes a phase that has stood still this long (within a quarter of the stable branch's
-// width: encoder steps and a load's slow change stay inside it, a slip's lead does not): a nut
-// still sliding over the screw may pass through the branch and would latch again at once.
+// After a slip a reset takes a phase that has stood still this long: a nut still sliding over
+// the screw may pass through the stable branch and would latch again at once.
 constexpr double kResetSettle_s = 0.1;
+// "Stood still": within this share of the stable branch's width (encoder steps and a load's slow
+// change stay inside it, a slip's lead does not).
+constexpr double kStillBandShare = 0.25;
 // A position command at the coupling's safe limit with the nut standing (its velocity estimate
 // zero: no encoder edge for 0.2 s) this long more is a stall, not a slow start.
 constexpr double kStallConfirm_s = 0.1;
@@ -379,8 +381,9 @@ void Controller::on_fault_reset() noexcept {
   // The operator has seen the twin's latched drift warning: clear it (README "Digital twin").
   if (twin_) twin_->clear_warnings();
   const auto& cal = cfg_.calibration;
-  const bool phase_ok = s_.phase_rad >= cal.stable_min_rad && s_.phase_rad <= cal.stable_max_rad &&
-                        s_.t_s - phase_steady_since_s_ >= kResetSettle_s;
+  const bool stood_still = !stepped_out_ || s_.t_s - phase_steady_since_s_ >= kResetSettle_s;
+  const bool phase_ok =
+      s_.phase_rad >= cal.stable_min_rad && s_.phase_rad <= cal.stable_max_rad && stood_still;
   if (state_ == DriveState::fault && !phase_ok) {
     reject(Reject::still_faulty);
     return;
@@ -663,7 +666,7 @@ void Controller::supervise(double now_s) noexcept {
   const auto& cal = cfg_.calibration;
   const bool outside = s_.phase_rad < cal.stable_min_rad || s_.phase_rad > cal.stable_max_rad;
   if (std::abs(s_.phase_rad - steady_phase_rad_) >
-      0.25 * (cal.stable_max_rad - cal.stable_min_rad)) {
+      kStillBandShare * (cal.stable_max_rad - cal.stable_min_rad)) {
     steady_phase_rad_ = s_.phase_rad;
     phase_steady_since_s_ = now_s;
   }

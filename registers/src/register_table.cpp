@@ -337,7 +337,9 @@ constexpr std::array kRejects = std::to_array<Code>({
     {5, "stopped",
      "execute refused while the stop bit is set (over Modbus the write carrying both is refused "
      "first: exception 03, write_refusal_reason 6)"},
-    {6, "still_faulty", "fault reset refused: the cause is still present (resync first)"},
+    {6, "still_faulty",
+     "fault reset refused: the cause is still present (after a slip: the phase off its stable "
+     "branch, resync first, or not yet still for 0.1 s, wait until the nut stands)"},
     {7, "not_stepped_out", "resync only after a step-out"},
     {8, "fault_returned",
      "fault reset passed on, but a fault latched again before it was done: its cause persists "

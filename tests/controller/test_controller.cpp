@@ -308,7 +308,6 @@ TEST(Controller, AResetWhileTheNutStillSlidesIsRefused) {
     fault_seen = fault_seen || s.drive_state == 3;
   });
   ASSERT_TRUE(fault_seen);
-  std::printf("nut at %.2f mm\n", rig.plant.truth().nut_pos_m * 1e3);
   ASSERT_EQ(rig.snap().drive_state, static_cast<std::uint16_t>(reg::DriveState::fault));
   const auto& cal = rig.cfg.calibration;
   int tried_on_branch = 0, accepted = 0;

@@ -32,7 +32,7 @@ def free_port():
 
 
 def main():
-    watchdog(105)
+    watchdog(230)
     os.makedirs(WORK, exist_ok=True)
     srv = Server(MAGLEAD, CONFIG, "--port", "0")
     try:
@@ -704,11 +704,17 @@ def dropped_connection():
         srv = Server(MAGLEAD, CONFIG, "--port", "0")
         holder = subprocess.Popen([MAGLEAD, args[0], "--port", str(srv.port), *args[1:]],
                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        end = time.time() + 15
-        while time.time() < end and read_regs(srv.port, 4, 13, 1)[0] != 2:  # drive_state enabled
-            time.sleep(0.05)
-        time.sleep(0.5)
+        # Stop the server once the tool says it holds (a loaded machine may take a while to get
+        # there; stopped earlier, the tool is still commanding, not holding).
+        said, end = "", time.time() + 20
+        while time.time() < end and "holding" not in said:
+            if select.select([holder.stdout], [], [], 0.1)[0]:
+                line = holder.stdout.readline()
+                if not line:
+                    break
+                said += line
         out, err = stop_server_then_wait(srv, holder)
+        out = said + out
         check(holder.returncode == 3 and one_line(err) and "lost the controller while holding" in err
               and "control and the hold are lost" in err and "owner_lost" in err
               and f"then run '{again}' again" in err and ("dropped" in err or "no reply" in err),

@@ -797,6 +797,8 @@ std::string reset_command_now(Client& c, double alarm) {
 /// nut stands (the moving bit clear: no encoder edge for a while), at most kSlipEnd_s; then the
 /// controller's answer decides.
 void wait_for_slip_to_end(Client& c) {
+  // A slip's slide ends within tens of ms and the moving bit clears 0.2 s after the nut's last
+  // encoder edge: 1 s covers both with margin, and a person does not wait on a nut held sliding.
   constexpr double kSlipEnd_s = 1.0;
   const auto t0 = Clock::now();
   Status s = read_status(c);
@@ -1133,10 +1135,10 @@ void reset(Client& c, bool resync_first, const CommandOptions& o) {
                           std::string(what) + " rejected by the controller: " +
                               code_name(reg::reject_codes(), s.reject) + " (alarm " +
                               alarm_text(c, s.alarm) +
-                              "): the phase is still outside its stable band: the nut is still "
-                              "slipping, or a load beyond the coupling's peak holds it there; "
-                              "wait until it stands with that load taken off, then run 'maglead "
-                              "reset --resync' again");
+                              "): the nut has not stood still on the phase's stable band: it "
+                              "is still slipping, or a load beyond the coupling's peak holds it "
+                              "off the band; wait until it stands with that load taken off, "
+                              "then run 'maglead reset --resync' again");
       rejected(what, s);
     }
     if (!s.bit(ack))
