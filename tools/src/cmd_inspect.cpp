@@ -104,7 +104,8 @@ void add_inspect(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "inspect",
       "Check a recording before analysing it: read it (mls-recording/1) as analyze does and "
-      "print its rows, time span and columns, checked as the commands that read it check them: an axis's (a '# axis:' line, "
+      "print its rows, time span and columns, checked as the commands that read it check them: an "
+      "axis's (a '# axis:' line, "
       "or an axis's columns) as analyze does with an axis's model (kind, columns, a value in "
       "every row, 200 rows, a sample rate of 50 Hz or more), the actuator's as twin-check, "
       "estimate and report do (the angle, nut_pos_m, the phase on the calibration's branch). "
