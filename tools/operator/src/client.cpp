@@ -384,7 +384,7 @@ double parse_quantity(const std::string& text, std::string_view si_unit) {
       {"m", "µm", 1e-6},     {"m/s", "m/s", 1},        {"m/s", "mm/s", 1e-3},
       {"m/s", "um/s", 1e-6}, {"m/s^2", "m/s^2", 1},    {"m/s^2", "mm/s^2", 1e-3},
       {"m/s^2", "m/s2", 1},  {"m/s^2", "mm/s2", 1e-3}, {"s", "s", 1},
-      {"s", "ms", 1e-3},
+      {"s", "ms", 1e-3},     {"s", "min", 60},         {"s", "h", 3600},
   };
   std::size_t used = 0;
   double v = 0;
@@ -407,6 +407,10 @@ double parse_quantity(const std::string& text, std::string_view si_unit) {
     throw ClientError(Kind::refused_locally,
                       "'" + text + "': use a decimal point, not a comma: '" + point + "'");
   }
+  // "m" is metres in every other quantity, so a time typed as "2m" is refused, not guessed.
+  if (si_unit == "s" && unit == "m")
+    throw ClientError(Kind::refused_locally,
+                      "'" + text + "' is metres; for minutes type " + text.substr(0, used) + "min");
   std::string accepted;
   for (const auto& u : kUnits) {
     if (u.si != si_unit) continue;
