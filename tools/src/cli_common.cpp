@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -280,9 +281,9 @@ void print_line(const std::string& text, std::size_t indent) {
   g_status_line_cleared = false;
 }
 
-void fresh_line_after_interrupt() {
+void fresh_line_after_interrupt(int signal_number) {
   static bool done = false;
-  if (done) return;
+  if (done || signal_number != SIGINT) return;  // only Ctrl-C makes the terminal echo "^C"
   done = true;
   if (g_status_line_cleared) return;
   if (isatty(STDOUT_FILENO) != 0) {

@@ -18,7 +18,7 @@ namespace maglead::cli {
 namespace {
 
 volatile std::sig_atomic_t g_stop = 0;
-void on_signal(int) { g_stop = 1; }
+void on_signal(int signal_number) { g_stop = signal_number; }
 
 struct ServeOptions {
   std::string config = default_config_dir(), network, calibration, duration, model;
@@ -436,7 +436,7 @@ void run_serve(const ServeOptions& o) {
   service.start();
   print_banner(o, sc, model_used, service);
   wait_for_stop(duration_s, service);
-  if (g_stop) fresh_line_after_interrupt();
+  if (g_stop) fresh_line_after_interrupt(g_stop);
   service.stop();
   const auto snap = service.controller().snapshot();
   say("stopped after %llu cycles, %llu overruns, the worst start %.0f µs late",
