@@ -130,3 +130,9 @@ TEST(OperatorClient, ConnectionRefusedIsOneCommunicationError) {
         << e.what();
   }
 }
+
+TEST(OperatorClient, DriveLimitAdviceTypesTheForceWithItsUnit) {
+  const std::string said = op::drive_limit_reached_text(28.27, 38.4);
+  EXPECT_NE(said.find("safe limit 38.4 N"), std::string::npos) << said;
+  EXPECT_NE(said.find("'maglead set force 28.2N'"), std::string::npos) << said;  // as typed
+}
