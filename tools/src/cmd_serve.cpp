@@ -376,8 +376,8 @@ void say_alarm_change(const controller::Snapshot& s, AlarmSeen& seen) {
 }
 
 /// Loop overruns said on serve's terminal: the first as it happens, with what it means, then
-/// at most one summary per kOverrunSummary with the count since, so a loaded machine does not
-/// fill the terminal (a line a second scrolled the start-up lines away within a minute).
+/// at most one summary per kOverrunSummary with the count since, so the start-up lines (where
+/// it serves, what it runs) stay on the screen of a loaded machine.
 class OverrunReport {
  public:
   void operator()(const controller::Snapshot& snap, std::chrono::steady_clock::time_point now) {
