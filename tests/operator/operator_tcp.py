@@ -318,7 +318,7 @@ def scenario(port):
     # limit, and the message gives the force the controller estimates the load gets there, a
     # figure 'set force' then reaches.
     rc, out, err = run(MAGLEAD, "set", *conn, "force", "30", "--config", CONFIG)
-    m = re.search(r"the load gets ([0-9.]+) N \(load_force_est_n.*'maglead set force ([0-9.]+)'", err)
+    m = re.search(r"the load gets ([0-9.]+) N \(load_force_est_n.*'maglead set force ([0-9.]+)N'", err)
     check(rc == 4 and m is not None and 20 < float(m.group(2)) < 30 and float(m.group(2)) <= float(m.group(1)),
           f"set force 30 stopped at the coupling's limit gives the figure to try: {err.strip()}")
     # On a terminal the wait shows the nut and the force estimate (the climb to the limit takes
