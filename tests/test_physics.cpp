@@ -44,6 +44,16 @@ TEST(PaperCalibration, StableBranchAndPeaks) {
   EXPECT_NEAR(cal.peak_pull_n, -46.3, 0.5);
 }
 
+TEST(PaperCalibration, PeriodicPeakIsTheLargestForceOverALead) {
+  PeriodicForceModel m;
+  m.mean_n = 2.0;
+  m.cos_n = {-10.0};
+  m.sin_n = {0.0};
+  EXPECT_NEAR(m.peak_n(), 12.0, 1e-9);   // at φ = ±π: 2 + 10
+  const auto cal = paper_calibration();  // past the stable branch it stays near the paper's peaks
+  EXPECT_NEAR(cal.periodic.peak_n(), std::max(cal.peak_push_n, -cal.peak_pull_n), 3.0);
+}
+
 TEST(Phase, ScrewAheadOfNutIsPositiveAndPullsTheNutForward) {
   const double lead = 0.006;
   EXPECT_DOUBLE_EQ(phase_rad(0.0, 0.0, lead), 0.0);

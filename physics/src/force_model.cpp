@@ -1,6 +1,7 @@
 #include "maglead/physics/force_model.hpp"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -39,6 +40,17 @@ double PeriodicForceModel::slope_n_per_rad(double phase_rad) const {
     y += kk * (-cos_n[k] * std::sin(kk * phase_rad) + sin_n[k] * std::cos(kk * phase_rad));
   }
   return y;
+}
+
+double PeriodicForceModel::peak_n() const {
+  // Every half degree: the model has a few harmonics, so a finer grid moves the peak by far
+  // less than the effects' bounds that use it could notice.
+  constexpr int kSamplesPerLead = 720;
+  double peak = 0.0;
+  for (int i = 0; i < kSamplesPerLead; ++i)
+    peak = std::max(peak, std::abs(load_force_n(2.0 * std::numbers::pi * i / kSamplesPerLead -
+                                                std::numbers::pi)));
+  return peak;
 }
 
 PeriodicForceModel PeriodicForceModel::fit(const std::vector<double>& phase_rad,

@@ -103,7 +103,8 @@ void set_plant_effect(PlantEffects& effects, const std::string& name, double val
 namespace {
 
 /// Refuses force effects beyond kPeaks × the coupling's peak force, where they stop describing
-/// a bench: the nut only steps out, lead after lead (offset=1e9 stepped out 10^8 leads).
+/// a bench: the coupling cannot hold the nut against them, so it only steps out, lead after
+/// lead, for as long as the run lasts.
 void check_plant_forces(const PlantEffects& e, const ActuatorParams& a, double coupling_peak_n) {
   constexpr double kPeaks = 10.0;  // well past a step-out, which an effect may want to provoke
   if (!(coupling_peak_n > 0)) return;

@@ -27,12 +27,7 @@ SimulatedActuator::SimulatedActuator(PlantParams params, std::uint64_t seed, dou
                                      double screw_angle_rad)
     : params_(std::move(params)), rng_(seed) {
   const auto& a = params_.actuator;
-  double peak_n = 0.0;  // the coupling's largest force over a lead, sampled every half degree
-  constexpr int kSamples = 720;
-  for (int i = 0; i < kSamples; ++i)
-    peak_n = std::max(peak_n, std::abs(params_.coupling.load_force_n(
-                                  2.0 * std::numbers::pi * i / kSamples - std::numbers::pi)));
-  check_plant_totals(params_.effects, a, peak_n);
+  check_plant_totals(params_.effects, a, params_.coupling.peak_n());
   coupling_zero_rad_ = balancing_phase_rad(params_.coupling, 0.0);  // where F_m = 0
   pos_m_ = nut_pos_m;
   screw_rad_ = screw_angle_rad == -1.0 ? rest_angle_rad(nut_pos_m, a.lead_m) : screw_angle_rad;

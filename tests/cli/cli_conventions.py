@@ -305,12 +305,20 @@ def serve_overruns():
     a second. Stopping serve twice (SIGSTOP) makes a late cycle each time."""
     p = subprocess.Popen([MAGLEAD, "serve", "--port", "0", "--duration", "6s"], stdout=subprocess.PIPE,
                          stderr=subprocess.STDOUT, text=True)
+    # Stopped only once it serves: a slow start (a loaded machine, a sanitizer) must not eat the stops.
+    started = ""
+    while "Modbus TCP on" not in started:
+        line = p.stdout.readline()
+        if not line:
+            break
+        started += line
     for _ in range(2):
-        time.sleep(1.5)
+        time.sleep(0.5)
         p.send_signal(signal.SIGSTOP)
         time.sleep(0.2)
         p.send_signal(signal.SIGCONT)
-    out, _ = p.communicate(timeout=60)
+    rest, _ = p.communicate(timeout=60)
+    out = started + rest
     said = [l for l in out.splitlines() if "overrun" in l and not l.startswith("maglead serve: stopped")]
     m = re.search(r"stopped after \d+ cycles, (\d+) overruns", out)
     check(p.returncode == 0 and m is not None and int(m.group(1)) >= 2 and len(said) == 1

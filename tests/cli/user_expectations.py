@@ -49,6 +49,13 @@ def usage_errors():
                         (["record", "--out", "x.csv"], "--duration"), (["serve"], "--duration")):
         cases.append(([*cmd, "--port", "9", option, "0s"], f"{option}: '0s' is not a positive duration",
                       f"maglead {cmd[0]} --help"))
+    # One time vocabulary: "m" is metres in every command, so no time option reads it as minutes.
+    for cmd, option in ((["simulate", "--scenario", "hand-push", "--out", "x.csv"], "--duration"),
+                        (["record", "--port", "9", "--out", "x.csv"], "--duration"),
+                        (["serve"], "--duration"), (["serve"], "--idle-timeout"),
+                        (["set", "force", "5", "--port", "9"], "--hold")):
+        cases.append(([*cmd, option, "2m"], f"{option}: '2m' is metres; for minutes type 2min",
+                      f"maglead {cmd[0]} --help"))
     cases.append((["watch", "--port", "9", "--window", "soon"], "--window: 'soon' is not a duration",
                   "maglead watch --help"))
     for args, says, hint in cases:

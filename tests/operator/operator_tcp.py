@@ -318,7 +318,7 @@ def scenario(port):
     # limit, and the message gives the force the controller estimates the load gets there, a
     # figure 'set force' then reaches.
     rc, out, err = run(MAGLEAD, "set", *conn, "force", "30", "--config", CONFIG)
-    m = re.search(r"the load gets ([0-9.]+) N \(load_force_est_n.*'maglead set force ([0-9.]+)'", err)
+    m = re.search(r"the load gets ([0-9.]+) N \(load_force_est_n.*'maglead set force ([0-9.]+)N'", err)
     check(rc == 4 and m is not None and 20 < float(m.group(2)) < 30 and float(m.group(2)) <= float(m.group(1)),
           f"set force 30 stopped at the coupling's limit gives the figure to try: {err.strip()}")
     # On a terminal the wait shows the nut and the force estimate (the climb to the limit takes
@@ -363,6 +363,11 @@ def scenario(port):
         check("^C\n" in text and phrase in joined and fits(text, 80),
               f"{' '.join(args[:2])}: Ctrl-C, then the closing lines on a fresh line, words whole: "
               f"rc {rc} {after!r}")
+    # SIGTERM echoes no "^C": the closing line follows the last one, with no empty line between.
+    rc, text = run_pty("serve", "--config", CONFIG, "--port", "0", terminate_when=b"Modbus TCP on")
+    before = text[:text.find("maglead serve: stopped after")]
+    check(rc == 0 and "maglead serve: stopped after" in text and not before.endswith("\n\n"),
+          f"serve: SIGTERM on a terminal, no empty line before the closing line: rc {rc} {text[-300:]!r}")
     # Without --hold it returns once the move is done, control released (a script calling it ends).
     rc, out, err = run(MAGLEAD, "set", *conn, "reference-move", timeout=30)
     w = read_regs(port, 4, 13, 5)
@@ -756,11 +761,12 @@ def dropped_connection():
     check("maglead watch:" in tail and tail.count("\n") <= 2, f"watch: screen restored, then one line: {tail.strip()!r}")
 
 
-def run_pty(*args, columns=80, interrupt_when=None):
+def run_pty(*args, columns=80, interrupt_when=None, terminate_when=None):
     """Runs maglead with stdout and stderr on a `columns`-wide pseudo-terminal; returns (exit code,
     output with the terminal's CR LF as LF). With `interrupt_when`, types Ctrl-C once that text
     has appeared (or that many seconds have passed): the terminal sends SIGINT and echoes "^C",
-    as it does for a person."""
+    as it does for a person. With `terminate_when` (text), sends SIGTERM once that text has
+    appeared, as a service manager does: the terminal echoes nothing."""
     pid, fd = pty.fork()
     if pid == 0:
         fcntl.ioctl(1, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
@@ -774,6 +780,9 @@ def run_pty(*args, columns=80, interrupt_when=None):
         if isinstance(interrupt_when, bytes) and interrupt_when in out:
             os.write(fd, b"\x03")
             interrupt_when = None
+        if terminate_when is not None and terminate_when in out:
+            os.kill(pid, signal.SIGTERM)
+            terminate_when = None
         done, st = os.waitpid(pid, os.WNOHANG)
         status = st if done else None
     if status is None:

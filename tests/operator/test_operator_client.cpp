@@ -13,6 +13,15 @@ TEST(OperatorClient, ParsesQuantitiesWithUnits) {
   EXPECT_DOUBLE_EQ(op::parse_quantity("20mm", "m"), 0.02);
   EXPECT_DOUBLE_EQ(op::parse_quantity("5mm/s", "m/s"), 0.005);
   EXPECT_DOUBLE_EQ(op::parse_quantity("250ms", "s"), 0.25);
+  EXPECT_DOUBLE_EQ(op::parse_quantity("2min", "s"), 120.0);
+  EXPECT_DOUBLE_EQ(op::parse_quantity("1h", "s"), 3600.0);
+  try {  // "m" is metres everywhere, so a time in "m" is refused with what to type
+    op::parse_quantity("2m", "s");
+    ADD_FAILURE() << "2m accepted as a time";
+  } catch (const op::ClientError& e) {
+    EXPECT_NE(std::string(e.what()).find("'2m' is metres; for minutes type 2min"),
+              std::string::npos);
+  }
   EXPECT_THROW(op::parse_quantity("20mm", "N"), op::ClientError);  // wrong quantity
   EXPECT_THROW(op::parse_quantity("twelve", "N"), op::ClientError);
   EXPECT_THROW(op::parse_quantity("nan", "N"), op::ClientError);
@@ -120,4 +129,10 @@ TEST(OperatorClient, ConnectionRefusedIsOneCommunicationError) {
     EXPECT_NE(std::string(e.what()).find("cannot connect to 127.0.0.1:1"), std::string::npos)
         << e.what();
   }
+}
+
+TEST(OperatorClient, DriveLimitAdviceTypesTheForceWithItsUnit) {
+  const std::string said = op::drive_limit_reached_text(28.27, 38.4);
+  EXPECT_NE(said.find("safe limit 38.4 N"), std::string::npos) << said;
+  EXPECT_NE(said.find("'maglead set force 28.2N'"), std::string::npos) << said;  // as typed
 }

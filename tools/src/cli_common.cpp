@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -190,28 +191,21 @@ void add_recording_option(CLI::App* cmd, std::string& recording, const std::stri
 }
 
 double parse_duration_s(const std::string& text, const std::string& option) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
+  char* end = nullptr;
+  std::strtod(text.c_str(), &end);
+  if (end == text.c_str())
     throw CLI::ValidationError(option,
                                "'" + text + "' is not a duration (e.g. " + option + " 30s, 2min)");
+  double v = 0;
+  try {  // set's vocabulary, so every time option reads 500ms, 30s, 2min, 1h alike
+    v = op::parse_quantity(text, "s");
+  } catch (const op::ClientError& e) {
+    throw CLI::ValidationError(option, std::string(e.what()) + " (e.g. " + option + " 30s, 2min)");
   }
-  const std::string unit = text.substr(used);
-  double scale = 0;
-  if (unit.empty() || unit == "s")
-    scale = 1;
-  else if (unit == "ms")
-    scale = 1e-3;
-  else if (unit == "min" || unit == "m")
-    scale = 60;
-  else if (unit == "h")
-    scale = 3600;
-  if (scale == 0 || !(v > 0))
+  if (!(v > 0))
     throw CLI::ValidationError(
         option, "'" + text + "' is not a positive duration (e.g. " + option + " 30s, 2min, 1h)");
-  return v * scale;
+  return v;
 }
 
 bool& quiet() {
@@ -287,9 +281,9 @@ void print_line(const std::string& text, std::size_t indent) {
   g_status_line_cleared = false;
 }
 
-void fresh_line_after_interrupt() {
+void fresh_line_after_interrupt(int signal_number) {
   static bool done = false;
-  if (done) return;
+  if (done || signal_number != SIGINT) return;  // only Ctrl-C makes the terminal echo "^C"
   done = true;
   if (g_status_line_cleared) return;
   if (isatty(STDOUT_FILENO) != 0) {

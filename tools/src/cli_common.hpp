@@ -92,8 +92,9 @@ std::string wrapped(const std::string& text, std::size_t indent, std::size_t wid
 void print_line(const std::string& text, std::size_t indent = 2);
 /// After Ctrl-C the terminal has echoed "^C" where the cursor stood: the final message starts on
 /// a fresh line (a newline first, on whichever of stdout and stderr is a terminal), so its wrapped
-/// lines keep their columns. Once per process; nothing when a StatusLine was just cleared.
-void fresh_line_after_interrupt();
+/// lines keep their columns. Once per process; nothing when a StatusLine was just cleared, nor for
+/// any signal but SIGINT (SIGTERM echoes nothing). `signal_number` is the signal that stopped it.
+void fresh_line_after_interrupt(int signal_number);
 
 /// One line on stdout redrawn in place while a command waits ("moving to 20.000 mm: …"): on a
 /// terminal only, and not under --quiet (a pipe or a file gets nothing: scripts parse the

@@ -250,7 +250,9 @@ void add_bench_twin(CLI::App& app) {
       "accuracy, and the TwinMonitor's cost per control tick");
   auto o = std::make_shared<BenchTwinOptions>();
   cmd->add_flag("--quick", o->quick, "Short run for CI (10 s of simulated time)");
-  cmd->add_option("--duration", o->duration_s, "Simulated seconds")->capture_default_str();
+  cmd->add_option("--duration", o->duration_s, "Simulated seconds")
+      ->transform(quantity_in({"s", "s", 1.0, "--duration 10 or 2min"}))
+      ->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of the test drive")->capture_default_str();
   add_config_option(cmd, o->config);
   cmd->callback([o] { run_bench_twin(*o); });

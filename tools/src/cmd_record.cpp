@@ -21,7 +21,7 @@ using op::ClientError;
 using Clock = std::chrono::steady_clock;
 
 volatile std::sig_atomic_t g_interrupted = 0;
-void on_interrupt(int) { g_interrupted = 1; }
+void on_interrupt(int signal_number) { g_interrupted = signal_number; }
 
 struct RecordOptions {
   std::string duration, out, load_cell = "auto";
@@ -251,7 +251,7 @@ void run_record(const RecordOptions& o, const ConnectionOptions& conn) {
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   // The progress bar's own newline has left the "^C" behind already when it was drawn.
-  if (g_interrupted && !show_progress()) fresh_line_after_interrupt();
+  if (g_interrupted && !show_progress()) fresh_line_after_interrupt(g_interrupted);
   print_summary(o, client, loop_hz, t, replacing);
   warn_if_readers_refuse(o, t);
   // Stopped before its duration: the file is whole and readable, but shorter than asked.

@@ -18,7 +18,7 @@ namespace maglead::cli {
 namespace {
 
 volatile std::sig_atomic_t g_stop = 0;
-void on_signal(int) { g_stop = 1; }
+void on_signal(int signal_number) { g_stop = signal_number; }
 
 struct ServeOptions {
   std::string config = default_config_dir(), network, calibration, duration, model;
@@ -376,8 +376,8 @@ void say_alarm_change(const controller::Snapshot& s, AlarmSeen& seen) {
 }
 
 /// Loop overruns said on serve's terminal: the first as it happens, with what it means, then
-/// at most one summary per kOverrunSummary with the count since, so a loaded machine does not
-/// fill the terminal (a line a second scrolled the start-up lines away within a minute).
+/// at most one summary per kOverrunSummary with the count since, so the start-up lines (where
+/// it serves, what it runs) stay on the screen of a loaded machine.
 class OverrunReport {
  public:
   void operator()(const controller::Snapshot& snap, std::chrono::steady_clock::time_point now) {
@@ -436,7 +436,7 @@ void run_serve(const ServeOptions& o) {
   service.start();
   print_banner(o, sc, model_used, service);
   wait_for_stop(duration_s, service);
-  if (g_stop) fresh_line_after_interrupt();
+  if (g_stop) fresh_line_after_interrupt(g_stop);
   service.stop();
   const auto snap = service.controller().snapshot();
   say("stopped after %llu cycles, %llu overruns, the worst start %.0f µs late",

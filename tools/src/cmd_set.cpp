@@ -54,7 +54,7 @@ constexpr const char* kHoldHelp =
     "position is no longer controlled, the screw stays where it is)";
 
 volatile std::sig_atomic_t g_interrupted = 0;
-void on_interrupt(int) { g_interrupted = 1; }
+void on_interrupt(int signal_number) { g_interrupted = signal_number; }
 void catch_interrupt() {
   g_interrupted = 0;
   std::signal(SIGINT, on_interrupt);
@@ -127,12 +127,12 @@ void hold_then_release(op::Client& client, const std::string& hold, const op::Co
   try {
     op::hold(client, hold_s, o, [] { return g_interrupted != 0; });
   } catch (const ClientError& e) {
-    if (g_interrupted) fresh_line_after_interrupt();
+    if (g_interrupted) fresh_line_after_interrupt(g_interrupted);
     if (e.kind() == Kind::connection || e.kind() == Kind::no_reply)
       lost_while_holding(e, held, force_mode, again);
     throw;
   }
-  if (g_interrupted) fresh_line_after_interrupt();
+  if (g_interrupted) fresh_line_after_interrupt(g_interrupted);
   const double held_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::string done = release(client, force_mode);
@@ -529,7 +529,7 @@ void run_set(SetOptions o, const CommandFlags& f, const ConnectionOptions& conn)
                (p.mode == reg::Mode::force ? "force reached" : "in position") + ") after " +
                fixed(res.elapsed_s, 2) + " s");
   else if (g_interrupted) {  // not done: no "holding" follows, the exit code says so
-    fresh_line_after_interrupt();
+    fresh_line_after_interrupt(g_interrupted);
     throw ClientError(
         Kind::interrupted,
         p.summary + ": acknowledged, interrupted before done" +

@@ -384,7 +384,7 @@ double parse_quantity(const std::string& text, std::string_view si_unit) {
       {"m", "µm", 1e-6},     {"m/s", "m/s", 1},        {"m/s", "mm/s", 1e-3},
       {"m/s", "um/s", 1e-6}, {"m/s^2", "m/s^2", 1},    {"m/s^2", "mm/s^2", 1e-3},
       {"m/s^2", "m/s2", 1},  {"m/s^2", "mm/s2", 1e-3}, {"s", "s", 1},
-      {"s", "ms", 1e-3},
+      {"s", "ms", 1e-3},     {"s", "min", 60},         {"s", "h", 3600},
   };
   std::size_t used = 0;
   double v = 0;
@@ -407,6 +407,10 @@ double parse_quantity(const std::string& text, std::string_view si_unit) {
     throw ClientError(Kind::refused_locally,
                       "'" + text + "': use a decimal point, not a comma: '" + point + "'");
   }
+  // "m" is metres in every other quantity, so a time typed as "2m" is refused, not guessed.
+  if (si_unit == "s" && unit == "m")
+    throw ClientError(Kind::refused_locally,
+                      "'" + text + "' is metres; for minutes type " + text.substr(0, used) + "min");
   std::string accepted;
   for (const auto& u : kUnits) {
     if (u.si != si_unit) continue;
@@ -672,24 +676,29 @@ Status settle(Client& c, std::uint32_t after, const Image& im, const CommandOpti
   }
 }
 
-/// The coupling at its safe limit short of the force: the load force the controller estimates
-/// there is what friction leaves of the limit, the most 'set force' can reach against this load.
-std::string drive_limit_text(Client& c, const Values& loop) {
-  const double load_n = loop.at("load_force_est_mn");
-  const auto limits = read_reported_limits(c);
+}  // namespace
+
+std::string drive_limit_reached_text(double load_n, std::optional<double> limit_n) {
   // Rounded towards 0 N: the figure said must be one the drive can reach.
   const double try_n = std::trunc(load_n * 10.0) / 10.0;
   char b[320];
-  std::snprintf(
-      b, sizeof b,
-      "the coupling reached its safe limit%s before the force (force_limited, "
-      "force_reached_reason 9 drive_limit): friction takes the rest of the drive, so "
-      "the load gets %.2f N (load_force_est_n, the controller's estimate there); ask "
-      "for no more than that: 'maglead set force %.1f'",
-      limits ? (" " + fmt(load_n < 0 ? limits->force_pull_n : limits->force_push_n) + " N").c_str()
-             : "",
-      load_n, try_n);
+  std::snprintf(b, sizeof b,
+                "the coupling reached its safe limit%s before the force (force_limited, "
+                "force_reached_reason 9 drive_limit): friction takes the rest of the drive, so "
+                "the load gets %.2f N (load_force_est_n, the controller's estimate there); ask "
+                "for no more than that: 'maglead set force %.1fN'",
+                limit_n ? (" " + fmt(*limit_n) + " N").c_str() : "", load_n, try_n);
   return b;
+}
+
+namespace {
+/// The coupling at its safe limit short of the force, with the limit the controller reports.
+std::string read_drive_limit_reached_text(Client& c, const Values& loop) {
+  const double load_n = loop.at("load_force_est_mn");
+  const auto limits = read_reported_limits(c);
+  std::optional<double> limit_n;
+  if (limits) limit_n = load_n < 0 ? limits->force_pull_n : limits->force_push_n;
+  return drive_limit_reached_text(load_n, limit_n);
 }
 
 /// force_limited for good: the stroke window ended before the force (stroke_end), or the
@@ -709,7 +718,7 @@ std::optional<std::string> limited_before_force(Client& c) {
            "load";
   if (why == "drive_limit" &&
       code_name(reg::codes_of("force_loop_state"), v.at("force_loop_state")) == "blocked")
-    return drive_limit_text(c, v);
+    return read_drive_limit_reached_text(c, v);
   return std::nullopt;
 }
 

@@ -24,6 +24,8 @@ struct PeriodicForceModel {
   std::vector<double> sin_n;  // b_1 … b_K
   double load_force_n(double phase_rad) const;
   double slope_n_per_rad(double phase_rad) const;
+  /// The largest |F̂_s| over a lead: the coupling's peak force in either direction.
+  double peak_n() const;
   /// Least-squares fit to samples; `ridge` damps harmonics the samples cannot determine
   /// (calibration covers only half a period).
   static PeriodicForceModel fit(const std::vector<double>& phase_rad,

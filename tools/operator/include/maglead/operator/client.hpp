@@ -162,6 +162,10 @@ std::optional<ReportedLimits> read_reported_limits(Client& client);
 /// "-38.4 .. 38.4 N (safe_force_fraction 0.8 in config/actuator.toml x calibration peaks
 /// -48 / 48 N in config/calibration.toml)".
 std::string force_limit_text(const Limits& limits);
+/// The coupling at its safe limit short of the force: the load force the controller estimates
+/// there (load_n) is what friction leaves of the limit (limit_n, when the controller reports it),
+/// the most 'set force' can reach against this load.
+std::string drive_limit_reached_text(double load_n, std::optional<double> limit_n);
 std::string position_limit_text(const Limits& limits);
 /// Checks an output-force setpoint as the server does (register range, then the calibrated
 /// safe limit); returns the reason it would be refused, or nothing.
