@@ -82,7 +82,8 @@ std::string check_actuator(const InspectOptions& o, const Recording& rec,
     return std::string("twin-check, estimate and report read it; analyze will not: ") + e.what();
   }
   if (const auto why = analysis::load_cell_unusable(rec, cal, act))
-    return *why + ": analyze and estimate refuse it, twin-check and report do not compare with it";
+    return std::string(why->what()) +
+           ": analyze and estimate refuse it, twin-check and report do not compare with it";
   return "not checked: the model file and what the analysis finds";
 }
 
@@ -104,7 +105,8 @@ void add_inspect(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "inspect",
       "Check a recording before analysing it: read it (mls-recording/1) as analyze does and "
-      "print its rows, time span and columns, checked as the commands that read it check them: an axis's (a '# axis:' line, "
+      "print its rows, time span and columns, checked as the commands that read it check them: an "
+      "axis's (a '# axis:' line, "
       "or an axis's columns) as analyze does with an axis's model (kind, columns, a value in "
       "every row, 200 rows, a sample rate of 50 Hz or more), the actuator's as twin-check, "
       "estimate and report do (the angle, nut_pos_m, the phase on the calibration's branch). "
