@@ -146,8 +146,8 @@ double logging_step(const std::vector<double>& y) {
   // The largest that holds: half a step (a row filled midway between two logged values) would
   // hold too, and is no step the cell logs.
   const double origin = most_common(v, same);
-  for (auto g = gaps.rbegin(); g != gaps.rend(); ++g)
-    if (share_on_grid(v, origin, *g, kOnTheStep) >= kOnGridShare) return *g;
+  for (std::size_t k = gaps.size(); k-- > 0;)
+    if (share_on_grid(v, origin, gaps[k], kOnTheStep) >= kOnGridShare) return gaps[k];
   return 0.0;
 }
 
