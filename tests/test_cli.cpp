@@ -154,6 +154,46 @@ TEST(Cli, FrictionDriftFromTheCommandLineIsFlaggedWithoutLoadCell) {
   EXPECT_NE(bad.out.find("friction_drift"), std::string::npos) << bad.out;
 }
 
+// A load cell reading 0 N throughout is unwired or stuck: estimate refuses it and says so,
+// without advising another unit or calibration.
+TEST(Cli, EstimateAgainstAConstantLoadCellAdvisesItsWiring) {
+  ASSERT_EQ(run("simulate --scenario hand-push --duration 20s --seed 1 --out " + tmp("hp0.csv"))
+                .exit_code,
+            0);
+  std::ifstream in(tmp("hp0.csv"));
+  std::ofstream out(tmp("hp0_const.csv"));
+  std::string line;
+  std::size_t load_column = std::string::npos;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#' || load_column == std::string::npos) {
+      out << line << "\n";
+      // The header names the columns: find load_force_n's place among them.
+      if (!line.empty() && line[0] != '#' && load_column == std::string::npos) {
+        std::size_t col = 0;
+        for (std::size_t at = 0, next; at != std::string::npos; at = next, ++col) {
+          next = line.find(',', at);
+          if (line.substr(at, next == std::string::npos ? next : next - at) == "load_force_n")
+            load_column = col;
+          if (next != std::string::npos) ++next;
+        }
+      }
+      continue;
+    }
+    std::size_t at = 0;
+    for (std::size_t col = 0; col < load_column; ++col) at = line.find(',', at) + 1;
+    const std::size_t end = line.find(',', at);
+    line.replace(at, end == std::string::npos ? std::string::npos : end - at, "0");
+    out << line << "\n";
+  }
+  out.close();
+  ASSERT_NE(load_column, std::string::npos);
+  const auto est = run("estimate --recording " + tmp("hp0_const.csv"));
+  EXPECT_NE(est.exit_code, 0) << est.out;
+  EXPECT_NE(est.out.find("reads a constant 0 N"), std::string::npos) << est.out;
+  EXPECT_NE(est.out.find("check its wiring"), std::string::npos) << est.out;
+  EXPECT_EQ(est.out.find("--calibration"), std::string::npos) << est.out;
+}
+
 TEST(Cli, CalibrationOnStaticRunPicksOrderFiveAndWritesALoadableFile) {
   ASSERT_EQ(
       run("simulate --scenario static-calibration --duration 30s --seed 2 --out " + tmp("cal.csv"))

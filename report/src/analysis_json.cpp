@@ -134,7 +134,8 @@ Json analysis_json(const AnalysisResult& r) {
   put(method, "identification_bandwidth_hz", f.method.identification_bandwidth_hz);
   J["method"] = method;
   J["noise_floor_n"] = f.noise_floor_n;
-  put(J, "noise_step_n", f.noise_step_n);  // present when the noise is below the logging step
+  // Present when the noise is below a logging step; no step found (a constant column) is none.
+  if (f.noise_step_n && *f.noise_step_n > 0) J["noise_step_n"] = *f.noise_step_n;
   // No sample used: no fit, and no error figure (null), not a perfect one (0).
   J["baseline"] = f.samples_used > 0 ? errors_json(f.baseline) : Json(nullptr);
   J["final"] = f.samples_used > 0 ? errors_json(f.final_fit) : Json(nullptr);

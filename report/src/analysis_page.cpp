@@ -103,7 +103,9 @@ void write_analysis_outputs(const analysis::AnalysisResult& r, const std::string
   write_text(fs::path(out_dir) / "analysis.json", analysis_json(r).dump(2) + "\n");
   analysis::save_model((fs::path(out_dir) / "model_corrected.toml").string(), r.corrected,
                        "model corrected by maglead analyze from " + r.findings.recording);
-  const AnalysisOutcome outcome{AnalysisOutcome::Status::done, "", r};
+  AnalysisOutcome outcome;
+  outcome.status = AnalysisOutcome::Status::done;
+  outcome.result = r;
   write_text(fs::path(out_dir) / "index.html", page(outcome));
 }
 

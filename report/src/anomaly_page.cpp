@@ -311,7 +311,10 @@ std::string anomaly_headline(const Anomaly& a, const AnalysisOutcome& o) {
         "calibration drift detected from t = " + number(a.drift_windows.front().start_s) + " s");
   if (const std::string why = drift_not_judged(a); !why.empty())
     not_judged.push_back("drift (" + why + ")");
-  if (!a.load_cell_unusable.empty())
+  if (a.load_cell_constant_n)
+    not_judged.push_back("force estimate (the load cell reads a constant " +
+                         number(*a.load_cell_constant_n) + " N: check its wiring)");
+  else if (!a.load_cell_unusable.empty())
     not_judged.emplace_back(
         "force estimate (load_force_n is not the load in newtons: see analysis)");
   else if (!a.static_error)

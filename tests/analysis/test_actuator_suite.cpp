@@ -607,6 +607,17 @@ TEST(StickSlip, ARecordingThatBarelySlidesSaysSo) {
   // says by how much it was corrected.
   EXPECT_NE(r.findings.effects[0].note.find("corrected for what rose"), std::string::npos)
       << r.findings.effects[0].note;
+  // The Stribeck velocity is scanned on a grid: its summary says "(no standard error)" and it
+  // has no standard_errors key (its jackknife spread is rounding); every key left is stated.
+  const auto& e = r.findings.effects[0];
+  EXPECT_NE(e.summary.find("(no standard error)"), std::string::npos) << e.summary;
+  for (const auto& se : e.standard_errors) {
+    EXPECT_NE(se.name, "stribeck_velocity_m_s") << e.summary;
+    EXPECT_FALSE(maglead::analysis::value_with_error(
+                     maglead::analysis::parameter_value(e.parameters, se.name), se.value)
+                     .empty())
+        << se.name;
+  }
 }
 
 // Where the nut barely slides, the releases still tell a force the load cell does not see: it

@@ -613,6 +613,32 @@ TEST(GeneratedSuite, ALoadCellLoggedInCoarseStepsKeepsItsMisfit) {
   EXPECT_NEAR(r.findings.noise_floor_n, kStepN / std::sqrt(12.0), 1e-9);
 }
 
+// The same coarse load cell with a few rows missing from the file: the reader fills them by
+// interpolation, off the 0.5 N grid, and the step is still found and the misfit still said.
+TEST(GeneratedSuite, ACoarseLoadCellWithRowsFilledKeepsItsStep) {
+  auto rec = generated("mixed-moves", 40.0, {{"friction_drift", 3.0}}, 2);
+  constexpr double kStepN = 0.5;
+  auto& load = load_cell(rec);
+  for (auto& v : load) v = std::round(v / kStepN) * kStepN;
+  // Rows whose neighbours differ, so the filled value falls between two steps.
+  std::vector<std::size_t> drop;
+  for (std::size_t i = 1000; i + 1 < load.size() && drop.size() < 3; i += 1)
+    if (load[i - 1] != load[i + 1] && (drop.empty() || i > drop.back() + 5000)) drop.push_back(i);
+  ASSERT_EQ(drop.size(), 3u);
+  for (auto i = drop.rbegin(); i != drop.rend(); ++i)
+    for (auto& c : rec.columns) c.erase(c.begin() + static_cast<std::ptrdiff_t>(*i));
+  const std::string path = test_tmp_dir() + "/coarse_filled.csv";
+  maglead::write_recording(path, rec);
+  const auto filled = maglead::read_recording(path);
+  std::filesystem::remove(path);
+  ASSERT_FALSE(filled.warnings.empty());  // the reader filled the rows
+  const auto r = analyze(filled);
+  EXPECT_EQ(r.headline.find("nothing missing"), std::string::npos) << r.headline;
+  ASSERT_TRUE(r.findings.noise_step_n.has_value());
+  EXPECT_NEAR(*r.findings.noise_step_n, kStepN, 1e-9);
+  EXPECT_NE(r.headline.find("a misfit of"), std::string::npos) << r.headline;
+}
+
 // A load cell that reads one value over the whole recording (unplugged, stuck) carries no load:
 // the analysis judges nothing against it, and says why.
 TEST(GeneratedSuite, ALoadCellReadingAConstantIsNotJudged) {

@@ -91,6 +91,25 @@ TEST(Headline, AFloorNotMeasurableBelowTheLoggingStepSaysSo) {
             "step: 0.144 N) that no library effect explains");
 }
 
+// No floor and no logging step: a misfit cannot be judged, so the headline says so and never
+// "nothing missing" (a floor of 0 is not judged, not no anomaly).
+TEST(Headline, AFloorNotMeasurableWithNoStepIsNotJudged) {
+  Findings f = findings_with_residual(0.05);
+  f.noise_floor_n = 0.0;
+  f.noise_step_n = 0.0;
+  const std::string h = maglead::analysis::headline_of(f, ModelFile{});
+  EXPECT_TRUE(starts_with(h, "not judged: the load cell's noise floor could not be measured")) << h;
+  EXPECT_EQ(h.find("nothing missing"), std::string::npos) << h;
+  EffectFinding drift;
+  drift.id = "gain_drift";
+  drift.parameters = {{"gain_change_per_min", -0.29, true}};
+  f.effects.push_back(drift);
+  const std::string found = maglead::analysis::headline_of(f, ModelFile{});
+  EXPECT_NE(found.find("; not judged: the load cell's noise floor could not be measured"),
+            std::string::npos)
+      << found;
+}
+
 TEST(Headline, NothingNamedWithAMisfitSaysTheMisfit) {
   const Findings f = findings_with_residual(0.7);
   const std::string h = maglead::analysis::headline_of(f, ModelFile{});

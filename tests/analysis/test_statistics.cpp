@@ -127,11 +127,24 @@ TEST(SensorNoise, AColumnLoggedInCoarseStepsHasItsRoundingAsTheFloor) {
     t_s += 1e-3;
     return std::round(force_n / 0.5) * 0.5;
   });
-  EXPECT_EQ(white_noise_sigma(y), 0.0);  // what the floor was before: no noise at all
+  EXPECT_EQ(white_noise_sigma(y), 0.0);  // the second differences alone see no noise at all
   EXPECT_NEAR(logging_step(y), 0.5, 1e-12);
   const auto n = sensor_noise(y);
   EXPECT_FALSE(n.measured);
   EXPECT_NEAR(n.sigma, 0.5 / std::sqrt(12.0), 1e-12);
+}
+
+// The reader fills a missing row midway between its neighbours, off the logged grid: a few such
+// rows leave the step found (not half of it), so the floor is still its rounding.
+TEST(SensorNoise, ACoarseColumnWithAFewFilledRowsKeepsItsStep) {
+  std::vector<double> y(20000);
+  for (std::size_t i = 0; i < y.size(); ++i)
+    y[i] = std::round(3.0 * std::sin(2 * std::numbers::pi * 0.2 * 1e-3 * double(i)) / 0.5) * 0.5;
+  y[100] = 0.25;  // midway between two steps
+  y[5000] = 1.37;
+  y[9000] = -2.11;
+  EXPECT_NEAR(logging_step(y), 0.5, 1e-12);
+  EXPECT_FALSE(sensor_noise(y).measured);
 }
 
 // Continuous noise shares no step: the floor is the measured noise, and says so.

@@ -164,6 +164,24 @@ namespace {
 
 // Every parameter of the effect library is shown with a unit read off its name
 // (docs/effects.md: "the unit is part of the name"), except the few that are ratios or counts.
+// A load cell set aside for reading one value throughout is a wiring fault, said as such, not
+// one in another unit.
+TEST(AnomalyHeadline, AConstantLoadCellIsSaidAsItsWiring) {
+  analysis::Anomaly a;
+  a.has_load_cell = true;
+  analysis::set_aside_load_cell(a, "r.csv: not judged: the load cell reads a constant 0 N", 0.0);
+  AnalysisOutcome o;
+  o.status = AnalysisOutcome::Status::failed;
+  const std::string h = anomaly_headline(a, o);
+  EXPECT_NE(h.find("force estimate (the load cell reads a constant 0 N: check its wiring)"),
+            std::string::npos)
+      << h;
+  EXPECT_EQ(h.find("not the load in newtons"), std::string::npos) << h;
+  analysis::set_aside_load_cell(a, "r.csv: load_force_n cannot be the load in newtons");
+  EXPECT_NE(anomaly_headline(a, o).find("load_force_n is not the load in newtons"),
+            std::string::npos);
+}
+
 TEST(EffectText, EveryLibraryParameterHasItsUnit) {
   const std::set<std::string> dimensionless{"gain", "relative_amplitude", "max_reduction", "count"};
   for (const auto* e : effects::library())

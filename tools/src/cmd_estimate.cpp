@@ -189,8 +189,17 @@ void run_estimate(const EstimateOptions& o) {
   check_phase_on_branch(rec, c.actuator, c.calibration);
   // A load cell analyze would refuse (another unit, the other sign) scores nothing: the
   // analysis's own judgement of it, not a second one.
-  if (const auto why = analysis::load_cell_unusable(rec, c.calibration, c.actuator))
-    throw LoadCellUnitError(*why +
+  const auto why = analysis::load_cell_unusable(rec, c.calibration, c.actuator);
+  // A constant one is unwired or stuck: neither its unit nor the calibration is the cause.
+  if (why && why->constant_n())
+    throw LoadCellUnitError(std::string(why->what()) +
+                                ". estimate scores the force estimate against the load cell, so "
+                                "it scores none against this one; without it: maglead "
+                                "twin-check --recording " +
+                                o.recording + " --no-load-cell",
+                            *why->constant_n());
+  if (why)
+    throw LoadCellUnitError(std::string(why->what()) +
                             ". estimate scores the force estimate against the load cell, so it "
                             "scores none against this one: fix the column (load_force_n is the "
                             "load on the nut along +p: docs/recording-format.md) or, if it is "

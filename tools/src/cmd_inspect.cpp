@@ -82,7 +82,8 @@ std::string check_actuator(const InspectOptions& o, const Recording& rec,
     return std::string("twin-check, estimate and report read it; analyze will not: ") + e.what();
   }
   if (const auto why = analysis::load_cell_unusable(rec, cal, act))
-    return *why + ": analyze and estimate refuse it, twin-check and report do not compare with it";
+    return std::string(why->what()) +
+           ": analyze and estimate refuse it, twin-check and report do not compare with it";
   return "not checked: the model file and what the analysis finds";
 }
 

@@ -51,6 +51,7 @@ report::AnalysisOutcome run_analysis(const ReportOpts& o, const Recording& rec,
     outcome.status = report::AnalysisOutcome::Status::failed;
     outcome.reason = e.what();
     outcome.load_cell_unusable = true;
+    outcome.load_cell_constant_n = e.constant_n();
   } catch (const std::exception& e) {
     // The report is still worth having without the analysis: say why it is missing.
     outcome.status = report::AnalysisOutcome::Status::failed;
@@ -102,7 +103,8 @@ void add_report(CLI::App& app) {
     note("report: replaying the recording through the twin");
     auto anomaly = analysis::inspect_recording(rec, monitor);
     const auto outcome = run_analysis(*o, rec, act, cal);
-    if (outcome.load_cell_unusable) analysis::set_aside_load_cell(anomaly, outcome.reason);
+    if (outcome.load_cell_unusable)
+      analysis::set_aside_load_cell(anomaly, outcome.reason, outcome.load_cell_constant_n);
     report::write_anomaly_report(o->out, o->recording, anomaly, outcome);
     print_line(report::anomaly_headline(anomaly, outcome));
     std::printf("step-outs: %zu, drift windows: %zu, twin position residual RMS %.1f µm\n",

@@ -157,7 +157,7 @@ void run_twin_check(const TwinCheckOptions& o) {
     return rec.has(name) ? std::span<const double>(rec.column(name)) : std::span<const double>();
   };
   // A load cell analyze and report set aside (another unit, the other sign) is not scored.
-  const std::optional<std::string> unusable =
+  const std::optional<LoadCellUnitError> unusable =
       rec.has("load_force_n") && !o.no_load_cell
           ? analysis::load_cell_unusable(rec, tc.calibration, tc.actuator)
           : std::nullopt;
@@ -189,7 +189,7 @@ void run_twin_check(const TwinCheckOptions& o) {
     print_line("  force estimate against load cell: not judged (" +
                    std::string(!rec.has("load_force_n") ? "no load_force_n column"
                                : o.no_load_cell         ? "--no-load-cell"
-                               : unusable               ? unusable->c_str()
+                               : unusable               ? unusable->what()
                                                         : "no sample where both are numbers") +
                    ")",
                4);

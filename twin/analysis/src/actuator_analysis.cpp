@@ -563,9 +563,11 @@ void check_load_cell_scale(const std::string& path, const ActuatorSignals& s, co
       lo != s.load_raw.end() && *lo == *hi) {
     char b[64];
     std::snprintf(b, sizeof b, "%.4g", *lo);
-    throw LoadCellUnitError(path + ": not judged: the load cell reads a constant " + b +
-                            " N over the whole recording (column load_force_n), so it carries no "
-                            "load to judge the model against; check its wiring");
+    throw LoadCellUnitError(
+        path + ": not judged: the load cell reads a constant " + b +
+            " N over the whole recording (column load_force_n), so it carries no "
+            "load to judge the model against; check its wiring",
+        *lo);
   }
   constexpr double kMinExplained = 0.5;  // R² of the fit: the balance holds at all
   constexpr double kScaleFactor = 3.0;

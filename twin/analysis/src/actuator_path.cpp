@@ -350,7 +350,7 @@ EffectFinding stribeck_finding(const selection::Found& stribeck, const actuator:
   // The break-away's error: the two sides' medians averaged.
   auto c = stribeck;
   c.standard_errors["breakaway_n"] = 0.5 * std::hypot(bt.pos.se_n, bt.neg.se_n);
-  e.standard_errors = parameters_of(c.standard_errors);
+  e.standard_errors = stated_errors(e.parameters, parameters_of(c.standard_errors));
   // The break-away is the coupling's force at release: a coupling error within the calibration's
   // accuracy moves it by as much, in every release alike (no standard error sees it).
   c.calibration_errors = {{"breakaway_n", P.minimum_n}};
@@ -400,7 +400,7 @@ void add_offset(Findings& J, actuator::SlidingSelection& sel, const selection::F
       offset, bt, "stuck episodes: the nut breaks away at levels that differ by direction");
   e.evidence.resolution_floor_n = P.floor_n;
   e.evidence.minimum_n = P.minimum_n;
-  e.standard_errors = parameters_of(offset.standard_errors);
+  e.standard_errors = stated_errors(e.parameters, parameters_of(offset.standard_errors));
   e.summary = summary_of(offset, P);
   // At rest only the break-away is seen: friction lower by F_o in +p and higher in −p is the same.
   e.alternatives.push_back({"asymmetric_friction", {}, 100.0, std::nullopt});

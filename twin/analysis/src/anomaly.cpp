@@ -246,10 +246,11 @@ Anomaly inspect_recording(const Recording& rec, const twin::TwinMonitorConfig& m
   return a;
 }
 
-void set_aside_load_cell(Anomaly& anomaly, std::string why) {
+void set_aside_load_cell(Anomaly& anomaly, std::string why, std::optional<double> constant_n) {
   anomaly.static_error.reset();
   anomaly.twin_error.reset();
   anomaly.load_cell_unusable = std::move(why);
+  anomaly.load_cell_constant_n = constant_n;
 }
 
 }  // namespace maglead::analysis

@@ -103,12 +103,24 @@ std::string sliding_caveat(const Findings& f) {
          f.sliding_note.substr(0, f.sliding_note.find(':'));
 }
 
+/// No floor to judge the misfit against: the noise was not measurable and no logging step was
+/// found to bound it (a floor of 0 would call any misfit force the model leaves out).
+bool floor_unjudged(const Findings& f) { return f.noise_step_n && !(*f.noise_step_n > 0); }
+
+std::string unjudged_misfit(const Findings& f, const effects::AxisKind& kind) {
+  return "not judged: the load cell's noise floor could not be measured (no logging step "
+         "found), so the misfit of " +
+         number(f.final_fit.rms_n) + " " + std::string(kind.drive_unit) +
+         " RMS cannot be judged against it";
+}
+
 /// A misfit above the floor beside the terms found, so "found" is not read as the whole story.
 std::string misfit_beside(const Findings& f, const effects::AxisKind& kind) {
+  if (floor_unjudged(f)) return "; " + unjudged_misfit(f, kind);
   if (!misfit_remains(f.final_fit.rms_n, f.noise_floor_n)) return {};
   const std::string unit(kind.drive_unit);
   return "; a misfit of " + number(f.final_fit.rms_n) + " " + unit + " RMS remains beside them (" +
-         noise_floor_text(f, kind, 4) + ")";
+         noise_floor_text(f, kind) + ")";
 }
 
 /// The headline without the laws left unjudged.
@@ -139,10 +151,11 @@ std::string conclusion_headline(const Findings& f, const ModelFile& baseline) {
   if (f.conclusion.starts_with(kNotJudged))
     return f.conclusion + "; no finding is not the same as no anomaly";
   const std::string unit(kind.drive_unit);
+  if (floor_unjudged(f)) return unjudged_misfit(f, kind) + sliding_caveat(f);
   if (misfit_remains(f.final_fit.rms_n, f.noise_floor_n))
     return misfit_text(f, kind) + sliding_caveat(f);
   return "nothing missing: the model explains the recording to " + number(f.final_fit.rms_n) + " " +
-         unit + " RMS (" + noise_floor_text(f, kind, 4) + ")" + sliding_caveat(f);
+         unit + " RMS (" + noise_floor_text(f, kind) + ")" + sliding_caveat(f);
 }
 
 }  // namespace

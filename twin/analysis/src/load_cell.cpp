@@ -26,8 +26,9 @@ bool hold_over_blanks(std::vector<double>& x) {
 
 }  // namespace
 
-std::optional<std::string> load_cell_unusable(const Recording& rec, const ForceCalibration& cal,
-                                              const ActuatorParams& act) {
+std::optional<LoadCellUnitError> load_cell_unusable(const Recording& rec,
+                                                    const ForceCalibration& cal,
+                                                    const ActuatorParams& act) {
   if (!rec.has("load_force_n") || rec.column("t_s").size() < rules::kMinRows) return std::nullopt;
   Recording filled = rec;
   for (auto& column : filled.columns)
@@ -35,7 +36,7 @@ std::optional<std::string> load_cell_unusable(const Recording& rec, const ForceC
   try {
     actuator::judge_load_cell(filled, cal, act);
   } catch (const LoadCellUnitError& e) {
-    return e.what();
+    return e;
   }
   return std::nullopt;
 }

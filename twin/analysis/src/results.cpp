@@ -61,17 +61,12 @@ std::string num(double v) {
 }
 }  // namespace
 
-std::string noise_floor_text(const Findings& f, const effects::AxisKind& kind, int digits) {
-  const std::string unit(kind.drive_unit);
-  const auto figure = [&](double v) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.*g", digits, v);
-    return std::string(b) + " " + unit;
-  };
-  if (!f.noise_step_n) return "noise floor " + figure(f.noise_floor_n);
+std::string noise_floor_text(const Findings& f, const effects::AxisKind& kind) {
+  const std::string unit = " " + std::string(kind.drive_unit);
+  if (!f.noise_step_n) return "noise floor " + num(f.noise_floor_n) + unit;
   if (!(*f.noise_step_n > 0)) return "noise floor not measurable";
-  return "noise floor not measurable below the " + figure(*f.noise_step_n) +
-         " logging step: " + figure(f.noise_floor_n);
+  return "noise floor not measurable below the " + num(*f.noise_step_n) + unit +
+         " logging step: " + num(f.noise_floor_n) + unit;
 }
 
 std::string misfit_text(const Findings& f, const effects::AxisKind& kind) {
@@ -80,7 +75,7 @@ std::string misfit_text(const Findings& f, const effects::AxisKind& kind) {
   // account, even short of significance; below half it says little of what is left.
   constexpr double kMostOfItPct = rules::kMostOfItPct;
   std::string s = "a misfit of " + num(f.final_fit.rms_n) + " " + unit + " RMS remains (" +
-                  noise_floor_text(f, kind, 3) + ")";
+                  noise_floor_text(f, kind) + ")";
   for (const auto& r : f.not_selected) {
     if (!r.reason || !r.reason->starts_with(kBelowSignificance) ||
         !(r.heldout_gain_pct >= kMostOfItPct))

@@ -90,12 +90,44 @@ double white_noise_sigma(const std::vector<double>& y) {
   return robust_sigma(std::move(d2)) / std::sqrt(6.0);
 }
 
+namespace {
+
+/// The share of `v` (sorted) within `on_step` of a whole number of `step`s from `origin`.
+double share_on_grid(const std::vector<double>& v, double origin, double step, double on_step) {
+  std::size_t on = 0;
+  for (double x : v) {
+    const double steps = (x - origin) / step;
+    if (std::abs(steps - std::round(steps)) <= on_step) ++on;
+  }
+  return static_cast<double>(on) / static_cast<double>(v.size());
+}
+
+/// The value `v` (sorted) holds most often: a logged value, never a row the reader filled.
+double most_common(const std::vector<double>& v, double same) {
+  double mode = v.front();
+  std::size_t best = 0;
+  for (std::size_t i = 0, j = 0; i < v.size(); i = j) {
+    while (j < v.size() && v[j] - v[i] <= same) ++j;
+    if (j - i > best) best = j - i, mode = v[i];
+  }
+  return mode;
+}
+
+}  // namespace
+
 double logging_step(const std::vector<double>& y) {
   // Values within this share of the column's largest are one logged value (a decimal step such
   // as 0.1 is written with rounding in its last digits).
   constexpr double kSameValue = 1e-9;
-  // A gap within this share of a step from a whole number of steps is that many steps.
+  // A value within this share of a step from a whole number of steps is on the step.
   constexpr double kOnTheStep = 0.01;
+  // The reader fills a missing row by interpolating its neighbours, off the logged grid: a step
+  // holds when this share of the rows lie on it. A few filled rows stay below the rest; a
+  // continuous column lands within kOnTheStep of a grid by chance in only about 2 % of its rows.
+  constexpr double kOnGridShare = 0.95;
+  // Gaps tried as the step, smallest first: each filled value splits one gap into two pieces
+  // off the grid, so this covers several filled values and the grid's own step after them.
+  constexpr std::size_t kCandidateGaps = 16;
   std::vector<double> v;
   v.reserve(y.size());
   for (double x : y)
@@ -106,11 +138,17 @@ double logging_step(const std::vector<double>& y) {
   std::vector<double> gaps;
   for (std::size_t i = 1; i < v.size(); ++i)
     if (v[i] - v[i - 1] > same) gaps.push_back(v[i] - v[i - 1]);
-  if (gaps.empty()) return 0.0;
-  const double step = *std::min_element(gaps.begin(), gaps.end());
-  for (double g : gaps)
-    if (std::abs(g / step - std::round(g / step)) > kOnTheStep) return 0.0;
-  return step;
+  std::sort(gaps.begin(), gaps.end());
+  gaps.erase(std::unique(gaps.begin(), gaps.end(),
+                         [&](double a, double b) { return b - a <= kOnTheStep * a; }),
+             gaps.end());
+  if (gaps.size() > kCandidateGaps) gaps.resize(kCandidateGaps);
+  // The largest that holds: half a step (a row filled midway between two logged values) would
+  // hold too, and is no step the cell logs.
+  const double origin = most_common(v, same);
+  for (std::size_t k = gaps.size(); k-- > 0;)
+    if (share_on_grid(v, origin, gaps[k], kOnTheStep) >= kOnGridShare) return gaps[k];
+  return 0.0;
 }
 
 SensorNoise sensor_noise(const std::vector<double>& y) {

@@ -18,11 +18,20 @@ class RecordingError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// The load-cell column cannot be the load in newtons (another unit or the other sign): what()
-/// says what it more likely is. A command that compares with the load cell judges nothing by it.
+/// The load-cell column cannot be the load in newtons (another unit or the other sign, or one
+/// value throughout): what() says what it more likely is. A command that compares with the load
+/// cell judges nothing by it.
 class LoadCellUnitError : public RecordingError {
  public:
   using RecordingError::RecordingError;
+  /// A load cell reading `constant_n` throughout (stuck, unplugged): its wiring, not its unit.
+  LoadCellUnitError(const std::string& what, double constant_n)
+      : RecordingError(what), constant_n_(constant_n) {}
+  /// The value a constant load cell reads; none for another unit or the other sign.
+  std::optional<double> constant_n() const { return constant_n_; }
+
+ private:
+  std::optional<double> constant_n_;
 };
 
 /// A column a reader needs is not in the recording: what() lists the columns there are (and one

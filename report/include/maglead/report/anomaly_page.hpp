@@ -15,6 +15,7 @@ struct AnalysisOutcome {
   std::string reason;  // skipped or failed: why
   std::optional<analysis::AnalysisResult> result;
   bool load_cell_unusable = false;  // failed because load_force_n is not the load in newtons
+  std::optional<double> load_cell_constant_n;  // … because it reads this value throughout
 };
 
 /// One line for the operator: "no anomaly found" or "attention: …".

@@ -64,6 +64,7 @@ struct Anomaly {
   double static_friction_band_n = 0;
   // Why the load cell is not compared although logged (its unit is wrong), else empty.
   std::string load_cell_unusable;
+  std::optional<double> load_cell_constant_n;  // set aside because it reads this throughout
   std::size_t off_branch_samples = 0;
   double residual_pos_rms_m = 0, linear_count_m = 0;
   double sample_rate_hz = 0, duration_s = 0;
@@ -73,8 +74,10 @@ struct Anomaly {
 /// Throws RecordingError for missing columns, std::invalid_argument for unusable data.
 Anomaly inspect_recording(const Recording& rec, const twin::TwinMonitorConfig& monitor);
 /// A load cell found not to read the load in newtons (LoadCellUnitError's `why`) is not compared:
-/// the force errors against it are dropped and the reason kept.
-void set_aside_load_cell(Anomaly& anomaly, std::string why);
+/// the force errors against it are dropped and the reason kept (with the value a constant one
+/// reads, whose cause is its wiring, not its unit).
+void set_aside_load_cell(Anomaly& anomaly, std::string why,
+                         std::optional<double> constant_n = std::nullopt);
 
 /// Why the recording's load_force_n cannot be the load in newtons (another unit, or the other
 /// sign: LoadCellUnitError's what()), judged as analyze and report judge it (by the analysis's
@@ -82,7 +85,8 @@ void set_aside_load_cell(Anomaly& anomaly, std::string why);
 /// over from the row before); nothing when it can be, or when the recording is too short (fewer
 /// than rules::kMinRows rows), has a column without any value, or is too still to tell. For the
 /// commands that score against the load cell without analysing (estimate, twin-check).
-std::optional<std::string> load_cell_unusable(const Recording& rec, const ForceCalibration& cal,
-                                              const ActuatorParams& act);
+std::optional<LoadCellUnitError> load_cell_unusable(const Recording& rec,
+                                                    const ForceCalibration& cal,
+                                                    const ActuatorParams& act);
 
 }  // namespace maglead::analysis

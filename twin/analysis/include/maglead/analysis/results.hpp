@@ -136,7 +136,7 @@ struct Findings;
 std::string misfit_text(const Findings& f, const effects::AxisKind& kind = effects::linear_axis());
 /// "noise floor 0.0992 N", or, when the noise is not measurable below the logging step, "noise
 /// floor not measurable below the 0.5 N logging step: 0.144 N".
-std::string noise_floor_text(const Findings& f, const effects::AxisKind& kind, int digits);
+std::string noise_floor_text(const Findings& f, const effects::AxisKind& kind);
 
 /// Held-out (and fitted) error after each step of the selection; the first is the baseline.
 struct ValidationStep {
@@ -230,7 +230,7 @@ struct Findings {
   Method method;
   double noise_floor_n = 0.0;
   // The force's logging step when the noise is not measurable below it (noise_floor_n is then
-  // the step's rounding error); 0 when the floor is measured.
+  // the step's rounding error); 0 when not measurable and no step is found; none when measured.
   std::optional<double> noise_step_n;
   FitErrors baseline;
   FitErrors final_fit;

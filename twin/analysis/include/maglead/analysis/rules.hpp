@@ -242,7 +242,7 @@ inline constexpr std::array kTable = {
     Rule{"one_way_other_share", 0.05, "1",
          "actuator: sliding samples the other way below this share make a recording of one direction of travel, where laws differing by the direction fit alike",
          "GeneratedSuite.AOneWayMoveWithLawsAlikeIsNotJudged", "conclusion"},
-    Rule{"one_way_alike_alternatives", 3.0, "laws",
+    Rule{"one_way_alike_alternatives", 3.0, "alternatives",
          "actuator: on one direction of travel, a finding with this many alternatives fitting alike names no law: the headline says not judged",
          "GeneratedSuite.AOneWayMoveWithLawsAlikeIsNotJudged", "conclusion"},
 };
