@@ -789,15 +789,24 @@ bool stepped_out(std::uint16_t status_word) { return (status_word >> reg::kStepO
 /// reset_command for the drive as it is now: its alarm and its step_out status bit. A nut still
 /// moving just after the latch may be slipping yet, its step_out bit a few cycles behind the
 /// alarm: wait for the bit or a standstill, at most kSettle_s.
-std::string reset_command_now(Client& c, double alarm) {
-  constexpr double kSettle_s = 0.5;
+/// The status read again every heartbeat period while `waiting` holds, at most `most_s`.
+template <class Pred>
+Status read_status_while(Client& c, Pred waiting, double most_s) {
   const auto t0 = Clock::now();
   Status s = read_status(c);
-  while (!stepped_out(s.status_word) && ((s.status_word >> reg::kMoving) & 1u) != 0 &&
-         since(t0) < kSettle_s) {
+  while (waiting(s) && since(t0) < most_s) {
     std::this_thread::sleep_for(std::chrono::duration<double>(kHeartbeatPeriod_s));
     s = read_status(c);
   }
+  return s;
+}
+
+bool moving(const Status& s) { return ((s.status_word >> reg::kMoving) & 1u) != 0; }
+
+std::string reset_command_now(Client& c, double alarm) {
+  constexpr double kSettle_s = 0.5;
+  const Status s = read_status_while(
+      c, [](const Status& x) { return !stepped_out(x.status_word) && moving(x); }, kSettle_s);
   return reset_command(alarm, stepped_out(s.status_word));
 }
 
@@ -809,14 +818,13 @@ void wait_for_slip_to_end(Client& c) {
   // A slip's slide ends within tens of ms and the moving bit clears 0.2 s after the nut's last
   // encoder edge: 1 s covers both with margin, and a person does not wait on a nut held sliding.
   constexpr double kSlipEnd_s = 1.0;
-  const auto t0 = Clock::now();
-  Status s = read_status(c);
-  while (s.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault) &&
-         (slipped(s.alarm) || stepped_out(s.status_word)) &&
-         ((s.status_word >> reg::kMoving) & 1u) != 0 && since(t0) < kSlipEnd_s) {
-    std::this_thread::sleep_for(std::chrono::duration<double>(kHeartbeatPeriod_s));
-    s = read_status(c);
-  }
+  read_status_while(
+      c,
+      [](const Status& x) {
+        return x.drive_state == static_cast<std::uint16_t>(reg::DriveState::fault) &&
+               (slipped(x.alarm) || stepped_out(x.status_word)) && moving(x);
+      },
+      kSlipEnd_s);
 }
 
 /// What to type when a fault latched again while its reset was confirming.
